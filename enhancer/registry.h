@@ -1,0 +1,43 @@
+// Enhancement methods by name: the CLI (`turbid enhance`, `--list`), the sweep and the docs all read
+// this one table. Contract used by tools/; extend, do not break.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include <string>
+#include <vector>
+
+#include "scenes/scene.h"
+
+namespace turbid {
+
+struct EnhanceInput {
+  cv::Mat image;                             // degraded image, float32 linear [0,1], 1 or 3 channels
+  const Scene* scene = nullptr;              // geometry (camera, depth, plane, DVL) when known
+  const nlohmann::json* sidecar = nullptr;   // the render's sidecar (true parameters) when known
+};
+
+struct MethodParam {
+  std::string name;
+  nlohmann::json default_value;
+  std::string doc;  // meaning, units, valid range, source of the default
+};
+
+struct MethodInfo {
+  std::string name;      // registry key, e.g. "full", "dcp"
+  std::string summary;   // one line
+  std::string source;    // paper / reference the method follows
+  bool needs_geometry = false;  // needs EnhanceInput::scene
+  bool needs_sidecar = false;   // needs EnhanceInput::sidecar (oracle)
+  std::vector<MethodParam> params;
+};
+
+const std::vector<MethodInfo>& ListMethods();
+const MethodInfo& FindMethod(const std::string& name);  // throws Error for unknown names
+
+// Runs method `name` with parameter overrides `params` (an object; unknown keys or bad values
+// throw Error). Returns float32 in [0,1] with the input's channel count.
+cv::Mat Enhance(const std::string& name, const nlohmann::json& params, const EnhanceInput& input);
+
+}  // namespace turbid

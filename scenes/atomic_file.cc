@@ -1,0 +1,161 @@
+#include "scenes/atomic_file.h"
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <random>
+#include <sstream>
+#include <system_error>
+
+#include "scenes/error.h"
+
+namespace turbid {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string TemporaryNameFor(const fs::path& path) {
+  std::random_device device;
+  std::ostringstream name;
+  name << path.filename().string() << ".tmp" << std::hex << device() << device();
+  // Keep the destination's extension last: encoders pick the format from it.
+  name << path.extension().string();
+  return (path.parent_path() / ("." + name.str())).string();
+}
+
+}  // namespace
+
+void AtomicWrite(const std::string& path, bool overwrite,
+                 const std::function<void(const std::string& temp_path)>& write) {
+  const fs::path target(path);
+  std::error_code ec;
+  if (!overwrite && fs::exists(target, ec)) {
+    throw Error(path, "already exists (use --force to overwrite)");
+  }
+  const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  if (!fs::is_directory(parent, ec)) {
+    throw Error(path, "folder " + parent.string() + " does not exist");
+  }
+  const std::string temp = TemporaryNameFor(target);
+  try {
+    write(temp);
+  } catch (...) {
+    fs::remove(temp, ec);
+    throw;
+  }
+  fs::rename(temp, target, ec);
+  if (ec) {
+    fs::remove(temp, ec);
+    throw Error(path, "cannot rename temporary file into place: " + ec.message());
+  }
+}
+
+void AtomicWriteText(const std::string& path, const std::string& bytes, bool overwrite) {
+  AtomicWrite(path, overwrite, [&](const std::string& temp) {
+    std::ofstream out(temp, std::ios::binary);
+    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+    out.close();
+    if (!out) throw Error(path, "write failed");
+  });
+}
+
+// FIPS 180-4 SHA-256.
+namespace {
+
+class Sha256 {
+ public:
+  void Update(const unsigned char* data, size_t size) {
+    for (size_t i = 0; i < size; ++i) {
+      block_[block_size_++] = data[i];
+      if (block_size_ == 64) {
+        Compress();
+        block_size_ = 0;
+      }
+    }
+    total_bytes_ += size;
+  }
+
+  std::string HexDigest() {
+    const uint64_t total_bits = total_bytes_ * 8;
+    const unsigned char one = 0x80;
+    Update(&one, 1);
+    const unsigned char zero = 0;
+    while (block_size_ != 56) Update(&zero, 1);
+    for (int i = 7; i >= 0; --i) {
+      const unsigned char byte = static_cast<unsigned char>(total_bits >> (8 * i));
+      Update(&byte, 1);
+    }
+    std::ostringstream hex;
+    for (uint32_t word : state_) hex << std::hex << std::setw(8) << std::setfill('0') << word;
+    return hex.str();
+  }
+
+ private:
+  static uint32_t Rotr(uint32_t x, int n) { return (x >> n) | (x << (32 - n)); }
+
+  void Compress() {
+    static constexpr std::array<uint32_t, 64> kRound = {
+        0x428a2f98, 0x71374491, 0xb5c0fbcf, 0xe9b5dba5, 0x3956c25b, 0x59f111f1, 0x923f82a4,
+        0xab1c5ed5, 0xd807aa98, 0x12835b01, 0x243185be, 0x550c7dc3, 0x72be5d74, 0x80deb1fe,
+        0x9bdc06a7, 0xc19bf174, 0xe49b69c1, 0xefbe4786, 0x0fc19dc6, 0x240ca1cc, 0x2de92c6f,
+        0x4a7484aa, 0x5cb0a9dc, 0x76f988da, 0x983e5152, 0xa831c66d, 0xb00327c8, 0xbf597fc7,
+        0xc6e00bf3, 0xd5a79147, 0x06ca6351, 0x14292967, 0x27b70a85, 0x2e1b2138, 0x4d2c6dfc,
+        0x53380d13, 0x650a7354, 0x766a0abb, 0x81c2c92e, 0x92722c85, 0xa2bfe8a1, 0xa81a664b,
+        0xc24b8b70, 0xc76c51a3, 0xd192e819, 0xd6990624, 0xf40e3585, 0x106aa070, 0x19a4c116,
+        0x1e376c08, 0x2748774c, 0x34b0bcb5, 0x391c0cb3, 0x4ed8aa4a, 0x5b9cca4f, 0x682e6ff3,
+        0x748f82ee, 0x78a5636f, 0x84c87814, 0x8cc70208, 0x90befffa, 0xa4506ceb, 0xbef9a3f7,
+        0xc67178f2};
+    std::array<uint32_t, 64> w{};
+    for (int i = 0; i < 16; ++i) {
+      w[i] = (uint32_t(block_[4 * i]) << 24) | (uint32_t(block_[4 * i + 1]) << 16) |
+             (uint32_t(block_[4 * i + 2]) << 8) | uint32_t(block_[4 * i + 3]);
+    }
+    for (int i = 16; i < 64; ++i) {
+      const uint32_t s0 = Rotr(w[i - 15], 7) ^ Rotr(w[i - 15], 18) ^ (w[i - 15] >> 3);
+      const uint32_t s1 = Rotr(w[i - 2], 17) ^ Rotr(w[i - 2], 19) ^ (w[i - 2] >> 10);
+      w[i] = w[i - 16] + s0 + w[i - 7] + s1;
+    }
+    std::array<uint32_t, 8> v = state_;
+    for (int i = 0; i < 64; ++i) {
+      const uint32_t s1 = Rotr(v[4], 6) ^ Rotr(v[4], 11) ^ Rotr(v[4], 25);
+      const uint32_t choose = (v[4] & v[5]) ^ (~v[4] & v[6]);
+      const uint32_t t1 = v[7] + s1 + choose + kRound[i] + w[i];
+      const uint32_t s0 = Rotr(v[0], 2) ^ Rotr(v[0], 13) ^ Rotr(v[0], 22);
+      const uint32_t majority = (v[0] & v[1]) ^ (v[0] & v[2]) ^ (v[1] & v[2]);
+      const uint32_t t2 = s0 + majority;
+      v = {t1 + t2, v[0], v[1], v[2], v[3] + t1, v[4], v[5], v[6]};
+    }
+    for (int i = 0; i < 8; ++i) state_[i] += v[i];
+  }
+
+  std::array<uint32_t, 8> state_ = {0x6a09e667, 0xbb67ae85, 0x3c6ef372, 0xa54ff53a,
+                                    0x510e527f, 0x9b05688c, 0x1f83d9ab, 0x5be0cd19};
+  std::array<unsigned char, 64> block_{};
+  size_t block_size_ = 0;
+  uint64_t total_bytes_ = 0;
+};
+
+}  // namespace
+
+std::string Sha256Bytes(const std::string& bytes) {
+  Sha256 hash;
+  hash.Update(reinterpret_cast<const unsigned char*>(bytes.data()), bytes.size());
+  return hash.HexDigest();
+}
+
+std::string Sha256File(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open for reading");
+  Sha256 hash;
+  std::array<char, 1 << 16> buffer{};
+  while (in) {
+    in.read(buffer.data(), buffer.size());
+    hash.Update(reinterpret_cast<const unsigned char*>(buffer.data()),
+                static_cast<size_t>(in.gcount()));
+  }
+  return hash.HexDigest();
+}
+
+}  // namespace turbid

@@ -1,0 +1,67 @@
+#include "scenes/scene.h"
+
+#include <cmath>
+
+#include "scenes/error.h"
+
+namespace turbid {
+
+bool CameraIntrinsics::Check(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (!std::isfinite(fx) || !std::isfinite(fy) || fx == 0.0 || fy == 0.0)
+    return fail("focal lengths fx, fy must be finite and non-zero");
+  if (!std::isfinite(cx) || !std::isfinite(cy)) return fail("principal point must be finite");
+  if (width <= 0 || height <= 0) return fail("image size must be positive");
+  return true;
+}
+
+void Scene::Validate() const {
+  const std::string context = name.empty() ? std::string("scene") : "scene " + name;
+  ThrowIfInvalid(camera, context);
+  if (image.empty()) throw Error(context, "has no image");
+  if (image.depth() != CV_32F || (image.channels() != 1 && image.channels() != 3))
+    throw Error(context, "image must be float32 with 1 or 3 channels");
+  if (image.cols != camera.width || image.rows != camera.height)
+    throw Error(context, "image size " + std::to_string(image.cols) + "x" +
+                             std::to_string(image.rows) + " differs from the camera's " +
+                             std::to_string(camera.width) + "x" + std::to_string(camera.height));
+  if (depth_m.empty() || depth_m.type() != CV_32FC1) throw Error(context, "depth must be float32, 1 channel");
+  if (depth_m.size() != image.size())
+    throw Error(context, "depth size " + std::to_string(depth_m.cols) + "x" +
+                             std::to_string(depth_m.rows) + " differs from image size " +
+                             std::to_string(image.cols) + "x" + std::to_string(image.rows));
+  if (!normals.empty() && (normals.type() != CV_32FC3 || normals.size() != image.size()))
+    throw Error(context, "normals must be float32, 3 channels, image-sized");
+  int valid = 0;
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* row = depth_m.ptr<float>(y);
+    for (int x = 0; x < depth_m.cols; ++x) {
+      if (std::isnan(row[x])) continue;
+      if (!std::isfinite(row[x]) || row[x] <= 0.0f)
+        throw Error(context, "depth must be positive and finite or NaN (invalid) at pixel (" +
+                                 std::to_string(x) + ", " + std::to_string(y) + ")");
+      ++valid;
+    }
+  }
+  if (valid == 0) throw Error(context, "depth has no valid pixel");
+}
+
+cv::Mat RangeFromDepth(const CameraIntrinsics& camera, const cv::Mat& depth_m) {
+  CV_Assert(depth_m.type() == CV_32FC1);
+  cv::Mat range(depth_m.size(), CV_32FC1);
+  for (int y = 0; y < depth_m.rows; ++y) {
+    const float* z = depth_m.ptr<float>(y);
+    float* r = range.ptr<float>(y);
+    const double dy = (y - camera.cy) / camera.fy;
+    for (int x = 0; x < depth_m.cols; ++x) {
+      const double dx = (x - camera.cx) / camera.fx;
+      r[x] = static_cast<float>(z[x] * std::sqrt(dx * dx + dy * dy + 1.0));
+    }
+  }
+  return range;
+}
+
+}  // namespace turbid

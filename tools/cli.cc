@@ -1,0 +1,42 @@
+#include "tools/cli.h"
+
+#include <exception>
+#include <iostream>
+
+#include "scenes/error.h"
+#include "turbid_version.h"
+
+namespace turbid {
+
+int RunCli(int argc, const char* const* argv) {
+  CLI::App app{"turbid: underwater image degradation simulator, enhancers, metrics and sweeps"};
+  app.set_version_flag("--version", std::string("turbid ") + TURBID_VERSION);
+  app.require_subcommand(1);
+  AddSceneCommand(app);
+  AddRenderCommands(app);
+  AddEnhanceCommand(app);
+  AddScoreCommand(app);
+  AddHarnessCommands(app);
+  AddBenchCommand(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const Error& e) {
+    std::cerr << "turbid: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "turbid: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+int RunCli(const std::vector<std::string>& args) {
+  std::vector<const char*> argv;
+  argv.reserve(args.size());
+  for (const std::string& arg : args) argv.push_back(arg.c_str());
+  return RunCli(static_cast<int>(argv.size()), argv.data());
+}
+
+}  // namespace turbid
