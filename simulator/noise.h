@@ -1,0 +1,79 @@
+// Noise N of paper eq. 2: marine snow (large particles that reflect the lights straight into the
+// camera, paper §II-A "D") and Poisson-Gaussian sensor noise (Foi et al., "Practical
+// Poissonian-Gaussian noise modeling and fitting for single-image raw-data", IEEE TIP 2008).
+// All randomness comes from a counter-based generator: every sample is a hash of (seed, stream,
+// index), so the bytes do not depend on the thread count or the order of evaluation.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "scenes/scene.h"
+#include "simulator/light.h"
+
+namespace turbid {
+
+// Counter-based random numbers (SplitMix64 finalizer as the mixing function; Steele et al.,
+// "Fast splittable pseudorandom number generators", OOPSLA 2014).
+uint64_t RandomKey(uint64_t seed, uint64_t stream);        // key of one independent stream
+uint64_t RandomBits(uint64_t key, uint64_t index);         // 64 random bits for (key, index)
+double RandomUniform(uint64_t key, uint64_t index);        // in (0, 1), 53-bit resolution
+// Standard normal samples for indices first .. first + count - 1 (Box-Muller on pairs; sample i
+// depends only on (key, i)).
+void RandomNormals(uint64_t key, uint64_t first, int count, float* out);
+
+struct SnowOptions {
+  bool enabled = true;  // false: no marine snow
+  // Particles per cubic metre of the viewing frustum between near_m and far_m, in [0, 1e5].
+  double density_per_m3 = 20.0;
+  double near_m = 0.2;   // nearest particle distance (z), metres, in (0, far_m)
+  double far_m = 4.0;    // farthest particle distance (z), metres, in (near_m, 1000]
+  // Particle diameter, metres, log-uniform in [size_min_m, size_max_m], 1e-5 .. 0.1. Marine snow is
+  // by definition > 0.5 mm (Alldredge & Silver 1988); 0.5-5 mm by default.
+  double size_min_m = 0.0005;
+  double size_max_m = 0.005;
+  // Particle reflectance, uniform in [albedo_min, albedo_max], within [0, 1].
+  double albedo_min = 0.3;
+  double albedo_max = 0.9;
+  // Particles are drawn as Gaussian blobs whose standard deviation is the projected radius plus
+  // this floor (defocus and forward-scatter blur), pixels, in [0.3, 50].
+  double blur_px = 0.7;
+
+  bool Check(std::string* why) const;
+};
+
+struct MarineSnow {
+  cv::Mat layer;       // CV_32FC(channels): additive radiance of the particles, >= 0
+  int particles = 0;   // particles drawn in the frustum
+  int visible = 0;     // particles in front of the scene surface and inside the image
+};
+
+// Draws particles from (seed, stream "snow") and renders them lit by E_A and the lights (each
+// particle faces the lights), attenuated by exp(-beta z_range) towards the camera, hidden behind
+// the scene surface (range_m; NaN range: never hidden). beta and ambient in image channel order.
+MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions& lights,
+                            const CameraIntrinsics& camera, const cv::Mat& range_m,
+                            const std::vector<double>& beta_per_m,
+                            const std::vector<double>& ambient, uint64_t seed);
+
+struct SensorNoiseOptions {
+  bool enabled = true;  // false: noise-free sensor
+  // Photo-electrons collected at image value 1 (full-scale signal), in [0, 1e7]; 0 disables the
+  // signal-dependent (Poisson) part. Shot-noise variance is value / photons_at_white.
+  double photons_at_white = 4000.0;
+  // Signal-independent (read) noise standard deviation, image units, in [0, 0.5].
+  double read_noise = 0.002;
+
+  bool Check(std::string* why) const;
+};
+
+// Adds noise with mean 0 and variance value / photons_at_white + read_noise^2 at each sample (the
+// Poisson part as its Gaussian approximation, exact in mean and variance; Foi et al. 2008 eq. 2-3).
+// Negative signal counts as 0 for the shot variance. Works row-parallel; bytes independent of the
+// thread count. Returns the noisy image (same type as `image`).
+cv::Mat AddSensorNoise(const SensorNoiseOptions& options, const cv::Mat& image, uint64_t seed);
+
+}  // namespace turbid

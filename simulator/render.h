@@ -1,0 +1,113 @@
+// The renderer: composes the forward model of the paper's eq. 2 (SPEC "The forward model"):
+//   J(x) = (E_A + E_L(x)) rho(x)
+//   I(x) = [J * h_psf](x) t(x) + (1 - t(x)) E_L(x) [+ (1 - t(x)) B_inf] + S(x) + n(x)
+//   t_c(x) = exp(-beta_c r(x)),  r = range along the viewing ray
+// with S marine snow and n Poisson-Gaussian sensor noise (noise.h), then the camera's clipping and
+// quantisation. Pixels with NaN depth are open water at infinite range: t = 0, E_L = 0, so they
+// show only the backscatter (when enabled), marine snow and noise. docs/model.md is the reference.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "scenes/scene.h"
+#include "simulator/light.h"
+#include "simulator/noise.h"
+#include "simulator/psf.h"
+#include "simulator/water.h"
+
+namespace turbid {
+
+struct CameraOutputOptions {
+  // 8 or 16: values clipped to [0, 1] and quantised to 2^bits - 1 levels (the in-memory image equals
+  // what an integer PNG stores); 32: float32, clipped to [0, 1], not quantised (EXR).
+  int bit_depth = 8;
+  bool Check(std::string* why) const;
+};
+
+// Optional outputs besides the image and J.
+struct MapSelection {
+  bool transmission = false;  // t (channels of the image)
+  bool light = false;         // E_L
+  bool veil = false;          // (1 - t) E_L (+ (1 - t) B_inf)
+  bool psf = false;           // the PSF kernel
+  bool noise = false;         // snow + sensor noise layer (noisy - clean before clipping)
+  // "transmission,light,veil,psf,noise" (any subset, comma-separated) -> selection; Error otherwise.
+  static MapSelection FromList(const std::string& list);
+};
+
+struct RenderOptions {
+  WaterOptions water;
+  IrradianceOptions light;
+  PsfOptions psf;
+  SnowOptions snow;
+  SensorNoiseOptions sensor;
+  CameraOutputOptions camera;
+  uint64_t seed = 0;  // seeds snow and sensor noise (counter-based: any thread count, same bytes)
+  MapSelection maps;  // not part of the JSON options (a CLI / caller choice)
+
+  bool Check(std::string* why) const;
+};
+
+// JSON <-> options. The JSON object mirrors the struct: {"water": {...}, "light": {"lights": [...],
+// "incidence": "lambertian", ...}, "psf": {...}, "snow": {...}, "sensor": {...}, "camera":
+// {"bit_depth": 8}, "seed": 0}. Missing keys keep the in-class defaults; unknown keys, wrong types
+// and values failing Check throw Error naming the key path (e.g. "psf.forward_scatter").
+RenderOptions RenderOptionsFromJson(const nlohmann::json& json);
+// Every field, with the values in `options` (the sidecar's "options" object).
+nlohmann::json RenderOptionsToJson(const RenderOptions& options);
+
+// What the renderer did and what it skipped, for --explain and the sidecar.
+struct RenderPlan {
+  std::vector<std::string> steps;    // e.g. "transmission: exp(-beta r), 3 channels"
+  std::vector<std::string> skipped;  // e.g. "psf: kernel is a delta at this pixel scale"
+  std::string ToText() const;
+  nlohmann::json ToJson() const;
+};
+
+struct RenderResult {
+  cv::Mat image;         // degraded I, float32 in [0, 1] (quantised when bit_depth is 8 or 16)
+  cv::Mat lit;           // J = (E_A + E_L) rho: lit, unattenuated, unblurred ground truth (float32)
+  cv::Mat transmission;  // optional maps (empty unless selected in options.maps)
+  cv::Mat light;
+  cv::Mat veil;
+  cv::Mat psf;
+  cv::Mat noise;
+  nlohmann::json sidecar;  // every parameter used, seed, derived values, input hashes, version, plan
+  RenderPlan plan;
+};
+
+// Reuses work that does not depend on the swept parameters: the range map, normals, light geometry
+// (per light: distance and geometric factor), the PSF kernels and, when two renders share water,
+// lights and PSF, the blurred J. Render is const and thread-safe (internal caches are locked).
+class Renderer {
+ public:
+  // Validates and copies the scene (throws Error when it is inconsistent).
+  explicit Renderer(const Scene& scene);
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  // Throws Error when options fail Check.
+  RenderResult Render(const RenderOptions& options) const;
+  // The plan without rendering (what --explain prints).
+  RenderPlan Plan(const RenderOptions& options) const;
+  const Scene& scene() const;
+  const cv::Mat& range_m() const;  // CV_32FC1, NaN where depth is invalid
+
+ private:
+  struct Cache;
+  Scene scene_;
+  cv::Mat range_m_;
+  std::unique_ptr<Cache> cache_;
+};
+
+// One-shot convenience: Renderer(scene).Render(options).
+RenderResult Render(const RenderOptions& options, const Scene& scene);
+
+}  // namespace turbid

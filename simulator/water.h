@@ -1,0 +1,72 @@
+// The water: per-channel attenuation coefficients beta_c (1/m), Jerlov water-type presets, ambient
+// light E_A and the optional classic ambient backscatter B_inf. Transmission along a ray of range r
+// is t_c = exp(-beta_c r) (paper eq. 2; SPEC "The forward model"). docs/model.md has the details.
+//
+// Jerlov presets: N. G. Jerlov, Marine Optics, 2nd ed., Elsevier 1976, Table XXVII p. 135 (diffuse
+// downward attenuation Kd(lambda), 1/m, as transcribed in jkibele/OpticalRS opticalrs/Const.py; our
+// copy: shared/data/jerlov/jerlov_Kd.csv). RGB values are band means of the table's samples:
+// B = mean Kd at 400, 425, 450, 475 nm; G = 500, 525, 550, 575 nm; R = 600 ... 700 nm (5 samples);
+// gray = mean of all samples 400 ... 700 nm. Kd is not the beam attenuation c = a + b (Kd < c), so the
+// presets understate beam attenuation; they order water types correctly and are what simulators
+// such as DeepSeaRenderer use.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <array>
+#include <string>
+#include <vector>
+
+namespace turbid {
+
+// Colour triples are written in R, G, B order everywhere in options and JSON (what people write);
+// images are BGR in memory, ChannelValues() does the conversion.
+using Rgb = std::array<double, 3>;
+
+struct WaterOptions {
+  // "custom" (use beta_* below) or a Jerlov type: I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C ("C1" ...
+  // "C9" accepted). With a Jerlov type, beta_* are set from the preset (ResolveWater).
+  std::string type = "custom";
+  // Attenuation coefficient beta per colour channel (R, G, B), 1/m, each in [0, 10]. Default 0.7 on
+  // every channel: the paper's value (§III-A.3, "we use beta = 0.7").
+  Rgb beta_rgb_per_m{0.7, 0.7, 0.7};
+  // beta for single-channel (gray) images, 1/m, in [0, 10]. Default: the paper's 0.7.
+  double beta_gray_per_m = 0.7;
+  // Ambient light E_A (paper eq. 2, "global veiling light bias from the water surface"), image
+  // units (a white surface lit by E_A alone images at E_A), per channel R, G, B, each in [0, 10].
+  Rgb ambient_rgb{0.15, 0.15, 0.15};
+  double ambient_gray = 0.15;  // E_A for gray images, image units, [0, 10]
+  // Adds the classic single-scattering ambient backscatter (1 - t) B_inf (Schechner & Karpel 2005;
+  // the paper's eq. 1 airlight A) on top of eq. 2. Off by default: eq. 2 has no such term.
+  bool backscatter = false;
+  Rgb backscatter_rgb{0.05, 0.2, 0.25};  // B_inf per channel R, G, B, image units, [0, 1]
+  double backscatter_gray = 0.15;        // B_inf for gray images, image units, [0, 1]
+
+  bool Check(std::string* why) const;
+};
+
+// Jerlov water types known to JerlovBeta, in table order: I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C.
+std::vector<std::string> JerlovTypeNames();
+
+struct JerlovBetas {
+  Rgb rgb_per_m{};        // band means (see the header comment), 1/m, R, G, B
+  double gray_per_m = 0;  // mean over 400-700 nm, 1/m
+};
+// Band-averaged coefficients of one Jerlov type. Throws Error for an unknown name.
+JerlovBetas JerlovBeta(const std::string& type);
+// The Jerlov (1976) Table XXVII value Kd(lambda) in 1/m for a type and a tabulated wavelength
+// (350 ... 700 nm in 25 nm steps). Throws Error otherwise. Exposed so tests can check the table.
+double JerlovKd(const std::string& type, int wavelength_nm);
+
+// Returns options with beta_* filled in from the Jerlov preset when type is not "custom", and the
+// type spelled canonically ("C3" -> "3C"). Throws Error for an unknown type.
+WaterOptions ResolveWater(const WaterOptions& options);
+
+// Per-channel values in image channel order: {gray} for 1 channel, {B, G, R} for 3.
+std::vector<double> ChannelValues(const Rgb& rgb, double gray, int channels);
+
+// t_c = exp(-beta_c r): CV_32FC(beta.size()) from range_m (CV_32FC1, metres). NaN range (invalid
+// depth) is open water seen to infinity: t = 0. beta.size() must be 1 or 3 (image channel order).
+cv::Mat TransmissionMap(const cv::Mat& range_m, const std::vector<double>& beta_per_m);
+
+}  // namespace turbid
