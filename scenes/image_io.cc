@@ -25,7 +25,9 @@ bool WriteImageOptions::Check(std::string* why) const {
 cv::Mat SrgbToLinear(const cv::Mat& srgb) {
   CV_Assert(srgb.depth() == CV_32F);
   cv::Mat out = srgb.clone();
-  out.forEach<float>([](float& v, const int*) {
+  // forEach<float> on a multi-channel Mat visits only cols elements per row: work on one channel.
+  cv::Mat flat = out.reshape(1);
+  flat.forEach<float>([](float& v, const int*) {
     v = v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
   });
   return out;
@@ -34,7 +36,8 @@ cv::Mat SrgbToLinear(const cv::Mat& srgb) {
 cv::Mat LinearToSrgb(const cv::Mat& linear) {
   CV_Assert(linear.depth() == CV_32F);
   cv::Mat out = linear.clone();
-  out.forEach<float>([](float& v, const int*) {
+  cv::Mat flat = out.reshape(1);
+  flat.forEach<float>([](float& v, const int*) {
     v = v <= 0.0031308f ? v * 12.92f : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
   });
   return out;
