@@ -32,10 +32,11 @@ struct LightOptions {
   // U0, image units * m^2 (see the header), in [0, 1e6]. Default 4: a white surface 2 m ahead on
   // axis in clear water images at 1.0.
   double power = 4.0;
-  // Half-power angle Phi_half, degrees, in (0, 90): m = -ln2/ln(cos Phi_half). 60 deg gives m = 1
+  // Half-power angle Phi_half, degrees, in [0.5, 90): m = -ln2/ln(cos Phi_half). 60 deg gives m = 1
   // (an ideal Lambertian emitter); narrower beams give larger m.
   double half_power_angle_deg = 60.0;
-  Rgb color_rgb{1.0, 1.0, 1.0};  // relative spectral power per channel R, G, B, each in [0, 10]
+  // Relative spectral power per channel R, G, B, each in [0, 10]; gray images use their mean.
+  Rgb color_rgb{1.0, 1.0, 1.0};
 
   bool Check(std::string* why) const;
 };

@@ -38,8 +38,8 @@ struct SnowOptions {
   // Particle reflectance, uniform in [albedo_min, albedo_max], within [0, 1].
   double albedo_min = 0.3;
   double albedo_max = 0.9;
-  // Particles are drawn as Gaussian blobs whose standard deviation is the projected radius plus
-  // this floor (defocus and forward-scatter blur), pixels, in [0.3, 50].
+  // Particles are drawn as flux-preserving Gaussian blobs with sigma^2 = R^2/2 + blur_px^2 (R: the
+  // projected radius in pixels; blur_px: defocus and forward-scatter blur), pixels, in [0.3, 50].
   double blur_px = 0.7;
 
   bool Check(std::string* why) const;
@@ -51,9 +51,11 @@ struct MarineSnow {
   int visible = 0;     // particles in front of the scene surface and inside the image
 };
 
-// Draws particles from (seed, stream "snow") and renders them lit by E_A and the lights (each
-// particle faces the lights), attenuated by exp(-beta z_range) towards the camera, hidden behind
-// the scene surface (range_m; NaN range: never hidden). beta and ambient in image channel order.
+// Draws round(density * frustum volume) particles from (seed, snow stream): image position uniform,
+// z with uniform volume density, size log-uniform, albedo uniform. Each is lit by E_A and the lights
+// (facing them), attenuated by exp(-beta r) towards the camera, hidden behind the scene surface
+// (range_m; NaN range: never hidden), and added (not occluding). beta and ambient in image channel
+// order. Throws Error when more than 1e6 particles would be drawn.
 MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions& lights,
                             const CameraIntrinsics& camera, const cv::Mat& range_m,
                             const std::vector<double>& beta_per_m,

@@ -20,9 +20,9 @@ namespace turbid {
 
 struct PsfOptions {
   bool enabled = true;             // false: no blur (J * h = J)
-  // Optical thickness T, dimensionless, in (0, 100]. p = sqrt(T). Paper (§III-A.4): T = 4, so p = 2.
+  // Optical thickness T, dimensionless, in [1e-4, 100]. p = sqrt(T). Paper (§III-A.4): T = 4: p = 2.
   double optical_thickness = 4.0;
-  // Forward-scatter parameter q, in (0, 1]. sigma = 0.5 / sqrt(q). Paper: q = 0.9.
+  // Forward-scatter parameter q, in [1e-6, 1]. sigma = 0.5 / sqrt(q). Paper: q = 0.9.
   double forward_scatter = 0.9;
   // Pixels per unit of sigma, in (0, 1000]. 1: sigma is in pixels (our reading of the paper,
   // which applies the kernel in image space at 1360x1024).

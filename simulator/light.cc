@@ -1,0 +1,265 @@
+#include "simulator/light.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+bool Finite3(const cv::Vec3d& v) {
+  return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
+}
+
+// Per-light constants used in the inner loops.
+struct LightConstants {
+  cv::Vec3d position;
+  cv::Vec3d axis;  // unit
+  double power = 0.0;
+  double order = 1.0;  // m
+  int integer_order = -1;  // m when it is a small integer (cheap power), else -1
+};
+
+LightConstants Constants(const LightOptions& light) {
+  LightConstants k;
+  k.position = light.position_in_camera_m;
+  k.axis = light.axis_in_camera / cv::norm(light.axis_in_camera);
+  k.power = light.power;
+  k.order = LambertianOrder(light.half_power_angle_deg);
+  const double rounded = std::round(k.order);
+  if (std::abs(k.order - rounded) < 1e-9 && rounded >= 0 && rounded <= 8)
+    k.integer_order = static_cast<int>(rounded);
+  return k;
+}
+
+// A gray camera sees the light's mean colour.
+double GrayColor(const LightOptions& light) {
+  return (light.color_rgb[0] + light.color_rgb[1] + light.color_rgb[2]) / 3.0;
+}
+
+}  // namespace
+
+bool LightOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (!Finite3(position_in_camera_m) || cv::norm(position_in_camera_m, cv::NORM_INF) > 100.0)
+    return fail("position_in_camera_m: each coordinate must be finite, |x| <= 100 m");
+  if (!Finite3(axis_in_camera) || cv::norm(axis_in_camera) < 1e-9)
+    return fail("axis_in_camera: must be a finite non-zero vector");
+  if (!std::isfinite(power) || power < 0.0 || power > 1e6) return fail("power: must be in [0, 1e6]");
+  if (!std::isfinite(half_power_angle_deg) || half_power_angle_deg <= 0.0 ||
+      half_power_angle_deg >= 90.0)
+    return fail("half_power_angle_deg: must be in (0, 90) degrees");
+  // Below ~0.5 deg the order m exceeds 1e5: cos^m underflows everywhere but on the axis.
+  if (half_power_angle_deg < 0.5) return fail("half_power_angle_deg: must be at least 0.5 degrees");
+  for (double c : color_rgb)
+    if (!std::isfinite(c) || c < 0.0 || c > 10.0) return fail("color_rgb: each value must be in [0, 10]");
+  return true;
+}
+
+IncidenceModel IncidenceModelFromName(const std::string& name) {
+  if (name == "lambertian") return IncidenceModel::kLambertian;
+  if (name == "paper_eq5") return IncidenceModel::kPaperEq5;
+  throw Error("light.incidence: unknown model '" + name + "' (lambertian, paper_eq5)");
+}
+
+std::string IncidenceModelName(IncidenceModel model) {
+  return model == IncidenceModel::kPaperEq5 ? "paper_eq5" : "lambertian";
+}
+
+bool IrradianceOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (lights.size() > 16) return fail("lights: at most 16 lights");
+  for (size_t i = 0; i < lights.size(); ++i) {
+    std::string inner;
+    if (!lights[i].Check(&inner)) return fail("lights[" + std::to_string(i) + "]." + inner);
+  }
+  if (!std::isfinite(min_cos_incidence) || min_cos_incidence < 0.01 || min_cos_incidence > 1.0)
+    return fail("min_cos_incidence: must be in [0.01, 1]");
+  if (!std::isfinite(min_distance_m) || min_distance_m < 1e-4 || min_distance_m > 1.0)
+    return fail("min_distance_m: must be in [1e-4, 1] m");
+  return true;
+}
+
+double LambertianOrder(double half_power_angle_deg) {
+  const double c = std::cos(half_power_angle_deg * M_PI / 180.0);
+  return -std::log(2.0) / std::log(c);
+}
+
+cv::Mat NormalsFromDepth(const CameraIntrinsics& camera, const cv::Mat& depth_m) {
+  CV_Assert(depth_m.type() == CV_32FC1);
+  const int w = depth_m.cols, h = depth_m.rows;
+  cv::Mat normals(depth_m.size(), CV_32FC3, cv::Scalar::all(std::nanf("")));
+  auto point = [&](int x, int y) { return camera.BackProject(x, y, depth_m.at<float>(y, x)); };
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      if (std::isnan(depth_m.at<float>(y, x))) continue;
+      const int x0 = std::max(x - 1, 0), x1 = std::min(x + 1, w - 1);
+      const int y0 = std::max(y - 1, 0), y1 = std::min(y + 1, h - 1);
+      if (x0 == x1 || y0 == y1) continue;
+      const cv::Vec3d dx = point(x1, y) - point(x0, y);
+      const cv::Vec3d dy = point(x, y1) - point(x, y0);
+      cv::Vec3d n = dx.cross(dy);
+      const double len = cv::norm(n);
+      if (!Finite3(n) || len < 1e-12) continue;
+      n /= len;
+      if (n.dot(point(x, y)) > 0.0) n = -n;  // face the camera
+      normals.at<cv::Vec3f>(y, x) = cv::Vec3f(n[0], n[1], n[2]);
+    }
+  }
+  return normals;
+}
+
+LightGeometry ComputeLightGeometry(const IrradianceOptions& options, const CameraIntrinsics& camera,
+                                   const cv::Mat& depth_m, const cv::Mat& normals_in) {
+  ThrowIfInvalid(options, "light");
+  CV_Assert(depth_m.type() == CV_32FC1);
+  const cv::Mat normals = normals_in.empty() ? NormalsFromDepth(camera, depth_m) : normals_in;
+  CV_Assert(normals.type() == CV_32FC3 && normals.size() == depth_m.size());
+  const int w = depth_m.cols, h = depth_m.rows;
+  LightGeometry geometry;
+  const bool eq5 = options.incidence == IncidenceModel::kPaperEq5;
+  const float min_cos = static_cast<float>(options.min_cos_incidence);
+  const float min_l = static_cast<float>(options.min_distance_m);
+  std::vector<float> cos_phi(w);
+  for (const LightOptions& light : options.lights) {
+    const LightConstants k = Constants(light);
+    cv::Mat distance(depth_m.size(), CV_32FC1), factor(depth_m.size(), CV_32FC1);
+    for (int y = 0; y < h; ++y) {
+      const float* z = depth_m.ptr<float>(y);
+      const cv::Vec3f* n = normals.ptr<cv::Vec3f>(y);
+      float* l_out = distance.ptr<float>(y);
+      float* g_out = factor.ptr<float>(y);
+      const float ry = static_cast<float>((y - camera.cy) / camera.fy);
+      for (int x = 0; x < w; ++x) {
+        const float rx = static_cast<float>((x - camera.cx) / camera.fx);
+        const float zx = z[x];
+        const float px = rx * zx, py = ry * zx, pz = zx;
+        const float vx = px - static_cast<float>(k.position[0]);
+        const float vy = py - static_cast<float>(k.position[1]);
+        const float vz = pz - static_cast<float>(k.position[2]);
+        const float l_true = std::sqrt(vx * vx + vy * vy + vz * vz);
+        const float l = std::max(l_true, min_l);
+        const float inv = l_true > 1e-12f ? 1.0f / l_true : 0.0f;
+        // Coincident light and point: treat as head-on (cos phi = cos psi = 1).
+        float cphi = l_true > 1e-12f
+                         ? (static_cast<float>(k.axis[0]) * vx + static_cast<float>(k.axis[1]) * vy +
+                            static_cast<float>(k.axis[2]) * vz) * inv
+                         : 1.0f;
+        float nx = n[x][0], ny = n[x][1], nz = n[x][2];
+        if (std::isnan(nx) || std::isnan(ny) || std::isnan(nz)) {
+          const float rl = 1.0f / std::sqrt(rx * rx + ry * ry + 1.0f);
+          nx = -rx * rl, ny = -ry * rl, nz = -rl;
+        }
+        const float cpsi = l_true > 1e-12f ? -(nx * vx + ny * vy + nz * vz) * inv : 1.0f;
+        float incidence;
+        if (eq5) {
+          incidence = cpsi > 0.0f ? 1.0f / std::max(cpsi, min_cos) : 0.0f;
+        } else {
+          incidence = std::max(cpsi, 0.0f);
+        }
+        cphi = std::clamp(cphi, 0.0f, 1.0f);
+        cos_phi[x] = cphi;
+        const bool valid = !std::isnan(zx);
+        l_out[x] = valid ? l : std::nanf("");
+        g_out[x] = valid ? static_cast<float>(k.power) * incidence / (l * l) : 0.0f;
+      }
+      // cos^m(phi): small integer orders by multiplication, otherwise exp(m log cos phi) on the row.
+      if (k.integer_order >= 0) {
+        for (int x = 0; x < w; ++x) {
+          float p = 1.0f;
+          for (int i = 0; i < k.integer_order; ++i) p *= cos_phi[x];
+          g_out[x] *= p;
+        }
+      } else {
+        for (int x = 0; x < w; ++x) cos_phi[x] = std::max(cos_phi[x], 1e-30f);
+        cv::Mat row(1, w, CV_32F, cos_phi.data());
+        cv::log(row, row);
+        row *= k.order;
+        cv::exp(row, row);
+        for (int x = 0; x < w; ++x) g_out[x] *= cos_phi[x];
+      }
+      for (int x = 0; x < w; ++x)
+        if (!std::isfinite(g_out[x])) g_out[x] = 0.0f;
+    }
+    geometry.distance_m.push_back(distance);
+    geometry.geometry.push_back(factor);
+  }
+  return geometry;
+}
+
+cv::Mat IrradianceFromGeometry(const IrradianceOptions& options, const LightGeometry& geometry,
+                               const std::vector<double>& beta_per_m) {
+  const int channels = static_cast<int>(beta_per_m.size());
+  CV_Assert(channels == 1 || channels == 3);
+  CV_Assert(geometry.geometry.size() == options.lights.size());
+  if (geometry.geometry.empty()) return {};
+  const cv::Size size = geometry.geometry[0].size();
+  cv::Mat irradiance(size, CV_32FC(channels), cv::Scalar::all(0));
+  std::vector<float> buffer(static_cast<size_t>(size.width) * channels);
+  for (size_t k = 0; k < options.lights.size(); ++k) {
+    const std::vector<double> color =
+        ChannelValues(options.lights[k].color_rgb, GrayColor(options.lights[k]), channels);
+    for (int y = 0; y < size.height; ++y) {
+      const float* l = geometry.distance_m[k].ptr<float>(y);
+      const float* g = geometry.geometry[k].ptr<float>(y);
+      float* out = irradiance.ptr<float>(y);
+      for (int x = 0; x < size.width; ++x) {
+        const float range = std::isnan(l[x]) ? 0.0f : l[x];
+        for (int c = 0; c < channels; ++c)
+          buffer[x * channels + c] = std::max(-static_cast<float>(beta_per_m[c]) * range, -100.0f);
+      }
+      cv::Mat row(1, size.width * channels, CV_32F, buffer.data());
+      cv::exp(row, row);
+      for (int x = 0; x < size.width; ++x)
+        for (int c = 0; c < channels; ++c)
+          out[x * channels + c] += static_cast<float>(color[c]) * g[x] * buffer[x * channels + c];
+    }
+  }
+  return irradiance;
+}
+
+cv::Mat IrradianceMap(const IrradianceOptions& options, const CameraIntrinsics& camera,
+                      const cv::Mat& depth_m, const cv::Mat& normals,
+                      const std::vector<double>& beta_per_m) {
+  const int channels = static_cast<int>(beta_per_m.size());
+  if (options.lights.empty()) {
+    ThrowIfInvalid(options, "light");
+    return cv::Mat(depth_m.size(), CV_32FC(channels), cv::Scalar::all(0));
+  }
+  return IrradianceFromGeometry(options, ComputeLightGeometry(options, camera, depth_m, normals),
+                                beta_per_m);
+}
+
+std::vector<double> IrradianceAtPoint(const IrradianceOptions& options, const cv::Vec3d& point_m,
+                                      const std::optional<cv::Vec3d>& normal,
+                                      const std::vector<double>& beta_per_m) {
+  const int channels = static_cast<int>(beta_per_m.size());
+  std::vector<double> e(channels, 0.0);
+  for (const LightOptions& light : options.lights) {
+    const LightConstants k = Constants(light);
+    const cv::Vec3d v = point_m - k.position;
+    const double l_true = cv::norm(v);
+    const double l = std::max(l_true, options.min_distance_m);
+    const double cphi = l_true > 1e-12 ? std::clamp(k.axis.dot(v) / l_true, 0.0, 1.0) : 1.0;
+    double cpsi = 1.0;
+    if (normal && l_true > 1e-12) cpsi = -normal->dot(v) / l_true;
+    double incidence;
+    if (options.incidence == IncidenceModel::kPaperEq5)
+      incidence = cpsi > 0.0 ? 1.0 / std::max(cpsi, options.min_cos_incidence) : 0.0;
+    else
+      incidence = std::max(cpsi, 0.0);
+    const double g = k.power * std::pow(cphi, k.order) * incidence / (l * l);
+    const std::vector<double> color = ChannelValues(light.color_rgb, GrayColor(light), channels);
+    for (int c = 0; c < channels; ++c) e[c] += color[c] * g * std::exp(-beta_per_m[c] * l);
+  }
+  return e;
+}
+
+}  // namespace turbid

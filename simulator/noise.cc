@@ -1,0 +1,177 @@
+#include "simulator/noise.h"
+
+#include <opencv2/core.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+constexpr uint64_t kGolden = 0x9e3779b97f4a7c15ULL;
+
+inline uint64_t Mix64(uint64_t z) {
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  return z ^ (z >> 31);
+}
+
+// (0, 1] from 32 bits: never 0, so log() is finite.
+inline float UnitFloat(uint32_t bits) { return (static_cast<float>(bits >> 8) + 1.0f) * (1.0f / 16777216.0f); }
+
+bool InRange(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
+
+constexpr uint64_t kSnowStream = 1;
+constexpr uint64_t kSensorStream = 2;
+
+}  // namespace
+
+uint64_t RandomKey(uint64_t seed, uint64_t stream) { return Mix64(Mix64(seed) ^ (stream * kGolden + 1)); }
+
+uint64_t RandomBits(uint64_t key, uint64_t index) { return Mix64(key + (index + 1) * kGolden); }
+
+double RandomUniform(uint64_t key, uint64_t index) {
+  return (static_cast<double>(RandomBits(key, index) >> 11) + 0.5) * (1.0 / 9007199254740992.0);
+}
+
+void RandomNormals(uint64_t key, uint64_t first, int count, float* out) {
+  if (count <= 0) return;
+  // Pairs cover [first, first + count): pair j gives samples 2j (cos) and 2j + 1 (sin).
+  const uint64_t first_pair = first / 2, last_pair = (first + count - 1) / 2;
+  const int pairs = static_cast<int>(last_pair - first_pair + 1);
+  thread_local std::vector<float> radius, angle, cos_part, sin_part;
+  radius.resize(pairs), angle.resize(pairs), cos_part.resize(pairs), sin_part.resize(pairs);
+  for (int j = 0; j < pairs; ++j) {
+    const uint64_t bits = RandomBits(key, first_pair + j);
+    radius[j] = UnitFloat(static_cast<uint32_t>(bits));
+    angle[j] = static_cast<float>(2.0 * M_PI) * UnitFloat(static_cast<uint32_t>(bits >> 32));
+  }
+  cv::Mat r(1, pairs, CV_32F, radius.data()), a(1, pairs, CV_32F, angle.data());
+  cv::log(r, r);
+  for (int j = 0; j < pairs; ++j) radius[j] = std::sqrt(std::max(-2.0f * radius[j], 0.0f));
+  cv::Mat xs(1, pairs, CV_32F, cos_part.data()), ys(1, pairs, CV_32F, sin_part.data());
+  cv::polarToCart(r, a, xs, ys, false);
+  for (int i = 0; i < count; ++i) {
+    const uint64_t index = first + i;
+    const int j = static_cast<int>(index / 2 - first_pair);
+    out[i] = (index & 1) ? sin_part[j] : cos_part[j];
+  }
+}
+
+bool SnowOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (!InRange(density_per_m3, 0.0, 1e5)) return fail("density_per_m3: must be in [0, 1e5]");
+  if (!InRange(far_m, 0.0, 1000.0) || far_m <= 0.0) return fail("far_m: must be in (0, 1000] m");
+  if (!InRange(near_m, 0.0, far_m) || near_m <= 0.0 || near_m >= far_m)
+    return fail("near_m: must be in (0, far_m) m");
+  if (!InRange(size_min_m, 1e-5, 0.1)) return fail("size_min_m: must be in [1e-5, 0.1] m");
+  if (!InRange(size_max_m, size_min_m, 0.1)) return fail("size_max_m: must be in [size_min_m, 0.1] m");
+  if (!InRange(albedo_min, 0.0, 1.0)) return fail("albedo_min: must be in [0, 1]");
+  if (!InRange(albedo_max, albedo_min, 1.0)) return fail("albedo_max: must be in [albedo_min, 1]");
+  if (!InRange(blur_px, 0.3, 50.0)) return fail("blur_px: must be in [0.3, 50] pixels");
+  return true;
+}
+
+MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions& lights,
+                            const CameraIntrinsics& camera, const cv::Mat& range_m,
+                            const std::vector<double>& beta_per_m,
+                            const std::vector<double>& ambient, uint64_t seed) {
+  ThrowIfInvalid(options, "snow");
+  const int channels = static_cast<int>(beta_per_m.size());
+  CV_Assert((channels == 1 || channels == 3) && ambient.size() == beta_per_m.size());
+  CV_Assert(range_m.type() == CV_32FC1);
+  const int w = range_m.cols, h = range_m.rows;
+  MarineSnow snow;
+  snow.layer = cv::Mat(range_m.size(), CV_32FC(channels), cv::Scalar::all(0));
+  if (!options.enabled) return snow;
+  const double volume = (w / std::abs(camera.fx)) * (h / std::abs(camera.fy)) *
+                        (std::pow(options.far_m, 3) - std::pow(options.near_m, 3)) / 3.0;
+  const double expected = options.density_per_m3 * volume;
+  if (!(expected <= 1e6))
+    throw Error("snow: density_per_m3 x frustum volume gives " + std::to_string(expected) +
+                " particles (at most 1e6)");
+  snow.particles = static_cast<int>(std::llround(expected));
+  const uint64_t key = RandomKey(seed, kSnowStream);
+  const double near3 = std::pow(options.near_m, 3), far3 = std::pow(options.far_m, 3);
+  const double log_size_min = std::log(options.size_min_m), log_size_max = std::log(options.size_max_m);
+  const double focal = std::sqrt(std::abs(camera.fx * camera.fy));
+  for (int i = 0; i < snow.particles; ++i) {
+    const uint64_t base = static_cast<uint64_t>(i) * 8;
+    const double u = RandomUniform(key, base + 0) * w - 0.5;
+    const double v = RandomUniform(key, base + 1) * h - 0.5;
+    const double z = std::cbrt(near3 + RandomUniform(key, base + 2) * (far3 - near3));
+    const double diameter =
+        std::exp(log_size_min + RandomUniform(key, base + 3) * (log_size_max - log_size_min));
+    const double albedo =
+        options.albedo_min + RandomUniform(key, base + 4) * (options.albedo_max - options.albedo_min);
+    const cv::Vec3d point = camera.BackProject(u, v, z);
+    const double range = cv::norm(point);
+    const int px = std::clamp(static_cast<int>(std::lround(u)), 0, w - 1);
+    const int py = std::clamp(static_cast<int>(std::lround(v)), 0, h - 1);
+    const float surface = range_m.at<float>(py, px);
+    if (!std::isnan(surface) && surface <= range) continue;  // behind the scene
+    ++snow.visible;
+    const std::vector<double> lit = IrradianceAtPoint(lights, point, std::nullopt, beta_per_m);
+    const double radius_px = 0.5 * diameter * focal / z;
+    const double sigma2 = 0.5 * radius_px * radius_px + options.blur_px * options.blur_px;
+    // Flux-preserving peak: the disc's pi R^2 radiance spread over a Gaussian of variance sigma2.
+    const double peak_scale = radius_px * radius_px / (2.0 * sigma2);
+    std::vector<float> peak(channels);
+    for (int c = 0; c < channels; ++c)
+      peak[c] = static_cast<float>(albedo * (ambient[c] + lit[c]) *
+                                   std::exp(-beta_per_m[c] * range) * peak_scale);
+    const int reach = std::min(static_cast<int>(std::ceil(3.0 * std::sqrt(sigma2))), 200);
+    const int x0 = std::max(static_cast<int>(std::floor(u)) - reach, 0);
+    const int x1 = std::min(static_cast<int>(std::ceil(u)) + reach, w - 1);
+    const int y0 = std::max(static_cast<int>(std::floor(v)) - reach, 0);
+    const int y1 = std::min(static_cast<int>(std::ceil(v)) + reach, h - 1);
+    const double inv = -0.5 / sigma2;
+    for (int y = y0; y <= y1; ++y) {
+      float* row = snow.layer.ptr<float>(y);
+      const double dy2 = (y - v) * (y - v);
+      for (int x = x0; x <= x1; ++x) {
+        const float g = static_cast<float>(std::exp(((x - u) * (x - u) + dy2) * inv));
+        for (int c = 0; c < channels; ++c) row[x * channels + c] += peak[c] * g;
+      }
+    }
+  }
+  return snow;
+}
+
+bool SensorNoiseOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (!InRange(photons_at_white, 0.0, 1e7)) return fail("photons_at_white: must be in [0, 1e7]");
+  if (!InRange(read_noise, 0.0, 0.5)) return fail("read_noise: must be in [0, 0.5]");
+  return true;
+}
+
+cv::Mat AddSensorNoise(const SensorNoiseOptions& options, const cv::Mat& image, uint64_t seed) {
+  ThrowIfInvalid(options, "sensor");
+  CV_Assert(image.depth() == CV_32F);
+  cv::Mat out(image.size(), image.type());
+  const uint64_t key = RandomKey(seed, kSensorStream);
+  const int per_row = image.cols * image.channels();
+  const float shot = options.photons_at_white > 0.0 ? static_cast<float>(1.0 / options.photons_at_white) : 0.0f;
+  const float read2 = static_cast<float>(options.read_noise * options.read_noise);
+  cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
+    std::vector<float> normals(per_row);
+    for (int y = rows.start; y < rows.end; ++y) {
+      RandomNormals(key, static_cast<uint64_t>(y) * per_row, per_row, normals.data());
+      const float* in = image.ptr<float>(y);
+      float* o = out.ptr<float>(y);
+      for (int i = 0; i < per_row; ++i)
+        o[i] = in[i] + normals[i] * std::sqrt(std::max(in[i], 0.0f) * shot + read2);
+    }
+  });
+  return out;
+}
+
+}  // namespace turbid

@@ -1,0 +1,653 @@
+#include "simulator/render.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+
+#include "scenes/error.h"
+#include "turbid_version.h"
+
+namespace turbid {
+namespace {
+
+using nlohmann::json;
+
+// ---- strict JSON reading ------------------------------------------------------------------------
+
+void RequireObject(const json& j, const std::string& path) {
+  if (!j.is_object()) throw Error("render options: " + (path.empty() ? "top level" : path) + ": must be an object");
+}
+
+void RejectUnknown(const json& j, const std::string& path, const std::set<std::string>& allowed) {
+  for (auto it = j.begin(); it != j.end(); ++it)
+    if (!allowed.count(it.key()))
+      throw Error("render options: " + path + it.key() + ": unknown key");
+}
+
+void Read(const json& j, const std::string& key, const std::string& path, double& field) {
+  if (!j.contains(key)) return;
+  const json& v = j.at(key);
+  if (!v.is_number()) throw Error("render options: " + path + key + ": must be a number");
+  field = v.get<double>();
+  if (!std::isfinite(field)) throw Error("render options: " + path + key + ": must be finite");
+}
+
+void Read(const json& j, const std::string& key, const std::string& path, int& field) {
+  if (!j.contains(key)) return;
+  const json& v = j.at(key);
+  if (!v.is_number_integer()) throw Error("render options: " + path + key + ": must be an integer");
+  const int64_t value = v.get<int64_t>();
+  if (value < std::numeric_limits<int>::min() || value > std::numeric_limits<int>::max())
+    throw Error("render options: " + path + key + ": out of range");
+  field = static_cast<int>(value);
+}
+
+void Read(const json& j, const std::string& key, const std::string& path, bool& field) {
+  if (!j.contains(key)) return;
+  const json& v = j.at(key);
+  if (!v.is_boolean()) throw Error("render options: " + path + key + ": must be true or false");
+  field = v.get<bool>();
+}
+
+void Read(const json& j, const std::string& key, const std::string& path, std::string& field) {
+  if (!j.contains(key)) return;
+  const json& v = j.at(key);
+  if (!v.is_string()) throw Error("render options: " + path + key + ": must be a string");
+  field = v.get<std::string>();
+}
+
+template <typename Array>
+void ReadTriple(const json& j, const std::string& key, const std::string& path, Array& field) {
+  if (!j.contains(key)) return;
+  const json& v = j.at(key);
+  if (!v.is_array() || v.size() != 3)
+    throw Error("render options: " + path + key + ": must be an array of 3 numbers");
+  for (int i = 0; i < 3; ++i) {
+    if (!v[i].is_number()) throw Error("render options: " + path + key + ": must be an array of 3 numbers");
+    field[i] = v[i].get<double>();
+    if (!std::isfinite(field[i])) throw Error("render options: " + path + key + ": must be finite");
+  }
+}
+
+template <typename Options>
+void CheckSection(const Options& options, const std::string& path) {
+  std::string why;
+  if (!options.Check(&why)) throw Error("render options: " + path + why);
+}
+
+json Triple(const Rgb& v) { return json::array({v[0], v[1], v[2]}); }
+json Triple(const cv::Vec3d& v) { return json::array({v[0], v[1], v[2]}); }
+
+bool SameRgb(const Rgb& a, const Rgb& b) {
+  for (int i = 0; i < 3; ++i)
+    if (std::abs(a[i] - b[i]) > 1e-9) return false;
+  return true;
+}
+
+// ---- rendering helpers --------------------------------------------------------------------------
+
+std::string Format(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+std::string ListText(const std::vector<double>& values) {
+  std::string s = "[";
+  for (size_t i = 0; i < values.size(); ++i) s += (i ? ", " : "") + Format(values[i]);
+  return s + "]";
+}
+
+cv::Mat Quantise(const cv::Mat& image, int bit_depth) {
+  cv::Mat out;
+  cv::min(cv::max(image, 0.0), 1.0, out);  // NaN never reaches here; max/min also clip +-inf
+  if (bit_depth == 32) return out;
+  const float levels = bit_depth == 8 ? 255.0f : 65535.0f;
+  out.forEach<float>([levels](float& v, const int*) { v = std::nearbyint(v * levels) / levels; });
+  return out;
+}
+
+}  // namespace
+
+// ---- options ------------------------------------------------------------------------------------
+
+bool CameraOutputOptions::Check(std::string* why) const {
+  if (bit_depth == 8 || bit_depth == 16 || bit_depth == 32) return true;
+  if (why) *why = "bit_depth: must be 8, 16 or 32 (float)";
+  return false;
+}
+
+MapSelection MapSelection::FromList(const std::string& list) {
+  MapSelection maps;
+  std::stringstream stream(list);
+  std::string name;
+  while (std::getline(stream, name, ',')) {
+    if (name.empty()) continue;
+    if (name == "transmission") maps.transmission = true;
+    else if (name == "light") maps.light = true;
+    else if (name == "veil") maps.veil = true;
+    else if (name == "psf") maps.psf = true;
+    else if (name == "noise") maps.noise = true;
+    else throw Error("--maps: unknown map '" + name + "' (transmission, light, veil, psf, noise)");
+  }
+  return maps;
+}
+
+bool RenderOptions::Check(std::string* why) const {
+  auto section = [&](const auto& options, const std::string& name) {
+    std::string inner;
+    if (options.Check(&inner)) return true;
+    if (why) *why = name + "." + inner;
+    return false;
+  };
+  return section(water, "water") && section(light, "light") && section(psf, "psf") &&
+         section(snow, "snow") && section(sensor, "sensor") && section(camera, "camera");
+}
+
+RenderOptions RenderOptionsFromJson(const json& j) {
+  RenderOptions o;
+  RequireObject(j, "");
+  RejectUnknown(j, "", {"water", "light", "psf", "snow", "sensor", "camera", "seed"});
+  if (j.contains("seed")) {
+    const json& s = j.at("seed");
+    if (!s.is_number_integer() || (s.is_number_integer() && !s.is_number_unsigned() && s.get<int64_t>() < 0))
+      throw Error("render options: seed: must be a non-negative integer");
+    o.seed = s.get<uint64_t>();
+  }
+  if (j.contains("water")) {
+    const json& w = j.at("water");
+    const std::string p = "water.";
+    RequireObject(w, "water");
+    RejectUnknown(w, p, {"type", "beta_rgb_per_m", "beta_gray_per_m", "ambient_rgb", "ambient_gray",
+                         "backscatter", "backscatter_rgb", "backscatter_gray"});
+    Read(w, "type", p, o.water.type);
+    ReadTriple(w, "beta_rgb_per_m", p, o.water.beta_rgb_per_m);
+    Read(w, "beta_gray_per_m", p, o.water.beta_gray_per_m);
+    ReadTriple(w, "ambient_rgb", p, o.water.ambient_rgb);
+    Read(w, "ambient_gray", p, o.water.ambient_gray);
+    Read(w, "backscatter", p, o.water.backscatter);
+    ReadTriple(w, "backscatter_rgb", p, o.water.backscatter_rgb);
+    Read(w, "backscatter_gray", p, o.water.backscatter_gray);
+    CheckSection(o.water, p);
+    if (o.water.type != "custom") {
+      // A sidecar repeats the preset's values; anything else would be silently overridden.
+      const WaterOptions preset = ResolveWater(o.water);
+      if ((w.contains("beta_rgb_per_m") && !SameRgb(o.water.beta_rgb_per_m, preset.beta_rgb_per_m)) ||
+          (w.contains("beta_gray_per_m") &&
+           std::abs(o.water.beta_gray_per_m - preset.beta_gray_per_m) > 1e-9))
+        throw Error("render options: water.beta_rgb_per_m: conflicts with water.type '" + o.water.type +
+                    "' (use type \"custom\" to set beta)");
+      o.water = preset;
+    }
+  }
+  if (j.contains("light")) {
+    const json& l = j.at("light");
+    const std::string p = "light.";
+    RequireObject(l, "light");
+    RejectUnknown(l, p, {"lights", "incidence", "min_cos_incidence", "min_distance_m"});
+    if (l.contains("lights")) {
+      const json& list = l.at("lights");
+      if (!list.is_array()) throw Error("render options: light.lights: must be an array");
+      o.light.lights.clear();
+      for (size_t i = 0; i < list.size(); ++i) {
+        const std::string lp = p + "lights[" + std::to_string(i) + "].";
+        RequireObject(list[i], lp.substr(0, lp.size() - 1));
+        RejectUnknown(list[i], lp,
+                      {"position_in_camera_m", "axis_in_camera", "power", "half_power_angle_deg", "color_rgb"});
+        LightOptions light;
+        ReadTriple(list[i], "position_in_camera_m", lp, light.position_in_camera_m);
+        ReadTriple(list[i], "axis_in_camera", lp, light.axis_in_camera);
+        Read(list[i], "power", lp, light.power);
+        Read(list[i], "half_power_angle_deg", lp, light.half_power_angle_deg);
+        ReadTriple(list[i], "color_rgb", lp, light.color_rgb);
+        CheckSection(light, lp);
+        o.light.lights.push_back(light);
+      }
+    }
+    if (l.contains("incidence")) {
+      std::string name;
+      Read(l, "incidence", p, name);
+      if (name != "lambertian" && name != "paper_eq5")
+        throw Error("render options: light.incidence: unknown model '" + name + "' (lambertian, paper_eq5)");
+      o.light.incidence = IncidenceModelFromName(name);
+    }
+    Read(l, "min_cos_incidence", p, o.light.min_cos_incidence);
+    Read(l, "min_distance_m", p, o.light.min_distance_m);
+    CheckSection(o.light, p);
+  }
+  if (j.contains("psf")) {
+    const json& s = j.at("psf");
+    const std::string p = "psf.";
+    RequireObject(s, "psf");
+    RejectUnknown(s, p, {"enabled", "optical_thickness", "forward_scatter", "pixels_per_unit", "tail_mass",
+                         "max_radius_px", "delta_tolerance", "depth_dependent", "reference_range_m",
+                         "depth_levels"});
+    Read(s, "enabled", p, o.psf.enabled);
+    Read(s, "optical_thickness", p, o.psf.optical_thickness);
+    Read(s, "forward_scatter", p, o.psf.forward_scatter);
+    Read(s, "pixels_per_unit", p, o.psf.pixels_per_unit);
+    Read(s, "tail_mass", p, o.psf.tail_mass);
+    Read(s, "max_radius_px", p, o.psf.max_radius_px);
+    Read(s, "delta_tolerance", p, o.psf.delta_tolerance);
+    Read(s, "depth_dependent", p, o.psf.depth_dependent);
+    Read(s, "reference_range_m", p, o.psf.reference_range_m);
+    Read(s, "depth_levels", p, o.psf.depth_levels);
+    CheckSection(o.psf, p);
+  }
+  if (j.contains("snow")) {
+    const json& s = j.at("snow");
+    const std::string p = "snow.";
+    RequireObject(s, "snow");
+    RejectUnknown(s, p, {"enabled", "density_per_m3", "near_m", "far_m", "size_min_m", "size_max_m",
+                         "albedo_min", "albedo_max", "blur_px"});
+    Read(s, "enabled", p, o.snow.enabled);
+    Read(s, "density_per_m3", p, o.snow.density_per_m3);
+    Read(s, "near_m", p, o.snow.near_m);
+    Read(s, "far_m", p, o.snow.far_m);
+    Read(s, "size_min_m", p, o.snow.size_min_m);
+    Read(s, "size_max_m", p, o.snow.size_max_m);
+    Read(s, "albedo_min", p, o.snow.albedo_min);
+    Read(s, "albedo_max", p, o.snow.albedo_max);
+    Read(s, "blur_px", p, o.snow.blur_px);
+    CheckSection(o.snow, p);
+  }
+  if (j.contains("sensor")) {
+    const json& s = j.at("sensor");
+    const std::string p = "sensor.";
+    RequireObject(s, "sensor");
+    RejectUnknown(s, p, {"enabled", "photons_at_white", "read_noise"});
+    Read(s, "enabled", p, o.sensor.enabled);
+    Read(s, "photons_at_white", p, o.sensor.photons_at_white);
+    Read(s, "read_noise", p, o.sensor.read_noise);
+    CheckSection(o.sensor, p);
+  }
+  if (j.contains("camera")) {
+    const json& s = j.at("camera");
+    const std::string p = "camera.";
+    RequireObject(s, "camera");
+    RejectUnknown(s, p, {"bit_depth"});
+    Read(s, "bit_depth", p, o.camera.bit_depth);
+    CheckSection(o.camera, p);
+  }
+  return o;
+}
+
+json RenderOptionsToJson(const RenderOptions& o) {
+  json lights = json::array();
+  for (const LightOptions& l : o.light.lights)
+    lights.push_back({{"position_in_camera_m", Triple(l.position_in_camera_m)},
+                      {"axis_in_camera", Triple(l.axis_in_camera)},
+                      {"power", l.power},
+                      {"half_power_angle_deg", l.half_power_angle_deg},
+                      {"color_rgb", Triple(l.color_rgb)}});
+  return {
+      {"water",
+       {{"type", o.water.type},
+        {"beta_rgb_per_m", Triple(o.water.beta_rgb_per_m)},
+        {"beta_gray_per_m", o.water.beta_gray_per_m},
+        {"ambient_rgb", Triple(o.water.ambient_rgb)},
+        {"ambient_gray", o.water.ambient_gray},
+        {"backscatter", o.water.backscatter},
+        {"backscatter_rgb", Triple(o.water.backscatter_rgb)},
+        {"backscatter_gray", o.water.backscatter_gray}}},
+      {"light",
+       {{"lights", lights},
+        {"incidence", IncidenceModelName(o.light.incidence)},
+        {"min_cos_incidence", o.light.min_cos_incidence},
+        {"min_distance_m", o.light.min_distance_m}}},
+      {"psf",
+       {{"enabled", o.psf.enabled},
+        {"optical_thickness", o.psf.optical_thickness},
+        {"forward_scatter", o.psf.forward_scatter},
+        {"pixels_per_unit", o.psf.pixels_per_unit},
+        {"tail_mass", o.psf.tail_mass},
+        {"max_radius_px", o.psf.max_radius_px},
+        {"delta_tolerance", o.psf.delta_tolerance},
+        {"depth_dependent", o.psf.depth_dependent},
+        {"reference_range_m", o.psf.reference_range_m},
+        {"depth_levels", o.psf.depth_levels}}},
+      {"snow",
+       {{"enabled", o.snow.enabled},
+        {"density_per_m3", o.snow.density_per_m3},
+        {"near_m", o.snow.near_m},
+        {"far_m", o.snow.far_m},
+        {"size_min_m", o.snow.size_min_m},
+        {"size_max_m", o.snow.size_max_m},
+        {"albedo_min", o.snow.albedo_min},
+        {"albedo_max", o.snow.albedo_max},
+        {"blur_px", o.snow.blur_px}}},
+      {"sensor",
+       {{"enabled", o.sensor.enabled},
+        {"photons_at_white", o.sensor.photons_at_white},
+        {"read_noise", o.sensor.read_noise}}},
+      {"camera", {{"bit_depth", o.camera.bit_depth}}},
+      {"seed", o.seed},
+  };
+}
+
+std::string RenderPlan::ToText() const {
+  std::string text = "render plan:\n";
+  for (const std::string& s : steps) text += "  do:   " + s + "\n";
+  for (const std::string& s : skipped) text += "  skip: " + s + "\n";
+  return text;
+}
+
+json RenderPlan::ToJson() const { return {{"steps", steps}, {"skipped", skipped}}; }
+
+// ---- renderer -----------------------------------------------------------------------------------
+
+// Decisions shared by Plan and Render.
+struct Decisions {
+  WaterOptions water;
+  std::vector<double> beta, ambient, backscatter;
+  bool any_light = false;
+  bool zero_beta = false;
+  bool uniform_range = false;
+  bool blur = false;
+  Psf psf;
+  RenderPlan plan;
+};
+
+struct Renderer::Cache {
+  std::mutex mutex;
+  bool range_stats_done = false;
+  double min_range = 0.0, max_range = 0.0;
+  int valid_pixels = 0;
+  cv::Mat normals;  // computed once when the scene has none
+  std::map<std::string, std::shared_ptr<const LightGeometry>> geometry;
+  struct Blurred {
+    std::string key;
+    std::shared_ptr<const cv::Mat> light, lit, blurred;
+  };
+  std::deque<Blurred> blurred;  // most recent first, at most kBlurredEntries
+  static constexpr size_t kBlurredEntries = 4;
+};
+
+namespace {
+
+Decisions Decide(const RenderOptions& options, const Scene& scene, double min_range, double max_range) {
+  ThrowIfInvalid(options, "render options");
+  Decisions d;
+  d.water = ResolveWater(options.water);
+  const int channels = scene.channels();
+  d.beta = ChannelValues(d.water.beta_rgb_per_m, d.water.beta_gray_per_m, channels);
+  d.ambient = ChannelValues(d.water.ambient_rgb, d.water.ambient_gray, channels);
+  d.backscatter = ChannelValues(d.water.backscatter_rgb, d.water.backscatter_gray, channels);
+  RenderPlan& plan = d.plan;
+  const std::string what = channels == 1 ? "1 channel (gray)" : "3 channels (BGR)";
+  plan.steps.push_back("input: " + scene.name + " " + std::to_string(scene.width()) + "x" +
+                       std::to_string(scene.height()) + ", " + what);
+  if (channels == 1) plan.skipped.push_back("colour: gray input, every term computed on 1 channel");
+  for (const LightOptions& l : options.light.lights) d.any_light = d.any_light || l.power > 0.0;
+  if (d.any_light)
+    plan.steps.push_back("light: " + std::to_string(options.light.lights.size()) + " LED(s), " +
+                         IncidenceModelName(options.light.incidence) + " incidence");
+  else
+    plan.skipped.push_back("light: no light (or zero power): E_L = 0, no veiling term");
+  d.zero_beta = std::all_of(d.beta.begin(), d.beta.end(), [](double b) { return b == 0.0; });
+  d.uniform_range = max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
+  if (d.zero_beta)
+    plan.skipped.push_back("attenuation: beta = 0, t = 1 (no exp, no veil)");
+  else if (d.uniform_range)
+    plan.steps.push_back("attenuation: uniform range " + Format(min_range) + " m, t constant per channel");
+  else
+    plan.steps.push_back("attenuation: t = exp(-beta r), beta = " + ListText(d.beta) + " 1/m");
+  if (options.water.backscatter && !d.zero_beta)
+    plan.steps.push_back("backscatter: (1 - t) B_inf, B_inf = " + ListText(d.backscatter));
+  if (!options.psf.enabled) {
+    plan.skipped.push_back("psf: disabled");
+  } else {
+    d.psf = PsfKernel(options.psf);
+    if (d.psf.is_delta && !options.psf.depth_dependent) {
+      plan.skipped.push_back("psf: kernel is a delta at this pixel scale (sigma " +
+                             Format(d.psf.sigma_px) + " px)");
+    } else {
+      d.blur = true;
+      plan.steps.push_back(std::string("psf: generalized Gaussian p = ") + Format(d.psf.p) +
+                           ", sigma = " + Format(d.psf.sigma_px) + " px, radius " +
+                           std::to_string(d.psf.radius_px) + " px, " +
+                           (d.psf.separable ? "separable (Gaussian)" : "2-D") +
+                           (options.psf.depth_dependent ? ", range-dependent width" : ""));
+    }
+  }
+  if (options.snow.enabled && options.snow.density_per_m3 > 0.0)
+    plan.steps.push_back("snow: " + Format(options.snow.density_per_m3) + " particles/m^3");
+  else
+    plan.skipped.push_back("snow: none");
+  if (options.sensor.enabled && (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0))
+    plan.steps.push_back("sensor noise: Poisson-Gaussian, " + Format(options.sensor.photons_at_white) +
+                         " e-/full scale, read " + Format(options.sensor.read_noise));
+  else
+    plan.skipped.push_back("sensor noise: none");
+  plan.steps.push_back(options.camera.bit_depth == 32 ? std::string("camera: clip to [0, 1], float")
+                                                      : "camera: clip and quantise to " +
+                                                            std::to_string(options.camera.bit_depth) + " bit");
+  return d;
+}
+
+}  // namespace
+
+Renderer::Renderer(const Scene& scene) : scene_(scene), cache_(std::make_unique<Cache>()) {
+  scene_.Validate();
+  range_m_ = RangeFromDepth(scene_.camera, scene_.depth_m);
+  double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
+  int valid = 0;
+  for (int y = 0; y < range_m_.rows; ++y) {
+    const float* r = range_m_.ptr<float>(y);
+    for (int x = 0; x < range_m_.cols; ++x) {
+      if (std::isnan(r[x])) continue;
+      lo = std::min<double>(lo, r[x]);
+      hi = std::max<double>(hi, r[x]);
+      ++valid;
+    }
+  }
+  cache_->min_range = lo;
+  cache_->max_range = hi;
+  cache_->valid_pixels = valid;
+}
+
+Renderer::~Renderer() = default;
+
+const Scene& Renderer::scene() const { return scene_; }
+const cv::Mat& Renderer::range_m() const { return range_m_; }
+
+RenderPlan Renderer::Plan(const RenderOptions& options) const {
+  return Decide(options, scene_, cache_->min_range, cache_->max_range).plan;
+}
+
+RenderResult Renderer::Render(const RenderOptions& options) const {
+  Decisions d = Decide(options, scene_, cache_->min_range, cache_->max_range);
+  const int channels = scene_.channels();
+  const cv::Size size = scene_.image.size();
+  const bool uniform_range = d.uniform_range;
+  RenderResult result;
+
+  // E_L, J and J * h (cached: a sweep over noise, seed or camera reuses them).
+  json light_key = RenderOptionsToJson(options)["light"];
+  json blur_key = {{"light", light_key},
+                   {"ambient", d.ambient},
+                   {"beta", d.any_light ? json(d.beta) : json()},
+                   {"psf", d.blur ? RenderOptionsToJson(options)["psf"] : json()}};
+  const std::string key = blur_key.dump();
+  std::shared_ptr<const cv::Mat> light, lit, blurred;
+  {
+    std::lock_guard<std::mutex> lock(cache_->mutex);
+    for (const auto& entry : cache_->blurred)
+      if (entry.key == key) light = entry.light, lit = entry.lit, blurred = entry.blurred;
+  }
+  if (!lit) {
+    cv::Mat e_l;
+    if (d.any_light) {
+      std::shared_ptr<const LightGeometry> geometry;
+      const std::string geometry_key = light_key.dump();
+      {
+        std::lock_guard<std::mutex> lock(cache_->mutex);
+        auto it = cache_->geometry.find(geometry_key);
+        if (it != cache_->geometry.end()) geometry = it->second;
+      }
+      if (!geometry) {
+        cv::Mat normals = scene_.normals;
+        if (normals.empty()) {
+          std::lock_guard<std::mutex> lock(cache_->mutex);
+          if (cache_->normals.empty()) cache_->normals = NormalsFromDepth(scene_.camera, scene_.depth_m);
+          normals = cache_->normals;
+        }
+        geometry = std::make_shared<const LightGeometry>(
+            ComputeLightGeometry(options.light, scene_.camera, scene_.depth_m, normals));
+        std::lock_guard<std::mutex> lock(cache_->mutex);
+        cache_->geometry.emplace(geometry_key, geometry);
+      }
+      e_l = IrradianceFromGeometry(options.light, *geometry, d.beta);
+    }
+    // J = (E_A + E_L) rho.
+    cv::Mat j(size, scene_.image.type());
+    const float a0 = static_cast<float>(d.ambient[0]);
+    const float a1 = static_cast<float>(d.ambient[channels == 3 ? 1 : 0]);
+    const float a2 = static_cast<float>(d.ambient[channels == 3 ? 2 : 0]);
+    const float ambient[3] = {a0, a1, a2};
+    const int per_row = size.width * channels;
+    cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
+      for (int y = rows.start; y < rows.end; ++y) {
+        const float* rho = scene_.image.ptr<float>(y);
+        float* out = j.ptr<float>(y);
+        const float* e = e_l.empty() ? nullptr : e_l.ptr<float>(y);
+        for (int i = 0; i < per_row; ++i) {
+          const int c = channels == 3 ? i % 3 : 0;
+          out[i] = (ambient[c] + (e ? e[i] : 0.0f)) * rho[i];
+        }
+      }
+    });
+    cv::Mat jb;
+    if (!d.blur)
+      jb = j;
+    else if (options.psf.depth_dependent)
+      jb = ApplyDepthDependentPsf(options.psf, j, range_m_);
+    else
+      jb = ApplyPsf(d.psf, j);
+    light = e_l.empty() ? nullptr : std::make_shared<const cv::Mat>(e_l);
+    lit = std::make_shared<const cv::Mat>(j);
+    blurred = std::make_shared<const cv::Mat>(jb);
+    std::lock_guard<std::mutex> lock(cache_->mutex);
+    cache_->blurred.push_front({key, light, lit, blurred});
+    while (cache_->blurred.size() > Cache::kBlurredEntries) cache_->blurred.pop_back();
+  }
+
+  // Transmission and composition: I = Jb t + (1 - t)(E_L + B_inf).
+  cv::Mat t;
+  if (!d.zero_beta) {
+    if (uniform_range) {
+      cv::Scalar value;
+      for (int c = 0; c < channels; ++c) value[c] = std::exp(-d.beta[c] * cache_->min_range);
+      t = cv::Mat(size, CV_32FC(channels), value);
+      if (cache_->valid_pixels != size.area())  // NaN pixels are open water: t = 0
+        t.setTo(cv::Scalar::all(0), range_m_ != range_m_);
+    } else {
+      t = TransmissionMap(range_m_, d.beta);
+    }
+  }
+  const bool backscatter = options.water.backscatter && !d.zero_beta;
+  const bool veil_term = !d.zero_beta && (light || backscatter);
+  cv::Mat clean(size, scene_.image.type());
+  cv::Mat veil = (veil_term && options.maps.veil) ? cv::Mat(size, scene_.image.type()) : cv::Mat();
+  {
+    const int per_row = size.width * channels;
+    float bs[3] = {0, 0, 0};
+    for (int c = 0; c < channels; ++c) bs[c] = backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
+    cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
+      for (int y = rows.start; y < rows.end; ++y) {
+        const float* jb = blurred->ptr<float>(y);
+        float* out = clean.ptr<float>(y);
+        if (d.zero_beta) {
+          std::copy(jb, jb + per_row, out);
+          continue;
+        }
+        const float* tt = t.ptr<float>(y);
+        const float* e = light ? light->ptr<float>(y) : nullptr;
+        float* v = veil.empty() ? nullptr : veil.ptr<float>(y);
+        if (!veil_term) {
+          for (int i = 0; i < per_row; ++i) out[i] = jb[i] * tt[i];
+          continue;
+        }
+        for (int i = 0; i < per_row; ++i) {
+          const float source = (e ? e[i] : 0.0f) + bs[channels == 3 ? i % 3 : 0];
+          const float veil_value = (1.0f - tt[i]) * source;
+          out[i] = jb[i] * tt[i] + veil_value;
+          if (v) v[i] = veil_value;
+        }
+      }
+    });
+  }
+
+  // Noise: marine snow and sensor noise.
+  cv::Mat noisy = clean;
+  MarineSnow snow;
+  if (options.snow.enabled && options.snow.density_per_m3 > 0.0) {
+    snow = RenderMarineSnow(options.snow, options.light, scene_.camera, range_m_, d.beta, d.ambient,
+                            options.seed);
+    noisy = clean + snow.layer;
+  }
+  const bool sensor = options.sensor.enabled &&
+                      (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0);
+  if (sensor) noisy = AddSensorNoise(options.sensor, noisy, options.seed);
+  result.image = Quantise(noisy, options.camera.bit_depth);
+  result.lit = *lit;
+
+  if (options.maps.transmission)
+    result.transmission = t.empty() ? cv::Mat(size, CV_32FC(channels), cv::Scalar::all(1)) : t;
+  if (options.maps.light)
+    result.light = light ? *light : cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0));
+  if (options.maps.veil) result.veil = veil.empty() ? cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0)) : veil;
+  if (options.maps.psf) result.psf = d.psf.kernel.empty() ? cv::Mat::ones(1, 1, CV_32F) : d.psf.kernel;
+  if (options.maps.noise) result.noise = noisy.data == clean.data ? cv::Mat(size, clean.type(), cv::Scalar::all(0)) : noisy - clean;
+
+  // Sidecar: everything used, after defaults and preset resolution.
+  RenderOptions used = options;
+  used.water = d.water;
+  json orders = json::array();
+  for (const LightOptions& l : options.light.lights) orders.push_back(LambertianOrder(l.half_power_angle_deg));
+  json hashes = json::object();
+  for (const auto& [path, hash] : scene_.input_hashes) hashes[path] = hash;
+  result.plan = d.plan;
+  result.sidecar = {
+      {"tool", "turbid render"},
+      {"version", TURBID_VERSION},
+      {"scene",
+       {{"name", scene_.name},
+        {"width", size.width},
+        {"height", size.height},
+        {"channels", channels},
+        {"camera", {{"fx", scene_.camera.fx}, {"fy", scene_.camera.fy}, {"cx", scene_.camera.cx}, {"cy", scene_.camera.cy}}},
+        {"input_hashes", hashes}}},
+      {"seed", options.seed},
+      {"options", RenderOptionsToJson(used)},
+      {"derived",
+       {{"channel_order", channels == 3 ? "BGR" : "gray"},
+        {"beta_per_m", d.beta},
+        {"ambient", d.ambient},
+        {"lambertian_order_m", orders},
+        {"range_m", {{"min", cache_->min_range}, {"max", cache_->max_range}}},
+        {"valid_depth_fraction", static_cast<double>(cache_->valid_pixels) / size.area()},
+        {"psf",
+         {{"p", d.psf.p},
+          {"sigma_px", d.psf.sigma_px},
+          {"scale_a_px", d.psf.scale_a_px},
+          {"radius_px", d.psf.radius_px},
+          {"tail_mass_outside", d.psf.tail_mass_outside},
+          {"is_delta", d.psf.is_delta || !options.psf.enabled},
+          {"separable", d.psf.separable}}},
+        {"snow", {{"particles", snow.particles}, {"visible", snow.visible}}}}},
+      {"plan", d.plan.ToJson()},
+  };
+  return result;
+}
+
+RenderResult Render(const RenderOptions& options, const Scene& scene) {
+  return Renderer(scene).Render(options);
+}
+
+}  // namespace turbid

@@ -1,0 +1,144 @@
+#include "simulator/water.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+constexpr int kWavelengths = 15;  // 350 ... 700 nm in 25 nm steps
+constexpr int kTypes = 10;
+const char* const kTypeNames[kTypes] = {"I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"};
+
+// Jerlov (1976), Marine Optics, Table XXVII p. 135: Kd(lambda) in 1/m; rows 350..700 nm,
+// columns in kTypeNames order. Transcribed from shared/data/jerlov/jerlov_Kd.csv.
+const double kKd[kWavelengths][kTypes] = {
+    {0.062, 0.078, 0.1, 0.175, 0.32, 1.2, 1.7, 2.3, 3, 3.9},
+    {0.038, 0.052, 0.066, 0.122, 0.22, 0.8, 1.1, 1.6, 2.1, 3},
+    {0.028, 0.038, 0.051, 0.096, 0.185, 0.51, 0.78, 1.1, 1.6, 2.4},
+    {0.022, 0.031, 0.042, 0.081, 0.16, 0.36, 0.54, 0.78, 1.2, 1.9},
+    {0.019, 0.026, 0.036, 0.068, 0.135, 0.25, 0.39, 0.56, 0.89, 1.6},
+    {0.018, 0.025, 0.033, 0.062, 0.116, 0.17, 0.29, 0.43, 0.71, 1.23},
+    {0.027, 0.032, 0.042, 0.07, 0.115, 0.14, 0.22, 0.36, 0.58, 0.99},
+    {0.043, 0.048, 0.054, 0.076, 0.116, 0.13, 0.2, 0.31, 0.49, 0.78},
+    {0.063, 0.067, 0.072, 0.089, 0.12, 0.12, 0.19, 0.3, 0.46, 0.63},
+    {0.089, 0.094, 0.099, 0.115, 0.148, 0.15, 0.21, 0.33, 0.46, 0.58},
+    {0.235, 0.24, 0.245, 0.26, 0.295, 0.3, 0.33, 0.4, 0.48, 0.6},
+    {0.305, 0.31, 0.315, 0.335, 0.375, 0.37, 0.4, 0.48, 0.54, 0.65},
+    {0.36, 0.37, 0.375, 0.4, 0.445, 0.45, 0.46, 0.54, 0.63, 0.76},
+    {0.42, 0.43, 0.435, 0.465, 0.52, 0.51, 0.56, 0.65, 0.78, 0.92},
+    {0.56, 0.57, 0.58, 0.61, 0.66, 0.65, 0.71, 0.8, 0.92, 1.1},
+};
+
+// Canonical column index of a type name; "C3" is accepted for "3C". -1 when unknown.
+int TypeIndex(const std::string& type) {
+  std::string name = type;
+  std::transform(name.begin(), name.end(), name.begin(), ::toupper);
+  if (name.size() == 2 && name[0] == 'C' && std::isdigit(static_cast<unsigned char>(name[1])))
+    name = std::string(1, name[1]) + "C";
+  for (int i = 0; i < kTypes; ++i)
+    if (name == kTypeNames[i]) return i;
+  return -1;
+}
+
+double BandMean(int column, int first_nm, int last_nm) {
+  double sum = 0.0;
+  int count = 0;
+  for (int row = 0; row < kWavelengths; ++row) {
+    const int nm = 350 + 25 * row;
+    if (nm < first_nm || nm > last_nm) continue;
+    sum += kKd[row][column];
+    ++count;
+  }
+  return sum / count;
+}
+
+bool InRange(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
+
+}  // namespace
+
+bool WaterOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (type != "custom" && TypeIndex(type) < 0)
+    return fail("type: unknown water type '" + type + "' (custom, I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C)");
+  for (double b : beta_rgb_per_m)
+    if (!InRange(b, 0.0, 10.0)) return fail("beta_rgb_per_m: each value must be in [0, 10] 1/m");
+  if (!InRange(beta_gray_per_m, 0.0, 10.0)) return fail("beta_gray_per_m: must be in [0, 10] 1/m");
+  for (double a : ambient_rgb)
+    if (!InRange(a, 0.0, 10.0)) return fail("ambient_rgb: each value must be in [0, 10]");
+  if (!InRange(ambient_gray, 0.0, 10.0)) return fail("ambient_gray: must be in [0, 10]");
+  for (double b : backscatter_rgb)
+    if (!InRange(b, 0.0, 1.0)) return fail("backscatter_rgb: each value must be in [0, 1]");
+  if (!InRange(backscatter_gray, 0.0, 1.0)) return fail("backscatter_gray: must be in [0, 1]");
+  return true;
+}
+
+std::vector<std::string> JerlovTypeNames() { return {std::begin(kTypeNames), std::end(kTypeNames)}; }
+
+JerlovBetas JerlovBeta(const std::string& type) {
+  const int column = TypeIndex(type);
+  if (column < 0) throw Error("water.type: unknown Jerlov water type '" + type + "'");
+  JerlovBetas betas;
+  betas.rgb_per_m = {BandMean(column, 600, 700), BandMean(column, 500, 575),
+                     BandMean(column, 400, 475)};
+  betas.gray_per_m = BandMean(column, 400, 700);
+  return betas;
+}
+
+double JerlovKd(const std::string& type, int wavelength_nm) {
+  const int column = TypeIndex(type);
+  if (column < 0) throw Error("water.type: unknown Jerlov water type '" + type + "'");
+  if (wavelength_nm < 350 || wavelength_nm > 700 || (wavelength_nm - 350) % 25 != 0)
+    throw Error("Jerlov table: no row for " + std::to_string(wavelength_nm) + " nm");
+  return kKd[(wavelength_nm - 350) / 25][column];
+}
+
+WaterOptions ResolveWater(const WaterOptions& options) {
+  WaterOptions resolved = options;
+  if (options.type == "custom") return resolved;
+  const int column = TypeIndex(options.type);
+  if (column < 0) throw Error("water.type: unknown water type '" + options.type + "'");
+  const JerlovBetas betas = JerlovBeta(options.type);
+  resolved.type = kTypeNames[column];
+  resolved.beta_rgb_per_m = betas.rgb_per_m;
+  resolved.beta_gray_per_m = betas.gray_per_m;
+  return resolved;
+}
+
+std::vector<double> ChannelValues(const Rgb& rgb, double gray, int channels) {
+  if (channels == 1) return {gray};
+  CV_Assert(channels == 3);
+  return {rgb[2], rgb[1], rgb[0]};
+}
+
+cv::Mat TransmissionMap(const cv::Mat& range_m, const std::vector<double>& beta_per_m) {
+  CV_Assert(range_m.type() == CV_32FC1);
+  const int channels = static_cast<int>(beta_per_m.size());
+  CV_Assert(channels == 1 || channels == 3);
+  cv::Mat t(range_m.size(), CV_32FC(channels));
+  std::vector<float> row(static_cast<size_t>(range_m.cols) * channels);
+  for (int y = 0; y < range_m.rows; ++y) {
+    const float* r = range_m.ptr<float>(y);
+    float* out = t.ptr<float>(y);
+    for (int x = 0; x < range_m.cols; ++x) {
+      // NaN range: t = 0 (exp(-inf)); the argument is clamped so exp never sees NaN.
+      const float range = std::isnan(r[x]) ? 1e30f : r[x];
+      for (int c = 0; c < channels; ++c)
+        row[x * channels + c] = std::max(-static_cast<float>(beta_per_m[c]) * range, -100.0f);
+    }
+    cv::Mat in_row(1, range_m.cols * channels, CV_32F, row.data());
+    cv::Mat out_row(1, range_m.cols * channels, CV_32F, out);
+    cv::exp(in_row, out_row);
+    for (int x = 0; x < range_m.cols; ++x)
+      if (std::isnan(r[x]))
+        for (int c = 0; c < channels; ++c) out[x * channels + c] = 0.0f;
+  }
+  return t;
+}
+
+}  // namespace turbid
