@@ -36,10 +36,10 @@ uint32_t Mix(uint32_t h) {
 }
 
 double Lattice(int64_t x, int64_t y, int64_t z, uint32_t seed) {
-  uint32_t h = Mix(seed ^ 0x9e3779b9u);
-  h = Mix(h ^ static_cast<uint32_t>(x) * 0x8da6b343u);
-  h = Mix(h ^ static_cast<uint32_t>(y) * 0xd8163841u);
-  h = Mix(h ^ static_cast<uint32_t>(z) * 0xcb1ab31fu);
+  // One avalanche round over a linear combination of the coordinates: the mixer's full
+  // avalanche hides the combination's correlations.
+  const uint32_t h = Mix(static_cast<uint32_t>(x) * 0x8da6b343u + static_cast<uint32_t>(y) * 0xd8163841u +
+                         static_cast<uint32_t>(z) * 0xcb1ab31fu + seed * 0x9e3779b9u);
   return h * (1.0 / 4294967296.0);
 }
 
