@@ -58,6 +58,9 @@ struct VisibleEdgeResult {
   double e = 0.0;       // rate of new visible edges (n_r − n_o)/n_o; ±inf/NaN when n_o = 0 (see docs)
   double r_mean = 0.0;  // geometric mean of gradient ratios at the restored image's visible edges
   double sigma = 0.0;   // saturated-pixel FRACTION of the restored image (not %), variant rules
+  // The source paper's Table I column "m": most plausibly σ as the published code returns it, i.e.
+  // the black-pixel fraction black_pixels / pixels on 8-bit data, whatever the variant (see docs).
+  double m = 0.0;
   int64_t visible_original = 0;  // n_o: pixels in the original's visible-edge mask
   int64_t visible_restored = 0;  // n_r: pixels in the restored image's visible-edge mask
   int64_t finite_log_ratios = 0;  // terms of r̄'s sum (mask pixels with finite log(GR/GI))
@@ -65,7 +68,7 @@ struct VisibleEdgeResult {
   int64_t white_pixels = 0;       // restored gray pixels == 255 (counted in σ only by kPaper)
   int64_t pixels = 0;             // rows · cols
   std::string variant;            // "paper" | "ifsttar"
-  // Keys: variant, e, r_mean, sigma, sigma_percent, visible_original, visible_restored,
+  // Keys: variant, e, r_mean, sigma, sigma_percent, m, visible_original, visible_restored,
   // finite_log_ratios, black_pixels, white_pixels, pixels. Non-finite values become strings
   // "inf", "-inf", "nan".
   nlohmann::json ToJson() const;
