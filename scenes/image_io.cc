@@ -1,10 +1,18 @@
 #include "scenes/image_io.h"
 
+#include <OpenImageIO/imageio.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
@@ -43,45 +51,343 @@ cv::Mat LinearToSrgb(const cv::Mat& linear) {
   return out;
 }
 
-cv::Mat ReadImage(const std::string& path, const ReadImageOptions& options) {
+namespace {
+
+std::string ReadAllBytes(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error(path, "file not found");
-  cv::Mat raw = cv::imread(path, cv::IMREAD_UNCHANGED | cv::IMREAD_ANYDEPTH | cv::IMREAD_ANYCOLOR);
-  if (raw.empty()) throw Error(path, "cannot decode image (corrupt or unsupported format)");
+  if (fs::is_directory(path, ec)) throw Error(path, "is a folder, not an image file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open for reading");
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+ImageFormat FormatFromMagic(const std::string& head) {
+  auto starts = [&](const char* magic, size_t n) {
+    return head.size() >= n && std::memcmp(head.data(), magic, n) == 0;
+  };
+  if (starts("\x89PNG\r\n\x1a\n", 8)) return ImageFormat::kPng;
+  if (starts("\xff\xd8\xff", 3)) return ImageFormat::kJpeg;
+  if (starts("II*\0", 4) || starts("MM\0*", 4)) return ImageFormat::kTiff;
+  if (starts("\x76\x2f\x31\x01", 4)) return ImageFormat::kExr;
+  if (starts("PF", 2) || starts("Pf", 2)) return ImageFormat::kPfm;
+  if (starts("P5", 2) || starts("P6", 2)) return ImageFormat::kPnm;
+  return ImageFormat::kUnknown;
+}
+
+// Header tokens of the Netpbm family: whitespace-separated, '#' comments to end of line.
+class HeaderReader {
+ public:
+  HeaderReader(const std::string& path, const std::string& bytes) : path_(path), bytes_(bytes) {}
+  std::string Token() {
+    while (pos_ < bytes_.size()) {
+      if (bytes_[pos_] == '#') {
+        while (pos_ < bytes_.size() && bytes_[pos_] != '\n') ++pos_;
+      } else if (std::isspace(static_cast<unsigned char>(bytes_[pos_]))) {
+        ++pos_;
+      } else {
+        break;
+      }
+    }
+    const size_t start = pos_;
+    while (pos_ < bytes_.size() && !std::isspace(static_cast<unsigned char>(bytes_[pos_]))) ++pos_;
+    if (start == pos_) throw Error(path_, "truncated header");
+    return bytes_.substr(start, pos_ - start);
+  }
+  long Integer(const char* what, long lo, long hi) {
+    const std::string token = Token();
+    char* end = nullptr;
+    const long value = std::strtol(token.c_str(), &end, 10);
+    if (end == token.c_str() || *end != '\0' || value < lo || value > hi)
+      throw Error(path_, std::string("bad ") + what + " '" + token + "' in header");
+    return value;
+  }
+  // Exactly one whitespace byte separates the header from the pixel data.
+  size_t DataStart() {
+    if (pos_ >= bytes_.size() || !std::isspace(static_cast<unsigned char>(bytes_[pos_])))
+      throw Error(path_, "truncated header");
+    return pos_ + 1;
+  }
+
+ private:
+  const std::string& path_;
+  const std::string& bytes_;
+  size_t pos_ = 0;
+};
+
+constexpr long kMaxSide = 1 << 16;
+
+// Portable Float Map: "PF" (RGB) or "Pf" (gray), width height, scale (< 0: little-endian), then
+// rows from the bottom of the image to the top.
+cv::Mat ReadPfm(const std::string& path, const std::string& bytes) {
+  HeaderReader header(path, bytes);
+  const std::string magic = header.Token();
+  if (magic != "PF" && magic != "Pf") throw Error(path, "not a PFM file (magic '" + magic + "')");
+  const int channels = magic == "PF" ? 3 : 1;
+  const long width = header.Integer("width", 1, kMaxSide);
+  const long height = header.Integer("height", 1, kMaxSide);
+  const std::string scale_token = header.Token();
+  char* end = nullptr;
+  const double scale = std::strtod(scale_token.c_str(), &end);
+  if (end == scale_token.c_str() || *end != '\0' || !std::isfinite(scale) || scale == 0.0)
+    throw Error(path, "bad scale '" + scale_token + "' in PFM header (must be non-zero)");
+  const size_t start = header.DataStart();
+  const size_t expected = static_cast<size_t>(width) * height * channels * 4;
+  if (bytes.size() - start < expected)
+    throw Error(path, "truncated: " + std::to_string(bytes.size() - start) + " bytes of pixel data, " +
+                          std::to_string(expected) + " expected for " + std::to_string(width) + "x" +
+                          std::to_string(height) + "x" + std::to_string(channels));
+  const bool little_endian_file = scale < 0.0;
+  const uint16_t probe = 1;
+  const bool little_endian_host = *reinterpret_cast<const unsigned char*>(&probe) == 1;
+  cv::Mat image(static_cast<int>(height), static_cast<int>(width), CV_32FC(channels));
+  const size_t row_bytes = static_cast<size_t>(width) * channels * 4;
+  for (long row = 0; row < height; ++row) {
+    // File row 0 is the bottom image row.
+    unsigned char* dst = image.ptr<unsigned char>(static_cast<int>(height - 1 - row));
+    std::memcpy(dst, bytes.data() + start + row * row_bytes, row_bytes);
+    if (little_endian_file != little_endian_host) {
+      for (size_t i = 0; i < row_bytes; i += 4) {
+        std::swap(dst[i], dst[i + 3]);
+        std::swap(dst[i + 1], dst[i + 2]);
+      }
+    }
+  }
+  if (channels == 3) cv::cvtColor(image, image, cv::COLOR_RGB2BGR);
+  return image;
+}
+
+// Binary PGM (P5) / PPM (P6), maxval up to 65535 (16-bit samples are big-endian). Returns the
+// raw integer values as float32 and the maxval.
+cv::Mat ReadPnm(const std::string& path, const std::string& bytes, int* max_value) {
+  HeaderReader header(path, bytes);
+  const std::string magic = header.Token();
+  if (magic != "P5" && magic != "P6") throw Error(path, "unsupported Netpbm type '" + magic + "'");
+  const int channels = magic == "P6" ? 3 : 1;
+  const long width = header.Integer("width", 1, kMaxSide);
+  const long height = header.Integer("height", 1, kMaxSide);
+  *max_value = static_cast<int>(header.Integer("maxval", 1, 65535));
+  const size_t start = header.DataStart();
+  const int sample_bytes = *max_value > 255 ? 2 : 1;
+  const size_t expected = static_cast<size_t>(width) * height * channels * sample_bytes;
+  if (bytes.size() - start < expected)
+    throw Error(path, "truncated: " + std::to_string(bytes.size() - start) + " bytes of pixel data, " +
+                          std::to_string(expected) + " expected");
+  cv::Mat image(static_cast<int>(height), static_cast<int>(width), CV_32FC(channels));
+  const auto* src = reinterpret_cast<const unsigned char*>(bytes.data() + start);
+  for (int y = 0; y < image.rows; ++y) {
+    float* dst = image.ptr<float>(y);
+    for (int i = 0; i < image.cols * channels; ++i, src += sample_bytes) {
+      const int value = sample_bytes == 2 ? (src[0] << 8) | src[1] : src[0];
+      if (value > *max_value)
+        throw Error(path, "sample " + std::to_string(value) + " exceeds maxval " +
+                              std::to_string(*max_value));
+      dst[i] = static_cast<float>(value);
+    }
+  }
+  if (channels == 3) cv::cvtColor(image, image, cv::COLOR_RGB2BGR);
+  return image;
+}
+
+// EXR and TIFF through OpenImageIO: it reports truncated and corrupt files as errors. Integer
+// TIFFs come back with their raw values and the type's maximum in *max_value (0 for floats).
+cv::Mat ReadWithOiio(const std::string& path, int* max_value) {
+  auto input = OIIO::ImageInput::open(path);
+  if (!input) {
+    std::string why = OIIO::geterror();
+    if (why.empty()) why = "cannot decode";
+    std::replace(why.begin(), why.end(), '\n', ' ');
+    throw Error(path, why);
+  }
+  const OIIO::ImageSpec spec = input->spec();
+  if (spec.width <= 0 || spec.height <= 0 || spec.width > kMaxSide || spec.height > kMaxSide)
+    throw Error(path, "bad image size " + std::to_string(spec.width) + "x" + std::to_string(spec.height));
+  if (spec.depth > 1) throw Error(path, "volume images are not supported");
+  const int file_channels = spec.nchannels;
+  if (file_channels < 1 || file_channels > 4)
+    throw Error(path, "unsupported channel count " + std::to_string(file_channels));
+  // 2 channels: gray + alpha; 4: RGB + alpha. Alpha is dropped.
+  const int channels = file_channels >= 3 ? 3 : 1;
+  OIIO::TypeDesc read_type = OIIO::TypeDesc::FLOAT;
+  int cv_depth = CV_32F;
+  *max_value = 0;
+  if (spec.format == OIIO::TypeDesc::UINT8) {
+    read_type = OIIO::TypeDesc::UINT8;
+    cv_depth = CV_8U;
+    *max_value = 255;
+  } else if (spec.format == OIIO::TypeDesc::UINT16) {
+    read_type = OIIO::TypeDesc::UINT16;
+    cv_depth = CV_16U;
+    *max_value = 65535;
+  }
+  cv::Mat raw(spec.height, spec.width, CV_MAKETYPE(cv_depth, channels));
+  if (!input->read_image(0, 0, 0, channels, read_type, raw.data)) {
+    std::string why = input->geterror();
+    if (why.empty()) why = "cannot read pixel data (corrupt or truncated)";
+    std::replace(why.begin(), why.end(), '\n', ' ');
+    throw Error(path, why);
+  }
+  input->close();
+  cv::Mat out;
+  raw.convertTo(out, CV_32F);
+  if (channels == 3) cv::cvtColor(out, out, cv::COLOR_RGB2BGR);
+  return out;
+}
+
+// PNG and JPEG through OpenCV. Its decoders tolerate some truncations silently (libjpeg fills
+// the missing part with gray), so the end markers are checked first.
+cv::Mat ReadWithOpenCv(const std::string& path, const std::string& bytes, ImageFormat format,
+                       int* max_value) {
+  if (format == ImageFormat::kPng) {
+    static const char kIend[] = "IEND";
+    if (bytes.size() < 12 || bytes.compare(bytes.size() - 8, 4, kIend) != 0)
+      throw Error(path, "truncated PNG (no IEND chunk at the end)");
+  } else if (format == ImageFormat::kJpeg) {
+    // EOI marker FF D9, possibly followed by padding.
+    const size_t tail = std::min<size_t>(bytes.size(), 4096);
+    if (bytes.substr(bytes.size() - tail).find("\xff\xd9") == std::string::npos)
+      throw Error(path, "truncated JPEG (no end-of-image marker)");
+  }
+  const std::vector<uchar> buffer(bytes.begin(), bytes.end());
+  cv::Mat raw;
+  try {
+    raw = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw Error(path, std::string("cannot decode: ") + e.err);
+  }
+  if (raw.empty()) throw Error(path, "cannot decode image (corrupt file)");
   if (raw.channels() == 4) cv::cvtColor(raw, raw, cv::COLOR_BGRA2BGR);
+  if (raw.channels() == 2) cv::extractChannel(raw, raw, 0);
   if (raw.channels() != 1 && raw.channels() != 3)
     throw Error(path, "unsupported channel count " + std::to_string(raw.channels()));
-  cv::Mat out;
-  double scale = 1.0;
-  if (!options.keep_raw) {
-    if (raw.depth() == CV_8U) scale = 1.0 / 255.0;
-    if (raw.depth() == CV_16U) scale = 1.0 / 65535.0;
+  switch (raw.depth()) {
+    case CV_8U: *max_value = 255; break;
+    case CV_16U: *max_value = 65535; break;
+    case CV_32F: *max_value = 0; break;
+    default: throw Error(path, "unsupported sample type");
   }
-  raw.convertTo(out, CV_32F, scale);
-  if (options.transfer == Transfer::kSrgb && !options.keep_raw) out = SrgbToLinear(out);
+  cv::Mat out;
+  raw.convertTo(out, CV_32F);
   return out;
+}
+
+void WritePfm(const std::string& path, const std::string& temp, const cv::Mat& data) {
+  cv::Mat rgb = data;
+  if (data.channels() == 3) cv::cvtColor(data, rgb, cv::COLOR_BGR2RGB);
+  std::ofstream out(temp, std::ios::binary);
+  out << (rgb.channels() == 3 ? "PF" : "Pf") << "\n" << rgb.cols << " " << rgb.rows << "\n-1.0\n";
+  const uint16_t probe = 1;
+  const bool little_endian_host = *reinterpret_cast<const unsigned char*>(&probe) == 1;
+  std::vector<unsigned char> row(static_cast<size_t>(rgb.cols) * rgb.channels() * 4);
+  for (int y = rgb.rows - 1; y >= 0; --y) {
+    std::memcpy(row.data(), rgb.ptr(y), row.size());
+    if (!little_endian_host) {
+      for (size_t i = 0; i < row.size(); i += 4) {
+        std::swap(row[i], row[i + 3]);
+        std::swap(row[i + 1], row[i + 2]);
+      }
+    }
+    out.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size()));
+  }
+  out.close();
+  if (!out) throw Error(path, "write failed");
+}
+
+void WriteExr(const std::string& path, const std::string& temp, const cv::Mat& data) {
+  cv::Mat rgb = data;
+  if (data.channels() == 3) cv::cvtColor(data, rgb, cv::COLOR_BGR2RGB);
+  if (!rgb.isContinuous()) rgb = rgb.clone();
+  auto output = OIIO::ImageOutput::create(temp);
+  if (!output) throw Error(path, "no EXR writer available: " + OIIO::geterror());
+  OIIO::ImageSpec spec(rgb.cols, rgb.rows, rgb.channels(), OIIO::TypeDesc::FLOAT);
+  spec.channelnames = rgb.channels() == 3 ? std::vector<std::string>{"R", "G", "B"}
+                                          : std::vector<std::string>{"Y"};
+  spec.attribute("compression", "zip");
+  if (!output->open(temp, spec) || !output->write_image(OIIO::TypeDesc::FLOAT, rgb.data) ||
+      !output->close()) {
+    throw Error(path, "EXR write failed: " + output->geterror());
+  }
+}
+
+}  // namespace
+
+ImageFormat DetectImageFormat(const std::string& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw Error(path, "file not found");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open for reading");
+  std::string head(8, '\0');
+  in.read(head.data(), 8);
+  head.resize(static_cast<size_t>(in.gcount()));
+  return FormatFromMagic(head);
+}
+
+cv::Mat ReadImage(const std::string& path, const ReadImageOptions& options) {
+  ThrowIfInvalid(options, path);
+  const std::string bytes = ReadAllBytes(path);
+  if (bytes.empty()) throw Error(path, "empty file");
+  const ImageFormat format = FormatFromMagic(bytes.substr(0, 8));
+  cv::Mat image;
+  int max_value = 0;  // integer formats: the value that maps to 1.0; 0 for float formats
+  switch (format) {
+    case ImageFormat::kPng:
+    case ImageFormat::kJpeg:
+      image = ReadWithOpenCv(path, bytes, format, &max_value);
+      break;
+    case ImageFormat::kTiff:
+    case ImageFormat::kExr:
+      image = ReadWithOiio(path, &max_value);
+      break;
+    case ImageFormat::kPfm:
+      image = ReadPfm(path, bytes);
+      break;
+    case ImageFormat::kPnm:
+      image = ReadPnm(path, bytes, &max_value);
+      break;
+    case ImageFormat::kUnknown:
+      throw Error(path, "unrecognised image format (expected PNG, JPEG, TIFF, EXR, PFM or PGM/PPM)");
+  }
+  if (max_value > 0 && !options.keep_raw) {
+    image *= 1.0 / max_value;
+    if (options.transfer == Transfer::kSrgb) image = SrgbToLinear(image);
+  }
+  return image;
 }
 
 void WriteImage(const std::string& path, const cv::Mat& image, const WriteImageOptions& options) {
   ThrowIfInvalid(options, path);
   if (image.empty()) throw Error(path, "refusing to write an empty image");
-  const std::string ext = fs::path(path).extension().string();
+  if (image.channels() != 1 && image.channels() != 3)
+    throw Error(path, "can only write 1 or 3 channels, not " + std::to_string(image.channels()));
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   cv::Mat data;
   image.convertTo(data, CV_32F);
-  if (ext == ".exr") {
+  if (ext == ".exr" || ext == ".pfm") {
     AtomicWrite(path, options.overwrite, [&](const std::string& temp) {
-      if (!cv::imwrite(temp, data, {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT}))
-        throw Error(path, "EXR encoder failed");
+      if (ext == ".exr") {
+        WriteExr(path, temp, data);
+      } else {
+        WritePfm(path, temp, data);
+      }
     });
     return;
   }
-  if (ext != ".png") throw Error(path, "unsupported output format (use .png or .exr)");
-  if (options.transfer == Transfer::kSrgb) data = LinearToSrgb(data);
-  cv::Mat encoded;
+  if (ext != ".png") throw Error(path, "unsupported output format (use .png, .exr or .pfm)");
   const double max_value = options.bit_depth == 16 ? 65535.0 : 255.0;
-  cv::Mat clipped = cv::min(cv::max(data, 0.0), 1.0);
-  cv::patchNaNs(clipped, 0.0);
-  clipped.convertTo(encoded, options.bit_depth == 16 ? CV_16U : CV_8U, max_value);
+  cv::Mat scaled;
+  if (options.raw) {
+    scaled = data;
+  } else {
+    if (options.transfer == Transfer::kSrgb) data = LinearToSrgb(data);
+    scaled = data * max_value;
+  }
+  cv::patchNaNs(scaled, 0.0);
+  cv::Mat clipped = cv::min(cv::max(scaled, 0.0), max_value);
+  cv::Mat encoded;
+  clipped.convertTo(encoded, options.bit_depth == 16 ? CV_16U : CV_8U);  // rounds to nearest
   AtomicWrite(path, options.overwrite, [&](const std::string& temp) {
     if (!cv::imwrite(temp, encoded)) throw Error(path, "PNG encoder failed");
   });

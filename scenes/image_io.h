@@ -1,6 +1,9 @@
 // Image files <-> cv::Mat. In memory images are float32, linear, [0, 1], 1 or 3 channels (BGR order,
 // as OpenCV). The sRGB transfer curve is applied only at this boundary and only when asked.
-// Formats: read PNG 8/16, JPEG, TIFF, EXR (half/float), PFM; write PNG 8/16 and EXR float.
+// Formats (detected from the file's first bytes, not its name): read PNG 8/16, JPEG, TIFF 8/16/float,
+// EXR half/float (OpenImageIO), PFM (own reader: scale sign = endianness, rows bottom-to-top,
+// inf kept), binary PGM/PPM 8/16 (own reader); write PNG 8/16, EXR float32 and PFM.
+// Corrupt or truncated files raise Error("<path>: <problem>"). Policy: docs/formats.md.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -24,6 +27,10 @@ struct WriteImageOptions {
   int bit_depth = 8;  // 8 or 16 for PNG; ignored for EXR (always float32)
   Transfer transfer = Transfer::kLinear;
   bool overwrite = false;  // false: refuse to replace an existing file (CLI --force sets true)
+  // PNG only. false: values in [0, 1] map to the full integer range. true: values are written as
+  // integers directly (rounded, clipped to [0, 2^bit_depth - 1]; e.g. depth x 5000 for TUM PNGs).
+  // NaN becomes 0 either way.
+  bool raw = false;
   bool Check(std::string* why) const;
 };
 
@@ -32,8 +39,13 @@ struct WriteImageOptions {
 cv::Mat ReadImage(const std::string& path, const ReadImageOptions& options = {});
 
 // Writes atomically (temporary file in the same folder, then rename). Format from the extension:
-// .png (8/16-bit, values clipped to [0, 1] and rounded) or .exr (float32). Throws Error.
+// .png (8/16-bit, values clipped to [0, 1] and rounded), .exr (float32, NaN/inf kept) or .pfm
+// (float32, little-endian, rows bottom-to-top). Throws Error.
 void WriteImage(const std::string& path, const cv::Mat& image, const WriteImageOptions& options = {});
+
+// The file formats ReadImage recognises from the first bytes; kUnknown otherwise.
+enum class ImageFormat { kUnknown, kPng, kJpeg, kTiff, kExr, kPfm, kPnm };
+ImageFormat DetectImageFormat(const std::string& path);  // throws Error when unreadable
 
 // IEC 61966-2-1 sRGB transfer curve, elementwise on float32 images.
 cv::Mat SrgbToLinear(const cv::Mat& srgb);

@@ -3,8 +3,13 @@
 // `turbid render` and `turbid scene` all call LoadScene. Schema and units: docs/formats.md.
 #pragma once
 
-#include <string>
+#include <opencv2/core.hpp>
 
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scenes/image_io.h"
 #include "scenes/scene.h"
 
 namespace turbid {
@@ -27,5 +32,44 @@ bool IsBuiltinSpec(const std::string& spec);
 // Relative paths inside the file are resolved against the file's folder. input_hashes records the
 // sha256 of the JSON file and of every file it references.
 Scene LoadSceneFile(const std::string& json_path);
+
+// A parsed scene file; every field is documented in docs/formats.md ("Scene files").
+struct SceneFileSpec {
+  std::string source;  // the JSON file's path (used in messages and input_hashes)
+  std::string name;    // default: the JSON file's stem
+  std::string type;    // "rgbd", "depth", "stereo" or "builtin"
+  std::string image;   // clean image path, resolved against the JSON's folder
+  std::string depth;   // rgbd / depth: depth file path
+  std::string disparity;  // stereo: disparity file path
+  // rgbd / depth: file units per metre, depth_m = value / depth_scale (rgbd default 5000 as
+  // TUM / ICL-NUIM; depth default 1, i.e. float metres). 0 in the file = invalid.
+  double depth_scale = 0.0;
+  double disparity_scale = 1.0;  // stereo: file units per pixel of disparity (Middlebury 2003: 4)
+  double baseline_m = 0.0;       // stereo: baseline, metres (> 0)
+  double doffs_px = 0.0;         // stereo: x-difference of principal points (Middlebury doffs), px
+  Transfer color = Transfer::kSrgb;  // how integer image files are encoded
+  std::optional<CameraIntrinsics> camera;  // width/height 0 = taken from the image
+  std::optional<Plane> plane;              // known dominant plane, camera frame
+  std::vector<cv::Vec3d> dvl;              // DVL beam hits, camera frame, metres
+  std::string builtin;                     // builtin: scene name
+  double builtin_scale = 1.0;              // builtin: size scale in (0, 1]
+};
+
+// Parses and checks a scene JSON file (no image is read). Throws Error("<json>: <problem>").
+SceneFileSpec ParseSceneFile(const std::string& json_path);
+// Reads the files a spec names and builds a validated Scene.
+Scene BuildScene(const SceneFileSpec& spec);
+
+// Named intrinsics presets accepted for "camera" in scene files: "icl_nuim" (fx 481.20,
+// fy -480.00, cx 319.5, cy 239.5), "tum_fr1", "tum_fr2", "tum_fr3", "tum_default" (TUM RGB-D
+// published calibrations). Throws Error for an unknown name.
+CameraIntrinsics CameraPreset(const std::string& name);
+std::vector<std::string> CameraPresetNames();
+
+// Stereo disparity (pixels) to z-depth (metres): z = baseline_m * fx_px / (d + doffs_px), the
+// Middlebury 2014 relation (doffs = 0 for rectified pairs with equal principal points). NaN where
+// d is 0, NaN or infinite (unknown) or d + doffs <= 0.
+cv::Mat DepthFromDisparity(const cv::Mat& disparity_px, double fx_px, double baseline_m,
+                           double doffs_px = 0.0);
 
 }  // namespace turbid
