@@ -1,0 +1,34 @@
+// Internals shared by the baseline methods (enhancer/baselines.h); not part of the public API.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <string>
+
+namespace turbid::baselines_internal {
+
+// Throws Error("<method>: ...") unless `image` is non-empty CV_32F with 1 or 3 channels and every
+// value is finite.
+void ValidateImage(const cv::Mat& image, const std::string& method);
+
+// Minimum over a size x size square (size odd); border: replicate, so tiny images work.
+cv::Mat MinFilter(const cv::Mat& gray, int size);
+
+// Guided-filter smoothing of the one-channel `src` with `guide` (1 or 3 channels), radius and ε on
+// [0,1] data; radius is capped to the image size (a larger window adds nothing but border).
+cv::Mat GuidedSmooth(const cv::Mat& guide, const cv::Mat& src, int radius, double eps);
+
+// CLAHE with a uniform target on a one-channel float image in [0,1] (adapthisteq semantics).
+cv::Mat ClaheGray(const cv::Mat& gray, int tiles_x, int tiles_y, double clip_limit, int bins);
+
+// J = (I - A) / max(t, t_min) + A per channel (He 2011 eq. 22), clamped to [0,1].
+cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission, const cv::Vec3f& airlight,
+                        double t_min);
+
+// Clamps to [0,1] in place (NaN never reaches here: inputs are validated and every division is
+// guarded).
+void ClampUnit(cv::Mat& image);
+
+inline bool IsOddPositive(int v) { return v >= 1 && v % 2 == 1; }
+
+}  // namespace turbid::baselines_internal
