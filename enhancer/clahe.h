@@ -1,0 +1,66 @@
+// Contrast-limited adaptive histogram equalisation with MATLAB `adapthisteq` semantics
+// (Zuiderveld, "Contrast limited adaptive histogram equalization", Graphics Gems IV, 1994; MATLAB
+// Image Processing Toolbox documentation of adapthisteq): the paper's last step (§III-A.5,
+// Rayleigh target, α = 0.4).
+//
+// adapthisteq semantics reproduced here (docs/methods.md has the details):
+//  - the image is split into tiles_y x tiles_x contextual regions; when the size is not divisible,
+//    the image is padded at the bottom/right by mirroring (MATLAB 'symmetric') to the next
+//    multiple, and the padding is dropped at the end;
+//  - values are binned as imhist bins [0,1] data: bin = round(v * (bins - 1));
+//  - clip limit as a fraction c in [0,1]: with P pixels per tile, the count limit is
+//    ceil(P / bins) + round(c * (P - ceil(P / bins))); the excess above it is redistributed as
+//    adapthisteq's clipHistogram does (an even share per bin, then the remainder one count at a
+//    time with a growing stride);
+//  - the mapping of each tile is the cumulative histogram shaped to the target distribution
+//    (uniform, Rayleigh with parameter α, exponential with parameter α) in [0,1];
+//  - the output is bilinear interpolation of the four neighbouring tile mappings (tile centres);
+//    pixels in the outer half-tiles use the nearest mappings (as adapthisteq does).
+// Input values are binned over [0,1] (clamped); output is in [0,1].
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <string>
+#include <vector>
+
+namespace turbid {
+
+enum class ClaheDistribution { kUniform, kRayleigh, kExponential };
+// "uniform" | "rayleigh" | "exponential"; the name form throws Error for an unknown name.
+ClaheDistribution ClaheDistributionFromName(const std::string& name);
+std::string ClaheDistributionName(ClaheDistribution distribution);
+
+struct ClaheOptions {
+  // Contextual regions along x and y, >= 2 each (adapthisteq 'NumTiles' [8 8], paper default).
+  int tiles_x = 8;
+  int tiles_y = 8;
+  // Clip limit as a fraction in [0,1]: 0 clips to the flat histogram (least contrast), 1 does
+  // not clip (plain AHE). adapthisteq 'ClipLimit' 0.01, the paper's default.
+  double clip_limit = 0.01;
+  // Histogram bins, in [2, 65536] (adapthisteq 'NBins' 256).
+  int bins = 256;
+  // Target histogram shape (adapthisteq 'Distribution'; the paper uses Rayleigh).
+  ClaheDistribution distribution = ClaheDistribution::kRayleigh;
+  // Rayleigh / exponential parameter α, > 0 (adapthisteq 'Alpha' 0.4, paper default).
+  double alpha = 0.4;
+
+  bool Check(std::string* why) const;
+};
+
+// CLAHE of a one-channel CV_32F image (values clamped to [0,1] for binning). Colour images
+// (CV_32FC3) are equalised on luminance (Rec. 709) and the channels rescaled by the luminance
+// ratio (hue kept), as ClaheColor below. Throws Error for empty / non-float / other channel
+// counts / non-finite values, or options failing Check.
+cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image);
+
+// The per-tile mapping tables (tiles_y*tiles_x rows, `bins` columns, output values in [0,1]) of
+// a one-channel image after padding: exposed so tests can pin known histograms.
+cv::Mat ClaheTileMappings(const ClaheOptions& options, const cv::Mat& gray);
+
+// One tile's mapping from its histogram (counts per bin, `pixels` in total): clip, redistribute,
+// cumulate, shape to the target. Exposed for the known-histogram tests.
+std::vector<float> ClaheMapHistogram(const ClaheOptions& options, std::vector<int> histogram,
+                                     int pixels);
+
+}  // namespace turbid

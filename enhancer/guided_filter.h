@@ -1,0 +1,47 @@
+// Guided image filter: He, Sun, Tang, "Guided image filtering", TPAMI 35(6) 2013, Alg. 1
+// (eqs. 7-8 gray guide, eqs. 19-21 colour guide), and the fast subsampled variant of
+// He & Sun, "Fast guided filter", arXiv:1505.00996 (2015), Alg. 2. The paper we reproduce uses it
+// for denoising (§III-A.1, radius k = 4, ε = 0.1²) and for the simplified model's detail layers.
+//
+// Box means are O(N) running sums over a (2r+1)x(2r+1) window. Border rule: the window is
+// clipped to the image and the mean divides by the number of pixels actually inside it (He's
+// reference code's N = boxfilter(ones) normalisation). cv::ximgproc::guidedFilter instead uses
+// BORDER_REFLECT_101 box filters, so the two agree (to float rounding) on every pixel at least r
+// pixels from the border — twice r for the mean of the coefficients a, b — i.e. at distance >= 2r;
+// tests compare there. Radii larger than the image are allowed (the window is clipped).
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <string>
+
+namespace turbid {
+
+struct GuidedFilterOptions {
+  // Window radius r in pixels (window side 2r+1), >= 0 (0: the filter returns the input). The
+  // paper's k: 4 for denoising (§III-A.1); 2 and 8 in the simplified model (§III-B).
+  int radius = 4;
+  // Regulariser ε on [0,1] data, > 0 and finite. Edges with variance >> ε are kept. Paper: 0.1².
+  double eps = 0.01;
+  // Fast guided filter subsampling ratio s, >= 1 (1: exact filter). Coefficients are computed at
+  // 1/s resolution with radius max(1, round(r/s)) and upsampled bilinearly (He & Sun 2015: s = r/4
+  // keeps quality). Output differs from the exact filter by O(s/r) in textured areas.
+  int subsample = 1;
+
+  bool Check(std::string* why) const;
+};
+
+// Filters `src` (CV_32F, any number of channels; each channel filtered independently) with the
+// guide `guide` (CV_32FC1 or CV_32FC3, same size). A 3-channel guide uses the colour-guide
+// formulation (3x3 covariance per pixel). Returns CV_32F with src's channel count. Not clamped.
+// Throws Error for empty/mismatched/non-float inputs or options failing Check.
+cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide, const cv::Mat& src);
+
+// Self-guided shorthand: GuidedFilter(options, image, image) for one-channel images; for
+// three-channel images each channel guides itself (the edge-preserving smoother the paper uses).
+cv::Mat GuidedFilterSelf(const GuidedFilterOptions& options, const cv::Mat& image);
+
+// Box mean over the clipped (2r+1)x(2r+1) window (the normalisation above), CV_32F, any channels.
+cv::Mat BoxMean(const cv::Mat& src, int radius);
+
+}  // namespace turbid
