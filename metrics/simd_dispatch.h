@@ -1,0 +1,33 @@
+// Row kernels of the metrics, compiled twice (x86-64 baseline and Haswell AVX2/FMA) and picked at
+// load time by the CPU (GCC target_clones), so one binary runs everywhere and is fast where it can
+// be. Every reduction here adds in a fixed order, so results do not depend on threads.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace turbid::simd {
+
+// out[j] = sum_k weights[k] * rows[k][j], j < n.
+void WeightedRowSum(const float* const* rows, const float* weights, int taps, float* out, int n);
+
+// out[j] = sum_k weights[k] * in[j + k], j < n (in holds n + taps - 1 values).
+void Convolve1D(const float* in, const float* weights, int taps, float* out, int n);
+
+// xx = x * x, yy = y * y, xy = x * y.
+void Products(const float* x, const float* y, float* xx, float* yy, float* xy, int n);
+
+// SSIM (Wang 2004 Eq. 13) from windowed moments of centred values: mx, my are E[x - o], E[y - o];
+// mxx, myy, mxy the centred second moments. Writes n values to out.
+void SsimFormulaRow(const float* mx, const float* my, const float* mxx, const float* myy,
+                    const float* mxy, int n, double offset, double c1, double c2, double* out);
+
+// Sum of n doubles in a fixed 4-lane order (vectorisable, deterministic).
+double OrderedSum(const double* values, int n);
+
+// Sum of squared differences of n values, exact for 8-bit inputs (integer arithmetic).
+uint64_t SquaredDifferenceSumU8(const uint8_t* a, const uint8_t* b, size_t n);
+// The same in double for float / 16-bit values, in a fixed 4-lane order.
+double SquaredDifferenceSumF32(const float* a, const float* b, size_t n);
+
+}  // namespace turbid::simd

@@ -1,0 +1,247 @@
+#include "metrics/ssim.h"
+
+#include <opencv2/core/utility.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include "metrics/image_checks.h"
+#include "metrics/simd_dispatch.h"
+#include "scenes/error.h"
+
+namespace turbid {
+
+bool SsimOptions::Check(std::string* why) const {
+  auto fail = [&](const char* message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (!(sigma > 0.0) || !std::isfinite(sigma)) return fail("sigma must be > 0");
+  if (!(truncate > 0.0) || truncate > 20.0) return fail("truncate must be in (0, 20]");
+  if (!(k1 > 0.0) || k1 >= 1.0) return fail("k1 must be in (0, 1)");
+  if (!(k2 > 0.0) || k2 >= 1.0) return fail("k2 must be in (0, 1)");
+  if (!(data_range >= 0.0) || !std::isfinite(data_range))
+    return fail("data_range must be >= 0 (0 = from the pixel depth)");
+  if (SsimRadius(*this) > 64) return fail("sigma * truncate too large (radius > 64 pixels)");
+  return true;
+}
+
+int SsimRadius(const SsimOptions& options) {
+  // scipy.ndimage.gaussian_filter1d: radius = int(truncate * sd + 0.5).
+  return static_cast<int>(options.truncate * options.sigma + 0.5);
+}
+
+namespace {
+
+// Normalised 1-D Gaussian taps, computed in double as scipy does, then rounded once to float.
+std::vector<float> GaussianTaps(double sigma, int radius) {
+  std::vector<double> taps(2 * radius + 1);
+  double sum = 0.0;
+  for (int k = -radius; k <= radius; ++k) {
+    taps[k + radius] = std::exp(-0.5 / (sigma * sigma) * k * k);
+    sum += taps[k + radius];
+  }
+  std::vector<float> out(taps.size());
+  for (size_t k = 0; k < taps.size(); ++k) out[k] = static_cast<float>(taps[k] / sum);
+  return out;
+}
+
+// scipy.ndimage mode 'reflect' (= OpenCV BORDER_REFLECT): -1 -> 0, n -> n - 1. One reflection is
+// enough because Ssim() requires n >= 2 * radius + 1.
+inline int Reflect(int i, int n) {
+  if (i < 0) return -i - 1;
+  if (i >= n) return 2 * n - i - 1;
+  return i;
+}
+
+// The five windowed moments, fused: every input row is converted, centred and multiplied once
+// into a ring of (2r + 1) rows, then each output row is one vertical and one horizontal
+// separable pass per moment over float rows (vectorised by the SIMD clones), followed by the SSIM
+// formula in double. Centring by data_range / 2 keeps E[x^2] - E[x]^2 from cancelling badly in
+// float32; the variances are shift-invariant and the means get the offset back.
+class SsimBand {
+ public:
+  SsimBand(const cv::Mat& ref, const cv::Mat& img, int channel, const std::vector<float>& taps,
+           double offset, double c1, double c2)
+      : ref_(ref),
+        img_(img),
+        channel_(channel),
+        taps_(taps),
+        radius_(static_cast<int>(taps.size() / 2)),
+        width_(ref.cols),
+        height_(ref.rows),
+        offset_(offset),
+        c1_(c1),
+        c2_(c2) {
+    const size_t n = static_cast<size_t>(width_);
+    const size_t ring_rows = taps_.size();
+    ring_.assign(kMoments * ring_rows * n, 0.0f);
+    padded_.assign(kMoments * (n + 2 * radius_), 0.0f);
+    filtered_.assign(kMoments * n, 0.0f);
+    ssim_row_.assign(n, 0.0);
+  }
+
+  // Computes output rows [row_begin, row_end); writes each row's cropped sum into row_sums[row]
+  // (rows outside the crop get 0) and, when map is not empty, the map row.
+  void Run(int row_begin, int row_end, int col_begin, int col_end, cv::Mat* map,
+           double* row_sums) {
+    const int taps = static_cast<int>(taps_.size());
+    int next_virtual = row_begin - radius_;
+    const float* rows[kMaxTaps];
+    for (int i = row_begin; i < row_end; ++i) {
+      for (; next_virtual <= i + radius_; ++next_virtual) FillRing(next_virtual);
+      for (int m = 0; m < kMoments; ++m) {
+        for (int k = 0; k < taps; ++k) rows[k] = RingRow(i - radius_ + k, m);
+        float* out = padded_.data() + m * (width_ + 2 * radius_) + radius_;
+        simd::WeightedRowSum(rows, taps_.data(), taps, out, width_);
+        for (int p = 0; p < radius_; ++p) {
+          out[-1 - p] = out[p];
+          out[width_ + p] = out[width_ - 1 - p];
+        }
+        simd::Convolve1D(out - radius_ + col_begin, taps_.data(), taps,
+                         filtered_.data() + m * width_ + col_begin, col_end - col_begin);
+      }
+      const size_t n = static_cast<size_t>(width_);
+      float* map_row = nullptr;
+      if (map != nullptr && !map->empty()) map_row = map->ptr<float>(i);
+      simd::SsimFormulaRow(filtered_.data() + col_begin, filtered_.data() + n + col_begin,
+                           filtered_.data() + 2 * n + col_begin,
+                           filtered_.data() + 3 * n + col_begin,
+                           filtered_.data() + 4 * n + col_begin, col_end - col_begin, offset_, c1_,
+                           c2_, ssim_row_.data() + col_begin);
+      if (map_row != nullptr)
+        for (int j = col_begin; j < col_end; ++j) map_row[j] = static_cast<float>(ssim_row_[j]);
+      const bool inside = i >= radius_ && i < height_ - radius_;
+      row_sums[i] = inside ? simd::OrderedSum(ssim_row_.data() + radius_, width_ - 2 * radius_)
+                           : 0.0;
+    }
+  }
+
+  static constexpr int kMaxTaps = 2 * 64 + 1;
+
+ private:
+  static constexpr int kMoments = 5;  // x, y, x^2, y^2, xy (centred)
+
+  float* RingRow(int virtual_row, int moment) {
+    const int taps = static_cast<int>(taps_.size());
+    const int slot = ((virtual_row % taps) + taps) % taps;
+    return ring_.data() + (static_cast<size_t>(moment) * taps + slot) * width_;
+  }
+
+  template <typename T>
+  void Centre(const cv::Mat& src, int row, float* out) const {
+    const T* p = src.ptr<T>(row) + channel_;
+    const int step = src.channels();
+    const float offset = static_cast<float>(offset_);
+    for (int j = 0; j < width_; ++j) out[j] = static_cast<float>(p[j * step]) - offset;
+  }
+
+  void CentreRow(const cv::Mat& src, int row, float* out) const {
+    switch (src.depth()) {
+      case CV_8U:
+        Centre<uint8_t>(src, row, out);
+        break;
+      case CV_16U:
+        Centre<uint16_t>(src, row, out);
+        break;
+      case CV_32F:
+        Centre<float>(src, row, out);
+        break;
+      default:
+        Centre<double>(src, row, out);
+        break;
+    }
+  }
+
+  void FillRing(int virtual_row) {
+    const int row = Reflect(virtual_row, height_);
+    float* x = RingRow(virtual_row, 0);
+    float* y = RingRow(virtual_row, 1);
+    CentreRow(ref_, row, x);
+    CentreRow(img_, row, y);
+    simd::Products(x, y, RingRow(virtual_row, 2), RingRow(virtual_row, 3),
+                   RingRow(virtual_row, 4), width_);
+  }
+
+  const cv::Mat& ref_;
+  const cv::Mat& img_;
+  int channel_;
+  const std::vector<float>& taps_;
+  int radius_;
+  int width_;
+  int height_;
+  double offset_;
+  double c1_;
+  double c2_;
+  std::vector<float> ring_;
+  std::vector<float> padded_;
+  std::vector<float> filtered_;
+  std::vector<double> ssim_row_;
+};
+
+// Rows per parallel task. Each task re-fills 2r ring rows, so bands are kept well above r.
+constexpr int kRowsPerBand = 32;
+
+}  // namespace
+
+SsimResult Ssim(const SsimOptions& options, const cv::Mat& reference, const cv::Mat& image) {
+  ThrowIfInvalid(options, "ssim");
+  CheckMetricPair(reference, image, "ssim");
+  if (reference.depth() != image.depth())
+    throw Error("ssim: reference and image have different pixel depths (convert one first)");
+  const int radius = SsimRadius(options);
+  const int window = 2 * radius + 1;
+  if (reference.cols < window || reference.rows < window)
+    throw Error("ssim: image is " + std::to_string(reference.cols) + "x" +
+                std::to_string(reference.rows) + " but the Gaussian window needs at least " +
+                std::to_string(window) + "x" + std::to_string(window) + " pixels");
+
+  const double range =
+      options.data_range > 0.0 ? options.data_range : DefaultDataRange(reference.depth());
+  const double c1 = (options.k1 * range) * (options.k1 * range);
+  const double c2 = (options.k2 * range) * (options.k2 * range);
+  const std::vector<float> taps = GaussianTaps(options.sigma, radius);
+
+  const int channels = reference.channels();
+  const int width = reference.cols;
+  const int height = reference.rows;
+  SsimResult result;
+  std::vector<cv::Mat> maps(channels);
+  // Without a map only the cropped region is ever averaged, so the border is not computed.
+  const int row_begin = options.compute_map ? 0 : radius;
+  const int row_end = options.compute_map ? height : height - radius;
+  const int col_begin = options.compute_map ? 0 : radius;
+  const int col_end = options.compute_map ? width : width - radius;
+  const int bands = (row_end - row_begin + kRowsPerBand - 1) / kRowsPerBand;
+  std::vector<double> row_sums(height, 0.0);
+
+  for (int c = 0; c < channels; ++c) {
+    if (options.compute_map) maps[c].create(height, width, CV_32F);
+    cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range_of_bands) {
+      SsimBand band(reference, image, c, taps, range / 2.0, c1, c2);
+      for (int b = range_of_bands.start; b < range_of_bands.end; ++b) {
+        const int begin = row_begin + b * kRowsPerBand;
+        const int end = std::min(row_end, begin + kRowsPerBand);
+        band.Run(begin, end, col_begin, col_end, options.compute_map ? &maps[c] : nullptr,
+                 row_sums.data());
+      }
+    });
+    // Row sums are added in row order whatever the thread count: deterministic.
+    double sum = 0.0;
+    for (int i = radius; i < height - radius; ++i) sum += row_sums[i];
+    const double count = static_cast<double>(width - 2 * radius) * (height - 2 * radius);
+    result.per_channel.push_back(sum / count);
+  }
+  double total = 0.0;
+  for (double v : result.per_channel) total += v;
+  result.mean = total / channels;
+  if (options.compute_map) {
+    if (channels == 1)
+      result.map = maps[0];
+    else
+      cv::merge(maps, result.map);
+  }
+  return result;
+}
+
+}  // namespace turbid
