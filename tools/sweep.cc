@@ -1,0 +1,378 @@
+#include "tools/sweep.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "scenes/atomic_file.h"
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open");
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+std::string ExperimentText(const Experiment& experiment) {
+  return experiment.ToJson().dump(2) + "\n";
+}
+
+// Writes DIR/experiment.json, or checks that the one there is the same experiment.
+void ClaimDir(const Experiment& experiment, const std::string& dir, bool force) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(dir, "cannot create the output folder: " + ec.message());
+  const std::string path = dir + "/experiment.json";
+  const std::string text = ExperimentText(experiment);
+  if (fs::exists(path)) {
+    if (ReadAll(path) == text) return;
+    if (!force) {
+      throw Error(dir, "holds the results of a different experiment (or of an older version of "
+                       "this one); use another --out or --force to start over");
+    }
+    for (const char* name : {"journal.jsonl", "items.csv", "items.jsonl", "summary.md",
+                             "summary.csv", "timings.csv", "timings.md", "report.html"}) {
+      fs::remove(dir + "/" + name, ec);
+    }
+    fs::remove_all(dir + "/thumbs", ec);
+    fs::remove_all(dir + "/report", ec);
+  }
+  AtomicWriteText(path, text, true);
+}
+
+std::vector<ItemResult> SortedResults(const std::map<std::string, json>& entries) {
+  std::vector<ItemResult> items;
+  items.reserve(entries.size());
+  for (const auto& [id, entry] : entries) items.push_back(ItemResultFromJson(entry));
+  std::sort(items.begin(), items.end(),
+            [](const ItemResult& a, const ItemResult& b) { return a.index < b.index; });
+  return items;
+}
+
+// Checks that journaled entries belong to this experiment (same id at the same index).
+void CheckEntries(const std::map<std::string, json>& entries, const std::vector<ItemSpec>& specs,
+                  const std::string& where) {
+  std::map<std::string, int> index_of;
+  for (const ItemSpec& spec : specs) index_of[spec.id] = spec.index;
+  for (const auto& [id, entry] : entries) {
+    const auto it = index_of.find(id);
+    if (it == index_of.end() || entry.value("index", -1) != it->second) {
+      throw Error(where, "journal entry '" + id + "' is not an item of this experiment");
+    }
+  }
+}
+
+std::string FormatDuration(double seconds) {
+  if (!std::isfinite(seconds) || seconds < 0) return "--:--";
+  const long total = static_cast<long>(seconds + 0.5);
+  char buffer[32];
+  if (total >= 3600) {
+    std::snprintf(buffer, sizeof buffer, "%ld:%02ld:%02ld", total / 3600, (total / 60) % 60,
+                  total % 60);
+  } else {
+    std::snprintf(buffer, sizeof buffer, "%ld:%02ld", total / 60, total % 60);
+  }
+  return buffer;
+}
+
+}  // namespace
+
+bool SweepOptions::Check(std::string* why) const {
+  if (out_dir.empty()) {
+    *why = "--out is required";
+    return false;
+  }
+  if (threads < 0 || threads > 1024) {
+    *why = "--threads must be in [0, 1024] (0 = all cores)";
+    return false;
+  }
+  if (shard.count < 1 || shard.index < 0 || shard.index >= shard.count) {
+    *why = "--shard must be i/N with 0 <= i < N";
+    return false;
+  }
+  return true;
+}
+
+std::map<std::string, json> Journal::Load(bool repair) {
+  std::map<std::string, json> entries;
+  std::ifstream in(path_, std::ios::binary);
+  if (!in) return entries;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  size_t start = 0;
+  size_t good_end = 0;
+  int line_number = 0;
+  while (start < text.size()) {
+    const size_t newline = text.find('\n', start);
+    ++line_number;
+    if (newline == std::string::npos) break;  // partial last line: the writer was killed
+    const std::string line = text.substr(start, newline - start);
+    if (!line.empty()) {
+      json entry;
+      try {
+        entry = json::parse(line);
+      } catch (const json::parse_error&) {
+        throw Error(path_, "line " + std::to_string(line_number) + " is corrupt (not a partial "
+                           "last line); move the file away to start over");
+      }
+      const std::string id = entry.value("id", "");
+      if (id.empty()) throw Error(path_, "line " + std::to_string(line_number) + " has no id");
+      entries.emplace(id, std::move(entry));
+    }
+    start = newline + 1;
+    good_end = start;
+  }
+  if (repair && good_end < text.size()) {
+    if (::truncate(path_.c_str(), static_cast<off_t>(good_end)) != 0) {
+      throw Error(path_, std::string("cannot drop the partial last line: ") + std::strerror(errno));
+    }
+  }
+  return entries;
+}
+
+void Journal::Append(const json& entry) {
+  static std::mutex mutex;
+  const std::string line = entry.dump() + "\n";
+  std::lock_guard<std::mutex> lock(mutex);
+  const int fd = ::open(path_.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(path_, std::string("cannot open the journal: ") + std::strerror(errno));
+  // One write() for the whole line: a kill leaves either the full line or a partial last line
+  // (never interleaved lines); a short write on a full disk is completed by further writes.
+  size_t written = 0;
+  while (written < line.size()) {
+    const ssize_t n = ::write(fd, line.data() + written, line.size() - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      const std::string why = std::strerror(errno);
+      ::close(fd);
+      throw Error(path_, "cannot append to the journal: " + why);
+    }
+    written += static_cast<size_t>(n);
+  }
+  ::close(fd);
+}
+
+std::string ProgressLine(int done, int total, double elapsed_s, int width) {
+  const double fraction = total > 0 ? static_cast<double>(done) / total : 1.0;
+  const int filled = static_cast<int>(fraction * width + 1e-9);
+  std::string bar(static_cast<size_t>(filled), '#');
+  bar.resize(static_cast<size_t>(width), ' ');
+  const double eta = done > 0 ? elapsed_s / done * (total - done) : -1.0;
+  char buffer[256];
+  std::snprintf(buffer, sizeof buffer, "[%s] %d/%d %3.0f%%  elapsed %s  ETA %s", bar.c_str(), done,
+                total, fraction * 100.0, FormatDuration(elapsed_s).c_str(),
+                done > 0 ? FormatDuration(eta).c_str() : "--:--");
+  return buffer;
+}
+
+bool ShouldShowProgress() {
+  const char* ci = std::getenv("CI");
+  if (ci != nullptr && (std::string(ci) == "true" || std::string(ci) == "1")) return false;
+  return ::isatty(STDERR_FILENO) == 1;
+}
+
+SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
+                      const ItemRunner& runner) {
+  ThrowIfInvalid(options, "sweep");
+  ClaimDir(experiment, options.out_dir, options.force);
+  Journal journal(options.out_dir + "/journal.jsonl");
+  const std::vector<ItemSpec> specs = ExpandItems(experiment);
+  std::map<std::string, json> done = journal.Load(/*repair=*/true);
+  CheckEntries(done, specs, journal.path());
+
+  SweepSummary summary;
+  summary.items_total = static_cast<int>(specs.size());
+  std::vector<const ItemSpec*> pending;
+  for (const ItemSpec& spec : specs) {
+    if (!options.shard.Contains(spec.index)) continue;
+    ++summary.items_in_shard;
+    if (done.count(spec.id)) {
+      ++summary.already_done;
+    } else {
+      pending.push_back(&spec);
+    }
+  }
+  const bool tables_exist = fs::exists(options.out_dir + "/summary.md");
+  if (pending.empty() && tables_exist) return summary;  // a finished sweep: nothing to do
+
+  int threads = options.threads > 0 ? options.threads
+                                    : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::max(1, std::min<int>(threads, static_cast<int>(pending.size())));
+
+  std::atomic<size_t> next{0};
+  std::atomic<int> finished{0};
+  std::atomic<int> failed_rows{0};
+  std::atomic<bool> stop{false};
+  std::mutex error_mutex;
+  std::exception_ptr first_error;
+  std::mutex wake_mutex;
+  std::condition_variable wake;
+
+  const auto work = [&]() {
+    while (!stop.load()) {
+      const size_t k = next.fetch_add(1);
+      if (k >= pending.size()) break;
+      try {
+        ItemResult result = runner(*pending[k]);
+        // The runner fills the results; identity fields always come from the spec.
+        result.index = pending[k]->index;
+        result.id = pending[k]->id;
+        result.scene = experiment.scenes[pending[k]->scene_index].name;
+        result.condition = pending[k]->condition;
+        result.level = pending[k]->level;
+        result.level_value = pending[k]->level_value;
+        result.params = pending[k]->params;
+        result.seed = pending[k]->seed;
+        int failures = 0;
+        for (const MethodResult& m : result.methods) failures += !m.error.empty();
+        journal.Append(ItemResultToJson(result, true));
+        failed_rows += failures;
+        ++finished;
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!first_error) first_error = std::current_exception();
+        stop = true;
+      }
+      wake.notify_all();
+    }
+    wake.notify_all();
+  };
+
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(work);
+  const int total = static_cast<int>(pending.size());
+  if (options.progress && total > 0) {
+    std::unique_lock<std::mutex> lock(wake_mutex);
+    while (finished.load() < total && !stop.load()) {
+      const double elapsed =
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      std::cerr << "\r" << ProgressLine(finished.load(), total, elapsed, 30) << std::flush;
+      wake.wait_for(lock, std::chrono::milliseconds(250));
+    }
+  }
+  for (std::thread& thread : pool) thread.join();
+  if (options.progress && total > 0) {
+    const double elapsed =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    std::cerr << "\r" << ProgressLine(finished.load(), total, elapsed, 30) << "\n";
+  }
+  summary.ran = finished.load();
+  summary.failed_rows = failed_rows.load();
+  if (first_error) std::rethrow_exception(first_error);
+
+  // Tables from everything journaled in this folder (the shard, or the whole sweep).
+  done = journal.Load(/*repair=*/false);
+  WriteTables(experiment, SortedResults(done), options.out_dir);
+  summary.tables_written = true;
+  return summary;
+}
+
+SweepDir LoadSweepDir(const std::string& dir) {
+  const std::string path = dir + "/experiment.json";
+  if (!fs::exists(path)) throw Error(dir, "not a sweep folder (no experiment.json)");
+  SweepDir out;
+  try {
+    out.experiment_json = json::parse(ReadAll(path));
+  } catch (const json::parse_error& error) {
+    throw Error(path, std::string("invalid JSON: ") + error.what());
+  }
+  out.experiment = ExperimentFromResolvedJson(out.experiment_json, path);
+  Journal journal(dir + "/journal.jsonl");
+  const std::map<std::string, json> entries = journal.Load(/*repair=*/false);
+  CheckEntries(entries, ExpandItems(out.experiment), journal.path());
+  out.items = SortedResults(entries);
+  return out;
+}
+
+int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& options) {
+  if (dirs.empty()) throw Error("merge: give at least one sweep folder");
+  if (options.out_dir.empty()) throw Error("merge: --out is required");
+  std::string experiment_text;
+  Experiment experiment;
+  std::map<std::string, json> merged;
+  for (const std::string& dir : dirs) {
+    const std::string text = ReadAll(dir + "/experiment.json");
+    if (experiment_text.empty()) {
+      experiment_text = text;
+      experiment = LoadSweepDir(dir).experiment;
+    } else if (text != experiment_text) {
+      throw Error(dir, "is a different experiment from " + dirs.front() + " (experiment.json "
+                       "differs)");
+    }
+    Journal journal(dir + "/journal.jsonl");
+    for (auto& [id, entry] : journal.Load(/*repair=*/false)) {
+      const auto it = merged.find(id);
+      if (it == merged.end()) {
+        merged.emplace(id, entry);
+        continue;
+      }
+      // The same item run twice (overlapping shards): results must agree apart from timings.
+      if (ItemResultToJson(ItemResultFromJson(it->second), false) !=
+          ItemResultToJson(ItemResultFromJson(entry), false)) {
+        throw Error(dir, "item '" + id + "' disagrees with another input folder");
+      }
+    }
+  }
+  const std::vector<ItemSpec> specs = ExpandItems(experiment);
+  CheckEntries(merged, specs, "merge");
+  if (!options.allow_partial && merged.size() != specs.size()) {
+    std::string first_missing;
+    for (const ItemSpec& spec : specs) {
+      if (!merged.count(spec.id)) {
+        first_missing = spec.id;
+        break;
+      }
+    }
+    throw Error("merge: " + std::to_string(specs.size() - merged.size()) + " of " +
+                std::to_string(specs.size()) + " items are missing (first: " + first_missing +
+                "); run the missing shards or pass --allow-partial");
+  }
+  ClaimDir(experiment, options.out_dir, options.force);
+  // The merged journal in item order, so the merged folder can be resumed and reported on.
+  std::vector<ItemResult> items = SortedResults(merged);
+  std::ostringstream journal_text;
+  for (const ItemResult& item : items) {
+    journal_text << merged.at(item.id).dump() << "\n";
+  }
+  AtomicWriteText(options.out_dir + "/journal.jsonl", journal_text.str(), true);
+  for (const std::string& dir : dirs) {
+    std::error_code ec;
+    if (fs::is_directory(dir + "/thumbs") &&
+        fs::weakly_canonical(dir) != fs::weakly_canonical(options.out_dir)) {
+      fs::copy(dir + "/thumbs", options.out_dir + "/thumbs",
+               fs::copy_options::recursive | fs::copy_options::skip_existing, ec);
+      if (ec) throw Error(dir + "/thumbs", "cannot copy thumbnails: " + ec.message());
+    }
+  }
+  WriteTables(experiment, items, options.out_dir);
+  return static_cast<int>(items.size());
+}
+
+}  // namespace turbid
