@@ -193,6 +193,7 @@ cv::Mat ReadPnm(const std::string& path, const std::string& bytes, int* max_valu
 
 // EXR and TIFF through OpenImageIO: it reports truncated and corrupt files as errors. Integer
 // TIFFs come back with their raw values and the type's maximum in *max_value (0 for floats).
+// Returns an empty Mat for LogLuv TIFFs (see below).
 cv::Mat ReadWithOiio(const std::string& path, int* max_value) {
   auto input = OIIO::ImageInput::open(path);
   if (!input) {
@@ -202,6 +203,10 @@ cv::Mat ReadWithOiio(const std::string& path, int* max_value) {
     throw Error(path, why);
   }
   const OIIO::ImageSpec spec = input->spec();
+  // OpenImageIO hands SGI LogLuv TIFFs (what OpenCV writes for float data) over as 8-bit
+  // tone-mapped RGB; return nothing so that the caller decodes them with OpenCV instead.
+  const int photometric = spec.get_int_attribute("tiff:PhotometricInterpretation", 0);
+  if (photometric == 32844 || photometric == 32845) return cv::Mat();
   if (spec.width <= 0 || spec.height <= 0 || spec.width > kMaxSide || spec.height > kMaxSide)
     throw Error(path, "bad image size " + std::to_string(spec.width) + "x" + std::to_string(spec.height));
   if (spec.depth > 1) throw Error(path, "volume images are not supported");
@@ -339,6 +344,7 @@ cv::Mat ReadImage(const std::string& path, const ReadImageOptions& options) {
     case ImageFormat::kTiff:
     case ImageFormat::kExr:
       image = ReadWithOiio(path, &max_value);
+      if (image.empty()) image = ReadWithOpenCv(path, bytes, format, &max_value);
       break;
     case ImageFormat::kPfm:
       image = ReadPfm(path, bytes);
