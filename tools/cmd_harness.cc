@@ -1,8 +1,212 @@
-// PLACEHOLDER: replaced by the module owner.
+// `turbid sweep`, `turbid merge`, `turbid regress`, `turbid report`: the experiment harness.
+// Reference: docs/cli/harness.md; experiment files: docs/experiments.md.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+
+#include "scenes/error.h"
 #include "tools/cli.h"
+#include "tools/experiment.h"
+#include "tools/harness_runner.h"
+#include "tools/report.h"
+#include "tools/sweep.h"
+#include "tools/tables.h"
 
 namespace turbid {
+namespace {
 
-void AddHarnessCommands(CLI::App& /*app*/) {}
+namespace fs = std::filesystem;
+
+struct SweepArgs {
+  std::string experiment;
+  std::string out;
+  int threads = 0;
+  std::string shard = "0/1";
+  bool quiet = false;
+  bool force = false;
+  bool dry_run = false;
+  bool no_reuse = false;
+};
+
+void RunSweepCommand(const SweepArgs& args) {
+  // Everything is validated before the output folder is touched.
+  const Experiment experiment = LoadExperimentFile(args.experiment, RegistryCatalog());
+  SweepOptions options;
+  options.out_dir = args.out;
+  options.threads = args.threads;
+  options.shard = ParseShard(args.shard);
+  options.force = args.force;
+  options.progress = !args.quiet && ShouldShowProgress();
+  ThrowIfInvalid(options, "sweep");
+  if (args.dry_run) {
+    int in_shard = 0;
+    for (const ItemSpec& item : ExpandItems(experiment)) in_shard += options.shard.Contains(item.index);
+    std::cout << experiment.name << ": valid; " << experiment.scenes.size() << " scenes x "
+              << experiment.ConditionCount() << " conditions = " << experiment.ItemCount()
+              << " items (" << in_shard << " in shard " << args.shard << "), "
+              << experiment.methods.size() << " methods, " << experiment.metrics.size()
+              << " metrics\n";
+    return;
+  }
+  HarnessRunnerOptions runner_options;
+  runner_options.reuse = !args.no_reuse;
+  HarnessRunner runner(experiment, args.out, runner_options);
+  const SweepSummary summary =
+      RunSweep(experiment, options, [&](const ItemSpec& item) { return runner.Run(item); });
+  if (summary.ran == 0 && !summary.tables_written) {
+    std::cout << "sweep: nothing to do: all " << summary.items_in_shard << " items of "
+              << (options.shard.count > 1 ? "shard " + args.shard : std::string("the sweep"))
+              << " are done in " << args.out << "\n";
+  } else {
+    std::cout << "sweep: " << summary.ran << " items run, " << summary.already_done
+              << " already done (" << summary.items_in_shard << " in "
+              << (options.shard.count > 1 ? "shard " + args.shard : std::string("the sweep"))
+              << ", " << summary.items_total << " in the experiment)";
+    if (summary.failed_rows > 0) {
+      std::cout << "; " << summary.failed_rows << " method runs failed (see the error column)";
+    }
+    std::cout << "\n";
+  }
+  if (!args.quiet) {
+    std::cout << "tables: " << args.out << "/summary.md, " << args.out << "/summary.csv, "
+              << args.out << "/items.csv, " << args.out << "/timings.md\n";
+    if (options.shard.count > 1) {
+      std::cout << "combine the shards with: turbid merge DIR... --out MERGED\n";
+    } else {
+      std::cout << "report: turbid report " << args.out << "\n";
+    }
+  }
+}
+
+struct RegressArgs {
+  std::string baseline;
+  std::string results;
+  std::vector<std::string> tolerances;  // METRIC=ABS[:REL]
+  std::string tolerance_file;
+  bool strict = false;
+};
+
+void RunRegressCommand(const RegressArgs& args) {
+  RegressOptions options;
+  std::string tolerance_file = args.tolerance_file;
+  // A baseline may carry its tolerances beside it: B.csv -> B.tolerances.json.
+  if (tolerance_file.empty()) {
+    const fs::path beside = fs::path(args.baseline).replace_extension(".tolerances.json");
+    if (fs::exists(beside)) tolerance_file = beside.string();
+  }
+  if (!tolerance_file.empty()) LoadTolerances(tolerance_file, &options);
+  for (const std::string& spec : args.tolerances) {
+    const size_t eq = spec.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      throw Error("--tol '" + spec + "': expected METRIC=ABS or METRIC=ABS:REL");
+    }
+    Tolerance tolerance;
+    tolerance.rel = 0.0;
+    const std::string value = spec.substr(eq + 1);
+    const size_t colon = value.find(':');
+    try {
+      tolerance.abs = ParseValue(value.substr(0, colon));
+      if (colon != std::string::npos) tolerance.rel = ParseValue(value.substr(colon + 1));
+    } catch (const Error&) {
+      throw Error("--tol '" + spec + "': tolerances must be numbers");
+    }
+    options.tolerances[spec.substr(0, eq)] = tolerance;
+  }
+  options.fail_on_improvement = args.strict;
+  // RESULTS: a sweep folder (its table of the baseline's kind) or a CSV file.
+  std::string results = args.results;
+  if (fs::is_directory(results)) {
+    const bool summary_baseline =
+        fs::path(args.baseline).filename().string().find("summary") != std::string::npos;
+    results += summary_baseline ? "/summary.csv" : "/items.csv";
+    // Metric directions from the sweep's experiment.
+    try {
+      const SweepDir dir = LoadSweepDir(args.results);
+      for (const HarnessMetricInfo& m : dir.experiment.metrics) {
+        options.higher_is_better[m.name] = m.higher_is_better;
+      }
+    } catch (const Error&) {
+      // Not a sweep folder with a journal: fall back to the registry below.
+    }
+  }
+  const HarnessCatalog catalog = RegistryCatalog();
+  const RegressReport probe = Regress(args.baseline, results, options);
+  for (const RegressMove& move : probe.moves) {
+    if (options.higher_is_better.count(move.metric)) continue;
+    try {
+      options.higher_is_better[move.metric] = catalog.find_metric(move.metric).higher_is_better;
+    } catch (const Error&) {
+      // Unknown direction: any move counts as a regression.
+    }
+  }
+  const RegressReport report = Regress(args.baseline, results, options);
+  std::cout << "regress: " << results << " against " << args.baseline << "\n" << report.Format();
+  if (report.failed()) throw Error("regress: " + results + " regressed against " + args.baseline);
+}
+
+}  // namespace
+
+void AddHarnessCommands(CLI::App& app) {
+  auto sweep_args = std::make_shared<SweepArgs>();
+  CLI::App* sweep = app.add_subcommand(
+      "sweep", "run an experiment file: scenes x turbidity grid x methods x metrics");
+  sweep->add_option("experiment", sweep_args->experiment, "experiment JSON (docs/experiments.md)")
+      ->required();
+  sweep->add_option("--out", sweep_args->out, "output folder (rerun to resume)")->required();
+  sweep->add_option("--threads", sweep_args->threads, "worker threads (0 = all cores)")
+      ->check(CLI::Range(0, 1024));
+  sweep->add_option("--shard", sweep_args->shard, "run slice i of N (0 <= i < N), e.g. 2/8");
+  sweep->add_flag("--quiet", sweep_args->quiet, "no progress bar and no hints");
+  sweep->add_flag("--force", sweep_args->force,
+                  "start over when --out holds a different experiment");
+  sweep->add_flag("--dry-run", sweep_args->dry_run, "validate and count the items, run nothing");
+  sweep->add_flag("--no-reuse", sweep_args->no_reuse,
+                  "recompute scene loading, renderer caches and ground-truth scores per item "
+                  "(for benchmarks)");
+  sweep->callback([sweep_args] { RunSweepCommand(*sweep_args); });
+
+  auto merge_dirs = std::make_shared<std::vector<std::string>>();
+  auto merge_options = std::make_shared<MergeOptions>();
+  CLI::App* merge = app.add_subcommand("merge", "combine shard outputs into the unsharded result");
+  merge->add_option("dirs", *merge_dirs, "shard output folders")->required();
+  merge->add_option("--out", merge_options->out_dir, "merged output folder")->required();
+  merge->add_flag("--allow-partial", merge_options->allow_partial,
+                  "write tables even when some items are missing");
+  merge->add_flag("--force", merge_options->force,
+                  "replace an --out folder that holds a different experiment");
+  merge->callback([merge_dirs, merge_options] {
+    const int items = MergeSweeps(*merge_dirs, *merge_options);
+    std::cout << "merge: " << items << " items from " << merge_dirs->size() << " folders into "
+              << merge_options->out_dir << "\n";
+  });
+
+  auto regress_args = std::make_shared<RegressArgs>();
+  CLI::App* regress = app.add_subcommand(
+      "regress", "compare results with a baseline table; exit 1 when a metric regressed");
+  regress->add_option("--baseline", regress_args->baseline, "baseline items.csv or summary.csv")
+      ->required();
+  regress->add_option("results", regress_args->results, "sweep folder or CSV of the same kind")
+      ->required();
+  regress->add_option("--tol", regress_args->tolerances,
+                      "per-metric tolerance METRIC=ABS[:REL] (repeatable)");
+  regress->add_option("--tolerances", regress_args->tolerance_file,
+                      "tolerance JSON (default: BASELINE with .tolerances.json, if present)");
+  regress->add_flag("--strict", regress_args->strict, "improvements beyond tolerance fail too");
+  regress->callback([regress_args] { RunRegressCommand(*regress_args); });
+
+  auto report_dir = std::make_shared<std::string>();
+  auto report_options = std::make_shared<ReportOptions>();
+  CLI::App* report =
+      app.add_subcommand("report", "a static HTML report of a sweep (tables, images, plots)");
+  report->add_option("dir", *report_dir, "sweep output folder")->required();
+  report->add_option("--out", report_options->out_file, "HTML file (default: DIR/report.html)");
+  report->add_option("--gnuplot", report_options->gnuplot, "gnuplot executable");
+  report->callback([report_dir, report_options] {
+    const ReportSummary summary = WriteReport(*report_dir, *report_options);
+    if (!summary.warning.empty()) std::cerr << "turbid: warning: " << summary.warning << "\n";
+    std::cout << "report: " << summary.html_path << " (" << summary.plots << " plots, "
+              << summary.images << " images)\n";
+  });
+}
 
 }  // namespace turbid
