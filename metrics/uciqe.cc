@@ -1,0 +1,158 @@
+// UCIQE as computed by JOU-UIP/UCIQE UCIQE.py (see uciqe.h).
+#include "metrics/uciqe.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "metrics/visible_edges.h"
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+constexpr double kC1 = 0.4680;  // Yang & Sowmya 2015 Eq. 4
+constexpr double kC2 = 0.2745;
+constexpr double kC3 = 0.2576;
+constexpr int kBins = 65536;  // np.histogram(L', 65536): L' is float64, so never the uint8 path
+
+// Bin index numpy.histogram gives `v` for `bins` equal bins over [first, last] (NumPy 1.24's
+// uniform-bin path: scaled index, then a correction against the linspace edges).
+int64_t NumpyBin(double v, double first, double last, int bins) {
+  const double norm = bins / (last - first);
+  int64_t index = static_cast<int64_t>((v - first) * norm);
+  if (index == bins) --index;
+  const double step = (last - first) / bins;
+  auto edge = [&](int64_t i) { return i == bins ? last : static_cast<double>(i) * step + first; };
+  if (v < edge(index)) --index;
+  if (index != bins - 1 && v >= edge(index + 1)) ++index;
+  return index;
+}
+
+// NumPy's float64 add.reduce as np.mean uses it: the output starts at the identity 0 and each
+// iterator chunk of up to 8192 elements (the ufunc buffer size) is added as a pairwise sum
+// (8-way unrolled below 128 elements). Reproduced because on gray images chroma is constant and
+// var_chr = √(mean|1 − (mean/chr)²|) is pure rounding noise (~3e-8) of this very sum.
+double NumpyPairwiseSum(const double* a, size_t n) {
+  if (n < 8) {
+    double r = 0.0;
+    for (size_t i = 0; i < n; ++i) r += a[i];
+    return r;
+  }
+  if (n <= 128) {
+    double r[8];
+    for (int j = 0; j < 8; ++j) r[j] = a[j];
+    size_t i = 8;
+    for (; i < n - (n % 8); i += 8) {
+      for (int j = 0; j < 8; ++j) r[j] += a[i + j];
+    }
+    double res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+    for (; i < n; ++i) res += a[i];
+    return res;
+  }
+  size_t half = n / 2;
+  half -= half % 8;
+  return NumpyPairwiseSum(a, half) + NumpyPairwiseSum(a + half, n - half);
+}
+
+double NumpyMean(const std::vector<double>& v) {
+  constexpr size_t kChunk = 8192;
+  double total = 0.0;
+  for (size_t i = 0; i < v.size(); i += kChunk) {
+    total += NumpyPairwiseSum(v.data() + i, std::min(kChunk, v.size() - i));
+  }
+  return total / static_cast<double>(v.size());
+}
+
+}  // namespace
+
+std::string UciqeVariantName(UciqeVariant /*variant*/) { return "jou-uip-compat"; }
+
+UciqeVariant ParseUciqeVariant(const std::string& name) {
+  if (name == "jou-uip-compat") return UciqeVariant::kJouUipCompat;
+  throw Error("uciqe: unknown variant '" + name + "' (expected jou-uip-compat)");
+}
+
+bool UciqeOptions::Check(std::string* why) const {
+  if (variant != UciqeVariant::kJouUipCompat) {
+    if (why) *why = "variant: unknown value";
+    return false;
+  }
+  return true;
+}
+
+nlohmann::json UciqeResult::ToJson() const {
+  return {{"variant", variant},
+          {"uciqe", uciqe},
+          {"chroma_spread", chroma_spread},
+          {"luminance_contrast", luminance_contrast},
+          {"mean_saturation", mean_saturation}};
+}
+
+UciqeResult Uciqe(const UciqeOptions& options, const cv::Mat& image) {
+  ThrowIfInvalid(options, "uciqe");
+  cv::Mat bgr = ToEightBit(image, "uciqe");
+  if (bgr.channels() == 1) cv::cvtColor(bgr, bgr, cv::COLOR_GRAY2BGR);
+  cv::Mat lab;
+  cv::cvtColor(bgr, lab, cv::COLOR_BGR2Lab);  // OpenCV 8-bit Lab: L·255/100, a+128, b+128
+
+  const size_t n = lab.total();
+  std::array<int64_t, 256> l_hist{};
+  std::vector<double> chroma(n), saturation(n);
+  size_t k = 0;
+  for (int i = 0; i < lab.rows; ++i) {
+    const uint8_t* row = lab.ptr<uint8_t>(i);
+    for (int j = 0; j < lab.cols; ++j, ++k) {
+      const double l = row[3 * j] / 255.0;
+      const double a = row[3 * j + 1] / 255.0;
+      const double b = row[3 * j + 2] / 255.0;
+      const double chr = std::sqrt(a * a + b * b);
+      chroma[k] = chr;
+      saturation[k] = chr / std::sqrt(chr * chr + l * l);
+      ++l_hist[row[3 * j]];
+    }
+  }
+  UciqeResult r;
+  r.variant = UciqeVariantName(options.variant);
+  r.mean_saturation = NumpyMean(saturation);
+  const double mean_chr = NumpyMean(chroma);
+  std::vector<double>& spread = saturation;  // reuse the buffer
+  for (size_t i = 0; i < n; ++i) {
+    const double q = mean_chr / chroma[i];
+    spread[i] = std::abs(1.0 - q * q);
+  }
+  r.chroma_spread = std::sqrt(NumpyMean(spread));
+
+  // con_l: first bins where the cdf of a 65536-bin histogram over [min L', max L'] exceeds 1 % and
+  // reaches 99 %, transcribed from MATLAB's stretchlim with its 1-based "−1" kept.
+  int lo_level = 0, hi_level = 255;
+  while (l_hist[lo_level] == 0) ++lo_level;
+  while (l_hist[hi_level] == 0) --hi_level;
+  double first = lo_level / 255.0, last = hi_level / 255.0;
+  if (first == last) {  // numpy widens a degenerate range by ±0.5
+    first -= 0.5;
+    last += 0.5;
+  }
+  int64_t cumulative = 0;
+  int64_t i_low = -1, i_high = -1;
+  for (int level = lo_level; level <= hi_level; ++level) {
+    if (l_hist[level] == 0) continue;
+    cumulative += l_hist[level];
+    const double cdf = static_cast<double>(cumulative) / static_cast<double>(n);
+    const int64_t bin = NumpyBin(level / 255.0, first, last, kBins);
+    if (i_low < 0 && cdf > 0.01) i_low = bin;
+    if (i_high < 0 && cdf >= 0.99) i_high = bin;
+  }
+  const double tol_low = static_cast<double>(i_low - 1) / (kBins - 1);
+  const double tol_high = static_cast<double>(i_high - 1) / (kBins - 1);
+  r.luminance_contrast = tol_high - tol_low;
+  r.uciqe = kC1 * r.chroma_spread + kC2 * r.luminance_contrast + kC3 * r.mean_saturation;
+  return r;
+}
+
+}  // namespace turbid
