@@ -277,7 +277,11 @@ RenderOptions RenderOptionsFromJson(const json& j) {
   return o;
 }
 
-json RenderOptionsToJson(const RenderOptions& o) {
+json RenderOptionsToJson(const RenderOptions& options) {
+  // A Jerlov type writes the preset's betas, so the JSON reads back without a conflict.
+  RenderOptions o = options;
+  std::string why;
+  if (o.water.type != "custom" && o.water.Check(&why)) o.water = ResolveWater(o.water);
   json lights = json::array();
   for (const LightOptions& l : o.light.lights)
     lights.push_back({{"position_in_camera_m", Triple(l.position_in_camera_m)},

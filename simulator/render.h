@@ -59,7 +59,8 @@ struct RenderOptions {
 // {"bit_depth": 8}, "seed": 0}. Missing keys keep the in-class defaults; unknown keys, wrong types
 // and values failing Check throw Error naming the key path (e.g. "psf.forward_scatter").
 RenderOptions RenderOptionsFromJson(const nlohmann::json& json);
-// Every field, with the values in `options` (the sidecar's "options" object).
+// Every field, with the values in `options` (the sidecar's "options" object); a Jerlov water
+// type is written with its resolved beta values.
 nlohmann::json RenderOptionsToJson(const RenderOptions& options);
 
 // What the renderer did and what it skipped, for --explain and the sidecar.

@@ -1,0 +1,284 @@
+// The composed forward model: identities, JSON binding, determinism, caches and a seeded stress
+// sweep over the accepted parameter space (issue 3 items 5 and 6).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <thread>
+
+#include "scenes/builtin.h"
+#include "scenes/error.h"
+#include "simulator/render.h"
+#include "test_scenes.h"
+
+namespace turbid {
+namespace {
+
+RenderOptions Bare() {
+  RenderOptions o;
+  o.water.beta_rgb_per_m = {0, 0, 0};
+  o.water.beta_gray_per_m = 0;
+  o.water.ambient_rgb = {1, 1, 1};
+  o.water.ambient_gray = 1;
+  o.light.lights.clear();
+  o.psf.enabled = false;
+  o.snow.enabled = false;
+  o.sensor.enabled = false;
+  o.camera.bit_depth = 32;
+  return o;
+}
+
+TEST(Render, DefaultsPassCheck) {
+  std::string why;
+  EXPECT_TRUE(RenderOptions{}.Check(&why)) << why;
+  EXPECT_TRUE(CameraOutputOptions{}.Check(&why)) << why;
+}
+
+TEST(Render, ZeroBetaNoLightNoPsfNoNoiseIsIdentity) {
+  for (int channels : {1, 3}) {
+    const Scene scene = testing::MakePlaneScene(31, 17, 2.0, channels);
+    const RenderResult r = Render(Bare(), scene);
+    EXPECT_EQ(cv::norm(r.image, scene.image, cv::NORM_INF), 0.0) << channels;
+    EXPECT_EQ(cv::norm(r.lit, scene.image, cv::NORM_INF), 0.0);
+    EXPECT_FALSE(r.plan.skipped.empty());
+  }
+}
+
+TEST(Render, ComposesEquationTwoOnAPlane) {
+  const Scene scene = testing::MakePlaneScene(40, 30, 1.5, 3, 40.0);
+  RenderOptions o = Bare();
+  o.water.beta_rgb_per_m = {0.9, 0.5, 0.2};
+  o.water.ambient_rgb = {0.1, 0.2, 0.3};
+  o.light.lights = {LightOptions{}};
+  o.maps = MapSelection::FromList("transmission,light,veil");
+  const RenderResult r = Render(o, scene);
+  const std::vector<double> beta = {0.2, 0.5, 0.9}, ambient = {0.3, 0.2, 0.1};  // BGR
+  const cv::Mat e_l = IrradianceMap(o.light, scene.camera, scene.depth_m, scene.normals, beta);
+  const cv::Mat t = TransmissionMap(RangeFromDepth(scene.camera, scene.depth_m), beta);
+  for (int y = 0; y < 30; y += 3)
+    for (int x = 0; x < 40; x += 3)
+      for (int c = 0; c < 3; ++c) {
+        const double rho = scene.image.at<cv::Vec3f>(y, x)[c], e = e_l.at<cv::Vec3f>(y, x)[c];
+        const double tt = t.at<cv::Vec3f>(y, x)[c];
+        const double expected = std::clamp((ambient[c] + e) * rho * tt + (1 - tt) * e, 0.0, 1.0);
+        ASSERT_NEAR(r.image.at<cv::Vec3f>(y, x)[c], expected, 1e-5);
+        ASSERT_NEAR(r.veil.at<cv::Vec3f>(y, x)[c], (1 - tt) * e, 1e-6);
+      }
+  EXPECT_LT(cv::norm(r.transmission, t, cv::NORM_INF), 1e-7);
+  EXPECT_LT(cv::norm(r.light, e_l, cv::NORM_INF), 1e-7);
+}
+
+TEST(Render, InvalidDepthIsOpenWater) {
+  Scene scene = testing::MakePlaneScene(20, 10, 2.0, 3);
+  scene.depth_m.at<float>(3, 4) = std::nanf("");
+  scene.normals.at<cv::Vec3f>(3, 4) = cv::Vec3f(NAN, NAN, NAN);
+  RenderOptions o = Bare();
+  o.water.beta_rgb_per_m = {0.3, 0.3, 0.3};
+  o.water.backscatter = true;
+  o.light.lights = {LightOptions{}};
+  o.maps.transmission = true;
+  const RenderResult r = Render(o, scene);
+  const cv::Vec3f b = r.image.at<cv::Vec3f>(3, 4);
+  EXPECT_EQ(r.transmission.at<cv::Vec3f>(3, 4)[0], 0.0f);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(b[c], o.water.backscatter_rgb[2 - c], 1e-6);
+}
+
+TEST(Render, UniformRangeAndSkipPathsAgreeWithGeneralPath) {
+  // Constant range (a sphere around the camera) takes the constant-t path; compare with the map.
+  Scene scene = testing::MakePlaneScene(24, 18, 2.0, 3);
+  for (int y = 0; y < 18; ++y)
+    for (int x = 0; x < 24; ++x) {
+      const cv::Vec3d ray = scene.camera.Ray(x, y);
+      scene.depth_m.at<float>(y, x) = static_cast<float>(3.0 / cv::norm(ray));
+    }
+  RenderOptions o = Bare();
+  o.water.beta_rgb_per_m = {0.4, 0.2, 0.1};
+  o.light.lights = {LightOptions{}};
+  Renderer renderer(scene);
+  const RenderResult r = renderer.Render(o);
+  bool uniform = false;
+  for (const auto& s : r.plan.steps) uniform = uniform || s.find("uniform range") != std::string::npos;
+  EXPECT_TRUE(uniform) << r.plan.ToText();
+  o.maps.transmission = true;
+  const RenderResult r2 = renderer.Render(o);
+  const std::vector<double> beta = {0.1, 0.2, 0.4};
+  const cv::Mat t = TransmissionMap(renderer.range_m(), beta);
+  EXPECT_LT(cv::norm(r2.transmission, t, cv::NORM_INF), 1e-6);
+}
+
+TEST(Render, JsonRoundTripAndStrictErrors) {
+  RenderOptions o;
+  o.water.type = "C3";
+  o.seed = 12345678901234ULL;
+  o.psf.optical_thickness = 2.0;
+  o.light.incidence = IncidenceModel::kPaperEq5;
+  o.light.lights.push_back(LightOptions{});
+  o.light.lights[1].position_in_camera_m = {0.3, -0.1, 0.0};
+  const nlohmann::json j = RenderOptionsToJson(o);
+  const RenderOptions back = RenderOptionsFromJson(j);
+  EXPECT_EQ(back.water.type, "3C");  // canonical, betas filled from the preset
+  EXPECT_DOUBLE_EQ(back.water.beta_rgb_per_m[0], JerlovBeta("3C").rgb_per_m[0]);
+  EXPECT_EQ(RenderOptionsToJson(back), RenderOptionsToJson(RenderOptionsFromJson(RenderOptionsToJson(back))));
+  EXPECT_EQ(back.seed, o.seed);
+  EXPECT_EQ(back.light.lights.size(), 2u);
+  EXPECT_EQ(back.light.incidence, IncidenceModel::kPaperEq5);
+  // Missing keys keep the in-class defaults.
+  EXPECT_EQ(RenderOptionsToJson(RenderOptionsFromJson(nlohmann::json::object())), RenderOptionsToJson(RenderOptions{}));
+
+  auto error_of = [](const std::string& text) {
+    try {
+      RenderOptionsFromJson(nlohmann::json::parse(text));
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(error_of(R"({"psf": {"forward_scater": 0.9}})").find("psf.forward_scater: unknown key"), std::string::npos);
+  EXPECT_NE(error_of(R"({"psf": {"forward_scatter": 0}})").find("psf.forward_scatter"), std::string::npos);
+  EXPECT_NE(error_of(R"({"psf": {"forward_scatter": "a"}})").find("psf.forward_scatter: must be a number"), std::string::npos);
+  EXPECT_NE(error_of(R"({"water": {"beta_rgb_per_m": [1, 2]}})").find("water.beta_rgb_per_m"), std::string::npos);
+  EXPECT_NE(error_of(R"({"water": {"beta_rgb_per_m": [1, 2, 11]}})").find("water.beta_rgb_per_m"), std::string::npos);
+  EXPECT_NE(error_of(R"({"water": {"type": "IB", "beta_rgb_per_m": [1, 2, 3]}})").find("conflicts"), std::string::npos);
+  EXPECT_NE(error_of(R"({"light": {"lights": [{"power": -1}]}})").find("light.lights[0].power"), std::string::npos);
+  EXPECT_NE(error_of(R"({"light": {"incidence": "phong"}})").find("light.incidence"), std::string::npos);
+  EXPECT_NE(error_of(R"({"seed": -1})").find("seed"), std::string::npos);
+  EXPECT_NE(error_of(R"({"camera": {"bit_depth": 12}})").find("camera.bit_depth"), std::string::npos);
+  EXPECT_NE(error_of(R"({"colour": 1})").find("colour: unknown key"), std::string::npos);
+  EXPECT_THROW(MapSelection::FromList("light,fog"), Error);
+}
+
+TEST(Render, SameSeedSameBytesOnOneAndManyThreads) {
+  const Scene scene = MakeBuiltinScene("seafloor", {0.15});
+  RenderOptions o;
+  o.seed = 77;
+  o.snow.density_per_m3 = 200.0;
+  const int threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  const RenderResult one = Render(o, scene);
+  cv::setNumThreads(2);
+  const RenderResult many = Render(o, scene);
+  cv::setNumThreads(threads);
+  EXPECT_EQ(cv::norm(one.image, many.image, cv::NORM_INF), 0.0);
+  EXPECT_EQ(one.sidecar.dump(), many.sidecar.dump());
+  o.seed = 78;
+  EXPECT_GT(cv::norm(Render(o, scene).image, one.image, cv::NORM_INF), 0.0);
+}
+
+TEST(Render, RendererCachesGiveTheSameBytesAndAreThreadSafe) {
+  const Scene scene = MakeBuiltinScene("room", {0.1});
+  Renderer renderer(scene);
+  std::vector<RenderOptions> sweep;
+  for (double beta : {0.1, 0.7, 2.0})
+    for (uint64_t seed : {1u, 2u}) {
+      RenderOptions o;
+      o.water.beta_rgb_per_m = {beta, beta / 2, beta / 3};
+      o.seed = seed;
+      sweep.push_back(o);
+    }
+  std::vector<cv::Mat> fresh;
+  for (const auto& o : sweep) fresh.push_back(Render(o, scene).image);
+  std::vector<cv::Mat> cached(sweep.size());
+  std::vector<std::thread> workers;
+  for (size_t i = 0; i < sweep.size(); ++i)
+    workers.emplace_back([&, i] { cached[i] = renderer.Render(sweep[i]).image; });
+  for (auto& w : workers) w.join();
+  for (size_t i = 0; i < sweep.size(); ++i) EXPECT_EQ(cv::norm(fresh[i], cached[i], cv::NORM_INF), 0.0) << i;
+}
+
+TEST(Render, SidecarHasEverythingUsed) {
+  const Scene scene = testing::MakePlaneScene(16, 12, 1.0, 1);
+  RenderOptions o;
+  o.water.type = "IB";
+  o.seed = 4;
+  const RenderResult r = Render(o, scene);
+  EXPECT_EQ(r.sidecar["seed"], 4);
+  EXPECT_EQ(r.sidecar["options"]["water"]["type"], "IB");
+  EXPECT_NEAR(r.sidecar["options"]["water"]["beta_gray_per_m"].get<double>(), JerlovBeta("IB").gray_per_m, 1e-12);
+  EXPECT_TRUE(r.sidecar.contains("version"));
+  EXPECT_TRUE(r.sidecar["scene"].contains("input_hashes"));
+  EXPECT_EQ(r.sidecar["derived"]["channel_order"], "gray");
+  // The sidecar's options reproduce the render.
+  const RenderResult again = Render(RenderOptionsFromJson(r.sidecar["options"]), scene);
+  EXPECT_EQ(cv::norm(r.image, again.image, cv::NORM_INF), 0.0);
+}
+
+// Seeded sweep over the accepted parameter space, extremes included: every output finite, in range.
+TEST(RenderStress, SeededSweepStaysFiniteAndInRange) {
+  std::mt19937_64 rng(2024);
+  auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+  auto pick = [&](std::vector<double> v) { return v[rng() % v.size()]; };
+  for (int trial = 0; trial < 40; ++trial) {
+    const int channels = trial % 2 ? 1 : 3;
+    const double depth = pick({0.01, 0.5, 2.0, 50.0});
+    Scene scene = testing::MakePlaneScene(24, 18, depth, channels, pick({5.0, 20.0, 200.0}));
+    if (trial % 5 == 0) scene.depth_m.at<float>(2, 2) = std::nanf("");
+    if (trial % 7 == 0) scene.normals.setTo(cv::Scalar::all(NAN));
+    RenderOptions o;
+    const double b = pick({0.0, 1e-6, 0.7, 10.0});
+    o.water.beta_rgb_per_m = {b, uniform(0, 10), uniform(0, 10)};
+    o.water.beta_gray_per_m = b;
+    o.water.ambient_rgb = {pick({0.0, 10.0}), uniform(0, 10), uniform(0, 10)};
+    o.water.backscatter = trial % 3 == 0;
+    o.light.incidence = trial % 2 ? IncidenceModel::kPaperEq5 : IncidenceModel::kLambertian;
+    o.light.min_cos_incidence = pick({0.01, 0.05, 1.0});
+    o.light.min_distance_m = pick({1e-4, 0.01, 1.0});
+    o.light.lights.clear();
+    const int lights = static_cast<int>(rng() % 4);
+    for (int k = 0; k < lights; ++k) {
+      LightOptions l;
+      // Touching the surface, grazing, behind the camera, far away.
+      l.position_in_camera_m = {pick({0.0, 0.3, -100.0}), uniform(-1, 1), pick({0.0, depth, -5.0, 100.0})};
+      l.axis_in_camera = {uniform(-1, 1), uniform(-1, 1), pick({1.0, 0.0, -1.0})};
+      if (cv::norm(l.axis_in_camera) < 1e-3) l.axis_in_camera = {0, 0, 1};
+      l.power = pick({0.0, 1.0, 1e6});
+      l.half_power_angle_deg = pick({0.5, 30.0, 60.0, 89.99});
+      o.light.lights.push_back(l);
+    }
+    o.psf.enabled = trial % 4 != 0;
+    o.psf.optical_thickness = pick({1e-4, 0.5, 4.0, 100.0});
+    o.psf.forward_scatter = pick({1e-6, 0.01, 0.9, 1.0});
+    o.psf.pixels_per_unit = pick({0.01, 1.0, 50.0});
+    o.psf.max_radius_px = static_cast<int>(pick({1, 8, 30}));
+    o.psf.depth_dependent = trial % 6 == 0;
+    o.snow.enabled = trial % 2 == 0;
+    o.snow.density_per_m3 = pick({0.0, 10.0, 1000.0});
+    o.snow.far_m = pick({0.5, 5.0});
+    o.snow.near_m = 0.1;
+    o.sensor.photons_at_white = pick({0.0, 10.0, 1e7});
+    o.sensor.read_noise = pick({0.0, 0.5});
+    o.camera.bit_depth = static_cast<int>(pick({8, 16, 32}));
+    o.seed = rng();
+    std::string why;
+    ASSERT_TRUE(o.Check(&why)) << why;
+    const RenderResult r = Render(o, scene);
+    ASSERT_TRUE(cv::checkRange(r.image, true, nullptr, 0.0, 1.0 + 1e-6)) << "trial " << trial << "\n"
+                                                                      << RenderOptionsToJson(o).dump();
+    ASSERT_TRUE(cv::checkRange(r.lit)) << "trial " << trial;
+  }
+}
+
+TEST(RenderStress, OutOfRangeOptionsAreRejected) {
+  const Scene scene = testing::MakePlaneScene(8, 6, 1.0);
+  auto rejects = [&](auto mutate) {
+    RenderOptions o;
+    mutate(o);
+    EXPECT_THROW(Render(o, scene), Error);
+  };
+  rejects([](RenderOptions& o) { o.water.beta_rgb_per_m[0] = 10.5; });
+  rejects([](RenderOptions& o) { o.water.beta_gray_per_m = -0.1; });
+  rejects([](RenderOptions& o) { o.water.type = "XX"; });
+  rejects([](RenderOptions& o) { o.psf.forward_scatter = 1.5; });
+  rejects([](RenderOptions& o) { o.psf.optical_thickness = 0.0; });
+  rejects([](RenderOptions& o) { o.psf.max_radius_px = 10000; });
+  rejects([](RenderOptions& o) { o.light.lights[0].half_power_angle_deg = 0.0; });
+  rejects([](RenderOptions& o) { o.light.min_distance_m = 0.0; });
+  rejects([](RenderOptions& o) { o.snow.near_m = 5.0; });
+  rejects([](RenderOptions& o) { o.sensor.read_noise = std::nan(""); });
+  rejects([](RenderOptions& o) { o.camera.bit_depth = 10; });
+  Scene bad = scene;
+  bad.depth_m.at<float>(0, 0) = -1.0f;
+  EXPECT_THROW(Render(RenderOptions{}, bad), Error);
+}
+
+}  // namespace
+}  // namespace turbid
