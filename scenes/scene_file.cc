@@ -215,7 +215,7 @@ SceneFileSpec ParseSceneFile(const std::string& json_path) {
   json root;
   try {
     root = json::parse(in);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // parse errors and number overflow (1e999)
     std::string what = e.what();
     const size_t cut = what.find("] ");
     throw Error(json_path, "invalid JSON: " + (cut == std::string::npos ? what : what.substr(cut + 2)));
