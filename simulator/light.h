@@ -29,9 +29,9 @@ struct LightOptions {
   cv::Vec3d position_in_camera_m{0.0, 0.25, 0.0};
   // Emission axis in the camera frame; normalised on use (must be non-zero). Default: forward.
   cv::Vec3d axis_in_camera{0.0, 0.0, 1.0};
-  // U0, image units * m^2 (see the header), in [0, 1e6]. Default 4: a white surface 2 m ahead on
-  // axis in clear water images at 1.0.
-  double power = 4.0;
+  // U0, image units * m^2 (see the header), in [0, 1e6]. Default 8: a white surface 2 m ahead on
+  // axis images at 8/4 = 2 in clear water and at 2 exp(-1.4) = 0.49 at the paper's beta = 0.7.
+  double power = 8.0;
   // Half-power angle Phi_half, degrees, in [0.5, 90): m = -ln2/ln(cos Phi_half). 60 deg gives m = 1
   // (an ideal Lambertian emitter); narrower beams give larger m.
   double half_power_angle_deg = 60.0;
