@@ -177,11 +177,14 @@ RenderOptions RenderOptionsFromJson(const json& j) {
     if (o.water.type != "custom") {
       // A sidecar repeats the preset's values; anything else would be silently overridden.
       const WaterOptions preset = ResolveWater(o.water);
-      if ((w.contains("beta_rgb_per_m") && !SameRgb(o.water.beta_rgb_per_m, preset.beta_rgb_per_m)) ||
-          (w.contains("beta_gray_per_m") &&
-           std::abs(o.water.beta_gray_per_m - preset.beta_gray_per_m) > 1e-9))
-        throw Error("render options: water.beta_rgb_per_m: conflicts with water.type '" + o.water.type +
-                    "' (use type \"custom\" to set beta)");
+      const bool rgb_conflict =
+          w.contains("beta_rgb_per_m") && !SameRgb(o.water.beta_rgb_per_m, preset.beta_rgb_per_m);
+      const bool gray_conflict = w.contains("beta_gray_per_m") &&
+                                 std::abs(o.water.beta_gray_per_m - preset.beta_gray_per_m) > 1e-9;
+      if (rgb_conflict || gray_conflict)
+        throw Error(std::string("render options: water.") +
+                    (rgb_conflict ? "beta_rgb_per_m" : "beta_gray_per_m") + ": conflicts with water.type '" +
+                    o.water.type + "' (use type \"custom\" to set beta)");
       o.water = preset;
     }
   }

@@ -309,7 +309,7 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
     const fs::path dir(out_dir);
     return std::array<std::string, 4>{(dir / "images" / (item.id + ext)).string(),
                                       (dir / "ground_truth" / (item.id + ext)).string(),
-                                      (dir / "lit" / (item.id + ".exr")).string(),
+                                      (dir / "lit" / (item.id + ".pfm")).string(),
                                       (dir / "sidecars" / (item.id + ".json")).string()};
   };
   // An item is complete when its sidecar (written last) exists and names the same parameters.
@@ -357,7 +357,7 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
           sidecar["item"] = {{"index", item.index}, {"id", item.id}};
           sidecar["outputs"] = {{"image", "images/" + item.id + ext},
                                 {"ground_truth", "ground_truth/" + item.id + ext},
-                                {"lit", "lit/" + item.id + ".exr"}};
+                                {"lit", "lit/" + item.id + ".pfm"}};
           AtomicWriteText(p[3], sidecar.dump(2) + "\n", true);
         }
         const int n = ++done;
@@ -384,7 +384,7 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
     const json& b = o["water"]["beta_rgb_per_m"];
     std::ostringstream row;
     row << item.index << "," << item.id << "," << specs[item.scene] << ",images/" << item.id << ext
-        << ",ground_truth/" << item.id << ext << ",lit/" << item.id << ".exr,sidecars/" << item.id << ".json,"
+        << ",ground_truth/" << item.id << ext << ",lit/" << item.id << ".pfm,sidecars/" << item.id << ".json,"
         << o["seed"].get<uint64_t>() << "," << b[0].dump() << "," << b[1].dump() << "," << b[2].dump() << ","
         << o["water"]["beta_gray_per_m"].dump() << "," << o["psf"]["optical_thickness"].dump() << ","
         << o["psf"]["forward_scatter"].dump() << "\n";
@@ -394,7 +394,7 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
                    {"scene", specs[item.scene]},
                    {"image", "images/" + item.id + ext},
                    {"ground_truth", "ground_truth/" + item.id + ext},
-                   {"lit", "lit/" + item.id + ".exr"},
+                   {"lit", "lit/" + item.id + ".pfm"},
                    {"sidecar", "sidecars/" + item.id + ".json"},
                    {"options", o}})
                  .dump() +
