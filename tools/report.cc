@@ -160,7 +160,7 @@ struct Plotter {
     if (!available) return "";
     const std::string gp = dir + "/" + name + ".gp";
     const std::string svg = dir + "/" + name + ".svg";
-    AtomicWriteText(gp, "set terminal svg size 640,400 dynamic noenhanced font 'sans,11' "
+    AtomicWriteText(gp, "set terminal svg size 640,400 fixed noenhanced font 'sans,11' "
                         "background rgb 'white'\nset output " + GpString(svg) + "\n" + script,
                     true);
     std::error_code ec;
@@ -367,7 +367,7 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
 
   html << "<h2>Plots</h2>\n<div class=\"plots\">\n";
   for (const auto& [caption, svg] : plots) {
-    html << "<figure style=\"display:inline-block\"><img class=\"plot\" alt=\"" << Html(caption)
+    html << "<figure style=\"display:inline-block\"><img class=\"plot\" width=\"640\" height=\"400\" alt=\"" << Html(caption)
          << "\" src=\"" << DataUri(svg, "image/svg+xml") << "\"><figcaption>" << Html(caption)
          << "</figcaption></figure>\n";
   }
