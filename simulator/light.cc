@@ -213,7 +213,7 @@ cv::Mat IrradianceFromGeometry(const IrradianceOptions& options, const LightGeom
       for (int x = 0; x < size.width; ++x) {
         const float range = std::isnan(l[x]) ? 0.0f : l[x];
         for (int c = 0; c < channels; ++c)
-          buffer[x * channels + c] = std::max(-static_cast<float>(beta_per_m[c]) * range, -100.0f);
+          buffer[x * channels + c] = std::max(-static_cast<float>(beta_per_m[c]) * range, -80.0f);
       }
       cv::Mat row(1, size.width * channels, CV_32F, buffer.data());
       cv::exp(row, row);

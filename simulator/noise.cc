@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "scenes/error.h"
 
@@ -18,8 +19,6 @@ inline uint64_t Mix64(uint64_t z) {
   return z ^ (z >> 31);
 }
 
-// (0, 1] from 32 bits: never 0, so log() is finite.
-inline float UnitFloat(uint32_t bits) { return (static_cast<float>(bits >> 8) + 1.0f) * (1.0f / 16777216.0f); }
 
 bool InRange(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
 
@@ -36,26 +35,97 @@ double RandomUniform(uint64_t key, uint64_t index) {
   return (static_cast<double>(RandomBits(key, index) >> 11) + 0.5) * (1.0 / 9007199254740992.0);
 }
 
+namespace {
+
+// 32-bit integer hash ("lowbias32", C. Wellons 2018): cheap, well mixed and vectorisable.
+inline uint32_t Hash32(uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352dU;
+  x ^= x >> 15;
+  x *= 0x846ca68bU;
+  x ^= x >> 16;
+  return x;
+}
+
+// ln(x) for x in (0, 1], float, vectorisable: x = 2^e m with m in [sqrt(1/2), sqrt(2)),
+// ln m = 2 atanh(s), s = (m - 1)/(m + 1), odd series to s^9 (|s| < 0.172: error < 1e-7 relative).
+inline float FastLog(float x) {
+  uint32_t bits;
+  std::memcpy(&bits, &x, 4);
+  int e = static_cast<int>(bits >> 23) - 127;
+  bits = (bits & 0x007fffffU) | 0x3f800000U;  // m in [1, 2)
+  float m;
+  std::memcpy(&m, &bits, 4);
+  const int big = m > 1.41421356f;  // arithmetic instead of branches keeps the loop vectorisable
+  m *= 1.0f - 0.5f * static_cast<float>(big);
+  e += big;
+  const float s = (m - 1.0f) / (m + 1.0f), s2 = s * s;
+  const float series = s * (2.0f + s2 * (0.6666666667f + s2 * (0.4f + s2 * (0.2857142857f + s2 * 0.2222222222f))));
+  return series + static_cast<float>(e) * 0.69314718056f;
+}
+
+// sin and cos of 2 pi u for u in [0, 1): reduce to theta in [-pi/4, pi/4] around the nearest
+// quarter turn, Taylor to theta^9 / theta^8 (error < 4e-7), then rotate by the quadrant.
+inline void FastSinCos2Pi(float u, float* sin_out, float* cos_out) {
+  const float quarters = u * 4.0f;
+  const int q = static_cast<int>(quarters + 0.5f);  // nearest quarter turn, 0..4
+  const float theta = (quarters - static_cast<float>(q)) * 1.5707963268f;
+  const float t2 = theta * theta;
+  const float s = theta * (1.0f + t2 * (-1.0f / 6 + t2 * (1.0f / 120 + t2 * (-1.0f / 5040 + t2 * (1.0f / 362880)))));
+  const float c = 1.0f + t2 * (-0.5f + t2 * (1.0f / 24 + t2 * (-1.0f / 720 + t2 * (1.0f / 40320))));
+  // Rotation by q * 90 degrees, branch-free: odd quadrants swap sin and cos; the signs follow.
+  const float swap = static_cast<float>(q & 1);
+  const float sin_sign = 1.0f - 2.0f * static_cast<float>((q >> 1) & 1);
+  const float cos_sign = 1.0f - 2.0f * static_cast<float>(((q + 1) >> 1) & 1);
+  *sin_out = sin_sign * (s + swap * (c - s));
+  *cos_out = cos_sign * (c + swap * (s - c));
+}
+
+}  // namespace
+
+namespace {
+
+// Box-Muller for pairs low0 .. low0 + n - 1 (32-bit counter, fixed high word): a straight loop
+// the compiler vectorises.
+void NormalPairs(uint32_t low0, uint32_t high, uint32_t k1, uint32_t k2, int n, float* cos_part,
+                 float* sin_part) {
+  for (int j = 0; j < n; ++j) {
+    const uint32_t a = Hash32((low0 + static_cast<uint32_t>(j)) ^ k1) ^ high;
+    const uint32_t b1 = Hash32(a ^ k2), b2 = Hash32((a + 0x9e3779b9U) ^ k2);
+    const float u1 = (static_cast<float>(static_cast<int>(b1 >> 8)) + 1.0f) * (1.0f / 16777216.0f);  // (0, 1]
+    const float u2 = static_cast<float>(static_cast<int>(b2 >> 8)) * (1.0f / 16777216.0f);  // [0, 1)
+    const float radius = std::sqrt(-2.0f * FastLog(u1));
+    float s, c;
+    FastSinCos2Pi(u2, &s, &c);
+    cos_part[j] = radius * c;
+    sin_part[j] = radius * s;
+  }
+}
+
+}  // namespace
+
 void RandomNormals(uint64_t key, uint64_t first, int count, float* out) {
   if (count <= 0) return;
-  // Pairs cover [first, first + count): pair j gives samples 2j (cos) and 2j + 1 (sin).
+  // Box-Muller on pairs: pair j gives samples 2j (cos) and 2j + 1 (sin); its two uniforms are
+  // 32-bit hashes of (key, j), so a sample depends only on (key, index).
   const uint64_t first_pair = first / 2, last_pair = (first + count - 1) / 2;
   const int pairs = static_cast<int>(last_pair - first_pair + 1);
-  thread_local std::vector<float> radius, angle, cos_part, sin_part;
-  radius.resize(pairs), angle.resize(pairs), cos_part.resize(pairs), sin_part.resize(pairs);
-  for (int j = 0; j < pairs; ++j) {
-    const uint64_t bits = RandomBits(key, first_pair + j);
-    radius[j] = UnitFloat(static_cast<uint32_t>(bits));
-    angle[j] = static_cast<float>(2.0 * M_PI) * UnitFloat(static_cast<uint32_t>(bits >> 32));
+  thread_local std::vector<float> cos_part, sin_part;
+  cos_part.resize(pairs);
+  sin_part.resize(pairs);
+  const uint32_t k1 = static_cast<uint32_t>(key), k2 = static_cast<uint32_t>(key >> 32);
+  // Split where the pair counter's high word changes (only past 2^32 pairs).
+  for (int done = 0; done < pairs;) {
+    const uint64_t pair = first_pair + done;
+    const uint64_t block_end = std::min<uint64_t>(last_pair + 1, ((pair >> 32) + 1) << 32);
+    const int n = static_cast<int>(block_end - pair);
+    NormalPairs(static_cast<uint32_t>(pair), static_cast<uint32_t>(pair >> 32), k1, k2, n,
+                cos_part.data() + done, sin_part.data() + done);
+    done += n;
   }
-  cv::Mat r(1, pairs, CV_32F, radius.data()), a(1, pairs, CV_32F, angle.data());
-  cv::log(r, r);
-  for (int j = 0; j < pairs; ++j) radius[j] = std::sqrt(std::max(-2.0f * radius[j], 0.0f));
-  cv::Mat xs(1, pairs, CV_32F, cos_part.data()), ys(1, pairs, CV_32F, sin_part.data());
-  cv::polarToCart(r, a, xs, ys, false);
   for (int i = 0; i < count; ++i) {
     const uint64_t index = first + i;
-    const int j = static_cast<int>(index / 2 - first_pair);
+    const size_t j = static_cast<size_t>(index / 2 - first_pair);
     out[i] = (index & 1) ? sin_part[j] : cos_part[j];
   }
 }
@@ -130,14 +200,15 @@ MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions&
     const int x1 = std::min(static_cast<int>(std::ceil(u)) + reach, w - 1);
     const int y0 = std::max(static_cast<int>(std::floor(v)) - reach, 0);
     const int y1 = std::min(static_cast<int>(std::ceil(v)) + reach, h - 1);
+    // The Gaussian is separable: one exp per column and per row of the footprint.
     const double inv = -0.5 / sigma2;
+    std::vector<float> gx(x1 - x0 + 1);
+    for (int x = x0; x <= x1; ++x) gx[x - x0] = static_cast<float>(std::exp((x - u) * (x - u) * inv));
     for (int y = y0; y <= y1; ++y) {
       float* row = snow.layer.ptr<float>(y);
-      const double dy2 = (y - v) * (y - v);
-      for (int x = x0; x <= x1; ++x) {
-        const float g = static_cast<float>(std::exp(((x - u) * (x - u) + dy2) * inv));
-        for (int c = 0; c < channels; ++c) row[x * channels + c] += peak[c] * g;
-      }
+      const float gy = static_cast<float>(std::exp((y - v) * (y - v) * inv));
+      for (int x = x0; x <= x1; ++x)
+        for (int c = 0; c < channels; ++c) row[x * channels + c] += peak[c] * gy * gx[x - x0];
     }
   }
   return snow;
@@ -153,10 +224,9 @@ bool SensorNoiseOptions::Check(std::string* why) const {
   return true;
 }
 
-cv::Mat AddSensorNoise(const SensorNoiseOptions& options, const cv::Mat& image, uint64_t seed) {
+void AddSensorNoiseInPlace(const SensorNoiseOptions& options, cv::Mat& image, uint64_t seed) {
   ThrowIfInvalid(options, "sensor");
   CV_Assert(image.depth() == CV_32F);
-  cv::Mat out(image.size(), image.type());
   const uint64_t key = RandomKey(seed, kSensorStream);
   const int per_row = image.cols * image.channels();
   const float shot = options.photons_at_white > 0.0 ? static_cast<float>(1.0 / options.photons_at_white) : 0.0f;
@@ -165,12 +235,15 @@ cv::Mat AddSensorNoise(const SensorNoiseOptions& options, const cv::Mat& image, 
     std::vector<float> normals(per_row);
     for (int y = rows.start; y < rows.end; ++y) {
       RandomNormals(key, static_cast<uint64_t>(y) * per_row, per_row, normals.data());
-      const float* in = image.ptr<float>(y);
-      float* o = out.ptr<float>(y);
-      for (int i = 0; i < per_row; ++i)
-        o[i] = in[i] + normals[i] * std::sqrt(std::max(in[i], 0.0f) * shot + read2);
+      float* p = image.ptr<float>(y);
+      for (int i = 0; i < per_row; ++i) p[i] += normals[i] * std::sqrt(std::max(p[i], 0.0f) * shot + read2);
     }
   });
+}
+
+cv::Mat AddSensorNoise(const SensorNoiseOptions& options, const cv::Mat& image, uint64_t seed) {
+  cv::Mat out = image.clone();
+  AddSensorNoiseInPlace(options, out, seed);
   return out;
 }
 

@@ -103,13 +103,20 @@ std::string ListText(const std::vector<double>& values) {
   return s + "]";
 }
 
-cv::Mat Quantise(const cv::Mat& image, int bit_depth) {
-  cv::Mat out;
-  cv::min(cv::max(image, 0.0), 1.0, out);  // NaN never reaches here; max/min also clip +-inf
-  if (bit_depth == 32) return out;
+// Clips to [0, 1] and rounds to the 2^bits - 1 levels the PNG will store (32: clip only).
+void QuantiseInPlace(cv::Mat& image, int bit_depth) {
   const float levels = bit_depth == 8 ? 255.0f : 65535.0f;
-  out.forEach<float>([levels](float& v, const int*) { v = std::nearbyint(v * levels) / levels; });
-  return out;
+  const bool quantise = bit_depth != 32;
+  const int per_row = image.cols * image.channels();
+  cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      float* p = image.ptr<float>(y);
+      for (int i = 0; i < per_row; ++i) {
+        const float v = std::min(std::max(p[i], 0.0f), 1.0f);  // NaN is never produced upstream
+        p[i] = quantise ? static_cast<float>(static_cast<int>(v * levels + 0.5f)) / levels : v;
+      }
+    }
+  });
 }
 
 }  // namespace
@@ -517,15 +524,16 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
     const float a1 = static_cast<float>(d.ambient[channels == 3 ? 1 : 0]);
     const float a2 = static_cast<float>(d.ambient[channels == 3 ? 2 : 0]);
     const float ambient[3] = {a0, a1, a2};
-    const int per_row = size.width * channels;
     cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
       for (int y = rows.start; y < rows.end; ++y) {
         const float* rho = scene_.image.ptr<float>(y);
         float* out = j.ptr<float>(y);
         const float* e = e_l.empty() ? nullptr : e_l.ptr<float>(y);
-        for (int i = 0; i < per_row; ++i) {
-          const int c = channels == 3 ? i % 3 : 0;
-          out[i] = (ambient[c] + (e ? e[i] : 0.0f)) * rho[i];
+        if (channels == 3) {
+          for (int x = 0; x < size.width; ++x)
+            for (int c = 0; c < 3; ++c) out[3 * x + c] = (ambient[c] + (e ? e[3 * x + c] : 0.0f)) * rho[3 * x + c];
+        } else {
+          for (int x = 0; x < size.width; ++x) out[x] = (ambient[0] + (e ? e[x] : 0.0f)) * rho[x];
         }
       }
     });
@@ -544,73 +552,85 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
     while (cache_->blurred.size() > Cache::kBlurredEntries) cache_->blurred.pop_back();
   }
 
-  // Transmission and composition: I = Jb t + (1 - t)(E_L + B_inf).
-  cv::Mat t;
-  if (!d.zero_beta) {
-    if (uniform_range) {
-      cv::Scalar value;
-      for (int c = 0; c < channels; ++c) value[c] = std::exp(-d.beta[c] * cache_->min_range);
-      t = cv::Mat(size, CV_32FC(channels), value);
-      if (cache_->valid_pixels != size.area())  // NaN pixels are open water: t = 0
-        t.setTo(cv::Scalar::all(0), range_m_ != range_m_);
-    } else {
-      t = TransmissionMap(range_m_, d.beta);
-    }
-  }
+  // Transmission and composition, fused row by row: I = Jb t + (1 - t)(E_L + B_inf). t is computed
+  // per row (no full map unless asked for); the image is built in place from here on.
   const bool backscatter = options.water.backscatter && !d.zero_beta;
   const bool veil_term = !d.zero_beta && (light || backscatter);
-  cv::Mat clean(size, scene_.image.type());
-  cv::Mat veil = (veil_term && options.maps.veil) ? cv::Mat(size, scene_.image.type()) : cv::Mat();
-  {
-    const int per_row = size.width * channels;
-    float bs[3] = {0, 0, 0};
-    for (int c = 0; c < channels; ++c) bs[c] = backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
-    cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
-      for (int y = rows.start; y < rows.end; ++y) {
-        const float* jb = blurred->ptr<float>(y);
-        float* out = clean.ptr<float>(y);
-        if (d.zero_beta) {
-          std::copy(jb, jb + per_row, out);
-          continue;
+  const int per_row = size.width * channels;
+  cv::Mat image(size, scene_.image.type());
+  cv::Mat t_map, veil;
+  if (options.maps.transmission)
+    t_map = d.zero_beta ? cv::Mat(size, CV_32FC(channels), cv::Scalar::all(1)) : cv::Mat(size, CV_32FC(channels));
+  if (options.maps.veil) veil = cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0));
+  float bs[3] = {0, 0, 0}, t_const[3] = {0, 0, 0}, neg_beta[3] = {0, 0, 0};
+  for (int c = 0; c < channels; ++c) {
+    bs[c] = backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
+    t_const[c] = static_cast<float>(std::exp(-d.beta[c] * cache_->min_range));
+    neg_beta[c] = -static_cast<float>(d.beta[c]);
+  }
+  cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
+    std::vector<float> t_row(per_row);
+    for (int y = rows.start; y < rows.end; ++y) {
+      const float* jb = blurred->ptr<float>(y);
+      float* out = image.ptr<float>(y);
+      if (d.zero_beta) {
+        std::copy(jb, jb + per_row, out);
+        continue;
+      }
+      const float* r = range_m_.ptr<float>(y);
+      float* t = t_row.data();
+      if (uniform_range) {
+        for (int x = 0; x < size.width; ++x)
+          for (int c = 0; c < channels; ++c) t[x * channels + c] = t_const[c];
+      } else {
+        for (int x = 0; x < size.width; ++x) {
+          const float range = r[x] == r[x] ? r[x] : 1e30f;
+          for (int c = 0; c < channels; ++c) t[x * channels + c] = std::max(neg_beta[c] * range, -80.0f);
         }
-        const float* tt = t.ptr<float>(y);
-        const float* e = light ? light->ptr<float>(y) : nullptr;
-        float* v = veil.empty() ? nullptr : veil.ptr<float>(y);
-        if (!veil_term) {
-          for (int i = 0; i < per_row; ++i) out[i] = jb[i] * tt[i];
-          continue;
-        }
-        for (int i = 0; i < per_row; ++i) {
-          const float source = (e ? e[i] : 0.0f) + bs[channels == 3 ? i % 3 : 0];
-          const float veil_value = (1.0f - tt[i]) * source;
-          out[i] = jb[i] * tt[i] + veil_value;
+        cv::Mat row(1, per_row, CV_32F, t);
+        cv::exp(row, row);
+      }
+      if (cache_->valid_pixels != size.area())  // NaN depth: open water, t = 0
+        for (int x = 0; x < size.width; ++x)
+          if (r[x] != r[x])
+            for (int c = 0; c < channels; ++c) t[x * channels + c] = 0.0f;
+      if (!t_map.empty()) std::copy(t, t + per_row, t_map.ptr<float>(y));
+      if (!veil_term) {
+        for (int i = 0; i < per_row; ++i) out[i] = jb[i] * t[i];
+        continue;
+      }
+      const float* e = light ? light->ptr<float>(y) : nullptr;
+      float* v = veil.empty() ? nullptr : veil.ptr<float>(y);
+      for (int x = 0; x < size.width; ++x)
+        for (int c = 0; c < channels; ++c) {
+          const int i = x * channels + c;
+          const float veil_value = (1.0f - t[i]) * ((e ? e[i] : 0.0f) + bs[c]);
+          out[i] = jb[i] * t[i] + veil_value;
           if (v) v[i] = veil_value;
         }
-      }
-    });
-  }
+    }
+  });
 
-  // Noise: marine snow and sensor noise.
-  cv::Mat noisy = clean;
+  // Noise: marine snow (sparse, added in place) and sensor noise, then clip and quantise.
+  cv::Mat clean = options.maps.noise ? image.clone() : cv::Mat();
   MarineSnow snow;
   if (options.snow.enabled && options.snow.density_per_m3 > 0.0) {
     snow = RenderMarineSnow(options.snow, options.light, scene_.camera, range_m_, d.beta, d.ambient,
                             options.seed);
-    noisy = clean + snow.layer;
+    image += snow.layer;
   }
   const bool sensor = options.sensor.enabled &&
                       (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0);
-  if (sensor) noisy = AddSensorNoise(options.sensor, noisy, options.seed);
-  result.image = Quantise(noisy, options.camera.bit_depth);
+  if (sensor) AddSensorNoiseInPlace(options.sensor, image, options.seed);
+  if (!clean.empty()) result.noise = image - clean;
+  QuantiseInPlace(image, options.camera.bit_depth);
+  result.image = image;
   result.lit = *lit;
-
-  if (options.maps.transmission)
-    result.transmission = t.empty() ? cv::Mat(size, CV_32FC(channels), cv::Scalar::all(1)) : t;
+  result.transmission = t_map;
   if (options.maps.light)
     result.light = light ? *light : cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0));
-  if (options.maps.veil) result.veil = veil.empty() ? cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0)) : veil;
+  result.veil = veil;
   if (options.maps.psf) result.psf = d.psf.kernel.empty() ? cv::Mat::ones(1, 1, CV_32F) : d.psf.kernel;
-  if (options.maps.noise) result.noise = noisy.data == clean.data ? cv::Mat(size, clean.type(), cv::Scalar::all(0)) : noisy - clean;
 
   // Sidecar: everything used, after defaults and preset resolution.
   RenderOptions used = options;

@@ -126,10 +126,11 @@ cv::Mat TransmissionMap(const cv::Mat& range_m, const std::vector<double>& beta_
     const float* r = range_m.ptr<float>(y);
     float* out = t.ptr<float>(y);
     for (int x = 0; x < range_m.cols; ++x) {
-      // NaN range: t = 0 (exp(-inf)); the argument is clamped so exp never sees NaN.
+      // NaN range: t = 0 (exp(-inf)). Arguments stop at -80: exp(-80) ~ 2e-35 is still a normal float
+      // (denormals are slow) and indistinguishable from 0 in any output.
       const float range = std::isnan(r[x]) ? 1e30f : r[x];
       for (int c = 0; c < channels; ++c)
-        row[x * channels + c] = std::max(-static_cast<float>(beta_per_m[c]) * range, -100.0f);
+        row[x * channels + c] = std::max(-static_cast<float>(beta_per_m[c]) * range, -80.0f);
     }
     cv::Mat in_row(1, range_m.cols * channels, CV_32F, row.data());
     cv::Mat out_row(1, range_m.cols * channels, CV_32F, out);
