@@ -59,6 +59,16 @@ void SetPath(json& root, const std::string& path, const json& value) {
   }
 }
 
+// SetPath for render parameters: indexing a light ("light.lights.0.power") starts from the
+// default light list when the parameters name none, so defaults are not written twice.
+void SetParam(json& params, const std::string& path, const json& value) {
+  if (path.rfind("light.lights.", 0) == 0 && !(params.contains("light") && params["light"].contains("lights"))) {
+    if (!params.contains("light")) params["light"] = json::object();
+    params["light"]["lights"] = RenderOptionsToJson(RenderOptions{})["light"]["lights"];
+  }
+  SetPath(params, path, value);
+}
+
 // "--set key=value": value parsed as JSON, else taken as a string.
 void ApplySet(json& params, const std::string& assignment) {
   const size_t eq = assignment.find('=');
@@ -70,10 +80,7 @@ void ApplySet(json& params, const std::string& assignment) {
   } catch (const json::exception&) {
     value = text;
   }
-  // Options start from the struct defaults; lights need the default light to exist when indexed.
-  if (key.rfind("light.lights.", 0) == 0 && !params.contains("light"))
-    params["light"] = RenderOptionsToJson(RenderOptions{})["light"];
-  SetPath(params, key, value);
+  SetParam(params, key, value);
 }
 
 std::string Extension(const std::string& path) {
@@ -284,12 +291,12 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
         item.index = static_cast<int>(items.size());
         item.scene = s;
         json params = base;
-        for (auto it = combos[g].begin(); it != combos[g].end(); ++it) SetPath(params, it.key(), it.value());
+        for (auto it = combos[g].begin(); it != combos[g].end(); ++it) SetParam(params, it.key(), it.value());
         // Random samples depend on (random seed, grid point, sample number), not on the scene.
         uint64_t draw = 0;
         for (auto it = random_params.begin(); it != random_params.end(); ++it, ++draw)
-          SetPath(params, it.key(),
-                  SampleValue(it.value(), sample_key, (g * samples + r) * 64 + draw, it.key()));
+          SetParam(params, it.key(),
+                   SampleValue(it.value(), sample_key, (g * samples + r) * 64 + draw, it.key()));
         if (!params.contains("seed")) params["seed"] = RandomBits(seed_key, item.index) >> 1;
         try {
           params = RenderOptionsToJson(RenderOptionsFromJson(params));
