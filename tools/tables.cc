@@ -415,7 +415,10 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
   for (const std::string& level : levels) {
     int n_items = 0;
     for (const ItemResult& item : items) n_items += level == "all" || item.level == level;
-    md << "\n## " << (level == "all" ? "All levels" : experiment.level_path + " = " + level)
+    const std::string axis = experiment.level_path.rfind('@', 0) == 0
+                                 ? experiment.level_path.substr(1)
+                                 : experiment.level_path;
+    md << "\n## " << (level == "all" ? "All levels" : axis + " = " + level)
        << " (" << n_items << " items)\n\n| metric |";
     for (const ExperimentMethod& m : experiment.methods) md << " " << m.label << " |";
     if (any_reference) md << " ground truth |";
