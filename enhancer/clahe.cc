@@ -1,0 +1,321 @@
+#include "enhancer/clahe.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+// MATLAB round: half away from zero.
+double MatlabRound(double v) { return std::round(v); }
+
+// MATLAB padarray 'symmetric' index for padded coordinate i (may be negative or >= n).
+int SymmetricIndex(int i, int n) {
+  const int period = 2 * n;
+  int m = i % period;
+  if (m < 0) m += period;
+  return m < n ? m : period - 1 - m;
+}
+
+struct Padding {
+  int tile_h = 0, tile_w = 0;  // tile size in the padded image (even)
+  int pre_y = 0, pre_x = 0;    // rows / columns added before the image
+  int padded_h = 0, padded_w = 0;
+};
+
+// adapthisteq's parseInputs: pad when the size is not divisible by the tile count or the tile
+// size is odd (so tile centres fall between pixels), half before and half after.
+int PadAmount(int n, int tiles, int* tile_dim) {
+  int pad = 0;
+  int dim = n / tiles;
+  if (n % tiles != 0) {
+    dim = n / tiles + 1;
+    pad = dim * tiles - n;
+  }
+  if (dim % 2 != 0) pad += tiles, dim += 1;
+  *tile_dim = dim;
+  return pad;
+}
+
+Padding ComputePadding(const ClaheOptions& o, int rows, int cols) {
+  Padding p;
+  const int pad_y = PadAmount(rows, o.tiles_y, &p.tile_h);
+  const int pad_x = PadAmount(cols, o.tiles_x, &p.tile_w);
+  p.pre_y = pad_y / 2;
+  p.pre_x = pad_x / 2;
+  p.padded_h = rows + pad_y;
+  p.padded_w = cols + pad_x;
+  return p;
+}
+
+void ValidateGray(const cv::Mat& image) {
+  if (image.empty()) throw Error("clahe: empty image");
+  if (image.type() != CV_32FC1) throw Error("clahe: expected a float32 one-channel image");
+  if (!cv::checkRange(image)) throw Error("clahe: image has non-finite values");
+}
+
+// Bin index per pixel (imhist on [0,1] data: round(v * (bins - 1)), v clamped).
+cv::Mat BinIndices(const cv::Mat& gray, int bins) {
+  cv::Mat idx(gray.size(), CV_16U);
+  const float scale = static_cast<float>(bins - 1);
+  for (int y = 0; y < gray.rows; ++y) {
+    const float* g = gray.ptr<float>(y);
+    uint16_t* o = idx.ptr<uint16_t>(y);
+    for (int x = 0; x < gray.cols; ++x) {
+      const float v = std::min(std::max(g[x], 0.0f), 1.0f);
+      o[x] = static_cast<uint16_t>(v * scale + 0.5f);
+    }
+  }
+  return idx;
+}
+
+// Tile mappings (tiles_y * tiles_x rows of `bins` floats) from bin indices of the unpadded image.
+cv::Mat Mappings(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) {
+  cv::Mat maps(o.tiles_y * o.tiles_x, o.bins, CV_32F);
+  std::vector<int> row_src(p.padded_h), col_src(p.padded_w);
+  for (int y = 0; y < p.padded_h; ++y) row_src[y] = SymmetricIndex(y - p.pre_y, idx.rows);
+  for (int x = 0; x < p.padded_w; ++x) col_src[x] = SymmetricIndex(x - p.pre_x, idx.cols);
+  const int pixels = p.tile_h * p.tile_w;
+  std::vector<int> hist(o.bins);
+  for (int ty = 0; ty < o.tiles_y; ++ty) {
+    for (int tx = 0; tx < o.tiles_x; ++tx) {
+      std::fill(hist.begin(), hist.end(), 0);
+      const int x0 = tx * p.tile_w;
+      // Columns inside the image map to a contiguous run; only padded columns need the table.
+      for (int y = ty * p.tile_h; y < (ty + 1) * p.tile_h; ++y) {
+        const uint16_t* row = idx.ptr<uint16_t>(row_src[y]);
+        int x = x0;
+        const int x_end = x0 + p.tile_w;
+        const int in_lo = std::max(x0, p.pre_x), in_hi = std::min(x_end, p.pre_x + idx.cols);
+        for (; x < in_lo; ++x) ++hist[row[col_src[x]]];
+        const uint16_t* run = row + (in_lo - p.pre_x);
+        for (int k = 0; k < in_hi - in_lo; ++k) ++hist[run[k]];
+        for (x = std::max(in_hi, in_lo); x < x_end; ++x) ++hist[row[col_src[x]]];
+      }
+      std::vector<float> m = ClaheMapHistogram(o, hist, pixels);
+      std::copy(m.begin(), m.end(), maps.ptr<float>(ty * o.tiles_x + tx));
+    }
+  }
+  return maps;
+}
+
+// Per output coordinate: the two neighbouring tiles and the weight of the second (adapthisteq's
+// makeClaheImage: bilinear between tile centres; the outer half tiles use the nearest tile).
+struct Interp {
+  std::vector<int> lo, hi;
+  std::vector<float> w;
+};
+Interp Interpolation(int n, int pre, int tile, int tiles) {
+  Interp in;
+  in.lo.resize(n), in.hi.resize(n), in.w.resize(n);
+  for (int i = 0; i < n; ++i) {
+    const double t = (static_cast<double>(i + pre) - tile / 2) / tile;
+    const int f = static_cast<int>(std::floor(t));
+    if (f < 0) {
+      in.lo[i] = in.hi[i] = 0, in.w[i] = 0.0f;
+    } else if (f >= tiles - 1) {
+      in.lo[i] = in.hi[i] = tiles - 1, in.w[i] = 0.0f;
+    } else {
+      in.lo[i] = f, in.hi[i] = f + 1, in.w[i] = static_cast<float>(t - f);
+    }
+  }
+  return in;
+}
+
+cv::Mat ClaheGray(const ClaheOptions& o, const cv::Mat& gray) {
+  const Padding p = ComputePadding(o, gray.rows, gray.cols);
+  const cv::Mat idx = BinIndices(gray, o.bins);
+  const cv::Mat maps = Mappings(o, idx, p);
+  const Interp iy = Interpolation(gray.rows, p.pre_y, p.tile_h, o.tiles_y);
+  const Interp ix = Interpolation(gray.cols, p.pre_x, p.tile_w, o.tiles_x);
+  cv::Mat out(gray.size(), CV_32F);
+  const int bins = o.bins;
+  const float* m = maps.ptr<float>(0);
+  for (int y = 0; y < gray.rows; ++y) {
+    const uint16_t* b = idx.ptr<uint16_t>(y);
+    float* dst = out.ptr<float>(y);
+    const float wy = iy.w[y];
+    const float* up = m + static_cast<size_t>(iy.lo[y]) * o.tiles_x * bins;
+    const float* dn = m + static_cast<size_t>(iy.hi[y]) * o.tiles_x * bins;
+    for (int x = 0; x < gray.cols; ++x) {
+      const int l = ix.lo[x] * bins + b[x];
+      const int r = ix.hi[x] * bins + b[x];
+      const float wx = ix.w[x];
+      const float top = up[l] + wx * (up[r] - up[l]);
+      const float bot = dn[l] + wx * (dn[r] - dn[l]);
+      dst[x] = top + wy * (bot - top);
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+ClaheDistribution ClaheDistributionFromName(const std::string& name) {
+  if (name == "uniform") return ClaheDistribution::kUniform;
+  if (name == "rayleigh") return ClaheDistribution::kRayleigh;
+  if (name == "exponential") return ClaheDistribution::kExponential;
+  throw Error("clahe: unknown distribution '" + name +
+              "' (expected uniform, rayleigh or exponential)");
+}
+
+std::string ClaheDistributionName(ClaheDistribution distribution) {
+  switch (distribution) {
+    case ClaheDistribution::kUniform:
+      return "uniform";
+    case ClaheDistribution::kRayleigh:
+      return "rayleigh";
+    case ClaheDistribution::kExponential:
+      return "exponential";
+  }
+  return "uniform";
+}
+
+bool ClaheOptions::Check(std::string* why) const {
+  if (tiles_x < 2 || tiles_y < 2 || tiles_x > 256 || tiles_y > 256) {
+    *why = "tiles must be in [2, 256] along each axis";
+    return false;
+  }
+  if (!std::isfinite(clip_limit) || clip_limit < 0.0 || clip_limit > 1.0) {
+    *why = "clip_limit must be in [0, 1], got " + std::to_string(clip_limit);
+    return false;
+  }
+  if (bins < 2 || bins > 65536) {
+    *why = "bins must be in [2, 65536], got " + std::to_string(bins);
+    return false;
+  }
+  if (!std::isfinite(alpha) || alpha <= 0.0 || alpha > 1e6) {
+    *why = "alpha must be finite and > 0, got " + std::to_string(alpha);
+    return false;
+  }
+  return true;
+}
+
+std::vector<float> ClaheMapHistogram(const ClaheOptions& o, std::vector<int> hist, int pixels) {
+  const int bins = static_cast<int>(hist.size());
+  // adapthisteq: clip limit from the normalised value.
+  const int min_clip = static_cast<int>(std::ceil(static_cast<double>(pixels) / bins));
+  const int clip = min_clip + static_cast<int>(MatlabRound(o.clip_limit * (pixels - min_clip)));
+  // clipHistogram: clip, give every bin an even share of the excess, then hand out the rest one
+  // count at a time with a stride that grows as fewer remain.
+  long long excess = 0;
+  for (int v : hist) excess += std::max(v - clip, 0);
+  const int avg_incr = static_cast<int>(excess / bins);
+  const int upper = clip - avg_incr;
+  for (int& v : hist) {
+    if (v > clip) {
+      v = clip;
+    } else if (v > upper) {
+      excess -= clip - v;
+      v = clip;
+    } else {
+      excess -= avg_incr;
+      v += avg_incr;
+    }
+  }
+  int k = 0;
+  while (excess > 0) {
+    const int step = std::max(static_cast<int>(bins / excess), 1);
+    bool placed = false;
+    for (int m = k; m < bins; m += step) {
+      if (hist[m] < clip) {
+        ++hist[m];
+        --excess;
+        placed = true;
+        if (excess == 0) break;
+      }
+    }
+    k = k + 1 < bins ? k + 1 : 0;
+    // Every bin at the limit (only when clip * bins < pixels, which min_clip rules out) would
+    // loop forever in adapthisteq; stop instead.
+    if (!placed && k == 0) {
+      bool any = false;
+      for (int v : hist) any = any || v < clip;
+      if (!any) break;
+    }
+  }
+  // makeMapping: cumulative histogram shaped to the target on the full range [0, 1].
+  std::vector<float> map(bins);
+  long long sum = 0;
+  const double inv = 1.0 / pixels;
+  const double alpha = o.alpha;
+  const double one_minus_eps = 1.0 - std::numeric_limits<double>::epsilon();
+  for (int b = 0; b < bins; ++b) {
+    sum += hist[b];
+    const double frac = sum * inv;
+    double v = 0.0;
+    switch (o.distribution) {
+      case ClaheDistribution::kUniform:
+        v = std::min(frac, 1.0);
+        break;
+      case ClaheDistribution::kRayleigh: {
+        const double hconst = 2.0 * alpha * alpha;
+        const double vmax = 1.0 - std::exp(-1.0 / hconst);
+        double val = vmax * frac;
+        if (val >= 1.0) val = one_minus_eps;
+        v = std::min(std::sqrt(-hconst * std::log(1.0 - val)), 1.0);
+        break;
+      }
+      case ClaheDistribution::kExponential: {
+        const double vmax = 1.0 - std::exp(-alpha);
+        double val = vmax * frac;
+        if (val >= 1.0) val = one_minus_eps;
+        v = std::min(-1.0 / alpha * std::log(1.0 - val), 1.0);
+        break;
+      }
+    }
+    map[b] = static_cast<float>(v);
+  }
+  return map;
+}
+
+cv::Mat ClaheTileMappings(const ClaheOptions& options, const cv::Mat& gray) {
+  ThrowIfInvalid(options, "clahe");
+  ValidateGray(gray);
+  const Padding p = ComputePadding(options, gray.rows, gray.cols);
+  return Mappings(options, BinIndices(gray, options.bins), p);
+}
+
+cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image) {
+  ThrowIfInvalid(options, "clahe");
+  if (image.empty()) throw Error("clahe: empty image");
+  if (image.depth() != CV_32F || (image.channels() != 1 && image.channels() != 3)) {
+    throw Error("clahe: expected a float32 image with 1 or 3 channels");
+  }
+  if (image.channels() == 1) {
+    ValidateGray(image);
+    return ClaheGray(options, image);
+  }
+  if (!cv::checkRange(image)) throw Error("clahe: image has non-finite values");
+  // Colour: equalise Rec. 709 luminance, scale the channels by the luminance ratio (hue kept).
+  cv::Mat lum(image.size(), CV_32F);
+  for (int y = 0; y < image.rows; ++y) {
+    const cv::Vec3f* s = image.ptr<cv::Vec3f>(y);
+    float* l = lum.ptr<float>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      l[x] = 0.0722f * s[x][0] + 0.7152f * s[x][1] + 0.2126f * s[x][2];
+    }
+  }
+  const cv::Mat eq = ClaheGray(options, lum);
+  cv::Mat out(image.size(), CV_32FC3);
+  for (int y = 0; y < image.rows; ++y) {
+    const cv::Vec3f* s = image.ptr<cv::Vec3f>(y);
+    const float* l = lum.ptr<float>(y);
+    const float* e = eq.ptr<float>(y);
+    cv::Vec3f* d = out.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      if (l[x] <= 1e-6f) {
+        d[x] = cv::Vec3f(e[x], e[x], e[x]);
+        continue;
+      }
+      const float g = e[x] / l[x];
+      for (int c = 0; c < 3; ++c) d[x][c] = std::min(std::max(s[x][c] * g, 0.0f), 1.0f);
+    }
+  }
+  return out;
+}
+
+}  // namespace turbid

@@ -1,0 +1,262 @@
+#include "enhancer/deconvolution.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+void CheckPsf(const cv::Mat& psf) {
+  if (psf.empty() || psf.type() != CV_32FC1 || psf.rows % 2 == 0 || psf.cols % 2 == 0) {
+    throw Error("deconvolution: PSF must be a non-empty odd-sized float32 one-channel kernel");
+  }
+  if (!cv::checkRange(psf)) throw Error("deconvolution: PSF has non-finite values");
+  const double s = cv::sum(psf)[0];
+  if (!(s > 1e-6)) throw Error("deconvolution: PSF must have a positive sum");
+}
+
+// Optical transfer function of `psf` on a rows x cols grid (kernel centre at the origin).
+cv::Mat Otf(const cv::Mat& psf, int rows, int cols) {
+  cv::Mat grid(rows, cols, CV_32F, cv::Scalar(0));
+  const int ry = psf.rows / 2, rx = psf.cols / 2;
+  const double norm = 1.0 / cv::sum(psf)[0];
+  for (int y = 0; y < psf.rows; ++y) {
+    for (int x = 0; x < psf.cols; ++x) {
+      const int gy = ((y - ry) % rows + rows) % rows;
+      const int gx = ((x - rx) % cols + cols) % cols;
+      grid.at<float>(gy, gx) += static_cast<float>(psf.at<float>(y, x) * norm);
+    }
+  }
+  cv::Mat otf;
+  cv::dft(grid, otf, cv::DFT_COMPLEX_OUTPUT);
+  return otf;
+}
+
+// Raised-cosine weights: 0 at the frame, 1 beyond `ramp` pixels from it.
+std::vector<float> Ramp(int n, int ramp) {
+  std::vector<float> w(n, 1.0f);
+  for (int i = 0; i < n; ++i) {
+    const int d = std::min(i, n - 1 - i);
+    if (d < ramp) w[i] = static_cast<float>(0.5 - 0.5 * std::cos(CV_PI * d / ramp));
+  }
+  return w;
+}
+
+cv::Mat CircularConvolve(const cv::Mat& image, const cv::Mat& otf) {
+  cv::Mat f, out;
+  cv::dft(image, f, cv::DFT_COMPLEX_OUTPUT);
+  cv::mulSpectrums(f, otf, f, 0);
+  cv::dft(f, out, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
+  return out;
+}
+
+struct Frame {
+  cv::Mat padded;  // mirrored and tapered, optimal DFT size
+  cv::Rect roi;    // the image inside it
+  cv::Mat otf;
+};
+
+Frame MakeFrame(const cv::Mat& plane, const cv::Mat& psf, bool taper) {
+  Frame f;
+  const int margin = taper ? std::max(psf.rows, psf.cols) + 2 : 0;
+  const int rows = cv::getOptimalDFTSize(plane.rows + 2 * margin);
+  const int cols = cv::getOptimalDFTSize(plane.cols + 2 * margin);
+  const int top = (rows - plane.rows) / 2, left = (cols - plane.cols) / 2;
+  cv::copyMakeBorder(plane, f.padded, top, rows - plane.rows - top, left,
+                     cols - plane.cols - left, cv::BORDER_REFLECT_101);
+  f.roi = cv::Rect(left, top, plane.cols, plane.rows);
+  f.otf = Otf(psf, rows, cols);
+  if (taper && margin > 0) {
+    const cv::Mat blurred = CircularConvolve(f.padded, f.otf);
+    const int ramp_y = std::max(1, std::min(top, psf.rows + 1));
+    const int ramp_x = std::max(1, std::min(left, psf.cols + 1));
+    const std::vector<float> wy = Ramp(rows, ramp_y), wx = Ramp(cols, ramp_x);
+    for (int y = 0; y < rows; ++y) {
+      float* p = f.padded.ptr<float>(y);
+      const float* b = blurred.ptr<float>(y);
+      for (int x = 0; x < cols; ++x) {
+        const float w = wy[y] * wx[x];
+        p[x] = w * p[x] + (1.0f - w) * b[x];
+      }
+    }
+  }
+  return f;
+}
+
+cv::Mat WienerFft(const cv::Mat& plane, const cv::Mat& psf, double nsr, bool taper) {
+  Frame f = MakeFrame(plane, psf, taper);
+  cv::Mat g;
+  cv::dft(f.padded, g, cv::DFT_COMPLEX_OUTPUT);
+  cv::Mat filt(f.otf.size(), CV_32FC2);
+  for (int y = 0; y < filt.rows; ++y) {
+    const cv::Vec2f* h = f.otf.ptr<cv::Vec2f>(y);
+    cv::Vec2f* w = filt.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < filt.cols; ++x) {
+      const float p = h[x][0] * h[x][0] + h[x][1] * h[x][1];
+      const float d = 1.0f / (p + static_cast<float>(nsr));
+      w[x] = cv::Vec2f(h[x][0] * d, -h[x][1] * d);
+    }
+  }
+  cv::mulSpectrums(g, filt, g, 0);
+  cv::Mat out;
+  cv::dft(g, out, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
+  return out(f.roi).clone();
+}
+
+cv::Mat RichardsonLucy(const cv::Mat& plane, const cv::Mat& psf, int iterations, bool taper) {
+  Frame f = MakeFrame(plane, psf, taper);
+  cv::Mat g = cv::max(f.padded, 0.0);
+  cv::Mat u = g.clone();
+  cv::Mat otf_conj = f.otf.clone();  // the PSF is flipped for the correction step
+  for (int y = 0; y < otf_conj.rows; ++y) {
+    cv::Vec2f* h = otf_conj.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < otf_conj.cols; ++x) h[x][1] = -h[x][1];
+  }
+  constexpr float kFloor = 1e-6f;
+  for (int it = 0; it < iterations; ++it) {
+    cv::Mat est = CircularConvolve(u, f.otf);
+    cv::Mat ratio(est.size(), CV_32F);
+    for (int y = 0; y < est.rows; ++y) {
+      const float* e = est.ptr<float>(y);
+      const float* gg = g.ptr<float>(y);
+      float* r = ratio.ptr<float>(y);
+      for (int x = 0; x < est.cols; ++x) r[x] = gg[x] / std::max(e[x], kFloor);
+    }
+    cv::Mat corr = CircularConvolve(ratio, otf_conj);
+    u = u.mul(cv::max(corr, 0.0));
+  }
+  return u(f.roi).clone();
+}
+
+// Applies a 2-D kernel as a sum of separable passes from its SVD (terms until the captured energy
+// reaches 1 - 1e-7), mirrored borders.
+cv::Mat ApplySeparable(const cv::Mat& plane, const cv::Mat& kernel) {
+  cv::Mat k64;
+  kernel.convertTo(k64, CV_64F);
+  cv::SVD svd(k64, cv::SVD::FULL_UV);
+  const double total = cv::sum(svd.w.mul(svd.w))[0];
+  double captured = 0.0;
+  cv::Mat out(plane.size(), CV_32F, cv::Scalar(0));
+  for (int i = 0; i < svd.w.rows; ++i) {
+    const double s = svd.w.at<double>(i);
+    captured += s * s;
+    cv::Mat col = svd.u.col(i) * std::sqrt(s), row = svd.vt.row(i).t() * std::sqrt(s);
+    cv::Mat col32, row32, part;
+    col.convertTo(col32, CV_32F);
+    row.convertTo(row32, CV_32F);
+    cv::sepFilter2D(plane, part, CV_32F, row32, col32, cv::Point(-1, -1), 0,
+                    cv::BORDER_REFLECT_101);
+    out += part;
+    if (captured >= (1.0 - 1e-7) * total) break;
+  }
+  return out;
+}
+
+}  // namespace
+
+DeconvolutionMethod DeconvolutionMethodFromName(const std::string& name) {
+  if (name == "wiener") return DeconvolutionMethod::kWiener;
+  if (name == "richardson_lucy") return DeconvolutionMethod::kRichardsonLucy;
+  throw Error("deconvolution: unknown method '" + name + "' (expected wiener or richardson_lucy)");
+}
+
+std::string DeconvolutionMethodName(DeconvolutionMethod method) {
+  return method == DeconvolutionMethod::kWiener ? "wiener" : "richardson_lucy";
+}
+
+bool DeconvolutionOptions::Check(std::string* why) const {
+  if (!std::isfinite(nsr) || nsr < 1e-8 || nsr > 10.0) {
+    *why = "nsr must be in [1e-8, 10], got " + std::to_string(nsr);
+    return false;
+  }
+  if (iterations < 1 || iterations > 1000) {
+    *why = "iterations must be in [1, 1000], got " + std::to_string(iterations);
+    return false;
+  }
+  if (spatial_max_radius < 0 || spatial_max_radius > 64) {
+    *why = "spatial_max_radius must be in [0, 64], got " + std::to_string(spatial_max_radius);
+    return false;
+  }
+  return true;
+}
+
+cv::Mat WienerInverseKernel(const cv::Mat& psf, double nsr) {
+  CheckPsf(psf);
+  int n = 64;
+  while (n < 8 * std::max(psf.rows, psf.cols)) n *= 2;
+  const cv::Mat otf = Otf(psf, n, n);
+  cv::Mat filt(n, n, CV_32FC2);
+  for (int y = 0; y < n; ++y) {
+    const cv::Vec2f* h = otf.ptr<cv::Vec2f>(y);
+    cv::Vec2f* w = filt.ptr<cv::Vec2f>(y);
+    for (int x = 0; x < n; ++x) {
+      const double p = h[x][0] * h[x][0] + h[x][1] * h[x][1];
+      w[x] = cv::Vec2f(static_cast<float>(h[x][0] / (p + nsr)),
+                       static_cast<float>(-h[x][1] / (p + nsr)));
+    }
+  }
+  cv::Mat spatial;
+  cv::dft(filt, spatial, cv::DFT_INVERSE | cv::DFT_SCALE | cv::DFT_REAL_OUTPUT);
+  // Radius where the filter has decayed below 1e-4 of its peak (square support).
+  double peak = 0;
+  cv::minMaxLoc(cv::abs(spatial), nullptr, &peak);
+  int radius = 0;
+  for (int y = 0; y < n; ++y) {
+    for (int x = 0; x < n; ++x) {
+      if (std::fabs(spatial.at<float>(y, x)) < 1e-4 * peak) continue;
+      const int dy = std::min(y, n - y), dx = std::min(x, n - x);
+      radius = std::max(radius, std::max(dy, dx));
+    }
+  }
+  radius = std::min(radius, n / 2 - 1);
+  cv::Mat k(2 * radius + 1, 2 * radius + 1, CV_32F);
+  for (int y = -radius; y <= radius; ++y) {
+    for (int x = -radius; x <= radius; ++x) {
+      k.at<float>(y + radius, x + radius) = spatial.at<float>((y + n) % n, (x + n) % n);
+    }
+  }
+  return k;
+}
+
+cv::Mat ConvolveMirrored(const cv::Mat& image, const cv::Mat& psf) {
+  CheckPsf(psf);
+  cv::Mat out;
+  cv::filter2D(image, out, CV_32F, psf / cv::sum(psf)[0], cv::Point(-1, -1), 0,
+               cv::BORDER_REFLECT_101);
+  return out;
+}
+
+cv::Mat Deconvolve(const DeconvolutionOptions& options, const cv::Mat& image, const cv::Mat& psf) {
+  ThrowIfInvalid(options, "deconvolution");
+  if (image.empty() || image.depth() != CV_32F) {
+    throw Error("deconvolution: expected a non-empty float32 image");
+  }
+  CheckPsf(psf);
+  if (psf.rows == 1 && psf.cols == 1) return image.clone();
+  std::vector<cv::Mat> planes;
+  cv::split(image, planes);
+  cv::Mat inverse;
+  if (options.method == DeconvolutionMethod::kWiener && options.spatial_max_radius > 0) {
+    inverse = WienerInverseKernel(psf, options.nsr);
+    if (inverse.rows / 2 > options.spatial_max_radius) inverse.release();
+  }
+  for (cv::Mat& p : planes) {
+    if (!inverse.empty()) {
+      p = ApplySeparable(p, inverse);
+    } else if (options.method == DeconvolutionMethod::kWiener) {
+      p = WienerFft(p, psf, options.nsr, options.taper);
+    } else {
+      p = RichardsonLucy(p, psf, options.iterations, options.taper);
+    }
+  }
+  cv::Mat out;
+  cv::merge(planes, out);
+  return out;
+}
+
+}  // namespace turbid

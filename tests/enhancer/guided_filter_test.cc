@@ -1,0 +1,163 @@
+#include "enhancer/guided_filter.h"
+
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/ximgproc.hpp>
+
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+cv::Mat RandomImage(int rows, int cols, int channels, uint64_t seed) {
+  cv::RNG rng(seed);
+  cv::Mat m(rows, cols, CV_32FC(channels));
+  rng.fill(m, cv::RNG::UNIFORM, 0.0, 1.0);
+  // Some structure (edges and smooth areas) besides noise.
+  cv::Mat smooth;
+  cv::GaussianBlur(m, smooth, cv::Size(0, 0), 3.0);
+  cv::Mat blocks(rows, cols, CV_32FC(channels), cv::Scalar::all(0.2));
+  blocks(cv::Rect(cols / 4, rows / 4, cols / 2, rows / 2)).setTo(cv::Scalar::all(0.8));
+  return 0.3 * m + 0.4 * smooth + 0.3 * blocks;
+}
+
+// Max |a - b| over pixels at least `margin` from every border.
+double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int margin) {
+  const cv::Rect roi(margin, margin, a.cols - 2 * margin, a.rows - 2 * margin);
+  cv::Mat d;
+  cv::absdiff(a(roi), b(roi), d);
+  double mx = 0;
+  cv::minMaxLoc(d.reshape(1), nullptr, &mx);
+  return mx;
+}
+
+TEST(GuidedFilter, DefaultsPassCheck) {
+  std::string why;
+  EXPECT_TRUE(GuidedFilterOptions{}.Check(&why)) << why;
+  GuidedFilterOptions bad;
+  bad.eps = 0;
+  EXPECT_FALSE(bad.Check(&why));
+  bad = {};
+  bad.radius = -1;
+  EXPECT_FALSE(bad.Check(&why));
+  bad = {};
+  bad.subsample = 0;
+  EXPECT_FALSE(bad.Check(&why));
+}
+
+struct Case {
+  int radius;
+  double eps;
+};
+
+class GuidedVsOpenCv : public ::testing::TestWithParam<Case> {};
+
+TEST_P(GuidedVsOpenCv, GrayGuideMatchesXimgprocAwayFromBorder) {
+  const Case c = GetParam();
+  const cv::Mat guide = RandomImage(120, 160, 1, 1);
+  const cv::Mat src = RandomImage(120, 160, 1, 2);
+  GuidedFilterOptions o;
+  o.radius = c.radius;
+  o.eps = c.eps;
+  cv::Mat ours = GuidedFilter(o, guide, src), ref;
+  cv::ximgproc::guidedFilter(guide, src, ref, c.radius, c.eps, CV_32F);
+  EXPECT_LE(InteriorMaxDiff(ours, ref, 2 * c.radius), 1e-4);
+  // Self-guided (the fused two-sum path).
+  cv::Mat self = GuidedFilter(o, guide, guide), self_ref;
+  cv::ximgproc::guidedFilter(guide, guide, self_ref, c.radius, c.eps, CV_32F);
+  EXPECT_LE(InteriorMaxDiff(self, self_ref, 2 * c.radius), 1e-4);
+}
+
+TEST_P(GuidedVsOpenCv, ColorGuideMatchesXimgprocAwayFromBorder) {
+  const Case c = GetParam();
+  const cv::Mat guide = RandomImage(90, 110, 3, 3);
+  const cv::Mat src = RandomImage(90, 110, 3, 4);
+  GuidedFilterOptions o;
+  o.radius = c.radius;
+  o.eps = c.eps;
+  cv::Mat ours = GuidedFilter(o, guide, src), ref;
+  cv::ximgproc::guidedFilter(guide, src, ref, c.radius, c.eps, CV_32F);
+  ASSERT_EQ(ours.type(), CV_32FC3);
+  EXPECT_LE(InteriorMaxDiff(ours, ref, 2 * c.radius), 1e-4);
+}
+
+INSTANTIATE_TEST_SUITE_P(Radii, GuidedVsOpenCv,
+                         ::testing::Values(Case{1, 1e-2}, Case{2, 1e-2}, Case{4, 1e-2},
+                                           Case{8, 0.16}, Case{4, 1e-4}, Case{15, 1e-3}));
+
+TEST(GuidedFilter, BoxMeanMatchesOpenCvInteriorAndClippedAtBorder) {
+  const cv::Mat src = RandomImage(50, 70, 2, 5);
+  const int r = 3;
+  cv::Mat ours = BoxMean(src, r), ref;
+  cv::blur(src, ref, cv::Size(2 * r + 1, 2 * r + 1));
+  EXPECT_LE(InteriorMaxDiff(ours, ref, r), 1e-6);
+  // Corner: the mean of the clipped (r+1)x(r+1) window.
+  cv::Scalar corner = cv::mean(src(cv::Rect(0, 0, r + 1, r + 1)));
+  EXPECT_NEAR(ours.at<cv::Vec2f>(0, 0)[0], corner[0], 1e-6);
+  EXPECT_NEAR(ours.at<cv::Vec2f>(0, 0)[1], corner[1], 1e-6);
+}
+
+TEST(GuidedFilter, ConstantImageIsFixedPointAndHugeRadiusIsFinite) {
+  cv::Mat c(7, 5, CV_32F, cv::Scalar(0.3));
+  GuidedFilterOptions o;
+  o.radius = 100;  // larger than the image: clipped window
+  cv::Mat q = GuidedFilter(o, c, c);
+  double lo, hi;
+  cv::minMaxLoc(q, &lo, &hi);
+  EXPECT_NEAR(lo, 0.3, 1e-6);
+  EXPECT_NEAR(hi, 0.3, 1e-6);
+  cv::Mat one(1, 1, CV_32F, cv::Scalar(0.7));
+  EXPECT_NEAR(GuidedFilter(o, one, one).at<float>(0, 0), 0.7f, 1e-6);
+}
+
+TEST(GuidedFilter, EdgePreservedAndNoiseSmoothed) {
+  // A step plus small noise: the guided filter keeps the step (variance >> eps) and removes the
+  // noise (variance << eps).
+  cv::Mat step(64, 64, CV_32F, cv::Scalar(0.2));
+  step.colRange(32, 64).setTo(0.8);
+  cv::Mat noise(64, 64, CV_32F);
+  cv::RNG(7).fill(noise, cv::RNG::NORMAL, 0.0, 0.01);
+  cv::Mat noisy = step + noise;
+  GuidedFilterOptions o;  // r 4, eps 0.01
+  cv::Mat q = GuidedFilter(o, noisy, noisy);
+  EXPECT_NEAR(q.at<float>(32, 29), 0.2, 0.03);
+  EXPECT_NEAR(q.at<float>(32, 34), 0.8, 0.03);
+  cv::Scalar mean_in, sd_in, mean_out, sd_out;
+  cv::meanStdDev((noisy - step)(cv::Rect(5, 5, 20, 50)), mean_in, sd_in);
+  cv::meanStdDev((q - step)(cv::Rect(5, 5, 20, 50)), mean_out, sd_out);
+  EXPECT_LT(sd_out[0], 0.5 * sd_in[0]);
+}
+
+TEST(GuidedFilter, FastVariantCloseToExact) {
+  const cv::Mat guide = RandomImage(128, 128, 1, 9);
+  GuidedFilterOptions exact;
+  exact.radius = 8;
+  exact.eps = 0.04;
+  GuidedFilterOptions fast = exact;
+  fast.subsample = 2;
+  cv::Mat a = GuidedFilter(exact, guide, guide);
+  cv::Mat b = GuidedFilter(fast, guide, guide);
+  cv::Mat d;
+  cv::absdiff(a, b, d);
+  EXPECT_LT(cv::mean(d)[0], 0.01);
+  // Colour guide, fast variant too.
+  const cv::Mat color = RandomImage(64, 64, 3, 10);
+  cv::Mat g;
+  cv::cvtColor(color, g, cv::COLOR_BGR2GRAY);
+  cv::Mat qa = GuidedFilter(exact, color, g), qb = GuidedFilter(fast, color, g);
+  cv::absdiff(qa, qb, d);
+  EXPECT_LT(cv::mean(d)[0], 0.01);
+}
+
+TEST(GuidedFilter, BadInputsThrow) {
+  GuidedFilterOptions o;
+  cv::Mat a(4, 4, CV_32F, cv::Scalar(0)), b(5, 4, CV_32F, cv::Scalar(0));
+  EXPECT_THROW(GuidedFilter(o, a, b), Error);
+  EXPECT_THROW(GuidedFilter(o, cv::Mat(), a), Error);
+  EXPECT_THROW(GuidedFilter(o, cv::Mat(4, 4, CV_8U), a), Error);
+  o.eps = -1;
+  EXPECT_THROW(GuidedFilter(o, a, a), Error);
+}
+
+}  // namespace
+}  // namespace turbid
