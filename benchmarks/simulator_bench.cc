@@ -45,7 +45,8 @@ RenderOptions Make(Variant v) {
   if (v == kNoPsf || v == kBare) o.psf.enabled = false;
   if (v == kNoNoise || v == kBare) o.snow.enabled = false, o.sensor.enabled = false;
   if (v == kNoLight || v == kBare) o.light.lights.clear();
-  if (v == kZeroBeta || v == kBare) o.water = WaterOptions{}, o.water.beta_rgb_per_m = {0, 0, 0}, o.water.beta_gray_per_m = 0;
+  if (v == kZeroBeta || v == kBare)
+    o.water = WaterOptions{}, o.water.beta_rgb_per_m = {0, 0, 0}, o.water.beta_gray_per_m = 0;
   return o;
 }
 
@@ -110,8 +111,8 @@ void BM_PsfPeerGaussianBlur(benchmark::State& state) {
   const cv::Mat image = ColorImage();
   cv::Mat out;
   for (auto _ : state) {
-    cv::GaussianBlur(image, out, cv::Size(2 * psf.radius_px + 1, 2 * psf.radius_px + 1), psf.sigma_px,
-                     psf.sigma_px, cv::BORDER_REFLECT_101);
+    cv::GaussianBlur(image, out, cv::Size(2 * psf.radius_px + 1, 2 * psf.radius_px + 1),
+                     psf.sigma_px, psf.sigma_px, cv::BORDER_REFLECT_101);
     benchmark::DoNotOptimize(out.data);
   }
 }
@@ -139,10 +140,16 @@ void BM_PsfOursNonGaussian(benchmark::State& state) {
   state.counters["radius_px"] = psf.radius_px;
 }
 
-#define VARIANTS(B)                                                                                    \
-  B->ArgNames({"color", "variant"})                                                                    \
-      ->Args({1, kFull})->Args({0, kFull})->Args({1, kNoPsf})->Args({1, kNoNoise})                     \
-      ->Args({1, kNoLight})->Args({1, kZeroBeta})->Args({1, kBare})->Args({0, kBare})                  \
+#define VARIANTS(B)                 \
+  B->ArgNames({"color", "variant"}) \
+      ->Args({1, kFull})            \
+      ->Args({0, kFull})            \
+      ->Args({1, kNoPsf})           \
+      ->Args({1, kNoNoise})         \
+      ->Args({1, kNoLight})         \
+      ->Args({1, kZeroBeta})        \
+      ->Args({1, kBare})            \
+      ->Args({0, kBare})            \
       ->Unit(benchmark::kMillisecond)
 
 VARIANTS(BENCHMARK(BM_RenderOneShot));

@@ -17,7 +17,7 @@ struct LightConstants {
   cv::Vec3d position;
   cv::Vec3d axis;  // unit
   double power = 0.0;
-  double order = 1.0;  // m
+  double order = 1.0;      // m
   int integer_order = -1;  // m when it is a small integer (cheap power), else -1
 };
 
@@ -49,14 +49,16 @@ bool LightOptions::Check(std::string* why) const {
     return fail("position_in_camera_m: each coordinate must be finite, |x| <= 100 m");
   if (!Finite3(axis_in_camera) || cv::norm(axis_in_camera) < 1e-9)
     return fail("axis_in_camera: must be a finite non-zero vector");
-  if (!std::isfinite(power) || power < 0.0 || power > 1e6) return fail("power: must be in [0, 1e6]");
+  if (!std::isfinite(power) || power < 0.0 || power > 1e6)
+    return fail("power: must be in [0, 1e6]");
   if (!std::isfinite(half_power_angle_deg) || half_power_angle_deg <= 0.0 ||
       half_power_angle_deg >= 90.0)
     return fail("half_power_angle_deg: must be in (0, 90) degrees");
   // Below ~0.5 deg the order m exceeds 1e5: cos^m underflows everywhere but on the axis.
   if (half_power_angle_deg < 0.5) return fail("half_power_angle_deg: must be at least 0.5 degrees");
   for (double c : color_rgb)
-    if (!std::isfinite(c) || c < 0.0 || c > 10.0) return fail("color_rgb: each value must be in [0, 10]");
+    if (!std::isfinite(c) || c < 0.0 || c > 10.0)
+      return fail("color_rgb: each value must be in [0, 10]");
   return true;
 }
 
@@ -148,10 +150,11 @@ LightGeometry ComputeLightGeometry(const IrradianceOptions& options, const Camer
         const float l = std::max(l_true, min_l);
         const float inv = l_true > 1e-12f ? 1.0f / l_true : 0.0f;
         // Coincident light and point: treat as head-on (cos phi = cos psi = 1).
-        float cphi = l_true > 1e-12f
-                         ? (static_cast<float>(k.axis[0]) * vx + static_cast<float>(k.axis[1]) * vy +
-                            static_cast<float>(k.axis[2]) * vz) * inv
-                         : 1.0f;
+        float cphi = l_true > 1e-12f ? (static_cast<float>(k.axis[0]) * vx +
+                                        static_cast<float>(k.axis[1]) * vy +
+                                        static_cast<float>(k.axis[2]) * vz) *
+                                           inv
+                                     : 1.0f;
         float nx = n[x][0], ny = n[x][1], nz = n[x][2];
         if (std::isnan(nx) || std::isnan(ny) || std::isnan(nz)) {
           const float rl = 1.0f / std::sqrt(rx * rx + ry * ry + 1.0f);
@@ -170,7 +173,8 @@ LightGeometry ComputeLightGeometry(const IrradianceOptions& options, const Camer
         l_out[x] = valid ? l : std::nanf("");
         g_out[x] = valid ? static_cast<float>(k.power) * incidence / (l * l) : 0.0f;
       }
-      // cos^m(phi): small integer orders by multiplication, otherwise exp(m log cos phi) on the row.
+      // cos^m(phi): small integer orders by multiplication, otherwise exp(m log cos phi) on the
+      // row.
       if (k.integer_order >= 0) {
         for (int x = 0; x < w; ++x) {
           float p = 1.0f;

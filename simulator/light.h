@@ -13,7 +13,6 @@
 #pragma once
 
 #include <opencv2/core.hpp>
-
 #include <optional>
 #include <string>
 #include <vector>
@@ -74,7 +73,7 @@ cv::Mat NormalsFromDepth(const CameraIntrinsics& camera, const cv::Mat& depth_m)
 // geometric factor U0 cos^m(phi) f(psi) / l^2. Computed once per scene and reused across beta.
 struct LightGeometry {
   std::vector<cv::Mat> distance_m;  // per light, CV_32FC1; NaN where depth is invalid
-  std::vector<cv::Mat> geometry;    // per light, CV_32FC1, >= 0 and finite; 0 where depth is invalid
+  std::vector<cv::Mat> geometry;  // per light, CV_32FC1, >= 0 and finite; 0 where depth is invalid
 };
 // normals: CV_32FC3 unit normals or empty (then NormalsFromDepth). A NaN normal falls back to the
 // normal facing the camera along the viewing ray. Throws Error when options fail Check.

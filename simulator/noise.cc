@@ -1,10 +1,9 @@
 #include "simulator/noise.h"
 
-#include <opencv2/core.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <opencv2/core.hpp>
 
 #include "scenes/error.h"
 
@@ -19,7 +18,6 @@ inline uint64_t Mix64(uint64_t z) {
   return z ^ (z >> 31);
 }
 
-
 bool InRange(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
 
 constexpr uint64_t kSnowStream = 1;
@@ -27,7 +25,9 @@ constexpr uint64_t kSensorStream = 2;
 
 }  // namespace
 
-uint64_t RandomKey(uint64_t seed, uint64_t stream) { return Mix64(Mix64(seed) ^ (stream * kGolden + 1)); }
+uint64_t RandomKey(uint64_t seed, uint64_t stream) {
+  return Mix64(Mix64(seed) ^ (stream * kGolden + 1));
+}
 
 uint64_t RandomBits(uint64_t key, uint64_t index) { return Mix64(key + (index + 1) * kGolden); }
 
@@ -60,7 +60,8 @@ inline float FastLog(float x) {
   m *= 1.0f - 0.5f * static_cast<float>(big);
   e += big;
   const float s = (m - 1.0f) / (m + 1.0f), s2 = s * s;
-  const float series = s * (2.0f + s2 * (0.6666666667f + s2 * (0.4f + s2 * (0.2857142857f + s2 * 0.2222222222f))));
+  const float series =
+      s * (2.0f + s2 * (0.6666666667f + s2 * (0.4f + s2 * (0.2857142857f + s2 * 0.2222222222f))));
   return series + static_cast<float>(e) * 0.69314718056f;
 }
 
@@ -71,7 +72,9 @@ inline void FastSinCos2Pi(float u, float* sin_out, float* cos_out) {
   const int q = static_cast<int>(quarters + 0.5f);  // nearest quarter turn, 0..4
   const float theta = (quarters - static_cast<float>(q)) * 1.5707963268f;
   const float t2 = theta * theta;
-  const float s = theta * (1.0f + t2 * (-1.0f / 6 + t2 * (1.0f / 120 + t2 * (-1.0f / 5040 + t2 * (1.0f / 362880)))));
+  const float s =
+      theta *
+      (1.0f + t2 * (-1.0f / 6 + t2 * (1.0f / 120 + t2 * (-1.0f / 5040 + t2 * (1.0f / 362880)))));
   const float c = 1.0f + t2 * (-0.5f + t2 * (1.0f / 24 + t2 * (-1.0f / 720 + t2 * (1.0f / 40320))));
   // Rotation by q * 90 degrees, branch-free: odd quadrants swap sin and cos; the signs follow.
   const float swap = static_cast<float>(q & 1);
@@ -92,8 +95,10 @@ void NormalPairs(uint32_t low0, uint32_t high, uint32_t k1, uint32_t k2, int n, 
   for (int j = 0; j < n; ++j) {
     const uint32_t a = Hash32((low0 + static_cast<uint32_t>(j)) ^ k1) ^ high;
     const uint32_t b1 = Hash32(a ^ k2), b2 = Hash32((a + 0x9e3779b9U) ^ k2);
-    const float u1 = (static_cast<float>(static_cast<int>(b1 >> 8)) + 1.0f) * (1.0f / 16777216.0f);  // (0, 1]
-    const float u2 = static_cast<float>(static_cast<int>(b2 >> 8)) * (1.0f / 16777216.0f);  // [0, 1)
+    const float u1 =
+        (static_cast<float>(static_cast<int>(b1 >> 8)) + 1.0f) * (1.0f / 16777216.0f);  // (0, 1]
+    const float u2 =
+        static_cast<float>(static_cast<int>(b2 >> 8)) * (1.0f / 16777216.0f);  // [0, 1)
     const float radius = std::sqrt(-2.0f * FastLog(u1));
     float s, c;
     FastSinCos2Pi(u2, &s, &c);
@@ -140,7 +145,8 @@ bool SnowOptions::Check(std::string* why) const {
   if (!InRange(near_m, 0.0, far_m) || near_m <= 0.0 || near_m >= far_m)
     return fail("near_m: must be in (0, far_m) m");
   if (!InRange(size_min_m, 1e-5, 0.1)) return fail("size_min_m: must be in [1e-5, 0.1] m");
-  if (!InRange(size_max_m, size_min_m, 0.1)) return fail("size_max_m: must be in [size_min_m, 0.1] m");
+  if (!InRange(size_max_m, size_min_m, 0.1))
+    return fail("size_max_m: must be in [size_min_m, 0.1] m");
   if (!InRange(albedo_min, 0.0, 1.0)) return fail("albedo_min: must be in [0, 1]");
   if (!InRange(albedo_max, albedo_min, 1.0)) return fail("albedo_max: must be in [albedo_min, 1]");
   if (!InRange(blur_px, 0.3, 50.0)) return fail("blur_px: must be in [0.3, 50] pixels");
@@ -168,7 +174,8 @@ MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions&
   snow.particles = static_cast<int>(std::llround(expected));
   const uint64_t key = RandomKey(seed, kSnowStream);
   const double near3 = std::pow(options.near_m, 3), far3 = std::pow(options.far_m, 3);
-  const double log_size_min = std::log(options.size_min_m), log_size_max = std::log(options.size_max_m);
+  const double log_size_min = std::log(options.size_min_m),
+               log_size_max = std::log(options.size_max_m);
   const double focal = std::sqrt(std::abs(camera.fx * camera.fy));
   for (int i = 0; i < snow.particles; ++i) {
     const uint64_t base = static_cast<uint64_t>(i) * 8;
@@ -177,8 +184,8 @@ MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions&
     const double z = std::cbrt(near3 + RandomUniform(key, base + 2) * (far3 - near3));
     const double diameter =
         std::exp(log_size_min + RandomUniform(key, base + 3) * (log_size_max - log_size_min));
-    const double albedo =
-        options.albedo_min + RandomUniform(key, base + 4) * (options.albedo_max - options.albedo_min);
+    const double albedo = options.albedo_min +
+                          RandomUniform(key, base + 4) * (options.albedo_max - options.albedo_min);
     const cv::Vec3d point = camera.BackProject(u, v, z);
     const double range = cv::norm(point);
     const int px = std::clamp(static_cast<int>(std::lround(u)), 0, w - 1);
@@ -203,7 +210,8 @@ MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions&
     // The Gaussian is separable: one exp per column and per row of the footprint.
     const double inv = -0.5 / sigma2;
     std::vector<float> gx(x1 - x0 + 1);
-    for (int x = x0; x <= x1; ++x) gx[x - x0] = static_cast<float>(std::exp((x - u) * (x - u) * inv));
+    for (int x = x0; x <= x1; ++x)
+      gx[x - x0] = static_cast<float>(std::exp((x - u) * (x - u) * inv));
     for (int y = y0; y <= y1; ++y) {
       float* row = snow.layer.ptr<float>(y);
       const float gy = static_cast<float>(std::exp((y - v) * (y - v) * inv));
@@ -229,14 +237,16 @@ void AddSensorNoiseInPlace(const SensorNoiseOptions& options, cv::Mat& image, ui
   CV_Assert(image.depth() == CV_32F);
   const uint64_t key = RandomKey(seed, kSensorStream);
   const int per_row = image.cols * image.channels();
-  const float shot = options.photons_at_white > 0.0 ? static_cast<float>(1.0 / options.photons_at_white) : 0.0f;
+  const float shot =
+      options.photons_at_white > 0.0 ? static_cast<float>(1.0 / options.photons_at_white) : 0.0f;
   const float read2 = static_cast<float>(options.read_noise * options.read_noise);
   cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
     std::vector<float> normals(per_row);
     for (int y = rows.start; y < rows.end; ++y) {
       RandomNormals(key, static_cast<uint64_t>(y) * per_row, per_row, normals.data());
       float* p = image.ptr<float>(y);
-      for (int i = 0; i < per_row; ++i) p[i] += normals[i] * std::sqrt(std::max(p[i], 0.0f) * shot + read2);
+      for (int i = 0; i < per_row; ++i)
+        p[i] += normals[i] * std::sqrt(std::max(p[i], 0.0f) * shot + read2);
     }
   });
 }

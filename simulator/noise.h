@@ -5,9 +5,8 @@
 // index), so the bytes do not depend on the thread count or the order of evaluation.
 #pragma once
 
-#include <opencv2/core.hpp>
-
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -18,9 +17,9 @@ namespace turbid {
 
 // Counter-based random numbers (SplitMix64 finalizer as the mixing function; Steele et al.,
 // "Fast splittable pseudorandom number generators", OOPSLA 2014).
-uint64_t RandomKey(uint64_t seed, uint64_t stream);        // key of one independent stream
-uint64_t RandomBits(uint64_t key, uint64_t index);         // 64 random bits for (key, index)
-double RandomUniform(uint64_t key, uint64_t index);        // in (0, 1), 53-bit resolution
+uint64_t RandomKey(uint64_t seed, uint64_t stream);  // key of one independent stream
+uint64_t RandomBits(uint64_t key, uint64_t index);   // 64 random bits for (key, index)
+double RandomUniform(uint64_t key, uint64_t index);  // in (0, 1), 53-bit resolution
 // Standard normal samples for indices first .. first + count - 1: Box-Muller on pairs of 24-bit
 // uniforms from 32-bit integer hashes of (key, pair), with float log and sin/cos polynomials
 // (error < 1e-6); tails reach 5.77 sigma. Sample i depends only on (key, i).
@@ -30,8 +29,8 @@ struct SnowOptions {
   bool enabled = true;  // false: no marine snow
   // Particles per cubic metre of the viewing frustum between near_m and far_m, in [0, 1e5].
   double density_per_m3 = 20.0;
-  double near_m = 0.2;   // nearest particle distance (z), metres, in (0, far_m)
-  double far_m = 4.0;    // farthest particle distance (z), metres, in (near_m, 1000]
+  double near_m = 0.2;  // nearest particle distance (z), metres, in (0, far_m)
+  double far_m = 4.0;   // farthest particle distance (z), metres, in (near_m, 1000]
   // Particle diameter, metres, log-uniform in [size_min_m, size_max_m], 1e-5 .. 0.1. Marine snow is
   // by definition > 0.5 mm (Alldredge & Silver 1988); 0.5-5 mm by default.
   double size_min_m = 0.0005;
@@ -47,16 +46,16 @@ struct SnowOptions {
 };
 
 struct MarineSnow {
-  cv::Mat layer;       // CV_32FC(channels): additive radiance of the particles, >= 0
-  int particles = 0;   // particles drawn in the frustum
-  int visible = 0;     // particles in front of the scene surface and inside the image
+  cv::Mat layer;      // CV_32FC(channels): additive radiance of the particles, >= 0
+  int particles = 0;  // particles drawn in the frustum
+  int visible = 0;    // particles in front of the scene surface and inside the image
 };
 
 // Draws round(density * frustum volume) particles from (seed, snow stream): image position uniform,
-// z with uniform volume density, size log-uniform, albedo uniform. Each is lit by E_A and the lights
-// (facing them), attenuated by exp(-beta r) towards the camera, hidden behind the scene surface
-// (range_m; NaN range: never hidden), and added (not occluding). beta and ambient in image channel
-// order. Throws Error when more than 1e6 particles would be drawn.
+// z with uniform volume density, size log-uniform, albedo uniform. Each is lit by E_A and the
+// lights (facing them), attenuated by exp(-beta r) towards the camera, hidden behind the scene
+// surface (range_m; NaN range: never hidden), and added (not occluding). beta and ambient in image
+// channel order. Throws Error when more than 1e6 particles would be drawn.
 MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions& lights,
                             const CameraIntrinsics& camera, const cv::Mat& range_m,
                             const std::vector<double>& beta_per_m,

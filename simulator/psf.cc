@@ -1,10 +1,9 @@
 #include "simulator/psf.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "scenes/error.h"
 
@@ -71,7 +70,8 @@ bool PsfOptions::Check(std::string* why) const {
     if (why) *why = message;
     return false;
   };
-  if (!InRange(optical_thickness, 1e-4, 100.0)) return fail("optical_thickness: must be in [1e-4, 100]");
+  if (!InRange(optical_thickness, 1e-4, 100.0))
+    return fail("optical_thickness: must be in [1e-4, 100]");
   if (!InRange(forward_scatter, 1e-6, 1.0)) return fail("forward_scatter: must be in [1e-6, 1]");
   if (!InRange(pixels_per_unit, 1e-9, 1000.0) || pixels_per_unit <= 0.0)
     return fail("pixels_per_unit: must be in (0, 1000]");

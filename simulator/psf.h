@@ -1,8 +1,9 @@
 // Point spread function of multiple forward scattering: the generalized-Gaussian kernel of the
 // paper's eq. 7, after Metari & Deschenes, "A new convolution kernel for atmospheric point spread
 // function applied to computer vision", ICCV 2007:
-//   h(u, v) ∝ exp(-((u^2 + v^2) / A^2)^(p/2)),   A(p, sigma) = sigma * sqrt(Gamma(1/p) / Gamma(3/p)),
-//   p = sqrt(T) (T: optical thickness),          sigma = 0.5 / sqrt(q) (q: forward-scatter parameter).
+//   h(u, v) ∝ exp(-((u^2 + v^2) / A^2)^(p/2)),   A(p, sigma) = sigma * sqrt(Gamma(1/p) /
+//   Gamma(3/p)), p = sqrt(T) (T: optical thickness),          sigma = 0.5 / sqrt(q) (q:
+//   forward-scatter parameter).
 // The paper prints A (not A^2) under the fraction; with A^2 the kernel is dimensionally consistent
 // and at p = 2 is exactly the Gaussian of standard deviation sigma, so we use A^2 (docs/model.md).
 // sigma is in units of `pixels_per_unit` (default 1: sigma in pixels). The normalising constant
@@ -13,14 +14,14 @@
 #pragma once
 
 #include <opencv2/core.hpp>
-
 #include <string>
 
 namespace turbid {
 
 struct PsfOptions {
-  bool enabled = true;             // false: no blur (J * h = J)
-  // Optical thickness T, dimensionless, in [1e-4, 100]. p = sqrt(T). Paper (§III-A.4): T = 4: p = 2.
+  bool enabled = true;  // false: no blur (J * h = J)
+  // Optical thickness T, dimensionless, in [1e-4, 100]. p = sqrt(T). Paper (§III-A.4): T = 4: p
+  // = 2.
   double optical_thickness = 4.0;
   // Forward-scatter parameter q, in [1e-6, 1]. sigma = 0.5 / sqrt(q). Paper: q = 0.9.
   double forward_scatter = 0.9;
@@ -46,15 +47,15 @@ struct PsfOptions {
 
 // A discrete, normalised kernel and how it was obtained.
 struct Psf {
-  cv::Mat kernel;           // CV_32FC1, (2R+1)x(2R+1), sums to 1, radially symmetric
-  cv::Mat kernel_1d;        // CV_32FC1 column (2R+1)x1 when separable (kernel = k1 k1^T), else empty
-  int radius_px = 0;        // R
-  double p = 2.0;           // shape exponent p = sqrt(T)
-  double sigma_px = 0.0;    // sigma in pixels
-  double scale_a_px = 0.0;  // A(p, sigma) in pixels
+  cv::Mat kernel;         // CV_32FC1, (2R+1)x(2R+1), sums to 1, radially symmetric
+  cv::Mat kernel_1d;      // CV_32FC1 column (2R+1)x1 when separable (kernel = k1 k1^T), else empty
+  int radius_px = 0;      // R
+  double p = 2.0;         // shape exponent p = sqrt(T)
+  double sigma_px = 0.0;  // sigma in pixels
+  double scale_a_px = 0.0;         // A(p, sigma) in pixels
   double tail_mass_outside = 0.0;  // continuous mass beyond R (>= tail_mass when capped)
-  bool is_delta = false;    // true: applying it is the identity (skipped)
-  bool separable = false;   // true when p == 2 (Gaussian)
+  bool is_delta = false;           // true: applying it is the identity (skipped)
+  bool separable = false;          // true when p == 2 (Gaussian)
 };
 
 // Builds the kernel for sigma scaled by width_scale (>= 0; 0 gives a delta). Throws Error when

@@ -20,7 +20,8 @@ using nlohmann::json;
 // ---- strict JSON reading ------------------------------------------------------------------------
 
 void RequireObject(const json& j, const std::string& path) {
-  if (!j.is_object()) throw Error("render options: " + (path.empty() ? "top level" : path) + ": must be an object");
+  if (!j.is_object())
+    throw Error("render options: " + (path.empty() ? "top level" : path) + ": must be an object");
 }
 
 void RejectUnknown(const json& j, const std::string& path, const std::set<std::string>& allowed) {
@@ -68,7 +69,8 @@ void ReadTriple(const json& j, const std::string& key, const std::string& path, 
   if (!v.is_array() || v.size() != 3)
     throw Error("render options: " + path + key + ": must be an array of 3 numbers");
   for (int i = 0; i < 3; ++i) {
-    if (!v[i].is_number()) throw Error("render options: " + path + key + ": must be an array of 3 numbers");
+    if (!v[i].is_number())
+      throw Error("render options: " + path + key + ": must be an array of 3 numbers");
     field[i] = v[i].get<double>();
     if (!std::isfinite(field[i])) throw Error("render options: " + path + key + ": must be finite");
   }
@@ -135,12 +137,18 @@ MapSelection MapSelection::FromList(const std::string& list) {
   std::string name;
   while (std::getline(stream, name, ',')) {
     if (name.empty()) continue;
-    if (name == "transmission") maps.transmission = true;
-    else if (name == "light") maps.light = true;
-    else if (name == "veil") maps.veil = true;
-    else if (name == "psf") maps.psf = true;
-    else if (name == "noise") maps.noise = true;
-    else throw Error("--maps: unknown map '" + name + "' (transmission, light, veil, psf, noise)");
+    if (name == "transmission")
+      maps.transmission = true;
+    else if (name == "light")
+      maps.light = true;
+    else if (name == "veil")
+      maps.veil = true;
+    else if (name == "psf")
+      maps.psf = true;
+    else if (name == "noise")
+      maps.noise = true;
+    else
+      throw Error("--maps: unknown map '" + name + "' (transmission, light, veil, psf, noise)");
   }
   return maps;
 }
@@ -162,7 +170,8 @@ RenderOptions RenderOptionsFromJson(const json& j) {
   RejectUnknown(j, "", {"water", "light", "psf", "snow", "sensor", "camera", "seed"});
   if (j.contains("seed")) {
     const json& s = j.at("seed");
-    if (!s.is_number_integer() || (s.is_number_integer() && !s.is_number_unsigned() && s.get<int64_t>() < 0))
+    if (!s.is_number_integer() ||
+        (s.is_number_integer() && !s.is_number_unsigned() && s.get<int64_t>() < 0))
       throw Error("render options: seed: must be a non-negative integer");
     o.seed = s.get<uint64_t>();
   }
@@ -170,8 +179,9 @@ RenderOptions RenderOptionsFromJson(const json& j) {
     const json& w = j.at("water");
     const std::string p = "water.";
     RequireObject(w, "water");
-    RejectUnknown(w, p, {"type", "beta_rgb_per_m", "beta_gray_per_m", "ambient_rgb", "ambient_gray",
-                         "backscatter", "backscatter_rgb", "backscatter_gray"});
+    RejectUnknown(w, p,
+                  {"type", "beta_rgb_per_m", "beta_gray_per_m", "ambient_rgb", "ambient_gray",
+                   "backscatter", "backscatter_rgb", "backscatter_gray"});
     Read(w, "type", p, o.water.type);
     ReadTriple(w, "beta_rgb_per_m", p, o.water.beta_rgb_per_m);
     Read(w, "beta_gray_per_m", p, o.water.beta_gray_per_m);
@@ -190,8 +200,9 @@ RenderOptions RenderOptionsFromJson(const json& j) {
                                  std::abs(o.water.beta_gray_per_m - preset.beta_gray_per_m) > 1e-9;
       if (rgb_conflict || gray_conflict)
         throw Error(std::string("render options: water.") +
-                    (rgb_conflict ? "beta_rgb_per_m" : "beta_gray_per_m") + ": conflicts with water.type '" +
-                    o.water.type + "' (use type \"custom\" to set beta)");
+                    (rgb_conflict ? "beta_rgb_per_m" : "beta_gray_per_m") +
+                    ": conflicts with water.type '" + o.water.type +
+                    "' (use type \"custom\" to set beta)");
       o.water = preset;
     }
   }
@@ -208,7 +219,8 @@ RenderOptions RenderOptionsFromJson(const json& j) {
         const std::string lp = p + "lights[" + std::to_string(i) + "].";
         RequireObject(list[i], lp.substr(0, lp.size() - 1));
         RejectUnknown(list[i], lp,
-                      {"position_in_camera_m", "axis_in_camera", "power", "half_power_angle_deg", "color_rgb"});
+                      {"position_in_camera_m", "axis_in_camera", "power", "half_power_angle_deg",
+                       "color_rgb"});
         LightOptions light;
         ReadTriple(list[i], "position_in_camera_m", lp, light.position_in_camera_m);
         ReadTriple(list[i], "axis_in_camera", lp, light.axis_in_camera);
@@ -223,7 +235,8 @@ RenderOptions RenderOptionsFromJson(const json& j) {
       std::string name;
       Read(l, "incidence", p, name);
       if (name != "lambertian" && name != "paper_eq5")
-        throw Error("render options: light.incidence: unknown model '" + name + "' (lambertian, paper_eq5)");
+        throw Error("render options: light.incidence: unknown model '" + name +
+                    "' (lambertian, paper_eq5)");
       o.light.incidence = IncidenceModelFromName(name);
     }
     Read(l, "min_cos_incidence", p, o.light.min_cos_incidence);
@@ -234,9 +247,10 @@ RenderOptions RenderOptionsFromJson(const json& j) {
     const json& s = j.at("psf");
     const std::string p = "psf.";
     RequireObject(s, "psf");
-    RejectUnknown(s, p, {"enabled", "optical_thickness", "forward_scatter", "pixels_per_unit", "tail_mass",
-                         "max_radius_px", "delta_tolerance", "depth_dependent", "reference_range_m",
-                         "depth_levels"});
+    RejectUnknown(s, p,
+                  {"enabled", "optical_thickness", "forward_scatter", "pixels_per_unit",
+                   "tail_mass", "max_radius_px", "delta_tolerance", "depth_dependent",
+                   "reference_range_m", "depth_levels"});
     Read(s, "enabled", p, o.psf.enabled);
     Read(s, "optical_thickness", p, o.psf.optical_thickness);
     Read(s, "forward_scatter", p, o.psf.forward_scatter);
@@ -253,8 +267,9 @@ RenderOptions RenderOptionsFromJson(const json& j) {
     const json& s = j.at("snow");
     const std::string p = "snow.";
     RequireObject(s, "snow");
-    RejectUnknown(s, p, {"enabled", "density_per_m3", "near_m", "far_m", "size_min_m", "size_max_m",
-                         "albedo_min", "albedo_max", "blur_px"});
+    RejectUnknown(s, p,
+                  {"enabled", "density_per_m3", "near_m", "far_m", "size_min_m", "size_max_m",
+                   "albedo_min", "albedo_max", "blur_px"});
     Read(s, "enabled", p, o.snow.enabled);
     Read(s, "density_per_m3", p, o.snow.density_per_m3);
     Read(s, "near_m", p, o.snow.near_m);
@@ -384,7 +399,8 @@ struct Renderer::Cache {
 
 namespace {
 
-Decisions Decide(const RenderOptions& options, const Scene& scene, double min_range, double max_range) {
+Decisions Decide(const RenderOptions& options, const Scene& scene, double min_range,
+                 double max_range) {
   ThrowIfInvalid(options, "render options");
   Decisions d;
   d.water = ResolveWater(options.water);
@@ -408,7 +424,8 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
   if (d.zero_beta)
     plan.skipped.push_back("attenuation: beta = 0, t = 1 (no exp, no veil)");
   else if (d.uniform_range)
-    plan.steps.push_back("attenuation: uniform range " + Format(min_range) + " m, t constant per channel");
+    plan.steps.push_back("attenuation: uniform range " + Format(min_range) +
+                         " m, t constant per channel");
   else
     plan.steps.push_back("attenuation: t = exp(-beta r), beta = " + ListText(d.beta) + " 1/m");
   if (options.water.backscatter && !d.zero_beta)
@@ -433,14 +450,17 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
     plan.steps.push_back("snow: " + Format(options.snow.density_per_m3) + " particles/m^3");
   else
     plan.skipped.push_back("snow: none");
-  if (options.sensor.enabled && (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0))
-    plan.steps.push_back("sensor noise: Poisson-Gaussian, " + Format(options.sensor.photons_at_white) +
-                         " e-/full scale, read " + Format(options.sensor.read_noise));
+  if (options.sensor.enabled &&
+      (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0))
+    plan.steps.push_back("sensor noise: Poisson-Gaussian, " +
+                         Format(options.sensor.photons_at_white) + " e-/full scale, read " +
+                         Format(options.sensor.read_noise));
   else
     plan.skipped.push_back("sensor noise: none");
-  plan.steps.push_back(options.camera.bit_depth == 32 ? std::string("camera: clip to [0, 1], float")
-                                                      : "camera: clip and quantise to " +
-                                                            std::to_string(options.camera.bit_depth) + " bit");
+  plan.steps.push_back(options.camera.bit_depth == 32
+                           ? std::string("camera: clip to [0, 1], float")
+                           : "camera: clip and quantise to " +
+                                 std::to_string(options.camera.bit_depth) + " bit");
   return d;
 }
 
@@ -508,7 +528,8 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
         cv::Mat normals = scene_.normals;
         if (normals.empty()) {
           std::lock_guard<std::mutex> lock(cache_->mutex);
-          if (cache_->normals.empty()) cache_->normals = NormalsFromDepth(scene_.camera, scene_.depth_m);
+          if (cache_->normals.empty())
+            cache_->normals = NormalsFromDepth(scene_.camera, scene_.depth_m);
           normals = cache_->normals;
         }
         geometry = std::make_shared<const LightGeometry>(
@@ -531,7 +552,8 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
         const float* e = e_l.empty() ? nullptr : e_l.ptr<float>(y);
         if (channels == 3) {
           for (int x = 0; x < size.width; ++x)
-            for (int c = 0; c < 3; ++c) out[3 * x + c] = (ambient[c] + (e ? e[3 * x + c] : 0.0f)) * rho[3 * x + c];
+            for (int c = 0; c < 3; ++c)
+              out[3 * x + c] = (ambient[c] + (e ? e[3 * x + c] : 0.0f)) * rho[3 * x + c];
         } else {
           for (int x = 0; x < size.width; ++x) out[x] = (ambient[0] + (e ? e[x] : 0.0f)) * rho[x];
         }
@@ -560,7 +582,8 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   cv::Mat image(size, scene_.image.type());
   cv::Mat t_map, veil;
   if (options.maps.transmission)
-    t_map = d.zero_beta ? cv::Mat(size, CV_32FC(channels), cv::Scalar::all(1)) : cv::Mat(size, CV_32FC(channels));
+    t_map = d.zero_beta ? cv::Mat(size, CV_32FC(channels), cv::Scalar::all(1))
+                        : cv::Mat(size, CV_32FC(channels));
   if (options.maps.veil) veil = cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0));
   float bs[3] = {0, 0, 0}, t_const[3] = {0, 0, 0}, neg_beta[3] = {0, 0, 0};
   for (int c = 0; c < channels; ++c) {
@@ -585,7 +608,8 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
       } else {
         for (int x = 0; x < size.width; ++x) {
           const float range = r[x] == r[x] ? r[x] : 1e30f;
-          for (int c = 0; c < channels; ++c) t[x * channels + c] = std::max(neg_beta[c] * range, -80.0f);
+          for (int c = 0; c < channels; ++c)
+            t[x * channels + c] = std::max(neg_beta[c] * range, -80.0f);
         }
         cv::Mat row(1, per_row, CV_32F, t);
         cv::exp(row, row);
@@ -630,13 +654,15 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   if (options.maps.light)
     result.light = light ? *light : cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0));
   result.veil = veil;
-  if (options.maps.psf) result.psf = d.psf.kernel.empty() ? cv::Mat::ones(1, 1, CV_32F) : d.psf.kernel;
+  if (options.maps.psf)
+    result.psf = d.psf.kernel.empty() ? cv::Mat::ones(1, 1, CV_32F) : d.psf.kernel;
 
   // Sidecar: everything used, after defaults and preset resolution.
   RenderOptions used = options;
   used.water = d.water;
   json orders = json::array();
-  for (const LightOptions& l : options.light.lights) orders.push_back(LambertianOrder(l.half_power_angle_deg));
+  for (const LightOptions& l : options.light.lights)
+    orders.push_back(LambertianOrder(l.half_power_angle_deg));
   json hashes = json::object();
   for (const auto& [path, hash] : scene_.input_hashes) hashes[path] = hash;
   result.plan = d.plan;
@@ -648,7 +674,11 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
         {"width", size.width},
         {"height", size.height},
         {"channels", channels},
-        {"camera", {{"fx", scene_.camera.fx}, {"fy", scene_.camera.fy}, {"cx", scene_.camera.cx}, {"cy", scene_.camera.cy}}},
+        {"camera",
+         {{"fx", scene_.camera.fx},
+          {"fy", scene_.camera.fy},
+          {"cx", scene_.camera.cx},
+          {"cy", scene_.camera.cy}}},
         {"input_hashes", hashes}}},
       {"seed", options.seed},
       {"options", RenderOptionsToJson(used)},

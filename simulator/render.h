@@ -7,11 +7,10 @@
 // show only the backscatter (when enabled), marine snow and noise. docs/model.md is the reference.
 #pragma once
 
-#include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-
 #include <cstdint>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -24,8 +23,8 @@
 namespace turbid {
 
 struct CameraOutputOptions {
-  // 8 or 16: values clipped to [0, 1] and quantised to 2^bits - 1 levels (the in-memory image equals
-  // what an integer PNG stores); 32: float32, clipped to [0, 1], not quantised (EXR).
+  // 8 or 16: values clipped to [0, 1] and quantised to 2^bits - 1 levels (the in-memory image
+  // equals what an integer PNG stores); 32: float32, clipped to [0, 1], not quantised (EXR).
   int bit_depth = 8;
   bool Check(std::string* why) const;
 };
@@ -37,7 +36,8 @@ struct MapSelection {
   bool veil = false;          // (1 - t) E_L (+ (1 - t) B_inf)
   bool psf = false;           // the PSF kernel
   bool noise = false;         // snow + sensor noise layer (noisy - clean before clipping)
-  // "transmission,light,veil,psf,noise" (any subset, comma-separated) -> selection; Error otherwise.
+  // "transmission,light,veil,psf,noise" (any subset, comma-separated) -> selection; Error
+  // otherwise.
   static MapSelection FromList(const std::string& list);
 };
 
@@ -79,7 +79,8 @@ struct RenderResult {
   cv::Mat veil;
   cv::Mat psf;
   cv::Mat noise;
-  nlohmann::json sidecar;  // every parameter used, seed, derived values, input hashes, version, plan
+  nlohmann::json
+      sidecar;  // every parameter used, seed, derived values, input hashes, version, plan
   RenderPlan plan;
 };
 

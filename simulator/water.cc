@@ -65,7 +65,8 @@ bool WaterOptions::Check(std::string* why) const {
     return false;
   };
   if (type != "custom" && TypeIndex(type) < 0)
-    return fail("type: unknown water type '" + type + "' (custom, I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C)");
+    return fail("type: unknown water type '" + type +
+                "' (custom, I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C)");
   for (double b : beta_rgb_per_m)
     if (!InRange(b, 0.0, 10.0)) return fail("beta_rgb_per_m: each value must be in [0, 10] 1/m");
   if (!InRange(beta_gray_per_m, 0.0, 10.0)) return fail("beta_gray_per_m: must be in [0, 10] 1/m");
@@ -78,7 +79,9 @@ bool WaterOptions::Check(std::string* why) const {
   return true;
 }
 
-std::vector<std::string> JerlovTypeNames() { return {std::begin(kTypeNames), std::end(kTypeNames)}; }
+std::vector<std::string> JerlovTypeNames() {
+  return {std::begin(kTypeNames), std::end(kTypeNames)};
+}
 
 JerlovBetas JerlovBeta(const std::string& type) {
   const int column = TypeIndex(type);
@@ -126,8 +129,8 @@ cv::Mat TransmissionMap(const cv::Mat& range_m, const std::vector<double>& beta_
     const float* r = range_m.ptr<float>(y);
     float* out = t.ptr<float>(y);
     for (int x = 0; x < range_m.cols; ++x) {
-      // NaN range: t = 0 (exp(-inf)). Arguments stop at -80: exp(-80) ~ 2e-35 is still a normal float
-      // (denormals are slow) and indistinguishable from 0 in any output.
+      // NaN range: t = 0 (exp(-inf)). Arguments stop at -80: exp(-80) ~ 2e-35 is still a normal
+      // float (denormals are slow) and indistinguishable from 0 in any output.
       const float range = std::isnan(r[x]) ? 1e30f : r[x];
       for (int c = 0; c < channels; ++c)
         row[x * channels + c] = std::max(-static_cast<float>(beta_per_m[c]) * range, -80.0f);

@@ -6,14 +6,13 @@
 // downward attenuation Kd(lambda), 1/m, as transcribed in jkibele/OpticalRS opticalrs/Const.py; our
 // copy: shared/data/jerlov/jerlov_Kd.csv). RGB values are band means of the table's samples:
 // B = mean Kd at 400, 425, 450, 475 nm; G = 500, 525, 550, 575 nm; R = 600 ... 700 nm (5 samples);
-// gray = mean of all samples 400 ... 700 nm. Kd is not the beam attenuation c = a + b (Kd < c), so the
-// presets understate beam attenuation; they order water types correctly and are what simulators
+// gray = mean of all samples 400 ... 700 nm. Kd is not the beam attenuation c = a + b (Kd < c), so
+// the presets understate beam attenuation; they order water types correctly and are what simulators
 // such as DeepSeaRenderer use.
 #pragma once
 
-#include <opencv2/core.hpp>
-
 #include <array>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 

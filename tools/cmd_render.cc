@@ -62,7 +62,8 @@ void SetPath(json& root, const std::string& path, const json& value) {
 // SetPath for render parameters: indexing a light ("light.lights.0.power") starts from the
 // default light list when the parameters name none, so defaults are not written twice.
 void SetParam(json& params, const std::string& path, const json& value) {
-  if (path.rfind("light.lights.", 0) == 0 && !(params.contains("light") && params["light"].contains("lights"))) {
+  if (path.rfind("light.lights.", 0) == 0 &&
+      !(params.contains("light") && params["light"].contains("lights"))) {
     if (!params.contains("light")) params["light"] = json::object();
     params["light"]["lights"] = RenderOptionsToJson(RenderOptions{})["light"]["lights"];
   }
@@ -72,7 +73,8 @@ void SetParam(json& params, const std::string& path, const json& value) {
 // "--set key=value": value parsed as JSON, else taken as a string.
 void ApplySet(json& params, const std::string& assignment) {
   const size_t eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0) throw Error("--set '" + assignment + "': expected KEY=VALUE");
+  if (eq == std::string::npos || eq == 0)
+    throw Error("--set '" + assignment + "': expected KEY=VALUE");
   const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
   json value;
   try {
@@ -124,8 +126,10 @@ void RunRender(const RenderArgs& args) {
   if (!params.is_object()) throw Error(args.params, "parameters must be a JSON object");
   if (!args.water.empty()) SetPath(params, "water.type", args.water);
   if (!args.beta.empty()) {
-    if (args.beta.size() != 1 && args.beta.size() != 3) throw Error("--beta: give 1 value or 3 (R,G,B)");
-    const double r = args.beta[0], g = args.beta.size() == 3 ? args.beta[1] : r, b = args.beta.back();
+    if (args.beta.size() != 1 && args.beta.size() != 3)
+      throw Error("--beta: give 1 value or 3 (R,G,B)");
+    const double r = args.beta[0], g = args.beta.size() == 3 ? args.beta[1] : r,
+                 b = args.beta.back();
     SetPath(params, "water.type", "custom");
     SetPath(params, "water.beta_rgb_per_m", json::array({r, g, b}));
     if (args.beta.size() == 1) SetPath(params, "water.beta_gray_per_m", r);
@@ -155,8 +159,11 @@ void RunRender(const RenderArgs& args) {
   const std::string map_ext = ext == ".exr" ? ".exr" : ".png";
   std::vector<std::string> names = {args.out, stem + ".json"};
   const std::vector<std::pair<std::string, bool>> wanted = {
-      {"transmission", options.maps.transmission}, {"light", options.maps.light},
-      {"veil", options.maps.veil}, {"psf", options.maps.psf}, {"noise", options.maps.noise}};
+      {"transmission", options.maps.transmission},
+      {"light", options.maps.light},
+      {"veil", options.maps.veil},
+      {"psf", options.maps.psf},
+      {"noise", options.maps.noise}};
   for (const auto& [name, on] : wanted)
     if (on) names.push_back(stem + "_" + name + map_ext);
   if (!args.force)
@@ -169,8 +176,11 @@ void RunRender(const RenderArgs& args) {
   sidecar["scene"]["builtin_scale"] = args.scale;
   sidecar["outputs"] = {{"image", fs::path(args.out).filename().string()}};
   const std::vector<std::pair<std::string, const cv::Mat*>> maps = {
-      {"transmission", &result.transmission}, {"light", &result.light}, {"veil", &result.veil},
-      {"psf", &result.psf}, {"noise", &result.noise}};
+      {"transmission", &result.transmission},
+      {"light", &result.light},
+      {"veil", &result.veil},
+      {"psf", &result.psf},
+      {"noise", &result.noise}};
   const int bits = options.camera.bit_depth == 32 ? 16 : options.camera.bit_depth;
   WriteMap(args.out, result.image, bits, args.force);
   for (const auto& [name, mat] : maps) {
@@ -203,13 +213,15 @@ struct Item {
 
 json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::string& path) {
   if (!spec.is_object() || spec.size() != 1)
-    throw Error("generate: random.params." + path + ": expected {\"uniform\": [lo, hi]}, "
+    throw Error("generate: random.params." + path +
+                ": expected {\"uniform\": [lo, hi]}, "
                 "{\"log_uniform\": [lo, hi]} or {\"choice\": [...]}");
   const std::string kind = spec.begin().key();
   const json& args = spec.begin().value();
   const double u = RandomUniform(key, index);
   if (kind == "choice") {
-    if (!args.is_array() || args.empty()) throw Error("generate: random.params." + path + ".choice: non-empty array");
+    if (!args.is_array() || args.empty())
+      throw Error("generate: random.params." + path + ".choice: non-empty array");
     return args[std::min<size_t>(static_cast<size_t>(u * args.size()), args.size() - 1)];
   }
   if (!args.is_array() || args.size() != 2 || !args[0].is_number() || !args[1].is_number())
@@ -217,7 +229,8 @@ json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::stri
   const double lo = args[0].get<double>(), hi = args[1].get<double>();
   if (kind == "uniform") return lo + u * (hi - lo);
   if (kind == "log_uniform") {
-    if (lo <= 0.0 || hi <= 0.0) throw Error("generate: random.params." + path + ".log_uniform: bounds must be > 0");
+    if (lo <= 0.0 || hi <= 0.0)
+      throw Error("generate: random.params." + path + ".log_uniform: bounds must be > 0");
     return std::exp(std::log(lo) + u * (std::log(hi) - std::log(lo)));
   }
   throw Error("generate: random.params." + path + ": unknown distribution '" + kind + "'");
@@ -229,7 +242,8 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
   for (auto it = config.begin(); it != config.end(); ++it)
     if (it.key() != "scenes" && it.key() != "scale" && it.key() != "base" && it.key() != "grid" &&
         it.key() != "random" && it.key() != "seed" && it.key() != "format")
-      throw Error(config_path, it.key() + ": unknown key (scenes, scale, base, grid, random, seed, format)");
+      throw Error(config_path,
+                  it.key() + ": unknown key (scenes, scale, base, grid, random, seed, format)");
   if (!config.contains("scenes") || !config["scenes"].is_array() || config["scenes"].empty())
     throw Error(config_path, "scenes: a non-empty array of scene specs is required");
   const double scale = config.value("scale", 1.0);
@@ -243,7 +257,8 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
   std::vector<json> combos = {json::object()};
   if (config.contains("grid")) {
     const json& grid = config["grid"];
-    if (!grid.is_object()) throw Error(config_path, "grid: must be an object of path -> array of values");
+    if (!grid.is_object())
+      throw Error(config_path, "grid: must be an object of path -> array of values");
     for (auto it = grid.begin(); it != grid.end(); ++it) {
       if (!it.value().is_array() || it.value().empty())
         throw Error(config_path, "grid." + it.key() + ": must be a non-empty array");
@@ -266,7 +281,8 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
     samples = random.value("count", 1);
     random_seed = random.value("seed", seed);
     random_params = random.value("params", json::object());
-    if (samples < 1 || samples > 1000000) throw Error(config_path, "random.count: must be in [1, 1e6]");
+    if (samples < 1 || samples > 1000000)
+      throw Error(config_path, "random.count: must be in [1, 1e6]");
   }
 
   LoadSceneOptions scene_options;
@@ -291,7 +307,8 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
         item.index = static_cast<int>(items.size());
         item.scene = s;
         json params = base;
-        for (auto it = combos[g].begin(); it != combos[g].end(); ++it) SetParam(params, it.key(), it.value());
+        for (auto it = combos[g].begin(); it != combos[g].end(); ++it)
+          SetParam(params, it.key(), it.value());
         // Random samples depend on (random seed, grid point, sample number), not on the scene.
         uint64_t draw = 0;
         for (auto it = random_params.begin(); it != random_params.end(); ++it, ++draw)
@@ -301,7 +318,8 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
         try {
           params = RenderOptionsToJson(RenderOptionsFromJson(params));
         } catch (const Error& e) {
-          throw Error(config_path, std::string("item ") + std::to_string(item.index) + ": " + e.what());
+          throw Error(config_path,
+                      std::string("item ") + std::to_string(item.index) + ": " + e.what());
         }
         item.params = params;
         std::ostringstream id;
@@ -310,7 +328,8 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
         items.push_back(item);
       }
 
-  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"}) fs::create_directories(fs::path(out_dir) / sub);
+  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"})
+    fs::create_directories(fs::path(out_dir) / sub);
   const std::string ext = "." + format;
   auto paths = [&](const Item& item) {
     const fs::path dir(out_dir);
@@ -384,17 +403,20 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
   if (!first_error.empty()) throw Error("generate: " + first_error);
 
   // Manifest in item order: the same bytes whatever the thread count or interruption history.
-  std::string csv = "index,id,scene,image,ground_truth,lit,sidecar,seed,beta_r,beta_g,beta_b,beta_gray,psf_T,psf_q\n";
+  std::string csv =
+      "index,id,scene,image,ground_truth,lit,sidecar,seed,beta_r,beta_g,beta_b,beta_gray,psf_T,psf_"
+      "q\n";
   std::string jsonl;
   for (const Item& item : items) {
     const json& o = item.params;
     const json& b = o["water"]["beta_rgb_per_m"];
     std::ostringstream row;
     row << item.index << "," << item.id << "," << specs[item.scene] << ",images/" << item.id << ext
-        << ",ground_truth/" << item.id << ext << ",lit/" << item.id << ".pfm,sidecars/" << item.id << ".json,"
-        << o["seed"].get<uint64_t>() << "," << b[0].dump() << "," << b[1].dump() << "," << b[2].dump() << ","
-        << o["water"]["beta_gray_per_m"].dump() << "," << o["psf"]["optical_thickness"].dump() << ","
-        << o["psf"]["forward_scatter"].dump() << "\n";
+        << ",ground_truth/" << item.id << ext << ",lit/" << item.id << ".pfm,sidecars/" << item.id
+        << ".json," << o["seed"].get<uint64_t>() << "," << b[0].dump() << "," << b[1].dump() << ","
+        << b[2].dump() << "," << o["water"]["beta_gray_per_m"].dump() << ","
+        << o["psf"]["optical_thickness"].dump() << "," << o["psf"]["forward_scatter"].dump()
+        << "\n";
     csv += row.str();
     jsonl += json({{"index", item.index},
                    {"id", item.id},
@@ -409,40 +431,53 @@ void RunGenerate(const std::string& config_path, const std::string& out_dir, int
   }
   AtomicWriteText((fs::path(out_dir) / "manifest.csv").string(), csv, true);
   AtomicWriteText((fs::path(out_dir) / "manifest.jsonl").string(), jsonl, true);
-  std::cout << "generate: " << items.size() << " items (" << skipped.load() << " already complete) in "
-            << out_dir << "\n";
+  std::cout << "generate: " << items.size() << " items (" << skipped.load()
+            << " already complete) in " << out_dir << "\n";
 }
 
 }  // namespace
 
 void AddRenderCommands(CLI::App& app) {
   auto render_args = std::make_shared<RenderArgs>();
-  CLI::App* render = app.add_subcommand("render", "degrade one scene with the forward model (paper eq. 2)");
-  render->add_option("--scene", render_args->scene, "scene spec: builtin:NAME, a built-in name or a scene JSON file")
+  CLI::App* render =
+      app.add_subcommand("render", "degrade one scene with the forward model (paper eq. 2)");
+  render
+      ->add_option("--scene", render_args->scene,
+                   "scene spec: builtin:NAME, a built-in name or a scene JSON file")
       ->required();
   render->add_option("--params", render_args->params, "JSON render parameters (docs/model.md)");
-  render->add_option("--out", render_args->out, "output image (.png: 8/16-bit, .exr: float) ; OUT.json is the sidecar");
+  render->add_option("--out", render_args->out,
+                     "output image (.png: 8/16-bit, .exr: float) ; OUT.json is the sidecar");
   render->add_option("--maps", render_args->maps, "extra maps: transmission,light,veil,psf,noise");
   render->add_option("--seed", render_args->seed, "random seed (overrides the parameters' seed)");
-  render->add_option("--water", render_args->water, "water type: custom, I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C");
-  render->add_option("--beta", render_args->beta, "attenuation 1/m: one value for all channels or R,G,B")
+  render->add_option("--water", render_args->water,
+                     "water type: custom, I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C");
+  render
+      ->add_option("--beta", render_args->beta,
+                   "attenuation 1/m: one value for all channels or R,G,B")
       ->delimiter(',');
   render->add_option("--bit-depth", render_args->bit_depth, "camera output: 8, 16 or 32 (float)");
-  render->add_option("--set", render_args->sets, "KEY=VALUE on the JSON parameters, e.g. psf.forward_scatter=0.5");
+  render->add_option("--set", render_args->sets,
+                     "KEY=VALUE on the JSON parameters, e.g. psf.forward_scatter=0.5");
   render->add_option("--scale", render_args->scale, "size scale in (0, 1] for built-in scenes");
-  render->add_flag("--explain", render_args->explain, "print the render plan (what is computed and skipped)");
+  render->add_flag("--explain", render_args->explain,
+                   "print the render plan (what is computed and skipped)");
   render->add_flag("--force", render_args->force, "replace existing outputs");
   render->callback([render_args] {
-    if (render_args->out.empty() && !render_args->explain) throw Error("render: --out is required (or --explain)");
+    if (render_args->out.empty() && !render_args->explain)
+      throw Error("render: --out is required (or --explain)");
     RunRender(*render_args);
   });
 
   auto config = std::make_shared<std::string>();
   auto out = std::make_shared<std::string>();
-  auto threads = std::make_shared<int>(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
-  CLI::App* generate = app.add_subcommand("generate", "render a dataset: scenes x parameter grid / random samples");
+  auto threads =
+      std::make_shared<int>(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  CLI::App* generate =
+      app.add_subcommand("generate", "render a dataset: scenes x parameter grid / random samples");
   generate->add_option("config", *config, "dataset config JSON (docs/cli/render.md)")->required();
-  generate->add_option("--out", *out, "output folder (resumes when it holds a previous run)")->required();
+  generate->add_option("--out", *out, "output folder (resumes when it holds a previous run)")
+      ->required();
   generate->add_option("--threads", *threads, "worker threads (output bytes do not depend on it)")
       ->check(CLI::Range(1, 256));
   generate->callback([config, out, threads] { RunGenerate(*config, *out, *threads); });

@@ -1,10 +1,9 @@
 // Closed-form checks of the forward model's pieces: water, light, PSF, noise (issue 3 item 5).
 #include <gtest/gtest.h>
 
-#include <opencv2/imgproc.hpp>
-
 #include <cmath>
 #include <fstream>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 
 #include "scenes/error.h"
@@ -52,7 +51,8 @@ TEST(Water, JerlovTableMatchesDataFile) {
   ASSERT_TRUE(file) << "missing jerlov_Kd.csv";
   std::string line;
   std::getline(file, line);  // header: wavelength_nm,I,IA,IB,II,III,C1,C3,C5,C7,C9
-  const std::vector<std::string> types = {"I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"};
+  const std::vector<std::string> types = {"I",  "IA", "IB", "II", "III",
+                                          "1C", "3C", "5C", "7C", "9C"};
   int rows = 0;
   while (std::getline(file, line)) {
     std::stringstream s(line);
@@ -75,7 +75,8 @@ TEST(Water, TransmissionEqualsExpOfRange) {
   const cv::Mat t = TransmissionMap(range, beta);
   for (int y = 0; y < 30; ++y)
     for (int x = 0; x < 40; ++x) {
-      const double dx = (x - scene.camera.cx) / scene.camera.fx, dy = (y - scene.camera.cy) / scene.camera.fy;
+      const double dx = (x - scene.camera.cx) / scene.camera.fx,
+                   dy = (y - scene.camera.cy) / scene.camera.fy;
       const double r = 3.0 * std::sqrt(dx * dx + dy * dy + 1.0);
       for (int c = 0; c < 3; ++c)
         ASSERT_NEAR(t.at<cv::Vec3f>(y, x)[c], std::exp(-beta[c] * r), 1e-6) << x << "," << y;
@@ -93,7 +94,8 @@ TEST(Water, TransmissionEqualsExpOfRange) {
 double PlaneIrradiance(const Scene& scene, int x, int y, const LightOptions& light, double beta,
                        bool eq5, double min_cos) {
   const double z = scene.depth_m.at<float>(y, x);
-  const double X[3] = {(x - scene.camera.cx) / scene.camera.fx * z, (y - scene.camera.cy) / scene.camera.fy * z, z};
+  const double X[3] = {(x - scene.camera.cx) / scene.camera.fx * z,
+                       (y - scene.camera.cy) / scene.camera.fy * z, z};
   double v[3], l2 = 0.0;
   for (int i = 0; i < 3; ++i) v[i] = X[i] - light.position_in_camera_m[i], l2 += v[i] * v[i];
   const double l = std::sqrt(l2);
@@ -102,7 +104,8 @@ double PlaneIrradiance(const Scene& scene, int x, int y, const LightOptions& lig
   for (int i = 0; i < 3; ++i) cos_phi += light.axis_in_camera[i] / axis_norm * v[i] / l;
   const double cos_psi = v[2] / l;  // -n.v/l with n = (0, 0, -1)
   const double m = -std::log(2.0) / std::log(std::cos(light.half_power_angle_deg * M_PI / 180.0));
-  const double f = eq5 ? (cos_psi > 0 ? 1.0 / std::max(cos_psi, min_cos) : 0.0) : std::max(cos_psi, 0.0);
+  const double f =
+      eq5 ? (cos_psi > 0 ? 1.0 / std::max(cos_psi, min_cos) : 0.0) : std::max(cos_psi, 0.0);
   return light.power * std::pow(std::max(cos_phi, 0.0), m) * f * std::exp(-beta * l) / l2;
 }
 
@@ -291,8 +294,9 @@ TEST(Psf, DepthDependentEqualsFixedAtReferenceRange) {
   options.pixels_per_unit = 2.0;
   options.depth_dependent = true;
   const cv::Mat range(20, 24, CV_32FC1, cv::Scalar(options.reference_range_m));
-  EXPECT_LT(cv::norm(ApplyDepthDependentPsf(options, image, range), ApplyPsf(PsfKernel(options), image),
-                     cv::NORM_INF), 1e-6);
+  EXPECT_LT(cv::norm(ApplyDepthDependentPsf(options, image, range),
+                     ApplyPsf(PsfKernel(options), image), cv::NORM_INF),
+            1e-6);
   // Wider with range: far half blurs more (lower variance of the result).
   cv::Mat ramp(20, 24, CV_32FC1);
   for (int y = 0; y < 20; ++y) ramp.row(y).setTo(y < 10 ? 0.5 : 8.0);
@@ -358,8 +362,10 @@ TEST(Noise, SnowIsSeededLitAndHiddenBehindSurface) {
   SnowOptions options;
   options.density_per_m3 = 2000.0;
   IrradianceOptions lights;
-  const MarineSnow a = RenderMarineSnow(options, lights, scene.camera, range, {0.1, 0.1, 0.1}, {0.1, 0.1, 0.1}, 3);
-  const MarineSnow b = RenderMarineSnow(options, lights, scene.camera, range, {0.1, 0.1, 0.1}, {0.1, 0.1, 0.1}, 3);
+  const MarineSnow a =
+      RenderMarineSnow(options, lights, scene.camera, range, {0.1, 0.1, 0.1}, {0.1, 0.1, 0.1}, 3);
+  const MarineSnow b =
+      RenderMarineSnow(options, lights, scene.camera, range, {0.1, 0.1, 0.1}, {0.1, 0.1, 0.1}, 3);
   EXPECT_EQ(cv::norm(a.layer, b.layer, cv::NORM_INF), 0.0);
   EXPECT_GT(a.particles, 0);
   EXPECT_GT(a.visible, 0);
@@ -371,7 +377,9 @@ TEST(Noise, SnowIsSeededLitAndHiddenBehindSurface) {
   EXPECT_GT(cv::norm(a.layer, cv::NORM_INF), 0.0);
   options.density_per_m3 = 1e5;
   options.far_m = 1000.0;
-  EXPECT_THROW(RenderMarineSnow(options, lights, scene.camera, range, {0.1, 0.1, 0.1}, {0.1, 0.1, 0.1}, 3), Error);
+  EXPECT_THROW(
+      RenderMarineSnow(options, lights, scene.camera, range, {0.1, 0.1, 0.1}, {0.1, 0.1, 0.1}, 3),
+      Error);
 }
 
 }  // namespace

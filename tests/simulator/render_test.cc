@@ -1,5 +1,7 @@
 // The composed forward model: identities, JSON binding, determinism, caches and a seeded stress
 // sweep over the accepted parameter space (issue 3 items 5 and 6).
+#include "simulator/render.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,7 +10,6 @@
 
 #include "scenes/builtin.h"
 #include "scenes/error.h"
-#include "simulator/render.h"
 #include "test_scenes.h"
 
 namespace turbid {
@@ -97,7 +98,8 @@ TEST(Render, UniformRangeAndSkipPathsAgreeWithGeneralPath) {
   Renderer renderer(scene);
   const RenderResult r = renderer.Render(o);
   bool uniform = false;
-  for (const auto& s : r.plan.steps) uniform = uniform || s.find("uniform range") != std::string::npos;
+  for (const auto& s : r.plan.steps)
+    uniform = uniform || s.find("uniform range") != std::string::npos;
   EXPECT_TRUE(uniform) << r.plan.ToText();
   o.maps.transmission = true;
   const RenderResult r2 = renderer.Render(o);
@@ -118,12 +120,14 @@ TEST(Render, JsonRoundTripAndStrictErrors) {
   const RenderOptions back = RenderOptionsFromJson(j);
   EXPECT_EQ(back.water.type, "3C");  // canonical, betas filled from the preset
   EXPECT_DOUBLE_EQ(back.water.beta_rgb_per_m[0], JerlovBeta("3C").rgb_per_m[0]);
-  EXPECT_EQ(RenderOptionsToJson(back), RenderOptionsToJson(RenderOptionsFromJson(RenderOptionsToJson(back))));
+  EXPECT_EQ(RenderOptionsToJson(back),
+            RenderOptionsToJson(RenderOptionsFromJson(RenderOptionsToJson(back))));
   EXPECT_EQ(back.seed, o.seed);
   EXPECT_EQ(back.light.lights.size(), 2u);
   EXPECT_EQ(back.light.incidence, IncidenceModel::kPaperEq5);
   // Missing keys keep the in-class defaults.
-  EXPECT_EQ(RenderOptionsToJson(RenderOptionsFromJson(nlohmann::json::object())), RenderOptionsToJson(RenderOptions{}));
+  EXPECT_EQ(RenderOptionsToJson(RenderOptionsFromJson(nlohmann::json::object())),
+            RenderOptionsToJson(RenderOptions{}));
 
   auto error_of = [](const std::string& text) {
     try {
@@ -133,16 +137,26 @@ TEST(Render, JsonRoundTripAndStrictErrors) {
     }
     return std::string("no error");
   };
-  EXPECT_NE(error_of(R"({"psf": {"forward_scater": 0.9}})").find("psf.forward_scater: unknown key"), std::string::npos);
-  EXPECT_NE(error_of(R"({"psf": {"forward_scatter": 0}})").find("psf.forward_scatter"), std::string::npos);
-  EXPECT_NE(error_of(R"({"psf": {"forward_scatter": "a"}})").find("psf.forward_scatter: must be a number"), std::string::npos);
-  EXPECT_NE(error_of(R"({"water": {"beta_rgb_per_m": [1, 2]}})").find("water.beta_rgb_per_m"), std::string::npos);
-  EXPECT_NE(error_of(R"({"water": {"beta_rgb_per_m": [1, 2, 11]}})").find("water.beta_rgb_per_m"), std::string::npos);
-  EXPECT_NE(error_of(R"({"water": {"type": "IB", "beta_rgb_per_m": [1, 2, 3]}})").find("conflicts"), std::string::npos);
-  EXPECT_NE(error_of(R"({"light": {"lights": [{"power": -1}]}})").find("light.lights[0].power"), std::string::npos);
-  EXPECT_NE(error_of(R"({"light": {"incidence": "phong"}})").find("light.incidence"), std::string::npos);
+  EXPECT_NE(error_of(R"({"psf": {"forward_scater": 0.9}})").find("psf.forward_scater: unknown key"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"psf": {"forward_scatter": 0}})").find("psf.forward_scatter"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"psf": {"forward_scatter": "a"}})")
+                .find("psf.forward_scatter: must be a number"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"water": {"beta_rgb_per_m": [1, 2]}})").find("water.beta_rgb_per_m"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"water": {"beta_rgb_per_m": [1, 2, 11]}})").find("water.beta_rgb_per_m"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"water": {"type": "IB", "beta_rgb_per_m": [1, 2, 3]}})").find("conflicts"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"light": {"lights": [{"power": -1}]}})").find("light.lights[0].power"),
+            std::string::npos);
+  EXPECT_NE(error_of(R"({"light": {"incidence": "phong"}})").find("light.incidence"),
+            std::string::npos);
   EXPECT_NE(error_of(R"({"seed": -1})").find("seed"), std::string::npos);
-  EXPECT_NE(error_of(R"({"camera": {"bit_depth": 12}})").find("camera.bit_depth"), std::string::npos);
+  EXPECT_NE(error_of(R"({"camera": {"bit_depth": 12}})").find("camera.bit_depth"),
+            std::string::npos);
   EXPECT_NE(error_of(R"({"colour": 1})").find("colour: unknown key"), std::string::npos);
   EXPECT_THROW(MapSelection::FromList("light,fog"), Error);
 }
@@ -182,7 +196,8 @@ TEST(Render, RendererCachesGiveTheSameBytesAndAreThreadSafe) {
   for (size_t i = 0; i < sweep.size(); ++i)
     workers.emplace_back([&, i] { cached[i] = renderer.Render(sweep[i]).image; });
   for (auto& w : workers) w.join();
-  for (size_t i = 0; i < sweep.size(); ++i) EXPECT_EQ(cv::norm(fresh[i], cached[i], cv::NORM_INF), 0.0) << i;
+  for (size_t i = 0; i < sweep.size(); ++i)
+    EXPECT_EQ(cv::norm(fresh[i], cached[i], cv::NORM_INF), 0.0) << i;
 }
 
 TEST(Render, SidecarHasEverythingUsed) {
@@ -193,7 +208,8 @@ TEST(Render, SidecarHasEverythingUsed) {
   const RenderResult r = Render(o, scene);
   EXPECT_EQ(r.sidecar["seed"], 4);
   EXPECT_EQ(r.sidecar["options"]["water"]["type"], "IB");
-  EXPECT_NEAR(r.sidecar["options"]["water"]["beta_gray_per_m"].get<double>(), JerlovBeta("IB").gray_per_m, 1e-12);
+  EXPECT_NEAR(r.sidecar["options"]["water"]["beta_gray_per_m"].get<double>(),
+              JerlovBeta("IB").gray_per_m, 1e-12);
   EXPECT_TRUE(r.sidecar.contains("version"));
   EXPECT_TRUE(r.sidecar["scene"].contains("input_hashes"));
   EXPECT_EQ(r.sidecar["derived"]["channel_order"], "gray");
@@ -205,7 +221,9 @@ TEST(Render, SidecarHasEverythingUsed) {
 // Seeded sweep over the accepted parameter space, extremes included: every output finite, in range.
 TEST(RenderStress, SeededSweepStaysFiniteAndInRange) {
   std::mt19937_64 rng(2024);
-  auto uniform = [&](double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(rng); };
+  auto uniform = [&](double lo, double hi) {
+    return std::uniform_real_distribution<double>(lo, hi)(rng);
+  };
   auto pick = [&](std::vector<double> v) { return v[rng() % v.size()]; };
   for (int trial = 0; trial < 40; ++trial) {
     const int channels = trial % 2 ? 1 : 3;
@@ -227,7 +245,8 @@ TEST(RenderStress, SeededSweepStaysFiniteAndInRange) {
     for (int k = 0; k < lights; ++k) {
       LightOptions l;
       // Touching the surface, grazing, behind the camera, far away.
-      l.position_in_camera_m = {pick({0.0, 0.3, -100.0}), uniform(-1, 1), pick({0.0, depth, -5.0, 100.0})};
+      l.position_in_camera_m = {pick({0.0, 0.3, -100.0}), uniform(-1, 1),
+                                pick({0.0, depth, -5.0, 100.0})};
       l.axis_in_camera = {uniform(-1, 1), uniform(-1, 1), pick({1.0, 0.0, -1.0})};
       if (cv::norm(l.axis_in_camera) < 1e-3) l.axis_in_camera = {0, 0, 1};
       l.power = pick({0.0, 1.0, 1e6});
@@ -251,8 +270,9 @@ TEST(RenderStress, SeededSweepStaysFiniteAndInRange) {
     std::string why;
     ASSERT_TRUE(o.Check(&why)) << why;
     const RenderResult r = Render(o, scene);
-    ASSERT_TRUE(cv::checkRange(r.image, true, nullptr, 0.0, 1.0 + 1e-6)) << "trial " << trial << "\n"
-                                                                      << RenderOptionsToJson(o).dump();
+    ASSERT_TRUE(cv::checkRange(r.image, true, nullptr, 0.0, 1.0 + 1e-6))
+        << "trial " << trial << "\n"
+        << RenderOptionsToJson(o).dump();
     ASSERT_TRUE(cv::checkRange(r.lit)) << "trial " << trial;
   }
 }

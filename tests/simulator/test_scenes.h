@@ -1,9 +1,8 @@
 // Small synthetic scenes with known geometry for the simulator tests.
 #pragma once
 
-#include <opencv2/core.hpp>
-
 #include <cmath>
+#include <opencv2/core.hpp>
 
 #include "scenes/scene.h"
 

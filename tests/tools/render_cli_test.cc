@@ -1,10 +1,9 @@
 // End-to-end tests of `turbid render` and `turbid generate` through the built binary.
 #include <gtest/gtest.h>
 
-#include <nlohmann/json.hpp>
-
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "scenes/image_io.h"
 #include "tests/support/test_support.h"
@@ -20,8 +19,9 @@ using testing::TempDir;
 TEST(RenderCli, WritesImageSidecarAndMapsAndRefusesToOverwrite) {
   TempDir dir;
   const std::string out = dir.File("r.png");
-  auto run = RunTurbid({"render", "--scene", "builtin:seafloor", "--scale", "0.1", "--out", out, "--seed", "7",
-                        "--maps", "transmission,light,veil,psf,noise", "--water", "IB"});
+  auto run =
+      RunTurbid({"render", "--scene", "builtin:seafloor", "--scale", "0.1", "--out", out, "--seed",
+                 "7", "--maps", "transmission,light,veil,psf,noise", "--water", "IB"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   ASSERT_TRUE(fs::exists(out));
   for (const char* map : {"transmission", "light", "veil", "psf", "noise"})
@@ -35,20 +35,24 @@ TEST(RenderCli, WritesImageSidecarAndMapsAndRefusesToOverwrite) {
   EXPECT_EQ(image.cols, sidecar["scene"]["width"].get<int>());
 
   const std::string before = ReadFileText(dir.File("r.json"));
-  run = RunTurbid({"render", "--scene", "builtin:seafloor", "--scale", "0.1", "--out", out, "--seed", "8"});
+  run = RunTurbid(
+      {"render", "--scene", "builtin:seafloor", "--scale", "0.1", "--out", out, "--seed", "8"});
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("exists"), std::string::npos) << run.err;
   EXPECT_EQ(ReadFileText(dir.File("r.json")), before);
-  run = RunTurbid({"render", "--scene", "builtin:seafloor", "--scale", "0.1", "--out", out, "--seed", "8", "--force"});
+  run = RunTurbid({"render", "--scene", "builtin:seafloor", "--scale", "0.1", "--out", out,
+                   "--seed", "8", "--force"});
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(ReadFileText(dir.File("r.json")), before);
 }
 
 TEST(RenderCli, ParamsFileSetAndErrors) {
   TempDir dir;
-  std::ofstream(dir.File("p.json")) << R"({"psf": {"optical_thickness": 1.0}, "sensor": {"enabled": false}})";
-  auto run = RunTurbid({"render", "--scene", "hull", "--scale", "0.1", "--params", dir.File("p.json"), "--set",
-                        "psf.forward_scatter=0.5", "--out", dir.File("h.exr")});
+  std::ofstream(dir.File("p.json"))
+      << R"({"psf": {"optical_thickness": 1.0}, "sensor": {"enabled": false}})";
+  auto run =
+      RunTurbid({"render", "--scene", "hull", "--scale", "0.1", "--params", dir.File("p.json"),
+                 "--set", "psf.forward_scatter=0.5", "--out", dir.File("h.exr")});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto sidecar = nlohmann::json::parse(ReadFileText(dir.File("h.json")));
   EXPECT_EQ(sidecar["options"]["psf"]["optical_thickness"], 1.0);
@@ -56,12 +60,13 @@ TEST(RenderCli, ParamsFileSetAndErrors) {
   EXPECT_EQ(sidecar["options"]["camera"]["bit_depth"], 32);
 
   std::ofstream(dir.File("bad.json")) << R"({"psf": {"forward_scater": 0.9}})";
-  run = RunTurbid({"render", "--scene", "hull", "--scale", "0.1", "--params", dir.File("bad.json"), "--out",
-                   dir.File("x.png")});
+  run = RunTurbid({"render", "--scene", "hull", "--scale", "0.1", "--params", dir.File("bad.json"),
+                   "--out", dir.File("x.png")});
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("psf.forward_scater: unknown key"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(dir.File("x.png")));
-  run = RunTurbid({"render", "--scene", "hull", "--scale", "0.1", "--beta", "11", "--out", dir.File("x.png")});
+  run = RunTurbid(
+      {"render", "--scene", "hull", "--scale", "0.1", "--beta", "11", "--out", dir.File("x.png")});
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("water.beta_rgb_per_m"), std::string::npos) << run.err;
   run = RunTurbid({"render", "--scene", "builtin:nowhere", "--out", dir.File("x.png")});
@@ -75,13 +80,15 @@ TEST(RenderCli, ParamsFileSetAndErrors) {
 std::map<std::string, std::string> FolderBytes(const std::string& root) {
   std::map<std::string, std::string> files;
   for (const auto& entry : fs::recursive_directory_iterator(root))
-    if (entry.is_regular_file()) files[fs::relative(entry.path(), root).string()] = ReadFileText(entry.path().string());
+    if (entry.is_regular_file())
+      files[fs::relative(entry.path(), root).string()] = ReadFileText(entry.path().string());
   return files;
 }
 
 TEST(GenerateCli, IdenticalBytesForAnyThreadCountAndResumes) {
   TempDir dir;
-  std::ofstream(dir.File("g.json")) << R"({"scenes": ["builtin:seafloor", "hull"], "scale": 0.08, "seed": 3,
+  std::ofstream(dir.File("g.json"))
+      << R"({"scenes": ["builtin:seafloor", "hull"], "scale": 0.08, "seed": 3,
     "grid": {"psf.optical_thickness": [1.0, 4.0]},
     "random": {"count": 2, "params": {"water.beta_gray_per_m": {"uniform": [0.1, 2.0]},
                                       "psf.forward_scatter": {"log_uniform": [0.1, 1.0]}}}})";
@@ -104,7 +111,8 @@ TEST(GenerateCli, IdenticalBytesForAnyThreadCountAndResumes) {
   EXPECT_NE(run.out.find("6 already complete"), std::string::npos) << run.out;
   EXPECT_EQ(FolderBytes(dir.File("a")), a);
 
-  std::ofstream(dir.File("bad.json")) << R"({"scenes": ["hull"], "grid": {"psf.forward_scatter": [2.0]}})";
+  std::ofstream(dir.File("bad.json"))
+      << R"({"scenes": ["hull"], "grid": {"psf.forward_scatter": [2.0]}})";
   run = RunTurbid({"generate", dir.File("bad.json"), "--out", dir.File("c")});
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("psf.forward_scatter"), std::string::npos) << run.err;
