@@ -89,8 +89,9 @@ inline void FastSinCos2Pi(float u, float* sin_out, float* cos_out) {
 namespace {
 
 // Box-Muller for pairs low0 .. low0 + n - 1 (32-bit counter, fixed high word): a straight loop
-// the compiler vectorises.
-void NormalPairs(uint32_t low0, uint32_t high, uint32_t k1, uint32_t k2, int n, float* cos_part,
+// the compiler vectorises; an AVX2 clone is picked at run time where the CPU has it (same results:
+// integer hashing and the same float operations, no FMA contraction across clones).
+__attribute__((target_clones("avx2", "default"))) void NormalPairs(uint32_t low0, uint32_t high, uint32_t k1, uint32_t k2, int n, float* cos_part,
                  float* sin_part) {
   for (int j = 0; j < n; ++j) {
     const uint32_t a = Hash32((low0 + static_cast<uint32_t>(j)) ^ k1) ^ high;
@@ -128,11 +129,20 @@ void RandomNormals(uint64_t key, uint64_t first, int count, float* out) {
                 cos_part.data() + done, sin_part.data() + done);
     done += n;
   }
-  for (int i = 0; i < count; ++i) {
-    const uint64_t index = first + i;
-    const size_t j = static_cast<size_t>(index / 2 - first_pair);
-    out[i] = (index & 1) ? sin_part[j] : cos_part[j];
+  // Interleave: out[i] is sample first + i; pair j holds samples 2(first_pair + j) and +1.
+  const int offset = static_cast<int>(first - 2 * first_pair);  // 0 or 1
+  int i = 0;
+  if (offset == 1) out[i++] = sin_part[0];
+  const float* c = cos_part.data() + offset;
+  const float* s = sin_part.data() + offset;
+  const int whole = (count - i) / 2;
+  float* o = out + i;
+  for (int j = 0; j < whole; ++j) {
+    o[2 * j] = c[j];
+    o[2 * j + 1] = s[j];
   }
+  i += 2 * whole;
+  if (i < count) out[i] = c[whole];
 }
 
 bool SnowOptions::Check(std::string* why) const {
