@@ -105,21 +105,29 @@ double Uicm(const RgbPlanes& p, double alpha, bool compat) {
 // scipy.ndimage.sobel along both axes ('reflect' borders = edge pixel repeated), hypot, scaled
 // so that the maximum is 255, times the channel: the reference's per-channel edge map.
 std::vector<double> EdgeMap(const std::vector<double>& x, int rows, int cols) {
-  auto at = [&](int i, int j) {
-    i = i < 0 ? -i - 1 : (i >= rows ? 2 * rows - 1 - i : i);
-    j = j < 0 ? -j - 1 : (j >= cols ? 2 * cols - 1 - j : j);
-    return x[static_cast<size_t>(i) * cols + j];
-  };
+  // One-pixel mirrored border, then the 3×3 operator on the padded plane.
+  const int pc = cols + 2;
+  std::vector<double> pad(static_cast<size_t>(rows + 2) * pc);
+  for (int i = -1; i <= rows; ++i) {
+    const int si = std::clamp(i, 0, rows - 1);
+    double* dst = &pad[static_cast<size_t>(i + 1) * pc];
+    const double* src = &x[static_cast<size_t>(si) * cols];
+    dst[0] = src[0];
+    std::copy(src, src + cols, dst + 1);
+    dst[cols + 1] = src[cols - 1];
+  }
   std::vector<double> mag(x.size());
   double max_mag = 0.0;
   for (int i = 0; i < rows; ++i) {
+    const double* up = &pad[static_cast<size_t>(i) * pc];
+    const double* mid = up + pc;
+    const double* down = mid + pc;
+    double* out = &mag[static_cast<size_t>(i) * cols];
     for (int j = 0; j < cols; ++j) {
-      const double d0 = (at(i + 1, j - 1) + 2 * at(i + 1, j) + at(i + 1, j + 1)) -
-                        (at(i - 1, j - 1) + 2 * at(i - 1, j) + at(i - 1, j + 1));
-      const double d1 = (at(i - 1, j + 1) + 2 * at(i, j + 1) + at(i + 1, j + 1)) -
-                        (at(i - 1, j - 1) + 2 * at(i, j - 1) + at(i + 1, j - 1));
+      const double d0 = (down[j] + 2 * down[j + 1] + down[j + 2]) - (up[j] + 2 * up[j + 1] + up[j + 2]);
+      const double d1 = (up[j + 2] + 2 * mid[j + 2] + down[j + 2]) - (up[j] + 2 * mid[j] + down[j]);
       const double m = std::hypot(d0, d1);
-      mag[static_cast<size_t>(i) * cols + j] = m;
+      out[j] = m;
       max_mag = std::max(max_mag, m);
     }
   }
