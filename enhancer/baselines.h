@@ -22,9 +22,9 @@
 #include <string>
 #include <vector>
 
-namespace turbid {
+#include "enhancer/method.h"
 
-struct MethodEntry;  // enhancer/method.h
+namespace turbid {
 
 // ---------------------------------------------------------------------------------------------
 // Building blocks shared by the prior-based methods (exposed for tests).

@@ -4,22 +4,16 @@
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
-#include <opencv2/ximgproc.hpp>
 
+#include "enhancer/clahe.h"
+#include "enhancer/guided_filter.h"
+#include "enhancer/method.h"
 #include "scenes/error.h"
 
 namespace turbid::baselines_internal {
 
 void ValidateImage(const cv::Mat& image, const std::string& method) {
-  if (image.empty()) throw Error(method + ": empty input image");
-  if (image.depth() != CV_32F) throw Error(method + ": input must be float32 (got another depth)");
-  if (image.channels() != 1 && image.channels() != 3) {
-    throw Error(method + ": input must have 1 or 3 channels (got " +
-                std::to_string(image.channels()) + ")");
-  }
-  if (!cv::checkRange(image, /*quiet=*/true)) {
-    throw Error(method + ": input contains NaN or infinite values");
-  }
+  ValidateEnhanceImage(image, method);
 }
 
 cv::Mat MinFilter(const cv::Mat& gray, int size) {
@@ -31,26 +25,20 @@ cv::Mat MinFilter(const cv::Mat& gray, int size) {
 }
 
 cv::Mat GuidedSmooth(const cv::Mat& guide, const cv::Mat& src, int radius, double eps) {
-  const int capped = std::max(1, std::min(radius, std::max(src.rows, src.cols)));
-  cv::Mat out;
-  cv::ximgproc::guidedFilter(guide, src, out, capped, eps, CV_32F);
-  return out;
+  GuidedFilterOptions options;
+  options.radius = std::max(1, std::min(radius, std::max(src.rows, src.cols)));
+  options.eps = eps;
+  return GuidedFilter(options, guide, src);
 }
 
 cv::Mat ClaheGray(const cv::Mat& gray, int tiles_x, int tiles_y, double clip_limit, int bins) {
-  // Temporary: OpenCV's CLAHE on 16-bit data until enhancer/clahe.h lands.
-  (void)bins;
-  cv::Mat u16;
-  gray.convertTo(u16, CV_16U, 65535.0);
-  const int tx = std::max(1, std::min(tiles_x, gray.cols));
-  const int ty = std::max(1, std::min(tiles_y, gray.rows));
-  const double cv_clip = 1.0 + clip_limit * 256.0;
-  cv::Ptr<cv::CLAHE> clahe = cv::createCLAHE(cv_clip, cv::Size(tx, ty));
-  cv::Mat eq;
-  clahe->apply(u16, eq);
-  cv::Mat out;
-  eq.convertTo(out, CV_32F, 1.0 / 65535.0);
-  return out;
+  ClaheOptions options;
+  options.tiles_x = tiles_x;
+  options.tiles_y = tiles_y;
+  options.clip_limit = clip_limit;
+  options.bins = bins;
+  options.distribution = ClaheDistribution::kUniform;
+  return Clahe(options, gray);
 }
 
 cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission, const cv::Vec3f& airlight,

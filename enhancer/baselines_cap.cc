@@ -1,0 +1,90 @@
+// Colour attenuation prior (Zhu, Mai, Shao, TIP 2015), deterministic. See enhancer/baselines.h.
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "enhancer/baselines.h"
+#include "enhancer/baselines_common.h"
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+using baselines_internal::IsOddPositive;
+
+// Zhu 2015 eq. 8 without ε: d = θ0 + θ1 v + θ2 s, with HSV value v = max_c I^c and saturation
+// s = (max - min) / max (0 where max is 0). Gray input has s = 0: depth follows brightness only.
+cv::Mat RawDepth(const CapOptions& options, const cv::Mat& image) {
+  const int channels = image.channels();
+  cv::Mat depth(image.size(), CV_32FC1);
+  for (int y = 0; y < image.rows; ++y) {
+    const float* in = image.ptr<float>(y);
+    float* d = depth.ptr<float>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      const float* px = in + x * channels;
+      float hi = px[0];
+      float lo = px[0];
+      for (int c = 1; c < channels; ++c) {
+        hi = std::max(hi, px[c]);
+        lo = std::min(lo, px[c]);
+      }
+      const double v = hi;
+      const double s = hi > 0.0f ? (hi - lo) / hi : 0.0;
+      d[x] = static_cast<float>(options.theta0 + options.theta1 * v + options.theta2 * s);
+    }
+  }
+  return depth;
+}
+
+}  // namespace
+
+bool CapOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (!std::isfinite(theta0) || !std::isfinite(theta1) || !std::isfinite(theta2)) {
+    return fail("theta0, theta1 and theta2 must be finite");
+  }
+  if (!IsOddPositive(patch_size)) return fail("patch_size must be an odd integer >= 1");
+  if (!(beta > 0.0) || !std::isfinite(beta)) return fail("beta must be > 0");
+  if (!(t_min > 0.0 && t_min < t_max && t_max <= 1.0)) {
+    return fail("t_min and t_max must satisfy 0 < t_min < t_max <= 1");
+  }
+  if (!(airlight_fraction > 0.0 && airlight_fraction <= 1.0)) {
+    return fail("airlight_fraction must be in (0, 1]");
+  }
+  if (guided_radius < 1) return fail("guided_radius must be >= 1");
+  if (!(guided_eps > 0.0) || !std::isfinite(guided_eps)) return fail("guided_eps must be > 0");
+  return true;
+}
+
+CapResult ColorAttenuationPriorDetailed(const CapOptions& options, const cv::Mat& image) {
+  baselines_internal::ValidateImage(image, "cap");
+  ThrowIfInvalid(options, "cap");
+  CapResult result;
+  result.raw_depth = RawDepth(options, image);
+  // Zhu 2015 eq. 14: the minimum filter suppresses white objects that the linear model would
+  // place far away.
+  const cv::Mat min_depth = baselines_internal::MinFilter(result.raw_depth, options.patch_size);
+  // Zhu 2015 §IV-D: A is read among the farthest 0.1 % of the (min-filtered) depth map.
+  result.airlight_pixel =
+      EstimateAirlight(image, min_depth, options.airlight_fraction, &result.airlight);
+  result.depth = options.refine ? baselines_internal::GuidedSmooth(image, min_depth,
+                                                                   options.guided_radius,
+                                                                   options.guided_eps)
+                                : min_depth;
+  cv::Mat t;
+  cv::exp(-options.beta * result.depth, t);
+  result.transmission = cv::max(cv::min(t, options.t_max), options.t_min);
+  result.image = baselines_internal::RecoverRadiance(image, result.transmission, result.airlight,
+                                                     options.t_min);
+  return result;
+}
+
+cv::Mat ColorAttenuationPrior(const CapOptions& options, const cv::Mat& image) {
+  return ColorAttenuationPriorDetailed(options, image).image;
+}
+
+}  // namespace turbid

@@ -1,0 +1,66 @@
+// CLAHE alone (uniform target) as a baseline, on luminance for colour. See enhancer/baselines.h.
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "enhancer/baselines.h"
+#include "enhancer/baselines_common.h"
+#include "scenes/error.h"
+
+namespace turbid {
+
+bool ClaheBaselineOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (tiles_x < 2 || tiles_y < 2) return fail("tiles_x and tiles_y must be >= 2");
+  if (!(clip_limit >= 0.0 && clip_limit <= 1.0)) return fail("clip_limit must be in [0, 1]");
+  if (bins < 2 || bins > 65536) return fail("bins must be in [2, 65536]");
+  return true;
+}
+
+cv::Mat Luminance(const cv::Mat& image) {
+  CV_Assert(image.depth() == CV_32F && (image.channels() == 1 || image.channels() == 3));
+  if (image.channels() == 1) return image.clone();
+  cv::Mat luminance;
+  // Rec. 709 / sRGB primaries on linear data, BGR order.
+  cv::transform(image, luminance, cv::Matx13f(0.0722f, 0.7152f, 0.2126f));
+  return luminance;
+}
+
+cv::Mat ReplaceLuminance(const cv::Mat& image, const cv::Mat& luminance,
+                         const cv::Mat& new_luminance) {
+  if (image.channels() == 1) {
+    cv::Mat out = new_luminance.clone();
+    baselines_internal::ClampUnit(out);
+    return out;
+  }
+  cv::Mat out(image.size(), CV_32FC3);
+  for (int y = 0; y < image.rows; ++y) {
+    const cv::Vec3f* in = image.ptr<cv::Vec3f>(y);
+    const float* l = luminance.ptr<float>(y);
+    const float* nl = new_luminance.ptr<float>(y);
+    cv::Vec3f* o = out.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        const float v = l[x] > 1e-6f ? in[x][c] * (nl[x] / l[x]) : nl[x];
+        o[x][c] = std::clamp(v, 0.0f, 1.0f);
+      }
+    }
+  }
+  return out;
+}
+
+cv::Mat ClaheBaseline(const ClaheBaselineOptions& options, const cv::Mat& image) {
+  baselines_internal::ValidateImage(image, "clahe");
+  ThrowIfInvalid(options, "clahe");
+  const cv::Mat luminance = Luminance(image);
+  const cv::Mat equalised = baselines_internal::ClaheGray(luminance, options.tiles_x,
+                                                          options.tiles_y, options.clip_limit,
+                                                          options.bins);
+  return ReplaceLuminance(image, luminance, equalised);
+}
+
+}  // namespace turbid

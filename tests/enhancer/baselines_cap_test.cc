@@ -1,0 +1,111 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "enhancer/baselines.h"
+#include "scenes/error.h"
+#include "tests/enhancer/baselines_test_images.h"
+
+namespace turbid {
+namespace {
+
+using baselines_test::AddHaze;
+using baselines_test::SmoothColourTexture;
+
+TEST(BaselinesCap, DefaultsPassCheck) {
+  std::string why;
+  EXPECT_TRUE(CapOptions{}.Check(&why)) << why;
+  CapOptions bad;
+  bad.t_min = 0.0;
+  EXPECT_FALSE(bad.Check(&why));
+  EXPECT_NE(why.find("t_min"), std::string::npos);
+  bad = CapOptions{};
+  bad.beta = -1.0;
+  EXPECT_FALSE(bad.Check(&why));
+  EXPECT_THROW(ColorAttenuationPrior(bad, cv::Mat(3, 3, CV_32FC3, cv::Scalar::all(0.5))), Error);
+}
+
+// The raw depth is Zhu 2015 eq. 8 without ε; checked against OpenCV's own HSV conversion.
+TEST(BaselinesCap, RawDepthMatchesOpenCvHsv) {
+  const cv::Mat image = SmoothColourTexture(16, 20);
+  const CapOptions options;
+  const CapResult result = ColorAttenuationPriorDetailed(options, image);
+  cv::Mat hsv;
+  cv::cvtColor(image, hsv, cv::COLOR_BGR2HSV);  // float: S and V in [0,1]
+  for (int y = 0; y < image.rows; ++y) {
+    for (int x = 0; x < image.cols; ++x) {
+      const cv::Vec3f p = hsv.at<cv::Vec3f>(y, x);
+      const double expected = 0.121779 + 0.959710 * p[2] - 0.780245 * p[1];
+      ASSERT_NEAR(result.raw_depth.at<float>(y, x), expected, 1e-5);
+    }
+  }
+}
+
+// Known ordering: haze whose transmission falls from left to right (true depth -ln t rises) gives
+// a CAP depth whose band means rise in the same order, and t stays in [t_min, t_max].
+TEST(BaselinesCap, DepthOrderingFollowsTrueDepth) {
+  const int rows = 40, cols = 160, bands = 8;
+  const cv::Mat clean = SmoothColourTexture(rows, cols);
+  cv::Mat t(rows, cols, CV_32FC1);
+  for (int x = 0; x < cols; ++x) t.col(x).setTo(std::exp(-2.0 * x / (cols - 1)));  // 1 .. 0.14
+  const cv::Mat hazy = AddHaze(clean, t, cv::Vec3f(0.8f, 0.8f, 0.8f));
+  CapOptions options;
+  options.guided_radius = 8;
+  const CapResult result = ColorAttenuationPriorDetailed(options, hazy);
+  double previous = -1e9;
+  for (int b = 0; b < bands; ++b) {
+    const cv::Rect band(b * cols / bands, 0, cols / bands, rows);
+    const double mean_depth = cv::mean(result.depth(band))[0];
+    EXPECT_GT(mean_depth, previous) << "band " << b;
+    previous = mean_depth;
+  }
+  double lo, hi;
+  cv::minMaxLoc(result.transmission, &lo, &hi);
+  EXPECT_GE(lo, options.t_min - 1e-7);
+  EXPECT_LE(hi, options.t_max + 1e-7);
+  // A comes from the farthest pixels: the right edge, where the haze is densest.
+  EXPECT_GT(result.airlight_pixel.x, cols * 3 / 4);
+}
+
+// Gray input: saturation is 0, so depth = θ0 + θ1 v; brighter means farther.
+TEST(BaselinesCap, GrayDepthIsLinearInBrightness) {
+  cv::Mat gray(8, 8, CV_32FC1);
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 8; ++x) gray.at<float>(y, x) = 0.1f * (x % 4) + 0.05f * (y % 3);
+  }
+  const CapResult result = ColorAttenuationPriorDetailed(CapOptions{}, gray);
+  for (int y = 0; y < 8; ++y) {
+    for (int x = 0; x < 8; ++x) {
+      ASSERT_NEAR(result.raw_depth.at<float>(y, x), 0.121779 + 0.959710 * gray.at<float>(y, x),
+                  1e-6);
+    }
+  }
+  EXPECT_EQ(result.image.channels(), 1);
+}
+
+// With the refinement and minimum filter off (patch 1), the method is exact on haze that follows
+// its own model: t = exp(-β d(I)) and A at the farthest pixel give back J where t > t_min.
+TEST(BaselinesCap, InvertsItsOwnModelExactly) {
+  const cv::Mat hazy_in = SmoothColourTexture(12, 12) * 0.5 + cv::Scalar::all(0.25);
+  CapOptions options;
+  options.refine = false;
+  options.patch_size = 1;
+  const CapResult result = ColorAttenuationPriorDetailed(options, hazy_in);
+  const cv::Mat rehazed = AddHaze(result.image, result.transmission, result.airlight);
+  // Recovered radiances that did not clip re-haze to the input.
+  int checked = 0;
+  for (int y = 0; y < hazy_in.rows; ++y) {
+    for (int x = 0; x < hazy_in.cols; ++x) {
+      const cv::Vec3f j = result.image.at<cv::Vec3f>(y, x);
+      if (std::min({j[0], j[1], j[2]}) <= 0.0f || std::max({j[0], j[1], j[2]}) >= 1.0f) continue;
+      if (result.transmission.at<float>(y, x) <= options.t_min) continue;
+      const cv::Vec3f d = rehazed.at<cv::Vec3f>(y, x) - hazy_in.at<cv::Vec3f>(y, x);
+      ASSERT_LT(std::sqrt(d.dot(d)), 1e-5);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 10);
+}
+
+}  // namespace
+}  // namespace turbid

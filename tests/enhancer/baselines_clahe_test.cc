@@ -1,0 +1,73 @@
+#include <gtest/gtest.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include "enhancer/baselines.h"
+#include "enhancer/clahe.h"
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+TEST(BaselinesClahe, DefaultsPassCheck) {
+  std::string why;
+  EXPECT_TRUE(ClaheBaselineOptions{}.Check(&why)) << why;
+  ClaheBaselineOptions bad;
+  bad.clip_limit = 2.0;
+  EXPECT_FALSE(bad.Check(&why));
+  EXPECT_NE(why.find("clip_limit"), std::string::npos);
+  EXPECT_THROW(ClaheBaseline(bad, cv::Mat(8, 8, CV_32FC1, cv::Scalar(0.5))), Error);
+}
+
+cv::Mat LowContrastRamp(int rows, int cols) {
+  cv::Mat gray(rows, cols, CV_32FC1);
+  for (int y = 0; y < rows; ++y) {
+    for (int x = 0; x < cols; ++x) {
+      gray.at<float>(y, x) = 0.4f + 0.2f * static_cast<float>(x + y) / (rows + cols);
+    }
+  }
+  return gray;
+}
+
+// Gray input is exactly adapthisteq-style CLAHE with the uniform target (enhancer/clahe.h).
+TEST(BaselinesClahe, GrayEqualsUniformClahe) {
+  const cv::Mat gray = LowContrastRamp(40, 48);
+  const ClaheBaselineOptions options;
+  ClaheOptions reference;
+  reference.distribution = ClaheDistribution::kUniform;
+  const cv::Mat expected = Clahe(reference, gray);
+  EXPECT_LT(cv::norm(ClaheBaseline(options, gray), expected, cv::NORM_INF), 1e-6);
+  // And it stretches the low-contrast ramp (input range about 0.2).
+  double in_lo, in_hi, lo, hi;
+  cv::minMaxLoc(gray, &in_lo, &in_hi);
+  cv::minMaxLoc(ClaheBaseline(options, gray), &lo, &hi);
+  EXPECT_GT(hi - lo, 1.5 * (in_hi - in_lo));
+}
+
+// Colour: luminance is equalised and the channels scale by one ratio, so the chromaticity
+// (channel ratios) is kept wherever nothing clips.
+TEST(BaselinesClahe, ColourKeepsChannelRatios) {
+  const cv::Mat gray = LowContrastRamp(40, 48);
+  cv::Mat color;
+  cv::merge(std::vector<cv::Mat>{gray * 0.9, gray * 0.6, gray * 0.3}, color);
+  const cv::Mat out = ClaheBaseline(ClaheBaselineOptions{}, color);
+  int checked = 0;
+  for (int y = 0; y < out.rows; ++y) {
+    for (int x = 0; x < out.cols; ++x) {
+      const cv::Vec3f p = out.at<cv::Vec3f>(y, x);
+      if (p[0] >= 1.0f || p[0] <= 1e-4f) continue;
+      ASSERT_NEAR(p[1] / p[0], 0.6 / 0.9, 1e-4);
+      ASSERT_NEAR(p[2] / p[0], 0.3 / 0.9, 1e-4);
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, out.rows * out.cols / 2);
+  // The luminance of the result is the equalised luminance (where nothing clipped).
+  ClaheOptions reference;
+  reference.distribution = ClaheDistribution::kUniform;
+  const cv::Mat expected = Clahe(reference, Luminance(color));
+  EXPECT_NEAR(Luminance(out).at<float>(20, 24), expected.at<float>(20, 24), 1e-5);
+}
+
+}  // namespace
+}  // namespace turbid
