@@ -15,17 +15,16 @@ namespace turbid {
 namespace {
 
 Experiment BetaSweep(const std::string& scene, double scale) {
-  const nlohmann::json in = {
-      {"name", "bench"},
-      {"scale", scale},
-      {"scenes", {"builtin:" + scene}},
-      {"grid",
-       {{"water.beta_gray_per_m", {0.1, 0.3, 0.5, 0.7, 0.9, 1.1, 1.3, 1.5}},
-        {"water.beta_rgb_per_m", {{0.7, 0.7, 0.7}}}}},
-      {"reference_methods", false},
-      {"methods", {"none"}},
-      {"metrics", {"psnr", "ssim", "uiqm"}},
-      {"thumbnails", 0}};
+  const nlohmann::json in = {{"name", "bench"},
+                             {"scale", scale},
+                             {"scenes", {"builtin:" + scene}},
+                             {"grid",
+                              {{"water.beta_gray_per_m", {0.1, 0.3, 0.5, 0.7, 0.9, 1.1, 1.3, 1.5}},
+                               {"water.beta_rgb_per_m", {{0.7, 0.7, 0.7}}}}},
+                             {"reference_methods", false},
+                             {"methods", {"none"}},
+                             {"metrics", {"psnr", "ssim", "uiqm"}},
+                             {"thumbnails", 0}};
   return ParseExperiment(in, "bench.json", RegistryCatalog());
 }
 

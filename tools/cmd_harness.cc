@@ -40,7 +40,8 @@ void RunSweepCommand(const SweepArgs& args) {
   ThrowIfInvalid(options, "sweep");
   if (args.dry_run) {
     int in_shard = 0;
-    for (const ItemSpec& item : ExpandItems(experiment)) in_shard += options.shard.Contains(item.index);
+    for (const ItemSpec& item : ExpandItems(experiment))
+      in_shard += options.shard.Contains(item.index);
     std::cout << experiment.name << ": valid; " << experiment.scenes.size() << " scenes x "
               << experiment.ConditionCount() << " conditions = " << experiment.ItemCount()
               << " items (" << in_shard << " in shard " << args.shard << "), "

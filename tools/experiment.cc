@@ -56,7 +56,8 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
     // A named axis: each value sets several paths together, e.g. gray and RGB beta.
     if (path.size() < 2) throw Error(file, "grid axis '@' needs a name");
     if (!spec.is_array() || spec.empty()) {
-      throw Error(file, what + " must be a non-empty array of {path: value, \"label\": ...} objects");
+      throw Error(file,
+                  what + " must be a non-empty array of {path: value, \"label\": ...} objects");
     }
     std::set<std::string> labels;
     for (const json& value : spec) {
@@ -76,8 +77,8 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
         }
       }
       if (paths == 0) throw Error(file, what + " has a value that sets no parameter");
-      const std::string label = value.contains("label") ? value["label"].get<std::string>()
-                                                        : value.dump();
+      const std::string label =
+          value.contains("label") ? value["label"].get<std::string>() : value.dump();
       if (!labels.insert(label).second) throw Error(file, what + " repeats label '" + label + "'");
       values.push_back(value);
     }
@@ -94,7 +95,8 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
   }
   if (!spec.is_object() || spec.size() != 1 ||
       !(spec.contains("linspace") || spec.contains("logspace"))) {
-    throw Error(file, what + " must be an array of values or {\"linspace\"|\"logspace\": [lo, hi, n]}");
+    throw Error(file,
+                what + " must be an array of values or {\"linspace\"|\"logspace\": [lo, hi, n]}");
   }
   const bool log = spec.contains("logspace");
   const json& range = log ? spec["logspace"] : spec["linspace"];
@@ -108,8 +110,8 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
     throw Error(file, what + " n must be an integer in [1, 100000]");
   }
   const int n = range[2].get<int>();
-  if (lo > hi) throw Error(file, what + " range is empty: lo " + range[0].dump() + " > hi " +
-                                     range[1].dump());
+  if (lo > hi)
+    throw Error(file, what + " range is empty: lo " + range[0].dump() + " > hi " + range[1].dump());
   if (log && lo <= 0.0) throw Error(file, what + " logspace needs lo > 0");
   for (int i = 0; i < n; ++i) {
     const double f = n == 1 ? 0.0 : static_cast<double>(i) / (n - 1);
@@ -123,15 +125,17 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
 SampledParam ParseSampled(const std::string& path, const json& spec, const std::string& file) {
   const std::string what = "samples param '" + path + "'";
   if (!spec.is_object() || spec.size() != 1) {
-    throw Error(file, what + " must be one of {\"uniform\"|\"log_uniform\"|\"int_uniform\": [lo, "
-                             "hi]} or {\"choice\": [values...]}");
+    throw Error(file, what +
+                          " must be one of {\"uniform\"|\"log_uniform\"|\"int_uniform\": [lo, "
+                          "hi]} or {\"choice\": [values...]}");
   }
   SampledParam param;
   param.path = path;
   param.distribution = spec.begin().key();
   const json& args = spec.begin().value();
   if (param.distribution == "choice") {
-    if (!args.is_array() || args.empty()) throw Error(file, what + " choice needs a non-empty array");
+    if (!args.is_array() || args.empty())
+      throw Error(file, what + " choice needs a non-empty array");
     param.choices = args;
     return param;
   }
@@ -235,9 +239,9 @@ json ConditionParams(const Experiment& experiment, int condition) {
     grid_index /= n;
   }
   for (size_t j = 0; j < experiment.sampled.size(); ++j) {
-    const uint64_t key = MixSeed(MixSeed(MixSeed(experiment.sample_seed) +
-                                         static_cast<uint64_t>(condition)) +
-                                 static_cast<uint64_t>(j) + 1);
+    const uint64_t key =
+        MixSeed(MixSeed(MixSeed(experiment.sample_seed) + static_cast<uint64_t>(condition)) +
+                static_cast<uint64_t>(j) + 1);
     params[experiment.sampled[j].path] = DrawSample(experiment.sampled[j], key);
   }
   return params;
@@ -271,8 +275,8 @@ void SetJsonPath(json& root, const std::string& path, const json& value) {
   size_t start = 0;
   while (true) {
     const size_t dot = path.find('.', start);
-    const std::string key = path.substr(start, dot == std::string::npos ? std::string::npos
-                                                                         : dot - start);
+    const std::string key =
+        path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
     if (key.empty()) throw Error("parameter path '" + path + "' has an empty component");
     if (node->is_null()) *node = json::object();
     if (!node->is_object()) {
@@ -292,8 +296,8 @@ const json* FindJsonPath(const json& root, const std::string& path) {
   size_t start = 0;
   while (true) {
     const size_t dot = path.find('.', start);
-    const std::string key = path.substr(start, dot == std::string::npos ? std::string::npos
-                                                                         : dot - start);
+    const std::string key =
+        path.substr(start, dot == std::string::npos ? std::string::npos : dot - start);
     if (!node->is_object() || !node->contains(key)) return nullptr;
     node = &(*node)[key];
     if (dot == std::string::npos) return node;
@@ -393,12 +397,13 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     e.level_bins = in.at("level").at("bins").get<int>();
     e.seed_path = in.at("seed_path").get<std::string>();
     for (const json& m : in.at("methods")) {
-      e.methods.push_back({m.at("name").get<std::string>(), m.at("label").get<std::string>(),
-                           m.at("params")});
+      e.methods.push_back(
+          {m.at("name").get<std::string>(), m.at("label").get<std::string>(), m.at("params")});
     }
     for (const json& m : in.at("metrics")) {
       e.metrics.push_back({m.at("name").get<std::string>(), m.at("higher_is_better").get<bool>(),
-                           m.at("needs_reference").get<bool>(), m.at("needs_original").get<bool>()});
+                           m.at("needs_reference").get<bool>(),
+                           m.at("needs_original").get<bool>()});
     }
     e.ground_truth = in.at("ground_truth").get<std::string>();
     e.best_excludes = in.at("best_excludes").get<std::vector<std::string>>();
@@ -464,9 +469,9 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
       }
     }
     // A bare name without folder or extension is a built-in scene, as in `turbid scene`.
-    const bool builtin = scene.spec.rfind("builtin:", 0) == 0 ||
-                         (scene.spec.find('/') == std::string::npos &&
-                          fs::path(scene.spec).extension().empty());
+    const bool builtin =
+        scene.spec.rfind("builtin:", 0) == 0 ||
+        (scene.spec.find('/') == std::string::npos && fs::path(scene.spec).extension().empty());
     scene.load_spec = scene.spec;
     if (!builtin && fs::path(scene.spec).is_relative() && !base_dir.empty()) {
       scene.load_spec = (base_dir / scene.spec).lexically_normal().string();
@@ -480,7 +485,8 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
       throw Error(file, "scene name '" + scene.name + "' must be 1-64 characters of [A-Za-z0-9_-]");
     }
     if (!scene_names.insert(scene.name).second) {
-      throw Error(file, "scene name '" + scene.name + "' is used twice (give each a unique 'name')");
+      throw Error(file,
+                  "scene name '" + scene.name + "' is used twice (give each a unique 'name')");
     }
     try {
       catalog.check_scene(scene.load_spec);
@@ -552,9 +558,9 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
   }
 
   // Level.
-  e.level_path = in.contains("level") ? get_string("level", "")
-                                      : (e.grid.empty() ? e.sampled.front().path
-                                                        : e.grid.front().first);
+  e.level_path = in.contains("level")
+                     ? get_string("level", "")
+                     : (e.grid.empty() ? e.sampled.front().path : e.grid.front().first);
   if (!swept.count(e.level_path)) {
     throw Error(file, "'level' '" + e.level_path + "' is not a parameter of 'grid' or 'samples'");
   }
@@ -594,7 +600,8 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
       method.params = object["params"];
     }
     if (!IsSafeName(method.label) || method.label.find('.') != std::string::npos) {
-      throw Error(file, "method label '" + method.label + "' must be 1-64 characters of [A-Za-z0-9_-]");
+      throw Error(file,
+                  "method label '" + method.label + "' must be 1-64 characters of [A-Za-z0-9_-]");
     }
     if (method.name == catalog.identity_method) {
       if (!method.params.empty()) {
@@ -750,7 +757,8 @@ std::vector<ItemSpec> ExpandItems(const Experiment& e) {
     }
   }
   std::map<std::string, int> rank;
-  for (const std::string& label : LevelLabels(e)) rank.emplace(label, static_cast<int>(rank.size()));
+  for (const std::string& label : LevelLabels(e))
+    rank.emplace(label, static_cast<int>(rank.size()));
 
   std::vector<ItemSpec> items;
   items.reserve(static_cast<size_t>(e.ItemCount()));
@@ -777,8 +785,9 @@ std::vector<ItemSpec> ExpandItems(const Experiment& e) {
       } else {
         item.level_value = rank[labels[c]];
       }
-      item.seed = MixSeed(MixSeed(e.seed) ^ ((static_cast<uint64_t>(s) << 32) |
-                                             static_cast<uint64_t>(c))) >> 33;
+      item.seed = MixSeed(MixSeed(e.seed) ^
+                          ((static_cast<uint64_t>(s) << 32) | static_cast<uint64_t>(c))) >>
+                  33;
       item.render_options = ConditionRenderOptions(e, item.params);
       if (!e.seed_path.empty()) SetJsonPath(item.render_options, e.seed_path, item.seed);
       items.push_back(std::move(item));

@@ -1,16 +1,16 @@
 // Experiment files: scenes x simulator-parameter grid and/or seeded random samples x enhancement
-// methods x metrics, scored against a chosen ground truth. Schema and examples: docs/experiments.md.
+// methods x metrics, scored against a chosen ground truth. Schema and examples:
+// docs/experiments.md.
 //
 // This file knows nothing about the simulator's, enhancer's or metrics' internals: parameters are
 // JSON paths into the render-options JSON ("water.beta_per_m", "psf.T"), and names are checked
-// through an injected HarnessCatalog (the real one reads the registries, tests pass a fake), so that
-// the whole experiment is validated before any work starts.
+// through an injected HarnessCatalog (the real one reads the registries, tests pass a fake), so
+// that the whole experiment is validated before any work starts.
 #pragma once
-
-#include <nlohmann/json.hpp>
 
 #include <cstdint>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -45,51 +45,51 @@ struct HarnessCatalog {
 };
 
 struct ExperimentScene {
-  std::string spec;   // "builtin:hull" or a scene JSON path, as written in the experiment file
+  std::string spec;       // "builtin:hull" or a scene JSON path, as written in the experiment file
   std::string load_spec;  // spec with a relative path resolved against the experiment file's folder
                           // (not saved: shards on other machines resolve it themselves)
-  std::string name;   // unique short id used in item ids, tables and file names ([A-Za-z0-9_-])
-  double scale = 1.0; // built-in scenes: output size scale in (0, 1]; must be 1 for scene files
+  std::string name;       // unique short id used in item ids, tables and file names ([A-Za-z0-9_-])
+  double scale = 1.0;     // built-in scenes: output size scale in (0, 1]; must be 1 for scene files
 };
 
 struct ExperimentMethod {
-  std::string name;             // registry key ("none" is the identity row)
-  std::string label;            // column name in tables (defaults to name); unique
+  std::string name;   // registry key ("none" is the identity row)
+  std::string label;  // column name in tables (defaults to name); unique
   nlohmann::json params = nlohmann::json::object();  // overrides of the method's defaults
 };
 
 // One randomly sampled parameter. Values are drawn from a counter-based generator keyed by
 // (samples.seed, condition, parameter), so they do not depend on threads, shards or order.
 struct SampledParam {
-  std::string path;                 // dotted path into the render options
-  std::string distribution;         // "uniform", "log_uniform", "int_uniform" or "choice"
-  double low = 0.0, high = 0.0;     // bounds for the continuous/integer distributions
-  nlohmann::json choices;           // array of JSON values for "choice"
+  std::string path;              // dotted path into the render options
+  std::string distribution;      // "uniform", "log_uniform", "int_uniform" or "choice"
+  double low = 0.0, high = 0.0;  // bounds for the continuous/integer distributions
+  nlohmann::json choices;        // array of JSON values for "choice"
 };
 
 struct Experiment {
-  std::string name;                 // short name ([A-Za-z0-9_.-])
+  std::string name;  // short name ([A-Za-z0-9_.-])
   std::string description;
-  std::string source_path;          // the file it was read from (not part of the resolved JSON)
-  uint64_t seed = 1;                // seeds each item's render (noise, marine snow)
+  std::string source_path;  // the file it was read from (not part of the resolved JSON)
+  uint64_t seed = 1;        // seeds each item's render (noise, marine snow)
   std::vector<ExperimentScene> scenes;
   nlohmann::json render = nlohmann::json::object();  // base render options (before grid values)
-  nlohmann::json render_resolved;   // base render options with every default filled in
+  nlohmann::json render_resolved;  // base render options with every default filled in
   // Grid: ordered (path, values) pairs; the cartesian product, last path varying fastest.
   std::vector<std::pair<std::string, std::vector<nlohmann::json>>> grid;
-  int sample_count = 0;             // random draws per grid point (0: grid only)
+  int sample_count = 0;  // random draws per grid point (0: grid only)
   uint64_t sample_seed = 1;
   std::vector<SampledParam> sampled;
-  std::string level_path;           // the parameter whose value is the "turbidity level" in tables
-  int level_bins = 4;               // bins when the level parameter is sampled continuously
-  std::string seed_path;            // where each item's seed goes in the render options ("" = none)
+  std::string level_path;  // the parameter whose value is the "turbidity level" in tables
+  int level_bins = 4;      // bins when the level parameter is sampled continuously
+  std::string seed_path;   // where each item's seed goes in the render options ("" = none)
   std::vector<ExperimentMethod> methods;
   std::vector<HarnessMetricInfo> metrics;
-  std::string ground_truth = "clean";  // "clean" (rho) or "lit" (J = (E_A + E_L) rho)
+  std::string ground_truth = "clean";      // "clean" (rho) or "lit" (J = (E_A + E_L) rho)
   std::vector<std::string> best_excludes;  // method labels never marked best (floor/identity rows)
-  int thumbnail_width = 160;        // thumbnails saved during the sweep for the report (0: none)
+  int thumbnail_width = 160;  // thumbnails saved during the sweep for the report (0: none)
 
-  int ConditionCount() const;       // grid points x max(1, sample_count)
+  int ConditionCount() const;  // grid points x max(1, sample_count)
   int ItemCount() const { return ConditionCount() * static_cast<int>(scenes.size()); }
   // The resolved experiment as canonical JSON: what is saved as DIR/experiment.json and compared
   // on resume and merge.
@@ -106,13 +106,13 @@ Experiment ExperimentFromResolvedJson(const nlohmann::json& json, const std::str
 
 // One unit of work: one scene under one parameter condition; every method is run on it.
 struct ItemSpec {
-  int index = 0;             // position in the global order (scene-major, then condition)
-  std::string id;            // "<scene>-c<condition, zero-padded>"; sorts like index within a scene
+  int index = 0;   // position in the global order (scene-major, then condition)
+  std::string id;  // "<scene>-c<condition, zero-padded>"; sorts like index within a scene
   int scene_index = 0;
   int condition = 0;
-  std::string level;         // table label of the level parameter's value
-  double level_value = 0.0;  // numeric position for plots (the value, or the level's rank)
-  nlohmann::json params;     // {path: value} for every gridded and sampled parameter
+  std::string level;              // table label of the level parameter's value
+  double level_value = 0.0;       // numeric position for plots (the value, or the level's rank)
+  nlohmann::json params;          // {path: value} for every gridded and sampled parameter
   nlohmann::json render_options;  // base render options with params (and seed) applied
   uint64_t seed = 0;
 };

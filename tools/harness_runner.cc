@@ -1,12 +1,11 @@
 #include "tools/harness_runner.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <chrono>
 #include <cmath>
 #include <exception>
 #include <filesystem>
 #include <mutex>
+#include <opencv2/imgproc.hpp>
 
 #include "enhancer/registry.h"
 #include "metrics/registry.h"
@@ -215,8 +214,7 @@ ItemResult HarnessRunner::Run(const ItemSpec& item) const {
       inputs.original = render.image;
       row.metrics = ComputeMetrics(metric_names_, inputs);
       if (experiment_.thumbnail_width > 0 && method.name != "none") {
-        WriteThumbnail(thumbs + "/" + method.label + ".png", enhanced,
-                       experiment_.thumbnail_width);
+        WriteThumbnail(thumbs + "/" + method.label + ".png", enhanced, experiment_.thumbnail_width);
       }
     } catch (const std::exception& error) {
       if (row.time_ms == 0.0) row.time_ms = MillisecondsSince(start);
@@ -234,8 +232,8 @@ void WriteThumbnail(const std::string& path, const cv::Mat& linear, int width) {
   if (ec) throw Error(path, "cannot create the thumbnail folder: " + ec.message());
   cv::Mat small = linear;
   if (linear.cols > width) {
-    const int height = std::max(1, static_cast<int>(std::lround(
-                                       static_cast<double>(linear.rows) * width / linear.cols)));
+    const int height = std::max(
+        1, static_cast<int>(std::lround(static_cast<double>(linear.rows) * width / linear.cols)));
     cv::resize(linear, small, cv::Size(width, height), 0, 0, cv::INTER_AREA);
   }
   WriteImageOptions options;

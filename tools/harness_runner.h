@@ -3,11 +3,10 @@
 // harness to the simulator (simulator/render.h), the enhancer registry and the metrics registry.
 #pragma once
 
-#include <opencv2/core.hpp>
-
 #include <map>
 #include <memory>
 #include <mutex>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 

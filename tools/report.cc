@@ -31,11 +31,20 @@ std::string Html(const std::string& text) {
   std::string out;
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -44,8 +53,10 @@ std::string Html(const std::string& text) {
 std::string ShellQuote(const std::string& arg) {
   std::string quoted = "'";
   for (char c : arg) {
-    if (c == '\'') quoted += "'\\''";
-    else quoted += c;
+    if (c == '\'')
+      quoted += "'\\''";
+    else
+      quoted += c;
   }
   return quoted + "'";
 }
@@ -67,8 +78,8 @@ std::string InlineMarkdown(const std::string& text) {
   bool bold = false;
   while (pos < text.size()) {
     const size_t star = text.find("**", pos);
-    const std::string chunk = text.substr(pos, star == std::string::npos ? std::string::npos
-                                                                         : star - pos);
+    const std::string chunk =
+        text.substr(pos, star == std::string::npos ? std::string::npos : star - pos);
     std::string escaped = Html(chunk);
     // `code` spans.
     std::string coded;
@@ -150,7 +161,7 @@ std::string DataUri(const std::string& path, const std::string& mime) {
 }
 
 struct Plotter {
-  std::string dir;      // DIR/report
+  std::string dir;  // DIR/report
   std::string gnuplot;
   std::string warning;
   bool available = true;
@@ -160,8 +171,10 @@ struct Plotter {
     if (!available) return "";
     const std::string gp = dir + "/" + name + ".gp";
     const std::string svg = dir + "/" + name + ".svg";
-    AtomicWriteText(gp, "set terminal svg size 640,400 fixed noenhanced font 'sans,11' "
-                        "background rgb 'white'\nset output " + GpString(svg) + "\n" + script,
+    AtomicWriteText(gp,
+                    "set terminal svg size 640,400 fixed noenhanced font 'sans,11' "
+                    "background rgb 'white'\nset output " +
+                        GpString(svg) + "\n" + script,
                     true);
     std::error_code ec;
     fs::remove(svg, ec);
@@ -198,14 +211,14 @@ bool ReportOptions::Check(std::string* why) const {
 }
 
 std::string Base64(const std::string& bytes) {
-  static const char* kAlphabet =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  static const char* kAlphabet = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
   out.reserve((bytes.size() + 2) / 3 * 4);
   size_t i = 0;
   for (; i + 2 < bytes.size(); i += 3) {
     const uint32_t v = (static_cast<uint8_t>(bytes[i]) << 16) |
-                       (static_cast<uint8_t>(bytes[i + 1]) << 8) | static_cast<uint8_t>(bytes[i + 2]);
+                       (static_cast<uint8_t>(bytes[i + 1]) << 8) |
+                       static_cast<uint8_t>(bytes[i + 2]);
     out += kAlphabet[(v >> 18) & 63];
     out += kAlphabet[(v >> 12) & 63];
     out += kAlphabet[(v >> 6) & 63];
@@ -217,7 +230,8 @@ std::string Base64(const std::string& bytes) {
     out += kAlphabet[(v >> 12) & 63];
     out += "==";
   } else if (i + 2 == bytes.size()) {
-    const uint32_t v = (static_cast<uint8_t>(bytes[i]) << 16) | (static_cast<uint8_t>(bytes[i + 1]) << 8);
+    const uint32_t v =
+        (static_cast<uint8_t>(bytes[i]) << 16) | (static_cast<uint8_t>(bytes[i + 1]) << 8);
     out += kAlphabet[(v >> 18) & 63];
     out += kAlphabet[(v >> 12) & 63];
     out += kAlphabet[(v >> 6) & 63];
@@ -287,10 +301,11 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     std::ostringstream gp;
     gp << "set datafile missing '?'\nset grid\nset key outside right top\n"
        << "set xlabel " << GpString(e.level_path) << "\nset ylabel "
-       << GpString(metric.name + (metric.higher_is_better ? " (higher is better)"
-                                                          : " (lower is better)"))
+       << GpString(metric.name +
+                   (metric.higher_is_better ? " (higher is better)" : " (lower is better)"))
        << "\nset title " << GpString(metric.name + " vs " + e.level_path + " (mean over items)")
-       << "\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n" << xtics << "plot ";
+       << "\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n"
+       << xtics << "plot ";
     for (size_t m = 0; m < e.methods.size(); ++m) {
       gp << (m ? ", " : "") << GpString(report_dir + "/" + name + ".dat") << " using 1:" << m + 2
          << " with linespoints lw 2 pt " << (m % 12) + 1 << " title "
@@ -327,9 +342,9 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
       AtomicWriteText(report_dir + "/time_vs_metric.dat", data.str(), true);
       std::ostringstream gp;
       gp << "set grid\nset logscale x\nset xlabel 'mean run time per image (ms, log scale)'\n"
-         << "set ylabel " << GpString(primary.name + (primary.higher_is_better
-                                                          ? " (higher is better)"
-                                                          : " (lower is better)"))
+         << "set ylabel "
+         << GpString(primary.name +
+                     (primary.higher_is_better ? " (higher is better)" : " (lower is better)"))
          << "\nset title " << GpString("run time vs " + primary.name + " per method (all items)")
          << "\nset offsets graph 0.1, graph 0.2, graph 0.1, graph 0.1\nunset key\nplot "
          << GpString(report_dir + "/time_vs_metric.dat")
@@ -355,9 +370,9 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
        << "</style>\n</head>\n<body>\n";
   html << "<h1>" << Html(e.name) << "</h1>\n";
   if (!e.description.empty()) html << "<p>" << Html(e.description) << "</p>\n";
-  html << "<p>" << sweep.items.size() << " of " << e.ItemCount() << " items ("
-       << e.scenes.size() << " scenes × " << e.ConditionCount() << " conditions), "
-       << e.methods.size() << " methods, " << e.metrics.size()
+  html << "<p>" << sweep.items.size() << " of " << e.ItemCount() << " items (" << e.scenes.size()
+       << " scenes × " << e.ConditionCount() << " conditions), " << e.methods.size() << " methods, "
+       << e.metrics.size()
        << " metrics. Ground truth: " << (e.ground_truth == "lit" ? "lit J" : "clean ρ")
        << ". Turbidity level: <code>" << Html(e.level_path) << "</code>.</p>\n";
   if (!summary.warning.empty()) html << "<p class=\"warn\">" << Html(summary.warning) << "</p>\n";
@@ -367,9 +382,10 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
 
   html << "<h2>Plots</h2>\n<div class=\"plots\">\n";
   for (const auto& [caption, svg] : plots) {
-    html << "<figure style=\"display:inline-block\"><img class=\"plot\" width=\"640\" height=\"400\" alt=\"" << Html(caption)
-         << "\" src=\"" << DataUri(svg, "image/svg+xml") << "\"><figcaption>" << Html(caption)
-         << "</figcaption></figure>\n";
+    html << "<figure style=\"display:inline-block\"><img class=\"plot\" width=\"640\" "
+            "height=\"400\" alt=\""
+         << Html(caption) << "\" src=\"" << DataUri(svg, "image/svg+xml") << "\"><figcaption>"
+         << Html(caption) << "</figcaption></figure>\n";
   }
   if (plots.empty()) html << "<p class=\"warn\">no plots</p>\n";
   html << "</div>\n";
@@ -396,13 +412,14 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     if (!shown.insert({item.scene, item.level}).second) continue;
     ++rows;
     const std::string thumbs = dir + "/thumbs/" + item.id;
-    html << "<tr><td>" << Html(item.id) << "<br>" << Html(e.level_path) << " = "
-         << Html(item.level) << "</td>"
+    html << "<tr><td>" << Html(item.id) << "<br>" << Html(e.level_path) << " = " << Html(item.level)
+         << "</td>"
          << image_cell(dir + "/thumbs/" + item.scene + "/clean.png", item.scene + " clean");
     if (e.ground_truth == "lit") html << image_cell(thumbs + "/lit.png", item.id + " lit");
     html << image_cell(thumbs + "/degraded.png", item.id + " degraded");
     for (const ExperimentMethod& m : e.methods) {
-      if (m.name != "none") html << image_cell(thumbs + "/" + m.label + ".png", item.id + " " + m.label);
+      if (m.name != "none")
+        html << image_cell(thumbs + "/" + m.label + ".png", item.id + " " + m.label);
     }
     html << "</tr>\n";
   }

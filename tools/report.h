@@ -11,10 +11,10 @@
 namespace turbid {
 
 struct ReportOptions {
-  std::string out_file;              // default: DIR/report.html
-  std::string gnuplot = "gnuplot";   // the gnuplot executable; plots are skipped (with a note on
-                                     // the page and a warning) when it cannot be run
-  int max_grid_rows = 60;            // image-grid rows (scene x level) shown at most
+  std::string out_file;             // default: DIR/report.html
+  std::string gnuplot = "gnuplot";  // the gnuplot executable; plots are skipped (with a note on
+                                    // the page and a warning) when it cannot be run
+  int max_grid_rows = 60;           // image-grid rows (scene x level) shown at most
   bool Check(std::string* why) const;
 };
 

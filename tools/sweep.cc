@@ -52,8 +52,9 @@ void ClaimDir(const Experiment& experiment, const std::string& dir, bool force) 
   if (fs::exists(path)) {
     if (ReadAll(path) == text) return;
     if (!force) {
-      throw Error(dir, "holds the results of a different experiment (or of an older version of "
-                       "this one); use another --out or --force to start over");
+      throw Error(dir,
+                  "holds the results of a different experiment (or of an older version of "
+                  "this one); use another --out or --force to start over");
     }
     for (const char* name : {"journal.jsonl", "items.csv", "items.jsonl", "summary.md",
                              "summary.csv", "timings.csv", "timings.md", "report.html"}) {
@@ -138,8 +139,9 @@ std::map<std::string, json> Journal::Load(bool repair) {
       try {
         entry = json::parse(line);
       } catch (const json::parse_error&) {
-        throw Error(path_, "line " + std::to_string(line_number) + " is corrupt (not a partial "
-                           "last line); move the file away to start over");
+        throw Error(path_, "line " + std::to_string(line_number) +
+                               " is corrupt (not a partial "
+                               "last line); move the file away to start over");
       }
       const std::string id = entry.value("id", "");
       if (id.empty()) throw Error(path_, "line " + std::to_string(line_number) + " has no id");
@@ -221,8 +223,8 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
   const bool tables_exist = fs::exists(options.out_dir + "/summary.md");
   if (pending.empty() && tables_exist) return summary;  // a finished sweep: nothing to do
 
-  int threads = options.threads > 0 ? options.threads
-                                    : static_cast<int>(std::thread::hardware_concurrency());
+  int threads =
+      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::max(1, std::min<int>(threads, static_cast<int>(pending.size())));
 
   std::atomic<size_t> next{0};
@@ -323,8 +325,9 @@ int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& option
       experiment_text = text;
       experiment = LoadSweepDir(dir).experiment;
     } else if (text != experiment_text) {
-      throw Error(dir, "is a different experiment from " + dirs.front() + " (experiment.json "
-                       "differs)");
+      throw Error(dir, "is a different experiment from " + dirs.front() +
+                           " (experiment.json "
+                           "differs)");
     }
     Journal journal(dir + "/journal.jsonl");
     for (auto& [id, entry] : journal.Load(/*repair=*/false)) {

@@ -23,20 +23,20 @@ namespace turbid {
 using ItemRunner = std::function<ItemResult(const ItemSpec& item)>;
 
 struct SweepOptions {
-  std::string out_dir;      // created if missing; holds experiment.json, journal and tables
-  int threads = 0;          // worker threads; 0 = std::thread::hardware_concurrency()
-  Shard shard;              // which slice of the items to run (default: all)
-  bool progress = false;    // draw a progress bar with ETA on stderr
-  bool force = false;       // start over when out_dir holds a different experiment
+  std::string out_dir;    // created if missing; holds experiment.json, journal and tables
+  int threads = 0;        // worker threads; 0 = std::thread::hardware_concurrency()
+  Shard shard;            // which slice of the items to run (default: all)
+  bool progress = false;  // draw a progress bar with ETA on stderr
+  bool force = false;     // start over when out_dir holds a different experiment
   bool Check(std::string* why) const;
 };
 
 struct SweepSummary {
-  int items_total = 0;      // items in the whole experiment
-  int items_in_shard = 0;   // items this run is responsible for
-  int already_done = 0;     // found in the journal at start
-  int ran = 0;              // run now
-  int failed_rows = 0;      // method rows with an error (recorded, not fatal)
+  int items_total = 0;     // items in the whole experiment
+  int items_in_shard = 0;  // items this run is responsible for
+  int already_done = 0;    // found in the journal at start
+  int ran = 0;             // run now
+  int failed_rows = 0;     // method rows with an error (recorded, not fatal)
   bool tables_written = false;
 };
 

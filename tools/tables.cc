@@ -401,8 +401,8 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
   md << "# " << experiment.name << ": summary\n\n";
   if (!experiment.description.empty()) md << experiment.description << "\n\n";
   md << items.size() << " of " << experiment.ItemCount() << " items; ground truth: "
-     << (experiment.ground_truth == "lit" ? "lit J = (E_A + E_L) rho" : "clean rho")
-     << "; level: `" << experiment.level_path << "`. Cells: mean ± sample standard deviation "
+     << (experiment.ground_truth == "lit" ? "lit J = (E_A + E_L) rho" : "clean rho") << "; level: `"
+     << experiment.level_path << "`. Cells: mean ± sample standard deviation "
      << "over items; **bold** = best per row";
   if (!experiment.best_excludes.empty()) {
     md << " (not counting";
@@ -418,8 +418,8 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
     const std::string axis = experiment.level_path.rfind('@', 0) == 0
                                  ? experiment.level_path.substr(1)
                                  : experiment.level_path;
-    md << "\n## " << (level == "all" ? "All levels" : axis + " = " + level)
-       << " (" << n_items << " items)\n\n| metric |";
+    md << "\n## " << (level == "all" ? "All levels" : axis + " = " + level) << " (" << n_items
+       << " items)\n\n| metric |";
     for (const ExperimentMethod& m : experiment.methods) md << " " << m.label << " |";
     if (any_reference) md << " ground truth |";
     md << "\n|---|";
@@ -524,9 +524,8 @@ std::string RegressReport::Format() const {
     char line[512];
     const double delta = move.result - move.baseline;
     std::snprintf(line, sizeof line, "%-11s %-32s %-12s %14s -> %-14s (%+.4g)\n",
-                  move.regression ? "REGRESSED" : "improved", move.key.c_str(),
-                  move.metric.c_str(), FormatValue(move.baseline).c_str(),
-                  FormatValue(move.result).c_str(), delta);
+                  move.regression ? "REGRESSED" : "improved", move.key.c_str(), move.metric.c_str(),
+                  FormatValue(move.baseline).c_str(), FormatValue(move.result).c_str(), delta);
     out << line;
   }
   for (const std::string& key : missing) out << "MISSING     " << key << "\n";

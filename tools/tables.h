@@ -7,10 +7,9 @@
 // by item index, then method order). Run times live only in timings.csv and timings.md.
 #pragma once
 
-#include <nlohmann/json.hpp>
-
 #include <functional>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -19,10 +18,10 @@
 namespace turbid {
 
 struct MethodResult {
-  std::string label;                       // the method's label in the experiment
-  std::map<std::string, double> metrics;   // metric name -> value (+-inf allowed, NaN = failed)
-  std::string error;                       // non-empty when the method failed on this item
-  double time_ms = 0.0;                    // wall time of the method alone (not deterministic)
+  std::string label;                      // the method's label in the experiment
+  std::map<std::string, double> metrics;  // metric name -> value (+-inf allowed, NaN = failed)
+  std::string error;                      // non-empty when the method failed on this item
+  double time_ms = 0.0;                   // wall time of the method alone (not deterministic)
 };
 
 struct ItemResult {
@@ -34,12 +33,12 @@ struct ItemResult {
   double level_value = 0.0;
   nlohmann::json params = nlohmann::json::object();
   uint64_t seed = 0;
-  int width = 0, height = 0;               // image size of the item (for the run-time table)
-  std::string error;                       // non-empty when the render itself failed
-  std::vector<MethodResult> methods;       // in the experiment's method order
+  int width = 0, height = 0;          // image size of the item (for the run-time table)
+  std::string error;                  // non-empty when the render itself failed
+  std::vector<MethodResult> methods;  // in the experiment's method order
   // No-reference metrics of the ground-truth image itself (computed once per scene).
   std::map<std::string, double> reference_metrics;
-  double render_ms = 0.0;                  // wall time of the render (not deterministic)
+  double render_ms = 0.0;  // wall time of the render (not deterministic)
 };
 
 // One JSON object per item; timings only when with_timing (the journal keeps them, items.jsonl
@@ -95,19 +94,19 @@ struct RegressOptions {
 };
 
 struct RegressMove {
-  std::string key;      // "<id> <method>" for items.csv, "<level> <method>" for summary.csv
+  std::string key;  // "<id> <method>" for items.csv, "<level> <method>" for summary.csv
   std::string metric;
   double baseline = 0.0, result = 0.0;
   bool regression = false;  // worse beyond tolerance (or any move when the direction is unknown)
 };
 
 struct RegressReport {
-  int compared = 0;                     // values compared
-  std::vector<RegressMove> moves;       // beyond tolerance, in baseline order
-  std::vector<std::string> missing;     // baseline rows/metrics absent from the results
-  std::vector<std::string> extra;       // result rows absent from the baseline (informational)
+  int compared = 0;                  // values compared
+  std::vector<RegressMove> moves;    // beyond tolerance, in baseline order
+  std::vector<std::string> missing;  // baseline rows/metrics absent from the results
+  std::vector<std::string> extra;    // result rows absent from the baseline (informational)
   bool failed() const;
-  std::string Format() const;           // human-readable, one line per move
+  std::string Format() const;  // human-readable, one line per move
 };
 
 // Compares two CSV tables of the same kind (items.csv or summary.csv). Throws Error for

@@ -3,9 +3,8 @@
 // of the running CLI then resume, shards + merge, bad experiment files rejected before any work,
 // regression detection (also against the committed demo baseline), and the HTML report rendered
 // in headless Chromium with every image and plot loading.
-#include <gtest/gtest.h>
-
 #include <fcntl.h>
+#include <gtest/gtest.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -123,8 +122,8 @@ TEST(HarnessCli, BadExperimentsAreRejectedBeforeAnyWork) {
   std::string text = kTinyExperiment;
   text.replace(text.find("\"grid\""), 6, "\"unused_grid\"");
   text.replace(text.find("\"unused_grid\""), 13, "\"comment\"");
-  const CliRun run = RunTurbid({"sweep", WriteFile(dir, "empty.json", text), "--out",
-                                dir.File("never")});
+  const CliRun run =
+      RunTurbid({"sweep", WriteFile(dir, "empty.json", text), "--out", dir.File("never")});
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("empty grid"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(dir.File("never")));
@@ -205,9 +204,8 @@ TEST(HarnessCli, RegressCatchesAPerturbedMethod) {
   text.replace(text.find("\"dcp\"]"), 6,
                "{\"name\": \"dcp\", \"label\": \"dcp\", \"params\": {\"omega\": 0.2}}]");
   const std::string perturbed_exp = WriteFile(dir, "perturbed.json", text);
-  ASSERT_EQ(RunTurbid({"sweep", perturbed_exp, "--out", dir.File("perturbed"), "--quiet"})
-                .exit_code,
-            0);
+  ASSERT_EQ(
+      RunTurbid({"sweep", perturbed_exp, "--out", dir.File("perturbed"), "--quiet"}).exit_code, 0);
   const std::string baseline = dir.File("base/items.csv");
   const CliRun same = RunTurbid({"regress", "--baseline", baseline, dir.File("base")});
   EXPECT_EQ(same.exit_code, 0) << same.out << same.err;
@@ -226,18 +224,17 @@ TEST(HarnessCli, RegressCatchesAPerturbedMethod) {
   }
   EXPECT_GT(moved, 0) << strict.out;
   // A generous tolerance on every metric lets the perturbation pass.
-  const CliRun loose = RunTurbid({"regress", "--baseline", baseline, dir.File("perturbed"),
-                                  "--tol", "ssim=10", "--tol", "psnr=100", "--tol",
-                                  "hautiere_e=100"});
+  const CliRun loose = RunTurbid({"regress", "--baseline", baseline, dir.File("perturbed"), "--tol",
+                                  "ssim=10", "--tol", "psnr=100", "--tol", "hautiere_e=100"});
   EXPECT_EQ(loose.exit_code, 0) << loose.out;
 }
 
 // The committed demo baseline: a copy with one method made worse must fail, an exact copy pass.
 TEST(HarnessCli, CommittedDemoBaselineCatchesAWorseMethod) {
   // CMake compiles with absolute paths: the repository root is three levels above this file.
-  const std::string source =
-      (fs::path(__FILE__).parent_path().parent_path().parent_path() / "scenes/experiments/baselines")
-          .string();
+  const std::string source = (fs::path(__FILE__).parent_path().parent_path().parent_path() /
+                              "scenes/experiments/baselines")
+                                 .string();
   const std::string baseline = source + "/demo.items.csv";
   ASSERT_TRUE(fs::exists(baseline)) << baseline;
   TempDir dir;
@@ -255,10 +252,10 @@ TEST(HarnessCli, CommittedDemoBaselineCatchesAWorseMethod) {
     if (header.empty()) {
       header = fields;
     } else {
-      const int method = static_cast<int>(std::find(header.begin(), header.end(), "method") -
-                                          header.begin());
-      const int psnr = static_cast<int>(std::find(header.begin(), header.end(), "psnr") -
-                                        header.begin());
+      const int method =
+          static_cast<int>(std::find(header.begin(), header.end(), "method") - header.begin());
+      const int psnr =
+          static_cast<int>(std::find(header.begin(), header.end(), "psnr") - header.begin());
       if (fields[method] == "simplified") {
         fields[psnr] = FormatValue(ParseValue(fields[psnr]) - 1.0);
         ++changed;
@@ -294,13 +291,16 @@ TEST(HarnessCli, ReportLoadsInHeadlessChromium) {
   const std::string command =
       "timeout 90 chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run "
       "--disable-background-networking --disable-component-update --disable-sync "
-      "--user-data-dir=" + dir.File("chromium") + " --virtual-time-budget=5000 --dump-dom "
-      "'file://" + dir.File("out/report.html") + "' >" + dir.File("dom.html") + " 2>/dev/null";
+      "--user-data-dir=" +
+      dir.File("chromium") +
+      " --virtual-time-budget=5000 --dump-dom "
+      "'file://" +
+      dir.File("out/report.html") + "' >" + dir.File("dom.html") + " 2>/dev/null";
   ASSERT_EQ(std::system(command.c_str()), 0);
   const std::string dom = ReadFileText(dir.File("dom.html"));
   std::smatch match;
-  ASSERT_TRUE(std::regex_search(dom, match,
-                                std::regex("data-images=\"([0-9]+)\" data-broken-images=\"([0-9]+)\"")))
+  ASSERT_TRUE(std::regex_search(
+      dom, match, std::regex("data-images=\"([0-9]+)\" data-broken-images=\"([0-9]+)\"")))
       << dom.substr(0, 2000);
   // 4 plots + per (scene, level) row: clean, degraded, oracle, clahe, dcp = 4 rows x 5.
   EXPECT_EQ(std::stoi(match[1]), 24);
@@ -310,7 +310,8 @@ TEST(HarnessCli, ReportLoadsInHeadlessChromium) {
 TEST(HarnessCli, DryRunCountsItems) {
   TempDir dir;
   const std::string exp = WriteFile(dir, "tiny.json", kTinyExperiment);
-  const CliRun run = RunTurbid({"sweep", exp, "--out", dir.File("o"), "--dry-run", "--shard", "1/2"});
+  const CliRun run =
+      RunTurbid({"sweep", exp, "--out", dir.File("o"), "--dry-run", "--shard", "1/2"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("4 items (2 in shard 1/2)"), std::string::npos) << run.out;
   EXPECT_FALSE(fs::exists(dir.File("o")));

@@ -84,9 +84,8 @@ TEST(HarnessExperiment, ItemsAreDeterministicOrderedAndSeeded) {
 TEST(HarnessExperiment, RandomSamplesStayInRangeAndBinLevels) {
   json in = FakeExperimentJson();
   in.erase("grid");
-  in["samples"] = {{"count", 200},
-                   {"seed", 3},
-                   {"params", {{"water.beta", {{"log_uniform", {0.05, 5.0}}}}}}};
+  in["samples"] = {
+      {"count", 200}, {"seed", 3}, {"params", {{"water.beta", {{"log_uniform", {0.05, 5.0}}}}}}};
   in["level_bins"] = 3;
   const Experiment e = ParseExperiment(in, "exp.json", FakeCatalog());
   const std::vector<ItemSpec> items = ExpandItems(e);
@@ -101,7 +100,7 @@ TEST(HarnessExperiment, RandomSamplesStayInRangeAndBinLevels) {
   }
   EXPECT_GE(low, 0.05);
   EXPECT_LE(high, 5.0);
-  EXPECT_LT(low, 0.1);   // 200 log-uniform draws reach both ends of two decades
+  EXPECT_LT(low, 0.1);  // 200 log-uniform draws reach both ends of two decades
   EXPECT_GT(high, 2.5);
   EXPECT_EQ(levels.size(), 3u);
   EXPECT_EQ(LevelLabels(e).size(), 3u);

@@ -2,11 +2,10 @@
 // regression check are tested without the simulator, enhancer and metrics.
 #pragma once
 
-#include <nlohmann/json.hpp>
-
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <thread>
@@ -107,8 +106,8 @@ struct FakeRunner {
       row.metrics["nr"] = row.label == "fake_b" && beta > 1.5 ? std::nan("") : quality * 2;
       if (row.label == "fake_b" && beta > 1.5) row.error = "fake failure";
       // Timing varies run to run on purpose: it must never reach the deterministic tables.
-      row.time_ms = static_cast<double>(
-          std::chrono::steady_clock::now().time_since_epoch().count() % 1000);
+      row.time_ms =
+          static_cast<double>(std::chrono::steady_clock::now().time_since_epoch().count() % 1000);
       result.methods.push_back(row);
     }
     return result;

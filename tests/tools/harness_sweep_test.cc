@@ -2,7 +2,6 @@
 // resume with nothing lost or duplicated, a finished sweep reruns as a no-op, shards merge into
 // exactly the unsharded result, and the regression check catches a perturbed method.
 #include <gtest/gtest.h>
-
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -252,9 +251,9 @@ TEST(HarnessSweep, RegressCatchesAPerturbedMethod) {
   RunSweep(e, options, FakeRunner{&e, /*perturb=*/0.05});
 
   RegressOptions regress;
-  for (const HarnessMetricInfo& m : e.metrics) regress.higher_is_better[m.name] = m.higher_is_better;
-  const RegressReport ok =
-      Regress(base.path() + "/items.csv", same.path() + "/items.csv", regress);
+  for (const HarnessMetricInfo& m : e.metrics)
+    regress.higher_is_better[m.name] = m.higher_is_better;
+  const RegressReport ok = Regress(base.path() + "/items.csv", same.path() + "/items.csv", regress);
   EXPECT_FALSE(ok.failed()) << ok.Format();
   EXPECT_EQ(ok.compared, 24 * 5 * 3);
 
@@ -277,8 +276,8 @@ TEST(HarnessSweep, RegressCatchesAPerturbedMethod) {
   EXPECT_EQ(summary.moves.size(), 5u);  // 4 levels + all
   // A loose enough tolerance accepts the move; an improvement is reported but passes.
   regress.tolerances["up"] = {0.06, 0.0};
-  EXPECT_FALSE(Regress(base.path() + "/items.csv", perturbed.path() + "/items.csv", regress)
-                   .failed());
+  EXPECT_FALSE(
+      Regress(base.path() + "/items.csv", perturbed.path() + "/items.csv", regress).failed());
   regress.tolerances.clear();
   const RegressReport better =
       Regress(perturbed.path() + "/items.csv", base.path() + "/items.csv", regress);
