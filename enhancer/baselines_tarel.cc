@@ -2,6 +2,7 @@
 // gamma correction / tone mapping of the authors' reference implementation. See
 // enhancer/baselines.h and docs/methods-baselines.md.
 #include <algorithm>
+#include <cstdint>
 #include <cmath>
 #include <vector>
 
@@ -123,20 +124,61 @@ cv::Mat MedianFilter(const cv::Mat& image, int size) {
   const int half = size / 2;
   cv::Mat padded;
   cv::copyMakeBorder(image, padded, half, half, half, half, cv::BORDER_REFLECT);
+  // Huang's sliding histogram on coarse bins finds the bin holding the median; the exact value is
+  // then selected among the few window values in that bin. Exact, and ~10x faster than selecting
+  // among all size^2 values per pixel.
+  constexpr int kBins = 4096;
+  double lo = 0.0, hi = 0.0;
+  cv::minMaxLoc(padded, &lo, &hi);
+  const double scale = hi > lo ? (kBins - 1e-3) / (hi - lo) : 0.0;
+  cv::Mat bins(padded.size(), CV_16UC1);
+  for (int y = 0; y < padded.rows; ++y) {
+    const float* v = padded.ptr<float>(y);
+    uint16_t* b = bins.ptr<uint16_t>(y);
+    for (int x = 0; x < padded.cols; ++x) {
+      b[x] = static_cast<uint16_t>(std::min(kBins - 1, static_cast<int>((v[x] - lo) * scale)));
+    }
+  }
   cv::Mat out(image.size(), CV_32FC1);
-  const int middle = (size * size) / 2;
+  const int middle = (size * size) / 2;  // rank of the median, 0-based
   cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
-    std::vector<float> window(static_cast<size_t>(size) * size);
+    std::vector<int> histogram(kBins);
+    std::vector<float> candidates;
+    candidates.reserve(static_cast<size_t>(size) * size);
     for (int y = rows.start; y < rows.end; ++y) {
+      std::fill(histogram.begin(), histogram.end(), 0);
+      for (int dy = 0; dy < size; ++dy) {
+        const uint16_t* b = bins.ptr<uint16_t>(y + dy);
+        for (int dx = 0; dx < size; ++dx) ++histogram[b[dx]];
+      }
+      int bin = 0;
+      int below = 0;  // window values in bins < bin
       float* o = out.ptr<float>(y);
       for (int x = 0; x < image.cols; ++x) {
-        size_t k = 0;
-        for (int dy = 0; dy < size; ++dy) {
-          const float* row = padded.ptr<float>(y + dy) + x;
-          for (int dx = 0; dx < size; ++dx) window[k++] = row[dx];
+        if (x > 0) {
+          for (int dy = 0; dy < size; ++dy) {
+            const uint16_t* b = bins.ptr<uint16_t>(y + dy);
+            const int gone = b[x - 1];
+            const int added = b[x - 1 + size];
+            --histogram[gone];
+            if (gone < bin) --below;
+            ++histogram[added];
+            if (added < bin) ++below;
+          }
         }
-        std::nth_element(window.begin(), window.begin() + middle, window.end());
-        o[x] = window[middle];
+        while (below > middle) below -= histogram[--bin];
+        while (below + histogram[bin] <= middle) below += histogram[bin++];
+        candidates.clear();
+        for (int dy = 0; dy < size; ++dy) {
+          const uint16_t* b = bins.ptr<uint16_t>(y + dy) + x;
+          const float* v = padded.ptr<float>(y + dy) + x;
+          for (int dx = 0; dx < size; ++dx) {
+            if (b[dx] == bin) candidates.push_back(v[dx]);
+          }
+        }
+        const auto nth = candidates.begin() + (middle - below);
+        std::nth_element(candidates.begin(), nth, candidates.end());
+        o[x] = *nth;
       }
     }
   });
