@@ -14,11 +14,11 @@
 // Every function takes float32 images in [0,1] with 1 or 3 channels (BGR order, linear) and returns
 // the same size and channel count, finite and clamped to [0,1]. Empty input, another depth or
 // channel count, or non-finite values throw Error; options are checked with Check and throw Error
-// naming the parameter. Formulas, defaults and the behaviour on gray input: docs/methods-baselines.md.
+// naming the parameter. Formulas, defaults and the behaviour on gray input:
+// docs/methods-baselines.md.
 #pragma once
 
 #include <opencv2/core.hpp>
-
 #include <string>
 #include <vector>
 
@@ -102,17 +102,17 @@ struct CapOptions {
   // Guided-filter refinement of the min-filtered depth (guide: the input). Zhu's reference code
   // uses a 60 x 60 neighbourhood (radius 30) and ε 1e-3.
   bool refine = true;
-  int guided_radius = 30;  // pixels, >= 1
+  int guided_radius = 30;    // pixels, >= 1
   double guided_eps = 1e-3;  // on [0,1] data, > 0
   bool Check(std::string* why) const;
 };
 
 struct CapResult {
-  cv::Mat image;           // recovered radiance, [0,1]
-  cv::Mat raw_depth;       // CV_32FC1 θ0 + θ1 v + θ2 s per pixel
-  cv::Mat depth;           // CV_32FC1 after the minimum filter and (optionally) the guided filter
-  cv::Mat transmission;    // CV_32FC1 exp(-β depth) clamped to [t_min, t_max]
-  cv::Vec3f airlight;      // A per channel, BGR
+  cv::Mat image;         // recovered radiance, [0,1]
+  cv::Mat raw_depth;     // CV_32FC1 θ0 + θ1 v + θ2 s per pixel
+  cv::Mat depth;         // CV_32FC1 after the minimum filter and (optionally) the guided filter
+  cv::Mat transmission;  // CV_32FC1 exp(-β depth) clamped to [t_min, t_max]
+  cv::Vec3f airlight;    // A per channel, BGR
   cv::Point airlight_pixel;
 };
 
@@ -144,9 +144,9 @@ struct TarelResult {
   cv::Mat image;      // final result, [0,1]
   cv::Mat balanced;   // input after white balance (clamped to [0,1])
   cv::Mat whiteness;  // CV_32FC1 W = min over channels of `balanced`
-  cv::Mat veil;       // CV_32FC1 atmospheric veil V = p max(min(W, B), 0), B = med(W) - med|W - med(W)|
-  cv::Mat restored;   // (balanced - V) / (1 - V), colours restored, before tone mapping; >= 0
-  cv::Vec3f white;    // global white-balance colour (1,1,1 when none), BGR
+  cv::Mat veil;  // CV_32FC1 atmospheric veil V = p max(min(W, B), 0), B = med(W) - med|W - med(W)|
+  cv::Mat restored;  // (balanced - V) / (1 - V), colours restored, before tone mapping; >= 0
+  cv::Vec3f white;   // global white-balance colour (1,1,1 when none), BGR
 };
 
 TarelResult TarelDetailed(const TarelOptions& options, const cv::Mat& image);

@@ -1,7 +1,6 @@
 // Colour attenuation prior (Zhu, Mai, Shao, TIP 2015), deterministic. See enhancer/baselines.h.
 #include <algorithm>
 #include <cmath>
-
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/baselines.h"
@@ -71,9 +70,8 @@ CapResult ColorAttenuationPriorDetailed(const CapOptions& options, const cv::Mat
   // Zhu 2015 §IV-D: A is read among the farthest 0.1 % of the (min-filtered) depth map.
   result.airlight_pixel =
       EstimateAirlight(image, min_depth, options.airlight_fraction, &result.airlight);
-  result.depth = options.refine ? baselines_internal::GuidedSmooth(image, min_depth,
-                                                                   options.guided_radius,
-                                                                   options.guided_eps)
+  result.depth = options.refine ? baselines_internal::GuidedSmooth(
+                                      image, min_depth, options.guided_radius, options.guided_eps)
                                 : min_depth;
   cv::Mat t;
   cv::exp(-options.beta * result.depth, t);

@@ -1,7 +1,6 @@
 // CLAHE alone (uniform target) as a baseline, on luminance for colour. See enhancer/baselines.h.
 #include <algorithm>
 #include <cmath>
-
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/baselines.h"
@@ -57,9 +56,8 @@ cv::Mat ClaheBaseline(const ClaheBaselineOptions& options, const cv::Mat& image)
   baselines_internal::ValidateImage(image, "clahe");
   ThrowIfInvalid(options, "clahe");
   const cv::Mat luminance = Luminance(image);
-  const cv::Mat equalised = baselines_internal::ClaheGray(luminance, options.tiles_x,
-                                                          options.tiles_y, options.clip_limit,
-                                                          options.bins);
+  const cv::Mat equalised = baselines_internal::ClaheGray(
+      luminance, options.tiles_x, options.tiles_y, options.clip_limit, options.bins);
   return ReplaceLuminance(image, luminance, equalised);
 }
 

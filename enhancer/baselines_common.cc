@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/clahe.h"
@@ -41,8 +40,8 @@ cv::Mat ClaheGray(const cv::Mat& gray, int tiles_x, int tiles_y, double clip_lim
   return Clahe(options, gray);
 }
 
-cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission, const cv::Vec3f& airlight,
-                        double t_min) {
+cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission,
+                        const cv::Vec3f& airlight, double t_min) {
   const int channels = image.channels();
   cv::Mat out(image.size(), image.type());
   for (int y = 0; y < image.rows; ++y) {

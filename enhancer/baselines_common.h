@@ -2,7 +2,6 @@
 #pragma once
 
 #include <opencv2/core.hpp>
-
 #include <string>
 
 namespace turbid::baselines_internal {
@@ -22,8 +21,8 @@ cv::Mat GuidedSmooth(const cv::Mat& guide, const cv::Mat& src, int radius, doubl
 cv::Mat ClaheGray(const cv::Mat& gray, int tiles_x, int tiles_y, double clip_limit, int bins);
 
 // J = (I - A) / max(t, t_min) + A per channel (He 2011 eq. 22), clamped to [0,1].
-cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission, const cv::Vec3f& airlight,
-                        double t_min);
+cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission,
+                        const cv::Vec3f& airlight, double t_min);
 
 // Clamps to [0,1] in place (NaN never reaches here: inputs are validated and every division is
 // guarded).

@@ -4,9 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
-#include <vector>
-
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
@@ -21,7 +20,8 @@ using baselines_internal::MinFilter;
 using baselines_internal::RecoverRadiance;
 using baselines_internal::ValidateImage;
 
-// A channel of the airlight this small is treated as this value, so I/A stays finite on black input.
+// A channel of the airlight this small is treated as this value, so I/A stays finite on black
+// input.
 constexpr float kMinAirlight = 1e-6f;
 
 // Per-pixel minimum of I^c / A^c over the selected channels (He 2011 eq. 11, before the patch min).
@@ -49,8 +49,8 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
   ThrowIfInvalid(options, method);
   DcpResult result;
   result.dark_channel = DarkChannel(image, options.patch_size, underwater);
-  result.airlight_pixel = EstimateAirlight(image, result.dark_channel, options.airlight_fraction,
-                                           &result.airlight);
+  result.airlight_pixel =
+      EstimateAirlight(image, result.dark_channel, options.airlight_fraction, &result.airlight);
   // He 2011 eq. 12: t = 1 - ω min_Ω min_c I^c / A^c. Clamped to [0,1]: where a pixel is brighter
   // than A the estimate goes negative, which no transmission can be.
   cv::Mat normalised_dark =
@@ -104,8 +104,7 @@ cv::Point EstimateAirlight(const cv::Mat& image, const cv::Mat& prior, double fr
                            cv::Vec3f* airlight) {
   CV_Assert(prior.type() == CV_32FC1 && prior.size() == image.size() && prior.isContinuous());
   const int total = static_cast<int>(prior.total());
-  const int count =
-      std::clamp(static_cast<int>(std::ceil(fraction * total)), 1, total);
+  const int count = std::clamp(static_cast<int>(std::ceil(fraction * total)), 1, total);
   std::vector<int> order(total);
   std::iota(order.begin(), order.end(), 0);
   const float* p = prior.ptr<float>();

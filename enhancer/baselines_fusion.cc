@@ -2,9 +2,8 @@
 // enhancer/baselines.h and docs/methods-baselines.md.
 #include <algorithm>
 #include <cmath>
-#include <vector>
-
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
@@ -16,7 +15,8 @@ namespace {
 // Separable 5-tap binomial low-pass [1 4 6 4 1] / 16: Ancuti 2012 §3.2 use it (cut-off near
 // π/2.75) for the local-contrast and saliency weights, after Achanta et al. CVPR 2009.
 cv::Mat Binomial5(const cv::Mat& image) {
-  const cv::Mat kernel = (cv::Mat_<float>(1, 5) << 1.f / 16, 4.f / 16, 6.f / 16, 4.f / 16, 1.f / 16);
+  const cv::Mat kernel =
+      (cv::Mat_<float>(1, 5) << 1.f / 16, 4.f / 16, 6.f / 16, 4.f / 16, 1.f / 16);
   cv::Mat out;
   cv::sepFilter2D(image, out, CV_32F, kernel, kernel, cv::Point(-1, -1), 0, cv::BORDER_REFLECT_101);
   return out;
@@ -109,8 +109,8 @@ cv::Mat PyramidBlend(const std::vector<cv::Mat>& inputs, const std::vector<cv::M
   const cv::Size size = inputs[0].size();
   const int channels = inputs[0].channels();
   const int max_levels =
-      1 + static_cast<int>(std::floor(std::log2(static_cast<double>(std::min(size.width,
-                                                                               size.height)))));
+      1 + static_cast<int>(
+              std::floor(std::log2(static_cast<double>(std::min(size.width, size.height)))));
   const int used = std::min(levels, max_levels);
   std::vector<cv::Mat> blended(used);
   for (size_t k = 0; k < inputs.size(); ++k) {

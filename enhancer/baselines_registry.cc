@@ -69,7 +69,8 @@ MethodEntry DcpEntry() {
   MethodEntry e;
   e.info.name = "dcp";
   e.info.summary = "dark channel prior dehazing with guided-filter refinement";
-  e.info.source = "He, Sun, Tang, TPAMI 2011 (CVPR 2009); He, Sun, Tang, TPAMI 2013 (guided filter)";
+  e.info.source =
+      "He, Sun, Tang, TPAMI 2011 (CVPR 2009); He, Sun, Tang, TPAMI 2013 (guided filter)";
   e.info.params = DcpParams(DcpOptions{}, "dark-channel");
   e.run = [](const nlohmann::json& params, const EnhanceInput& input) {
     DcpOptions o;

@@ -2,12 +2,11 @@
 // gamma correction / tone mapping of the authors' reference implementation. See
 // enhancer/baselines.h and docs/methods-baselines.md.
 #include <algorithm>
-#include <cstdint>
 #include <cmath>
-#include <vector>
-
+#include <cstdint>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
@@ -41,7 +40,8 @@ cv::Mat ChannelMean(const cv::Mat& image) {
 cv::Vec3f GlobalWhite(const cv::Mat& image) {
   const cv::Mat w = ChannelMin(image);
   std::vector<float> values(w.begin<float>(), w.end<float>());
-  const size_t rank = static_cast<size_t>(std::floor(0.99 * static_cast<double>(values.size() - 1)));
+  const size_t rank =
+      static_cast<size_t>(std::floor(0.99 * static_cast<double>(values.size() - 1)));
   std::nth_element(values.begin(), values.begin() + rank, values.end());
   const float threshold = values[rank];
   cv::Vec3d sum(0, 0, 0);

@@ -75,12 +75,12 @@ TEST(BaselinesDcp, RecoversAirlightAndTransmissionOnSyntheticHaze) {
       const double t_patch = t.at<float>(y, x + half);
       const double estimate = result.raw_transmission.at<float>(y, x);
       worst = std::max(worst, std::abs(estimate - t_true));
-      worst_exact = std::max(worst_exact,
-                             std::abs(estimate - (1.0 - options.omega * (1.0 - t_patch))));
+      worst_exact =
+          std::max(worst_exact, std::abs(estimate - (1.0 - options.omega * (1.0 - t_patch))));
     }
   }
   EXPECT_LT(worst_exact, 1e-5);  // the closed form, to float rounding
-  EXPECT_LT(worst, 0.12);        // vs the true t: patch offset (<= 0.08) + (1 - ω)(1 - t) (<= 0.045)
+  EXPECT_LT(worst, 0.12);  // vs the true t: patch offset (<= 0.08) + (1 - ω)(1 - t) (<= 0.045)
 
   // With ω = 1 and a guided refinement, the recovered radiance is close to J where t >= 0.3.
   options.omega = 1.0;

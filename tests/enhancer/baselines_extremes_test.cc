@@ -4,7 +4,6 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
-
 #include <string>
 #include <vector>
 

@@ -1,7 +1,6 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
-
 #include <random>
 
 #include "enhancer/baselines.h"

@@ -47,7 +47,8 @@ TEST(BaselinesRegistry, DefaultsComeFromTheOptionsStructs) {
 }
 
 TEST(BaselinesRegistry, OverridesBindStrictly) {
-  const cv::Mat image = baselines_test::DarkPriorTexture(16, 16, false) * 0.5 + cv::Scalar::all(0.3);
+  const cv::Mat image =
+      baselines_test::DarkPriorTexture(16, 16, false) * 0.5 + cv::Scalar::all(0.3);
   EnhanceInput input;
   input.image = image;
   // An override reaches the options: matches a direct call.

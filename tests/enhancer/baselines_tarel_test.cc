@@ -1,7 +1,6 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
-
 #include <random>
 
 #include "enhancer/baselines.h"
@@ -32,10 +31,9 @@ void ExpectBruteForceMedian(const cv::Mat& image, int size) {
       std::vector<float> window;
       for (int dy = -half; dy <= half; ++dy) {
         for (int dx = -half; dx <= half; ++dx) {
-          window.push_back(image.at<float>(cv::borderInterpolate(y + dy, image.rows,
-                                                                 cv::BORDER_REFLECT),
-                                           cv::borderInterpolate(x + dx, image.cols,
-                                                                 cv::BORDER_REFLECT)));
+          window.push_back(
+              image.at<float>(cv::borderInterpolate(y + dy, image.rows, cv::BORDER_REFLECT),
+                              cv::borderInterpolate(x + dx, image.cols, cv::BORDER_REFLECT)));
         }
       }
       std::sort(window.begin(), window.end());

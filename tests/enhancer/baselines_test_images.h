@@ -1,11 +1,10 @@
 // Procedural images with known haze for the baseline tests (tests/enhancer/baselines_*_test.cc).
 #pragma once
 
-#include <opencv2/core.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <random>
 
 namespace turbid::baselines_test {
@@ -34,7 +33,8 @@ inline cv::Mat DarkPriorTexture(int rows, int cols, bool zero_in_green_blue_only
 }
 
 // Single-scattering haze I = J t + A (1 - t) (He 2011 eq. 1), t one value per pixel.
-inline cv::Mat AddHaze(const cv::Mat& clean, const cv::Mat& transmission, const cv::Vec3f& airlight) {
+inline cv::Mat AddHaze(const cv::Mat& clean, const cv::Mat& transmission,
+                       const cv::Vec3f& airlight) {
   cv::Mat hazy(clean.size(), clean.type());
   const int channels = clean.channels();
   for (int y = 0; y < clean.rows; ++y) {
@@ -54,10 +54,10 @@ inline cv::Mat AddHaze(const cv::Mat& clean, const cv::Mat& transmission, const 
 inline cv::Mat ColumnTransmission(int rows, int cols, int sky_cols, float t_left, float t_right) {
   cv::Mat t(rows, cols, CV_32FC1);
   for (int x = 0; x < cols; ++x) {
-    const float value =
-        x < sky_cols ? 0.0f
-                     : t_left + (t_right - t_left) * static_cast<float>(x - sky_cols) /
-                                    static_cast<float>(cols - 1 - sky_cols);
+    const float value = x < sky_cols
+                            ? 0.0f
+                            : t_left + (t_right - t_left) * static_cast<float>(x - sky_cols) /
+                                           static_cast<float>(cols - 1 - sky_cols);
     t.col(x).setTo(value);
   }
   return t;
