@@ -172,13 +172,6 @@ struct ClaheBaselineOptions {
 
 cv::Mat ClaheBaseline(const ClaheBaselineOptions& options, const cv::Mat& image);
 
-// Luminance of a linear BGR image (Rec. 709 weights); gray images are returned as is (a copy).
-cv::Mat Luminance(const cv::Mat& image);
-// Replaces the luminance of `image` by `new_luminance`, scaling the three channels by the ratio so
-// hue and saturation stay; pixels with zero luminance become gray. Output clamped to [0,1].
-cv::Mat ReplaceLuminance(const cv::Mat& image, const cv::Mat& luminance,
-                         const cv::Mat& new_luminance);
-
 // ---------------------------------------------------------------------------------------------
 // fusion
 

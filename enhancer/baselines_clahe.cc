@@ -8,17 +8,7 @@
 #include "scenes/error.h"
 
 namespace turbid {
-
-bool ClaheBaselineOptions::Check(std::string* why) const {
-  auto fail = [why](const std::string& message) {
-    if (why != nullptr) *why = message;
-    return false;
-  };
-  if (tiles_x < 2 || tiles_y < 2) return fail("tiles_x and tiles_y must be >= 2");
-  if (!(clip_limit >= 0.0 && clip_limit <= 1.0)) return fail("clip_limit must be in [0, 1]");
-  if (bins < 2 || bins > 65536) return fail("bins must be in [2, 65536]");
-  return true;
-}
+namespace baselines_internal {
 
 cv::Mat Luminance(const cv::Mat& image) {
   CV_Assert(image.depth() == CV_32F && (image.channels() == 1 || image.channels() == 3));
@@ -33,7 +23,7 @@ cv::Mat ReplaceLuminance(const cv::Mat& image, const cv::Mat& luminance,
                          const cv::Mat& new_luminance) {
   if (image.channels() == 1) {
     cv::Mat out = new_luminance.clone();
-    baselines_internal::ClampUnit(out);
+    ClampUnit(out);
     return out;
   }
   cv::Mat out(image.size(), CV_32FC3);
@@ -52,13 +42,26 @@ cv::Mat ReplaceLuminance(const cv::Mat& image, const cv::Mat& luminance,
   return out;
 }
 
+}  // namespace baselines_internal
+
+bool ClaheBaselineOptions::Check(std::string* why) const {
+  auto fail = [why](const std::string& message) {
+    if (why != nullptr) *why = message;
+    return false;
+  };
+  if (tiles_x < 2 || tiles_y < 2) return fail("tiles_x and tiles_y must be >= 2");
+  if (!(clip_limit >= 0.0 && clip_limit <= 1.0)) return fail("clip_limit must be in [0, 1]");
+  if (bins < 2 || bins > 65536) return fail("bins must be in [2, 65536]");
+  return true;
+}
+
 cv::Mat ClaheBaseline(const ClaheBaselineOptions& options, const cv::Mat& image) {
   baselines_internal::ValidateImage(image, "clahe");
   ThrowIfInvalid(options, "clahe");
-  const cv::Mat luminance = Luminance(image);
+  const cv::Mat luminance = baselines_internal::Luminance(image);
   const cv::Mat equalised = baselines_internal::ClaheGray(
       luminance, options.tiles_x, options.tiles_y, options.clip_limit, options.bins);
-  return ReplaceLuminance(image, luminance, equalised);
+  return baselines_internal::ReplaceLuminance(image, luminance, equalised);
 }
 
 }  // namespace turbid

@@ -90,7 +90,7 @@ bool FusionOptions::Check(std::string* why) const {
 }
 
 cv::Mat FusionWeight(const cv::Mat& input, double exposedness_sigma) {
-  const cv::Mat luminance = Luminance(input);
+  const cv::Mat luminance = baselines_internal::Luminance(input);
   cv::Mat laplacian;
   cv::Laplacian(luminance, laplacian, CV_32F, 1, 1.0, 0.0, cv::BORDER_REFLECT_101);
   const cv::Mat laplacian_contrast = cv::abs(laplacian);

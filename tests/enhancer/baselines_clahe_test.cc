@@ -3,6 +3,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/baselines.h"
+#include "enhancer/baselines_common.h"
 #include "enhancer/clahe.h"
 #include "scenes/error.h"
 
@@ -65,8 +66,9 @@ TEST(BaselinesClahe, ColourKeepsChannelRatios) {
   // The luminance of the result is the equalised luminance (where nothing clipped).
   ClaheOptions reference;
   reference.distribution = ClaheDistribution::kUniform;
-  const cv::Mat expected = Clahe(reference, Luminance(color));
-  EXPECT_NEAR(Luminance(out).at<float>(20, 24), expected.at<float>(20, 24), 1e-5);
+  const cv::Mat expected = Clahe(reference, baselines_internal::Luminance(color));
+  EXPECT_NEAR(baselines_internal::Luminance(out).at<float>(20, 24), expected.at<float>(20, 24),
+              1e-5);
 }
 
 }  // namespace

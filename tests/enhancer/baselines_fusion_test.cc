@@ -4,6 +4,7 @@
 #include <random>
 
 #include "enhancer/baselines.h"
+#include "enhancer/baselines_common.h"
 #include "scenes/builtin.h"
 #include "scenes/error.h"
 #include "tests/enhancer/baselines_test_images.h"
@@ -84,8 +85,8 @@ TEST(BaselinesFusion, WeightsSumToOneAndInputsAreDerived) {
   EXPECT_NEAR(means[1], means[2], 0.02);
   // Input 2 has more contrast than input 1.
   cv::Scalar m0, s0, m1, s1;
-  cv::meanStdDev(Luminance(result.inputs[0]), m0, s0);
-  cv::meanStdDev(Luminance(result.inputs[1]), m1, s1);
+  cv::meanStdDev(baselines_internal::Luminance(result.inputs[0]), m0, s0);
+  cv::meanStdDev(baselines_internal::Luminance(result.inputs[1]), m1, s1);
   EXPECT_GT(s1[0], s0[0]);
 }
 
