@@ -2,6 +2,7 @@
 // tools/; extend, do not break.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
 #include <map>
@@ -14,6 +15,10 @@ struct MetricInputs {
   cv::Mat reference;  // ground truth (full-reference metrics), float32 [0,1]
   cv::Mat image;      // the image being scored (e.g. the enhanced one), float32 [0,1]
   cv::Mat original;   // the degraded input the restoration started from (visible-edge metrics)
+  // Peak value of the pixel scale shared by all three images: 0 = from the depth (1 for float
+  // [0,1], 255 for 8-bit Mats). `turbid score` passes raw 8-bit file values as float with 255,
+  // which keeps MSE/PSNR exact (docs/metrics.md, "Inputs").
+  double data_range = 0.0;
 };
 
 struct MetricInfo {
@@ -31,5 +36,15 @@ const MetricInfo& FindMetric(const std::string& name);  // throws Error for unkn
 // unknown names or unusable inputs (size/channel mismatch, empty). PSNR of identical images is +inf.
 std::map<std::string, double> ComputeMetrics(const std::vector<std::string>& names,
                                              const MetricInputs& inputs);
+
+// A metric value as JSON: a number when finite, else the string "inf", "-inf" or "nan".
+nlohmann::json MetricValueToJson(double value);
+// The same convention as text (CSV and tables): "%.10g" for finite values.
+std::string MetricValueToText(double value);
+
+// Splits "ssim,psnr, cnr" into names, validating each with FindMetric. "all" expands to every
+// metric whose needs are met by has_reference / has_original.
+std::vector<std::string> ParseMetricList(const std::string& list, bool has_reference,
+                                         bool has_original);
 
 }  // namespace turbid

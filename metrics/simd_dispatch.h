@@ -1,5 +1,5 @@
-// Row kernels of the metrics, compiled twice (x86-64 baseline and Haswell AVX2/FMA) and picked at
-// load time by the CPU (GCC target_clones), so one binary runs everywhere and is fast where it can
+// Row kernels of the metrics, compiled twice (x86-64 baseline and AVX2 + FMA) and picked at
+// run time from the CPU (simd_dispatch.cc), so one binary runs everywhere and is fast where it can
 // be. Every reduction here adds in a fixed order, so results do not depend on threads.
 #pragma once
 

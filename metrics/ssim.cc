@@ -133,6 +133,10 @@ class SsimBand {
     const T* p = src.ptr<T>(row) + channel_;
     const int step = src.channels();
     const float offset = static_cast<float>(offset_);
+    if (step == 1) {  // contiguous: lets the compiler vectorise the conversion
+      for (int j = 0; j < width_; ++j) out[j] = static_cast<float>(p[j]) - offset;
+      return;
+    }
     for (int j = 0; j < width_; ++j) out[j] = static_cast<float>(p[j * step]) - offset;
   }
 

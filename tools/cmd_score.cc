@@ -1,8 +1,517 @@
-// PLACEHOLDER: replaced by the module owner.
+// `turbid score`: metrics of images against a reference, over a `turbid generate` manifest, or
+// feature matching over image pairs. Reference: docs/cli/score.md.
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include "metrics/feature_matching.h"
+#include "metrics/registry.h"
+#include "scenes/error.h"
+#include "scenes/image_io.h"
 #include "tools/cli.h"
 
 namespace turbid {
+namespace {
+namespace fs = std::filesystem;
 
-void AddScoreCommand(CLI::App& /*app*/) {}
+// ---------------------------------------------------------------------------------------------
+// Reading images for metrics: integer files keep their raw values (no sRGB decode, no rescale),
+// so scores equal scikit-image's on the same files; the data range says what the peak is.
+
+struct MetricImage {
+  cv::Mat pixels;            // float32, raw file values for 8/16-bit files, else as ReadImage
+  double data_range = 1.0;   // 255 / 65535 for 8 / 16-bit files, 1 otherwise
+};
+
+// 8 or 16 for PNG (from the IHDR chunk) and 8 for JPEG; 0 when unknown (other formats).
+int IntegerBitDepth(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char header[26] = {};
+  in.read(reinterpret_cast<char*>(header), sizeof(header));
+  const std::streamsize got = in.gcount();
+  if (got >= 26 && header[0] == 0x89 && header[1] == 'P' && header[2] == 'N' && header[3] == 'G')
+    return header[24] == 16 ? 16 : 8;  // 1/2/4-bit PNGs are expanded to 8 bits on read
+  if (got >= 2 && header[0] == 0xFF && header[1] == 0xD8) return 8;
+  return 0;
+}
+
+MetricImage LoadMetricImage(const std::string& path) {
+  MetricImage out;
+  const int bits = IntegerBitDepth(path);
+  ReadImageOptions options;
+  options.keep_raw = bits != 0;
+  out.pixels = ReadImage(path, options);
+  out.data_range = bits == 16 ? 65535.0 : (bits == 8 ? 255.0 : 1.0);
+  return out;
+}
+
+// Brings images with different bit depths to the [0, 1] scale so that they can be compared.
+double CommonScale(std::vector<MetricImage*> images) {
+  double range = 0.0;
+  bool mixed = false;
+  for (const MetricImage* m : images) {
+    if (m == nullptr || m->pixels.empty()) continue;
+    if (range == 0.0) range = m->data_range;
+    mixed |= m->data_range != range;
+  }
+  if (!mixed) return range == 0.0 ? 1.0 : range;
+  for (MetricImage* m : images) {
+    if (m == nullptr || m->pixels.empty() || m->data_range == 1.0) continue;
+    cv::Mat scaled;  // new buffer: callers share pixels between rows
+    m->pixels.convertTo(scaled, CV_32F, 1.0 / m->data_range);
+    m->pixels = scaled;
+    m->data_range = 1.0;
+  }
+  return 1.0;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Output: one row per scored image.
+
+struct ScoreRow {
+  std::string label;  // image path (or manifest id)
+  nlohmann::json extra = nlohmann::json::object();  // reference / original paths in batch mode
+  std::map<std::string, double> values;
+};
+
+enum class Format { kTable, kJson, kCsv };
+
+std::string CsvField(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+void PrintRows(const std::vector<std::string>& metrics, const std::vector<ScoreRow>& rows,
+               Format format, const nlohmann::json& header, std::ostream& out) {
+  // Mean per metric over rows (finite values only would hide problems: plain mean, inf stays).
+  std::map<std::string, double> mean;
+  for (const std::string& m : metrics) {
+    double sum = 0.0;
+    for (const ScoreRow& r : rows) sum += r.values.at(m);
+    mean[m] = rows.empty() ? 0.0 : sum / rows.size();
+  }
+  if (format == Format::kJson) {
+    nlohmann::json doc = header;
+    doc["metrics"] = metrics;
+    nlohmann::json results = nlohmann::json::array();
+    for (const ScoreRow& r : rows) {
+      nlohmann::json row = {{"image", r.label}};
+      row.update(r.extra);
+      for (const std::string& m : metrics) row[m] = MetricValueToJson(r.values.at(m));
+      results.push_back(row);
+    }
+    doc["results"] = results;
+    nlohmann::json means = nlohmann::json::object();
+    for (const std::string& m : metrics) means[m] = MetricValueToJson(mean[m]);
+    doc["mean"] = means;
+    out << doc.dump(2) << "\n";
+    return;
+  }
+  std::vector<std::string> extra_keys;
+  if (!rows.empty())
+    for (auto it = rows.front().extra.begin(); it != rows.front().extra.end(); ++it)
+      extra_keys.push_back(it.key());
+  if (format == Format::kCsv) {
+    out << "image";
+    for (const std::string& k : extra_keys) out << "," << CsvField(k);
+    for (const std::string& m : metrics) out << "," << m;
+    out << "\n";
+    for (const ScoreRow& r : rows) {
+      out << CsvField(r.label);
+      for (const std::string& k : extra_keys)
+        out << "," << CsvField(r.extra.value(k, std::string()));
+      for (const std::string& m : metrics) out << "," << MetricValueToText(r.values.at(m));
+      out << "\n";
+    }
+    return;
+  }
+  // Human table: image column then one column per metric, a mean row when there are several.
+  size_t label_width = 5;
+  for (const ScoreRow& r : rows) label_width = std::max(label_width, r.label.size());
+  std::vector<size_t> widths;
+  for (const std::string& m : metrics) widths.push_back(std::max<size_t>(12, m.size()));
+  out << std::left << std::setw(static_cast<int>(label_width)) << "image";
+  for (size_t i = 0; i < metrics.size(); ++i)
+    out << "  " << std::right << std::setw(static_cast<int>(widths[i])) << metrics[i];
+  out << "\n";
+  auto line = [&](const std::string& label, const std::map<std::string, double>& values) {
+    out << std::left << std::setw(static_cast<int>(label_width)) << label;
+    for (size_t i = 0; i < metrics.size(); ++i)
+      out << "  " << std::right << std::setw(static_cast<int>(widths[i]))
+          << MetricValueToText(values.at(metrics[i]));
+    out << "\n";
+  };
+  for (const ScoreRow& r : rows) line(r.label, r.values);
+  if (rows.size() > 1) line("mean", mean);
+}
+
+Format ParseFormat(bool json, bool csv) {
+  if (json && csv) throw Error("--json and --csv are exclusive");
+  return json ? Format::kJson : (csv ? Format::kCsv : Format::kTable);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Manifests: CSV with a header, or JSON lines; columns found by name.
+
+std::vector<std::string> SplitCsvLine(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        field += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        field += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      fields.push_back(field);
+      field.clear();
+    } else if (c != '\r') {
+      field += c;
+    }
+  }
+  fields.push_back(field);
+  return fields;
+}
+
+using Record = std::map<std::string, std::string>;
+
+std::vector<Record> ReadManifest(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path, "cannot open manifest");
+  std::vector<Record> records;
+  std::string line;
+  const bool jsonl = fs::path(path).extension() == ".jsonl" || fs::path(path).extension() == ".json";
+  if (jsonl) {
+    int number = 0;
+    while (std::getline(in, line)) {
+      ++number;
+      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+      nlohmann::json row;
+      try {
+        row = nlohmann::json::parse(line);
+      } catch (const std::exception&) {
+        throw Error(path, "line " + std::to_string(number) + " is not valid JSON");
+      }
+      Record record;
+      for (auto it = row.begin(); it != row.end(); ++it)
+        record[it.key()] = it->is_string() ? it->get<std::string>() : it->dump();
+      records.push_back(record);
+    }
+    return records;
+  }
+  std::vector<std::string> header;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    if (header.empty()) {
+      header = SplitCsvLine(line);
+      continue;
+    }
+    const std::vector<std::string> fields = SplitCsvLine(line);
+    Record record;
+    for (size_t i = 0; i < header.size() && i < fields.size(); ++i) record[header[i]] = fields[i];
+    records.push_back(record);
+  }
+  if (header.empty()) throw Error(path, "manifest is empty (expected a CSV header line)");
+  return records;
+}
+
+std::string Lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+// First column of `keys` whose lower-cased name is in `candidates` (candidate order wins).
+std::string FindColumn(const std::vector<std::string>& keys,
+                       const std::vector<std::string>& candidates) {
+  for (const std::string& c : candidates)
+    for (const std::string& k : keys)
+      if (Lower(k) == c) return k;
+  return "";
+}
+
+std::string ResolvePath(const std::string& manifest, const std::string& value) {
+  const fs::path p(value);
+  if (p.is_absolute()) return value;
+  return (fs::path(manifest).parent_path() / p).lexically_normal().string();
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct ScoreArgs {
+  std::string ref;
+  std::vector<std::string> images;
+  std::string original;
+  std::string metrics = "";
+  std::string manifest;
+  std::string image_column;
+  std::string ref_column;
+  std::string original_column;
+  std::string pairs;
+  std::string detector = "orb";
+  bool json = false;
+  bool csv = false;
+  bool list = false;
+};
+
+void ListMetricsCommand() {
+  std::cout << std::left << std::setw(24) << "metric" << std::setw(10) << "needs" << "summary\n";
+  for (const MetricInfo& info : ListMetrics()) {
+    std::string needs = info.needs_reference ? "--ref" : (info.needs_original ? "--original" : "-");
+    std::cout << std::left << std::setw(24) << info.name << std::setw(10) << needs << info.summary
+              << (info.higher_is_better ? "" : " (lower is better)") << "\n";
+  }
+}
+
+void ScoreAgainstReference(const ScoreArgs& args) {
+  if (args.images.empty()) throw Error("score: give at least one image to score");
+  const bool has_ref = !args.ref.empty();
+  const bool has_orig = !args.original.empty();
+  const std::string default_list = has_ref ? "ssim,psnr" : "cnr";
+  const std::vector<std::string> metrics =
+      ParseMetricList(args.metrics.empty() ? default_list : args.metrics, has_ref, has_orig);
+  MetricImage ref, orig;
+  if (has_ref) ref = LoadMetricImage(args.ref);
+  if (has_orig) orig = LoadMetricImage(args.original);
+  std::vector<ScoreRow> rows;
+  for (const std::string& path : args.images) {
+    MetricImage img = LoadMetricImage(path);
+    MetricImage r = ref, o = orig;  // shallow copies; rescaled only when depths differ
+    MetricInputs in;
+    in.data_range = CommonScale({&r, &img, &o});
+    in.reference = r.pixels;
+    in.image = img.pixels;
+    in.original = o.pixels;
+    ScoreRow row;
+    row.label = path;
+    try {
+      row.values = ComputeMetrics(metrics, in);
+    } catch (const Error& e) {
+      throw Error(path, e.what());
+    }
+    rows.push_back(row);
+  }
+  nlohmann::json header = {{"reference", has_ref ? nlohmann::json(args.ref) : nlohmann::json()},
+                           {"original", has_orig ? nlohmann::json(args.original) : nlohmann::json()}};
+  PrintRows(metrics, rows, ParseFormat(args.json, args.csv), header, std::cout);
+}
+
+void ScoreManifest(const ScoreArgs& args) {
+  const std::vector<Record> records = ReadManifest(args.manifest);
+  if (records.empty()) throw Error(args.manifest, "manifest has no rows");
+  std::vector<std::string> keys;
+  for (const auto& [k, v] : records.front()) keys.push_back(k);
+  const std::vector<std::string> image_names = {"enhanced", "enhanced_path", "restored",
+                                                "image", "image_path", "degraded",
+                                                "degraded_path", "rendered", "render",
+                                                "output", "output_path", "path"};
+  const std::vector<std::string> ref_names = {"ground_truth", "ground_truth_path", "gt",
+                                              "gt_path", "clean", "clean_path", "clear",
+                                              "reference", "reference_path", "ref", "truth"};
+  const std::vector<std::string> degraded_names = {"original", "original_path", "degraded",
+                                                   "degraded_path", "rendered", "render"};
+  const std::string image_col =
+      args.image_column.empty() ? FindColumn(keys, image_names) : args.image_column;
+  const std::string ref_col = args.ref_column.empty() ? FindColumn(keys, ref_names) : args.ref_column;
+  std::string orig_col = args.original_column;
+  if (orig_col.empty()) {
+    orig_col = FindColumn(keys, degraded_names);
+    if (orig_col == image_col) orig_col.clear();  // scoring the degraded image itself
+  }
+  std::string known;
+  for (const std::string& k : keys) known += (known.empty() ? "" : ", ") + k;
+  if (image_col.empty() || !records.front().count(image_col))
+    throw Error(args.manifest, "no image column found (columns: " + known +
+                                   "; choose one with --image-column)");
+  if (!args.ref_column.empty() && !records.front().count(ref_col))
+    throw Error(args.manifest, "no column '" + ref_col + "' (columns: " + known + ")");
+  const std::string id_col = FindColumn(keys, {"id", "name", "item", "sample"});
+  const bool has_ref = !ref_col.empty();
+  const bool has_orig = !orig_col.empty() && records.front().count(orig_col);
+  const std::string default_list = has_ref ? "ssim,psnr" : "cnr";
+  const std::vector<std::string> metrics =
+      ParseMetricList(args.metrics.empty() ? default_list : args.metrics, has_ref, has_orig);
+  std::vector<ScoreRow> rows;
+  for (const Record& record : records) {
+    auto get = [&](const std::string& col) {
+      auto it = record.find(col);
+      return it == record.end() ? std::string() : it->second;
+    };
+    const std::string image_path = ResolvePath(args.manifest, get(image_col));
+    MetricImage img = LoadMetricImage(image_path), ref, orig;
+    ScoreRow row;
+    row.label = id_col.empty() ? get(image_col) : get(id_col);
+    if (!id_col.empty()) row.extra["path"] = get(image_col);
+    if (has_ref) {
+      ref = LoadMetricImage(ResolvePath(args.manifest, get(ref_col)));
+      row.extra["reference"] = get(ref_col);
+    }
+    if (has_orig) {
+      orig = LoadMetricImage(ResolvePath(args.manifest, get(orig_col)));
+      row.extra["original"] = get(orig_col);
+    }
+    MetricInputs in;
+    in.data_range = CommonScale({&ref, &img, &orig});
+    in.reference = ref.pixels;
+    in.image = img.pixels;
+    in.original = orig.pixels;
+    try {
+      row.values = ComputeMetrics(metrics, in);
+    } catch (const Error& e) {
+      throw Error(image_path, e.what());
+    }
+    rows.push_back(row);
+  }
+  nlohmann::json header = {{"manifest", args.manifest},
+                           {"image_column", image_col},
+                           {"reference_column", ref_col},
+                           {"original_column", has_orig ? orig_col : std::string()}};
+  PrintRows(metrics, rows, ParseFormat(args.json, args.csv), header, std::cout);
+}
+
+// Pairs file: one pair per line, "A,B" or "A B"; '#' comments; an optional header line whose
+// first field is a non-file word like "a", "first", "image_a".
+std::vector<std::pair<std::string, std::string>> ReadPairs(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(path, "cannot open pairs file");
+  std::vector<std::pair<std::string, std::string>> pairs;
+  std::string line;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.find_first_not_of(" \t") == std::string::npos || line[0] == '#') continue;
+    std::vector<std::string> fields = line.find(',') != std::string::npos
+                                          ? SplitCsvLine(line)
+                                          : std::vector<std::string>{};
+    if (fields.empty()) {
+      std::istringstream words(line);
+      for (std::string w; words >> w;) fields.push_back(w);
+    }
+    if (fields.size() < 2) throw Error(path, "line " + std::to_string(number) + ": need two paths");
+    const std::string first = Lower(fields[0]);
+    if (pairs.empty() && (first == "a" || first == "first" || first == "image_a" ||
+                          first == "left" || first == "source" || first == "query"))
+      continue;
+    pairs.emplace_back(ResolvePath(path, fields[0]), ResolvePath(path, fields[1]));
+  }
+  if (pairs.empty()) throw Error(path, "no image pairs");
+  return pairs;
+}
+
+void ScorePairs(const ScoreArgs& args) {
+  const auto pairs = ReadPairs(args.pairs);
+  std::vector<FeatureDetector> detectors;
+  if (args.detector == "all")
+    detectors = {FeatureDetector::kOrb, FeatureDetector::kAkaze, FeatureDetector::kSift};
+  else
+    detectors = {ParseFeatureDetector(args.detector)};
+  std::vector<MatchBatchResult> batches;
+  for (FeatureDetector d : detectors) {
+    FeatureMatchOptions options;
+    options.detector = d;
+    std::vector<PairMatchResult> results;
+    for (const auto& [a, b] : pairs) {
+      const MetricImage ia = LoadMetricImage(a), ib = LoadMetricImage(b);
+      try {
+        // Each image is converted with its own data range: pairs need not share a bit depth.
+        cv::Mat a01, b01;
+        ia.pixels.convertTo(a01, CV_32F, 1.0 / ia.data_range);
+        ib.pixels.convertTo(b01, CV_32F, 1.0 / ib.data_range);
+        results.push_back(MatchFeatures(options, a01, b01, 1.0));
+      } catch (const Error& e) {
+        throw Error(a + " / " + b, e.what());
+      }
+    }
+    batches.push_back(SummarizeMatches(options, results));
+  }
+  const Format format = ParseFormat(args.json, args.csv);
+  if (format == Format::kJson) {
+    nlohmann::json doc = {{"pairs_file", args.pairs}, {"detectors", nlohmann::json::array()}};
+    for (size_t k = 0; k < batches.size(); ++k) {
+      nlohmann::json j = batches[k].ToJson();
+      for (size_t i = 0; i < pairs.size(); ++i) {
+        j["pairs_detail"][i]["a"] = pairs[i].first;
+        j["pairs_detail"][i]["b"] = pairs[i].second;
+      }
+      doc["detectors"].push_back(j);
+    }
+    std::cout << doc.dump(2) << "\n";
+    return;
+  }
+  if (format == Format::kCsv) {
+    std::cout << "detector,a,b,keypoints_a,keypoints_b,correspondences,inliers,active\n";
+    for (const MatchBatchResult& batch : batches)
+      for (size_t i = 0; i < pairs.size(); ++i) {
+        const PairMatchResult& p = batch.per_pair[i];
+        std::cout << batch.detector << "," << CsvField(pairs[i].first) << ","
+                  << CsvField(pairs[i].second) << "," << p.keypoints_a << "," << p.keypoints_b
+                  << "," << p.correspondences << "," << p.inliers << "," << (p.active ? 1 : 0)
+                  << "\n";
+      }
+    return;
+  }
+  std::cout << std::left << std::setw(10) << "detector" << std::right << std::setw(8) << "pairs"
+            << std::setw(13) << "active_sets" << std::setw(18) << "mean_corresp."
+            << std::setw(14) << "mean_inliers" << "\n";
+  for (const MatchBatchResult& b : batches)
+    std::cout << std::left << std::setw(10) << b.detector << std::right << std::setw(8) << b.pairs
+              << std::setw(13) << b.active_sets << std::setw(18) << std::fixed
+              << std::setprecision(2) << b.mean_correspondences << std::setw(14)
+              << b.mean_inliers << "\n";
+}
+
+}  // namespace
+
+void AddScoreCommand(CLI::App& app) {
+  auto args = std::make_shared<ScoreArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "score", "Score images against a reference (or without one), a generate manifest, or pairs");
+  cmd->add_option("images", args->images, "Images to score (PNG/JPEG/TIFF/EXR/PFM)");
+  cmd->add_option("--ref", args->ref, "Ground-truth image for full-reference metrics");
+  cmd->add_option("--original", args->original,
+                  "Degraded input the restoration started from (visible-edge metrics)");
+  cmd->add_option("--metrics", args->metrics,
+                  "Comma-separated metric names or 'all' (default: ssim,psnr with --ref, else cnr)");
+  cmd->add_option("--manifest", args->manifest,
+                  "Batch: manifest.csv / .jsonl from `turbid generate` (paths relative to it)");
+  cmd->add_option("--image-column", args->image_column, "Manifest column of the image to score");
+  cmd->add_option("--ref-column", args->ref_column, "Manifest column of the ground truth");
+  cmd->add_option("--original-column", args->original_column,
+                  "Manifest column of the original degraded image");
+  cmd->add_option("--pairs", args->pairs,
+                  "Feature matching over a file of image pairs (one 'A,B' per line)");
+  cmd->add_option("--detector", args->detector, "orb | akaze | sift | all (with --pairs)");
+  cmd->add_flag("--json", args->json, "JSON on stdout");
+  cmd->add_flag("--csv", args->csv, "CSV on stdout");
+  cmd->add_flag("--list", args->list, "List the metrics and exit");
+  cmd->callback([args]() {
+    if (args->list) return ListMetricsCommand();
+    const int modes = (!args->manifest.empty()) + (!args->pairs.empty()) + (!args->images.empty());
+    if (modes != 1)
+      throw Error(
+          "score: give images (with --ref / --original), or --manifest FILE, or --pairs FILE");
+    if (!args->manifest.empty()) return ScoreManifest(*args);
+    if (!args->pairs.empty()) return ScorePairs(*args);
+    ScoreAgainstReference(*args);
+  });
+}
 
 }  // namespace turbid

@@ -1,0 +1,251 @@
+#include "metrics/registry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <optional>
+#include <sstream>
+
+#include "metrics/full_reference.h"
+#include "metrics/image_checks.h"
+#include "metrics/no_reference.h"
+#include "metrics/ssim.h"
+#include "scenes/error.h"
+
+namespace turbid {
+
+const std::vector<MetricInfo>& ListMetrics() {
+  // {name, summary, needs_reference, needs_original, higher_is_better}
+  static const std::vector<MetricInfo> metrics = {
+      {"ssim", "SSIM, Wang 2004 Gaussian 11x11 s=1.5; = scikit-image 0.19 to 1e-6", true, false,
+       true},
+      {"psnr", "PSNR in dB over all pixels and channels; = scikit-image to 1e-9 rel; inf if equal",
+       true, false, true},
+      {"mse", "mean squared error on the [0,1] scale (x data_range^2 on raw scale)", true, false,
+       false},
+      {"cnr", "contrast-to-noise ratio between Otsu classes of the luma (docs/metrics.md)", false,
+       false, true},
+      {"hautiere_e", "Hautiere 2008 rate of new visible edges e (paper variant)", false, true,
+       true},
+      {"hautiere_r", "Hautiere 2008 geometric mean gradient ratio r (paper variant)", false, true,
+       true},
+      {"hautiere_sigma", "Hautiere 2008 saturated fraction sigma, black+white (paper variant)",
+       false, true, false},
+      {"hautiere_m", "source paper's Table I 'm': black-pixel fraction as the IFSTTAR code", false,
+       true, true},
+      {"hautiere_e_ifsttar", "e as the published IFSTTAR MATLAB code", false, true, true},
+      {"hautiere_r_ifsttar", "r as the published IFSTTAR MATLAB code", false, true, true},
+      {"hautiere_sigma_ifsttar", "sigma as the IFSTTAR code (black only on 8-bit)", false, true,
+       false},
+      {"uiqm", "UIQM, Panetta 2016; = FUnIE-GAN uqim_utils.py", false, false, true},
+      {"uicm", "UIQM colourfulness term (FUnIE-GAN)", false, false, true},
+      {"uism", "UIQM sharpness term (FUnIE-GAN)", false, false, true},
+      {"uiconm", "UIQM contrast term (FUnIE-GAN)", false, false, true},
+      {"uiqm_corrected", "UIQM with the trimmed-mean and lambda_B bugs fixed", false, false,
+       true},
+      {"uciqe", "UCIQE, Yang & Sowmya 2015; = JOU-UIP UCIQE.py", false, false, true},
+  };
+  return metrics;
+}
+
+const MetricInfo& FindMetric(const std::string& name) {
+  for (const MetricInfo& info : ListMetrics())
+    if (info.name == name) return info;
+  std::string known;
+  for (const MetricInfo& info : ListMetrics()) known += (known.empty() ? "" : ", ") + info.name;
+  throw Error("unknown metric '" + name + "' (known: " + known + ")");
+}
+
+namespace {
+
+// Everything that more than one metric needs, computed at most once per ComputeMetrics call.
+class SharedWork {
+ public:
+  explicit SharedWork(const MetricInputs& in) : in_(in) {}
+
+  double Range() {
+    if (in_.data_range > 0.0) return in_.data_range;
+    const cv::Mat& any = !in_.image.empty() ? in_.image : in_.reference;
+    return DefaultDataRange(any.empty() ? CV_32F : any.depth());
+  }
+
+  void RequirePair() {
+    if (pair_checked_) return;
+    if (in_.reference.empty())
+      throw Error("metric needs a reference (ground-truth) image, none given");
+    CheckMetricPair(in_.reference, in_.image, "score");
+    if (in_.reference.depth() != in_.image.depth())
+      throw Error("score: reference and image have different pixel depths");
+    pair_checked_ = true;
+  }
+
+  double Mse() {
+    if (!mse_) {
+      RequirePair();
+      mse_ = turbid::Mse(in_.reference, in_.image);
+    }
+    return *mse_;
+  }
+
+  double SsimMean() {
+    if (!ssim_) {
+      RequirePair();
+      SsimOptions options;
+      options.data_range = Range();
+      ssim_ = Ssim(options, in_.reference, in_.image).mean;
+    }
+    return *ssim_;
+  }
+
+  double CnrValue() {
+    if (!cnr_) {
+      CnrOptions options;
+      options.data_range = Range();
+      cnr_ = Cnr(options, in_.image).cnr;
+    }
+    return *cnr_;
+  }
+
+  // The no-reference metrics are defined on 8-bit values: hand them CV_8U when the data are raw
+  // 8-bit values, [0,1] float otherwise (their documented input conventions).
+  const cv::Mat& ForEightBitMetrics(const cv::Mat& src, cv::Mat* cache) {
+    if (!cache->empty()) return *cache;
+    const double range = Range();
+    if (src.depth() == CV_8U || (range == 1.0 && src.depth() == CV_32F)) {
+      *cache = src;
+    } else if (range == 255.0) {
+      CheckMetricImage(src, "score");
+      src.convertTo(*cache, CV_8U);  // raw 8-bit values held as float: exact
+    } else {
+      CheckMetricImage(src, "score");
+      src.convertTo(*cache, CV_32F, 1.0 / range);
+    }
+    return *cache;
+  }
+
+  const VisibleEdgeResult& Edges(VisibleEdgeVariant variant) {
+    std::optional<VisibleEdgeResult>& slot =
+        variant == VisibleEdgeVariant::kPaper ? edges_paper_ : edges_ifsttar_;
+    if (!slot) {
+      if (in_.original.empty())
+        throw Error("visible-edge metrics need the original (degraded) image, none given");
+      VisibleEdgeOptions options;
+      options.variant = variant;
+      slot = VisibleEdges(options, ForEightBitMetrics(in_.original, &original8_),
+                          ForEightBitMetrics(in_.image, &image8_));
+    }
+    return *slot;
+  }
+
+  const UiqmResult& UiqmOf(UiqmVariant variant) {
+    std::optional<UiqmResult>& slot =
+        variant == UiqmVariant::kFunieGanCompat ? uiqm_compat_ : uiqm_corrected_;
+    if (!slot) {
+      UiqmOptions options;
+      options.variant = variant;
+      slot = Uiqm(options, ForEightBitMetrics(in_.image, &image8_));
+    }
+    return *slot;
+  }
+
+  double UciqeValue() {
+    if (!uciqe_) uciqe_ = Uciqe({}, ForEightBitMetrics(in_.image, &image8_)).uciqe;
+    return *uciqe_;
+  }
+
+ private:
+  const MetricInputs& in_;
+  bool pair_checked_ = false;
+  std::optional<double> mse_, ssim_, cnr_, uciqe_;
+  std::optional<VisibleEdgeResult> edges_paper_, edges_ifsttar_;
+  std::optional<UiqmResult> uiqm_compat_, uiqm_corrected_;
+  cv::Mat image8_, original8_;
+};
+
+double ComputeOne(const std::string& name, SharedWork& work) {
+  using V = VisibleEdgeVariant;
+  if (name == "ssim") return work.SsimMean();
+  if (name == "mse") {
+    const double scale = work.Range();
+    return work.Mse() / (scale * scale);  // on the [0,1] scale whatever the input scale
+  }
+  if (name == "psnr") return PsnrFromMse(work.Mse(), work.Range());
+  if (name == "cnr") return work.CnrValue();
+  if (name == "hautiere_e") return work.Edges(V::kPaper).e;
+  if (name == "hautiere_r") return work.Edges(V::kPaper).r_mean;
+  if (name == "hautiere_sigma") return work.Edges(V::kPaper).sigma;
+  if (name == "hautiere_m") return work.Edges(V::kPaper).m;
+  if (name == "hautiere_e_ifsttar") return work.Edges(V::kIfsttar).e;
+  if (name == "hautiere_r_ifsttar") return work.Edges(V::kIfsttar).r_mean;
+  if (name == "hautiere_sigma_ifsttar") return work.Edges(V::kIfsttar).sigma;
+  if (name == "uiqm") return work.UiqmOf(UiqmVariant::kFunieGanCompat).uiqm;
+  if (name == "uicm") return work.UiqmOf(UiqmVariant::kFunieGanCompat).uicm;
+  if (name == "uism") return work.UiqmOf(UiqmVariant::kFunieGanCompat).uism;
+  if (name == "uiconm") return work.UiqmOf(UiqmVariant::kFunieGanCompat).uiconm;
+  if (name == "uiqm_corrected") return work.UiqmOf(UiqmVariant::kCorrected).uiqm;
+  if (name == "uciqe") return work.UciqeValue();
+  throw Error("metric '" + name + "' is listed but has no implementation (bug)");
+}
+
+}  // namespace
+
+std::map<std::string, double> ComputeMetrics(const std::vector<std::string>& names,
+                                             const MetricInputs& inputs) {
+  for (const std::string& name : names) FindMetric(name);  // all names valid before any work
+  if (inputs.image.empty()) throw Error("score: the image to score is empty");
+  if (inputs.data_range < 0.0 || !std::isfinite(inputs.data_range))
+    throw Error("score: data_range must be >= 0");
+  SharedWork work(inputs);
+  std::map<std::string, double> values;
+  for (const std::string& name : names)
+    if (!values.count(name)) values[name] = ComputeOne(name, work);
+  return values;
+}
+
+nlohmann::json MetricValueToJson(double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  return value;
+}
+
+std::string MetricValueToText(double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "%.10g", value);
+  return buffer;
+}
+
+std::vector<std::string> ParseMetricList(const std::string& list, bool has_reference,
+                                         bool has_original) {
+  std::vector<std::string> names;
+  std::stringstream in(list);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    const size_t a = item.find_first_not_of(" \t");
+    const size_t b = item.find_last_not_of(" \t");
+    if (a == std::string::npos) continue;
+    item = item.substr(a, b - a + 1);
+    if (item == "all") {
+      for (const MetricInfo& info : ListMetrics())
+        if ((!info.needs_reference || has_reference) && (!info.needs_original || has_original))
+          names.push_back(info.name);
+      continue;
+    }
+    const MetricInfo& info = FindMetric(item);
+    if (info.needs_reference && !has_reference)
+      throw Error("metric '" + item + "' needs a reference image (--ref)");
+    if (info.needs_original && !has_original)
+      throw Error("metric '" + item + "' needs the original degraded image (--original)");
+    names.push_back(item);
+  }
+  if (names.empty()) throw Error("no metrics requested (empty --metrics list)");
+  // Keep the first occurrence of each name, in the order given.
+  std::vector<std::string> unique;
+  for (const std::string& n : names)
+    if (std::find(unique.begin(), unique.end(), n) == unique.end()) unique.push_back(n);
+  return unique;
+}
+
+}  // namespace turbid
