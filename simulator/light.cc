@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "scenes/error.h"
+#include "simulator/fast_math.h"
 
 namespace turbid {
 namespace {
@@ -198,6 +199,24 @@ LightGeometry ComputeLightGeometry(const IrradianceOptions& options, const Camer
   return geometry;
 }
 
+namespace {
+
+// out[x, c] += colour[c] g[x] exp(-beta[c] l[x]) for one row; NaN l (invalid depth) has g = 0.
+template <int kChannels>
+__attribute__((target_clones("avx2", "default"))) void AccumulateLightRow(const float* l,
+                                                                          const float* g, int width,
+                                                                          const float* neg_beta,
+                                                                          const float* color,
+                                                                          float* out) {
+  for (int x = 0; x < width; ++x) {
+    const float range = l[x] == l[x] ? l[x] : 0.0f;
+    for (int c = 0; c < kChannels; ++c)
+      out[x * kChannels + c] += color[c] * g[x] * internal::ExpNonPositive(neg_beta[c] * range);
+  }
+}
+
+}  // namespace
+
 cv::Mat IrradianceFromGeometry(const IrradianceOptions& options, const LightGeometry& geometry,
                                const std::vector<double>& beta_per_m) {
   const int channels = static_cast<int>(beta_per_m.size());
@@ -206,25 +225,24 @@ cv::Mat IrradianceFromGeometry(const IrradianceOptions& options, const LightGeom
   if (geometry.geometry.empty()) return {};
   const cv::Size size = geometry.geometry[0].size();
   cv::Mat irradiance(size, CV_32FC(channels), cv::Scalar::all(0));
-  std::vector<float> buffer(static_cast<size_t>(size.width) * channels);
+  float neg_beta[3] = {0, 0, 0};
+  for (int c = 0; c < channels; ++c) neg_beta[c] = -static_cast<float>(beta_per_m[c]);
   for (size_t k = 0; k < options.lights.size(); ++k) {
-    const std::vector<double> color =
+    const std::vector<double> color_d =
         ChannelValues(options.lights[k].color_rgb, GrayColor(options.lights[k]), channels);
-    for (int y = 0; y < size.height; ++y) {
-      const float* l = geometry.distance_m[k].ptr<float>(y);
-      const float* g = geometry.geometry[k].ptr<float>(y);
-      float* out = irradiance.ptr<float>(y);
-      for (int x = 0; x < size.width; ++x) {
-        const float range = std::isnan(l[x]) ? 0.0f : l[x];
-        for (int c = 0; c < channels; ++c)
-          buffer[x * channels + c] = std::max(-static_cast<float>(beta_per_m[c]) * range, -80.0f);
+    float color[3] = {0, 0, 0};
+    for (int c = 0; c < channels; ++c) color[c] = static_cast<float>(color_d[c]);
+    cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
+      for (int y = rows.start; y < rows.end; ++y) {
+        const float* l = geometry.distance_m[k].ptr<float>(y);
+        const float* g = geometry.geometry[k].ptr<float>(y);
+        float* out = irradiance.ptr<float>(y);
+        if (channels == 3)
+          AccumulateLightRow<3>(l, g, size.width, neg_beta, color, out);
+        else
+          AccumulateLightRow<1>(l, g, size.width, neg_beta, color, out);
       }
-      cv::Mat row(1, size.width * channels, CV_32F, buffer.data());
-      cv::exp(row, row);
-      for (int x = 0; x < size.width; ++x)
-        for (int c = 0; c < channels; ++c)
-          out[x * channels + c] += static_cast<float>(color[c]) * g[x] * buffer[x * channels + c];
-    }
+    });
   }
   return irradiance;
 }

@@ -91,8 +91,10 @@ namespace {
 // Box-Muller for pairs low0 .. low0 + n - 1 (32-bit counter, fixed high word): a straight loop
 // the compiler vectorises; an AVX2 clone is picked at run time where the CPU has it (same results:
 // integer hashing and the same float operations, no FMA contraction across clones).
-__attribute__((target_clones("avx2", "default"))) void NormalPairs(uint32_t low0, uint32_t high, uint32_t k1, uint32_t k2, int n, float* cos_part,
-                 float* sin_part) {
+__attribute__((target_clones("avx2", "default"))) void NormalPairs(uint32_t low0, uint32_t high,
+                                                                   uint32_t k1, uint32_t k2, int n,
+                                                                   float* cos_part,
+                                                                   float* sin_part) {
   for (int j = 0; j < n; ++j) {
     const uint32_t a = Hash32((low0 + static_cast<uint32_t>(j)) ^ k1) ^ high;
     const uint32_t b1 = Hash32(a ^ k2), b2 = Hash32((a + 0x9e3779b9U) ^ k2);

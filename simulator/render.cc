@@ -105,6 +105,37 @@ std::string ListText(const std::vector<double>& values) {
   return s + "]";
 }
 
+// I = Jb t + (1 - t)(E_L + B_inf) for one row; e == nullptr: no veiling term (I = Jb t).
+template <int kChannels>
+__attribute__((target_clones("avx2", "default"))) void ComposeRow(const float* jb, const float* t,
+                                                                  const float* e, const float* bs,
+                                                                  int width, float* out,
+                                                                  float* veil) {
+  if (!e && !bs) {
+    for (int i = 0; i < width * kChannels; ++i) out[i] = jb[i] * t[i];
+    return;
+  }
+  for (int x = 0; x < width; ++x)
+    for (int c = 0; c < kChannels; ++c) {
+      const int i = x * kChannels + c;
+      const float veil_value = (1.0f - t[i]) * ((e ? e[i] : 0.0f) + bs[c]);
+      out[i] = jb[i] * t[i] + veil_value;
+      if (veil) veil[i] = veil_value;
+    }
+}
+
+__attribute__((target_clones("avx2", "default"))) void QuantiseRow(float* p, int n, float levels,
+                                                                   bool quantise) {
+  if (!quantise) {
+    for (int i = 0; i < n; ++i) p[i] = std::min(std::max(p[i], 0.0f), 1.0f);
+    return;
+  }
+  for (int i = 0; i < n; ++i) {
+    const float v = std::min(std::max(p[i], 0.0f), 1.0f);
+    p[i] = static_cast<float>(static_cast<int>(v * levels + 0.5f)) / levels;
+  }
+}
+
 // Clips to [0, 1] and rounds to the 2^bits - 1 levels the PNG will store (32: clip only).
 void QuantiseInPlace(cv::Mat& image, int bit_depth) {
   const float levels = bit_depth == 8 ? 255.0f : 65535.0f;
@@ -112,11 +143,7 @@ void QuantiseInPlace(cv::Mat& image, int bit_depth) {
   const int per_row = image.cols * image.channels();
   cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y) {
-      float* p = image.ptr<float>(y);
-      for (int i = 0; i < per_row; ++i) {
-        const float v = std::min(std::max(p[i], 0.0f), 1.0f);  // NaN is never produced upstream
-        p[i] = quantise ? static_cast<float>(static_cast<int>(v * levels + 0.5f)) / levels : v;
-      }
+      QuantiseRow(image.ptr<float>(y), per_row, levels, quantise);  // no NaN reaches here
     }
   });
 }
@@ -585,11 +612,10 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
     t_map = d.zero_beta ? cv::Mat(size, CV_32FC(channels), cv::Scalar::all(1))
                         : cv::Mat(size, CV_32FC(channels));
   if (options.maps.veil) veil = cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0));
-  float bs[3] = {0, 0, 0}, t_const[3] = {0, 0, 0}, neg_beta[3] = {0, 0, 0};
+  float bs[3] = {0, 0, 0}, t_const[3] = {0, 0, 0};
   for (int c = 0; c < channels; ++c) {
     bs[c] = backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
     t_const[c] = static_cast<float>(std::exp(-d.beta[c] * cache_->min_range));
-    neg_beta[c] = -static_cast<float>(d.beta[c]);
   }
   cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
     std::vector<float> t_row(per_row);
@@ -604,34 +630,17 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
       float* t = t_row.data();
       if (uniform_range) {
         for (int x = 0; x < size.width; ++x)
-          for (int c = 0; c < channels; ++c) t[x * channels + c] = t_const[c];
+          for (int c = 0; c < channels; ++c) t[x * channels + c] = r[x] == r[x] ? t_const[c] : 0.0f;
       } else {
-        for (int x = 0; x < size.width; ++x) {
-          const float range = r[x] == r[x] ? r[x] : 1e30f;
-          for (int c = 0; c < channels; ++c)
-            t[x * channels + c] = std::max(neg_beta[c] * range, -80.0f);
-        }
-        cv::Mat row(1, per_row, CV_32F, t);
-        cv::exp(row, row);
+        TransmissionRows(r, size.width, d.beta, t);  // NaN depth: open water, t = 0
       }
-      if (cache_->valid_pixels != size.area())  // NaN depth: open water, t = 0
-        for (int x = 0; x < size.width; ++x)
-          if (r[x] != r[x])
-            for (int c = 0; c < channels; ++c) t[x * channels + c] = 0.0f;
       if (!t_map.empty()) std::copy(t, t + per_row, t_map.ptr<float>(y));
-      if (!veil_term) {
-        for (int i = 0; i < per_row; ++i) out[i] = jb[i] * t[i];
-        continue;
-      }
       const float* e = light ? light->ptr<float>(y) : nullptr;
       float* v = veil.empty() ? nullptr : veil.ptr<float>(y);
-      for (int x = 0; x < size.width; ++x)
-        for (int c = 0; c < channels; ++c) {
-          const int i = x * channels + c;
-          const float veil_value = (1.0f - t[i]) * ((e ? e[i] : 0.0f) + bs[c]);
-          out[i] = jb[i] * t[i] + veil_value;
-          if (v) v[i] = veil_value;
-        }
+      if (channels == 3)
+        ComposeRow<3>(jb, t, veil_term ? e : nullptr, veil_term ? bs : nullptr, size.width, out, v);
+      else
+        ComposeRow<1>(jb, t, veil_term ? e : nullptr, veil_term ? bs : nullptr, size.width, out, v);
     }
   });
 

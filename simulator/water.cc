@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "scenes/error.h"
+#include "simulator/fast_math.h"
 
 namespace turbid {
 namespace {
@@ -119,29 +120,42 @@ std::vector<double> ChannelValues(const Rgb& rgb, double gray, int channels) {
   return {rgb[2], rgb[1], rgb[0]};
 }
 
+namespace {
+
+// t[x, c] = exp(-beta[c] r[x]); NaN range (open water) gives 0.
+template <int kChannels>
+__attribute__((target_clones("avx2", "default"))) void TransmissionRow(const float* r, int width,
+                                                                       const float* neg_beta,
+                                                                       float* out) {
+  for (int x = 0; x < width; ++x) {
+    const bool valid = r[x] == r[x];
+    const float range = valid ? r[x] : 0.0f;
+    for (int c = 0; c < kChannels; ++c)
+      out[x * kChannels + c] = valid ? internal::ExpNonPositive(neg_beta[c] * range) : 0.0f;
+  }
+}
+
+}  // namespace
+
+void TransmissionRows(const float* range_row, int width, const std::vector<double>& beta_per_m,
+                      float* out) {
+  float neg_beta[3] = {0, 0, 0};
+  for (size_t c = 0; c < beta_per_m.size(); ++c) neg_beta[c] = -static_cast<float>(beta_per_m[c]);
+  if (beta_per_m.size() == 3)
+    TransmissionRow<3>(range_row, width, neg_beta, out);
+  else
+    TransmissionRow<1>(range_row, width, neg_beta, out);
+}
+
 cv::Mat TransmissionMap(const cv::Mat& range_m, const std::vector<double>& beta_per_m) {
   CV_Assert(range_m.type() == CV_32FC1);
   const int channels = static_cast<int>(beta_per_m.size());
   CV_Assert(channels == 1 || channels == 3);
   cv::Mat t(range_m.size(), CV_32FC(channels));
-  std::vector<float> row(static_cast<size_t>(range_m.cols) * channels);
-  for (int y = 0; y < range_m.rows; ++y) {
-    const float* r = range_m.ptr<float>(y);
-    float* out = t.ptr<float>(y);
-    for (int x = 0; x < range_m.cols; ++x) {
-      // NaN range: t = 0 (exp(-inf)). Arguments stop at -80: exp(-80) ~ 2e-35 is still a normal
-      // float (denormals are slow) and indistinguishable from 0 in any output.
-      const float range = std::isnan(r[x]) ? 1e30f : r[x];
-      for (int c = 0; c < channels; ++c)
-        row[x * channels + c] = std::max(-static_cast<float>(beta_per_m[c]) * range, -80.0f);
-    }
-    cv::Mat in_row(1, range_m.cols * channels, CV_32F, row.data());
-    cv::Mat out_row(1, range_m.cols * channels, CV_32F, out);
-    cv::exp(in_row, out_row);
-    for (int x = 0; x < range_m.cols; ++x)
-      if (std::isnan(r[x]))
-        for (int c = 0; c < channels; ++c) out[x * channels + c] = 0.0f;
-  }
+  cv::parallel_for_(cv::Range(0, range_m.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y)
+      TransmissionRows(range_m.ptr<float>(y), range_m.cols, beta_per_m, t.ptr<float>(y));
+  });
   return t;
 }
 

@@ -66,6 +66,10 @@ std::vector<double> ChannelValues(const Rgb& rgb, double gray, int channels);
 
 // t_c = exp(-beta_c r): CV_32FC(beta.size()) from range_m (CV_32FC1, metres). NaN range (invalid
 // depth) is open water seen to infinity: t = 0. beta.size() must be 1 or 3 (image channel order).
+// exp is a float polynomial (relative error < 2e-7); values below ~1.6e-38 round to that.
 cv::Mat TransmissionMap(const cv::Mat& range_m, const std::vector<double>& beta_per_m);
+// One row of TransmissionMap: range_row has `width` values, out has width * beta.size().
+void TransmissionRows(const float* range_row, int width, const std::vector<double>& beta_per_m,
+                      float* out);
 
 }  // namespace turbid
