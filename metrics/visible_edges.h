@@ -17,9 +17,11 @@
 //             by n_r although non-finite log ratios are dropped, and σ counts `== 0 | == 256`, so white
 //             saturation (255) is never counted on 8-bit data.
 //   kPaper    (default) follows the paper: the separation test uses min/max of the same pixel pair
-//             whose Weber contrast is summed, both black (0) and white (255) pixels count in σ,
-//             thresholds span [0, 255]; everything else (window, step, padding, argmax, 5 % rule,
-//             Sobel gradients, r̄'s normalisation) as kIfsttar.
+//             whose Weber contrast is summed, and σ counts black (0) and white (255) pixels;
+//             everything else (window, step, mirrored padding of the pair maps, thresholds
+//             [round(min), round(max)] within [1, 256], first argmax, 5 % rule, Sobel gradients,
+//             r̄'s normalisation by n_r) as kIfsttar. Verified against the reference README's
+//             "intended algorithm" values (bit-exact e and σ).
 //
 // Input convention: images are float32 [0, 1] (or 8-bit), 1 or 3 channels (BGR). These metrics are
 // defined on 8-bit file values: float input is taken as file value / 255 and quantised back with
