@@ -4,6 +4,7 @@
 // [0, 1] values it produces). Branch-free so that loops calling it vectorise.
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 
@@ -11,7 +12,7 @@ namespace turbid::internal {
 
 // exp(x) for x in [-87, 0]; larger arguments are clamped to 0, smaller to -87 (exp ~ 1.6e-38).
 inline float ExpNonPositive(float x) {
-  x = x < -87.0f ? -87.0f : (x > 0.0f ? 0.0f : x);
+  x = std::min(std::max(x, -87.0f), 0.0f);  // min/max, not branches: keeps loops vectorisable
   const int n = static_cast<int>(x * 1.44269504089f - 0.5f);  // round(x / ln2) for x <= 0
   const float nf = static_cast<float>(n);
   const float r = (x - nf * 0.693145751953125f) - nf * 1.428606765330187e-06f;

@@ -209,7 +209,7 @@ __attribute__((target_clones("avx2", "default"))) void AccumulateLightRow(const 
                                                                           const float* color,
                                                                           float* out) {
   for (int x = 0; x < width; ++x) {
-    const float range = l[x] == l[x] ? l[x] : 0.0f;
+    const float range = std::max(0.0f, l[x]);  // NaN -> 0 without a branch
     for (int c = 0; c < kChannels; ++c)
       out[x * kChannels + c] += color[c] * g[x] * internal::ExpNonPositive(neg_beta[c] * range);
   }

@@ -128,10 +128,11 @@ __attribute__((target_clones("avx2", "default"))) void TransmissionRow(const flo
                                                                        const float* neg_beta,
                                                                        float* out) {
   for (int x = 0; x < width; ++x) {
-    const bool valid = r[x] == r[x];
-    const float range = valid ? r[x] : 0.0f;
+    // max(0, NaN) is 0 and keep is 0 for NaN: arithmetic selects keep the loop vectorisable.
+    const float range = std::max(0.0f, r[x]);
+    const float keep = static_cast<float>(r[x] == r[x]);
     for (int c = 0; c < kChannels; ++c)
-      out[x * kChannels + c] = valid ? internal::ExpNonPositive(neg_beta[c] * range) : 0.0f;
+      out[x * kChannels + c] = keep * internal::ExpNonPositive(neg_beta[c] * range);
   }
 }
 
