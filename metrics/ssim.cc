@@ -1,6 +1,7 @@
 #include "metrics/ssim.h"
 
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -183,6 +184,42 @@ class SsimBand {
   std::vector<double> ssim_row_;
 };
 
+// Double-precision path for float and 16-bit inputs: the fused float32 kernel is exact enough
+// only when products of centred values are exact in float (8-bit data). Float data such as k/255
+// carry a systematic float32 rounding that shifts the mean by ~1e-6 on flat images, so these
+// inputs are filtered in double (OpenCV separable filter, BORDER_REFLECT = scipy 'reflect').
+double PreciseChannel(const cv::Mat& ref, const cv::Mat& img, int channel,
+                      const std::vector<double>& taps, int radius, double c1, double c2,
+                      cv::Mat* map) {
+  cv::Mat x, y;
+  cv::extractChannel(ref, x, channel);
+  cv::extractChannel(img, y, channel);
+  x.convertTo(x, CV_64F);
+  y.convertTo(y, CV_64F);
+  const cv::Mat kernel(static_cast<int>(taps.size()), 1, CV_64F, const_cast<double*>(taps.data()));
+  auto blur = [&](const cv::Mat& src) {
+    cv::Mat out;
+    cv::sepFilter2D(src, out, CV_64F, kernel, kernel, cv::Point(-1, -1), 0.0, cv::BORDER_REFLECT);
+    return out;
+  };
+  const cv::Mat mx = blur(x), my = blur(y);
+  const cv::Mat mxx = blur(x.mul(x)), myy = blur(y.mul(y)), mxy = blur(x.mul(y));
+  cv::Mat s(x.size(), CV_64F);
+  for (int i = 0; i < s.rows; ++i)
+    for (int j = 0; j < s.cols; ++j) {
+      const double ux = mx.at<double>(i, j), uy = my.at<double>(i, j);
+      const double vx = mxx.at<double>(i, j) - ux * ux, vy = myy.at<double>(i, j) - uy * uy;
+      const double vxy = mxy.at<double>(i, j) - ux * uy;
+      s.at<double>(i, j) =
+          (2 * ux * uy + c1) * (2 * vxy + c2) / ((ux * ux + uy * uy + c1) * (vx + vy + c2));
+    }
+  if (map != nullptr) s.convertTo(*map, CV_32F);
+  double sum = 0.0;  // row order: deterministic
+  for (int i = radius; i < s.rows - radius; ++i)
+    sum += simd::OrderedSum(s.ptr<double>(i) + radius, s.cols - 2 * radius);
+  return sum / (static_cast<double>(s.cols - 2 * radius) * (s.rows - 2 * radius));
+}
+
 // Rows per parallel task. Each task re-fills 2r ring rows, so bands are kept well above r.
 constexpr int kRowsPerBand = 32;
 
@@ -219,7 +256,20 @@ SsimResult Ssim(const SsimOptions& options, const cv::Mat& reference, const cv::
   const int bands = (row_end - row_begin + kRowsPerBand - 1) / kRowsPerBand;
   std::vector<double> row_sums(height, 0.0);
 
+  const bool precise = reference.depth() != CV_8U;
+  std::vector<double> taps64;
+  if (precise) {
+    double sum = 0.0;
+    for (int k = -radius; k <= radius; ++k)
+      sum += taps64.emplace_back(std::exp(-0.5 / (options.sigma * options.sigma) * k * k));
+    for (double& t : taps64) t /= sum;
+  }
   for (int c = 0; c < channels; ++c) {
+    if (precise) {
+      result.per_channel.push_back(PreciseChannel(reference, image, c, taps64, radius, c1, c2,
+                                                  options.compute_map ? &maps[c] : nullptr));
+      continue;
+    }
     if (options.compute_map) maps[c].create(height, width, CV_32F);
     cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range_of_bands) {
       SsimBand band(reference, image, c, taps, range / 2.0, c1, c2);
