@@ -1,0 +1,617 @@
+#include "enhancer/paper_methods.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+#include "enhancer/guided_filter.h"
+#include "enhancer/method.h"
+#include "enhancer/plane_fit.h"
+#include "scenes/error.h"
+#include "simulator/noise.h"
+#include "simulator/psf.h"
+#include "simulator/render.h"
+#include "simulator/water.h"
+
+namespace turbid {
+namespace {
+
+void ClampUnit(cv::Mat& m) {
+  cv::patchNaNs(m, 0.0);
+  cv::min(m, 1.0, m);
+  cv::max(m, 0.0, m);
+}
+
+bool Fail(std::string* why, const std::string& message) {
+  *why = message;
+  return false;
+}
+
+// Camera for an image: the scene's, else the sidecar's, else a 53-degree pinhole (fx = max side).
+CameraIntrinsics ResolveCamera(const cv::Mat& image, const Scene* scene,
+                               const nlohmann::json* sidecar, std::vector<std::string>* steps) {
+  if (scene != nullptr) {
+    if (scene->camera.width != image.cols || scene->camera.height != image.rows) {
+      throw Error("full: image is " + std::to_string(image.cols) + "x" +
+                  std::to_string(image.rows) + " but the scene's camera is " +
+                  std::to_string(scene->camera.width) + "x" + std::to_string(scene->camera.height));
+    }
+    return scene->camera;
+  }
+  CameraIntrinsics c;
+  c.width = image.cols;
+  c.height = image.rows;
+  if (sidecar != nullptr && sidecar->contains("scene") && (*sidecar)["scene"].contains("camera")) {
+    const auto& j = (*sidecar)["scene"]["camera"];
+    c.fx = j.value("fx", 0.0), c.fy = j.value("fy", 0.0), c.cx = j.value("cx", 0.0),
+    c.cy = j.value("cy", 0.0);
+    const auto& s = (*sidecar)["scene"];
+    if (s.value("width", 0) == image.cols && s.value("height", 0) == image.rows && c.fx != 0 &&
+        c.fy != 0) {
+      steps->push_back("camera: from the sidecar");
+      return c;
+    }
+  }
+  c.fx = c.fy = std::max(image.cols, image.rows);
+  c.cx = (image.cols - 1) / 2.0;
+  c.cy = (image.rows - 1) / 2.0;
+  steps->push_back("camera: none given, assumed pinhole with fx = fy = max(width, height)");
+  return c;
+}
+
+Plane ResolvePlane(const FullOptions& o, const Scene* scene, const CameraIntrinsics& camera,
+                   std::string* source) {
+  const std::string& want = o.plane;
+  const bool any = want == "auto";
+  if (scene != nullptr && (any || want == "dvl") && scene->dvl_points_in_camera.size() >= 3) {
+    try {
+      *source = "dvl";
+      return FitPlaneToPoints(scene->dvl_points_in_camera);
+    } catch (const Error&) {
+      if (!any) throw;
+    }
+  }
+  if (scene != nullptr && (any || want == "depth") && !scene->depth_m.empty()) {
+    try {
+      *source = "depth";
+      return FitPlaneToDepth(PlaneFitOptions{}, camera, scene->depth_m).plane;
+    } catch (const Error&) {
+      if (!any) throw;
+    }
+  }
+  if (scene != nullptr && (any || want == "scene") && scene->dominant_plane) {
+    *source = "scene";
+    return *scene->dominant_plane;
+  }
+  if (!any && want != "frontal") {
+    throw Error("full: plane source '" + want + "' is not available for this input");
+  }
+  *source = "frontal";
+  return Plane{cv::Vec3d(0, 0, -1), o.frontal_distance_m};
+}
+
+CameraIntrinsics Downscaled(const CameraIntrinsics& c, int subsample) {
+  CameraIntrinsics s = c;
+  s.width = std::max(1, (c.width + subsample - 1) / subsample);
+  s.height = std::max(1, (c.height + subsample - 1) / subsample);
+  const double kx = static_cast<double>(s.width) / c.width;
+  const double ky = static_cast<double>(s.height) / c.height;
+  s.fx = c.fx * kx, s.fy = c.fy * ky;
+  s.cx = (c.cx + 0.5) * kx - 0.5, s.cy = (c.cy + 0.5) * ky - 0.5;
+  return s;
+}
+
+cv::Mat PlaneDepth(const Plane& plane, const CameraIntrinsics& camera, double max_range_m) {
+  cv::Mat z = DepthFromPlane(plane, camera);
+  // Rays that miss the plane see open water: the farthest range we consider, as z-depth.
+  for (int y = 0; y < z.rows; ++y) {
+    float* p = z.ptr<float>(y);
+    for (int x = 0; x < z.cols; ++x) {
+      const cv::Vec3d ray = camera.Ray(x, y);
+      const float zmax = static_cast<float>(max_range_m / cv::norm(ray));
+      if (!std::isfinite(p[x]) || p[x] > zmax) p[x] = zmax;
+    }
+  }
+  return z;
+}
+
+cv::Mat Upsample(const cv::Mat& small, cv::Size size) {
+  if (small.size() == size) return small;
+  cv::Mat out;
+  cv::resize(small, out, size, 0, 0, cv::INTER_LINEAR);
+  return out;
+}
+
+// Expands a one-channel map to `channels` channels.
+cv::Mat Expand(const cv::Mat& one, int channels) {
+  if (channels == 1) return one;
+  cv::Mat out;
+  cv::merge(std::vector<cv::Mat>(channels, one), out);
+  return out;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+
+bool FullOptions::Check(std::string* why) const {
+  if (denoise_radius < 1 || denoise_radius > 1000) return Fail(why, "denoise_radius must be in [1, 1000]");
+  if (!std::isfinite(denoise_eps) || denoise_eps <= 0) return Fail(why, "denoise_eps must be > 0");
+  if (light_scaling != "range" && light_scaling != "physical") {
+    return Fail(why, "light_scaling must be 'range' or 'physical', got '" + light_scaling + "'");
+  }
+  if (light_subsample < 1 || light_subsample > 64) return Fail(why, "light_subsample must be in [1, 64]");
+  if (!std::isfinite(beta_per_m) || beta_per_m < 0 || beta_per_m > 10) {
+    return Fail(why, "beta_per_m must be in [0, 10]");
+  }
+  if (!std::isfinite(t_min) || t_min <= 0 || t_min > 1) return Fail(why, "t_min must be in (0, 1]");
+  if (plane != "auto" && plane != "dvl" && plane != "depth" && plane != "scene" &&
+      plane != "frontal") {
+    return Fail(why, "plane must be auto, dvl, depth, scene or frontal, got '" + plane + "'");
+  }
+  if (!std::isfinite(frontal_distance_m) || frontal_distance_m <= 0 || frontal_distance_m > 1000) {
+    return Fail(why, "frontal_distance_m must be in (0, 1000]");
+  }
+  if (!std::isfinite(max_range_m) || max_range_m <= 0 || max_range_m > 1e4) {
+    return Fail(why, "max_range_m must be in (0, 1e4]");
+  }
+  PsfOptions psf;
+  psf.optical_thickness = psf_optical_thickness;
+  psf.forward_scatter = psf_forward_scatter;
+  std::string sub;
+  if (!psf.Check(&sub)) return Fail(why, "psf: " + sub);
+  if (!deconvolution.Check(&sub)) return Fail(why, "deconvolution: " + sub);
+  if (!clahe.Check(&sub)) return Fail(why, "clahe: " + sub);
+  return true;
+}
+
+cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& plane,
+                                const CameraIntrinsics& camera, double beta_per_m,
+                                const cv::Mat& reference, bool range_scaling, int subsample,
+                                double max_range_m) {
+  const int channels = reference.channels();
+  const CameraIntrinsics small = Downscaled(camera, subsample);
+  const cv::Mat depth = PlaneDepth(plane, small, max_range_m);
+  const cv::Vec3f n(static_cast<float>(plane.normal[0]), static_cast<float>(plane.normal[1]),
+                    static_cast<float>(plane.normal[2]));
+  const cv::Mat normals(depth.size(), CV_32FC3, cv::Scalar(n[0], n[1], n[2]));
+  cv::Mat e = IrradianceMap(lights, small, depth, normals, {beta_per_m});
+  e = Upsample(e, reference.size());
+  if (!range_scaling) return Expand(e, channels);
+  double e_lo, e_hi;
+  cv::minMaxLoc(e, &e_lo, &e_hi);
+  std::vector<cv::Mat> ref;
+  cv::split(reference, ref);
+  std::vector<cv::Mat> out(channels);
+  for (int c = 0; c < channels; ++c) {
+    double lo, hi;
+    cv::minMaxLoc(ref[c], &lo, &hi);
+    if (e_hi - e_lo < 1e-12) {
+      out[c] = cv::Mat(e.size(), CV_32F, cv::Scalar(lo));
+    } else {
+      e.convertTo(out[c], CV_32F, (hi - lo) / (e_hi - e_lo), lo - e_lo * (hi - lo) / (e_hi - e_lo));
+    }
+  }
+  cv::Mat merged;
+  cv::merge(out, merged);
+  return merged;
+}
+
+FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const Scene* scene,
+                               const nlohmann::json* sidecar) {
+  ThrowIfInvalid(o, "full");
+  ValidateEnhanceImage(image, "full");
+  FullResult r;
+  const int channels = image.channels();
+  cv::Mat current = image;
+
+  // 1. Denoise (eq. 4).
+  if (o.denoise) {
+    GuidedFilterOptions g;
+    g.radius = o.denoise_radius;
+    g.eps = o.denoise_eps;
+    current = GuidedFilterSelf(g, image);
+    r.steps.push_back("denoise: guided filter r " + std::to_string(o.denoise_radius));
+  } else {
+    r.steps.push_back("denoise: skipped (off)");
+  }
+  r.denoised = current;
+
+  // Geometry and lights.
+  IrradianceOptions lights;
+  if (sidecar != nullptr && sidecar->contains("options")) {
+    lights = RenderOptionsFromJson((*sidecar)["options"]).light;
+  }
+  const bool need_geometry = (o.light && !lights.lights.empty()) || (o.dehaze && o.beta_per_m > 0);
+  CameraIntrinsics camera;
+  if (need_geometry) {
+    camera = ResolveCamera(image, scene, sidecar, &r.steps);
+    std::string source;
+    r.plane = ResolvePlane(o, scene, camera, &source);
+    r.plane_source = source;
+    r.steps.push_back("plane: from " + source);
+  }
+
+  // 2. Artificial light (eq. 5), scaled into [min I, max I].
+  cv::Mat e_l;
+  if (!o.light) {
+    r.steps.push_back("light: skipped (off)");
+  } else if (lights.lights.empty()) {
+    r.steps.push_back("light: skipped (no lights)");
+  } else {
+    e_l = EstimateArtificialLight(lights, *r.plane, camera, o.beta_per_m, current,
+                                  o.light_scaling == "range", o.light_subsample, o.max_range_m);
+    r.light = e_l;
+    r.steps.push_back("light: " + std::to_string(lights.lights.size()) + " light(s), " +
+                      o.light_scaling + " scaling");
+  }
+
+  // 3. Plane-induced dehazing (eq. 6).
+  if (o.dehaze && o.beta_per_m > 0) {
+    const CameraIntrinsics small = Downscaled(camera, o.light_subsample);
+    const cv::Mat range = RangeFromDepth(small, PlaneDepth(*r.plane, small, o.max_range_m));
+    cv::Mat t;
+    cv::exp(range * -o.beta_per_m, t);
+    cv::max(t, o.t_min, t);
+    r.range_m = Upsample(range, image.size());
+    r.transmission = Upsample(t, image.size());
+    const cv::Mat tc = Expand(r.transmission, channels);
+    if (e_l.empty()) {
+      current = current / tc;
+    } else {
+      current = (current - e_l) / tc + e_l;
+    }
+    r.steps.push_back("dehaze: beta " + std::to_string(o.beta_per_m) + " 1/m, t >= " +
+                      std::to_string(o.t_min));
+  } else {
+    r.steps.push_back(o.dehaze ? "dehaze: skipped (beta 0)" : "dehaze: skipped (off)");
+  }
+  r.dehazed = current;
+
+  // 4. Deblur with the PSF (eq. 7).
+  if (o.deblur) {
+    PsfOptions p;
+    p.optical_thickness = o.psf_optical_thickness;
+    p.forward_scatter = o.psf_forward_scatter;
+    const Psf psf = PsfKernel(p);
+    if (psf.is_delta) {
+      r.steps.push_back("deblur: skipped (PSF is a delta at this pixel scale)");
+    } else {
+      current = Deconvolve(o.deconvolution, current, psf.kernel);
+      r.steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
+                        ", PSF radius " + std::to_string(psf.radius_px));
+    }
+  } else {
+    r.steps.push_back("deblur: skipped (off)");
+  }
+  r.deblurred = current;
+
+  // 5. CLAHE (Rayleigh).
+  cv::Mat out = current.clone();
+  ClampUnit(out);
+  if (o.contrast) {
+    out = Clahe(o.clahe, out);
+    r.steps.push_back("contrast: CLAHE " + ClaheDistributionName(o.clahe.distribution));
+  } else {
+    r.steps.push_back("contrast: skipped (off)");
+  }
+  ClampUnit(out);
+  r.image = out;
+  return r;
+}
+
+cv::Mat FullEnhance(const FullOptions& o, const cv::Mat& image, const Scene* scene,
+                    const nlohmann::json* sidecar) {
+  return FullEnhanceDetailed(o, image, scene, sidecar).image;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+bool SimplifiedOptions::Check(std::string* why) const {
+  if (fine_radius < 1 || fine_radius > 1000 || coarse_radius < 1 || coarse_radius > 1000) {
+    return Fail(why, "fine_radius and coarse_radius must be in [1, 1000]");
+  }
+  if (!std::isfinite(fine_eps) || fine_eps <= 0 || !std::isfinite(coarse_eps) || coarse_eps <= 0) {
+    return Fail(why, "fine_eps and coarse_eps must be > 0");
+  }
+  if (coarse_subsample < 1 || coarse_subsample > 8) return Fail(why, "coarse_subsample must be in [1, 8]");
+  if (!std::isfinite(alpha) || alpha < 0 || alpha > 100) return Fail(why, "alpha must be in [0, 100]");
+  std::string sub;
+  if (!clahe.Check(&sub)) return Fail(why, "clahe: " + sub);
+  return true;
+}
+
+cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
+  ThrowIfInvalid(o, "simplified");
+  ValidateEnhanceImage(image, "simplified");
+  GuidedFilterOptions fine, coarse;
+  fine.radius = o.fine_radius;
+  fine.eps = o.fine_eps;
+  coarse.radius = o.coarse_radius;
+  coarse.eps = o.coarse_eps;
+  coarse.subsample = o.coarse_subsample;
+  const cv::Mat i_f = GuidedFilterSelf(fine, image);
+  const cv::Mat i_g = GuidedFilterSelf(coarse, image);
+  cv::Mat out;
+  cv::addWeighted(i_g, 1.0 - o.alpha, i_f, o.alpha, 0.0, out);  // I_g + alpha (I_f - I_g)
+  ClampUnit(out);
+  if (o.contrast) out = Clahe(o.clahe, out);
+  ClampUnit(out);
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+bool OracleOptions::Check(std::string* why) const {
+  if (target != "clean" && target != "lit") return Fail(why, "target must be 'clean' or 'lit'");
+  if (!std::isfinite(nsr) || nsr < 1e-8 || nsr > 10) return Fail(why, "nsr must be in [1e-8, 10]");
+  if (!std::isfinite(min_transmission) || min_transmission <= 0 || min_transmission > 1) {
+    return Fail(why, "min_transmission must be in (0, 1]");
+  }
+  if (!std::isfinite(min_irradiance) || min_irradiance <= 0) {
+    return Fail(why, "min_irradiance must be > 0");
+  }
+  return true;
+}
+
+cv::Mat OracleEnhance(const OracleOptions& o, const cv::Mat& image, const Scene& scene,
+                      const nlohmann::json& sidecar) {
+  ThrowIfInvalid(o, "oracle");
+  ValidateEnhanceImage(image, "oracle");
+  if (!sidecar.is_object() || !sidecar.contains("options")) {
+    throw Error("oracle: the sidecar has no \"options\" object (not a turbid render sidecar?)");
+  }
+  if (scene.image.size() != image.size() || scene.channels() != image.channels()) {
+    throw Error("oracle: the scene (" + std::to_string(scene.width()) + "x" +
+                std::to_string(scene.height()) + ", " + std::to_string(scene.channels()) +
+                " channels) does not match the image (" + std::to_string(image.cols) + "x" +
+                std::to_string(image.rows) + ", " + std::to_string(image.channels()) + ")");
+  }
+  const RenderOptions ro = RenderOptionsFromJson(sidecar["options"]);
+  const WaterOptions water = ResolveWater(ro.water);
+  const int ch = image.channels();
+  const std::vector<double> beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, ch);
+  const std::vector<double> ambient = ChannelValues(water.ambient_rgb, water.ambient_gray, ch);
+  const bool zero_beta = std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
+  const cv::Mat range = RangeFromDepth(scene.camera, scene.depth_m);
+
+  cv::Mat e_l(image.size(), image.type(), cv::Scalar::all(0));
+  if (!ro.light.lights.empty()) {
+    const cv::Mat normals =
+        scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
+    e_l = IrradianceMap(ro.light, scene.camera, scene.depth_m, normals, beta);
+  }
+  cv::Mat signal = image.clone();
+  if (o.remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
+    const MarineSnow snow =
+        RenderMarineSnow(ro.snow, ro.light, scene.camera, range, beta, ambient, ro.seed);
+    signal -= snow.layer;
+  }
+  cv::Mat blurred = signal;
+  if (!zero_beta) {
+    cv::Mat t = TransmissionMap(range, beta);
+    cv::Mat source = e_l.clone();
+    if (water.backscatter) {
+      const std::vector<double> b =
+          ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch);
+      cv::Scalar bs;
+      for (int c = 0; c < ch; ++c) bs[c] = b[c];
+      source += bs;
+    }
+    const cv::Mat one(image.size(), image.type(), cv::Scalar::all(1));
+    blurred = (signal - (one - t).mul(source)) / cv::max(t, o.min_transmission);
+  }
+  cv::Mat lit = blurred;
+  if (ro.psf.enabled) {
+    const Psf psf = PsfKernel(ro.psf);
+    if (!psf.is_delta) {
+      DeconvolutionOptions d;
+      d.nsr = o.nsr;
+      d.spatial_max_radius = 0;  // exact FFT Wiener for the error floor
+      lit = Deconvolve(d, blurred, psf.kernel);
+    }
+  }
+  cv::Mat out;
+  if (o.target == "lit") {
+    out = lit.clone();
+  } else {
+    cv::Scalar a;
+    for (int c = 0; c < ch; ++c) a[c] = ambient[c];
+    cv::Mat irradiance = e_l + a;
+    out = lit / cv::max(irradiance, o.min_irradiance);
+  }
+  ClampUnit(out);
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+void BindClahe(ParamBinder& b, const std::string& prefix, ClaheOptions* c, std::string* dist) {
+  b.Bind(prefix + "tiles_x", &c->tiles_x);
+  b.Bind(prefix + "tiles_y", &c->tiles_y);
+  b.Bind(prefix + "clip_limit", &c->clip_limit);
+  b.Bind(prefix + "bins", &c->bins);
+  b.Bind(prefix + "distribution", dist);
+  b.Bind(prefix + "alpha", &c->alpha);
+}
+
+std::vector<MethodParam> ClahePar(const std::string& prefix, const ClaheOptions& c) {
+  return {
+      Param(prefix + "tiles_x", c.tiles_x, "CLAHE tiles along x, >= 2 (adapthisteq: 8)"),
+      Param(prefix + "tiles_y", c.tiles_y, "CLAHE tiles along y, >= 2 (adapthisteq: 8)"),
+      Param(prefix + "clip_limit", c.clip_limit, "CLAHE clip limit as a fraction, [0,1] (0.01)"),
+      Param(prefix + "bins", c.bins, "CLAHE histogram bins, [2, 65536] (256)"),
+      Param(prefix + "distribution", ClaheDistributionName(c.distribution),
+            "CLAHE target: uniform | rayleigh | exponential (paper: rayleigh)"),
+      Param(prefix + "alpha", c.alpha, "Rayleigh/exponential parameter, > 0 (paper: 0.4)"),
+  };
+}
+
+}  // namespace
+
+FullOptions FullOptionsFromJson(const nlohmann::json& params) {
+  FullOptions o;
+  ParamBinder b("full", params);
+  b.Bind("denoise", &o.denoise);
+  b.Bind("denoise_radius", &o.denoise_radius);
+  b.Bind("denoise_eps", &o.denoise_eps);
+  b.Bind("light", &o.light);
+  b.Bind("light_scaling", &o.light_scaling);
+  b.Bind("light_subsample", &o.light_subsample);
+  b.Bind("dehaze", &o.dehaze);
+  b.Bind("beta_per_m", &o.beta_per_m);
+  b.Bind("t_min", &o.t_min);
+  b.Bind("plane", &o.plane);
+  b.Bind("frontal_distance_m", &o.frontal_distance_m);
+  b.Bind("max_range_m", &o.max_range_m);
+  b.Bind("deblur", &o.deblur);
+  b.Bind("psf_optical_thickness", &o.psf_optical_thickness);
+  b.Bind("psf_forward_scatter", &o.psf_forward_scatter);
+  std::string deconv = DeconvolutionMethodName(o.deconvolution.method);
+  b.Bind("deconvolution", &deconv);
+  b.Bind("nsr", &o.deconvolution.nsr);
+  b.Bind("iterations", &o.deconvolution.iterations);
+  b.Bind("contrast", &o.contrast);
+  std::string dist = ClaheDistributionName(o.clahe.distribution);
+  BindClahe(b, "clahe_", &o.clahe, &dist);
+  b.FinishKeys();
+  try {
+    o.deconvolution.method = DeconvolutionMethodFromName(deconv);
+    o.clahe.distribution = ClaheDistributionFromName(dist);
+  } catch (const Error& e) {
+    throw Error(std::string("full: ") + e.what());
+  }
+  b.Finish(o);
+  return o;
+}
+
+namespace {
+
+SimplifiedOptions BindSimplified(const nlohmann::json& params) {
+  SimplifiedOptions o;
+  ParamBinder b("simplified", params);
+  b.Bind("fine_radius", &o.fine_radius);
+  b.Bind("fine_eps", &o.fine_eps);
+  b.Bind("coarse_radius", &o.coarse_radius);
+  b.Bind("coarse_eps", &o.coarse_eps);
+  b.Bind("coarse_subsample", &o.coarse_subsample);
+  b.Bind("alpha", &o.alpha);
+  b.Bind("contrast", &o.contrast);
+  std::string dist = ClaheDistributionName(o.clahe.distribution);
+  BindClahe(b, "clahe_", &o.clahe, &dist);
+  b.FinishKeys();
+  try {
+    o.clahe.distribution = ClaheDistributionFromName(dist);
+  } catch (const Error& e) {
+    throw Error(std::string("simplified: ") + e.what());
+  }
+  b.Finish(o);
+  return o;
+}
+
+OracleOptions BindOracle(const nlohmann::json& params) {
+  OracleOptions o;
+  ParamBinder b("oracle", params);
+  b.Bind("target", &o.target);
+  b.Bind("remove_snow", &o.remove_snow);
+  b.Bind("nsr", &o.nsr);
+  b.Bind("min_transmission", &o.min_transmission);
+  b.Bind("min_irradiance", &o.min_irradiance);
+  b.Finish(o);
+  return o;
+}
+
+MethodEntry FullEntry() {
+  const FullOptions d;
+  MethodEntry e;
+  e.info.name = "full";
+  e.info.summary =
+      "paper full model: denoise, light estimate, plane-induced dehazing, PSF deconvolution, CLAHE";
+  e.info.source = "Cho & Kim et al. (the reproduced paper) §III-A, eqs. 4-7";
+  e.info.needs_geometry = true;
+  e.info.params = {
+      Param("denoise", d.denoise, "step 1: guided-filter denoise (eq. 4)"),
+      Param("denoise_radius", d.denoise_radius, "guided filter k, pixels (paper: 4)"),
+      Param("denoise_eps", d.denoise_eps, "guided filter epsilon on [0,1] data (paper: 0.1^2)"),
+      Param("light", d.light, "step 2: artificial-light estimate (eq. 5; lights from the sidecar)"),
+      Param("light_scaling", d.light_scaling,
+            "range: E_L mapped onto [min I, max I] (paper) | physical: E_L as modelled"),
+      Param("light_subsample", d.light_subsample, "E_L and t computed at 1/this size, [1, 64]"),
+      Param("dehaze", d.dehaze, "step 3: plane-induced dehazing (eq. 6)"),
+      Param("beta_per_m", d.beta_per_m, "attenuation in t = exp(-beta r), 1/m (paper: 0.7)"),
+      Param("t_min", d.t_min, "lower clamp on t in eq. 6, (0, 1]"),
+      Param("plane", d.plane, "plane source: auto | dvl | depth | scene | frontal"),
+      Param("frontal_distance_m", d.frontal_distance_m, "distance of the fallback frontal plane, m"),
+      Param("max_range_m", d.max_range_m, "range where a ray misses the plane, m"),
+      Param("deblur", d.deblur, "step 4: PSF deconvolution (eq. 7)"),
+      Param("psf_optical_thickness", d.psf_optical_thickness, "PSF T (paper: 4)"),
+      Param("psf_forward_scatter", d.psf_forward_scatter, "PSF q (paper: 0.9)"),
+      Param("deconvolution", DeconvolutionMethodName(d.deconvolution.method),
+            "wiener | richardson_lucy"),
+      Param("nsr", d.deconvolution.nsr, "Wiener noise-to-signal ratio, [1e-8, 10]"),
+      Param("iterations", d.deconvolution.iterations, "Richardson-Lucy iterations, [1, 1000]"),
+      Param("contrast", d.contrast, "step 5: CLAHE"),
+  };
+  for (MethodParam& p : ClahePar("clahe_", d.clahe)) e.info.params.push_back(p);
+  e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
+    return FullEnhance(FullOptionsFromJson(params), in.image, in.scene, in.sidecar);
+  };
+  return e;
+}
+
+MethodEntry SimplifiedEntry() {
+  const SimplifiedOptions d;
+  MethodEntry e;
+  e.info.name = "simplified";
+  e.info.summary = "paper simplified model: dual guided-filter detail boost, then CLAHE";
+  e.info.source = "the reproduced paper §III-B, eqs. 8-9 (after He et al. TPAMI 2013 §4.2)";
+  e.info.params = {
+      Param("fine_radius", d.fine_radius, "k_f, pixels (paper: 2)"),
+      Param("fine_eps", d.fine_eps, "sigma_f on [0,1] data (paper: 0.1^2)"),
+      Param("coarse_radius", d.coarse_radius, "k_g, pixels (paper: 8)"),
+      Param("coarse_eps", d.coarse_eps, "sigma_g on [0,1] data (paper: 0.4^2)"),
+      Param("coarse_subsample", d.coarse_subsample, "fast guided filter ratio for I_g, 1 = exact"),
+      Param("alpha", d.alpha, "detail amplification (paper: 5)"),
+      Param("contrast", d.contrast, "CLAHE after the detail boost"),
+  };
+  for (MethodParam& p : ClahePar("clahe_", d.clahe)) e.info.params.push_back(p);
+  e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
+    return SimplifiedEnhance(BindSimplified(params), in.image);
+  };
+  return e;
+}
+
+MethodEntry OracleEntry() {
+  const OracleOptions d;
+  MethodEntry e;
+  e.info.name = "oracle";
+  e.info.summary = "inverts the simulator with the true parameters (the error floor)";
+  e.info.source = "turbid's forward model (docs/model.md), paper eq. 2";
+  e.info.needs_geometry = true;
+  e.info.needs_sidecar = true;
+  e.info.params = {
+      Param("target", d.target, "clean: recover rho (ground truth) | lit: recover J"),
+      Param("remove_snow", d.remove_snow, "re-render the marine snow from the seed and subtract"),
+      Param("nsr", d.nsr, "Wiener NSR for the true PSF, [1e-8, 10]"),
+      Param("min_transmission", d.min_transmission, "floor on t when dividing, (0, 1]"),
+      Param("min_irradiance", d.min_irradiance, "floor on E_A + E_L when dividing, > 0"),
+  };
+  e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
+    const OracleOptions o = BindOracle(params);
+    if (in.scene == nullptr) throw Error("oracle: needs the scene (--scene)");
+    if (in.sidecar == nullptr) throw Error("oracle: needs the render's sidecar (--sidecar)");
+    return OracleEnhance(o, in.image, *in.scene, *in.sidecar);
+  };
+  return e;
+}
+
+}  // namespace
+
+std::vector<MethodEntry> PaperMethodEntries() {
+  return {FullEntry(), SimplifiedEntry(), OracleEntry()};
+}
+
+}  // namespace turbid
