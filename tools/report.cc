@@ -256,6 +256,8 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   // ---- Plots ----
   Plotter plotter{report_dir, options.gnuplot, "", true};
   const std::vector<std::string> levels = LevelLabels(e);
+  // A named axis ("@turbidity") is shown without its "@".
+  const std::string axis = e.level_path.rfind('@', 0) == 0 ? e.level_path.substr(1) : e.level_path;
   std::map<std::string, double> level_x;
   bool numeric_levels = true;
   for (const ItemResult& item : sweep.items) level_x[item.level] = item.level_value;
@@ -300,20 +302,20 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     AtomicWriteText(report_dir + "/" + name + ".dat", data.str(), true);
     std::ostringstream gp;
     gp << "set datafile missing '?'\nset grid\nset key outside right top\n"
-       << "set xlabel " << GpString(e.level_path) << "\nset ylabel "
+       << "set xlabel " << GpString(axis) << "\nset ylabel "
        << GpString(metric.name +
                    (metric.higher_is_better ? " (higher is better)" : " (lower is better)"))
-       << "\nset title " << GpString(metric.name + " vs " + e.level_path + " (mean over items)")
+       << "\nset title " << GpString(metric.name + " vs " + axis + " (mean over items)")
        << "\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n"
        << xtics << "plot ";
     for (size_t m = 0; m < e.methods.size(); ++m) {
       gp << (m ? ", " : "") << GpString(report_dir + "/" + name + ".dat") << " using 1:" << m + 2
-         << " with linespoints lw 2 pt " << (m % 12) + 1 << " title "
+         << " with linespoints lw 2 pt " << (m % 12) + 1 << " dt " << (m / 8) + 1 << " title "
          << GpString(e.methods[m].label);
     }
     gp << "\n";
     const std::string svg = plotter.Run(name, gp.str());
-    if (!svg.empty()) plots.push_back({metric.name + " against " + e.level_path, svg});
+    if (!svg.empty()) plots.push_back({metric.name + " against " + axis, svg});
   }
   // Run time against the primary (first) metric, per method, over all items.
   {
@@ -412,7 +414,7 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     if (!shown.insert({item.scene, item.level}).second) continue;
     ++rows;
     const std::string thumbs = dir + "/thumbs/" + item.id;
-    html << "<tr><td>" << Html(item.id) << "<br>" << Html(e.level_path) << " = " << Html(item.level)
+    html << "<tr><td>" << Html(item.id) << "<br>" << Html(axis) << " = " << Html(item.level)
          << "</td>"
          << image_cell(dir + "/thumbs/" + item.scene + "/clean.png", item.scene + " clean");
     if (e.ground_truth == "lit") html << image_cell(thumbs + "/lit.png", item.id + " lit");
