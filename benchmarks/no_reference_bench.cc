@@ -6,11 +6,11 @@
 // which gives the same mask as ours (tests/metrics/no_reference_visible_edges_test.cc).
 //   ./build-nr/benchmarks/bench_no_reference --benchmark_min_time=1
 #include <benchmark/benchmark.h>
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "metrics/no_reference.h"
@@ -158,8 +158,10 @@ void BM_Uciqe(benchmark::State& state) {
 BENCHMARK(BM_VisibleEdgesIfsttar) SIZES;
 BENCHMARK(BM_VisibleEdgesPaper) SIZES;
 BENCHMARK(BM_VisibleEdgeMaskOurs) SIZES;
-BENCHMARK(BM_VisibleEdgeMaskPublishedLoop)->Args({640, 480})->Iterations(2)->Unit(
-    benchmark::kMillisecond);
+BENCHMARK(BM_VisibleEdgeMaskPublishedLoop)
+    ->Args({640, 480})
+    ->Iterations(2)
+    ->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Uiqm) SIZES;
 BENCHMARK(BM_Uciqe) SIZES;
 

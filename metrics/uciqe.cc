@@ -1,13 +1,12 @@
 // UCIQE as computed by JOU-UIP/UCIQE UCIQE.py (see uciqe.h).
 #include "metrics/uciqe.h"
 
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
 #include "metrics/visible_edges.h"

@@ -19,7 +19,6 @@
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-
 #include <string>
 
 namespace turbid {
@@ -38,7 +37,7 @@ struct UciqeOptions {
 };
 
 struct UciqeResult {
-  double uciqe = 0.0;               // 0.4680·chroma_spread + 0.2745·luminance_contrast + 0.2576·saturation
+  double uciqe = 0.0;  // 0.4680·chroma_spread + 0.2745·luminance_contrast + 0.2576·saturation
   double chroma_spread = 0.0;       // σ_c as the reference computes it (var_chr)
   double luminance_contrast = 0.0;  // con_l (con_lum)
   double mean_saturation = 0.0;     // μ_s (aver_sat)

@@ -3,12 +3,11 @@
 // on the same inputs in float64 the reference and this file agree to rounding (tests: 1e-12).
 #include "metrics/uiqm.h"
 
-#include <opencv2/core.hpp>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <vector>
 
 #include "metrics/visible_edges.h"
@@ -124,7 +123,8 @@ std::vector<double> EdgeMap(const std::vector<double>& x, int rows, int cols) {
     const double* down = mid + pc;
     double* out = &mag[static_cast<size_t>(i) * cols];
     for (int j = 0; j < cols; ++j) {
-      const double d0 = (down[j] + 2 * down[j + 1] + down[j + 2]) - (up[j] + 2 * up[j + 1] + up[j + 2]);
+      const double d0 =
+          (down[j] + 2 * down[j + 1] + down[j + 2]) - (up[j] + 2 * up[j + 1] + up[j + 2]);
       const double d1 = (up[j + 2] + 2 * mid[j + 2] + down[j + 2]) - (up[j] + 2 * mid[j] + down[j]);
       const double m = std::hypot(d0, d1);
       out[j] = m;
@@ -236,8 +236,8 @@ UiqmResult Uiqm(const UiqmOptions& options, const cv::Mat& image) {
   const std::array<double, 3> lambda = {0.299, 0.587, compat ? 0.144 : 0.114};
   r.uism = 0.0;
   for (int c = 0; c < 3; ++c) {
-    r.uism += lambda[c] * Eme(EdgeMap(p.plane[c], p.rows, p.cols), p.rows, p.cols,
-                              options.block_size);
+    r.uism +=
+        lambda[c] * Eme(EdgeMap(p.plane[c], p.rows, p.cols), p.rows, p.cols, options.block_size);
   }
   r.uiconm = Uiconm(p, options.block_size);
   r.uiqm = kC1 * r.uicm + kC2 * r.uism + kC3 * r.uiconm;

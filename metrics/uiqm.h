@@ -22,7 +22,6 @@
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-
 #include <string>
 
 namespace turbid {
@@ -46,11 +45,11 @@ struct UiqmOptions {
 };
 
 struct UiqmResult {
-  double uiqm = 0.0;    // 0.0282·uicm + 0.2953·uism + 3.5753·uiconm
-  double uicm = 0.0;    // colourfulness
-  double uism = 0.0;    // sharpness
-  double uiconm = 0.0;  // contrast
-  std::string variant;  // "funiegan-compat" | "corrected"
+  double uiqm = 0.0;              // 0.0282·uicm + 0.2953·uism + 3.5753·uiconm
+  double uicm = 0.0;              // colourfulness
+  double uism = 0.0;              // sharpness
+  double uiconm = 0.0;            // contrast
+  std::string variant;            // "funiegan-compat" | "corrected"
   nlohmann::json ToJson() const;  // keys: variant, uiqm, uicm, uism, uiconm
 };
 

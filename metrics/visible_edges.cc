@@ -76,10 +76,33 @@ struct PaddedMaps {
   std::vector<Interval> horizontal;  // pair (p, upper neighbour)
 };
 
+// The gray image mirrored by `pad` pixels on every side (MATLAB 'symmetric'), for fast access.
+class MirroredGray {
+ public:
+  MirroredGray(const cv::Mat& gray, int pad)
+      : pad_(pad),
+        cols_(gray.cols + 2 * pad),
+        data_(static_cast<size_t>(gray.rows + 2 * pad) * cols_) {
+    for (int r = 0; r < gray.rows + 2 * pad; ++r) {
+      const double* src = gray.ptr<double>(Reflect(r - pad, gray.rows));
+      double* dst = &data_[static_cast<size_t>(r) * cols_];
+      for (int c = 0; c < cols_; ++c) dst[c] = src[Reflect(c - pad, gray.cols)];
+    }
+  }
+  double operator()(int i, int j) const {
+    return data_[static_cast<size_t>(i + pad_) * cols_ + (j + pad_)];
+  }
+
+ private:
+  int pad_;
+  int cols_;
+  std::vector<double> data_;
+};
+
 PaddedMaps BuildMaps(VisibleEdgeVariant variant, const cv::Mat& gray) {
   const int nl = gray.rows;
   const int nc = gray.cols;
-  auto at = [&](int i, int j) { return gray.at<double>(Reflect(i, nl), Reflect(j, nc)); };
+  const MirroredGray at(gray, kWindow);
   PaddedMaps maps;
   maps.rows = nl + kWindow - 1;
   maps.cols = nc + kWindow - 1;
@@ -135,7 +158,7 @@ double Weber(double s, double v) { return std::abs(s - v) / std::max(s, v); }
 std::vector<double> SobelMagnitude(const cv::Mat& gray) {
   const int nl = gray.rows;
   const int nc = gray.cols;
-  auto at = [&](int i, int j) { return gray.at<double>(Reflect(i, nl), Reflect(j, nc)); };
+  const MirroredGray at(gray, 1);
   std::vector<double> mag(static_cast<size_t>(nl) * nc);
   for (int i = 0; i < nl; ++i) {
     for (int j = 0; j < nc; ++j) {

@@ -11,11 +11,11 @@
 // Two variants (docs/metrics-no-reference.md):
 //   kIfsttar  reproduces the IFSTTAR MATLAB code (functionContrastAt5PerCent.m +
 //             EvaluationDescriptorCalculation.m, "23/02/2011 IFSTTAR copyright", as in
-//             xiaofeng94/BeDDE-for-defogging@ec95608) exactly, its quirks included: the min/max maps
-//             of the pair test are shifted one pixel up-left and asymmetric, thresholds are clamped to
-//             [1, 256], the visibility mask's contrast map is overwritten by later windows, r̄ divides
-//             by n_r although non-finite log ratios are dropped, and σ counts `== 0 | == 256`, so white
-//             saturation (255) is never counted on 8-bit data.
+//             xiaofeng94/BeDDE-for-defogging@ec95608) exactly, its quirks included: the min/max
+//             maps of the pair test are shifted one pixel up-left and asymmetric, thresholds are
+//             clamped to [1, 256], the visibility mask's contrast map is overwritten by later
+//             windows, r̄ divides by n_r although non-finite log ratios are dropped, and σ counts
+//             `== 0 | == 256`, so white saturation (255) is never counted on 8-bit data.
 //   kPaper    (default) follows the paper: the separation test uses min/max of the same pixel pair
 //             whose Weber contrast is summed, and σ counts black (0) and white (255) pixels;
 //             everything else (window, step, mirrored padding of the pair maps, thresholds
@@ -30,10 +30,9 @@
 // (double(rgb2gray(uint8(I)))).
 #pragma once
 
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-
-#include <cstdint>
 #include <string>
 
 namespace turbid {
@@ -57,14 +56,14 @@ struct VisibleEdgeOptions {
 };
 
 struct VisibleEdgeResult {
-  double e = 0.0;       // rate of new visible edges (n_r − n_o)/n_o; ±inf/NaN when n_o = 0 (see docs)
+  double e = 0.0;  // rate of new visible edges (n_r − n_o)/n_o; ±inf/NaN when n_o = 0 (see docs)
   double r_mean = 0.0;  // geometric mean of gradient ratios at the restored image's visible edges
   double sigma = 0.0;   // saturated-pixel FRACTION of the restored image (not %), variant rules
   // The source paper's Table I column "m": most plausibly σ as the published code returns it, i.e.
   // the black-pixel fraction black_pixels / pixels on 8-bit data, whatever the variant (see docs).
   double m = 0.0;
-  int64_t visible_original = 0;  // n_o: pixels in the original's visible-edge mask
-  int64_t visible_restored = 0;  // n_r: pixels in the restored image's visible-edge mask
+  int64_t visible_original = 0;   // n_o: pixels in the original's visible-edge mask
+  int64_t visible_restored = 0;   // n_r: pixels in the restored image's visible-edge mask
   int64_t finite_log_ratios = 0;  // terms of r̄'s sum (mask pixels with finite log(GR/GI))
   int64_t black_pixels = 0;       // restored gray pixels == 0
   int64_t white_pixels = 0;       // restored gray pixels == 255 (counted in σ only by kPaper)
@@ -92,8 +91,8 @@ cv::Mat VisibleEdgeMask(const VisibleEdgeOptions& options, const cv::Mat& gray25
 cv::Mat OctaveRgbToGray(const cv::Mat& bgr8);
 
 // Any accepted input (CV_8U or CV_32F [0,1]; 1 or 3 channels) → CV_64FC1 gray with 8-bit values
-// 0..255 exactly as the published code sees it: quantise to 8 bits, then OctaveRgbToGray for colour.
-// `what` names the image in error messages.
+// 0..255 exactly as the published code sees it: quantise to 8 bits, then OctaveRgbToGray for
+// colour. `what` names the image in error messages.
 cv::Mat ToGray255(const cv::Mat& image, const std::string& what);
 
 // Quantises an accepted input to 8 bits (round(255·v), clamped) keeping channels; CV_8U passes

@@ -1,10 +1,6 @@
 // UIQM (FUnIE-GAN uqim_utils.py) and UCIQE (JOU-UIP UCIQE.py) against every uiqm*/uciqe entry of
 // reference/metrics-nr/expected.json, plus options, variants and bad input.
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <cstdlib>
@@ -12,6 +8,10 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <string>
 
@@ -38,11 +38,11 @@ std::optional<fs::path> NrReferenceDir() {
   return base / "metrics-nr";
 }
 
-#define REQUIRE_NR_REFERENCE(var)                                                         \
-  const auto var##_opt = NrReferenceDir();                                                \
-  if (!var##_opt)                                                                         \
+#define REQUIRE_NR_REFERENCE(var)                                                          \
+  const auto var##_opt = NrReferenceDir();                                                 \
+  if (!var##_opt)                                                                          \
     GTEST_SKIP() << "reference/metrics-nr not found: set TURBID_REFERENCE or TURBID_DATA " \
-                    "(reference = $TURBID_DATA/../reference); skipping";                  \
+                    "(reference = $TURBID_DATA/../reference); skipping";                   \
   const fs::path var = *var##_opt
 
 // Tolerances (relative).

@@ -1,18 +1,18 @@
 // Visible-edge indicators (e, r̄, σ): every hautiere_* entry of the reference folder
-// reference/metrics-nr/expected.json (published IFSTTAR code run in Octave), the paper variant against
-// the reference's documented "intended"/"==255" values, the fast window search against a direct
-// transcription of the published triple loop, and bad input.
+// reference/metrics-nr/expected.json (published IFSTTAR code run in Octave), the paper variant
+// against the reference's documented "intended"/"==255" values, the fast window search against a
+// direct transcription of the published triple loop, and bad input.
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 #include <random>
 #include <regex>
@@ -41,11 +41,11 @@ std::optional<fs::path> NrReferenceDir() {
   return base / "metrics-nr";
 }
 
-#define REQUIRE_NR_REFERENCE(var)                                                         \
-  const auto var##_opt = NrReferenceDir();                                                \
-  if (!var##_opt)                                                                         \
+#define REQUIRE_NR_REFERENCE(var)                                                          \
+  const auto var##_opt = NrReferenceDir();                                                 \
+  if (!var##_opt)                                                                          \
     GTEST_SKIP() << "reference/metrics-nr not found: set TURBID_REFERENCE or TURBID_DATA " \
-                    "(reference = $TURBID_DATA/../reference); skipping";                  \
+                    "(reference = $TURBID_DATA/../reference); skipping";                   \
   const fs::path var = *var##_opt
 
 nlohmann::json LoadExpected(const fs::path& dir) {
@@ -162,8 +162,8 @@ TEST(NoReferenceVisibleEdges, IfsttarMatchesPublishedCode) {
     const VisibleEdgeResult from_files = VisibleEdges(Ifsttar(), original, restored);
     ExpectRelative(Pick(from_files, h.metric), h.value, Tolerance(h.metric), what + " (files)");
     if (!h.original_gray.empty()) {
-      const VisibleEdgeResult from_gray = VisibleEdges(Ifsttar(), Read8(dir / h.original_gray),
-                                                       Read8(dir / h.restored_gray));
+      const VisibleEdgeResult from_gray =
+          VisibleEdges(Ifsttar(), Read8(dir / h.original_gray), Read8(dir / h.restored_gray));
       ExpectRelative(Pick(from_gray, h.metric), h.value, Tolerance(h.metric),
                      what + " (octave gray)");
     }
@@ -341,9 +341,8 @@ TEST(NoReferenceVisibleEdges, FastSearchEqualsPublishedLoop) {
     const int levels = trial % 3 == 0 ? 256 : 24;
     for (int i = 0; i < rows; ++i)
       for (int j = 0; j < cols; ++j)
-        gray.at<double>(i, j) =
-            std::clamp<int>(static_cast<int>(3 * i + ((j / 5) % 2) * (trial * 9) + rng() % levels), 0,
-                            255);
+        gray.at<double>(i, j) = std::clamp<int>(
+            static_cast<int>(3 * i + ((j / 5) % 2) * (trial * 9) + rng() % levels), 0, 255);
     for (auto variant : {VisibleEdgeVariant::kPaper, VisibleEdgeVariant::kIfsttar}) {
       VisibleEdgeOptions o;
       o.variant = variant;
@@ -358,7 +357,8 @@ TEST(NoReferenceVisibleEdges, FastSearchEqualsPublishedLoop) {
 TEST(NoReferenceVisibleEdges, IdenticalImagesGiveNoChange) {
   cv::Mat img(40, 50, CV_8UC1);
   for (int i = 0; i < img.rows; ++i)
-    for (int j = 0; j < img.cols; ++j) img.at<uint8_t>(i, j) = static_cast<uint8_t>((i * 7 + j * 13) % 200 + 20);
+    for (int j = 0; j < img.cols; ++j)
+      img.at<uint8_t>(i, j) = static_cast<uint8_t>((i * 7 + j * 13) % 200 + 20);
   for (auto variant : {VisibleEdgeVariant::kPaper, VisibleEdgeVariant::kIfsttar}) {
     VisibleEdgeOptions o;
     o.variant = variant;
@@ -374,7 +374,7 @@ TEST(NoReferenceVisibleEdges, IdenticalImagesGiveNoChange) {
 TEST(NoReferenceVisibleEdges, SaturationCounting) {
   cv::Mat original(20, 20, CV_8UC1, cv::Scalar(100));
   cv::Mat restored = original.clone();
-  restored(cv::Rect(0, 0, 20, 2)).setTo(0);    // 40 black
+  restored(cv::Rect(0, 0, 20, 2)).setTo(0);     // 40 black
   restored(cv::Rect(0, 10, 20, 3)).setTo(255);  // 60 white
   const auto paper = VisibleEdges({}, original, restored);
   const auto ifsttar = VisibleEdges(Ifsttar(), original, restored);
