@@ -1,0 +1,194 @@
+// CLAHE, deconvolution and plane fit, each against an independent reference.
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+
+#include "enhancer/clahe.h"
+#include "enhancer/deconvolution.h"
+#include "enhancer/plane_fit.h"
+#include "scenes/error.h"
+#include "simulator/psf.h"
+
+namespace turbid {
+namespace {
+
+double Psnr(const cv::Mat& a, const cv::Mat& b) {
+  cv::Mat d = a - b;
+  const double mse = cv::mean(d.mul(d))[0];
+  return 10.0 * std::log10(1.0 / std::max(mse, 1e-20));
+}
+
+TEST(Clahe, DefaultsPassCheckAndNamesRoundTrip) {
+  std::string why;
+  EXPECT_TRUE(ClaheOptions{}.Check(&why)) << why;
+  for (const char* n : {"uniform", "rayleigh", "exponential"}) {
+    EXPECT_EQ(ClaheDistributionName(ClaheDistributionFromName(n)), n);
+  }
+  EXPECT_THROW(ClaheDistributionFromName("gauss"), Error);
+  ClaheOptions bad;
+  bad.clip_limit = 1.5;
+  EXPECT_FALSE(bad.Check(&why));
+}
+
+TEST(Clahe, UnclippedUniformMappingIsTheCdf) {
+  // clip 1: no clipping (plain AHE); the uniform target maps each bin to the CDF.
+  ClaheOptions o;
+  o.clip_limit = 1.0;
+  o.bins = 4;
+  o.distribution = ClaheDistribution::kUniform;
+  const std::vector<float> m = ClaheMapHistogram(o, {10, 0, 30, 60}, 100);
+  EXPECT_FLOAT_EQ(m[0], 0.1f);
+  EXPECT_FLOAT_EQ(m[1], 0.1f);
+  EXPECT_FLOAT_EQ(m[2], 0.4f);
+  EXPECT_FLOAT_EQ(m[3], 1.0f);
+}
+
+TEST(Clahe, ClipLimitFollowsAdapthisteq) {
+  // P = 100, bins 4: minClip = 25, clip = 25 + round(0.2 * 75) = 40. Histogram {0, 0, 0, 100}:
+  // excess 60, even share 15 per bin -> {15, 15, 15, 40}, leftover 15 handed out one at a time
+  // (stride max(floor(4/15), 1) = 1) to bins below the limit, each sweep starting one bin later
+  // (adapthisteq's k = k + 1): +3, +5, +7 -> {18, 20, 22, 40}.
+  ClaheOptions o;
+  o.clip_limit = 0.2;
+  o.bins = 4;
+  o.distribution = ClaheDistribution::kUniform;
+  const std::vector<float> m = ClaheMapHistogram(o, {0, 0, 0, 100}, 100);
+  EXPECT_FLOAT_EQ(m[0], 0.18f);
+  EXPECT_FLOAT_EQ(m[1], 0.38f);
+  EXPECT_FLOAT_EQ(m[2], 0.60f);
+  EXPECT_FLOAT_EQ(m[3], 1.0f);
+}
+
+TEST(Clahe, RayleighMappingClosedForm) {
+  // Rayleigh target: sqrt(-2 a^2 ln(1 - vmax F)), vmax = 1 - exp(-1 / (2 a^2)).
+  ClaheOptions o;
+  o.clip_limit = 1.0;
+  o.bins = 2;
+  const std::vector<float> m = ClaheMapHistogram(o, {50, 50}, 100);
+  const double a = 0.4, h = 2 * a * a, vmax = 1 - std::exp(-1 / h);
+  EXPECT_NEAR(m[0], std::sqrt(-h * std::log(1 - vmax * 0.5)), 1e-6);
+  EXPECT_NEAR(m[1], 1.0, 1e-6);
+  o.distribution = ClaheDistribution::kExponential;
+  const std::vector<float> e = ClaheMapHistogram(o, {50, 50}, 100);
+  EXPECT_NEAR(e[0], -std::log(1 - (1 - std::exp(-a)) * 0.5) / a, 1e-6);
+}
+
+TEST(Clahe, ConstantImageAndPaddingAndInterpolation) {
+  // A constant image: every tile has one full bin; output is the mapping of that bin everywhere.
+  ClaheOptions o;
+  o.distribution = ClaheDistribution::kUniform;
+  cv::Mat c(37, 53, CV_32F, cv::Scalar(0.5));  // not divisible by 8: padded
+  cv::Mat out = Clahe(o, c);
+  double lo, hi;
+  cv::minMaxLoc(out, &lo, &hi);
+  EXPECT_NEAR(lo, hi, 1e-6);
+  // Tiles are independent: a left/right split image gives different mappings left and right,
+  // and the output varies smoothly (bilinear) across the tile boundary, monotone in x.
+  cv::Mat ramp(64, 64, CV_32F);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) ramp.at<float>(y, x) = (x < 32 ? 0.2f : 0.6f) + 0.001f * (y % 8);
+  cv::Mat r = Clahe(o, ramp);
+  EXPECT_EQ(r.size(), ramp.size());
+  EXPECT_TRUE(cv::checkRange(r, true, nullptr, 0.0, 1.0 + 1e-6));
+  const cv::Mat maps = ClaheTileMappings(o, ramp);
+  EXPECT_EQ(maps.rows, 64);
+  EXPECT_EQ(maps.cols, 256);
+}
+
+TEST(Clahe, GrayAndColourTinyAndExtremeImagesFinite) {
+  ClaheOptions o;
+  for (cv::Size s : {cv::Size(1, 1), cv::Size(3, 3), cv::Size(17, 5)}) {
+    for (double v : {0.0, 1.0, 0.3}) {
+      cv::Mat g(s, CV_32F, cv::Scalar(v)), c(s, CV_32FC3, cv::Scalar(v, v * 0.5, 1 - v));
+      EXPECT_TRUE(cv::checkRange(Clahe(o, g), true, nullptr, 0.0, 1.0 + 1e-6));
+      EXPECT_TRUE(cv::checkRange(Clahe(o, c), true, nullptr, 0.0, 1.0 + 1e-6));
+    }
+  }
+  EXPECT_THROW(Clahe(o, cv::Mat()), Error);
+  cv::Mat nan(4, 4, CV_32F, cv::Scalar(std::nan("")));
+  EXPECT_THROW(Clahe(o, nan), Error);
+}
+
+cv::Mat TestPattern(int rows, int cols) {
+  cv::Mat m(rows, cols, CV_32F, cv::Scalar(0.2));
+  for (int y = 0; y < rows; ++y)
+    for (int x = 0; x < cols; ++x) {
+      if (((x / 8) + (y / 8)) % 2 == 0) m.at<float>(y, x) = 0.8f;
+    }
+  cv::circle(m, cv::Point(cols / 2, rows / 2), rows / 5, cv::Scalar(0.5), -1);
+  return m;
+}
+
+TEST(Deconvolution, WienerAndRichardsonLucyRecoverBlurredPattern) {
+  // Band-limited pattern (checkerboard and disc, pre-smoothed sigma 1 px) so the blur is
+  // invertible at the frequencies it holds.
+  cv::Mat sharp;
+  cv::GaussianBlur(TestPattern(96, 128), sharp, cv::Size(0, 0), 1.0);
+  PsfOptions p;  // paper T 4, q 0.9 but wider: sigma scaled x3 so the blur matters
+  const Psf psf = PsfKernel(p, 3.0);
+  const cv::Mat blurred = ConvolveMirrored(sharp, psf.kernel);
+  const double before = Psnr(blurred, sharp);
+  DeconvolutionOptions w;
+  w.nsr = 1e-4;
+  w.spatial_max_radius = 0;  // FFT path
+  const cv::Mat wf = Deconvolve(w, blurred, psf.kernel);
+  EXPECT_GT(Psnr(wf, sharp), before + 10.0) << "before " << before;
+  EXPECT_GT(Psnr(wf, sharp), 30.0);
+  // Spatial separable Wiener agrees with the FFT Wiener.
+  w.spatial_max_radius = 64;
+  const cv::Mat ws = Deconvolve(w, blurred, psf.kernel);
+  EXPECT_GT(Psnr(ws, sharp), 30.0);
+  DeconvolutionOptions rl;
+  rl.method = DeconvolutionMethod::kRichardsonLucy;
+  rl.iterations = 50;
+  const cv::Mat r = Deconvolve(rl, blurred, psf.kernel);
+  EXPECT_GT(Psnr(r, sharp), before + 3.0) << Psnr(r, sharp);
+}
+
+TEST(Deconvolution, DeltaIsIdentityAndBadPsfThrows) {
+  const cv::Mat img = TestPattern(16, 16);
+  cv::Mat one(1, 1, CV_32F, cv::Scalar(1));
+  cv::Mat out = Deconvolve(DeconvolutionOptions{}, img, one);
+  EXPECT_EQ(cv::norm(out, img, cv::NORM_INF), 0.0);
+  EXPECT_THROW(Deconvolve(DeconvolutionOptions{}, img, cv::Mat(2, 2, CV_32F, cv::Scalar(0.25))),
+               Error);
+  std::string why;
+  EXPECT_TRUE(DeconvolutionOptions{}.Check(&why)) << why;
+}
+
+TEST(PlaneFit, ThreePointsExactAndLeastSquares) {
+  const Plane truth{cv::normalize(cv::Vec3d(0.1, -0.3, -1.0)), 2.5};
+  std::vector<cv::Vec3d> pts;
+  for (double x : {-0.5, 0.4, 0.1, -0.2})
+    for (double y : {-0.3, 0.2}) {
+      // Point on the plane along ray (x, y, 1).
+      const cv::Vec3d ray(x, y, 1);
+      pts.push_back(ray * (-truth.offset_m / truth.normal.dot(ray)));
+    }
+  const Plane p3 = FitPlaneToPoints({pts[0], pts[3], pts[5]});
+  EXPECT_NEAR(cv::norm(p3.normal - truth.normal), 0, 1e-9);
+  EXPECT_NEAR(p3.offset_m, truth.offset_m, 1e-9);
+  const Plane pn = FitPlaneToPoints(pts);
+  EXPECT_NEAR(cv::norm(pn.normal - truth.normal), 0, 1e-9);
+  EXPECT_THROW(FitPlaneToPoints({pts[0], pts[1]}), Error);
+  EXPECT_THROW(FitPlaneToPoints({{0, 0, 1}, {0, 0, 2}, {0, 0, 3}}), Error);
+}
+
+TEST(PlaneFit, RansacFromDepthIgnoresOutliers) {
+  CameraIntrinsics cam{100, 100, 39.5, 29.5, 80, 60};
+  const Plane truth{cv::normalize(cv::Vec3d(0.2, 0.1, -1.0)), 3.0};
+  cv::Mat depth = DepthFromPlane(truth, cam);
+  // 30 % outliers: a box sticking out.
+  depth(cv::Rect(0, 0, 40, 27)).setTo(1.0);
+  PlaneFitOptions o;
+  o.stride_px = 2;
+  const PlaneFitResult r = FitPlaneToDepth(o, cam, depth);
+  EXPECT_NEAR(cv::norm(r.plane.normal - truth.normal), 0, 1e-4);
+  EXPECT_NEAR(r.plane.offset_m, truth.offset_m, 1e-3);
+  cv::Mat nan(10, 10, CV_32F, cv::Scalar(std::nan("")));
+  EXPECT_THROW(FitPlaneToDepth(o, cam, nan), Error);
+}
+
+}  // namespace
+}  // namespace turbid
