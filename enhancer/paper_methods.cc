@@ -257,11 +257,14 @@ FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const
     r.range_m = Upsample(range, image.size());
     r.transmission = Upsample(t, image.size());
     const cv::Mat tc = Expand(r.transmission, channels);
+    // A fresh Mat: assigning a MatExpr to `current` would write into the buffer r.denoised shares.
+    cv::Mat dehazed;
     if (e_l.empty()) {
-      current = current / tc;
+      cv::divide(current, tc, dehazed);
     } else {
-      current = (current - e_l) / tc + e_l;
+      dehazed = (current - e_l) / tc + e_l;
     }
+    current = dehazed;
     r.steps.push_back("dehaze: beta " + std::to_string(o.beta_per_m) + " 1/m, t >= " +
                       std::to_string(o.t_min));
   } else {
