@@ -533,7 +533,7 @@ MethodEntry FullEntry() {
   e.info.name = "full";
   e.info.summary =
       "paper full model: denoise, light estimate, plane-induced dehazing, PSF deconvolution, CLAHE";
-  e.info.source = "Cho & Kim et al. (the reproduced paper) §III-A, eqs. 4-7";
+  e.info.source = "the reproduced paper (Visibility Enhancement for Underwater Visual SLAM), §III-A, eqs. 4-7";
   e.info.needs_geometry = true;
   e.info.params = {
       Param("denoise", d.denoise, "step 1: guided-filter denoise (eq. 4)"),

@@ -1,0 +1,55 @@
+// `turbid enhance` end to end: --list, oracle and full on a render, --dump-steps, errors.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "tests/support/test_support.h"
+
+namespace turbid {
+namespace {
+
+using testing::RunTurbid;
+using testing::TempDir;
+
+TEST(EnhanceCli, ListShowsMethodsAndDefaults) {
+  const auto r = RunTurbid({"enhance", "--list"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  for (const char* s : {"full", "simplified", "oracle", "denoise_radius = 4", "alpha = 5.0"}) {
+    EXPECT_NE(r.out.find(s), std::string::npos) << s;
+  }
+}
+
+TEST(EnhanceCli, OracleFullDumpStepsAndErrors) {
+  TempDir dir;
+  auto r = RunTurbid({"render", "--scene", "hull", "--scale", "0.2", "--bit-depth", "16", "--out",
+                      dir.File("h.png")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunTurbid({"enhance", "--method", "oracle", dir.File("h.png"), dir.File("o.png"),
+                 "--sidecar", dir.File("h.json")});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.File("o.png")));
+  r = RunTurbid({"enhance", "--method", "full", dir.File("h.png"), dir.File("f.png"), "--sidecar",
+                 dir.File("h.json"), "--dump-steps", dir.File("steps"), "--param",
+                 "clahe_distribution=uniform"});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  for (const char* f : {"01_denoised.exr", "02_light.exr", "04_dehazed.exr", "steps.json"}) {
+    EXPECT_TRUE(std::filesystem::exists(dir.File(std::string("steps/") + f))) << f;
+  }
+  // Existing output without --force, unknown method, bad parameter, oracle without sidecar.
+  r = RunTurbid({"enhance", "--method", "full", dir.File("h.png"), dir.File("f.png")});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("--force"), std::string::npos);
+  r = RunTurbid({"enhance", "--method", "nope", dir.File("h.png"), dir.File("x.png")});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("unknown method"), std::string::npos);
+  r = RunTurbid({"enhance", "--method", "simplified", dir.File("h.png"), dir.File("x.png"),
+                 "--param", "alfa=2"});
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.err.find("alfa"), std::string::npos);
+  EXPECT_FALSE(std::filesystem::exists(dir.File("x.png")));
+  r = RunTurbid({"enhance", "--method", "oracle", dir.File("h.png"), dir.File("x.png")});
+  EXPECT_NE(r.exit_code, 0);
+}
+
+}  // namespace
+}  // namespace turbid
