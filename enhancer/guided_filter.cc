@@ -12,6 +12,26 @@
 namespace turbid {
 namespace {
 
+// Horizontal clipped-window sums of K planes (stride w apart) along one row, the K running sums
+// interleaved so their dependent adds overlap.
+template <int K>
+void HorizontalPass(const float* col, float* out, int w, int r, const float* inv_cx, float inv_cy) {
+  float s[K];
+  for (int k = 0; k < K; ++k) {
+    s[k] = 0.0f;
+    for (int x = 0; x <= std::min(r, w - 1); ++x) s[k] += col[k * w + x];
+  }
+  for (int x = 0; x < w; ++x) {
+    const float scale = inv_cx[x] * inv_cy;
+    const bool enter = x + r + 1 < w, leave = x - r >= 0;
+    for (int k = 0; k < K; ++k) {
+      const float* c = col + k * w;
+      out[k * w + x] = s[k] * scale;
+      s[k] += (enter ? c[x + r + 1] : 0.0f) - (leave ? c[x - r] : 0.0f);
+    }
+  }
+}
+
 // Box means of K planar one-channel float images of the same size over the clipped
 // (2r+1)x(2r+1) window, one output row at a time. Vertical sums are running column sums (one add
 // and one subtract per pixel, vectorised across the row); horizontal sums run along the row on
@@ -58,29 +78,14 @@ void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
     }
     const int cy = std::min(y + r, h - 1) - std::max(y - r, 0) + 1;
     const float inv_cy = 1.0f / static_cast<float>(cy);
-    for (int k = 0; k < k_count; ++k) {
-      const float* c = col.data() + static_cast<size_t>(k) * w;
-      float* o = out.data() + static_cast<size_t>(k) * w;
-      float s = 0.0f;
-      const int first = std::min(r, w - 1);
-      for (int x = 0; x <= first; ++x) s += c[x];
-      // Three regions so the inner loop has no bounds tests.
-      const int lead_end = std::min(w, r + 1);         // x - r <= 0: nothing leaves
-      const int body_end = std::max(lead_end, w - r - 1);  // x + r + 1 < w: something enters
-      int x = 0;
-      for (; x < lead_end; ++x) {
-        o[x] = s * inv_cx[x] * inv_cy;
-        if (x + r + 1 < w) s += c[x + r + 1];
-        if (x - r >= 0) s -= c[x - r];
-      }
-      for (; x < body_end; ++x) {
-        o[x] = s * inv_cx[x] * inv_cy;
-        s += c[x + r + 1] - c[x - r];
-      }
-      for (; x < w; ++x) {
-        o[x] = s * inv_cx[x] * inv_cy;
-        if (x + r + 1 < w) s += c[x + r + 1];
-        s -= c[x - r];
+    if (k_count == 2) {
+      HorizontalPass<2>(col.data(), out.data(), w, r, inv_cx.data(), inv_cy);
+    } else if (k_count == 4) {
+      HorizontalPass<4>(col.data(), out.data(), w, r, inv_cx.data(), inv_cy);
+    } else {
+      for (int k = 0; k < k_count; ++k) {
+        HorizontalPass<1>(col.data() + static_cast<size_t>(k) * w,
+                          out.data() + static_cast<size_t>(k) * w, w, r, inv_cx.data(), inv_cy);
       }
     }
     for (int k = 0; k < k_count; ++k) rows[k] = out.data() + static_cast<size_t>(k) * w;
