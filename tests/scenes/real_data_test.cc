@@ -48,7 +48,9 @@ TEST(RealData, TumFrameWithHoles) {
   for (int y = 0; y < s.height(); ++y)
     for (int x = 0; x < s.width(); ++x) {
       const bool has_normal = std::isfinite(s.normals.at<cv::Vec3f>(y, x)[0]);
-      if (std::isnan(s.depth_m.at<float>(y, x))) ASSERT_FALSE(has_normal);
+      if (std::isnan(s.depth_m.at<float>(y, x))) {
+        ASSERT_FALSE(has_normal);
+      }
       defined += has_normal;
     }
   EXPECT_GT(defined, 0.95 * d.valid_pixels);
