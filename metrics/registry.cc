@@ -93,7 +93,14 @@ class SharedWork {
       RequirePair();
       SsimOptions options;
       options.data_range = Range();
-      ssim_ = Ssim(options, in_.reference, in_.image).mean;
+      if (Range() == 255.0 && in_.image.depth() != CV_8U) {
+        // Raw 8-bit values held as float (the CLI): back to 8 bits, exact, for the fast kernel.
+        ssim_ = Ssim(options, ForEightBitMetrics(in_.reference, &reference8_),
+                     ForEightBitMetrics(in_.image, &image8_))
+                    .mean;
+      } else {
+        ssim_ = Ssim(options, in_.reference, in_.image).mean;
+      }
     }
     return *ssim_;
   }
@@ -160,7 +167,7 @@ class SharedWork {
   std::optional<double> mse_, ssim_, cnr_, uciqe_;
   std::optional<VisibleEdgeResult> edges_paper_, edges_ifsttar_;
   std::optional<UiqmResult> uiqm_compat_, uiqm_corrected_;
-  cv::Mat image8_, original8_;
+  cv::Mat image8_, original8_, reference8_;
 };
 
 double ComputeOne(const std::string& name, SharedWork& work) {
