@@ -1,5 +1,8 @@
 #include "enhancer/guided_filter.h"
 
+#include <cstdio>
+#include <string>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc.hpp>
@@ -86,7 +89,19 @@ TEST_P(GuidedVsOpenCv, ColorGuideMatchesXimgprocAwayFromBorder) {
 
 INSTANTIATE_TEST_SUITE_P(Radii, GuidedVsOpenCv,
                          ::testing::Values(Case{1, 1e-2}, Case{2, 1e-2}, Case{4, 1e-2},
-                                           Case{8, 0.16}, Case{4, 1e-4}, Case{15, 1e-3}));
+                                           Case{8, 0.16}, Case{4, 1e-4}, Case{15, 1e-3}),
+                         [](const ::testing::TestParamInfo<Case>& info) {
+                           // e.g. r4_eps1em4: readable CTest names instead of the raw bytes.
+                           char buf[32];
+                           std::snprintf(buf, sizeof buf, "r%d_eps%.0e", info.param.radius,
+                                         info.param.eps);
+                           std::string name(buf);
+                           for (char& ch : name) {
+                             if (ch == '-') ch = 'm';
+                             if (ch == '+' || ch == '.') ch = '_';
+                           }
+                           return name;
+                         });
 
 TEST(GuidedFilter, BoxMeanMatchesOpenCvInteriorAndClippedAtBorder) {
   const cv::Mat src = RandomImage(50, 70, 2, 5);

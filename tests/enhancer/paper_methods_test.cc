@@ -42,7 +42,7 @@ TEST(PaperMethods, DefaultsPassCheck) {
 TEST(Oracle, NoiseFreeRendersComeBackAbove40dBAnd30dBWithPsf) {
   BuiltinSceneOptions so;
   so.scale = 0.25;
-  for (const std::string& name : {"hull", "seafloor", "room"}) {
+  for (const char* name : {"hull", "seafloor", "room"}) {
     const Scene scene = MakeBuiltinScene(name, so);
     for (bool psf : {false, true}) {
       const RenderResult r = Render(ModerateNoiseFree(psf), scene);
@@ -80,7 +80,9 @@ TEST(Full, StepsRecordedAndPlaneFromDvl) {
   const RenderResult r = Render(ModerateNoiseFree(true), scene);
   const FullResult f = FullEnhanceDetailed(FullOptions{}, r.image, &scene, &r.sidecar);
   ASSERT_TRUE(f.plane.has_value());
-  if (scene.dvl_points_in_camera.size() >= 3) EXPECT_EQ(f.plane_source, "dvl");
+  if (scene.dvl_points_in_camera.size() >= 3) {
+    EXPECT_EQ(f.plane_source, "dvl");
+  }
   EXPECT_FALSE(f.light.empty());
   EXPECT_FALSE(f.transmission.empty());
   EXPECT_EQ(f.steps.size(), 6u);  // plane + 5 steps
