@@ -1,5 +1,9 @@
 #include "scenes/image_io.h"
 
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
 #include <OpenImageIO/imageio.h>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -300,19 +304,37 @@ void WritePfm(const std::string& path, const std::string& temp, const cv::Mat& d
   if (!out) throw Error(path, "write failed");
 }
 
+// Written with OpenEXR directly: OIIO's writer stamps a capture date into every file, and a
+// rerun must reproduce the same bytes. Float channels R,G,B (or Y), ZIP compression.
 void WriteExr(const std::string& path, const std::string& temp, const cv::Mat& data) {
-  cv::Mat rgb = data;
-  if (data.channels() == 3) cv::cvtColor(data, rgb, cv::COLOR_BGR2RGB);
-  if (!rgb.isContinuous()) rgb = rgb.clone();
-  auto output = OIIO::ImageOutput::create(temp);
-  if (!output) throw Error(path, "no EXR writer available: " + OIIO::geterror());
-  OIIO::ImageSpec spec(rgb.cols, rgb.rows, rgb.channels(), OIIO::TypeDesc::FLOAT);
-  spec.channelnames = rgb.channels() == 3 ? std::vector<std::string>{"R", "G", "B"}
-                                          : std::vector<std::string>{"Y"};
-  spec.attribute("compression", "zip");
-  if (!output->open(temp, spec) || !output->write_image(OIIO::TypeDesc::FLOAT, rgb.data) ||
-      !output->close()) {
-    throw Error(path, "EXR write failed: " + output->geterror());
+  cv::Mat planar = data.isContinuous() ? data : data.clone();
+  const int width = planar.cols;
+  const int height = planar.rows;
+  const int channels = planar.channels();
+  try {
+    Imf::Header header(width, height);
+    header.compression() = Imf::ZIP_COMPRESSION;
+    Imf::FrameBuffer frame;
+    const size_t pixel_stride = sizeof(float) * static_cast<size_t>(channels);
+    const size_t row_stride = planar.step[0];
+    char* base = reinterpret_cast<char*>(planar.data);
+    if (channels == 3) {
+      // OpenCV keeps BGR in memory; name each interleaved slot by its colour.
+      const char* names[3] = {"B", "G", "R"};
+      for (int c = 0; c < 3; ++c) {
+        header.channels().insert(names[c], Imf::Channel(Imf::FLOAT));
+        frame.insert(names[c], Imf::Slice(Imf::FLOAT, base + sizeof(float) * static_cast<size_t>(c),
+                                          pixel_stride, row_stride));
+      }
+    } else {
+      header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
+      frame.insert("Y", Imf::Slice(Imf::FLOAT, base, pixel_stride, row_stride));
+    }
+    Imf::OutputFile file(temp.c_str(), header);
+    file.setFrameBuffer(frame);
+    file.writePixels(height);
+  } catch (const std::exception& e) {
+    throw Error(path, std::string("EXR write failed: ") + e.what());
   }
 }
 

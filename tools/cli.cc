@@ -21,7 +21,10 @@ int RunCli(int argc, const char* const* argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    // --help and --version are "successes"; every real usage error exits 2 (docs/cli.md),
+    // not CLI11's own numbering.
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
   } catch (const Error& e) {
     std::cerr << "turbid: error: " << e.what() << "\n";
     return 1;

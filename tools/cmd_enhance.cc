@@ -191,7 +191,8 @@ void AddEnhanceCommand(CLI::App& app) {
   cmd->add_option("--sidecar", args->sidecar, "the render's sidecar JSON (oracle; lights for full)");
   cmd->add_option("--scene", args->scene, "scene spec (builtin:NAME or scene JSON) for geometry");
   cmd->add_option("--scale", args->scale, "built-in scene scale (default: the sidecar's, else 1)");
-  cmd->add_option("--param,-p", args->params, "parameter override key=value (repeatable)");
+  cmd->add_option("--param,-p", args->params, "parameter override key=value (repeatable)")
+      ->allow_extra_args(false);  // one value per -p, so positionals may follow
   cmd->add_option("--dump-steps", args->dump_steps, "write every intermediate into this folder");
   cmd->add_option("--transfer", args->transfer, "linear (default, turbid's files) or srgb");
   cmd->add_option("--bit-depth", args->bit_depth, "PNG output bits: 8 or 16");

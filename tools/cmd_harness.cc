@@ -189,7 +189,8 @@ void AddHarnessCommands(CLI::App& app) {
   regress->add_option("results", regress_args->results, "sweep folder or CSV of the same kind")
       ->required();
   regress->add_option("--tol", regress_args->tolerances,
-                      "per-metric tolerance METRIC=ABS[:REL] (repeatable)");
+                      "per-metric tolerance METRIC=ABS[:REL] (repeatable)")
+      ->allow_extra_args(false);
   regress->add_option("--tolerances", regress_args->tolerance_file,
                       "tolerance JSON (default: BASELINE with .tolerances.json, if present)");
   regress->add_flag("--strict", regress_args->strict, "improvements beyond tolerance fail too");

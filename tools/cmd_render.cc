@@ -458,7 +458,8 @@ void AddRenderCommands(CLI::App& app) {
       ->delimiter(',');
   render->add_option("--bit-depth", render_args->bit_depth, "camera output: 8, 16 or 32 (float)");
   render->add_option("--set", render_args->sets,
-                     "KEY=VALUE on the JSON parameters, e.g. psf.forward_scatter=0.5");
+                     "KEY=VALUE on the JSON parameters, e.g. psf.forward_scatter=0.5 (repeatable)")
+      ->allow_extra_args(false);
   render->add_option("--scale", render_args->scale, "size scale in (0, 1] for built-in scenes");
   render->add_flag("--explain", render_args->explain,
                    "print the render plan (what is computed and skipped)");

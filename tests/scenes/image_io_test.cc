@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <vector>
 
 #include "scenes/error.h"
 #include "tests/support/test_support.h"
@@ -164,6 +165,31 @@ TEST(ImageIo, ExrFloatRoundTripKeepsNanAndRange) {
     cv::patchNaNs(a, 0);
     cv::patchNaNs(b, 0);
     EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0) << "float EXR must be lossless";
+  }
+}
+
+// Reruns must reproduce files byte for byte: no capture date or other clock-dependent header,
+// and the colour channels are named for what they hold (OpenCV's BGR memory order is not leaked).
+TEST(ImageIo, ExrBytesAreReproducibleAndChannelsNamedByColour) {
+  TempDir dir;
+  cv::Mat image(4, 6, CV_32FC3, cv::Scalar(0.25, 0.5, 0.75));  // B, G, R
+  const std::string a = dir.File("a.exr"), b = dir.File("b.exr");
+  WriteImage(a, image);
+  WriteImage(b, image);
+  const std::string bytes = ReadBytes(a);
+  EXPECT_EQ(bytes, ReadBytes(b));
+  EXPECT_EQ(bytes.find("capDate"), std::string::npos);
+  auto in = OIIO::ImageInput::open(a);
+  ASSERT_TRUE(in);
+  const OIIO::ImageSpec& spec = in->spec();
+  ASSERT_EQ(spec.nchannels, 3);
+  std::vector<float> pixels(static_cast<size_t>(spec.width * spec.height * 3));
+  ASSERT_TRUE(in->read_image(0, 0, 0, 3, OIIO::TypeDesc::FLOAT, pixels.data()));
+  for (int c = 0; c < 3; ++c) {
+    const float expected = spec.channelnames[c] == "R"   ? 0.75f
+                           : spec.channelnames[c] == "G" ? 0.5f
+                                                         : 0.25f;
+    EXPECT_EQ(pixels[static_cast<size_t>(c)], expected) << spec.channelnames[c];
   }
 }
 
