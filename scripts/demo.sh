@@ -5,7 +5,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install_deps.sh
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DTURBID_BUILD_TESTS=OFF >/dev/null
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build --target turbid -j"$(nproc)"
 ./build/turbid scene --builtin all --out out/scenes --force
 # --force: a changed demo experiment starts over instead of refusing the old folder.

@@ -1,8 +1,459 @@
-// PLACEHOLDER: replaced by the module owner.
+// `turbid bench`: the speed goals of the issues, ours against the peer in the same process and on the
+// same inputs (Google Benchmark timing loops), with the peer/ours ratio, the goal, and how far the
+// two outputs agree. The inputs are rendered from the built-in hull scene (1360x1024 at scale 1).
+// The per-module benchmark binaries (benchmarks/*_bench.cc) hold the finer variants.
+#include <benchmark/benchmark.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/quality/qualityssim.hpp>
+#include <opencv2/ximgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <regex>
+#include <string>
+#include <vector>
+
+#include "enhancer/clahe.h"
+#include "enhancer/guided_filter.h"
+#include "enhancer/paper_methods.h"
+#include "metrics/full_reference.h"
+#include "metrics/ssim.h"
+#include "scenes/atomic_file.h"
+#include "scenes/builtin.h"
+#include "scenes/error.h"
+#include "simulator/psf.h"
+#include "simulator/render.h"
 #include "tools/cli.h"
+#include "turbid_version.h"
 
 namespace turbid {
+namespace {
 
-void AddBenchCommand(CLI::App& /*app*/) {}
+struct BenchArgs {
+  std::string filter = ".*";
+  double min_time_s = 0.3;
+  int repetitions = 1;
+  int threads = 1;
+  double scale = 1.0;
+  std::string json_path;
+  bool list = false;
+  bool force = false;
+};
+
+// A goal: the ratio peer/ours at least `min_ratio`, or ours at most `max_ms` milliseconds.
+struct Goal {
+  double min_ratio = 0.0;
+  double max_ms = 0.0;
+  std::string source;  // the issue item it comes from
+};
+
+struct BenchCase {
+  std::string name;
+  std::string peer_name;        // empty: no peer (absolute goal)
+  std::function<void()> ours;
+  std::function<void()> peer;
+  std::function<std::string()> agreement;  // how far the outputs agree; run once, untimed
+  Goal goal;
+};
+
+// The shared inputs, built once and only when a selected case needs them.
+struct Inputs {
+  double scale = 1.0;
+  Scene hull_gray;
+  Scene hull_color;
+  cv::Mat clean_gray8, degraded_gray8, clean_color8, degraded_color8;
+  cv::Mat clean_gray_f, degraded_gray_f;
+  cv::Mat degraded_gray_linear;  // float render output, the enhancers' input
+
+  explicit Inputs(double s) : scale(s) {
+    BuiltinSceneOptions so;
+    so.scale = s;
+    hull_gray = MakeBuiltinScene("hull", so);
+    hull_color = hull_gray;
+    cv::merge(std::vector<cv::Mat>{hull_gray.image * 0.8, hull_gray.image * 0.95, hull_gray.image},
+              hull_color.image);
+    hull_color.name = "hull_color";
+    RenderOptions o;
+    o.water.type = "3C";
+    o.seed = 1;
+    const cv::Mat gray = Render(o, hull_gray).image;
+    const cv::Mat color = Render(o, hull_color).image;
+    degraded_gray_linear = gray;
+    gray.convertTo(degraded_gray8, CV_8U, 255.0);
+    color.convertTo(degraded_color8, CV_8U, 255.0);
+    hull_gray.image.convertTo(clean_gray8, CV_8U, 255.0);
+    hull_color.image.convertTo(clean_color8, CV_8U, 255.0);
+    clean_gray8.convertTo(clean_gray_f, CV_32F, 1.0 / 255.0);
+    degraded_gray8.convertTo(degraded_gray_f, CV_32F, 1.0 / 255.0);
+  }
+};
+
+std::string Format(const char* format, double value) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, value);
+  return buf;
+}
+
+double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int border) {
+  const cv::Rect inner(border, border, a.cols - 2 * border, a.rows - 2 * border);
+  if (inner.width <= 0 || inner.height <= 0) return cv::norm(a, b, cv::NORM_INF);
+  return cv::norm(a(inner), b(inner), cv::NORM_INF);
+}
+
+std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
+  std::vector<BenchCase> cases;
+  const Goal ssim_goal{5.0, 0.0, "issue 4 item 8"};
+  auto ssim_case = [&](const std::string& name, bool color, bool as_float) {
+    BenchCase c;
+    c.name = name;
+    c.peer_name = "cv::quality::QualitySSIM";
+    auto pick = [in, color, as_float]() -> std::pair<const cv::Mat*, const cv::Mat*> {
+      const Inputs& i = in();
+      if (as_float) return {&i.clean_gray_f, &i.degraded_gray_f};
+      return color ? std::make_pair(&i.clean_color8, &i.degraded_color8)
+                   : std::make_pair(&i.clean_gray8, &i.degraded_gray8);
+    };
+    c.ours = [pick] {
+      auto [r, x] = pick();
+      benchmark::DoNotOptimize(Ssim({}, *r, *x).mean);
+    };
+    c.peer = [pick, as_float] {
+      auto [r, x] = pick();
+      // QualitySSIM assumes data range 255; give it 0..255 floats when our input is [0, 1].
+      if (as_float) {
+        cv::Mat r255 = *r * 255.0, x255 = *x * 255.0;
+        benchmark::DoNotOptimize(cv::quality::QualitySSIM::compute(r255, x255, cv::noArray()));
+      } else {
+        benchmark::DoNotOptimize(cv::quality::QualitySSIM::compute(*r, *x, cv::noArray()));
+      }
+    };
+    c.agreement = [pick, as_float, color] {
+      auto [r, x] = pick();
+      const double ours = Ssim({}, *r, *x).mean;
+      cv::Mat r2 = *r, x2 = *x;
+      if (as_float) r2 = *r * 255.0, x2 = *x * 255.0;
+      const cv::Scalar s = cv::quality::QualitySSIM::compute(r2, x2, cv::noArray());
+      const int n = color ? 3 : 1;
+      double peer = 0.0;
+      for (int k = 0; k < n; ++k) peer += s[k] / n;
+      return "SSIM " + Format("%.6f", ours) + " vs " + Format("%.6f", peer) + " (peer: no crop)";
+    };
+    c.goal = ssim_goal;
+    cases.push_back(c);
+  };
+  ssim_case("ssim/gray/8bit", false, false);
+  ssim_case("ssim/color/8bit", true, false);
+  ssim_case("ssim/gray/float", false, true);
+
+  {
+    BenchCase c;
+    c.name = "psnr/color/8bit";
+    c.peer_name = "cv::PSNR";
+    c.ours = [in] {
+      benchmark::DoNotOptimize(Psnr({}, in().clean_color8, in().degraded_color8));
+    };
+    c.peer = [in] { benchmark::DoNotOptimize(cv::PSNR(in().clean_color8, in().degraded_color8)); };
+    c.agreement = [in] {
+      const double a = Psnr({}, in().clean_color8, in().degraded_color8);
+      const double b = cv::PSNR(in().clean_color8, in().degraded_color8);
+      return "PSNR " + Format("%.6f", a) + " vs " + Format("%.6f", b) + " dB";
+    };
+    c.goal = {1.0, 0.0, "issue 4 item 8 (memory-bandwidth speed; bench_metrics has GB/s)"};
+    cases.push_back(c);
+  }
+
+  for (int radius : {2, 8}) {
+    BenchCase c;
+    c.name = "guided_filter/gray/r" + std::to_string(radius);
+    c.peer_name = "cv::ximgproc::guidedFilter";
+    const double eps = radius == 2 ? 0.01 : 0.16;
+    GuidedFilterOptions o;
+    o.radius = radius;
+    o.eps = eps;
+    c.ours = [in, o] {
+      const cv::Mat& img = in().degraded_gray_linear;
+      benchmark::DoNotOptimize(GuidedFilter(o, img, img).data);
+    };
+    c.peer = [in, radius, eps] {
+      const cv::Mat& img = in().degraded_gray_linear;
+      cv::Mat out;
+      cv::ximgproc::guidedFilter(img, img, out, radius, eps, CV_32F);
+      benchmark::DoNotOptimize(out.data);
+    };
+    c.agreement = [in, o, radius, eps] {
+      const cv::Mat& img = in().degraded_gray_linear;
+      cv::Mat ref;
+      cv::ximgproc::guidedFilter(img, img, ref, radius, eps, CV_32F);
+      return "max |diff| " + Format("%.2g", InteriorMaxDiff(GuidedFilter(o, img, img), ref,
+                                                            2 * radius)) +
+             " away from the border";
+    };
+    c.goal = {3.0, 0.0, "issue 5 item 8"};
+    cases.push_back(c);
+  }
+
+  for (bool rayleigh : {false, true}) {
+    BenchCase c;
+    c.name = rayleigh ? "clahe/rayleigh" : "clahe/uniform";
+    c.peer_name = "cv::CLAHE (uniform, 8-bit, conversions counted)";
+    ClaheOptions o;
+    o.distribution = rayleigh ? ClaheDistribution::kRayleigh : ClaheDistribution::kUniform;
+    c.ours = [in, o] { benchmark::DoNotOptimize(Clahe(o, in().degraded_gray_linear).data); };
+    c.peer = [in] {
+      cv::Ptr<cv::CLAHE> clahe = cv::createCLAHE(2.56, cv::Size(8, 8));
+      cv::Mat u8, out, f;
+      in().degraded_gray_linear.convertTo(u8, CV_8U, 255.0);
+      clahe->apply(u8, out);
+      out.convertTo(f, CV_32F, 1.0 / 255.0);
+      benchmark::DoNotOptimize(f.data);
+    };
+    c.goal = {0.5, 0.0, "issue 5 item 8 (within 2x)"};
+    cases.push_back(c);
+  }
+
+  {
+    BenchCase c;
+    c.name = "psf/color/paper";
+    c.peer_name = "cv::GaussianBlur";
+    c.ours = [in] {
+      const Psf psf = PsfKernel(PsfOptions{});
+      benchmark::DoNotOptimize(ApplyPsf(psf, in().hull_color.image).data);
+    };
+    c.peer = [in] {
+      const Psf psf = PsfKernel(PsfOptions{});
+      cv::Mat out;
+      cv::GaussianBlur(in().hull_color.image, out,
+                       cv::Size(2 * psf.radius_px + 1, 2 * psf.radius_px + 1), psf.sigma_px,
+                       psf.sigma_px, cv::BORDER_REFLECT_101);
+      benchmark::DoNotOptimize(out.data);
+    };
+    c.goal = {1.0, 0.0, "issue 3 item 7 (PSF convolution against OpenCV)"};
+    cases.push_back(c);
+  }
+
+  for (bool color : {true, false}) {
+    BenchCase c;
+    c.name = color ? "render/color/full" : "render/gray/full";
+    c.ours = [in, color] {
+      RenderOptions o;
+      o.water.type = "3C";
+      o.seed = 1;
+      benchmark::DoNotOptimize(Render(o, color ? in().hull_color : in().hull_gray).image.data);
+    };
+    c.goal = {0.0, color ? 40.0 : 15.0, "issue 3 item 7 (at 1360x1024, one core)"};
+    cases.push_back(c);
+  }
+
+  {
+    BenchCase c;
+    c.name = "enhance/full";
+    c.ours = [in] {
+      const Inputs& i = in();
+      benchmark::DoNotOptimize(
+          FullEnhance(FullOptions{}, i.degraded_gray_linear, &i.hull_gray, nullptr).data);
+    };
+    c.goal = {0.0, 40.0, "issue 5 item 8 (at 1360x1024 gray, one core)"};
+    cases.push_back(c);
+  }
+  {
+    BenchCase c;
+    c.name = "enhance/simplified";
+    c.ours = [in] {
+      benchmark::DoNotOptimize(
+          SimplifiedEnhance(SimplifiedOptions{}, in().degraded_gray_linear).data);
+    };
+    c.goal = {0.0, 10.0, "issue 5 item 8 (at 1360x1024 gray, one core)"};
+    cases.push_back(c);
+  }
+  return cases;
+}
+
+// Collects the per-benchmark time (median over repetitions when there are several) in ms.
+class CollectingReporter : public benchmark::BenchmarkReporter {
+ public:
+  explicit CollectingReporter(bool real_time) : real_time_(real_time) {}
+  bool ReportContext(const Context& /*context*/) override { return true; }
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const Run& run : runs) {
+      if (run.error_occurred) {
+        errors_[run.run_name.function_name] = run.error_message;
+        continue;
+      }
+      const bool aggregate = run.run_type == Run::RT_Aggregate;
+      if (aggregate && run.aggregate_name != "median") continue;
+      const double t = real_time_ ? run.GetAdjustedRealTime() : run.GetAdjustedCPUTime();
+      const double ms = t * ToMs(run.time_unit);
+      const std::string name = run.run_name.function_name;
+      if (aggregate) {
+        median_ms_[name] = ms;
+      } else {
+        samples_[name].push_back(ms);
+      }
+      std::cerr << "  " << name << (aggregate ? " (median)" : "") << ": " << Format("%.3f", ms)
+                << " ms\n";
+    }
+  }
+  // Median if reported, else the mean of the samples; negative when missing.
+  double Ms(const std::string& name) const {
+    if (auto it = median_ms_.find(name); it != median_ms_.end()) return it->second;
+    auto it = samples_.find(name);
+    if (it == samples_.end() || it->second.empty()) return -1.0;
+    double sum = 0.0;
+    for (double v : it->second) sum += v;
+    return sum / static_cast<double>(it->second.size());
+  }
+  const std::map<std::string, std::string>& errors() const { return errors_; }
+
+ private:
+  static double ToMs(benchmark::TimeUnit unit) {
+    switch (unit) {
+      case benchmark::kNanosecond: return 1e-6;
+      case benchmark::kMicrosecond: return 1e-3;
+      case benchmark::kMillisecond: return 1.0;
+      case benchmark::kSecond: return 1e3;
+    }
+    return 1.0;
+  }
+  bool real_time_;
+  std::map<std::string, std::vector<double>> samples_;
+  std::map<std::string, double> median_ms_;
+  std::map<std::string, std::string> errors_;
+};
+
+void RunBench(const BenchArgs& args) {
+  if (!(args.min_time_s > 0.0 && args.min_time_s <= 60.0))
+    throw Error("bench", "--min-time must be in (0, 60] seconds");
+  if (args.repetitions < 1 || args.repetitions > 50)
+    throw Error("bench", "--repetitions must be in [1, 50]");
+  if (!(args.scale > 0.0 && args.scale <= 1.0)) throw Error("bench", "--scale must be in (0, 1]");
+  if (args.threads < 1 || args.threads > 1024) throw Error("bench", "--threads must be >= 1");
+  std::regex filter;
+  try {
+    filter = std::regex(args.filter);
+  } catch (const std::regex_error& e) {
+    throw Error("bench", "--filter: not a valid regular expression: " + args.filter);
+  }
+
+  std::unique_ptr<Inputs> inputs;
+  auto get_inputs = [&]() -> const Inputs& {
+    if (!inputs) inputs = std::make_unique<Inputs>(args.scale);
+    return *inputs;
+  };
+  std::vector<BenchCase> cases;
+  for (BenchCase& c : MakeCases(get_inputs)) {
+    if (std::regex_search(c.name, filter)) cases.push_back(std::move(c));
+  }
+  if (args.list) {
+    for (const BenchCase& c : MakeCases(get_inputs)) {
+      std::cout << c.name << (c.peer_name.empty() ? "" : "  vs " + c.peer_name) << "\n";
+    }
+    return;
+  }
+  if (cases.empty()) throw Error("bench", "--filter matches no case (see --list)");
+  if (!args.json_path.empty() && !args.force && std::filesystem::exists(args.json_path))
+    throw Error(args.json_path, "exists (use --force to replace it)");
+
+  cv::setNumThreads(args.threads);
+  std::cerr << "bench: building inputs (built-in hull at scale " << args.scale << ")\n";
+  get_inputs();
+  const bool real_time = args.threads > 1;  // CPU time of the main thread misses the workers
+  benchmark::ClearRegisteredBenchmarks();
+  for (const BenchCase& c : cases) {
+    auto add = [&](const std::string& name, const std::function<void()>& fn) {
+      benchmark::internal::Benchmark* b = benchmark::RegisterBenchmark(
+          name.c_str(), [fn](benchmark::State& state) {
+            for (auto _ : state) fn();
+          });
+      b->Unit(benchmark::kMillisecond)->MinTime(args.min_time_s);
+      if (args.repetitions > 1) b->Repetitions(args.repetitions)->ReportAggregatesOnly(true);
+      if (real_time) b->UseRealTime();
+    };
+    add(c.name + "@ours", c.ours);
+    if (c.peer) add(c.name + "@peer", c.peer);
+  }
+  CollectingReporter reporter(real_time);
+  benchmark::RunSpecifiedBenchmarks(&reporter, ".*");
+  benchmark::ClearRegisteredBenchmarks();
+  for (const auto& [name, why] : reporter.errors()) std::cerr << "bench: " << name << ": " << why << "\n";
+
+  nlohmann::json report = {{"turbid_version", TURBID_VERSION},
+                           {"scale", args.scale},
+                           {"width", get_inputs().hull_gray.image.cols},
+                           {"height", get_inputs().hull_gray.image.rows},
+                           {"threads", args.threads},
+                           {"time", real_time ? "wall" : "cpu"},
+                           {"min_time_s", args.min_time_s},
+                           {"repetitions", args.repetitions},
+                           {"cases", nlohmann::json::array()}};
+  std::cout << "\n| case | ours ms | peer | peer ms | peer/ours | goal | status | agreement |\n"
+            << "|---|---|---|---|---|---|---|---|\n";
+  for (const BenchCase& c : cases) {
+    const double ours = reporter.Ms(c.name + "@ours");
+    const double peer = c.peer ? reporter.Ms(c.name + "@peer") : -1.0;
+    const double ratio = (ours > 0.0 && peer > 0.0) ? peer / ours : 0.0;
+    std::string goal = "-", status = "-";
+    if (c.goal.min_ratio > 0.0) {
+      goal = ">= " + Format("%g", c.goal.min_ratio) + "x";
+      status = ratio >= c.goal.min_ratio ? "met" : "not met";
+    } else if (c.goal.max_ms > 0.0) {
+      goal = "<= " + Format("%g", c.goal.max_ms) + " ms";
+      status = ours > 0.0 && ours <= c.goal.max_ms ? "met" : "not met";
+      if (args.scale != 1.0) status += " (goal is at scale 1)";
+    }
+    const std::string agreement = c.agreement ? c.agreement() : "";
+    std::cout << "| " << c.name << " | " << Format("%.3f", ours) << " | "
+              << (c.peer_name.empty() ? "-" : c.peer_name) << " | "
+              << (peer > 0.0 ? Format("%.3f", peer) : "-") << " | "
+              << (ratio > 0.0 ? Format("%.2f", ratio) + "x" : "-") << " | " << goal << " | "
+              << status << " | " << agreement << " |\n";
+    report["cases"].push_back({{"name", c.name},
+                               {"ours_ms", ours},
+                               {"peer", c.peer_name},
+                               {"peer_ms", peer > 0.0 ? nlohmann::json(peer) : nlohmann::json()},
+                               {"ratio", ratio > 0.0 ? nlohmann::json(ratio) : nlohmann::json()},
+                               {"goal", goal},
+                               {"goal_source", c.goal.source},
+                               {"status", status},
+                               {"agreement", agreement}});
+  }
+  std::cout << "\n" << (real_time ? "wall" : "CPU") << " time per call, " << args.threads
+            << " thread(s), " << get_inputs().hull_gray.image.cols << "x"
+            << get_inputs().hull_gray.image.rows
+            << "; ratios compare runs of one process on one machine (noisy machines: rerun with "
+               "--repetitions 3)\n";
+  if (!args.json_path.empty()) {
+    AtomicWriteText(args.json_path, report.dump(2) + "\n", args.force);
+    std::cout << "wrote " << args.json_path << "\n";
+  }
+}
+
+}  // namespace
+
+void AddBenchCommand(CLI::App& app) {
+  auto args = std::make_shared<BenchArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "bench", "time the speed goals: ours against the peer (OpenCV) in one process");
+  cmd->add_option("--filter", args->filter, "regular expression on case names (see --list)");
+  cmd->add_option("--min-time", args->min_time_s, "minimum seconds per timing loop (default 0.3)");
+  cmd->add_option("--repetitions", args->repetitions,
+                  "repeat each loop and report the median (default 1)");
+  cmd->add_option("--threads", args->threads,
+                  "OpenCV / worker threads for ours and the peer (default 1: the goals are "
+                  "single-core; >1 reports wall time)");
+  cmd->add_option("--scale", args->scale, "input size scale in (0, 1] (1 = 1360x1024)");
+  cmd->add_option("--json", args->json_path, "also write the results as JSON");
+  cmd->add_flag("--force", args->force, "replace an existing --json file");
+  cmd->add_flag("--list", args->list, "list the cases and exit");
+  cmd->callback([args] { RunBench(*args); });
+}
 
 }  // namespace turbid
