@@ -49,6 +49,14 @@ TEST(EnhanceCli, OracleFullDumpStepsAndErrors) {
   EXPECT_FALSE(std::filesystem::exists(dir.File("x.png")));
   r = RunTurbid({"enhance", "--method", "oracle", dir.File("h.png"), dir.File("x.png")});
   EXPECT_NE(r.exit_code, 0);
+  // Each -p takes one value, so the positionals may follow repeated parameters.
+  r = RunTurbid({"enhance", "-m", "clahe", "-p", "clip_limit=2", "-p", "tiles_x=4", dir.File("h.png"),
+                 dir.File("c.png")});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_TRUE(std::filesystem::exists(dir.File("c.png")));
+  // Usage errors exit 2 (docs/cli.md), bad values 1.
+  r = RunTurbid({"enhance", "--no-such-flag"});
+  EXPECT_EQ(r.exit_code, 2);
 }
 
 }  // namespace
