@@ -50,7 +50,7 @@ TEST(EnhanceCli, OracleFullDumpStepsAndErrors) {
   r = RunTurbid({"enhance", "--method", "oracle", dir.File("h.png"), dir.File("x.png")});
   EXPECT_NE(r.exit_code, 0);
   // Each -p takes one value, so the positionals may follow repeated parameters.
-  r = RunTurbid({"enhance", "-m", "clahe", "-p", "clip_limit=2", "-p", "tiles_x=4", dir.File("h.png"),
+  r = RunTurbid({"enhance", "-m", "clahe", "-p", "clip_limit=0.02", "-p", "tiles_x=4", dir.File("h.png"),
                  dir.File("c.png")});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(std::filesystem::exists(dir.File("c.png")));
