@@ -17,6 +17,7 @@
 #include "scenes/error.h"
 #include "scenes/image_io.h"
 #include "tools/cli.h"
+#include "tools/tables.h"
 
 namespace turbid {
 namespace {
@@ -162,34 +163,6 @@ Format ParseFormat(bool json, bool csv) {
 
 // ---------------------------------------------------------------------------------------------
 // Manifests: CSV with a header, or JSON lines; columns found by name.
-
-std::vector<std::string> SplitCsvLine(const std::string& line) {
-  std::vector<std::string> fields;
-  std::string field;
-  bool quoted = false;
-  for (size_t i = 0; i < line.size(); ++i) {
-    const char c = line[i];
-    if (quoted) {
-      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
-        field += '"';
-        ++i;
-      } else if (c == '"') {
-        quoted = false;
-      } else {
-        field += c;
-      }
-    } else if (c == '"') {
-      quoted = true;
-    } else if (c == ',') {
-      fields.push_back(field);
-      field.clear();
-    } else if (c != '\r') {
-      field += c;
-    }
-  }
-  fields.push_back(field);
-  return fields;
-}
 
 using Record = std::map<std::string, std::string>;
 

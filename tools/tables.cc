@@ -215,7 +215,7 @@ std::vector<std::string> SplitCsvLine(const std::string& line) {
     } else if (c == ',') {
       fields.push_back(std::move(field));
       field.clear();
-    } else {
+    } else if (c != '\r') {  // CRLF files: a bare CR outside quotes is line-ending residue
       field += c;
     }
   }
