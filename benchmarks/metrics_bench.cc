@@ -3,6 +3,7 @@
 // Counters: "value" = the score computed, so equal inputs can be checked for equal results.
 //   bench_metrics --benchmark_filter=Ssim --benchmark_min_time=0.5
 #include <benchmark/benchmark.h>
+
 #include <opencv2/core.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
@@ -32,7 +33,33 @@ std::pair<cv::Mat, cv::Mat> MakePair(int width, int height, int channels) {
   return {ref8, img8};
 }
 
-void SetThreads(const benchmark::State& state) { cv::setNumThreads(static_cast<int>(state.range(3))); }
+// The same scene as float32 in [0, 1] without quantisation (what the harness scores: renders and
+// enhancer outputs), plus the 16-bit and 0..255 float copies of those values.
+std::pair<cv::Mat, cv::Mat> MakeFloatPair(int width, int height, int channels) {
+  cv::RNG rng(12345);
+  cv::Mat noise(height, width, CV_32FC(channels));
+  rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::Mat smooth;
+  cv::GaussianBlur(noise, smooth, cv::Size(0, 0), 2.0);
+  cv::normalize(smooth.reshape(1), smooth, 0.02, 0.98, cv::NORM_MINMAX);
+  smooth = smooth.reshape(channels);
+  cv::Mat blurred, extra(height, width, CV_32FC(channels));
+  cv::GaussianBlur(smooth, blurred, cv::Size(0, 0), 1.2);
+  rng.fill(extra, cv::RNG::NORMAL, 0.0, 6.0 / 255.0);
+  cv::Mat img = cv::min(cv::max(blurred + extra, 0.0), 1.0);
+  return {smooth, img};
+}
+
+// Args' pixel kind: 0 = float32 [0, 1] (data range 1), 1 = 16-bit (range 65535).
+cv::Mat AsKind(const cv::Mat& unit, int kind) {
+  cv::Mat out = unit;
+  if (kind == 1) unit.convertTo(out, CV_16U, 65535.0);
+  return out;
+}
+
+void SetThreads(const benchmark::State& state) {
+  cv::setNumThreads(static_cast<int>(state.range(3)));
+}
 
 void BM_SsimOurs(benchmark::State& state) {
   const auto [ref, img] = MakePair(state.range(0), state.range(1), state.range(2));
@@ -58,6 +85,55 @@ void BM_SsimOpenCvQuality(benchmark::State& state) {
   }
   state.counters["value"] = value;
   state.SetItemsProcessed(state.iterations() * ref.total());
+}
+
+// Float / 16-bit inputs (args: w, h, ch, threads, kind). exact_double = 1 times the plain
+// double-precision path for comparison.
+void BM_SsimOursFloat(benchmark::State& state) {
+  const auto [unit_ref, unit_img] = MakeFloatPair(state.range(0), state.range(1), state.range(2));
+  const cv::Mat ref = AsKind(unit_ref, state.range(4)), img = AsKind(unit_img, state.range(4));
+  SetThreads(state);
+  turbid::SsimOptions options;
+  options.exact_double = state.range(5) != 0;
+  double value = 0;
+  for (auto _ : state) {
+    value = turbid::Ssim(options, ref, img).mean;
+    benchmark::DoNotOptimize(value);
+  }
+  state.counters["value"] = value;
+  state.SetItemsProcessed(state.iterations() * ref.total());
+}
+
+// QualitySSIM assumes the 0..255 range (its C1, C2): the same values scaled to 0..255, float32.
+void BM_SsimOpenCvQualityFloat(benchmark::State& state) {
+  const auto [unit_ref, unit_img] = MakeFloatPair(state.range(0), state.range(1), state.range(2));
+  cv::Mat ref, img;
+  AsKind(unit_ref, state.range(4))
+      .convertTo(ref, CV_32F, state.range(4) == 1 ? 255.0 / 65535 : 255.0);
+  AsKind(unit_img, state.range(4))
+      .convertTo(img, CV_32F, state.range(4) == 1 ? 255.0 / 65535 : 255.0);
+  SetThreads(state);
+  double value = 0;
+  for (auto _ : state) {
+    const cv::Scalar s = cv::quality::QualitySSIM::compute(ref, img, cv::noArray());
+    value = 0;
+    for (int c = 0; c < ref.channels(); ++c) value += s[c] / ref.channels();
+    benchmark::DoNotOptimize(value);
+  }
+  state.counters["value"] = value;
+  state.SetItemsProcessed(state.iterations() * ref.total());
+}
+
+void FloatCases(benchmark::internal::Benchmark* b, bool with_exact) {
+  for (int kind : {0, 1})
+    for (int channels : {1, 3})
+      for (int exact : {0, 1}) {
+        if (exact && !with_exact) continue;
+        if (exact && kind == 1) continue;
+        b->Args({1360, 1024, channels, 1, kind, exact});
+      }
+  b->Args({1360, 1024, 3, 2, 0, 0});
+  b->ArgNames({"w", "h", "ch", "threads", "kind", "exact"})->Unit(benchmark::kMillisecond);
 }
 
 void BM_PsnrOurs(benchmark::State& state) {
@@ -110,6 +186,10 @@ void SizesAndThreads(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_SsimOurs)->Apply(SizesAndThreads);
 BENCHMARK(BM_SsimOpenCvQuality)->Apply(SizesAndThreads);
+BENCHMARK(BM_SsimOursFloat)->Apply([](benchmark::internal::Benchmark* b) { FloatCases(b, true); });
+BENCHMARK(BM_SsimOpenCvQualityFloat)->Apply([](benchmark::internal::Benchmark* b) {
+  FloatCases(b, false);
+});
 BENCHMARK(BM_PsnrOurs)->Apply(SizesAndThreads);
 BENCHMARK(BM_PsnrOpenCv)->Apply(SizesAndThreads);
 BENCHMARK(BM_MemoryReadBoth)->Args({1360, 1024, 3, 1})->Unit(benchmark::kMillisecond);

@@ -1,13 +1,13 @@
 #include "metrics/ssim.h"
 
+#include <algorithm>
+#include <cmath>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include <algorithm>
-#include <cmath>
-
 #include "metrics/image_checks.h"
 #include "metrics/simd_dispatch.h"
+#include "metrics/ssim_double_kernel.h"
 #include "scenes/error.h"
 
 namespace turbid {
@@ -84,8 +84,7 @@ class SsimBand {
 
   // Computes output rows [row_begin, row_end); writes each row's cropped sum into row_sums[row]
   // (rows outside the crop get 0) and, when map is not empty, the map row.
-  void Run(int row_begin, int row_end, int col_begin, int col_end, cv::Mat* map,
-           double* row_sums) {
+  void Run(int row_begin, int row_end, int col_begin, int col_end, cv::Mat* map, double* row_sums) {
     const int taps = static_cast<int>(taps_.size());
     int next_virtual = row_begin - radius_;
     const float* rows[kMaxTaps];
@@ -113,8 +112,8 @@ class SsimBand {
       if (map_row != nullptr)
         for (int j = col_begin; j < col_end; ++j) map_row[j] = static_cast<float>(ssim_row_[j]);
       const bool inside = i >= radius_ && i < height_ - radius_;
-      row_sums[i] = inside ? simd::OrderedSum(ssim_row_.data() + radius_, width_ - 2 * radius_)
-                           : 0.0;
+      row_sums[i] =
+          inside ? simd::OrderedSum(ssim_row_.data() + radius_, width_ - 2 * radius_) : 0.0;
     }
   }
 
@@ -164,8 +163,8 @@ class SsimBand {
     float* y = RingRow(virtual_row, 1);
     CentreRow(ref_, row, x);
     CentreRow(img_, row, y);
-    simd::Products(x, y, RingRow(virtual_row, 2), RingRow(virtual_row, 3),
-                   RingRow(virtual_row, 4), width_);
+    simd::Products(x, y, RingRow(virtual_row, 2), RingRow(virtual_row, 3), RingRow(virtual_row, 4),
+                   width_);
   }
 
   const cv::Mat& ref_;
@@ -184,10 +183,9 @@ class SsimBand {
   std::vector<double> ssim_row_;
 };
 
-// Double-precision path for float and 16-bit inputs: the fused float32 kernel is exact enough
-// only when products of centred values are exact in float (8-bit data). Float data such as k/255
-// carry a systematic float32 rounding that shifts the mean by ~1e-6 on flat images, so these
-// inputs are filtered in double (OpenCV separable filter, BORDER_REFLECT = scipy 'reflect').
+// The plain double-precision path (SsimOptions::exact_double): five full-size CV_64F moment
+// images from OpenCV's separable filter (BORDER_REFLECT = scipy 'reflect'), the formula in double.
+// The straightforward transcription of scikit-image, kept as the cross-check of the fused kernels.
 double PreciseChannel(const cv::Mat& ref, const cv::Mat& img, int channel,
                       const std::vector<double>& taps, int radius, double c1, double c2,
                       cv::Mat* map) {
@@ -256,18 +254,28 @@ SsimResult Ssim(const SsimOptions& options, const cv::Mat& reference, const cv::
   const int bands = (row_end - row_begin + kRowsPerBand - 1) / kRowsPerBand;
   std::vector<double> row_sums(height, 0.0);
 
-  const bool precise = reference.depth() != CV_8U;
+  // 8-bit: float32 fused kernel (centred products exact in float). Other depths: the fused kernel
+  // in float64 (metrics/ssim_double_kernel.cc says why). exact_double: the plain OpenCV path.
+  const bool exact = options.exact_double;
+  const bool fused_double = !exact && reference.depth() != CV_8U;
   std::vector<double> taps64;
-  if (precise) {
+  {
     double sum = 0.0;
     for (int k = -radius; k <= radius; ++k)
       sum += taps64.emplace_back(std::exp(-0.5 / (options.sigma * options.sigma) * k * k));
     for (double& t : taps64) t /= sum;
   }
   for (int c = 0; c < channels; ++c) {
-    if (precise) {
+    if (exact) {
       result.per_channel.push_back(PreciseChannel(reference, image, c, taps64, radius, c1, c2,
                                                   options.compute_map ? &maps[c] : nullptr));
+      continue;
+    }
+    if (fused_double) {
+      if (options.compute_map) maps[c].create(height, width, CV_32F);
+      result.per_channel.push_back(
+          ssim_internal::FusedDoubleSsimChannel(reference, image, c, taps64, range / 2.0, c1, c2,
+                                                options.compute_map ? &maps[c] : nullptr));
       continue;
     }
     if (options.compute_map) maps[c].create(height, width, CV_32F);

@@ -14,7 +14,6 @@
 #pragma once
 
 #include <opencv2/core.hpp>
-
 #include <string>
 #include <vector>
 
@@ -35,14 +34,20 @@ struct SsimOptions {
   double data_range = 0.0;
   // Also return the full-size per-pixel SSIM map (costs one float image per channel).
   bool compute_map = false;
+  // false (default): the fused kernels, one pass per row band (8-bit: float32 moments, whose
+  // centred products are exact; 16-bit and float: float64 moments); within 1e-6 of scikit-image
+  // (docs/metrics.md gives the measured worst cases). true: the plain double-precision path for
+  // every depth (OpenCV sepFilter2D on five full-size CV_64F moment images), ~1e-12 from
+  // scikit-image and several times slower; for cross-checks and bit-level comparisons.
+  bool exact_double = false;
 
   bool Check(std::string* why) const;
 };
 
 struct SsimResult {
-  double mean = 0.0;                 // mean over channels of the per-channel cropped-map means
-  std::vector<double> per_channel;   // one cropped-map mean per channel, in the input's order
-  cv::Mat map;                       // CV_32FC(n), full size; empty unless compute_map
+  double mean = 0.0;                // mean over channels of the per-channel cropped-map means
+  std::vector<double> per_channel;  // one cropped-map mean per channel, in the input's order
+  cv::Mat map;                      // CV_32FC(n), full size; empty unless compute_map
 };
 
 // Both images: same size and channel count (1-4), depth 8U, 16U, 32F or 64F, at least

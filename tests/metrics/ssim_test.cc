@@ -3,12 +3,12 @@
 #include "metrics/ssim.h"
 
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
-#include <opencv2/core/utility.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
 #include <fstream>
+#include <nlohmann/json.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "scenes/error.h"
 #include "tests/metrics/reference_files.h"
@@ -20,7 +20,8 @@ namespace {
 cv::Mat NaiveSsimMap(const cv::Mat& a, const cv::Mat& b, double sigma, int radius, double range) {
   std::vector<double> w(2 * radius + 1);
   double s = 0;
-  for (int k = -radius; k <= radius; ++k) s += (w[k + radius] = std::exp(-k * k / (2 * sigma * sigma)));
+  for (int k = -radius; k <= radius; ++k)
+    s += (w[k + radius] = std::exp(-k * k / (2 * sigma * sigma)));
   for (double& v : w) v /= s;
   auto reflect = [](int i, int n) { return i < 0 ? -i - 1 : (i >= n ? 2 * n - i - 1 : i); };
   const double c1 = (0.01 * range) * (0.01 * range), c2 = (0.03 * range) * (0.03 * range);
@@ -75,8 +76,8 @@ TEST(Ssim, MatchesScikitImageReferenceValues) {
   ASSERT_GE(expected.at("cases").size(), 10u);
   for (const auto& c : expected.at("cases")) {
     const std::string name = c.at("image").get<std::string>();
-    const cv::Mat ref = cv::imread(dir + "/" + c.at("reference").get<std::string>(),
-                                   cv::IMREAD_UNCHANGED);
+    const cv::Mat ref =
+        cv::imread(dir + "/" + c.at("reference").get<std::string>(), cv::IMREAD_UNCHANGED);
     const cv::Mat img = cv::imread(dir + "/" + name, cv::IMREAD_UNCHANGED);
     ASSERT_FALSE(ref.empty() || img.empty()) << name;
     ASSERT_EQ(img.channels(), c.at("channels").get<int>()) << name;
@@ -154,6 +155,45 @@ TEST(Ssim, IndependentOfThreadCount) {
   EXPECT_EQ(one, four);  // bitwise: deterministic reduction
 }
 
+// Float and 16-bit inputs go through the fused float64 kernel (tiles of row bands x column
+// strips); the plain OpenCV double path (exact_double) is its cross-check. The image spans several
+// strips and bands so that tile seams and reflected borders are both exercised.
+TEST(Ssim, FusedDoubleKernelMatchesPlainDoublePath) {
+  for (int depth : {CV_32F, CV_16U})
+    for (int channels : {1, 3}) {
+      cv::Mat a = RandomImage(203, 713, CV_32FC(channels), 11);
+      cv::Mat b = a * 0.6 + RandomImage(203, 713, CV_32FC(channels), 12) * 0.4;
+      if (depth == CV_16U) {
+        a.convertTo(a, CV_16U, 65535.0);
+        b.convertTo(b, CV_16U, 65535.0);
+      }
+      SsimOptions fused, plain;
+      fused.compute_map = plain.compute_map = true;
+      plain.exact_double = true;
+      const SsimResult got = Ssim(fused, a, b), want = Ssim(plain, a, b);
+      const std::string what =
+          "depth " + std::to_string(depth) + " channels " + std::to_string(channels);
+      EXPECT_NEAR(got.mean, want.mean, 1e-12) << what;
+      for (int c = 0; c < channels; ++c)
+        EXPECT_NEAR(got.per_channel[c], want.per_channel[c], 1e-12) << what;
+      // Maps are stored as float32 by both paths.
+      EXPECT_LT(cv::norm(got.map, want.map, cv::NORM_INF), 1e-6) << what;
+      EXPECT_NEAR(Ssim({}, a, b).mean, got.mean, 1e-15) << what << ": map or not";
+    }
+}
+
+TEST(Ssim, FusedDoubleKernelIndependentOfThreadCount) {
+  const cv::Mat a = RandomImage(300, 700, CV_32FC3, 13);
+  const cv::Mat b = RandomImage(300, 700, CV_32FC3, 14);
+  const int threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  const double one = Ssim({}, a, b).mean;
+  cv::setNumThreads(4);
+  const double four = Ssim({}, a, b).mean;
+  cv::setNumThreads(threads);
+  EXPECT_EQ(one, four);
+}
+
 TEST(Ssim, IdenticalAndConstantImages) {
   const cv::Mat a = RandomImage(40, 40, CV_8UC1, 9);
   EXPECT_NEAR(Ssim({}, a, a).mean, 1.0, 1e-12);
@@ -163,8 +203,8 @@ TEST(Ssim, IdenticalAndConstantImages) {
   // Different constants: zero variances, so SSIM = (2 mx my + C1) / (mx^2 + my^2 + C1).
   const cv::Mat other(20, 20, CV_32F, cv::Scalar(0.75));
   const double c1 = 0.01 * 0.01;
-  EXPECT_NEAR(Ssim({}, flat, other).mean,
-              (2 * 0.25 * 0.75 + c1) / (0.25 * 0.25 + 0.75 * 0.75 + c1), 1e-6);
+  EXPECT_NEAR(Ssim({}, flat, other).mean, (2 * 0.25 * 0.75 + c1) / (0.25 * 0.25 + 0.75 * 0.75 + c1),
+              1e-6);
   // Constant against textured: finite, in [-1, 1].
   const double v = Ssim({}, cv::Mat(40, 40, CV_8UC1, cv::Scalar(128)), a).mean;
   EXPECT_TRUE(std::isfinite(v));
@@ -189,8 +229,9 @@ TEST(Ssim, BadInputThrowsClearErrors) {
   cv::Mat nan = a.clone();
   nan.at<float>(3, 4) = std::nanf("");
   EXPECT_NE(message([&] { Ssim({}, a, nan); }).find("non-finite"), std::string::npos);
-  EXPECT_NE(message([&] { Ssim({}, cv::Mat(10, 30, CV_32F, 0.5), cv::Mat(10, 30, CV_32F, 0.5)); })
-                .find("at least 11x11"),
+  EXPECT_NE(message([&] {
+              Ssim({}, cv::Mat(10, 30, CV_32F, 0.5), cv::Mat(10, 30, CV_32F, 0.5));
+            }).find("at least 11x11"),
             std::string::npos);
   EXPECT_NE(message([&] { Ssim({}, cv::Mat(20, 20, CV_8U, 1), a); }).find("depth"),
             std::string::npos);
