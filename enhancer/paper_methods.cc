@@ -1,9 +1,9 @@
 #include "enhancer/paper_methods.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <opencv2/imgproc.hpp>
 
 #include "enhancer/guided_filter.h"
 #include "enhancer/method.h"
@@ -123,6 +123,13 @@ cv::Mat Upsample(const cv::Mat& small, cv::Size size) {
   return out;
 }
 
+// %g-style number for the step log (0.7, not 0.700000).
+std::string FormatNumber(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%g", v);
+  return buf;
+}
+
 // Expands a one-channel map to `channels` channels.
 cv::Mat Expand(const cv::Mat& one, int channels) {
   if (channels == 1) return one;
@@ -136,14 +143,19 @@ cv::Mat Expand(const cv::Mat& one, int channels) {
 // ---------------------------------------------------------------------------------------------
 
 bool FullOptions::Check(std::string* why) const {
-  if (denoise_radius < 1 || denoise_radius > 1000) return Fail(why, "denoise_radius must be in [1, 1000]");
+  if (denoise_radius < 1 || denoise_radius > 1000)
+    return Fail(why, "denoise_radius must be in [1, 1000]");
   if (!std::isfinite(denoise_eps) || denoise_eps <= 0) return Fail(why, "denoise_eps must be > 0");
   if (light_scaling != "range" && light_scaling != "physical") {
     return Fail(why, "light_scaling must be 'range' or 'physical', got '" + light_scaling + "'");
   }
-  if (light_subsample < 1 || light_subsample > 64) return Fail(why, "light_subsample must be in [1, 64]");
+  if (light_subsample < 1 || light_subsample > 64)
+    return Fail(why, "light_subsample must be in [1, 64]");
   if (!std::isfinite(beta_per_m) || beta_per_m < 0 || beta_per_m > 10) {
     return Fail(why, "beta_per_m must be in [0, 10]");
+  }
+  if (beta_source != "auto" && beta_source != "fixed") {
+    return Fail(why, "beta_source must be 'auto' or 'fixed', got '" + beta_source + "'");
   }
   if (!std::isfinite(t_min) || t_min <= 0 || t_min > 1) return Fail(why, "t_min must be in (0, 1]");
   if (plane != "auto" && plane != "dvl" && plane != "depth" && plane != "scene" &&
@@ -167,30 +179,41 @@ bool FullOptions::Check(std::string* why) const {
 }
 
 cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& plane,
-                                const CameraIntrinsics& camera, double beta_per_m,
-                                const cv::Mat& reference, bool range_scaling, int subsample,
-                                double max_range_m) {
+                                const CameraIntrinsics& camera,
+                                const std::vector<double>& beta_per_m, const cv::Mat& reference,
+                                bool range_scaling, int subsample, double max_range_m) {
   const int channels = reference.channels();
+  if (beta_per_m.size() != 1 && static_cast<int>(beta_per_m.size()) != channels) {
+    throw Error("full: " + std::to_string(beta_per_m.size()) + " attenuation values for a " +
+                std::to_string(channels) + "-channel image");
+  }
   const CameraIntrinsics small = Downscaled(camera, subsample);
   const cv::Mat depth = PlaneDepth(plane, small, max_range_m);
   const cv::Vec3f n(static_cast<float>(plane.normal[0]), static_cast<float>(plane.normal[1]),
                     static_cast<float>(plane.normal[2]));
   const cv::Mat normals(depth.size(), CV_32FC3, cv::Scalar(n[0], n[1], n[2]));
-  cv::Mat e = IrradianceMap(lights, small, depth, normals, {beta_per_m});
-  e = Upsample(e, reference.size());
-  if (!range_scaling) return Expand(e, channels);
-  double e_lo, e_hi;
-  cv::minMaxLoc(e, &e_lo, &e_hi);
+  const cv::Mat e_small = IrradianceMap(lights, small, depth, normals, beta_per_m);
+  std::vector<cv::Mat> e_planes;
+  cv::split(Upsample(e_small, reference.size()), e_planes);
+  // One beta: the same E_L for every channel.
+  if (e_planes.size() == 1) e_planes.assign(channels, e_planes[0]);
+  if (!range_scaling) {
+    cv::Mat merged;
+    cv::merge(e_planes, merged);
+    return merged;
+  }
   std::vector<cv::Mat> ref;
   cv::split(reference, ref);
   std::vector<cv::Mat> out(channels);
   for (int c = 0; c < channels; ++c) {
-    double lo, hi;
+    double e_lo, e_hi, lo, hi;
+    cv::minMaxLoc(e_planes[c], &e_lo, &e_hi);
     cv::minMaxLoc(ref[c], &lo, &hi);
     if (e_hi - e_lo < 1e-12) {
-      out[c] = cv::Mat(e.size(), CV_32F, cv::Scalar(lo));
+      out[c] = cv::Mat(e_planes[c].size(), CV_32F, cv::Scalar(lo));
     } else {
-      e.convertTo(out[c], CV_32F, (hi - lo) / (e_hi - e_lo), lo - e_lo * (hi - lo) / (e_hi - e_lo));
+      e_planes[c].convertTo(out[c], CV_32F, (hi - lo) / (e_hi - e_lo),
+                            lo - e_lo * (hi - lo) / (e_hi - e_lo));
     }
   }
   cv::Mat merged;
@@ -218,12 +241,26 @@ FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const
   }
   r.denoised = current;
 
-  // Geometry and lights.
+  // Geometry, lights and water.
   IrradianceOptions lights;
+  std::vector<double> beta = {o.beta_per_m};
+  r.beta_source = "beta_per_m";
   if (sidecar != nullptr && sidecar->contains("options")) {
-    lights = RenderOptionsFromJson((*sidecar)["options"]).light;
+    const RenderOptions rendered = RenderOptionsFromJson((*sidecar)["options"]);
+    lights = rendered.light;
+    if (o.beta_source == "auto") {
+      const WaterOptions& water = rendered.water;
+      beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, channels);
+      r.beta_source = "sidecar water";
+    }
   }
-  const bool need_geometry = (o.light && !lights.lights.empty()) || (o.dehaze && o.beta_per_m > 0);
+  // Equal values (gray, or a flat spectrum) keep one map for every channel.
+  if (std::all_of(beta.begin(), beta.end(), [&](double b) { return b == beta[0]; })) {
+    beta.resize(1);
+  }
+  r.beta_per_m = beta.size() == 1 ? std::vector<double>(channels, beta[0]) : beta;
+  const bool any_beta = std::any_of(beta.begin(), beta.end(), [](double b) { return b > 0; });
+  const bool need_geometry = (o.light && !lights.lights.empty()) || (o.dehaze && any_beta);
   CameraIntrinsics camera;
   if (need_geometry) {
     camera = ResolveCamera(image, scene, sidecar, &r.steps);
@@ -240,7 +277,7 @@ FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const
   } else if (lights.lights.empty()) {
     r.steps.push_back("light: skipped (no lights)");
   } else {
-    e_l = EstimateArtificialLight(lights, *r.plane, camera, o.beta_per_m, current,
+    e_l = EstimateArtificialLight(lights, *r.plane, camera, beta, current,
                                   o.light_scaling == "range", o.light_subsample, o.max_range_m);
     r.light = e_l;
     r.steps.push_back("light: " + std::to_string(lights.lights.size()) + " light(s), " +
@@ -248,15 +285,20 @@ FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const
   }
 
   // 3. Plane-induced dehazing (eq. 6).
-  if (o.dehaze && o.beta_per_m > 0) {
+  if (o.dehaze && any_beta) {
     const CameraIntrinsics small = Downscaled(camera, o.light_subsample);
     const cv::Mat range = RangeFromDepth(small, PlaneDepth(*r.plane, small, o.max_range_m));
-    cv::Mat t;
-    cv::exp(range * -o.beta_per_m, t);
-    cv::max(t, o.t_min, t);
+    std::vector<cv::Mat> t_planes;
+    for (double b : beta) {
+      cv::Mat t;
+      cv::exp(range * -b, t);
+      cv::max(t, o.t_min, t);
+      t_planes.push_back(Upsample(t, image.size()));
+    }
     r.range_m = Upsample(range, image.size());
-    r.transmission = Upsample(t, image.size());
-    const cv::Mat tc = Expand(r.transmission, channels);
+    cv::merge(t_planes, r.transmission);
+    const cv::Mat tc =
+        r.transmission.channels() == 1 ? Expand(r.transmission, channels) : r.transmission;
     // A fresh Mat: assigning a MatExpr to `current` would write into the buffer r.denoised shares.
     cv::Mat dehazed;
     if (e_l.empty()) {
@@ -265,8 +307,10 @@ FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const
       dehazed = (current - e_l) / tc + e_l;
     }
     current = dehazed;
-    r.steps.push_back("dehaze: beta " + std::to_string(o.beta_per_m) + " 1/m, t >= " +
-                      std::to_string(o.t_min));
+    std::string values;
+    for (double b : r.beta_per_m) values += (values.empty() ? "" : "/") + FormatNumber(b);
+    r.steps.push_back("dehaze: beta " + values + " 1/m (" + r.beta_source +
+                      "), t >= " + FormatNumber(o.t_min));
   } else {
     r.steps.push_back(o.dehaze ? "dehaze: skipped (beta 0)" : "dehaze: skipped (off)");
   }
@@ -318,8 +362,10 @@ bool SimplifiedOptions::Check(std::string* why) const {
   if (!std::isfinite(fine_eps) || fine_eps <= 0 || !std::isfinite(coarse_eps) || coarse_eps <= 0) {
     return Fail(why, "fine_eps and coarse_eps must be > 0");
   }
-  if (coarse_subsample < 1 || coarse_subsample > 8) return Fail(why, "coarse_subsample must be in [1, 8]");
-  if (!std::isfinite(alpha) || alpha < 0 || alpha > 100) return Fail(why, "alpha must be in [0, 100]");
+  if (coarse_subsample < 1 || coarse_subsample > 8)
+    return Fail(why, "coarse_subsample must be in [1, 8]");
+  if (!std::isfinite(alpha) || alpha < 0 || alpha > 100)
+    return Fail(why, "alpha must be in [0, 100]");
   std::string sub;
   if (!clahe.Check(&sub)) return Fail(why, "clahe: " + sub);
   return true;
@@ -466,6 +512,10 @@ FullOptions FullOptionsFromJson(const nlohmann::json& params) {
   b.Bind("light_subsample", &o.light_subsample);
   b.Bind("dehaze", &o.dehaze);
   b.Bind("beta_per_m", &o.beta_per_m);
+  // A beta the user names is the beta they want: it wins over a sidecar's water unless
+  // beta_source says otherwise.
+  if (params.is_object() && params.contains("beta_per_m")) o.beta_source = "fixed";
+  b.Bind("beta_source", &o.beta_source);
   b.Bind("t_min", &o.t_min);
   b.Bind("plane", &o.plane);
   b.Bind("frontal_distance_m", &o.frontal_distance_m);
@@ -533,7 +583,8 @@ MethodEntry FullEntry() {
   e.info.name = "full";
   e.info.summary =
       "paper full model: denoise, light estimate, plane-induced dehazing, PSF deconvolution, CLAHE";
-  e.info.source = "the reproduced paper (Visibility Enhancement for Underwater Visual SLAM), §III-A, eqs. 4-7";
+  e.info.source =
+      "the reproduced paper (Visibility Enhancement for Underwater Visual SLAM), §III-A, eqs. 4-7";
   e.info.needs_geometry = true;
   e.info.params = {
       Param("denoise", d.denoise, "step 1: guided-filter denoise (eq. 4)"),
@@ -544,10 +595,15 @@ MethodEntry FullEntry() {
             "range: E_L mapped onto [min I, max I] (paper) | physical: E_L as modelled"),
       Param("light_subsample", d.light_subsample, "E_L and t computed at 1/this size, [1, 64]"),
       Param("dehaze", d.dehaze, "step 3: plane-induced dehazing (eq. 6)"),
-      Param("beta_per_m", d.beta_per_m, "attenuation in t = exp(-beta r), 1/m (paper: 0.7)"),
+      Param("beta_per_m", d.beta_per_m,
+            "attenuation in t = exp(-beta r), 1/m (paper: 0.7); setting it implies beta_source "
+            "fixed"),
+      Param("beta_source", d.beta_source,
+            "auto: the sidecar's water (per channel) when given, else beta_per_m | fixed"),
       Param("t_min", d.t_min, "lower clamp on t in eq. 6, (0, 1]"),
       Param("plane", d.plane, "plane source: auto | dvl | depth | scene | frontal"),
-      Param("frontal_distance_m", d.frontal_distance_m, "distance of the fallback frontal plane, m"),
+      Param("frontal_distance_m", d.frontal_distance_m,
+            "distance of the fallback frontal plane, m"),
       Param("max_range_m", d.max_range_m, "range where a ray misses the plane, m"),
       Param("deblur", d.deblur, "step 4: PSF deconvolution (eq. 7)"),
       Param("psf_optical_thickness", d.psf_optical_thickness, "PSF T (paper: 4)"),

@@ -117,10 +117,14 @@ void Run(const EnhanceArgs& a) {
   // The scene: --scene, else the one the sidecar names (turbid render records its spec).
   std::string spec = a.scene;
   double scale = a.scale;
-  if (spec.empty() && sidecar && sidecar->contains("scene") &&
-      (*sidecar)["scene"].contains("spec") && info.needs_geometry) {
+  const bool sidecar_names_scene =
+      sidecar && sidecar->contains("scene") && (*sidecar)["scene"].contains("spec");
+  if (spec.empty() && sidecar_names_scene && info.needs_geometry) {
     spec = (*sidecar)["scene"]["spec"].get<std::string>();
-    if (scale == 0.0) scale = (*sidecar)["scene"].value("builtin_scale", 1.0);
+  }
+  // The render's scale, also when --scene names the same scene the sidecar does.
+  if (scale == 0.0 && sidecar_names_scene && (*sidecar)["scene"]["spec"] == spec) {
+    scale = (*sidecar)["scene"].value("builtin_scale", 1.0);
   }
   std::optional<Scene> scene;
   if (!spec.empty()) {

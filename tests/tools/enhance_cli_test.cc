@@ -2,6 +2,8 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 
 #include "tests/support/test_support.h"
 
@@ -35,6 +37,21 @@ TEST(EnhanceCli, OracleFullDumpStepsAndErrors) {
   for (const char* f : {"01_denoised.exr", "02_light.exr", "04_dehazed.exr", "steps.json"}) {
     EXPECT_TRUE(std::filesystem::exists(dir.File(std::string("steps/") + f))) << f;
   }
+  // --scene naming the sidecar's scene takes the render's scale (0.2) from the sidecar; the
+  // steps name the water the sidecar gives (default render water, gray).
+  r = RunTurbid({"enhance", "--method", "full", dir.File("h.png"), dir.File("g.png"), "--sidecar",
+                 dir.File("h.json"), "--scene", "hull", "--dump-steps", dir.File("steps2")});
+  EXPECT_EQ(r.exit_code, 0) << r.err;
+  {
+    std::ifstream in(dir.File("steps2/steps.json"));
+    std::stringstream text;
+    text << in.rdbuf();
+    EXPECT_NE(text.str().find("(sidecar water)"), std::string::npos) << text.str();
+  }
+  r = RunTurbid({"enhance", "--method", "full", dir.File("h.png"), dir.File("g2.png"),
+                 "--scene", "hull"});
+  EXPECT_NE(r.exit_code, 0);  // no sidecar: the scene at scale 1 does not fit the image
+  EXPECT_NE(r.err.find("camera"), std::string::npos) << r.err;
   // Existing output without --force, unknown method, bad parameter, oracle without sidecar.
   r = RunTurbid({"enhance", "--method", "full", dir.File("h.png"), dir.File("f.png")});
   EXPECT_NE(r.exit_code, 0);
