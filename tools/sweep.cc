@@ -1,6 +1,7 @@
 #include "tools/sweep.h"
 
 #include <fcntl.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -41,6 +42,39 @@ std::string ReadAll(const std::string& path) {
 std::string ExperimentText(const Experiment& experiment) {
   return experiment.ToJson().dump(2) + "\n";
 }
+
+// An exclusive advisory lock on DIR/.turbid.lock for as long as a sweep or merge writes the folder:
+// a second sweep into the same folder would append duplicate rows to the journal (or, with
+// --force, delete the first one's results). flock() is released by the kernel when the process
+// dies, so kill -9 leaves no stale lock behind.
+class DirLock {
+ public:
+  explicit DirLock(const std::string& dir) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) throw Error(dir, "cannot create the output folder: " + ec.message());
+    const std::string path = dir + "/.turbid.lock";
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0)
+      throw Error(path, std::string("cannot open the lock file: ") + std::strerror(errno));
+    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      const int err = errno;
+      ::close(fd_);
+      if (err == EWOULDBLOCK) {
+        throw Error(dir,
+                    "is being written by another turbid sweep or merge; wait for it to finish "
+                    "or use another --out");
+      }
+      throw Error(path, std::string("cannot lock: ") + std::strerror(err));
+    }
+  }
+  ~DirLock() { ::close(fd_); }  // closing releases the lock
+  DirLock(const DirLock&) = delete;
+  DirLock& operator=(const DirLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
 
 // Writes DIR/experiment.json, or checks that the one there is the same experiment.
 void ClaimDir(const Experiment& experiment, const std::string& dir, bool force) {
@@ -202,6 +236,7 @@ bool ShouldShowProgress() {
 SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
                       const ItemRunner& runner) {
   ThrowIfInvalid(options, "sweep");
+  const DirLock lock(options.out_dir);
   ClaimDir(experiment, options.out_dir, options.force);
   Journal journal(options.out_dir + "/journal.jsonl");
   const std::vector<ItemSpec> specs = ExpandItems(experiment);
@@ -357,6 +392,7 @@ int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& option
                 std::to_string(specs.size()) + " items are missing (first: " + first_missing +
                 "); run the missing shards or pass --allow-partial");
   }
+  const DirLock lock(options.out_dir);
   ClaimDir(experiment, options.out_dir, options.force);
   // The merged journal in item order, so the merged folder can be resumed and reported on.
   std::vector<ItemResult> items = SortedResults(merged);

@@ -1,8 +1,10 @@
 // The sweep engine with a fake item runner: identical bytes for any thread count, kill -9 and
 // resume with nothing lost or duplicated, a finished sweep reruns as a no-op, shards merge into
 // exactly the unsharded result, and the regression check catches a perturbed method.
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -112,6 +114,28 @@ TEST(HarnessSweep, DifferentExperimentInSameFolderIsRefused) {
   options.force = true;
   const SweepSummary forced = RunSweep(changed, options, FakeRunner{&changed});
   EXPECT_EQ(forced.ran, changed.ItemCount());
+}
+
+// While one sweep writes a folder (it holds DIR/.turbid.lock), a second one into the same folder
+// is refused before it touches anything; the lock goes with the holder.
+TEST(HarnessSweep, SecondSweepIntoABusyFolderIsRefused) {
+  const Experiment e = FakeExperiment();
+  TempDir dir;
+  const std::string lock_path = dir.path() + "/.turbid.lock";
+  const int fd = ::open(lock_path.c_str(), O_RDWR | O_CREAT, 0644);
+  ASSERT_GE(fd, 0);
+  ASSERT_EQ(::flock(fd, LOCK_EX | LOCK_NB), 0);
+  try {
+    Sweep(e, dir.path(), 1);
+    ADD_FAILURE() << "a sweep ran in a locked folder";
+  } catch (const Error& error) {
+    EXPECT_NE(std::string(error.what()).find("another turbid sweep"), std::string::npos)
+        << error.what();
+  }
+  EXPECT_FALSE(fs::exists(dir.path() + "/journal.jsonl"));
+  EXPECT_FALSE(fs::exists(dir.path() + "/experiment.json"));
+  ::close(fd);  // the holder ends: the folder is free again
+  EXPECT_EQ(Sweep(e, dir.path(), 1).ran, 24);
 }
 
 TEST(HarnessSweep, PartialJournalLineIsDroppedOnResume) {
