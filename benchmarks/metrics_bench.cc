@@ -15,39 +15,37 @@
 
 namespace {
 
-// A textured reference (smoothed noise) and a blurred, noisy copy: realistic SSIM around 0.6-0.8.
-std::pair<cv::Mat, cv::Mat> MakePair(int width, int height, int channels) {
-  cv::RNG rng(12345);
-  cv::Mat noise(height, width, CV_32FC(channels));
-  rng.fill(noise, cv::RNG::UNIFORM, 0.0, 255.0);
-  cv::Mat smooth;
-  cv::GaussianBlur(noise, smooth, cv::Size(0, 0), 2.0);
-  cv::normalize(smooth.reshape(1), smooth, 0, 255, cv::NORM_MINMAX);
-  smooth = smooth.reshape(channels);
-  cv::Mat blurred, extra(height, width, CV_32FC(channels));
-  cv::GaussianBlur(smooth, blurred, cv::Size(0, 0), 1.2);
-  rng.fill(extra, cv::RNG::NORMAL, 0.0, 6.0);
-  cv::Mat ref8, img8;
-  smooth.convertTo(ref8, CV_8U);
-  cv::Mat(blurred + extra).convertTo(img8, CV_8U);
-  return {ref8, img8};
-}
-
-// The same scene as float32 in [0, 1] without quantisation (what the harness scores: renders and
-// enhancer outputs), plus the 16-bit and 0..255 float copies of those values.
-std::pair<cv::Mat, cv::Mat> MakeFloatPair(int width, int height, int channels) {
+// A textured reference (smoothed noise, values in [lo, hi]) and a blurred, noisy copy (noise sd
+// 6/255 of the range): realistic SSIM around 0.6-0.8. Float32, not quantised.
+std::pair<cv::Mat, cv::Mat> MakeSmoothPair(int width, int height, int channels, double lo,
+                                           double hi) {
   cv::RNG rng(12345);
   cv::Mat noise(height, width, CV_32FC(channels));
   rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
   cv::Mat smooth;
   cv::GaussianBlur(noise, smooth, cv::Size(0, 0), 2.0);
-  cv::normalize(smooth.reshape(1), smooth, 0.02, 0.98, cv::NORM_MINMAX);
+  cv::normalize(smooth.reshape(1), smooth, lo, hi, cv::NORM_MINMAX);
   smooth = smooth.reshape(channels);
   cv::Mat blurred, extra(height, width, CV_32FC(channels));
   cv::GaussianBlur(smooth, blurred, cv::Size(0, 0), 1.2);
-  rng.fill(extra, cv::RNG::NORMAL, 0.0, 6.0 / 255.0);
-  cv::Mat img = cv::min(cv::max(blurred + extra, 0.0), 1.0);
-  return {smooth, img};
+  rng.fill(extra, cv::RNG::NORMAL, 0.0, 6.0 / 255.0 * (hi - lo));
+  return {smooth, blurred + extra};
+}
+
+// 8-bit: the 0..255 pair, saturated on conversion.
+std::pair<cv::Mat, cv::Mat> MakePair(int width, int height, int channels) {
+  const auto [ref, img] = MakeSmoothPair(width, height, channels, 0.0, 255.0);
+  cv::Mat ref8, img8;
+  ref.convertTo(ref8, CV_8U);
+  img.convertTo(img8, CV_8U);
+  return {ref8, img8};
+}
+
+// The same scene as float32 in [0, 1] without quantisation (what the harness scores: renders and
+// enhancer outputs); AsKind makes the 16-bit copy.
+std::pair<cv::Mat, cv::Mat> MakeFloatPair(int width, int height, int channels) {
+  const auto [ref, img] = MakeSmoothPair(width, height, channels, 0.02, 0.98);
+  return {ref, cv::min(cv::max(img, 0.0), 1.0)};
 }
 
 // Args' pixel kind: 0 = float32 [0, 1] (data range 1), 1 = 16-bit (range 65535).

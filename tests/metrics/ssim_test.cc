@@ -143,16 +143,20 @@ TEST(Ssim, MapCropMeanEqualsMean) {
   EXPECT_DOUBLE_EQ(with_map.mean, Ssim({}, a, b).mean);  // map or not: same numbers
 }
 
-TEST(Ssim, IndependentOfThreadCount) {
-  const cv::Mat a = RandomImage(300, 257, CV_8UC3, 7);
-  const cv::Mat b = RandomImage(300, 257, CV_8UC3, 8);
+// SSIM of a and b with 1 and with 4 OpenCV threads: bitwise equal (deterministic reduction).
+void ExpectSameWithOneAndFourThreads(const cv::Mat& a, const cv::Mat& b) {
   const int threads = cv::getNumThreads();
   cv::setNumThreads(1);
   const double one = Ssim({}, a, b).mean;
   cv::setNumThreads(4);
   const double four = Ssim({}, a, b).mean;
   cv::setNumThreads(threads);
-  EXPECT_EQ(one, four);  // bitwise: deterministic reduction
+  EXPECT_EQ(one, four);
+}
+
+TEST(Ssim, IndependentOfThreadCount) {
+  ExpectSameWithOneAndFourThreads(RandomImage(300, 257, CV_8UC3, 7),
+                                  RandomImage(300, 257, CV_8UC3, 8));
 }
 
 // Float and 16-bit inputs go through the fused float64 kernel (tiles of row bands x column
@@ -183,15 +187,8 @@ TEST(Ssim, FusedDoubleKernelMatchesPlainDoublePath) {
 }
 
 TEST(Ssim, FusedDoubleKernelIndependentOfThreadCount) {
-  const cv::Mat a = RandomImage(300, 700, CV_32FC3, 13);
-  const cv::Mat b = RandomImage(300, 700, CV_32FC3, 14);
-  const int threads = cv::getNumThreads();
-  cv::setNumThreads(1);
-  const double one = Ssim({}, a, b).mean;
-  cv::setNumThreads(4);
-  const double four = Ssim({}, a, b).mean;
-  cv::setNumThreads(threads);
-  EXPECT_EQ(one, four);
+  ExpectSameWithOneAndFourThreads(RandomImage(300, 700, CV_32FC3, 13),
+                                  RandomImage(300, 700, CV_32FC3, 14));
 }
 
 TEST(Ssim, IdenticalAndConstantImages) {
