@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "scenes/error.h"
 #include "simulator/fast_math.h"
+#include "simulator/kernels.h"
 
 namespace turbid {
 namespace {
@@ -119,6 +121,145 @@ cv::Mat NormalsFromDepth(const CameraIntrinsics& camera, const cv::Mat& depth_m)
   return normals;
 }
 
+namespace internal {
+
+std::vector<LightRowConstants> LightConstantsFor(const IrradianceOptions& options, int channels) {
+  std::vector<LightRowConstants> out;
+  for (const LightOptions& light : options.lights) {
+    const LightConstants k = Constants(light);
+    LightRowConstants r;
+    for (int i = 0; i < 3; ++i) {
+      r.position[i] = static_cast<float>(k.position[i]);
+      r.axis[i] = static_cast<float>(k.axis[i]);
+    }
+    r.power = static_cast<float>(k.power);
+    r.order = k.order;
+    r.integer_order = k.integer_order;
+    const std::vector<double> color = ChannelValues(light.color_rgb, GrayColor(light), channels);
+    for (int c = 0; c < channels; ++c) r.color[c] = static_cast<float>(color[c]);
+    out.push_back(r);
+  }
+  return out;
+}
+
+LightRowContext LightContextFor(const IrradianceOptions& options, const CameraIntrinsics& camera,
+                                int width) {
+  LightRowContext context;
+  context.eq5 = options.incidence == IncidenceModel::kPaperEq5;
+  context.min_cos = static_cast<float>(options.min_cos_incidence);
+  context.min_distance = static_cast<float>(options.min_distance_m);
+  context.ray_x.resize(width);
+  for (int x = 0; x < width; ++x)
+    context.ray_x[x] = static_cast<float>((x - camera.cx) / camera.fx);
+  return context;
+}
+
+namespace {
+
+// Distance and U0 f(psi) / l^2 for one row; cos_phi receives cos(phi) clamped to [0, 1]. Written
+// without branches (selects) so that it vectorises; the AVX2 clone computes the same values (no
+// FMA contraction).
+template <bool kEq5>
+__attribute__((target_clones("avx2", "default"))) void GeometryRowKernel(
+    const float* __restrict ray_x, float ry, const float* __restrict z,
+    const float* __restrict normals, int width, const float* position, const float* axis,
+    float power, float min_cos, float min_l, float* __restrict l_out, float* __restrict g_out,
+    float* __restrict cos_phi) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float lx = position[0], ly = position[1], lz = position[2];
+  const float ax = axis[0], ay = axis[1], az = axis[2];
+  for (int x = 0; x < width; ++x) {
+    const float rx = ray_x[x];
+    const float zx = z[x];
+    const float px = rx * zx, py = ry * zx, pz = zx;
+    const float vx = px - lx;
+    const float vy = py - ly;
+    const float vz = pz - lz;
+    const float l_true = std::sqrt(vx * vx + vy * vy + vz * vz);
+    const float l = std::max(l_true, min_l);
+    // Coincident light and point: treat as head-on (cos phi = cos psi = 1).
+    const bool apart = l_true > 1e-12f;
+    const float inv_true = 1.0f / l_true;  // computed for every lane, selected below
+    const float inv = apart ? inv_true : 0.0f;
+    const float cphi_raw = (ax * vx + ay * vy + az * vz) * inv;
+    float cphi = apart ? cphi_raw : 1.0f;
+    float nx = normals[3 * x], ny = normals[3 * x + 1], nz = normals[3 * x + 2];
+    // A NaN normal faces the camera along the viewing ray (| not ||: no branches).
+    const bool unknown = (nx != nx) | (ny != ny) | (nz != nz);
+    const float rl = 1.0f / std::sqrt(rx * rx + ry * ry + 1.0f);
+    nx = unknown ? -rx * rl : nx;
+    ny = unknown ? -ry * rl : ny;
+    nz = unknown ? -rl : nz;
+    const float cpsi_raw = -(nx * vx + ny * vy + nz * vz) * inv;
+    const float cpsi = apart ? cpsi_raw : 1.0f;
+    float incidence;
+    if constexpr (kEq5) {
+      const float inverse_cos = 1.0f / std::max(cpsi, min_cos);
+      incidence = cpsi > 0.0f ? inverse_cos : 0.0f;
+    } else {
+      incidence = std::max(cpsi, 0.0f);
+    }
+    cphi = std::clamp(cphi, 0.0f, 1.0f);
+    cos_phi[x] = cphi;
+    const bool valid = zx == zx;
+    const float g = power * incidence / (l * l);
+    l_out[x] = valid ? l : nan;
+    g_out[x] = valid ? g : 0.0f;
+  }
+}
+
+// g *= c^k by repeated multiplication (left to right: p = 1 c c ... c), then non-finite -> 0.
+__attribute__((target_clones("avx2", "default"))) void PowerStep(const float* c, int width,
+                                                                 float* p) {
+  for (int x = 0; x < width; ++x) p[x] *= c[x];
+}
+
+__attribute__((target_clones("avx2", "default"))) void MultiplyFiniteRow(const float* p, int width,
+                                                                         float* g) {
+  for (int x = 0; x < width; ++x) {
+    const float v = g[x] * p[x];
+    g[x] = std::abs(v) <= std::numeric_limits<float>::max() ? v : 0.0f;
+  }
+}
+
+}  // namespace
+
+void LightGeometryRow(const LightRowContext& context, const LightRowConstants& light, float ray_y,
+                      const float* z, const cv::Vec3f* normals, int width, float* l_out,
+                      float* g_out, float* cos_scratch) {
+  const float* n = reinterpret_cast<const float*>(normals);
+  if (context.eq5)
+    GeometryRowKernel<true>(context.ray_x.data(), ray_y, z, n, width, light.position, light.axis,
+                            light.power, context.min_cos, context.min_distance, l_out, g_out,
+                            cos_scratch);
+  else
+    GeometryRowKernel<false>(context.ray_x.data(), ray_y, z, n, width, light.position, light.axis,
+                             light.power, context.min_cos, context.min_distance, l_out, g_out,
+                             cos_scratch);
+  // cos^m(phi): small integer orders by multiplication, otherwise exp(m log cos phi).
+  if (light.integer_order == 0) {
+    std::fill(cos_scratch, cos_scratch + width, 1.0f);  // 1 * (no factor)
+    MultiplyFiniteRow(cos_scratch, width, g_out);
+  } else if (light.integer_order == 1) {
+    MultiplyFiniteRow(cos_scratch, width, g_out);
+  } else if (light.integer_order > 0) {
+    // p = 1 c c ... c: the first step is exact (1 c = c), so p starts as a copy of c.
+    float* power = cos_scratch + width;
+    std::copy(cos_scratch, cos_scratch + width, power);
+    for (int i = 1; i < light.integer_order; ++i) PowerStep(cos_scratch, width, power);
+    MultiplyFiniteRow(power, width, g_out);
+  } else {
+    for (int x = 0; x < width; ++x) cos_scratch[x] = std::max(cos_scratch[x], 1e-30f);
+    cv::Mat row(1, width, CV_32F, cos_scratch);
+    cv::log(row, row);
+    row *= light.order;
+    cv::exp(row, row);
+    MultiplyFiniteRow(cos_scratch, width, g_out);
+  }
+}
+
+}  // namespace internal
+
 LightGeometry ComputeLightGeometry(const IrradianceOptions& options, const CameraIntrinsics& camera,
                                    const cv::Mat& depth_m, const cv::Mat& normals_in) {
   ThrowIfInvalid(options, "light");
@@ -126,73 +267,17 @@ LightGeometry ComputeLightGeometry(const IrradianceOptions& options, const Camer
   const cv::Mat normals = normals_in.empty() ? NormalsFromDepth(camera, depth_m) : normals_in;
   CV_Assert(normals.type() == CV_32FC3 && normals.size() == depth_m.size());
   const int w = depth_m.cols, h = depth_m.rows;
+  const internal::LightRowContext context =
+      internal::LightContextFor(options, camera, depth_m.cols);
+  const std::vector<internal::LightRowConstants> lights = internal::LightConstantsFor(options, 1);
   LightGeometry geometry;
-  const bool eq5 = options.incidence == IncidenceModel::kPaperEq5;
-  const float min_cos = static_cast<float>(options.min_cos_incidence);
-  const float min_l = static_cast<float>(options.min_distance_m);
-  std::vector<float> cos_phi(w);
-  for (const LightOptions& light : options.lights) {
-    const LightConstants k = Constants(light);
+  std::vector<float> cos_phi(2 * w);
+  for (const internal::LightRowConstants& light : lights) {
     cv::Mat distance(depth_m.size(), CV_32FC1), factor(depth_m.size(), CV_32FC1);
-    for (int y = 0; y < h; ++y) {
-      const float* z = depth_m.ptr<float>(y);
-      const cv::Vec3f* n = normals.ptr<cv::Vec3f>(y);
-      float* l_out = distance.ptr<float>(y);
-      float* g_out = factor.ptr<float>(y);
-      const float ry = static_cast<float>((y - camera.cy) / camera.fy);
-      for (int x = 0; x < w; ++x) {
-        const float rx = static_cast<float>((x - camera.cx) / camera.fx);
-        const float zx = z[x];
-        const float px = rx * zx, py = ry * zx, pz = zx;
-        const float vx = px - static_cast<float>(k.position[0]);
-        const float vy = py - static_cast<float>(k.position[1]);
-        const float vz = pz - static_cast<float>(k.position[2]);
-        const float l_true = std::sqrt(vx * vx + vy * vy + vz * vz);
-        const float l = std::max(l_true, min_l);
-        const float inv = l_true > 1e-12f ? 1.0f / l_true : 0.0f;
-        // Coincident light and point: treat as head-on (cos phi = cos psi = 1).
-        float cphi = l_true > 1e-12f ? (static_cast<float>(k.axis[0]) * vx +
-                                        static_cast<float>(k.axis[1]) * vy +
-                                        static_cast<float>(k.axis[2]) * vz) *
-                                           inv
-                                     : 1.0f;
-        float nx = n[x][0], ny = n[x][1], nz = n[x][2];
-        if (std::isnan(nx) || std::isnan(ny) || std::isnan(nz)) {
-          const float rl = 1.0f / std::sqrt(rx * rx + ry * ry + 1.0f);
-          nx = -rx * rl, ny = -ry * rl, nz = -rl;
-        }
-        const float cpsi = l_true > 1e-12f ? -(nx * vx + ny * vy + nz * vz) * inv : 1.0f;
-        float incidence;
-        if (eq5) {
-          incidence = cpsi > 0.0f ? 1.0f / std::max(cpsi, min_cos) : 0.0f;
-        } else {
-          incidence = std::max(cpsi, 0.0f);
-        }
-        cphi = std::clamp(cphi, 0.0f, 1.0f);
-        cos_phi[x] = cphi;
-        const bool valid = !std::isnan(zx);
-        l_out[x] = valid ? l : std::nanf("");
-        g_out[x] = valid ? static_cast<float>(k.power) * incidence / (l * l) : 0.0f;
-      }
-      // cos^m(phi): small integer orders by multiplication, otherwise exp(m log cos phi) on the
-      // row.
-      if (k.integer_order >= 0) {
-        for (int x = 0; x < w; ++x) {
-          float p = 1.0f;
-          for (int i = 0; i < k.integer_order; ++i) p *= cos_phi[x];
-          g_out[x] *= p;
-        }
-      } else {
-        for (int x = 0; x < w; ++x) cos_phi[x] = std::max(cos_phi[x], 1e-30f);
-        cv::Mat row(1, w, CV_32F, cos_phi.data());
-        cv::log(row, row);
-        row *= k.order;
-        cv::exp(row, row);
-        for (int x = 0; x < w; ++x) g_out[x] *= cos_phi[x];
-      }
-      for (int x = 0; x < w; ++x)
-        if (!std::isfinite(g_out[x])) g_out[x] = 0.0f;
-    }
+    for (int y = 0; y < h; ++y)
+      internal::LightGeometryRow(context, light, context.RayY(camera, y), depth_m.ptr<float>(y),
+                                 normals.ptr<cv::Vec3f>(y), w, distance.ptr<float>(y),
+                                 factor.ptr<float>(y), cos_phi.data());
     geometry.distance_m.push_back(distance);
     geometry.geometry.push_back(factor);
   }
@@ -203,11 +288,9 @@ namespace {
 
 // out[x, c] += colour[c] g[x] exp(-beta[c] l[x]) for one row; NaN l (invalid depth) has g = 0.
 template <int kChannels>
-__attribute__((target_clones("avx2", "default"))) void AccumulateLightRow(const float* l,
-                                                                          const float* g, int width,
-                                                                          const float* neg_beta,
-                                                                          const float* color,
-                                                                          float* out) {
+__attribute__((target_clones("avx2", "default"))) void AccumulateLightKernel(
+    const float* __restrict l, const float* __restrict g, int width, const float* neg_beta,
+    const float* color, float* __restrict out) {
   for (int x = 0; x < width; ++x) {
     const float range = std::max(0.0f, l[x]);  // NaN -> 0 without a branch
     for (int c = 0; c < kChannels; ++c)
@@ -216,6 +299,14 @@ __attribute__((target_clones("avx2", "default"))) void AccumulateLightRow(const 
 }
 
 }  // namespace
+
+void internal::AccumulateLightRow(const float* l, const float* g, int width, int channels,
+                                  const float* neg_beta, const float* color, float* e) {
+  if (channels == 3)
+    AccumulateLightKernel<3>(l, g, width, neg_beta, color, e);
+  else
+    AccumulateLightKernel<1>(l, g, width, neg_beta, color, e);
+}
 
 cv::Mat IrradianceFromGeometry(const IrradianceOptions& options, const LightGeometry& geometry,
                                const std::vector<double>& beta_per_m) {
@@ -237,10 +328,7 @@ cv::Mat IrradianceFromGeometry(const IrradianceOptions& options, const LightGeom
         const float* l = geometry.distance_m[k].ptr<float>(y);
         const float* g = geometry.geometry[k].ptr<float>(y);
         float* out = irradiance.ptr<float>(y);
-        if (channels == 3)
-          AccumulateLightRow<3>(l, g, size.width, neg_beta, color, out);
-        else
-          AccumulateLightRow<1>(l, g, size.width, neg_beta, color, out);
+        internal::AccumulateLightRow(l, g, size.width, channels, neg_beta, color, out);
       }
     });
   }

@@ -6,6 +6,7 @@
 #include <opencv2/core.hpp>
 
 #include "scenes/error.h"
+#include "simulator/kernels.h"
 
 namespace turbid {
 namespace {
@@ -110,6 +111,12 @@ __attribute__((target_clones("avx2", "default"))) void NormalPairs(uint32_t low0
   }
 }
 
+// p += n sqrt(max(p, 0) shot + read2): the Gaussian approximation of Poisson plus read noise.
+__attribute__((target_clones("avx2", "default"))) void ScaleNoise(const float* normals, float shot,
+                                                                  float read2, int n, float* p) {
+  for (int i = 0; i < n; ++i) p[i] += normals[i] * std::sqrt(std::max(p[i], 0.0f) * shot + read2);
+}
+
 }  // namespace
 
 void RandomNormals(uint64_t key, uint64_t first, int count, float* out) {
@@ -165,17 +172,20 @@ bool SnowOptions::Check(std::string* why) const {
   return true;
 }
 
-MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions& lights,
-                            const CameraIntrinsics& camera, const cv::Mat& range_m,
-                            const std::vector<double>& beta_per_m,
-                            const std::vector<double>& ambient, uint64_t seed) {
+namespace internal {
+
+SnowSplats DrawMarineSnow(const SnowOptions& options, const IrradianceOptions& lights,
+                          const CameraIntrinsics& camera, const cv::Mat& range_m,
+                          const std::vector<double>& beta_per_m, const std::vector<double>& ambient,
+                          uint64_t seed) {
   ThrowIfInvalid(options, "snow");
   const int channels = static_cast<int>(beta_per_m.size());
   CV_Assert((channels == 1 || channels == 3) && ambient.size() == beta_per_m.size());
   CV_Assert(range_m.type() == CV_32FC1);
   const int w = range_m.cols, h = range_m.rows;
-  MarineSnow snow;
-  snow.layer = cv::Mat(range_m.size(), CV_32FC(channels), cv::Scalar::all(0));
+  SnowSplats snow;
+  snow.channels = channels;
+  snow.row_start.assign(h + 1, 0);
   if (!options.enabled) return snow;
   const double volume = (w / std::abs(camera.fx)) * (h / std::abs(camera.fy)) *
                         (std::pow(options.far_m, 3) - std::pow(options.near_m, 3)) / 3.0;
@@ -210,27 +220,73 @@ MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions&
     const double sigma2 = 0.5 * radius_px * radius_px + options.blur_px * options.blur_px;
     // Flux-preserving peak: the disc's pi R^2 radiance spread over a Gaussian of variance sigma2.
     const double peak_scale = radius_px * radius_px / (2.0 * sigma2);
-    std::vector<float> peak(channels);
+    SnowSplats::Splat splat;
     for (int c = 0; c < channels; ++c)
-      peak[c] = static_cast<float>(albedo * (ambient[c] + lit[c]) *
-                                   std::exp(-beta_per_m[c] * range) * peak_scale);
+      splat.peak[c] = static_cast<float>(albedo * (ambient[c] + lit[c]) *
+                                         std::exp(-beta_per_m[c] * range) * peak_scale);
     const int reach = std::min(static_cast<int>(std::ceil(3.0 * std::sqrt(sigma2))), 200);
-    const int x0 = std::max(static_cast<int>(std::floor(u)) - reach, 0);
-    const int x1 = std::min(static_cast<int>(std::ceil(u)) + reach, w - 1);
-    const int y0 = std::max(static_cast<int>(std::floor(v)) - reach, 0);
-    const int y1 = std::min(static_cast<int>(std::ceil(v)) + reach, h - 1);
+    splat.x0 = std::max(static_cast<int>(std::floor(u)) - reach, 0);
+    splat.x1 = std::min(static_cast<int>(std::ceil(u)) + reach, w - 1);
+    splat.y0 = std::max(static_cast<int>(std::floor(v)) - reach, 0);
+    splat.y1 = std::min(static_cast<int>(std::ceil(v)) + reach, h - 1);
+    splat.v = v;
     // The Gaussian is separable: one exp per column and per row of the footprint.
-    const double inv = -0.5 / sigma2;
-    std::vector<float> gx(x1 - x0 + 1);
-    for (int x = x0; x <= x1; ++x)
-      gx[x - x0] = static_cast<float>(std::exp((x - u) * (x - u) * inv));
-    for (int y = y0; y <= y1; ++y) {
-      float* row = snow.layer.ptr<float>(y);
-      const float gy = static_cast<float>(std::exp((y - v) * (y - v) * inv));
-      for (int x = x0; x <= x1; ++x)
-        for (int c = 0; c < channels; ++c) row[x * channels + c] += peak[c] * gy * gx[x - x0];
-    }
+    splat.inv = -0.5 / sigma2;
+    splat.gx_offset = static_cast<int>(snow.gx.size());
+    for (int x = splat.x0; x <= splat.x1; ++x)
+      snow.gx.push_back(static_cast<float>(std::exp((x - u) * (x - u) * splat.inv)));
+    snow.splats.push_back(splat);
   }
+  // Rows -> splats (counting sort; each row lists its splats in drawing order).
+  for (const SnowSplats::Splat& s : snow.splats)
+    for (int y = s.y0; y <= s.y1; ++y) ++snow.row_start[y + 1];
+  for (int y = 0; y < h; ++y) snow.row_start[y + 1] += snow.row_start[y];
+  snow.row_index.resize(snow.row_start[h]);
+  std::vector<int> fill(snow.row_start.begin(), snow.row_start.end() - 1);
+  for (int i = 0; i < static_cast<int>(snow.splats.size()); ++i)
+    for (int y = snow.splats[i].y0; y <= snow.splats[i].y1; ++y) snow.row_index[fill[y]++] = i;
+  return snow;
+}
+
+void AddSnowRow(const SnowSplats& snow, int y, int width, float* scratch, float* out) {
+  const int first = snow.row_start[y], last = snow.row_start[y + 1];
+  if (first == last) return;
+  const int channels = snow.channels;
+  // The row of the layer (a sum over particles in drawing order), then added to out: the same
+  // float operations as drawing the whole layer and adding it.
+  int lo = width, hi = -1;
+  for (int i = first; i < last; ++i) {
+    const SnowSplats::Splat& s = snow.splats[snow.row_index[i]];
+    lo = std::min(lo, s.x0);
+    hi = std::max(hi, s.x1);
+  }
+  std::fill(scratch + lo * channels, scratch + (hi + 1) * channels, 0.0f);
+  for (int i = first; i < last; ++i) {
+    const SnowSplats::Splat& s = snow.splats[snow.row_index[i]];
+    const float gy = static_cast<float>(std::exp((y - s.v) * (y - s.v) * s.inv));
+    const float* gx = snow.gx.data() + s.gx_offset;
+    for (int x = s.x0; x <= s.x1; ++x)
+      for (int c = 0; c < channels; ++c) scratch[x * channels + c] += s.peak[c] * gy * gx[x - s.x0];
+  }
+  for (int i = lo * channels; i < (hi + 1) * channels; ++i) out[i] += scratch[i];
+}
+
+}  // namespace internal
+
+MarineSnow RenderMarineSnow(const SnowOptions& options, const IrradianceOptions& lights,
+                            const CameraIntrinsics& camera, const cv::Mat& range_m,
+                            const std::vector<double>& beta_per_m,
+                            const std::vector<double>& ambient, uint64_t seed) {
+  const internal::SnowSplats splats =
+      internal::DrawMarineSnow(options, lights, camera, range_m, beta_per_m, ambient, seed);
+  MarineSnow snow;
+  const int channels = splats.channels;
+  snow.layer = cv::Mat(range_m.size(), CV_32FC(channels), cv::Scalar::all(0));
+  snow.particles = splats.particles;
+  snow.visible = splats.visible;
+  std::vector<float> scratch(static_cast<size_t>(range_m.cols) * channels);
+  for (int y = 0; y < range_m.rows; ++y)
+    internal::AddSnowRow(splats, y, range_m.cols, scratch.data(), snow.layer.ptr<float>(y));
   return snow;
 }
 
@@ -244,22 +300,24 @@ bool SensorNoiseOptions::Check(std::string* why) const {
   return true;
 }
 
-void AddSensorNoiseInPlace(const SensorNoiseOptions& options, cv::Mat& image, uint64_t seed) {
-  ThrowIfInvalid(options, "sensor");
-  CV_Assert(image.depth() == CV_32F);
+void internal::AddSensorNoiseRow(const SensorNoiseOptions& options, uint64_t seed, int y,
+                                 int per_row, float* p, float* normals_scratch) {
   const uint64_t key = RandomKey(seed, kSensorStream);
-  const int per_row = image.cols * image.channels();
   const float shot =
       options.photons_at_white > 0.0 ? static_cast<float>(1.0 / options.photons_at_white) : 0.0f;
   const float read2 = static_cast<float>(options.read_noise * options.read_noise);
+  RandomNormals(key, static_cast<uint64_t>(y) * per_row, per_row, normals_scratch);
+  ScaleNoise(normals_scratch, shot, read2, per_row, p);
+}
+
+void AddSensorNoiseInPlace(const SensorNoiseOptions& options, cv::Mat& image, uint64_t seed) {
+  ThrowIfInvalid(options, "sensor");
+  CV_Assert(image.depth() == CV_32F);
+  const int per_row = image.cols * image.channels();
   cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
     std::vector<float> normals(per_row);
-    for (int y = rows.start; y < rows.end; ++y) {
-      RandomNormals(key, static_cast<uint64_t>(y) * per_row, per_row, normals.data());
-      float* p = image.ptr<float>(y);
-      for (int i = 0; i < per_row; ++i)
-        p[i] += normals[i] * std::sqrt(std::max(p[i], 0.0f) * shot + read2);
-    }
+    for (int y = rows.start; y < rows.end; ++y)
+      internal::AddSensorNoiseRow(options, seed, y, per_row, image.ptr<float>(y), normals.data());
   });
 }
 

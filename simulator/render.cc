@@ -2,14 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
-#include <deque>
 #include <limits>
-#include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 
 #include "scenes/error.h"
+#include "simulator/kernels.h"
 #include "turbid_version.h"
 
 namespace turbid {
@@ -105,22 +105,162 @@ std::string ListText(const std::vector<double>& values) {
   return s + "]";
 }
 
-// I = Jb t + (1 - t)(E_L + B_inf) for one row; e == nullptr: no veiling term (I = Jb t).
+// Range along the viewing ray for one row: r = z sqrt(dx^2 + dy^2 + 1) in double, as
+// RangeFromDepth computes it (same bytes), with dx^2 per column precomputed.
+__attribute__((target_clones("avx2", "default"))) void RangeRow(const float* z, const double* dx2,
+                                                                double dy2, int width, float* r) {
+  for (int x = 0; x < width; ++x) r[x] = static_cast<float>(z[x] * std::sqrt(dx2[x] + dy2 + 1.0));
+}
+
+// Smallest and largest non-NaN value and the count of non-NaN values of a row, folded into
+// lo / hi / count. Eight independent lanes so that the loop vectorises.
+struct RangeStats {
+  float lo[8], hi[8];
+  int64_t count = 0;
+  RangeStats() {
+    std::fill(lo, lo + 8, std::numeric_limits<float>::infinity());
+    std::fill(hi, hi + 8, -std::numeric_limits<float>::infinity());
+  }
+};
+
+__attribute__((target_clones("avx2", "default"))) void RangeStatsRow(const float* r, int width,
+                                                                     RangeStats* stats) {
+  float lo[8], hi[8];
+  int count[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  std::copy(stats->lo, stats->lo + 8, lo);
+  std::copy(stats->hi, stats->hi + 8, hi);
+  int x = 0;
+  for (; x + 8 <= width; x += 8)
+    for (int j = 0; j < 8; ++j) {
+      const float v = r[x + j];
+      lo[j] = v < lo[j] ? v : lo[j];  // NaN compares false: skipped
+      hi[j] = v > hi[j] ? v : hi[j];
+      count[j] += v == v;
+    }
+  for (; x < width; ++x) {
+    const float v = r[x];
+    lo[0] = v < lo[0] ? v : lo[0];
+    hi[0] = v > hi[0] ? v : hi[0];
+    count[0] += v == v;
+  }
+  std::copy(lo, lo + 8, stats->lo);
+  std::copy(hi, hi + 8, stats->hi);
+  for (int j = 0; j < 8; ++j) stats->count += count[j];
+}
+
+// J = (E_A + E_L) rho for one row; e == nullptr: no artificial light.
 template <int kChannels>
-__attribute__((target_clones("avx2", "default"))) void ComposeRow(const float* jb, const float* t,
-                                                                  const float* e, const float* bs,
-                                                                  int width, float* out,
-                                                                  float* veil) {
-  if (!e && !bs) {
-    for (int i = 0; i < width * kChannels; ++i) out[i] = jb[i] * t[i];
+__attribute__((target_clones("avx2", "default"))) void LitRow(const float* rho, const float* e,
+                                                              const float* ambient, int width,
+                                                              float* out) {
+  if (!e) {
+    for (int x = 0; x < width; ++x)
+      for (int c = 0; c < kChannels; ++c)
+        out[x * kChannels + c] = (ambient[c] + 0.0f) * rho[x * kChannels + c];
     return;
   }
   for (int x = 0; x < width; ++x)
+    for (int c = 0; c < kChannels; ++c)
+      out[x * kChannels + c] = (ambient[c] + e[x * kChannels + c]) * rho[x * kChannels + c];
+}
+
+// The separable PSF on rows of J, vertical pass then horizontal pass, mirrored borders
+// (BORDER_REFLECT_101, as ApplyPsf). The kernel is symmetric: k[0] at the centre and k[j] at +-j,
+// so each tap pair is added before it is weighted. Sums run in tap order j = 0 .. R.
+struct SeparableBlur {
+  int radius = 0;
+  int channels = 1;
+  std::vector<float> k;        // k[0 .. R]
+  std::vector<int> row_of;     // source row for rows -R .. H + R - 1 (index + R)
+  std::vector<int> column_of;  // source column for columns -R .. -1 and W .. W + R - 1
+
+  SeparableBlur(const Psf& psf, int width, int height, int channels_in)
+      : radius(psf.radius_px), channels(channels_in) {
+    for (int j = 0; j <= radius; ++j) k.push_back(psf.kernel_1d.at<float>(radius + j));
+    for (int y = -radius; y < height + radius; ++y)
+      row_of.push_back(cv::borderInterpolate(y, height, cv::BORDER_REFLECT_101));
+    for (int x = -radius; x < 0; ++x)
+      column_of.push_back(cv::borderInterpolate(x, width, cv::BORDER_REFLECT_101));
+    for (int x = width; x < width + radius; ++x)
+      column_of.push_back(cv::borderInterpolate(x, width, cv::BORDER_REFLECT_101));
+  }
+};
+
+// out = k0 c[i] + sum_j k_j (a_j[i] + b_j[i]) with a_j, b_j = rows (vertical) or shifted views of
+// one padded row (horizontal); one vectorised pass per tap pair.
+__attribute__((target_clones("avx2", "default"))) void TapCentre(const float* c, float k0, int n,
+                                                                 float* out) {
+  for (int i = 0; i < n; ++i) out[i] = k0 * c[i];
+}
+
+__attribute__((target_clones("avx2", "default"))) void TapPair(const float* a, const float* b,
+                                                               float kj, int n, float* out) {
+  for (int i = 0; i < n; ++i) out[i] += kj * (a[i] + b[i]);
+}
+
+// The centre and three tap pairs in one pass (the paper's kernel has R = 3): the same sums in the
+// same order as TapCentre and three TapPair passes.
+__attribute__((target_clones("avx2", "default"))) void Taps3(const float* c, const float* a1,
+                                                             const float* b1, const float* a2,
+                                                             const float* b2, const float* a3,
+                                                             const float* b3, const float* k, int n,
+                                                             float* out) {
+  for (int i = 0; i < n; ++i)
+    out[i] =
+        ((k[0] * c[i] + k[1] * (a1[i] + b1[i])) + k[2] * (a2[i] + b2[i])) + k[3] * (a3[i] + b3[i]);
+}
+
+// One row of J * h: rows of J from `lit`, scratch `padded` has (W + 2R) * C floats.
+void BlurRow(const SeparableBlur& blur, const cv::Mat& lit, int y, int width, float* padded,
+             float* out) {
+  const int r = blur.radius, ch = blur.channels, n = width * ch;
+  float* middle = padded + r * ch;
+  auto row = [&](int dy) { return lit.ptr<float>(blur.row_of[y + dy + r]); };
+  if (r == 3) {
+    Taps3(row(0), row(-1), row(1), row(-2), row(2), row(-3), row(3), blur.k.data(), n, middle);
+  } else {
+    TapCentre(row(0), blur.k[0], n, middle);
+    for (int j = 1; j <= r; ++j) TapPair(row(-j), row(j), blur.k[j], n, middle);
+  }
+  for (int i = 0; i < r; ++i) {
+    std::copy_n(middle + blur.column_of[i] * ch, ch, padded + i * ch);
+    std::copy_n(middle + blur.column_of[r + i] * ch, ch, middle + (width + i) * ch);
+  }
+  if (r == 3) {
+    Taps3(middle, middle - ch, middle + ch, middle - 2 * ch, middle + 2 * ch, middle - 3 * ch,
+          middle + 3 * ch, blur.k.data(), n, out);
+  } else {
+    TapCentre(middle, blur.k[0], n, out);
+    for (int j = 1; j <= r; ++j) TapPair(middle - j * ch, middle + j * ch, blur.k[j], n, out);
+  }
+}
+
+// I = Jb t (no veiling term).
+__attribute__((target_clones("avx2", "default"))) void ComposePlain(const float* jb, const float* t,
+                                                                    int n, float* out) {
+  for (int i = 0; i < n; ++i) out[i] = jb[i] * t[i];
+}
+
+// I = Jb t + (1 - t)(E_L + B_inf). kInPlace: out holds E_L on entry; e == nullptr: E_L = 0.
+template <int kChannels, bool kInPlace>
+__attribute__((target_clones("avx2", "default"))) void ComposeVeil(const float* jb, const float* t,
+                                                                   const float* e, const float* bs,
+                                                                   int width, float* out) {
+  for (int x = 0; x < width; ++x)
     for (int c = 0; c < kChannels; ++c) {
       const int i = x * kChannels + c;
-      const float veil_value = (1.0f - t[i]) * ((e ? e[i] : 0.0f) + bs[c]);
-      out[i] = jb[i] * t[i] + veil_value;
-      if (veil) veil[i] = veil_value;
+      const float e_value = kInPlace ? out[i] : (e ? e[i] : 0.0f);
+      out[i] = jb[i] * t[i] + (1.0f - t[i]) * (e_value + bs[c]);
+    }
+}
+
+// The veiling term alone, (1 - t)(E_L + B_inf), for the veil map.
+void VeilRow(const float* t, const float* e, const float* bs, int width, int channels,
+             float* veil) {
+  for (int x = 0; x < width; ++x)
+    for (int c = 0; c < channels; ++c) {
+      const int i = x * channels + c;
+      veil[i] = (1.0f - t[i]) * ((e ? e[i] : 0.0f) + bs[c]);
     }
 }
 
@@ -134,18 +274,6 @@ __attribute__((target_clones("avx2", "default"))) void QuantiseRow(float* p, int
     const float v = std::min(std::max(p[i], 0.0f), 1.0f);
     p[i] = static_cast<float>(static_cast<int>(v * levels + 0.5f)) / levels;
   }
-}
-
-// Clips to [0, 1] and rounds to the 2^bits - 1 levels the PNG will store (32: clip only).
-void QuantiseInPlace(cv::Mat& image, int bit_depth) {
-  const float levels = bit_depth == 8 ? 255.0f : 65535.0f;
-  const bool quantise = bit_depth != 32;
-  const int per_row = image.cols * image.channels();
-  cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
-    for (int y = rows.start; y < rows.end; ++y) {
-      QuantiseRow(image.ptr<float>(y), per_row, levels, quantise);  // no NaN reaches here
-    }
-  });
 }
 
 }  // namespace
@@ -411,17 +539,9 @@ struct Decisions {
 
 struct Renderer::Cache {
   std::mutex mutex;
-  bool range_stats_done = false;
   double min_range = 0.0, max_range = 0.0;
   int valid_pixels = 0;
   cv::Mat normals;  // computed once when the scene has none
-  std::map<std::string, std::shared_ptr<const LightGeometry>> geometry;
-  struct Blurred {
-    std::string key;
-    std::shared_ptr<const cv::Mat> light, lit, blurred;
-  };
-  std::deque<Blurred> blurred;  // most recent first, at most kBlurredEntries
-  static constexpr size_t kBlurredEntries = 4;
 };
 
 namespace {
@@ -495,21 +615,26 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
 
 Renderer::Renderer(const Scene& scene) : scene_(scene), cache_(std::make_unique<Cache>()) {
   scene_.Validate();
-  range_m_ = RangeFromDepth(scene_.camera, scene_.depth_m);
-  double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
-  int valid = 0;
-  for (int y = 0; y < range_m_.rows; ++y) {
-    const float* r = range_m_.ptr<float>(y);
-    for (int x = 0; x < range_m_.cols; ++x) {
-      if (std::isnan(r[x])) continue;
-      lo = std::min<double>(lo, r[x]);
-      hi = std::max<double>(hi, r[x]);
-      ++valid;
-    }
+  // The range map as RangeFromDepth computes it, and its statistics, in one vectorised pass.
+  const CameraIntrinsics& camera = scene_.camera;
+  const cv::Mat& depth = scene_.depth_m;
+  range_m_.create(depth.size(), CV_32FC1);
+  std::vector<double> dx2(depth.cols);
+  for (int x = 0; x < depth.cols; ++x) {
+    const double dx = (x - camera.cx) / camera.fx;
+    dx2[x] = dx * dx;
   }
-  cache_->min_range = lo;
-  cache_->max_range = hi;
-  cache_->valid_pixels = valid;
+  RangeStats stats;
+  for (int y = 0; y < depth.rows; ++y) {
+    const double dy = (y - camera.cy) / camera.fy;
+    RangeRow(depth.ptr<float>(y), dx2.data(), dy * dy, depth.cols, range_m_.ptr<float>(y));
+    RangeStatsRow(range_m_.ptr<float>(y), depth.cols, &stats);
+  }
+  const float lo = *std::min_element(stats.lo, stats.lo + 8);
+  const float hi = *std::max_element(stats.hi, stats.hi + 8);
+  cache_->min_range = stats.count ? lo : std::numeric_limits<double>::infinity();
+  cache_->max_range = stats.count ? hi : 0.0;
+  cache_->valid_pixels = static_cast<int>(stats.count);
 }
 
 Renderer::~Renderer() = default;
@@ -525,144 +650,163 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   Decisions d = Decide(options, scene_, cache_->min_range, cache_->max_range);
   const int channels = scene_.channels();
   const cv::Size size = scene_.image.size();
-  const bool uniform_range = d.uniform_range;
+  const int width = size.width, per_row = width * channels;
+  const int type = scene_.image.type();
   RenderResult result;
 
-  // E_L, J and J * h (cached: a sweep over noise, seed or camera reuses them).
-  json light_key = RenderOptionsToJson(options)["light"];
-  json blur_key = {{"light", light_key},
-                   {"ambient", d.ambient},
-                   {"beta", d.any_light ? json(d.beta) : json()},
-                   {"psf", d.blur ? RenderOptionsToJson(options)["psf"] : json()}};
-  const std::string key = blur_key.dump();
-  std::shared_ptr<const cv::Mat> light, lit, blurred;
-  {
-    std::lock_guard<std::mutex> lock(cache_->mutex);
-    for (const auto& entry : cache_->blurred)
-      if (entry.key == key) light = entry.light, lit = entry.lit, blurred = entry.blurred;
-  }
-  if (!lit) {
-    cv::Mat e_l;
-    if (d.any_light) {
-      std::shared_ptr<const LightGeometry> geometry;
-      const std::string geometry_key = light_key.dump();
-      {
-        std::lock_guard<std::mutex> lock(cache_->mutex);
-        auto it = cache_->geometry.find(geometry_key);
-        if (it != cache_->geometry.end()) geometry = it->second;
-      }
-      if (!geometry) {
-        cv::Mat normals = scene_.normals;
-        if (normals.empty()) {
-          std::lock_guard<std::mutex> lock(cache_->mutex);
-          if (cache_->normals.empty())
-            cache_->normals = NormalsFromDepth(scene_.camera, scene_.depth_m);
-          normals = cache_->normals;
-        }
-        geometry = std::make_shared<const LightGeometry>(
-            ComputeLightGeometry(options.light, scene_.camera, scene_.depth_m, normals));
-        std::lock_guard<std::mutex> lock(cache_->mutex);
-        cache_->geometry.emplace(geometry_key, geometry);
-      }
-      e_l = IrradianceFromGeometry(options.light, *geometry, d.beta);
-    }
-    // J = (E_A + E_L) rho.
-    cv::Mat j(size, scene_.image.type());
-    const float a0 = static_cast<float>(d.ambient[0]);
-    const float a1 = static_cast<float>(d.ambient[channels == 3 ? 1 : 0]);
-    const float a2 = static_cast<float>(d.ambient[channels == 3 ? 2 : 0]);
-    const float ambient[3] = {a0, a1, a2};
-    cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
-      for (int y = rows.start; y < rows.end; ++y) {
-        const float* rho = scene_.image.ptr<float>(y);
-        float* out = j.ptr<float>(y);
-        const float* e = e_l.empty() ? nullptr : e_l.ptr<float>(y);
-        if (channels == 3) {
-          for (int x = 0; x < size.width; ++x)
-            for (int c = 0; c < 3; ++c)
-              out[3 * x + c] = (ambient[c] + (e ? e[3 * x + c] : 0.0f)) * rho[3 * x + c];
-        } else {
-          for (int x = 0; x < size.width; ++x) out[x] = (ambient[0] + (e ? e[x] : 0.0f)) * rho[x];
-        }
-      }
-    });
-    cv::Mat jb;
-    if (!d.blur)
-      jb = j;
-    else if (options.psf.depth_dependent)
-      jb = ApplyDepthDependentPsf(options.psf, j, range_m_);
-    else
-      jb = ApplyPsf(d.psf, j);
-    light = e_l.empty() ? nullptr : std::make_shared<const cv::Mat>(e_l);
-    lit = std::make_shared<const cv::Mat>(j);
-    blurred = std::make_shared<const cv::Mat>(jb);
-    std::lock_guard<std::mutex> lock(cache_->mutex);
-    cache_->blurred.push_front({key, light, lit, blurred});
-    while (cache_->blurred.size() > Cache::kBlurredEntries) cache_->blurred.pop_back();
-  }
-
-  // Transmission and composition, fused row by row: I = Jb t + (1 - t)(E_L + B_inf). t is computed
-  // per row (no full map unless asked for); the image is built in place from here on.
+  // Two passes over the rows, each fusing what used to be whole-image steps (docs/model.md has
+  // the model, docs/performance-simulator.md the figures):
+  //   A: light geometry -> E_L -> J = (E_A + E_L) rho, written to result.lit;
+  //   B: J * h -> t -> I = Jb t + (1 - t)(E_L + B_inf) -> snow -> sensor noise -> clip/quantise.
+  // E_L reaches pass B through the output image's own rows (overwritten in place), or through
+  // the light map when that is asked for. Every row is computed from its inputs alone, so the
+  // bytes do not depend on the thread count.
   const bool backscatter = options.water.backscatter && !d.zero_beta;
-  const bool veil_term = !d.zero_beta && (light || backscatter);
-  const int per_row = size.width * channels;
-  cv::Mat image(size, scene_.image.type());
-  cv::Mat t_map, veil;
+  const bool veil_term = !d.zero_beta && (d.any_light || backscatter);
+  const bool keep_light = d.any_light && veil_term;  // E_L needed again in pass B
+  cv::Mat image(size, type), lit(size, type);
+  cv::Mat light_map, t_map, veil, noise_map;
+  if (options.maps.light || (keep_light && options.maps.veil))
+    light_map = d.any_light ? cv::Mat(size, type) : cv::Mat(size, type, cv::Scalar::all(0));
   if (options.maps.transmission)
     t_map = d.zero_beta ? cv::Mat(size, CV_32FC(channels), cv::Scalar::all(1))
                         : cv::Mat(size, CV_32FC(channels));
   if (options.maps.veil) veil = cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0));
+  if (options.maps.noise) noise_map = cv::Mat(size, CV_32FC(channels));
+  // Where pass A leaves E_L: the light map, else the image rows (in place), else nowhere.
+  const bool e_in_map = !light_map.empty() && d.any_light;
+  const bool e_in_image = keep_light && !e_in_map;
+
+  // ---- pass A: E_L and J ----
+  cv::Mat normals;
+  std::vector<internal::LightRowConstants> lights;
+  internal::LightRowContext light_context;
+  if (d.any_light) {
+    normals = scene_.normals;
+    if (normals.empty()) {
+      std::lock_guard<std::mutex> lock(cache_->mutex);
+      if (cache_->normals.empty())
+        cache_->normals = NormalsFromDepth(scene_.camera, scene_.depth_m);
+      normals = cache_->normals;
+    }
+    lights = internal::LightConstantsFor(options.light, channels);
+    light_context = internal::LightContextFor(options.light, scene_.camera, width);
+  }
+  float ambient[3] = {0, 0, 0}, neg_beta[3] = {0, 0, 0};
+  for (int c = 0; c < channels; ++c) {
+    ambient[c] = static_cast<float>(d.ambient[c]);
+    neg_beta[c] = -static_cast<float>(d.beta[c]);
+  }
+  cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
+    std::vector<float> l_row, g_row, cos_row, e_scratch;
+    if (d.any_light) {
+      l_row.resize(width), g_row.resize(width), cos_row.resize(2 * width);
+      e_scratch.resize(per_row);
+    }
+    for (int y = rows.start; y < rows.end; ++y) {
+      float* e = nullptr;
+      if (d.any_light) {
+        e = e_in_map ? light_map.ptr<float>(y)
+                     : (e_in_image ? image.ptr<float>(y) : e_scratch.data());
+        std::fill(e, e + per_row, 0.0f);
+        const float ray_y = light_context.RayY(scene_.camera, y);
+        for (const internal::LightRowConstants& light : lights) {
+          internal::LightGeometryRow(light_context, light, ray_y, scene_.depth_m.ptr<float>(y),
+                                     normals.ptr<cv::Vec3f>(y), width, l_row.data(), g_row.data(),
+                                     cos_row.data());
+          internal::AccumulateLightRow(l_row.data(), g_row.data(), width, channels, neg_beta,
+                                       light.color, e);
+        }
+      }
+      if (channels == 3)
+        LitRow<3>(scene_.image.ptr<float>(y), e, ambient, width, lit.ptr<float>(y));
+      else
+        LitRow<1>(scene_.image.ptr<float>(y), e, ambient, width, lit.ptr<float>(y));
+    }
+  });
+
+  // ---- J * h: the separable kernel row by row in pass B; other kernels on the whole image ----
+  std::optional<SeparableBlur> blur;
+  cv::Mat blurred;  // J * h when it is not computed row by row
+  if (d.blur) {
+    if (options.psf.depth_dependent)
+      blurred = ApplyDepthDependentPsf(options.psf, lit, range_m_);
+    else if (d.psf.separable && !d.psf.kernel_1d.empty())
+      blur.emplace(d.psf, width, size.height, channels);
+    else
+      blurred = ApplyPsf(d.psf, lit);
+  }
+
+  // ---- pass B: attenuation, veil, snow, sensor noise, camera ----
+  internal::SnowSplats snow;
+  const bool snowing = options.snow.enabled && options.snow.density_per_m3 > 0.0;
+  if (snowing)
+    snow = internal::DrawMarineSnow(options.snow, options.light, scene_.camera, range_m_, d.beta,
+                                    d.ambient, options.seed);
+  const bool sensor = options.sensor.enabled &&
+                      (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0);
   float bs[3] = {0, 0, 0}, t_const[3] = {0, 0, 0};
   for (int c = 0; c < channels; ++c) {
     bs[c] = backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
     t_const[c] = static_cast<float>(std::exp(-d.beta[c] * cache_->min_range));
   }
+  const float levels = options.camera.bit_depth == 8 ? 255.0f : 65535.0f;
+  const bool quantise = options.camera.bit_depth != 32;
   cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
-    std::vector<float> t_row(per_row);
+    std::vector<float> t_row(per_row), jb_row, padded, scratch(per_row);
+    if (blur) jb_row.resize(per_row), padded.resize(per_row + 2 * blur->radius * channels);
     for (int y = rows.start; y < rows.end; ++y) {
-      const float* jb = blurred->ptr<float>(y);
+      const float* jb = lit.ptr<float>(y);
+      if (blur) {
+        BlurRow(*blur, lit, y, width, padded.data(), jb_row.data());
+        jb = jb_row.data();
+      } else if (!blurred.empty()) {
+        jb = blurred.ptr<float>(y);
+      }
       float* out = image.ptr<float>(y);
       if (d.zero_beta) {
         std::copy(jb, jb + per_row, out);
-        continue;
-      }
-      const float* r = range_m_.ptr<float>(y);
-      float* t = t_row.data();
-      if (uniform_range) {
-        for (int x = 0; x < size.width; ++x)
-          for (int c = 0; c < channels; ++c) t[x * channels + c] = r[x] == r[x] ? t_const[c] : 0.0f;
       } else {
-        TransmissionRows(r, size.width, d.beta, t);  // NaN depth: open water, t = 0
+        const float* r = range_m_.ptr<float>(y);
+        float* t = t_row.data();
+        if (d.uniform_range) {
+          for (int x = 0; x < width; ++x)
+            for (int c = 0; c < channels; ++c)
+              t[x * channels + c] = r[x] == r[x] ? t_const[c] : 0.0f;
+        } else {
+          TransmissionRows(r, width, d.beta, t);  // NaN depth: open water, t = 0
+        }
+        if (!t_map.empty()) std::copy(t, t + per_row, t_map.ptr<float>(y));
+        const float* e = e_in_map ? light_map.ptr<float>(y) : nullptr;
+        if (!veil.empty() && veil_term) VeilRow(t, e, bs, width, channels, veil.ptr<float>(y));
+        if (!veil_term)
+          ComposePlain(jb, t, per_row, out);
+        else if (e_in_image && channels == 3)
+          ComposeVeil<3, true>(jb, t, nullptr, bs, width, out);
+        else if (e_in_image)
+          ComposeVeil<1, true>(jb, t, nullptr, bs, width, out);
+        else if (channels == 3)
+          ComposeVeil<3, false>(jb, t, e, bs, width, out);
+        else
+          ComposeVeil<1, false>(jb, t, e, bs, width, out);
       }
-      if (!t_map.empty()) std::copy(t, t + per_row, t_map.ptr<float>(y));
-      const float* e = light ? light->ptr<float>(y) : nullptr;
-      float* v = veil.empty() ? nullptr : veil.ptr<float>(y);
-      if (channels == 3)
-        ComposeRow<3>(jb, t, veil_term ? e : nullptr, veil_term ? bs : nullptr, size.width, out, v);
-      else
-        ComposeRow<1>(jb, t, veil_term ? e : nullptr, veil_term ? bs : nullptr, size.width, out, v);
+      float* noise = noise_map.empty() ? nullptr : noise_map.ptr<float>(y);
+      if (noise) std::copy(out, out + per_row, noise);
+      if (snowing) internal::AddSnowRow(snow, y, width, scratch.data(), out);
+      if (sensor)
+        internal::AddSensorNoiseRow(options.sensor, options.seed, y, per_row, out, scratch.data());
+      if (noise)
+        for (int i = 0; i < per_row; ++i) noise[i] = out[i] - noise[i];
+      QuantiseRow(out, per_row, levels, quantise);
     }
   });
 
-  // Noise: marine snow (sparse, added in place) and sensor noise, then clip and quantise.
-  cv::Mat clean = options.maps.noise ? image.clone() : cv::Mat();
-  MarineSnow snow;
-  if (options.snow.enabled && options.snow.density_per_m3 > 0.0) {
-    snow = RenderMarineSnow(options.snow, options.light, scene_.camera, range_m_, d.beta, d.ambient,
-                            options.seed);
-    image += snow.layer;
-  }
-  const bool sensor = options.sensor.enabled &&
-                      (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0);
-  if (sensor) AddSensorNoiseInPlace(options.sensor, image, options.seed);
-  if (!clean.empty()) result.noise = image - clean;
-  QuantiseInPlace(image, options.camera.bit_depth);
   result.image = image;
-  result.lit = *lit;
+  result.lit = lit;
   result.transmission = t_map;
-  if (options.maps.light)
-    result.light = light ? *light : cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0));
+  if (options.maps.light) result.light = light_map;
   result.veil = veil;
+  result.noise = noise_map;
   if (options.maps.psf)
     result.psf = d.psf.kernel.empty() ? cv::Mat::ones(1, 1, CV_32F) : d.psf.kernel;
 
