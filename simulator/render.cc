@@ -1,7 +1,9 @@
 #include "simulator/render.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <mutex>
 #include <optional>
@@ -9,6 +11,7 @@
 #include <sstream>
 
 #include "scenes/error.h"
+#include "simulator/image_pool.h"
 #include "simulator/kernels.h"
 #include "turbid_version.h"
 
@@ -112,40 +115,30 @@ __attribute__((target_clones("avx2", "default"))) void RangeRow(const float* z, 
   for (int x = 0; x < width; ++x) r[x] = static_cast<float>(z[x] * std::sqrt(dx2[x] + dy2 + 1.0));
 }
 
-// Smallest and largest non-NaN value and the count of non-NaN values of a row, folded into
-// lo / hi / count. Eight independent lanes so that the loop vectorises.
+// Smallest and largest non-NaN value of rows of ranges (all > 0) and how many there are. Positive
+// floats order like their bit patterns, so the reductions run on integers (vectorisable without
+// fast-math); NaN lanes are replaced by the neutral element.
 struct RangeStats {
-  float lo[8], hi[8];
+  uint32_t lo = std::numeric_limits<uint32_t>::max();
+  uint32_t hi = 0;
   int64_t count = 0;
-  RangeStats() {
-    std::fill(lo, lo + 8, std::numeric_limits<float>::infinity());
-    std::fill(hi, hi + 8, -std::numeric_limits<float>::infinity());
-  }
 };
 
 __attribute__((target_clones("avx2", "default"))) void RangeStatsRow(const float* r, int width,
                                                                      RangeStats* stats) {
-  float lo[8], hi[8];
-  int count[8] = {0, 0, 0, 0, 0, 0, 0, 0};
-  std::copy(stats->lo, stats->lo + 8, lo);
-  std::copy(stats->hi, stats->hi + 8, hi);
-  int x = 0;
-  for (; x + 8 <= width; x += 8)
-    for (int j = 0; j < 8; ++j) {
-      const float v = r[x + j];
-      lo[j] = v < lo[j] ? v : lo[j];  // NaN compares false: skipped
-      hi[j] = v > hi[j] ? v : hi[j];
-      count[j] += v == v;
-    }
-  for (; x < width; ++x) {
-    const float v = r[x];
-    lo[0] = v < lo[0] ? v : lo[0];
-    hi[0] = v > hi[0] ? v : hi[0];
-    count[0] += v == v;
-  }
-  std::copy(lo, lo + 8, stats->lo);
-  std::copy(hi, hi + 8, stats->hi);
-  for (int j = 0; j < 8; ++j) stats->count += count[j];
+  // As unsigned integers, valid ranges lie in (0, 0x7f800000] (+inf at most) and every NaN above:
+  // the minimum ignores NaN by itself, the maximum masks it to 0. One reduction per loop.
+  const uint32_t* bits = reinterpret_cast<const uint32_t*>(r);  // NOLINT: float bits
+  constexpr uint32_t kInf = 0x7f800000u;
+  uint32_t lo = stats->lo, hi = stats->hi;
+  int count = 0;
+  for (int x = 0; x < width; ++x) lo = std::min(lo, bits[x]);
+  for (int x = 0; x < width; ++x)
+    hi = std::max(hi, bits[x] & (0u - static_cast<uint32_t>(bits[x] <= kInf)));
+  for (int x = 0; x < width; ++x) count += bits[x] <= kInf;
+  stats->lo = lo;
+  stats->hi = hi;
+  stats->count += count;
 }
 
 // J = (E_A + E_L) rho for one row; e == nullptr: no artificial light.
@@ -618,7 +611,7 @@ Renderer::Renderer(const Scene& scene) : scene_(scene), cache_(std::make_unique<
   // The range map as RangeFromDepth computes it, and its statistics, in one vectorised pass.
   const CameraIntrinsics& camera = scene_.camera;
   const cv::Mat& depth = scene_.depth_m;
-  range_m_.create(depth.size(), CV_32FC1);
+  range_m_ = internal::PooledMat(depth.size(), CV_32FC1);
   std::vector<double> dx2(depth.cols);
   for (int x = 0; x < depth.cols; ++x) {
     const double dx = (x - camera.cx) / camera.fx;
@@ -630,8 +623,7 @@ Renderer::Renderer(const Scene& scene) : scene_(scene), cache_(std::make_unique<
     RangeRow(depth.ptr<float>(y), dx2.data(), dy * dy, depth.cols, range_m_.ptr<float>(y));
     RangeStatsRow(range_m_.ptr<float>(y), depth.cols, &stats);
   }
-  const float lo = *std::min_element(stats.lo, stats.lo + 8);
-  const float hi = *std::max_element(stats.hi, stats.hi + 8);
+  const float lo = std::bit_cast<float>(stats.lo), hi = std::bit_cast<float>(stats.hi);
   cache_->min_range = stats.count ? lo : std::numeric_limits<double>::infinity();
   cache_->max_range = stats.count ? hi : 0.0;
   cache_->valid_pixels = static_cast<int>(stats.count);
@@ -664,7 +656,7 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   const bool backscatter = options.water.backscatter && !d.zero_beta;
   const bool veil_term = !d.zero_beta && (d.any_light || backscatter);
   const bool keep_light = d.any_light && veil_term;  // E_L needed again in pass B
-  cv::Mat image(size, type), lit(size, type);
+  cv::Mat image = internal::PooledMat(size, type), lit = internal::PooledMat(size, type);
   cv::Mat light_map, t_map, veil, noise_map;
   if (options.maps.light || (keep_light && options.maps.veil))
     light_map = d.any_light ? cv::Mat(size, type) : cv::Mat(size, type, cv::Scalar::all(0));
