@@ -1,8 +1,9 @@
 // CLAHE, deconvolution and plane fit, each against an independent reference.
 #include <gtest/gtest.h>
-#include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "enhancer/clahe.h"
 #include "enhancer/deconvolution.h"
@@ -94,6 +95,46 @@ TEST(Clahe, ConstantImageAndPaddingAndInterpolation) {
   const cv::Mat maps = ClaheTileMappings(o, ramp);
   EXPECT_EQ(maps.rows, 64);
   EXPECT_EQ(maps.cols, 256);
+}
+
+TEST(Clahe, OutputIsBilinearBlendOfTileMappings) {
+  // Independent reference of the interpolation (adapthisteq makeClaheImage): with tiles of even
+  // size and no padding (96 x 64, 8 x 8 tiles of 12 x 8), pixel i lies between tile centres
+  // floor(t) and floor(t) + 1 with t = (i - tile/2) / tile, clamped to the outer tiles; the
+  // output blends the four tile mappings of its bin bilinearly.
+  cv::Mat img(64, 96, CV_32F);
+  cv::RNG(3).fill(img, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::GaussianBlur(img, img, cv::Size(0, 0), 2.0);
+  img = img * 2.0 - 0.5;  // values outside [0, 1] too: clamped for binning
+  for (ClaheDistribution d : {ClaheDistribution::kUniform, ClaheDistribution::kRayleigh}) {
+    ClaheOptions o;
+    o.distribution = d;
+    const cv::Mat maps = ClaheTileMappings(o, img);
+    const cv::Mat out = Clahe(o, img);
+    auto neighbours = [](int i, int tile, int tiles, int* lo, int* hi, double* w) {
+      const double t = (i - tile / 2.0) / tile;
+      const int f = static_cast<int>(std::floor(t));
+      *lo = std::clamp(f, 0, tiles - 1);
+      *hi = std::clamp(f + 1, 0, tiles - 1);
+      *w = (f < 0 || f >= tiles - 1) ? 0.0 : t - f;
+    };
+    double worst = 0.0;
+    for (int y = 0; y < img.rows; ++y) {
+      for (int x = 0; x < img.cols; ++x) {
+        const double v = std::clamp(static_cast<double>(img.at<float>(y, x)), 0.0, 1.0);
+        const int bin = static_cast<int>(std::lround(v * 255.0));
+        int y0, y1, x0, x1;
+        double wy, wx;
+        neighbours(y, 8, 8, &y0, &y1, &wy);
+        neighbours(x, 12, 8, &x0, &x1, &wx);
+        auto m = [&](int ty, int tx) { return maps.at<float>(ty * 8 + tx, bin); };
+        const double ref = (1 - wy) * ((1 - wx) * m(y0, x0) + wx * m(y0, x1)) +
+                           wy * ((1 - wx) * m(y1, x0) + wx * m(y1, x1));
+        worst = std::max(worst, std::fabs(out.at<float>(y, x) - ref));
+      }
+    }
+    EXPECT_LE(worst, 1e-6);
+  }
 }
 
 TEST(Clahe, GrayAndColourTinyAndExtremeImagesFinite) {

@@ -1,11 +1,11 @@
 #include "enhancer/guided_filter.h"
 
-#include <cstdio>
-#include <string>
-
 #include <gtest/gtest.h>
+
+#include <cstdio>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc.hpp>
+#include <string>
 
 #include "scenes/error.h"
 
@@ -102,6 +102,50 @@ INSTANTIATE_TEST_SUITE_P(Radii, GuidedVsOpenCv,
                            }
                            return name;
                          });
+
+TEST(GuidedFilter, LongColumnsDoNotDrift) {
+  // 1024 rows: the vertical running sums add and subtract a thousand rows; they must not drift
+  // away from OpenCV's (whose box filter sums in double). Same 1e-4 bound as above, the measured
+  // difference is ~1e-5 (float rounding of the variance in both implementations).
+  const cv::Mat guide = RandomImage(1024, 40, 1, 11);
+  const cv::Mat src = RandomImage(1024, 40, 1, 12);
+  for (const Case c : {Case{2, 0.01}, Case{8, 0.16}}) {
+    GuidedFilterOptions o;
+    o.radius = c.radius;
+    o.eps = c.eps;
+    cv::Mat self_ref, ref;
+    cv::ximgproc::guidedFilter(guide, guide, self_ref, c.radius, c.eps, CV_32F);
+    cv::ximgproc::guidedFilter(guide, src, ref, c.radius, c.eps, CV_32F);
+    EXPECT_LE(InteriorMaxDiff(GuidedFilter(o, guide, guide), self_ref, 2 * c.radius), 1e-4);
+    EXPECT_LE(InteriorMaxDiff(GuidedFilter(o, guide, src), ref, 2 * c.radius), 1e-4);
+  }
+}
+
+TEST(GuidedFilter, NonContiguousInputsAndTinyImages) {
+  // A view into a larger image (row stride != width) gives the same result as its copy; images
+  // narrower or shorter than the window use the clipped window everywhere.
+  const cv::Mat big = RandomImage(60, 80, 1, 13);
+  const cv::Mat view = big(cv::Rect(7, 5, 50, 40));
+  GuidedFilterOptions o;
+  o.radius = 3;
+  const cv::Mat a = GuidedFilter(o, view, view), b = GuidedFilter(o, view.clone(), view.clone());
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  for (cv::Size s : {cv::Size(1, 9), cv::Size(9, 1), cv::Size(2, 3)}) {
+    const cv::Mat img = RandomImage(s.height, s.width, 1, 14);
+    o.radius = 8;
+    const cv::Mat q = GuidedFilter(o, img, img);
+    EXPECT_TRUE(cv::checkRange(q, true, nullptr, -0.5, 1.5));
+    // Reference: every window covers the whole image (radius >= size), so a, b are the same
+    // for all pixels: q = a I + b with the image's own mean and variance.
+    cv::Scalar mean, sd;
+    cv::meanStdDev(img, mean, sd);
+    const double var = sd[0] * sd[0];
+    const double av = var / (var + o.eps);
+    for (int y = 0; y < img.rows; ++y)
+      for (int x = 0; x < img.cols; ++x)
+        EXPECT_NEAR(q.at<float>(y, x), av * img.at<float>(y, x) + (1 - av) * mean[0], 1e-5);
+  }
+}
 
 TEST(GuidedFilter, BoxMeanMatchesOpenCvInteriorAndClippedAtBorder) {
   const cv::Mat src = RandomImage(50, 70, 2, 5);
