@@ -1,6 +1,7 @@
 #include "scenes/scene.h"
 
 #include <cmath>
+#include <cstdint>
 
 #include "scenes/error.h"
 
@@ -28,22 +29,34 @@ void Scene::Validate() const {
     throw Error(context, "image size " + std::to_string(image.cols) + "x" +
                              std::to_string(image.rows) + " differs from the camera's " +
                              std::to_string(camera.width) + "x" + std::to_string(camera.height));
-  if (depth_m.empty() || depth_m.type() != CV_32FC1) throw Error(context, "depth must be float32, 1 channel");
+  if (depth_m.empty() || depth_m.type() != CV_32FC1)
+    throw Error(context, "depth must be float32, 1 channel");
   if (depth_m.size() != image.size())
     throw Error(context, "depth size " + std::to_string(depth_m.cols) + "x" +
                              std::to_string(depth_m.rows) + " differs from image size " +
                              std::to_string(image.cols) + "x" + std::to_string(image.rows));
   if (!normals.empty() && (normals.type() != CV_32FC3 || normals.size() != image.size()))
     throw Error(context, "normals must be float32, 3 channels, image-sized");
-  int valid = 0;
+  // Fast check on the float bits (integer compares vectorise; this runs on every render): NaN is
+  // (bits & 0x7fffffff) > 0x7f800000; positive, finite and non-zero is bits in [1, 0x7f7fffff].
+  // The loop below only runs to name the first bad pixel.
+  int64_t valid = 0, bad = 0;
   for (int y = 0; y < depth_m.rows; ++y) {
+    const uint32_t* bits = depth_m.ptr<uint32_t>(y);
+    for (int x = 0; x < depth_m.cols; ++x) {
+      const uint32_t nan = (bits[x] & 0x7fffffffu) > 0x7f800000u;
+      const uint32_t good = bits[x] - 1u < 0x7f7fffffu;
+      valid += good;
+      bad += (nan | good) ^ 1u;
+    }
+  }
+  for (int y = 0; y < depth_m.rows && bad > 0; ++y) {
     const float* row = depth_m.ptr<float>(y);
     for (int x = 0; x < depth_m.cols; ++x) {
       if (std::isnan(row[x])) continue;
       if (!std::isfinite(row[x]) || row[x] <= 0.0f)
         throw Error(context, "depth must be positive and finite or NaN (invalid) at pixel (" +
                                  std::to_string(x) + ", " + std::to_string(y) + ")");
-      ++valid;
     }
   }
   if (valid == 0) throw Error(context, "depth has no valid pixel");

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
 #include <thread>
 
@@ -298,6 +299,95 @@ TEST(RenderStress, OutOfRangeOptionsAreRejected) {
   Scene bad = scene;
   bad.depth_m.at<float>(0, 0) = -1.0f;
   EXPECT_THROW(Render(RenderOptions{}, bad), Error);
+}
+
+TEST(Render, BadDepthIsRejectedWithItsPixel) {
+  const Scene scene = testing::MakePlaneScene(12, 8, 1.0);
+  for (float value : {-1.0f, 0.0f, -0.0f, std::numeric_limits<float>::infinity(),
+                      -std::numeric_limits<float>::infinity()}) {
+    Scene bad = scene;
+    bad.depth_m = scene.depth_m.clone();
+    bad.depth_m.at<float>(3, 5) = value;
+    try {
+      Render(Bare(), bad);
+      ADD_FAILURE() << "accepted depth " << value;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("(5, 3)"), std::string::npos) << e.what();
+    }
+  }
+  // NaN of either sign is invalid depth (open water), not an error; all NaN is an error.
+  Scene holes = scene;
+  holes.depth_m = scene.depth_m.clone();
+  holes.depth_m.at<float>(1, 1) = -std::numeric_limits<float>::quiet_NaN();
+  holes.depth_m.at<float>(2, 2) = std::numeric_limits<float>::quiet_NaN();
+  const RenderResult r = Render(Bare(), holes);
+  EXPECT_NEAR(r.sidecar["derived"]["valid_depth_fraction"].get<double>(), 94.0 / 96.0, 1e-12);
+  holes.depth_m.setTo(std::numeric_limits<float>::quiet_NaN());
+  EXPECT_THROW(Render(Bare(), holes), Error);
+}
+
+TEST(Render, RangeStatisticsMatchTheRangeMap) {
+  Scene scene = MakeBuiltinScene("hull", {0.1});
+  scene.depth_m = scene.depth_m.clone();
+  for (int x = 0; x < 20; ++x) scene.depth_m.at<float>(4, x) = std::nanf("");
+  const Renderer renderer(scene);
+  const cv::Mat range = RangeFromDepth(scene.camera, scene.depth_m);
+  // The renderer's range map is RangeFromDepth, value for value (NaN where depth is NaN).
+  double lo = std::numeric_limits<double>::infinity(), hi = 0.0;
+  int valid = 0;
+  for (int y = 0; y < range.rows; ++y)
+    for (int x = 0; x < range.cols; ++x) {
+      const float expected = range.at<float>(y, x), got = renderer.range_m().at<float>(y, x);
+      if (std::isnan(expected)) {
+        ASSERT_TRUE(std::isnan(got)) << x << ", " << y;
+        continue;
+      }
+      ASSERT_EQ(got, expected) << x << ", " << y;
+      lo = std::min<double>(lo, expected), hi = std::max<double>(hi, expected), ++valid;
+    }
+  EXPECT_EQ(valid, range.rows * range.cols - 20);
+  const RenderResult r = renderer.Render(Bare());
+  EXPECT_EQ(r.sidecar["derived"]["range_m"]["min"].get<double>(), lo);
+  EXPECT_EQ(r.sidecar["derived"]["range_m"]["max"].get<double>(), hi);
+  EXPECT_NEAR(r.sidecar["derived"]["valid_depth_fraction"].get<double>(),
+              static_cast<double>(valid) / range.total(), 1e-12);
+}
+
+// The renderer blurs J row by row with its own separable kernel; it must equal ApplyPsf (OpenCV's
+// sepFilter2D, mirrored borders) to float rounding, also when the kernel is wider than the image.
+TEST(Render, RowBlurEqualsApplyPsf) {
+  for (int channels : {1, 3})
+    for (double pixels_per_unit : {1.0, 3.0, 12.0}) {
+      const Scene scene = testing::MakePlaneScene(23, 9, 2.0, channels);
+      RenderOptions o = Bare();
+      o.psf.enabled = true;
+      o.psf.pixels_per_unit = pixels_per_unit;
+      const RenderResult r = Render(o, scene);
+      const Psf psf = PsfKernel(o.psf);
+      ASSERT_TRUE(psf.separable);
+      ASSERT_FALSE(psf.is_delta);
+      const cv::Mat reference = ApplyPsf(psf, r.lit);
+      EXPECT_LT(cv::norm(r.image, reference, cv::NORM_INF), 1e-6)
+          << channels << " channels, radius " << psf.radius_px;
+    }
+}
+
+// Output buffers are recycled between renders only after every Mat sharing them is gone.
+TEST(Render, RecycledBuffersAreNotSharedWhileInUse) {
+  const Scene scene = MakeBuiltinScene("seafloor", {0.1});
+  RenderOptions o;
+  o.seed = 3;
+  cv::Mat kept = Render(o, scene).image;
+  const cv::Mat copy = kept.clone();
+  for (uint64_t seed : {4u, 5u, 6u}) {
+    o.seed = seed;
+    const RenderResult other = Render(o, scene);
+    EXPECT_NE(other.image.data, kept.data);
+  }
+  EXPECT_EQ(cv::norm(kept, copy, cv::NORM_INF), 0.0);
+  o.seed = 3;
+  kept.release();
+  EXPECT_EQ(cv::norm(Render(o, scene).image, copy, cv::NORM_INF), 0.0);
 }
 
 }  // namespace
