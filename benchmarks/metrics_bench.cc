@@ -59,40 +59,11 @@ void SetThreads(const benchmark::State& state) {
   cv::setNumThreads(static_cast<int>(state.range(3)));
 }
 
-void BM_SsimOurs(benchmark::State& state) {
-  const auto [ref, img] = MakePair(state.range(0), state.range(1), state.range(2));
+// The timing loops shared by the 8-bit and float cases: our SSIM with `options`, and
+// QualitySSIM's channel mean.
+void TimeOurs(benchmark::State& state, const turbid::SsimOptions& options, const cv::Mat& ref,
+              const cv::Mat& img) {
   SetThreads(state);
-  double value = 0;
-  for (auto _ : state) {
-    value = turbid::Ssim({}, ref, img).mean;
-    benchmark::DoNotOptimize(value);
-  }
-  state.counters["value"] = value;
-  state.SetItemsProcessed(state.iterations() * ref.total());
-}
-
-void BM_SsimOpenCvQuality(benchmark::State& state) {
-  const auto [ref, img] = MakePair(state.range(0), state.range(1), state.range(2));
-  SetThreads(state);
-  double value = 0;
-  for (auto _ : state) {
-    const cv::Scalar s = cv::quality::QualitySSIM::compute(ref, img, cv::noArray());
-    value = 0;
-    for (int c = 0; c < ref.channels(); ++c) value += s[c] / ref.channels();
-    benchmark::DoNotOptimize(value);
-  }
-  state.counters["value"] = value;
-  state.SetItemsProcessed(state.iterations() * ref.total());
-}
-
-// Float / 16-bit inputs (args: w, h, ch, threads, kind). exact_double = 1 times the plain
-// double-precision path for comparison.
-void BM_SsimOursFloat(benchmark::State& state) {
-  const auto [unit_ref, unit_img] = MakeFloatPair(state.range(0), state.range(1), state.range(2));
-  const cv::Mat ref = AsKind(unit_ref, state.range(4)), img = AsKind(unit_img, state.range(4));
-  SetThreads(state);
-  turbid::SsimOptions options;
-  options.exact_double = state.range(5) != 0;
   double value = 0;
   for (auto _ : state) {
     value = turbid::Ssim(options, ref, img).mean;
@@ -102,14 +73,7 @@ void BM_SsimOursFloat(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * ref.total());
 }
 
-// QualitySSIM assumes the 0..255 range (its C1, C2): the same values scaled to 0..255, float32.
-void BM_SsimOpenCvQualityFloat(benchmark::State& state) {
-  const auto [unit_ref, unit_img] = MakeFloatPair(state.range(0), state.range(1), state.range(2));
-  cv::Mat ref, img;
-  AsKind(unit_ref, state.range(4))
-      .convertTo(ref, CV_32F, state.range(4) == 1 ? 255.0 / 65535 : 255.0);
-  AsKind(unit_img, state.range(4))
-      .convertTo(img, CV_32F, state.range(4) == 1 ? 255.0 / 65535 : 255.0);
+void TimeQualitySsim(benchmark::State& state, const cv::Mat& ref, const cv::Mat& img) {
   SetThreads(state);
   double value = 0;
   for (auto _ : state) {
@@ -120,6 +84,35 @@ void BM_SsimOpenCvQualityFloat(benchmark::State& state) {
   }
   state.counters["value"] = value;
   state.SetItemsProcessed(state.iterations() * ref.total());
+}
+
+void BM_SsimOurs(benchmark::State& state) {
+  const auto [ref, img] = MakePair(state.range(0), state.range(1), state.range(2));
+  TimeOurs(state, {}, ref, img);
+}
+
+void BM_SsimOpenCvQuality(benchmark::State& state) {
+  const auto [ref, img] = MakePair(state.range(0), state.range(1), state.range(2));
+  TimeQualitySsim(state, ref, img);
+}
+
+// Float / 16-bit inputs (args: w, h, ch, threads, kind). exact_double = 1 times the plain
+// double-precision path for comparison.
+void BM_SsimOursFloat(benchmark::State& state) {
+  const auto [unit_ref, unit_img] = MakeFloatPair(state.range(0), state.range(1), state.range(2));
+  turbid::SsimOptions options;
+  options.exact_double = state.range(5) != 0;
+  TimeOurs(state, options, AsKind(unit_ref, state.range(4)), AsKind(unit_img, state.range(4)));
+}
+
+// QualitySSIM assumes the 0..255 range (its C1, C2): the same values scaled to 0..255, float32.
+void BM_SsimOpenCvQualityFloat(benchmark::State& state) {
+  const auto [unit_ref, unit_img] = MakeFloatPair(state.range(0), state.range(1), state.range(2));
+  const double to_255 = state.range(4) == 1 ? 255.0 / 65535 : 255.0;
+  cv::Mat ref, img;
+  AsKind(unit_ref, state.range(4)).convertTo(ref, CV_32F, to_255);
+  AsKind(unit_img, state.range(4)).convertTo(img, CV_32F, to_255);
+  TimeQualitySsim(state, ref, img);
 }
 
 void FloatCases(benchmark::internal::Benchmark* b, bool with_exact) {
