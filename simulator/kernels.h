@@ -41,14 +41,15 @@ LightRowContext LightContextFor(const IrradianceOptions& options, const CameraIn
 
 // Distance l (clamped; NaN where z is NaN) and geometric factor U0 cos^m(phi) f(psi) / l^2 (finite,
 // 0 where z is NaN) of one light for one row. normals: the row's unit normals (NaN: facing the
-// camera along the ray). cos_scratch: 2 * width floats.
+// camera along the ray). cos_scratch: 5 * width floats.
 void LightGeometryRow(const LightRowContext& context, const LightRowConstants& light, float ray_y,
                       const float* z, const cv::Vec3f* normals, int width, float* l_out,
                       float* g_out, float* cos_scratch);
 
-// e[x, c] += colour[c] g[x] exp(-beta[c] l[x]); neg_beta = -beta in image channel order.
+// e[x, c] += colour[c] g[x] exp(-beta[c] l[x]); neg_beta = -beta in image channel order. first:
+// e is written, not added to (its content is ignored).
 void AccumulateLightRow(const float* l, const float* g, int width, int channels,
-                        const float* neg_beta, const float* color, float* e);
+                        const float* neg_beta, const float* color, bool first, float* e);
 
 // ---- marine snow (noise.cc) ---------------------------------------------------------------------
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 
 #include "scenes/error.h"
@@ -183,15 +184,11 @@ __attribute__((target_clones("avx2", "default"))) void GeometryRowKernel(
     const float inv = apart ? inv_true : 0.0f;
     const float cphi_raw = (ax * vx + ay * vy + az * vz) * inv;
     float cphi = apart ? cphi_raw : 1.0f;
-    float nx = normals[3 * x], ny = normals[3 * x + 1], nz = normals[3 * x + 2];
-    // A NaN normal faces the camera along the viewing ray (| not ||: no branches).
-    const bool unknown = (nx != nx) | (ny != ny) | (nz != nz);
-    const float rl = 1.0f / std::sqrt(rx * rx + ry * ry + 1.0f);
-    nx = unknown ? -rx * rl : nx;
-    ny = unknown ? -ry * rl : ny;
-    nz = unknown ? -rl : nz;
-    const float cpsi_raw = -(nx * vx + ny * vy + nz * vz) * inv;
-    const float cpsi = apart ? cpsi_raw : 1.0f;
+    const float nx = normals[3 * x], ny = normals[3 * x + 1], nz = normals[3 * x + 2];
+    // inv = 0 when coincident: cos psi = 1 by adding 1 rather than by a select (a select lets GCC
+    // sink the normal loads into a branch, which stops vectorisation). x + 0 = x except that -0
+    // becomes +0, which changes no output (E_L sums start from +0).
+    const float cpsi = -(nx * vx + ny * vy + nz * vz) * inv + (apart ? 0.0f : 1.0f);
     float incidence;
     if constexpr (kEq5) {
       const float inverse_cos = 1.0f / std::max(cpsi, min_cos);
@@ -206,6 +203,14 @@ __attribute__((target_clones("avx2", "default"))) void GeometryRowKernel(
     l_out[x] = valid ? l : nan;
     g_out[x] = valid ? g : 0.0f;
   }
+}
+
+// Whether any of n floats is NaN, on the bits (integer compares vectorise without fast-math).
+__attribute__((target_clones("avx2", "default"))) bool AnyNaN(const float* v, int n) {
+  const uint32_t* bits = reinterpret_cast<const uint32_t*>(v);  // NOLINT: float bits
+  uint32_t any = 0;
+  for (int i = 0; i < n; ++i) any |= static_cast<uint32_t>((bits[i] & 0x7fffffffu) > 0x7f800000u);
+  return any != 0;
 }
 
 // g *= c^k by repeated multiplication (left to right: p = 1 c c ... c), then non-finite -> 0.
@@ -228,6 +233,21 @@ void LightGeometryRow(const LightRowContext& context, const LightRowConstants& l
                       const float* z, const cv::Vec3f* normals, int width, float* l_out,
                       float* g_out, float* cos_scratch) {
   const float* n = reinterpret_cast<const float*>(normals);
+  // A NaN normal faces the camera along the viewing ray: rows that have one get a copy of their
+  // normals with those replaced (the kernel then has no selects on normals).
+  if (AnyNaN(n, 3 * width)) {
+    float* clean = cos_scratch + 2 * width;
+    for (int x = 0; x < width; ++x) {
+      float nx = n[3 * x], ny = n[3 * x + 1], nz = n[3 * x + 2];
+      if (std::isnan(nx) || std::isnan(ny) || std::isnan(nz)) {
+        const float rx = context.ray_x[x];
+        const float rl = 1.0f / std::sqrt(rx * rx + ray_y * ray_y + 1.0f);
+        nx = -rx * rl, ny = -ray_y * rl, nz = -rl;
+      }
+      clean[3 * x] = nx, clean[3 * x + 1] = ny, clean[3 * x + 2] = nz;
+    }
+    n = clean;
+  }
   if (context.eq5)
     GeometryRowKernel<true>(context.ray_x.data(), ray_y, z, n, width, light.position, light.axis,
                             light.power, context.min_cos, context.min_distance, l_out, g_out,
@@ -271,7 +291,7 @@ LightGeometry ComputeLightGeometry(const IrradianceOptions& options, const Camer
       internal::LightContextFor(options, camera, depth_m.cols);
   const std::vector<internal::LightRowConstants> lights = internal::LightConstantsFor(options, 1);
   LightGeometry geometry;
-  std::vector<float> cos_phi(2 * w);
+  std::vector<float> cos_phi(5 * w);
   for (const internal::LightRowConstants& light : lights) {
     cv::Mat distance(depth_m.size(), CV_32FC1), factor(depth_m.size(), CV_32FC1);
     for (int y = 0; y < h; ++y)
@@ -287,25 +307,33 @@ LightGeometry ComputeLightGeometry(const IrradianceOptions& options, const Camer
 namespace {
 
 // out[x, c] += colour[c] g[x] exp(-beta[c] l[x]) for one row; NaN l (invalid depth) has g = 0.
-template <int kChannels>
+// kStore: out = ... instead (the first light; 0 + v = v, up to the sign of a zero).
+template <int kChannels, bool kStore>
 __attribute__((target_clones("avx2", "default"))) void AccumulateLightKernel(
     const float* __restrict l, const float* __restrict g, int width, const float* neg_beta,
     const float* color, float* __restrict out) {
   for (int x = 0; x < width; ++x) {
     const float range = std::max(0.0f, l[x]);  // NaN -> 0 without a branch
-    for (int c = 0; c < kChannels; ++c)
-      out[x * kChannels + c] += color[c] * g[x] * internal::ExpNonPositive(neg_beta[c] * range);
+    for (int c = 0; c < kChannels; ++c) {
+      const float value = color[c] * g[x] * internal::ExpNonPositive(neg_beta[c] * range);
+      if constexpr (kStore)
+        out[x * kChannels + c] = value;
+      else
+        out[x * kChannels + c] += value;
+    }
   }
 }
 
 }  // namespace
 
 void internal::AccumulateLightRow(const float* l, const float* g, int width, int channels,
-                                  const float* neg_beta, const float* color, float* e) {
+                                  const float* neg_beta, const float* color, bool first, float* e) {
   if (channels == 3)
-    AccumulateLightKernel<3>(l, g, width, neg_beta, color, e);
+    (first ? AccumulateLightKernel<3, true> : AccumulateLightKernel<3, false>)(l, g, width,
+                                                                               neg_beta, color, e);
   else
-    AccumulateLightKernel<1>(l, g, width, neg_beta, color, e);
+    (first ? AccumulateLightKernel<1, true> : AccumulateLightKernel<1, false>)(l, g, width,
+                                                                               neg_beta, color, e);
 }
 
 cv::Mat IrradianceFromGeometry(const IrradianceOptions& options, const LightGeometry& geometry,
@@ -328,7 +356,7 @@ cv::Mat IrradianceFromGeometry(const IrradianceOptions& options, const LightGeom
         const float* l = geometry.distance_m[k].ptr<float>(y);
         const float* g = geometry.geometry[k].ptr<float>(y);
         float* out = irradiance.ptr<float>(y);
-        internal::AccumulateLightRow(l, g, size.width, channels, neg_beta, color, out);
+        internal::AccumulateLightRow(l, g, size.width, channels, neg_beta, color, false, out);
       }
     });
   }

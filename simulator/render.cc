@@ -692,7 +692,7 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
     std::vector<float> l_row, g_row, cos_row, e_scratch;
     if (d.any_light) {
-      l_row.resize(width), g_row.resize(width), cos_row.resize(2 * width);
+      l_row.resize(width), g_row.resize(width), cos_row.resize(5 * width);
       e_scratch.resize(per_row);
     }
     for (int y = rows.start; y < rows.end; ++y) {
@@ -700,14 +700,13 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
       if (d.any_light) {
         e = e_in_map ? light_map.ptr<float>(y)
                      : (e_in_image ? image.ptr<float>(y) : e_scratch.data());
-        std::fill(e, e + per_row, 0.0f);
         const float ray_y = light_context.RayY(scene_.camera, y);
-        for (const internal::LightRowConstants& light : lights) {
-          internal::LightGeometryRow(light_context, light, ray_y, scene_.depth_m.ptr<float>(y),
+        for (size_t k = 0; k < lights.size(); ++k) {
+          internal::LightGeometryRow(light_context, lights[k], ray_y, scene_.depth_m.ptr<float>(y),
                                      normals.ptr<cv::Vec3f>(y), width, l_row.data(), g_row.data(),
                                      cos_row.data());
           internal::AccumulateLightRow(l_row.data(), g_row.data(), width, channels, neg_beta,
-                                       light.color, e);
+                                       lights[k].color, k == 0, e);
         }
       }
       if (channels == 3)
