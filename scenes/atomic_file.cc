@@ -1,7 +1,12 @@
 #include "scenes/atomic_file.h"
 
+#include <signal.h>
+#include <unistd.h>
+
 #include <array>
+#include <atomic>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -25,7 +30,63 @@ std::string TemporaryNameFor(const fs::path& path) {
   return (path.parent_path() / ("." + name.str())).string();
 }
 
+// The temporary files being written now, readable from a signal handler: fixed slots (no
+// allocation), each claimed with an atomic flag. More concurrent writes than slots simply go
+// unregistered (their temporaries would stay on a signal, as without the handler).
+constexpr int kSlots = 64;
+constexpr size_t kPathBytes = 4096;
+struct TempSlot {
+  std::atomic<bool> claimed{false};
+  std::atomic<bool> ready{false};  // path complete: the handler may read it
+  char path[kPathBytes];
+};
+std::array<TempSlot, kSlots> temp_slots;
+
+class RegisteredTemp {
+ public:
+  explicit RegisteredTemp(const std::string& path) {
+    if (path.size() >= kPathBytes) return;
+    for (int i = 0; i < kSlots; ++i) {
+      bool expected = false;
+      if (!temp_slots[i].claimed.compare_exchange_strong(expected, true)) continue;
+      std::memcpy(temp_slots[i].path, path.c_str(), path.size() + 1);
+      temp_slots[i].ready.store(true);
+      slot_ = i;
+      return;
+    }
+  }
+  ~RegisteredTemp() {
+    if (slot_ < 0) return;
+    temp_slots[slot_].ready.store(false);
+    temp_slots[slot_].claimed.store(false);
+  }
+  RegisteredTemp(const RegisteredTemp&) = delete;
+  RegisteredTemp& operator=(const RegisteredTemp&) = delete;
+
+ private:
+  int slot_ = -1;
+};
+
+extern "C" void RemoveTemporariesAndDie(int signal_number) {
+  // Only async-signal-safe calls: unlink, sigaction, raise.
+  for (TempSlot& slot : temp_slots) {
+    if (slot.ready.load()) ::unlink(slot.path);
+  }
+  struct sigaction restore {};
+  restore.sa_handler = SIG_DFL;
+  sigemptyset(&restore.sa_mask);
+  ::sigaction(signal_number, &restore, nullptr);
+  ::raise(signal_number);
+}
+
 }  // namespace
+
+void RemoveTemporaryFilesOnSignal() {
+  struct sigaction action {};
+  action.sa_handler = RemoveTemporariesAndDie;
+  sigemptyset(&action.sa_mask);
+  for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal_number, &action, nullptr);
+}
 
 void AtomicWrite(const std::string& path, bool overwrite,
                  const std::function<void(const std::string& temp_path)>& write) {
@@ -39,6 +100,7 @@ void AtomicWrite(const std::string& path, bool overwrite,
     throw Error(path, "folder " + parent.string() + " does not exist");
   }
   const std::string temp = TemporaryNameFor(target);
+  const RegisteredTemp registered(temp);
   try {
     write(temp);
   } catch (...) {

@@ -1,3 +1,8 @@
+#include "scenes/atomic_file.h"
 #include "tools/cli.h"
 
-int main(int argc, char** argv) { return turbid::RunCli(argc, argv); }
+int main(int argc, char** argv) {
+  // Ctrl-C or a scheduler's SIGTERM during a write leaves no hidden temporary files behind.
+  turbid::RemoveTemporaryFilesOnSignal();
+  return turbid::RunCli(argc, argv);
+}

@@ -2,18 +2,23 @@
 // files, atomic and non-overwriting writes.
 #include "scenes/image_io.h"
 
-#include <gtest/gtest.h>
 #include <OpenImageIO/imageio.h>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "tests/support/test_support.h"
 
@@ -100,7 +105,8 @@ TEST(ImageIo, Png8And16RoundTrip) {
     for (int channels : {1, 3}) {
       SCOPED_TRACE(std::to_string(bits) + " bit, " + std::to_string(channels) + " channels");
       const cv::Mat image = Ramp(6, 9, channels);
-      const std::string path = dir.File("ramp" + std::to_string(bits) + "_" + std::to_string(channels) + ".png");
+      const std::string path =
+          dir.File("ramp" + std::to_string(bits) + "_" + std::to_string(channels) + ".png");
       WriteImageOptions options;
       options.bit_depth = bits;
       WriteImage(path, image, options);
@@ -130,7 +136,8 @@ TEST(ImageIo, SrgbEncodedPngDecodesToLinear) {
   WriteImageOptions write;
   write.transfer = Transfer::kSrgb;
   WriteImage(dir.File("again.png"), linear, write);
-  EXPECT_EQ(cv::norm(cv::imread(dir.File("again.png"), cv::IMREAD_UNCHANGED), srgb8, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(cv::imread(dir.File("again.png"), cv::IMREAD_UNCHANGED), srgb8, cv::NORM_INF),
+            0.0);
 }
 
 TEST(ImageIo, RawPng16KeepsIntegerDepthCodes) {
@@ -202,7 +209,8 @@ TEST(ImageIo, PfmReaderHandlesEndiannessRowOrderAndInf) {
   const std::vector<float> file_order = {4, 5, inf, 1, 2, 3};
   for (bool big : {false, true}) {
     const std::string path = dir.File(big ? "big.pfm" : "little.pfm");
-    WriteBytes(path, std::string("Pf\n3 2\n") + (big ? "1.0" : "-1.0") + "\n" + FloatBytes(file_order, big));
+    WriteBytes(path, std::string("Pf\n3 2\n") + (big ? "1.0" : "-1.0") + "\n" +
+                         FloatBytes(file_order, big));
     const cv::Mat m = ReadImage(path);
     ASSERT_EQ(m.type(), CV_32FC1);
     ASSERT_EQ(m.size(), cv::Size(3, 2));
@@ -223,7 +231,8 @@ TEST(ImageIo, PfmReaderHandlesEndiannessRowOrderAndInf) {
 
 TEST(ImageIo, PgmReaderScalesOrKeepsRawValues) {
   TempDir dir;
-  WriteBytes(dir.File("a.pgm"), std::string("P5\n# comment\n3 1\n255\n") + std::string("\x00\x32\xff", 3));
+  WriteBytes(dir.File("a.pgm"),
+             std::string("P5\n# comment\n3 1\n255\n") + std::string("\x00\x32\xff", 3));
   cv::Mat scaled = ReadImage(dir.File("a.pgm"));
   EXPECT_NEAR(scaled.at<float>(0, 1), 50.0 / 255.0, 1e-7);
   ReadImageOptions raw;
@@ -258,7 +267,8 @@ TEST(ImageIo, TiffAndJpegReadThroughTheirDecoders) {
     ASSERT_TRUE(out);
     cv::Mat rgb;
     cv::cvtColor(ramp, rgb, cv::COLOR_BGR2RGB);
-    ASSERT_TRUE(out->open(dir.File("af.tif"), OIIO::ImageSpec(rgb.cols, rgb.rows, 3, OIIO::TypeDesc::FLOAT)));
+    ASSERT_TRUE(out->open(dir.File("af.tif"),
+                          OIIO::ImageSpec(rgb.cols, rgb.rows, 3, OIIO::TypeDesc::FLOAT)));
     ASSERT_TRUE(out->write_image(OIIO::TypeDesc::FLOAT, rgb.data));
     ASSERT_TRUE(out->close());
   }
@@ -348,6 +358,37 @@ TEST(ImageIo, WritesAreAtomicAndNeverOverwriteUnlessAsked) {
     EXPECT_EQ(entry.path().filename(), "a.png");
   }
   EXPECT_EQ(files, 1);
+}
+
+// A process interrupted (SIGINT, SIGTERM) in the middle of a write removes its temporary file
+// and still dies of that signal; nothing is left under the final name.
+TEST(AtomicFile, SignalDuringAWriteRemovesTheTemporaryFile) {
+  for (int signal_number : {SIGINT, SIGTERM}) {
+    TempDir dir;
+    const std::string started = dir.File("started");
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      RemoveTemporaryFilesOnSignal();
+      AtomicWrite(dir.File("out.txt"), false, [&](const std::string& temp) {
+        WriteBytes(temp, "half of it");
+        WriteBytes(started, "");
+        ::sleep(30);  // interrupted here
+      });
+      ::_exit(0);
+    }
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+    while (!fs::exists(started) && std::chrono::steady_clock::now() < deadline) ::usleep(2000);
+    ASSERT_TRUE(fs::exists(started));
+    ASSERT_EQ(::kill(child, signal_number), 0);
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == signal_number) << status;
+    std::vector<std::string> left;
+    for (const auto& entry : fs::directory_iterator(dir.path()))
+      left.push_back(entry.path().filename().string());
+    EXPECT_EQ(left, std::vector<std::string>{"started"}) << "signal " << signal_number;
+  }
 }
 
 }  // namespace
