@@ -203,12 +203,13 @@ __attribute__((target_clones("avx2", "default"))) void Taps3(const float* c, con
         ((k[0] * c[i] + k[1] * (a1[i] + b1[i])) + k[2] * (a2[i] + b2[i])) + k[3] * (a3[i] + b3[i]);
 }
 
-// One row of J * h: rows of J from `lit`, scratch `padded` has (W + 2R) * C floats.
-void BlurRow(const SeparableBlur& blur, const cv::Mat& lit, int y, int width, float* padded,
+// One row of J * h from the 2R + 1 rows of J around it (rows[R] is the centre row, borders
+// already mirrored); scratch `padded` has (W + 2R) * C floats.
+void BlurRow(const SeparableBlur& blur, const float* const* rows, int width, float* padded,
              float* out) {
   const int r = blur.radius, ch = blur.channels, n = width * ch;
   float* middle = padded + r * ch;
-  auto row = [&](int dy) { return lit.ptr<float>(blur.row_of[y + dy + r]); };
+  auto row = [&](int dy) { return rows[r + dy]; };
   if (r == 3) {
     Taps3(row(0), row(-1), row(1), row(-2), row(2), row(-3), row(3), blur.k.data(), n, middle);
   } else {
@@ -689,43 +690,72 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
     ambient[c] = static_cast<float>(d.ambient[c]);
     neg_beta[c] = -static_cast<float>(d.beta[c]);
   }
-  cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
-    std::vector<float> l_row, g_row, cos_row, e_scratch;
+  // Pass A for one row: E_L into e_out (when there is light) and J into lit_out.
+  struct RowAScratch {
+    std::vector<float> l, g, cos;
+  };
+  auto row_a = [&](int y, RowAScratch& scratch, float* e_out, float* lit_out) {
+    float* e = nullptr;
     if (d.any_light) {
-      l_row.resize(width), g_row.resize(width), cos_row.resize(5 * width);
-      e_scratch.resize(per_row);
-    }
-    for (int y = rows.start; y < rows.end; ++y) {
-      float* e = nullptr;
-      if (d.any_light) {
-        e = e_in_map ? light_map.ptr<float>(y)
-                     : (e_in_image ? image.ptr<float>(y) : e_scratch.data());
-        const float ray_y = light_context.RayY(scene_.camera, y);
-        for (size_t k = 0; k < lights.size(); ++k) {
-          internal::LightGeometryRow(light_context, lights[k], ray_y, scene_.depth_m.ptr<float>(y),
-                                     normals.ptr<cv::Vec3f>(y), width, l_row.data(), g_row.data(),
-                                     cos_row.data());
-          internal::AccumulateLightRow(l_row.data(), g_row.data(), width, channels, neg_beta,
-                                       lights[k].color, k == 0, e);
-        }
+      e = e_out;
+      const float ray_y = light_context.RayY(scene_.camera, y);
+      for (size_t k = 0; k < lights.size(); ++k) {
+        internal::LightGeometryRow(light_context, lights[k], ray_y, scene_.depth_m.ptr<float>(y),
+                                   normals.ptr<cv::Vec3f>(y), width, scratch.l.data(),
+                                   scratch.g.data(), scratch.cos.data());
+        internal::AccumulateLightRow(scratch.l.data(), scratch.g.data(), width, channels, neg_beta,
+                                     lights[k].color, k == 0, e);
       }
-      if (channels == 3)
-        LitRow<3>(scene_.image.ptr<float>(y), e, ambient, width, lit.ptr<float>(y));
-      else
-        LitRow<1>(scene_.image.ptr<float>(y), e, ambient, width, lit.ptr<float>(y));
     }
-  });
+    if (channels == 3)
+      LitRow<3>(scene_.image.ptr<float>(y), e, ambient, width, lit_out);
+    else
+      LitRow<1>(scene_.image.ptr<float>(y), e, ambient, width, lit_out);
+  };
+  auto make_scratch = [&] {
+    RowAScratch scratch;
+    if (d.any_light)
+      scratch.l.resize(width), scratch.g.resize(width), scratch.cos.resize(5 * width);
+    return scratch;
+  };
+  // Where pass A leaves E_L of an image row (for pass B), or scratch when pass B does not need it.
+  auto e_target = [&](int y, float* scratch) {
+    return e_in_map ? light_map.ptr<float>(y) : (e_in_image ? image.ptr<float>(y) : scratch);
+  };
 
   // ---- J * h: the separable kernel row by row in pass B; other kernels on the whole image ----
   std::optional<SeparableBlur> blur;
-  cv::Mat blurred;  // J * h when it is not computed row by row
+  bool whole_image_blur = false;
   if (d.blur) {
-    if (options.psf.depth_dependent)
-      blurred = ApplyDepthDependentPsf(options.psf, lit, range_m_);
-    else if (d.psf.separable && !d.psf.kernel_1d.empty())
+    if (d.psf.separable && !d.psf.kernel_1d.empty() && !options.psf.depth_dependent)
       blur.emplace(d.psf, width, size.height, channels);
     else
-      blurred = ApplyPsf(d.psf, lit);
+      whole_image_blur = true;
+  }
+  const int radius = blur ? blur->radius : 0;
+  // Streaming (pass A a few rows ahead of pass B in the same band, so J is still in cache when it
+  // is blurred) needs the mirrored rows of a band's halo to be single reflections.
+  const bool stream = !whole_image_blur && 2 * radius < size.height;
+
+  // Bands of rows (OpenCV's default is one row per task: each band computes its own halo and
+  // scratch, so bands are a few per thread, of at least 16 rows).
+  const double stripes =
+      std::max(1.0, std::min<double>(4.0 * std::max(cv::getNumThreads(), 1), size.height / 16.0));
+
+  cv::Mat blurred;  // J * h when it is not computed row by row
+  if (!stream) {
+    cv::parallel_for_(
+        cv::Range(0, size.height),
+        [&](const cv::Range& rows) {
+          RowAScratch scratch = make_scratch();
+          std::vector<float> e_scratch(d.any_light ? per_row : 0);
+          for (int y = rows.start; y < rows.end; ++y)
+            row_a(y, scratch, e_target(y, e_scratch.data()), lit.ptr<float>(y));
+        },
+        stripes);
+    if (whole_image_blur)
+      blurred = options.psf.depth_dependent ? ApplyDepthDependentPsf(options.psf, lit, range_m_)
+                                            : ApplyPsf(d.psf, lit);
   }
 
   // ---- pass B: attenuation, veil, snow, sensor noise, camera ----
@@ -743,54 +773,92 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   }
   const float levels = options.camera.bit_depth == 8 ? 255.0f : 65535.0f;
   const bool quantise = options.camera.bit_depth != 32;
-  cv::parallel_for_(cv::Range(0, size.height), [&](const cv::Range& rows) {
-    std::vector<float> t_row(per_row), jb_row, padded, scratch(per_row);
-    if (blur) jb_row.resize(per_row), padded.resize(per_row + 2 * blur->radius * channels);
-    for (int y = rows.start; y < rows.end; ++y) {
-      const float* jb = lit.ptr<float>(y);
-      if (blur) {
-        BlurRow(*blur, lit, y, width, padded.data(), jb_row.data());
-        jb = jb_row.data();
-      } else if (!blurred.empty()) {
-        jb = blurred.ptr<float>(y);
-      }
-      float* out = image.ptr<float>(y);
-      if (d.zero_beta) {
-        std::copy(jb, jb + per_row, out);
-      } else {
-        const float* r = range_m_.ptr<float>(y);
-        float* t = t_row.data();
-        if (d.uniform_range) {
-          for (int x = 0; x < width; ++x)
-            for (int c = 0; c < channels; ++c)
-              t[x * channels + c] = r[x] == r[x] ? t_const[c] : 0.0f;
-        } else {
-          TransmissionRows(r, width, d.beta, t);  // NaN depth: open water, t = 0
+  cv::parallel_for_(
+      cv::Range(0, size.height),
+      [&](const cv::Range& rows) {
+        const int y0 = rows.start, y1 = rows.end;
+        RowAScratch scratch_a = make_scratch();
+        std::vector<float> e_scratch(d.any_light ? per_row : 0);
+        std::vector<float> t_row(per_row), jb_row, padded, scratch(per_row);
+        if (blur) jb_row.resize(per_row), padded.resize(per_row + 2 * radius * channels);
+        // Rows of J outside the band that its blur reads (mirrored at the image borders), computed
+        // here rather than shared with the neighbouring band: at most 2R rows.
+        std::vector<int> halo_rows;
+        std::vector<float> halo;
+        if (stream && blur) {
+          for (int y = y0 - radius; y < y1 + radius; ++y) {
+            const int source = blur->row_of[y + radius];
+            if ((source < y0 || source >= y1) &&
+                std::find(halo_rows.begin(), halo_rows.end(), source) == halo_rows.end())
+              halo_rows.push_back(source);
+          }
+          halo.resize(halo_rows.size() * per_row);
+          for (size_t i = 0; i < halo_rows.size(); ++i)
+            row_a(halo_rows[i], scratch_a, e_scratch.data(), halo.data() + i * per_row);
         }
-        if (!t_map.empty()) std::copy(t, t + per_row, t_map.ptr<float>(y));
-        const float* e = e_in_map ? light_map.ptr<float>(y) : nullptr;
-        if (!veil.empty() && veil_term) VeilRow(t, e, bs, width, channels, veil.ptr<float>(y));
-        if (!veil_term)
-          ComposePlain(jb, t, per_row, out);
-        else if (e_in_image && channels == 3)
-          ComposeVeil<3, true>(jb, t, nullptr, bs, width, out);
-        else if (e_in_image)
-          ComposeVeil<1, true>(jb, t, nullptr, bs, width, out);
-        else if (channels == 3)
-          ComposeVeil<3, false>(jb, t, e, bs, width, out);
-        else
-          ComposeVeil<1, false>(jb, t, e, bs, width, out);
-      }
-      float* noise = noise_map.empty() ? nullptr : noise_map.ptr<float>(y);
-      if (noise) std::copy(out, out + per_row, noise);
-      if (snowing) internal::AddSnowRow(snow, y, width, scratch.data(), out);
-      if (sensor)
-        internal::AddSensorNoiseRow(options.sensor, options.seed, y, per_row, out, scratch.data());
-      if (noise)
-        for (int i = 0; i < per_row; ++i) noise[i] = out[i] - noise[i];
-      QuantiseRow(out, per_row, levels, quantise);
-    }
-  });
+        auto j_row = [&](int source) -> const float* {
+          if (source >= y0 && source < y1) return lit.ptr<float>(source);
+          const size_t i =
+              std::find(halo_rows.begin(), halo_rows.end(), source) - halo_rows.begin();
+          return halo.data() + i * per_row;
+        };
+        std::vector<const float*> tap_rows(2 * radius + 1);
+        int next_a = y0;  // next band row pass A has to compute (streaming)
+        for (int y = y0; y < y1; ++y) {
+          if (stream) {
+            // Mirrored rows of a band lie within [y - R, y + R] (single reflections): compute up to
+            // y + R.
+            for (const int last = std::min(y + radius, y1 - 1); next_a <= last; ++next_a)
+              row_a(next_a, scratch_a, e_target(next_a, e_scratch.data()), lit.ptr<float>(next_a));
+          }
+          const float* jb = lit.ptr<float>(y);
+          if (blur) {
+            for (int dy = -radius; dy <= radius; ++dy)
+              tap_rows[dy + radius] = j_row(blur->row_of[y + dy + radius]);
+            BlurRow(*blur, tap_rows.data(), width, padded.data(), jb_row.data());
+            jb = jb_row.data();
+          } else if (!blurred.empty()) {
+            jb = blurred.ptr<float>(y);
+          }
+          float* out = image.ptr<float>(y);
+          if (d.zero_beta) {
+            std::copy(jb, jb + per_row, out);
+          } else {
+            const float* r = range_m_.ptr<float>(y);
+            float* t = t_row.data();
+            if (d.uniform_range) {
+              for (int x = 0; x < width; ++x)
+                for (int c = 0; c < channels; ++c)
+                  t[x * channels + c] = r[x] == r[x] ? t_const[c] : 0.0f;
+            } else {
+              TransmissionRows(r, width, d.beta, t);  // NaN depth: open water, t = 0
+            }
+            if (!t_map.empty()) std::copy(t, t + per_row, t_map.ptr<float>(y));
+            const float* e = e_in_map ? light_map.ptr<float>(y) : nullptr;
+            if (!veil.empty() && veil_term) VeilRow(t, e, bs, width, channels, veil.ptr<float>(y));
+            if (!veil_term)
+              ComposePlain(jb, t, per_row, out);
+            else if (e_in_image && channels == 3)
+              ComposeVeil<3, true>(jb, t, nullptr, bs, width, out);
+            else if (e_in_image)
+              ComposeVeil<1, true>(jb, t, nullptr, bs, width, out);
+            else if (channels == 3)
+              ComposeVeil<3, false>(jb, t, e, bs, width, out);
+            else
+              ComposeVeil<1, false>(jb, t, e, bs, width, out);
+          }
+          float* noise = noise_map.empty() ? nullptr : noise_map.ptr<float>(y);
+          if (noise) std::copy(out, out + per_row, noise);
+          if (snowing) internal::AddSnowRow(snow, y, width, scratch.data(), out);
+          if (sensor)
+            internal::AddSensorNoiseRow(options.sensor, options.seed, y, per_row, out,
+                                        scratch.data());
+          if (noise)
+            for (int i = 0; i < per_row; ++i) noise[i] = out[i] - noise[i];
+          QuantiseRow(out, per_row, levels, quantise);
+        }
+      },
+      stripes);
 
   result.image = image;
   result.lit = lit;
