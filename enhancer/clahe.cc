@@ -241,25 +241,24 @@ TURBID_ROW_KERNEL void InterpolateRow(const float* __restrict lut, const Index* 
 }
 
 template <typename Index>
-cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& gray, const cv::Mat& idx,
-                   const Padding& p) {
+cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) {
   const cv::Mat maps = Mappings(o, idx, p);
-  const Interp iy = Interpolation(gray.rows, p.pre_y, p.tile_h, o.tiles_y);
-  const Interp ix = Interpolation(gray.cols, p.pre_x, p.tile_w, o.tiles_x);
+  const Interp iy = Interpolation(idx.rows, p.pre_y, p.tile_h, o.tiles_y);
+  const Interp ix = Interpolation(idx.cols, p.pre_x, p.tile_w, o.tiles_x);
   const int bins = o.bins;
   const int row_len = o.tiles_x * bins;
-  std::vector<int> lo(gray.cols);
-  std::vector<float> wx(gray.cols);
-  for (int x = 0; x < gray.cols; ++x) {
+  std::vector<int> lo(idx.cols);
+  std::vector<float> wx(idx.cols);
+  for (int x = 0; x < idx.cols; ++x) {
     lo[x] = ix.lo[x] * bins;
     wx[x] = ix.w[x];
   }
   std::vector<float> lut(static_cast<size_t>(row_len + bins), 0.0f);
-  cv::Mat out(gray.size(), CV_32F);
+  cv::Mat out(idx.size(), CV_32F);
   const float* m = maps.ptr<float>(0);
   int lut_lo = -1, lut_hi = -1;
   float lut_w = -1.0f;
-  for (int y = 0; y < gray.rows; ++y) {
+  for (int y = 0; y < idx.rows; ++y) {
     // Rows in the outer half tiles (and, per tile row, repeated weights) reuse the LUT.
     if (iy.lo[y] != lut_lo || iy.hi[y] != lut_hi || iy.w[y] != lut_w) {
       lut_lo = iy.lo[y], lut_hi = iy.hi[y], lut_w = iy.w[y];
@@ -267,16 +266,18 @@ cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& gray, const cv::Mat& id
                 m + static_cast<size_t>(lut_hi) * row_len, lut_w, lut.data(), row_len);
     }
     InterpolateRow(lut.data(), idx.ptr<Index>(y), lo.data(), wx.data(), bins, out.ptr<float>(y),
-                   gray.cols);
+                   idx.cols);
   }
   return out;
 }
 
+cv::Mat ClaheFromIndices(const ClaheOptions& o, const cv::Mat& idx) {
+  const Padding p = ComputePadding(o, idx.rows, idx.cols);
+  return idx.depth() == CV_8U ? ClaheGrayT<uint8_t>(o, idx, p) : ClaheGrayT<uint16_t>(o, idx, p);
+}
+
 cv::Mat ClaheGray(const ClaheOptions& o, const cv::Mat& gray) {
-  const Padding p = ComputePadding(o, gray.rows, gray.cols);
-  const cv::Mat idx = BinIndices(gray, o.bins);
-  return idx.depth() == CV_8U ? ClaheGrayT<uint8_t>(o, gray, idx, p)
-                              : ClaheGrayT<uint16_t>(o, gray, idx, p);
+  return ClaheFromIndices(o, BinIndices(gray, o.bins));
 }
 
 }  // namespace
@@ -397,6 +398,28 @@ std::vector<float> ClaheMapHistogram(const ClaheOptions& o, std::vector<int> his
     map[b] = static_cast<float>(v);
   }
   return map;
+}
+
+cv::Mat ClaheNewBins(const ClaheOptions& options, cv::Size size) {
+  ThrowIfInvalid(options, "clahe");
+  if (size.width <= 0 || size.height <= 0) throw Error("clahe: empty image");
+  return cv::Mat(size, options.bins <= 256 ? CV_8U : CV_16U);
+}
+
+void ClaheBinRow(const ClaheOptions& options, const float* row, cv::Mat& bins, int y) {
+  const float scale = static_cast<float>(options.bins - 1);
+  const bool ok = bins.depth() == CV_8U ? BinRow(row, bins.ptr<uint8_t>(y), bins.cols, scale)
+                                        : BinRow(row, bins.ptr<uint16_t>(y), bins.cols, scale);
+  if (!ok) throw Error("clahe: image has non-finite values");
+}
+
+cv::Mat ClaheFromBins(const ClaheOptions& options, const cv::Mat& bins) {
+  ThrowIfInvalid(options, "clahe");
+  const int want = options.bins <= 256 ? CV_8UC1 : CV_16UC1;
+  if (bins.empty() || bins.type() != want) {
+    throw Error("clahe: bin image must come from ClaheNewBins with the same options");
+  }
+  return ClaheFromIndices(options, bins);
 }
 
 cv::Mat ClaheTileMappings(const ClaheOptions& options, const cv::Mat& gray) {

@@ -20,7 +20,6 @@
 #pragma once
 
 #include <opencv2/core.hpp>
-
 #include <string>
 #include <vector>
 
@@ -53,6 +52,14 @@ struct ClaheOptions {
 // ratio (hue kept), as ClaheColor below. Throws Error for empty / non-float / other channel
 // counts / non-finite values, or options failing Check.
 cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image);
+
+// For pipelines that produce their image row by row (no full-size float image before CLAHE):
+// ClaheNewBins allocates the bin-index image (CV_8U for bins <= 256, else CV_16U), ClaheBinRow
+// fills its row y from `width` floats (throws Error for non-finite values), and ClaheFromBins
+// equalises it. The result equals Clahe(options, image) of the one-channel image those rows form.
+cv::Mat ClaheNewBins(const ClaheOptions& options, cv::Size size);
+void ClaheBinRow(const ClaheOptions& options, const float* row, cv::Mat& bins, int y);
+cv::Mat ClaheFromBins(const ClaheOptions& options, const cv::Mat& bins);
 
 // The per-tile mapping tables (tiles_y*tiles_x rows, `bins` columns, output values in [0,1]) of
 // a one-channel image after padding: exposed so tests can pin known histograms.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <memory>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
@@ -174,11 +175,33 @@ TURBID_ROW_KERNEL void AccumulateRow(float* __restrict dst, const float* __restr
   for (int i = 0; i < n; ++i) dst[i] += a[i];
 }
 
-// Sums of `window` consecutive values: out[x] = ext[x] + ... + ext[x + window - 1], x < w, where
-// ext has w + window - 1 values (the row with zeros on both sides: the clipped window). Binary
-// doubling (partial sums over 1, 2, 4, ... values, each pass a vectorised add) instead of a
-// running sum: O(log window) passes without a serial dependency chain, and no drift.
+// Sums of `window` (odd) consecutive values: out[x] = ext[x] + ... + ext[x + window - 1], x < w,
+// where ext has w + window - 1 values (the row with zeros on both sides: the clipped window).
+// Small windows: direct sums; larger: binary doubling (partial sums over 1, 2, 4, ... values, each
+// pass a vectorised add) instead of a running sum: O(log window) passes without a serial dependency
+// chain, and no drift.
+template <int W>
+TURBID_ROW_KERNEL void DirectWindowSums(const float* __restrict ext, float* __restrict out, int w) {
+  for (int x = 0; x < w; ++x) {
+    float s = ext[x];
+    for (int k = 1; k < W; ++k) s += ext[x + k];
+    out[x] = s;
+  }
+}
+
+template <int R>
+bool DirectWindowSumsUpTo(int r, const float* ext, float* out, int w) {
+  if (r == R) {
+    DirectWindowSums<2 * R + 1>(ext, out, w);
+    return true;
+  }
+  if constexpr (R > 1) return DirectWindowSumsUpTo<R - 1>(r, ext, out, w);
+  return false;
+}
+
 void WindowSums(const float* ext, int w, int window, float* out, float* t0, float* t1) {
+  // Radii up to 12 (the paper uses 2, 4 and 8): one pass with the window unrolled.
+  if (DirectWindowSumsUpTo<12>(window / 2, ext, out, w)) return;
   const int n = w + window - 1;
   const float* p = ext;  // p[i] = sum of `len` values from ext[i], valid for i <= n - len
   int len = 1, offset = 0, rest = window;
@@ -249,99 +272,118 @@ int InvCount(int t, int r, int n) { return std::min(t + r, n - 1) - std::max(t -
 // One-channel guide, one-channel source (He 2013 Alg. 1), streamed by rows: the first stage
 // computes a, b for row y from the box sums of I, I^2 (and p, I p unless self-guided); the second
 // stage, r rows behind, box-sums a and b and writes q. a and b live in a ring of 2r+2 rows, so
-// there are no full-size temporaries besides the output.
-cv::Mat GuidedGray(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self) {
-  const int h = guide.rows;
-  const int w = guide.cols;
-  const int window = 2 * r + 1;
-  const int ext_len = w + 2 * r;
-  const int planes_a = self ? 2 : 4;  // I, I^2 [, p, I p]
-  // Per-plane buffers: double column sums; float rows with r zeros each side; window sums.
-  std::vector<double> col(static_cast<size_t>(planes_a + 2) * w, 0.0);
-  std::vector<float> ext(static_cast<size_t>(planes_a + 2) * ext_len, 0.0f);
-  std::vector<float> sums(static_cast<size_t>(planes_a + 2) * w, 0.0f);
-  std::vector<float> t0(ext_len), t1(ext_len);
-  auto col_of = [&](int k) { return col.data() + static_cast<size_t>(k) * w; };
-  auto ext_of = [&](int k) { return ext.data() + static_cast<size_t>(k) * ext_len; };
-  auto sum_of = [&](int k) { return sums.data() + static_cast<size_t>(k) * w; };
-  std::vector<float> inv_cx(w);
-  for (int x = 0; x < w; ++x) inv_cx[x] = 1.0f / static_cast<float>(InvCount(x, r, w));
-  // Ring of a, b rows: row k in slot k % ring.
-  const int ring = std::min(window + 1, h);
-  cv::Mat a_ring(ring, w, CV_32F), b_ring(ring, w, CV_32F);
-  cv::Mat q(h, w, CV_32F);
+// there are no full-size temporaries besides the output. Rows are pulled in order 0..h-1.
+class GrayStream {
+ public:
+  GrayStream(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self)
+      : guide_(guide),
+        src_(src),
+        r_(r),
+        eps_(eps),
+        self_(self),
+        h_(guide.rows),
+        w_(guide.cols),
+        window_(2 * r + 1),
+        ext_len_(w_ + 2 * r),
+        planes_a_(self ? 2 : 4),  // I, I^2 [, p, I p]
+        ring_(std::min(window_ + 1, h_)),
+        col_(static_cast<size_t>(planes_a_ + 2) * w_, 0.0),
+        ext_(static_cast<size_t>(planes_a_ + 2) * ext_len_, 0.0f),
+        sums_(static_cast<size_t>(planes_a_ + 2) * w_, 0.0f),
+        t0_(ext_len_),
+        t1_(ext_len_),
+        inv_cx_(w_),
+        a_ring_(ring_, w_, CV_32F),
+        b_ring_(ring_, w_, CV_32F) {
+    for (int x = 0; x < w_; ++x) inv_cx_[x] = 1.0f / static_cast<float>(InvCount(x, r_, w_));
+  }
 
-  auto row = [](const cv::Mat& m, int y) { return m.ptr<float>(y); };
-  auto row_out = [](cv::Mat& m, int y) { return m.ptr<float>(y); };
+  // Writes output row t (rows must be asked for in order 0, 1, ..., h-1).
+  void Row(int t, float* dst) {
+    const int need = std::min(t + r_, h_ - 1);
+    while (next_a_ <= need) StageA(next_a_++);
+    const int ka = planes_a_, kb = planes_a_ + 1;
+    Vertical(ka, t, a_ring_, nullptr, true);
+    Vertical(kb, t, b_ring_, nullptr, true);
+    WindowSums(Ext(ka), w_, window_, Sum(ka), t0_.data(), t1_.data());
+    WindowSums(Ext(kb), w_, window_, Sum(kb), t0_.data(), t1_.data());
+    const float inv_cy = 1.0f / static_cast<float>(InvCount(t, r_, h_));
+    ApplyCoefficients(Sum(ka), Sum(kb), guide_.ptr<float>(t), inv_cx_.data(), inv_cy, dst, w_);
+  }
+
+ private:
+  double* Col(int k) { return col_.data() + static_cast<size_t>(k) * w_; }
+  float* Ext(int k) { return ext_.data() + static_cast<size_t>(k) * ext_len_; }
+  float* Sum(int k) { return sums_.data() + static_cast<size_t>(k) * w_; }
+
   // Vertical step of plane k for output row t: plane u, or the product u*v when v is given.
   // `in_ring`: u is a ring of rows (a or b), row y in slot y % ring.
-  auto vertical = [&](int k, int t, const cv::Mat& u, const cv::Mat* v, bool in_ring) {
+  void Vertical(int k, int t, const cv::Mat& u, const cv::Mat* v, bool in_ring) {
     auto at = [&](const cv::Mat& m, int y) -> const float* {
-      return in_ring ? row(m, y % ring) : row(m, y);
+      return m.ptr<float>(in_ring ? y % ring_ : y);
     };
-    double* c = col_of(k);
-    float* out = ext_of(k) + r;
+    double* c = Col(k);
+    float* out = Ext(k) + r_;
     if (t == 0) {
-      const int last = std::min(r, h - 1);
+      const int last = std::min(r_, h_ - 1);
       for (int y = 0; y <= last; ++y) {
-        const float* pu = at(u, y);
         if (v == nullptr) {
-          ColumnStep(c, out, pu, nullptr, w);
+          ColumnStep(c, out, at(u, y), nullptr, w_);
         } else {
-          const float* pv = at(*v, y);
-          ColumnProductStep(c, out, pu, pv, nullptr, nullptr, w);
+          ColumnProductStep(c, out, at(u, y), at(*v, y), nullptr, nullptr, w_);
         }
       }
       return;
     }
-    const int add = t + r < h ? t + r : -1;
-    const int sub = t - r - 1 >= 0 ? t - r - 1 : -1;
+    const int add = t + r_ < h_ ? t + r_ : -1;
+    const int sub = t - r_ - 1 >= 0 ? t - r_ - 1 : -1;
     const float* au = add >= 0 ? at(u, add) : nullptr;
     const float* su = sub >= 0 ? at(u, sub) : nullptr;
     if (v == nullptr) {
-      ColumnStep(c, out, au, su, w);
+      ColumnStep(c, out, au, su, w_);
     } else {
       const float* av = add >= 0 ? at(*v, add) : nullptr;
       const float* sv = sub >= 0 ? at(*v, sub) : nullptr;
-      ColumnProductStep(c, out, au, av, su, sv, w);
+      ColumnProductStep(c, out, au, av, su, sv, w_);
     }
-  };
-
-  auto stage_a = [&](int y) {
-    vertical(0, y, guide, nullptr, false);
-    vertical(1, y, guide, &guide, false);
-    if (!self) {
-      vertical(2, y, src, nullptr, false);
-      vertical(3, y, guide, &src, false);
-    }
-    for (int k = 0; k < planes_a; ++k) {
-      WindowSums(ext_of(k), w, window, sum_of(k), t0.data(), t1.data());
-    }
-    const float inv_cy = 1.0f / static_cast<float>(InvCount(y, r, h));
-    float* ar = row_out(a_ring, y % ring);
-    float* br = row_out(b_ring, y % ring);
-    if (self) {
-      SelfCoefficients(sum_of(0), sum_of(1), inv_cx.data(), inv_cy, eps, ar, br, w);
-    } else {
-      GuidedCoefficients(sum_of(0), sum_of(2), sum_of(1), sum_of(3), inv_cx.data(), inv_cy, eps, ar,
-                         br, w);
-    }
-  };
-  const int ka = planes_a, kb = planes_a + 1;
-  auto stage_b = [&](int t) {
-    vertical(ka, t, a_ring, nullptr, true);
-    vertical(kb, t, b_ring, nullptr, true);
-    WindowSums(ext_of(ka), w, window, sum_of(ka), t0.data(), t1.data());
-    WindowSums(ext_of(kb), w, window, sum_of(kb), t0.data(), t1.data());
-    const float inv_cy = 1.0f / static_cast<float>(InvCount(t, r, h));
-    ApplyCoefficients(sum_of(ka), sum_of(kb), row(guide, t), inv_cx.data(), inv_cy, row_out(q, t),
-                      w);
-  };
-  for (int y = 0; y < h; ++y) {
-    stage_a(y);
-    if (y >= r) stage_b(y - r);
   }
-  for (int t = std::max(h - r, 0); t < h; ++t) stage_b(t);
+
+  void StageA(int y) {
+    Vertical(0, y, guide_, nullptr, false);
+    Vertical(1, y, guide_, &guide_, false);
+    if (!self_) {
+      Vertical(2, y, src_, nullptr, false);
+      Vertical(3, y, guide_, &src_, false);
+    }
+    for (int k = 0; k < planes_a_; ++k) {
+      WindowSums(Ext(k), w_, window_, Sum(k), t0_.data(), t1_.data());
+    }
+    const float inv_cy = 1.0f / static_cast<float>(InvCount(y, r_, h_));
+    float* ar = a_ring_.ptr<float>(y % ring_);
+    float* br = b_ring_.ptr<float>(y % ring_);
+    if (self_) {
+      SelfCoefficients(Sum(0), Sum(1), inv_cx_.data(), inv_cy, eps_, ar, br, w_);
+    } else {
+      GuidedCoefficients(Sum(0), Sum(2), Sum(1), Sum(3), inv_cx_.data(), inv_cy, eps_, ar, br, w_);
+    }
+  }
+
+  const cv::Mat guide_, src_;
+  const int r_;
+  const float eps_;
+  const bool self_;
+  const int h_, w_, window_, ext_len_, planes_a_, ring_;
+  // Per-plane buffers: double column sums; float rows with r zeros each side; window sums.
+  std::vector<double> col_;
+  std::vector<float> ext_, sums_, t0_, t1_, inv_cx_;
+  cv::Mat a_ring_, b_ring_;
+  int next_a_ = 0;
+};
+
+cv::Mat GuidedGray(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self) {
+  GrayStream stream(guide, src, r, eps, self);
+  cv::Mat q(guide.rows, guide.cols, CV_32F);
+  for (int t = 0; t < guide.rows; ++t) stream.Row(t, q.ptr<float>(t));
   return q;
 }
 
@@ -525,6 +567,36 @@ cv::Mat GuidedFilterSelf(const GuidedFilterOptions& options, const cv::Mat& imag
   cv::Mat out;
   cv::merge(planes, out);
   return out;
+}
+
+void GuidedFilterSelfRows(const std::vector<GuidedFilterOptions>& options, const cv::Mat& image,
+                          const std::function<void(int, const std::vector<const float*>&)>& emit) {
+  if (image.channels() != 1) throw Error("guided filter rows: expected a one-channel image");
+  std::vector<std::unique_ptr<GrayStream>> streams(options.size());
+  std::vector<cv::Mat> whole(options.size());  // subsampled variants: filtered in one go
+  for (size_t k = 0; k < options.size(); ++k) {
+    CheckInputs(options[k], image, image);
+    if (options[k].radius == 0 || options[k].subsample > 1) {
+      whole[k] = GuidedFilter(options[k], image, image);
+    } else {
+      streams[k] = std::make_unique<GrayStream>(image, image, options[k].radius,
+                                                static_cast<float>(options[k].eps), true);
+    }
+  }
+  std::vector<float> rows(options.size() * static_cast<size_t>(image.cols));
+  std::vector<const float*> ptrs(options.size());
+  for (int y = 0; y < image.rows; ++y) {
+    for (size_t k = 0; k < options.size(); ++k) {
+      if (streams[k]) {
+        float* dst = rows.data() + k * image.cols;
+        streams[k]->Row(y, dst);
+        ptrs[k] = dst;
+      } else {
+        ptrs[k] = whole[k].ptr<float>(y);
+      }
+    }
+    emit(y, ptrs);
+  }
 }
 
 }  // namespace turbid

@@ -11,9 +11,10 @@
 // tests compare there. Radii larger than the image are allowed (the window is clipped).
 #pragma once
 
+#include <functional>
 #include <opencv2/core.hpp>
-
 #include <string>
+#include <vector>
 
 namespace turbid {
 
@@ -40,6 +41,13 @@ cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide, c
 // Self-guided shorthand: GuidedFilter(options, image, image) for one-channel images; for
 // three-channel images each channel guides itself (the edge-preserving smoother the paper uses).
 cv::Mat GuidedFilterSelf(const GuidedFilterOptions& options, const cv::Mat& image);
+
+// Self-guided filters of one one-channel image at several settings, streamed by rows without
+// full-size intermediates: emit(y, rows) receives row y of each filter's output (rows[k] for
+// options[k], `image.cols` floats, valid during the call), for y = 0, 1, ..., rows-1. Equal to
+// GuidedFilter(options[k], image, image) row by row. Throws Error as GuidedFilter does.
+void GuidedFilterSelfRows(const std::vector<GuidedFilterOptions>& options, const cv::Mat& image,
+                          const std::function<void(int, const std::vector<const float*>&)>& emit);
 
 // Box mean over the clipped (2r+1)x(2r+1) window (the normalisation above), CV_32F, any channels.
 cv::Mat BoxMean(const cv::Mat& src, int radius);

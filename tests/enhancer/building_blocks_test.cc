@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/clahe.h"
@@ -135,6 +136,28 @@ TEST(Clahe, OutputIsBilinearBlendOfTileMappings) {
     }
     EXPECT_LE(worst, 1e-6);
   }
+}
+
+TEST(Clahe, RowByRowBinsEqualWholeImage) {
+  cv::Mat img(37, 53, CV_32F);  // padded sizes
+  cv::RNG(4).fill(img, cv::RNG::UNIFORM, -0.2, 1.2);
+  for (int bins : {256, 1024}) {
+    ClaheOptions o;
+    o.bins = bins;
+    cv::Mat b = ClaheNewBins(o, img.size());
+    for (int y = 0; y < img.rows; ++y) ClaheBinRow(o, img.ptr<float>(y), b, y);
+    EXPECT_EQ(cv::norm(ClaheFromBins(o, b), Clahe(o, img), cv::NORM_INF), 0.0) << bins;
+  }
+  ClaheOptions o;
+  cv::Mat b = ClaheNewBins(o, cv::Size(40, 1));
+  std::vector<float> bad(40, 0.1f);
+  bad[5] = std::numeric_limits<float>::infinity();  // inside the first 32-pixel vector block
+  EXPECT_THROW(ClaheBinRow(o, bad.data(), b, 0), Error);
+  bad[5] = 0.1f;
+  bad[37] = std::numeric_limits<float>::quiet_NaN();  // in the scalar tail
+  EXPECT_THROW(ClaheBinRow(o, bad.data(), b, 0), Error);
+  o.bins = 1024;
+  EXPECT_THROW(ClaheFromBins(o, b), Error);  // 8-bit bins for 1024-bin options
 }
 
 TEST(Clahe, GrayAndColourTinyAndExtremeImagesFinite) {

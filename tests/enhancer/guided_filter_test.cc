@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc.hpp>
 #include <string>
+#include <vector>
 
 #include "scenes/error.h"
 
@@ -145,6 +146,30 @@ TEST(GuidedFilter, NonContiguousInputsAndTinyImages) {
       for (int x = 0; x < img.cols; ++x)
         EXPECT_NEAR(q.at<float>(y, x), av * img.at<float>(y, x) + (1 - av) * mean[0], 1e-5);
   }
+}
+
+TEST(GuidedFilter, StreamedRowsEqualWholeImageFilters) {
+  const cv::Mat img = RandomImage(70, 90, 1, 15);
+  std::vector<GuidedFilterOptions> opts(3);
+  opts[0].radius = 2, opts[0].eps = 0.01;
+  opts[1].radius = 8, opts[1].eps = 0.16;
+  opts[2].radius = 8, opts[2].eps = 0.16, opts[2].subsample = 2;
+  std::vector<cv::Mat> got(opts.size());
+  for (cv::Mat& m : got) m.create(img.size(), CV_32F);
+  int next = 0;
+  GuidedFilterSelfRows(opts, img, [&](int y, const std::vector<const float*>& rows) {
+    EXPECT_EQ(y, next++);
+    for (size_t k = 0; k < rows.size(); ++k) {
+      std::copy(rows[k], rows[k] + img.cols, got[k].ptr<float>(y));
+    }
+  });
+  EXPECT_EQ(next, img.rows);
+  for (size_t k = 0; k < opts.size(); ++k) {
+    EXPECT_EQ(cv::norm(got[k], GuidedFilter(opts[k], img, img), cv::NORM_INF), 0.0) << k;
+  }
+  EXPECT_THROW(GuidedFilterSelfRows(opts, cv::Mat(4, 4, CV_32FC3, cv::Scalar::all(0)),
+                                    [](int, const std::vector<const float*>&) {}),
+               Error);
 }
 
 TEST(GuidedFilter, BoxMeanMatchesOpenCvInteriorAndClippedAtBorder) {
