@@ -57,8 +57,8 @@ void BM_RenderOneShot(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(Render(o, scene).image.data);
 }
 
-// A sweep over beta with one Renderer: range map and light geometry cached, J * h recomputed
-// (it depends on beta through E_L), noise redrawn with a new seed each time.
+// A sweep over beta with one Renderer: the scene validation, range map and normals are done once;
+// everything else (light, J, J * h, composition, noise with a new seed) is rendered each time.
 void BM_RendererBetaSweep(benchmark::State& state) {
   const Scene& scene = state.range(0) ? HullColor() : HullGray();
   Renderer renderer(scene);

@@ -84,9 +84,10 @@ struct RenderResult {
   RenderPlan plan;
 };
 
-// Reuses work that does not depend on the swept parameters: the range map, normals, light geometry
-// (per light: distance and geometric factor), the PSF kernels and, when two renders share water,
-// lights and PSF, the blurred J. Render is const and thread-safe (internal caches are locked).
+// One per scene: validates it and computes the range map (and the normals, when the scene has
+// none) once; each Render computes everything else in two fused passes over rows (render.cc).
+// Render is const and thread-safe (the normals cache is locked). The returned image and J come
+// from a recycling allocator (simulator/image_pool.h): repeated renders reuse freed buffers.
 class Renderer {
  public:
   // Validates and copies the scene (throws Error when it is inconsistent).
