@@ -11,8 +11,8 @@
 // negligible, and applied as a sum of separable 1-D passes (its SVD) with mirrored borders.
 #pragma once
 
+#include <functional>
 #include <opencv2/core.hpp>
-
 #include <string>
 
 namespace turbid {
@@ -43,6 +43,14 @@ struct DeconvolutionOptions {
 // odd-sized CV_32FC1 kernel `psf`. Returns the same size and type, not clamped. A 1x1 kernel
 // returns a copy. Throws Error for empty or mismatched inputs or options failing Check.
 cv::Mat Deconvolve(const DeconvolutionOptions& options, const cv::Mat& image, const cv::Mat& psf);
+
+// Deconvolve for one-channel images on the spatial Wiener path, streamed: emit(y, row) receives
+// output row y (`image.cols` floats, valid during the call) in order, with no full-size output.
+// Returns false without emitting when the options and PSF select another path (FFT Wiener,
+// Richardson-Lucy, a 1x1 PSF): use Deconvolve then. Throws Error as Deconvolve does, and for
+// images with more than one channel.
+bool DeconvolveRows(const DeconvolutionOptions& options, const cv::Mat& image, const cv::Mat& psf,
+                    const std::function<void(int, const float*)>& emit);
 
 // The spatial Wiener inverse filter (odd square CV_32FC1) for `psf` at `nsr`, truncated where
 // |w| < 1e-4 max|w| (exposed for tests).

@@ -130,14 +130,6 @@ std::string FormatNumber(double v) {
   return buf;
 }
 
-// Expands a one-channel map to `channels` channels.
-cv::Mat Expand(const cv::Mat& one, int channels) {
-  if (channels == 1) return one;
-  cv::Mat out;
-  cv::merge(std::vector<cv::Mat>(channels, one), out);
-  return out;
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------
@@ -221,8 +213,12 @@ cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& pl
   return merged;
 }
 
-FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const Scene* scene,
-                               const nlohmann::json* sidecar) {
+namespace {
+
+// The full pipeline. `keep_steps`: fill every inspection-only field of FullResult (range_m);
+// FullEnhance passes false and saves the full-size work they cost.
+FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Scene* scene,
+                           const nlohmann::json* sidecar, bool keep_steps) {
   ThrowIfInvalid(o, "full");
   ValidateEnhanceImage(image, "full");
   FullResult r;
@@ -295,16 +291,34 @@ FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const
       cv::max(t, o.t_min, t);
       t_planes.push_back(Upsample(t, image.size()));
     }
-    r.range_m = Upsample(range, image.size());
-    cv::merge(t_planes, r.transmission);
-    const cv::Mat tc =
-        r.transmission.channels() == 1 ? Expand(r.transmission, channels) : r.transmission;
-    // A fresh Mat: assigning a MatExpr to `current` would write into the buffer r.denoised shares.
-    cv::Mat dehazed;
-    if (e_l.empty()) {
-      cv::divide(current, tc, dehazed);
+    if (keep_steps) r.range_m = Upsample(range, image.size());
+    if (t_planes.size() == 1) {
+      r.transmission = t_planes[0];
     } else {
-      dehazed = (current - e_l) / tc + e_l;
+      cv::merge(t_planes, r.transmission);
+    }
+    // Eq. 6 in one pass into a fresh Mat (r.denoised keeps its buffer): (I - E_L) / t + E_L, or
+    // I / t without light; a one-channel t serves every channel.
+    const cv::Mat& tm = r.transmission;
+    const bool t_per_value = tm.channels() == channels;  // else one t for every channel
+    const int n = current.cols * channels;
+    // In place over the denoised image when nobody inspects it (it is our own buffer then).
+    cv::Mat dehazed = !keep_steps && o.denoise ? current : cv::Mat(current.size(), current.type());
+    for (int y = 0; y < current.rows; ++y) {
+      const float* in = current.ptr<float>(y);
+      const float* t = tm.ptr<float>(y);
+      const float* e = e_l.empty() ? nullptr : e_l.ptr<float>(y);
+      float* d = dehazed.ptr<float>(y);
+      if (t_per_value && e == nullptr) {
+        for (int i = 0; i < n; ++i) d[i] = in[i] / t[i];
+      } else if (t_per_value) {
+        for (int i = 0; i < n; ++i) d[i] = (in[i] - e[i]) / t[i] + e[i];
+      } else {
+        for (int i = 0; i < n; ++i) {
+          const float ti = t[i / channels];
+          d[i] = e == nullptr ? in[i] / ti : (in[i] - e[i]) / ti + e[i];
+        }
+      }
     }
     current = dehazed;
     std::string values;
@@ -317,6 +331,9 @@ FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const
   r.dehazed = current;
 
   // 4. Deblur with the PSF (eq. 7).
+  // Without inspection, a one-channel spatial Wiener deblur streams its rows straight into
+  // CLAHE's bin indices (step 5): no full-size deblurred image.
+  cv::Mat bins;
   if (o.deblur) {
     PsfOptions p;
     p.optical_thickness = o.psf_optical_thickness;
@@ -325,32 +342,66 @@ FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const
     if (psf.is_delta) {
       r.steps.push_back("deblur: skipped (PSF is a delta at this pixel scale)");
     } else {
-      current = Deconvolve(o.deconvolution, current, psf.kernel);
+      bool streamed = false;
+      if (!keep_steps && o.contrast && channels == 1) {
+        bins = ClaheNewBins(o.clahe, current.size());
+        try {
+          streamed =
+              DeconvolveRows(o.deconvolution, current, psf.kernel,
+                             [&](int y, const float* row) { ClaheBinRow(o.clahe, row, bins, y); });
+        } catch (const Error&) {
+          streamed = false;  // non-finite values: the general path below
+        }
+      }
+      if (!streamed) {
+        bins.release();
+        current = Deconvolve(o.deconvolution, current, psf.kernel);
+      }
       r.steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
                         ", PSF radius " + std::to_string(psf.radius_px));
     }
   } else {
     r.steps.push_back("deblur: skipped (off)");
   }
-  r.deblurred = current;
+  if (bins.empty()) r.deblurred = current;
 
-  // 5. CLAHE (Rayleigh).
-  cv::Mat out = current.clone();
-  ClampUnit(out);
-  if (o.contrast) {
-    out = Clahe(o.clahe, out);
-    r.steps.push_back("contrast: CLAHE " + ClaheDistributionName(o.clahe.distribution));
-  } else {
-    r.steps.push_back("contrast: skipped (off)");
+  // 5. CLAHE (Rayleigh) on the result clamped to [0, 1].
+  cv::Mat out;
+  if (!bins.empty()) {
+    out = ClaheFromBins(o.clahe, bins);  // in [0, 1]
+  } else if (o.contrast && channels == 1) {
+    // CLAHE clamps while binning, so the clamped copy is not needed; its output is in [0, 1].
+    // Non-finite values (ClampUnit turns NaN into 0) take the general path below.
+    bins = ClaheNewBins(o.clahe, current.size());
+    try {
+      for (int y = 0; y < current.rows; ++y) ClaheBinRow(o.clahe, current.ptr<float>(y), bins, y);
+      out = ClaheFromBins(o.clahe, bins);
+    } catch (const Error&) {
+      out.release();
+    }
   }
-  ClampUnit(out);
+  if (out.empty()) {
+    out = current.clone();
+    ClampUnit(out);
+    if (o.contrast) out = Clahe(o.clahe, out);
+    ClampUnit(out);
+  }
+  r.steps.push_back(o.contrast ? "contrast: CLAHE " + ClaheDistributionName(o.clahe.distribution)
+                               : "contrast: skipped (off)");
   r.image = out;
   return r;
 }
 
+}  // namespace
+
+FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const Scene* scene,
+                               const nlohmann::json* sidecar) {
+  return FullEnhanceImpl(o, image, scene, sidecar, true);
+}
+
 cv::Mat FullEnhance(const FullOptions& o, const cv::Mat& image, const Scene* scene,
                     const nlohmann::json* sidecar) {
-  return FullEnhanceDetailed(o, image, scene, sidecar).image;
+  return FullEnhanceImpl(o, image, scene, sidecar, false).image;
 }
 
 // ---------------------------------------------------------------------------------------------
