@@ -117,54 +117,35 @@ void CheckInputs(const GuidedFilterOptions& options, const cv::Mat& guide, const
 #define TURBID_ROW_KERNEL
 #endif
 
-// Vertical running sum of one plane: col += add - sub (either may be null), out = float(col).
-// The column sums are double so that 1000+ add/subtract steps do not drift (the variance
-// mean(I^2) - mean(I)^2 cancels, so float drift would show in a = var / (var + eps)).
-TURBID_ROW_KERNEL void ColumnStep(double* __restrict col, float* __restrict out,
-                                  const float* __restrict add, const float* __restrict sub, int w) {
+// Vertical running sums, in place on the row of column sums: col += add - sub (either may be
+// null), or for a product plane col += add_u*add_v - sub_u*sub_v. Float, 8 lanes per AVX2
+// vector; the caller re-anchors the sums by direct summation every kAnchorRows rows, so rounding
+// drift spans at most that many steps (the variance mean(I^2) - mean(I)^2 cancels, so a drift
+// over a thousand rows would show in a = var / (var + eps)).
+TURBID_ROW_KERNEL void ColumnStep(float* __restrict col, const float* __restrict add,
+                                  const float* __restrict sub, int w) {
   if (add != nullptr && sub != nullptr) {
-    for (int x = 0; x < w; ++x) {
-      col[x] += static_cast<double>(add[x]) - static_cast<double>(sub[x]);
-      out[x] = static_cast<float>(col[x]);
-    }
+    for (int x = 0; x < w; ++x) col[x] += add[x] - sub[x];
   } else if (add != nullptr) {
-    for (int x = 0; x < w; ++x) {
-      col[x] += static_cast<double>(add[x]);
-      out[x] = static_cast<float>(col[x]);
-    }
+    for (int x = 0; x < w; ++x) col[x] += add[x];
   } else if (sub != nullptr) {
-    for (int x = 0; x < w; ++x) {
-      col[x] -= static_cast<double>(sub[x]);
-      out[x] = static_cast<float>(col[x]);
-    }
-  } else {
-    for (int x = 0; x < w; ++x) out[x] = static_cast<float>(col[x]);
+    for (int x = 0; x < w; ++x) col[x] -= sub[x];
   }
 }
 
-// As ColumnStep for the product plane u*v: col += add_u*add_v - sub_u*sub_v (products in double).
-TURBID_ROW_KERNEL void ColumnProductStep(double* __restrict col, float* __restrict out,
-                                         const float* add_u, const float* add_v, const float* sub_u,
-                                         const float* sub_v, int w) {
+TURBID_ROW_KERNEL void ColumnProductStep(float* __restrict col, const float* add_u,
+                                         const float* add_v, const float* sub_u, const float* sub_v,
+                                         int w) {
   if (add_u != nullptr && sub_u != nullptr) {
-    for (int x = 0; x < w; ++x) {
-      col[x] += static_cast<double>(add_u[x]) * add_v[x] - static_cast<double>(sub_u[x]) * sub_v[x];
-      out[x] = static_cast<float>(col[x]);
-    }
+    for (int x = 0; x < w; ++x) col[x] += add_u[x] * add_v[x] - sub_u[x] * sub_v[x];
   } else if (add_u != nullptr) {
-    for (int x = 0; x < w; ++x) {
-      col[x] += static_cast<double>(add_u[x]) * add_v[x];
-      out[x] = static_cast<float>(col[x]);
-    }
+    for (int x = 0; x < w; ++x) col[x] += add_u[x] * add_v[x];
   } else if (sub_u != nullptr) {
-    for (int x = 0; x < w; ++x) {
-      col[x] -= static_cast<double>(sub_u[x]) * sub_v[x];
-      out[x] = static_cast<float>(col[x]);
-    }
-  } else {
-    for (int x = 0; x < w; ++x) out[x] = static_cast<float>(col[x]);
+    for (int x = 0; x < w; ++x) col[x] -= sub_u[x] * sub_v[x];
   }
 }
+
+constexpr int kAnchorRows = 64;
 
 TURBID_ROW_KERNEL void AddRows(float* __restrict dst, const float* __restrict a,
                                const float* __restrict b, int n) {
@@ -189,19 +170,38 @@ TURBID_ROW_KERNEL void DirectWindowSums(const float* __restrict ext, float* __re
   }
 }
 
+// Windows of 9+ values: sums of 4 first (one pass into tmp), then W/4 of those plus the rest.
+template <int W>
+TURBID_ROW_KERNEL void BlockedWindowSums(const float* __restrict ext, float* __restrict tmp,
+                                         float* __restrict out, int w) {
+  constexpr int kQuads = W / 4;
+  const int n = w + 4 * (kQuads - 1);
+  for (int x = 0; x < n; ++x) tmp[x] = ext[x] + ext[x + 1] + ext[x + 2] + ext[x + 3];
+  for (int x = 0; x < w; ++x) {
+    float s = tmp[x];
+    for (int q = 1; q < kQuads; ++q) s += tmp[x + 4 * q];
+    for (int k = 4 * kQuads; k < W; ++k) s += ext[x + k];
+    out[x] = s;
+  }
+}
+
 template <int R>
-bool DirectWindowSumsUpTo(int r, const float* ext, float* out, int w) {
+bool DirectWindowSumsUpTo(int r, const float* ext, float* tmp, float* out, int w) {
   if (r == R) {
-    DirectWindowSums<2 * R + 1>(ext, out, w);
+    if constexpr (R >= 4) {
+      BlockedWindowSums<2 * R + 1>(ext, tmp, out, w);
+    } else {
+      DirectWindowSums<2 * R + 1>(ext, out, w);
+    }
     return true;
   }
-  if constexpr (R > 1) return DirectWindowSumsUpTo<R - 1>(r, ext, out, w);
+  if constexpr (R > 1) return DirectWindowSumsUpTo<R - 1>(r, ext, tmp, out, w);
   return false;
 }
 
 void WindowSums(const float* ext, int w, int window, float* out, float* t0, float* t1) {
   // Radii up to 12 (the paper uses 2, 4 and 8): one pass with the window unrolled.
-  if (DirectWindowSumsUpTo<12>(window / 2, ext, out, w)) return;
+  if (DirectWindowSumsUpTo<12>(window / 2, ext, t0, out, w)) return;
   const int n = w + window - 1;
   const float* p = ext;  // p[i] = sum of `len` values from ext[i], valid for i <= n - len
   int len = 1, offset = 0, rest = window;
@@ -287,7 +287,6 @@ class GrayStream {
         ext_len_(w_ + 2 * r),
         planes_a_(self ? 2 : 4),  // I, I^2 [, p, I p]
         ring_(std::min(window_ + 1, h_)),
-        col_(static_cast<size_t>(planes_a_ + 2) * w_, 0.0),
         ext_(static_cast<size_t>(planes_a_ + 2) * ext_len_, 0.0f),
         sums_(static_cast<size_t>(planes_a_ + 2) * w_, 0.0f),
         t0_(ext_len_),
@@ -312,7 +311,6 @@ class GrayStream {
   }
 
  private:
-  double* Col(int k) { return col_.data() + static_cast<size_t>(k) * w_; }
   float* Ext(int k) { return ext_.data() + static_cast<size_t>(k) * ext_len_; }
   float* Sum(int k) { return sums_.data() + static_cast<size_t>(k) * w_; }
 
@@ -322,15 +320,14 @@ class GrayStream {
     auto at = [&](const cv::Mat& m, int y) -> const float* {
       return m.ptr<float>(in_ring ? y % ring_ : y);
     };
-    double* c = Col(k);
-    float* out = Ext(k) + r_;
-    if (t == 0) {
-      const int last = std::min(r_, h_ - 1);
-      for (int y = 0; y <= last; ++y) {
+    float* c = Ext(k) + r_;  // the column sums are the middle of the padded row
+    if (t % kAnchorRows == 0) {
+      std::fill(c, c + w_, 0.0f);
+      for (int y = std::max(t - r_, 0); y <= std::min(t + r_, h_ - 1); ++y) {
         if (v == nullptr) {
-          ColumnStep(c, out, at(u, y), nullptr, w_);
+          ColumnStep(c, at(u, y), nullptr, w_);
         } else {
-          ColumnProductStep(c, out, at(u, y), at(*v, y), nullptr, nullptr, w_);
+          ColumnProductStep(c, at(u, y), at(*v, y), nullptr, nullptr, w_);
         }
       }
       return;
@@ -340,11 +337,11 @@ class GrayStream {
     const float* au = add >= 0 ? at(u, add) : nullptr;
     const float* su = sub >= 0 ? at(u, sub) : nullptr;
     if (v == nullptr) {
-      ColumnStep(c, out, au, su, w_);
+      ColumnStep(c, au, su, w_);
     } else {
       const float* av = add >= 0 ? at(*v, add) : nullptr;
       const float* sv = sub >= 0 ? at(*v, sub) : nullptr;
-      ColumnProductStep(c, out, au, av, su, sv, w_);
+      ColumnProductStep(c, au, av, su, sv, w_);
     }
   }
 
@@ -373,8 +370,7 @@ class GrayStream {
   const float eps_;
   const bool self_;
   const int h_, w_, window_, ext_len_, planes_a_, ring_;
-  // Per-plane buffers: double column sums; float rows with r zeros each side; window sums.
-  std::vector<double> col_;
+  // Per-plane buffers: column sums with r zeros each side (the clipped window); window sums.
   std::vector<float> ext_, sums_, t0_, t1_, inv_cx_;
   cv::Mat a_ring_, b_ring_;
   int next_a_ = 0;
