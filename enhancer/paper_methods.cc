@@ -449,9 +449,9 @@ cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
       const float* i_g = q[1];
       float* dst = o.contrast ? boosted.data() : out.ptr<float>(y);
       // I_g + alpha (I_f - I_g), as addWeighted(I_g, 1 - alpha, I_f, alpha), clamped to [0, 1].
-      for (int x = 0; x < w; ++x) {
-        dst[x] = std::min(std::max(i_g[x] * one_minus_a + i_f[x] * a, 0.0f), 1.0f);
-      }
+      // Two loops: GCC vectorises each alone, not the clamp after arithmetic (-ftrapping-math).
+      for (int x = 0; x < w; ++x) dst[x] = i_g[x] * one_minus_a + i_f[x] * a;
+      for (int x = 0; x < w; ++x) dst[x] = std::min(std::max(dst[x], 0.0f), 1.0f);
       if (o.contrast) ClaheBinRow(o.clahe, dst, bins, y);
     });
     // CLAHE's output is in [0, 1] already.
