@@ -371,6 +371,10 @@ std::vector<float> ClaheMapHistogram(const ClaheOptions& o, std::vector<int> his
   const double inv = 1.0 / pixels;
   const double alpha = o.alpha;
   const double one_minus_eps = 1.0 - std::numeric_limits<double>::epsilon();
+  // Target constants, once per tile (not per bin).
+  const double hconst = 2.0 * alpha * alpha;
+  const double rayleigh_vmax = 1.0 - std::exp(-1.0 / hconst);
+  const double exponential_vmax = 1.0 - std::exp(-alpha);
   for (int b = 0; b < bins; ++b) {
     sum += hist[b];
     const double frac = sum * inv;
@@ -380,16 +384,13 @@ std::vector<float> ClaheMapHistogram(const ClaheOptions& o, std::vector<int> his
         v = std::min(frac, 1.0);
         break;
       case ClaheDistribution::kRayleigh: {
-        const double hconst = 2.0 * alpha * alpha;
-        const double vmax = 1.0 - std::exp(-1.0 / hconst);
-        double val = vmax * frac;
+        double val = rayleigh_vmax * frac;
         if (val >= 1.0) val = one_minus_eps;
         v = std::min(std::sqrt(-hconst * std::log(1.0 - val)), 1.0);
         break;
       }
       case ClaheDistribution::kExponential: {
-        const double vmax = 1.0 - std::exp(-alpha);
-        double val = vmax * frac;
+        double val = exponential_vmax * frac;
         if (val >= 1.0) val = one_minus_eps;
         v = std::min(-1.0 / alpha * std::log(1.0 - val), 1.0);
         break;
