@@ -3,7 +3,10 @@
 // He & Sun, "Fast guided filter", arXiv:1505.00996 (2015), Alg. 2. The paper we reproduce uses it
 // for denoising (§III-A.1, radius k = 4, ε = 0.1²) and for the simplified model's detail layers.
 //
-// Box means are O(N) running sums over a (2r+1)x(2r+1) window. Border rule: the window is
+// Box means over a (2r+1)x(2r+1) window are O(N): vertical running sums (re-anchored by direct
+// summation every 64 rows so float rounding does not drift), horizontal sums per row (direct or
+// blocked for r <= 12, binary doubling beyond). One-channel guides stream by rows: a and b live
+// in a ring of 2r+2 rows, so the output is the only full-size buffer. Border rule: the window is
 // clipped to the image and the mean divides by the number of pixels actually inside it (He's
 // reference code's N = boxfilter(ones) normalisation). cv::ximgproc::guidedFilter instead uses
 // BORDER_REFLECT_101 box filters, so the two agree (to float rounding) on every pixel at least r
