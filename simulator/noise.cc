@@ -117,6 +117,16 @@ __attribute__((target_clones("avx2", "default"))) void ScaleNoise(const float* n
   for (int i = 0; i < n; ++i) p[i] += normals[i] * std::sqrt(std::max(p[i], 0.0f) * shot + read2);
 }
 
+// ScaleNoise for normals given as pair halves: sample 2j is cos_part[j], 2j + 1 is sin_part[j].
+__attribute__((target_clones("avx2", "default"))) void ScaleNoisePairs(
+    const float* __restrict cos_part, const float* __restrict sin_part, float shot, float read2,
+    int pairs, float* __restrict p) {
+  for (int j = 0; j < pairs; ++j) {
+    p[2 * j] += cos_part[j] * std::sqrt(std::max(p[2 * j], 0.0f) * shot + read2);
+    p[2 * j + 1] += sin_part[j] * std::sqrt(std::max(p[2 * j + 1], 0.0f) * shot + read2);
+  }
+}
+
 }  // namespace
 
 void RandomNormals(uint64_t key, uint64_t first, int count, float* out) {
@@ -306,7 +316,20 @@ void internal::AddSensorNoiseRow(const SensorNoiseOptions& options, uint64_t see
   const float shot =
       options.photons_at_white > 0.0 ? static_cast<float>(1.0 / options.photons_at_white) : 0.0f;
   const float read2 = static_cast<float>(options.read_noise * options.read_noise);
-  RandomNormals(key, static_cast<uint64_t>(y) * per_row, per_row, normals_scratch);
+  const uint64_t first = static_cast<uint64_t>(y) * per_row;
+  const uint64_t first_pair = first / 2, pairs = static_cast<uint64_t>(per_row) / 2;
+  if (first % 2 == 0 && per_row % 2 == 0 && (first_pair >> 32) == ((first_pair + pairs) >> 32)) {
+    // The usual case, fused: the pairs' cos and sin halves go straight onto the even and odd
+    // samples (the same normals and the same arithmetic as RandomNormals + ScaleNoise).
+    float* cos_part = normals_scratch;
+    float* sin_part = normals_scratch + pairs;
+    NormalPairs(static_cast<uint32_t>(first_pair), static_cast<uint32_t>(first_pair >> 32),
+                static_cast<uint32_t>(key), static_cast<uint32_t>(key >> 32),
+                static_cast<int>(pairs), cos_part, sin_part);
+    ScaleNoisePairs(cos_part, sin_part, shot, read2, static_cast<int>(pairs), p);
+    return;
+  }
+  RandomNormals(key, first, per_row, normals_scratch);
   ScaleNoise(normals_scratch, shot, read2, per_row, p);
 }
 
