@@ -1,14 +1,9 @@
-// `turbid bench`: the speed goals of the issues, ours against the peer in the same process and on the
-// same inputs (Google Benchmark timing loops), with the peer/ours ratio, the goal, and how far the
-// two outputs agree. The inputs are rendered from the built-in hull scene (1360x1024 at scale 1).
-// The per-module benchmark binaries (benchmarks/*_bench.cc) hold the finer variants.
+// `turbid bench`: the speed goals of the issues, ours against the peer in the same process and on
+// the same inputs (Google Benchmark timing loops), with the peer/ours ratio, the goal, and how far
+// the two outputs agree. The inputs are rendered from the built-in hull scene (1360x1024 at scale
+// 1). The per-module benchmark binaries (benchmarks/*_bench.cc) hold the finer variants.
 #include <benchmark/benchmark.h>
-#include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-#include <opencv2/core/utility.hpp>
-#include <opencv2/imgproc.hpp>
-#include <opencv2/quality/qualityssim.hpp>
-#include <opencv2/ximgproc.hpp>
+#include <malloc.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,6 +13,12 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/quality/qualityssim.hpp>
+#include <opencv2/ximgproc.hpp>
 #include <regex>
 #include <string>
 #include <vector>
@@ -47,6 +48,7 @@ struct BenchArgs {
   std::string json_path;
   bool list = false;
   bool force = false;
+  bool warm_allocator = false;  // keep freed memory in the heap (no fresh pages per call)
 };
 
 // A goal: the ratio peer/ours at least `min_ratio`, or ours at most `max_ms` milliseconds.
@@ -58,7 +60,7 @@ struct Goal {
 
 struct BenchCase {
   std::string name;
-  std::string peer_name;        // empty: no peer (absolute goal)
+  std::string peer_name;  // empty: no peer (absolute goal)
   std::function<void()> ours;
   std::function<void()> peer;
   std::function<std::string()> agreement;  // how far the outputs agree; run once, untimed
@@ -158,9 +160,7 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
     BenchCase c;
     c.name = "psnr/color/8bit";
     c.peer_name = "cv::PSNR";
-    c.ours = [in] {
-      benchmark::DoNotOptimize(Psnr({}, in().clean_color8, in().degraded_color8));
-    };
+    c.ours = [in] { benchmark::DoNotOptimize(Psnr({}, in().clean_color8, in().degraded_color8)); };
     c.peer = [in] { benchmark::DoNotOptimize(cv::PSNR(in().clean_color8, in().degraded_color8)); };
     c.agreement = [in] {
       const double a = Psnr({}, in().clean_color8, in().degraded_color8);
@@ -193,8 +193,8 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
       const cv::Mat& img = in().degraded_gray_linear;
       cv::Mat ref;
       cv::ximgproc::guidedFilter(img, img, ref, radius, eps, CV_32F);
-      return "max |diff| " + Format("%.2g", InteriorMaxDiff(GuidedFilter(o, img, img), ref,
-                                                            2 * radius)) +
+      return "max |diff| " +
+             Format("%.2g", InteriorMaxDiff(GuidedFilter(o, img, img), ref, 2 * radius)) +
              " away from the border";
     };
     c.goal = {3.0, 0.0, "issue 5 item 8"};
@@ -316,10 +316,14 @@ class CollectingReporter : public benchmark::BenchmarkReporter {
  private:
   static double ToMs(benchmark::TimeUnit unit) {
     switch (unit) {
-      case benchmark::kNanosecond: return 1e-6;
-      case benchmark::kMicrosecond: return 1e-3;
-      case benchmark::kMillisecond: return 1.0;
-      case benchmark::kSecond: return 1e3;
+      case benchmark::kNanosecond:
+        return 1e-6;
+      case benchmark::kMicrosecond:
+        return 1e-3;
+      case benchmark::kMillisecond:
+        return 1.0;
+      case benchmark::kSecond:
+        return 1e3;
     }
     return 1.0;
   }
@@ -363,14 +367,23 @@ void RunBench(const BenchArgs& args) {
     throw Error(args.json_path, "exists (use --force to replace it)");
 
   cv::setNumThreads(args.threads);
+  // Full-size images allocated per call: with glibc's defaults, blocks above its (dynamic) mmap
+  // threshold, or freed at the top of a heap above the trim threshold, go back to the kernel, and
+  // the next call pays ~2 ms of page faults per 5 MB image. That is what a program gets by
+  // default, so it is the default here; --warm-allocator keeps freed memory for reuse, so that
+  // the timings show the arithmetic alone (a peer with many temporaries gains most).
+  if (args.warm_allocator) {
+    mallopt(M_MMAP_THRESHOLD, 256 << 20);
+    mallopt(M_TRIM_THRESHOLD, 512 << 20);
+  }
   std::cerr << "bench: building inputs (built-in hull at scale " << args.scale << ")\n";
   get_inputs();
   const bool real_time = args.threads > 1;  // CPU time of the main thread misses the workers
   benchmark::ClearRegisteredBenchmarks();
   for (const BenchCase& c : cases) {
     auto add = [&](const std::string& name, const std::function<void()>& fn) {
-      benchmark::internal::Benchmark* b = benchmark::RegisterBenchmark(
-          name.c_str(), [fn](benchmark::State& state) {
+      benchmark::internal::Benchmark* b =
+          benchmark::RegisterBenchmark(name.c_str(), [fn](benchmark::State& state) {
             for (auto _ : state) fn();
           });
       b->Unit(benchmark::kMillisecond)->MinTime(args.min_time_s);
@@ -383,7 +396,8 @@ void RunBench(const BenchArgs& args) {
   CollectingReporter reporter(real_time);
   benchmark::RunSpecifiedBenchmarks(&reporter, ".*");
   benchmark::ClearRegisteredBenchmarks();
-  for (const auto& [name, why] : reporter.errors()) std::cerr << "bench: " << name << ": " << why << "\n";
+  for (const auto& [name, why] : reporter.errors())
+    std::cerr << "bench: " << name << ": " << why << "\n";
 
   nlohmann::json report = {{"turbid_version", TURBID_VERSION},
                            {"scale", args.scale},
@@ -393,6 +407,7 @@ void RunBench(const BenchArgs& args) {
                            {"time", real_time ? "wall" : "cpu"},
                            {"min_time_s", args.min_time_s},
                            {"repetitions", args.repetitions},
+                           {"warm_allocator", args.warm_allocator},
                            {"cases", nlohmann::json::array()}};
   std::cout << "\n| case | ours ms | peer | peer ms | peer/ours | goal | status | agreement |\n"
             << "|---|---|---|---|---|---|---|---|\n";
@@ -425,9 +440,11 @@ void RunBench(const BenchArgs& args) {
                                {"status", status},
                                {"agreement", agreement}});
   }
-  std::cout << "\n" << (real_time ? "wall" : "CPU") << " time per call, " << args.threads
-            << " thread(s), " << get_inputs().hull_gray.image.cols << "x"
-            << get_inputs().hull_gray.image.rows
+  std::cout << "\n"
+            << (real_time ? "wall" : "CPU") << " time per call, " << args.threads << " thread(s), "
+            << get_inputs().hull_gray.image.cols << "x" << get_inputs().hull_gray.image.rows
+            << (args.warm_allocator ? ", freed memory kept for reuse (--warm-allocator)"
+                                    : ", glibc allocator defaults")
             << "; ratios compare runs of one process on one machine (noisy machines: rerun with "
                "--repetitions 3)\n";
   if (!args.json_path.empty()) {
@@ -453,6 +470,8 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_option("--json", args->json_path, "also write the results as JSON");
   cmd->add_flag("--force", args->force, "replace an existing --json file");
   cmd->add_flag("--list", args->list, "list the cases and exit");
+  cmd->add_flag("--warm-allocator", args->warm_allocator,
+                "keep freed memory for reuse (no page faults per call; default: glibc defaults)");
   cmd->callback([args] { RunBench(*args); });
 }
 
