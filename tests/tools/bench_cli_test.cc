@@ -2,10 +2,10 @@
 // peer, the ratio and the goal, and writes the same as JSON. No timing is asserted (the machine
 // is noisy): the test checks what is measured and that the outputs of ours and the peer agree.
 #include <gtest/gtest.h>
-#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "tests/support/test_support.h"
@@ -19,9 +19,9 @@ using testing::TempDir;
 TEST(BenchCli, ListNamesEveryGoal) {
   const auto run = RunTurbid({"bench", "--list"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  for (const char* name : {"ssim/gray/8bit", "ssim/color/8bit", "guided_filter/gray/r2",
-                           "clahe/rayleigh", "render/color/full", "render/gray/full",
-                           "enhance/full", "enhance/simplified"}) {
+  for (const char* name :
+       {"ssim/gray/8bit", "ssim/color/8bit", "guided_filter/gray/r2", "clahe/rayleigh",
+        "render/color/full", "render/gray/full", "enhance/full", "enhance/simplified"}) {
     EXPECT_NE(run.out.find(name), std::string::npos) << name;
   }
 }
@@ -29,14 +29,15 @@ TEST(BenchCli, ListNamesEveryGoal) {
 TEST(BenchCli, RunsSelectedCasesAndWritesJson) {
   TempDir dir;
   const std::string json_path = dir.File("bench.json");
-  const auto run = RunTurbid({"bench", "--scale", "0.1", "--min-time", "0.01", "--filter",
-                              "^(ssim/gray/8bit|psnr|guided_filter/gray/r2|render/gray)",
-                              "--json", json_path});
+  const auto run =
+      RunTurbid({"bench", "--scale", "0.1", "--min-time", "0.01", "--filter",
+                 "^(ssim/gray/8bit|psnr|guided_filter/gray/r2|render/gray)", "--json", json_path});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("| ssim/gray/8bit |"), std::string::npos) << run.out;
   const nlohmann::json report = nlohmann::json::parse(testing::ReadFileText(json_path));
   EXPECT_EQ(report.at("width"), 136);
   EXPECT_EQ(report.at("threads"), 1);
+  EXPECT_EQ(report.at("warm_allocator"), false);
   ASSERT_EQ(report.at("cases").size(), 4u);
   for (const auto& c : report.at("cases")) {
     EXPECT_GT(c.at("ours_ms").get<double>(), 0.0) << c.dump();
@@ -53,8 +54,8 @@ TEST(BenchCli, RunsSelectedCasesAndWritesJson) {
     if (name == "psnr/color/8bit") {
       // "PSNR a vs b dB": ours and cv::PSNR on the same pair.
       double a = 0, b = 0;
-      ASSERT_EQ(std::sscanf(c.at("agreement").get<std::string>().c_str(), "PSNR %lf vs %lf", &a, &b),
-                2);
+      ASSERT_EQ(
+          std::sscanf(c.at("agreement").get<std::string>().c_str(), "PSNR %lf vs %lf", &a, &b), 2);
       EXPECT_NEAR(a, b, 1e-6);
     }
     if (name == "guided_filter/gray/r2") {
@@ -65,10 +66,16 @@ TEST(BenchCli, RunsSelectedCasesAndWritesJson) {
     }
   }
   // Never overwrite without --force.
-  const auto again = RunTurbid({"bench", "--scale", "0.1", "--min-time", "0.01", "--filter",
-                                "psnr", "--json", json_path});
+  const auto again = RunTurbid(
+      {"bench", "--scale", "0.1", "--min-time", "0.01", "--filter", "psnr", "--json", json_path});
   EXPECT_NE(again.exit_code, 0);
   EXPECT_NE(again.err.find("exists"), std::string::npos) << again.err;
+  // --warm-allocator is recorded in the table footer and the JSON.
+  const auto warm = RunTurbid({"bench", "--scale", "0.1", "--min-time", "0.01", "--filter", "psnr",
+                               "--warm-allocator", "--json", json_path, "--force"});
+  ASSERT_EQ(warm.exit_code, 0) << warm.err;
+  EXPECT_NE(warm.out.find("--warm-allocator"), std::string::npos) << warm.out;
+  EXPECT_EQ(nlohmann::json::parse(testing::ReadFileText(json_path)).at("warm_allocator"), true);
 }
 
 TEST(BenchCli, BadOptionsAreOneLineErrors) {
