@@ -14,6 +14,56 @@ namespace turbid::simd {
 
 namespace base {
 #include "metrics/simd_kernels.inc"
+
+// The stride as a constant lets the vectoriser deinterleave (gray, RGB, RGBA rows).
+template <int kStep>
+void CentreU8Step(const uint8_t* __restrict in, float offset, float* __restrict out, int n) {
+  for (int j = 0; j < n; ++j) out[j] = static_cast<float>(in[j * kStep]) - offset;
+}
+
+void CentreU8(const uint8_t* in, int step, float offset, float* out, int n) {
+  switch (step) {
+    case 1:
+      return CentreU8Step<1>(in, offset, out, n);
+    case 3:
+      return CentreU8Step<3>(in, offset, out, n);
+    case 4:
+      return CentreU8Step<4>(in, offset, out, n);
+    default:
+      for (int j = 0; j < n; ++j) out[j] = static_cast<float>(in[j * step]) - offset;
+  }
+}
+
+// Plain references of the fused SSIM kernels (the AVX2 copies below add in the same order).
+void SymmetricColumnPair(const float* const* rows, const float* weights, int taps, float* out0,
+                         float* out1, int n) {
+  const int r = taps / 2;
+  for (int j = 0; j < n; ++j) {
+    float a0 = weights[r] * rows[r][j];
+    float a1 = weights[r] * rows[r + 1][j];
+    for (int k = 1; k <= r; ++k) {
+      a0 += weights[r + k] * (rows[r - k][j] + rows[r + k][j]);
+      a1 += weights[r + k] * (rows[r + 1 - k][j] + rows[r + 1 + k][j]);
+    }
+    out0[j] = a0;
+    out1[j] = a1;
+  }
+}
+
+void SsimHorizontalFormula(const float* const* moments, const float* weights, int taps, int n,
+                           double offset, double c1, double c2, double* out) {
+  const int r = taps / 2;
+  for (int j = 0; j < n; ++j) {
+    float m[5];
+    for (int q = 0; q < 5; ++q) {
+      const float* p = moments[q] + j;
+      float a = weights[r] * p[0];
+      for (int k = 1; k <= r; ++k) a += weights[r + k] * (p[-k] + p[k]);
+      m[q] = a;
+    }
+    SsimFormulaRow(&m[0], &m[1], &m[2], &m[3], &m[4], 1, offset, c1, c2, out + j);
+  }
+}
 }  // namespace base
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -59,6 +109,121 @@ void WeightedRowSumFast(const float* const* rows, const float* weights, int taps
 void Convolve1DFast(const float* in, const float* weights, int taps, float* out, int n) {
   FilterColumns([in](int k) { return in + k; }, weights, taps, out, n);
 }
+
+// Vertical pass, two output rows: rows[r - k] + rows[r + k] feeds row 0 and rows[r + 1 - k] +
+// rows[r + 2 + k - 1] row 1; walking k outwards, each input row is loaded once for both outputs
+// (taps + 1 loads per two outputs instead of 2 * taps). 16 columns per step: four independent
+// chains keep both FMA pipes busy while the loads stream from L2.
+void SymmetricColumnPairFast(const float* const* rows, const float* weights, int taps, float* out0,
+                             float* out1, int n) {
+  const int r = taps / 2;
+  int j = 0;
+  for (; j + 16 <= n; j += 16) {
+    __m256 lo_prev[2], hi[2], acc0[2], acc1[2];
+    const __m256 wc = _mm256_broadcast_ss(weights + r);
+    for (int l = 0; l < 2; ++l) {
+      lo_prev[l] = _mm256_loadu_ps(rows[r] + j + 8 * l);
+      hi[l] = _mm256_loadu_ps(rows[r + 1] + j + 8 * l);
+      acc0[l] = _mm256_mul_ps(wc, lo_prev[l]);
+      acc1[l] = _mm256_mul_ps(wc, hi[l]);
+    }
+    for (int k = 1; k <= r; ++k) {
+      const __m256 w = _mm256_broadcast_ss(weights + r + k);
+      const float* lo_row = rows[r - k] + j;
+      const float* hi_row = rows[r + 1 + k] + j;
+      for (int l = 0; l < 2; ++l) {
+        const __m256 lo = _mm256_loadu_ps(lo_row + 8 * l);
+        const __m256 hi_next = _mm256_loadu_ps(hi_row + 8 * l);
+        acc0[l] = _mm256_fmadd_ps(w, _mm256_add_ps(lo, hi[l]), acc0[l]);
+        acc1[l] = _mm256_fmadd_ps(w, _mm256_add_ps(lo_prev[l], hi_next), acc1[l]);
+        lo_prev[l] = lo;
+        hi[l] = hi_next;
+      }
+    }
+    for (int l = 0; l < 2; ++l) {
+      _mm256_storeu_ps(out0 + j + 8 * l, acc0[l]);
+      _mm256_storeu_ps(out1 + j + 8 * l, acc1[l]);
+    }
+  }
+  for (; j < n; ++j) {
+    float a0 = weights[r] * rows[r][j];
+    float a1 = weights[r] * rows[r + 1][j];
+    for (int k = 1; k <= r; ++k) {
+      a0 = std::fma(weights[r + k], rows[r - k][j] + rows[r + k][j], a0);
+      a1 = std::fma(weights[r + k], rows[r + 1 - k][j] + rows[r + 1 + k][j], a1);
+    }
+    out0[j] = a0;
+    out1[j] = a1;
+  }
+}
+
+template <int kStep>
+void CentreU8Step(const uint8_t* __restrict in, float offset, float* __restrict out, int n) {
+  for (int j = 0; j < n; ++j) out[j] = static_cast<float>(in[j * kStep]) - offset;
+}
+
+void CentreU8(const uint8_t* in, int step, float offset, float* out, int n) {
+  switch (step) {
+    case 1:
+      return CentreU8Step<1>(in, offset, out, n);
+    case 3:
+      return CentreU8Step<3>(in, offset, out, n);
+    case 4:
+      return CentreU8Step<4>(in, offset, out, n);
+    default:
+      for (int j = 0; j < n; ++j) out[j] = static_cast<float>(in[j * step]) - offset;
+  }
+}
+
+// SSIM of four columns from their moments (double, as SsimFormulaRow).
+inline __m256d FormulaPd(__m256d dx, __m256d dy, __m256d mxx, __m256d myy, __m256d mxy,
+                         __m256d offset, __m256d c1, __m256d c2) {
+  const __m256d two = _mm256_set1_pd(2.0);
+  const __m256d ux = _mm256_add_pd(dx, offset);
+  const __m256d uy = _mm256_add_pd(dy, offset);
+  const __m256d vx = _mm256_fnmadd_pd(dx, dx, mxx);
+  const __m256d vy = _mm256_fnmadd_pd(dy, dy, myy);
+  const __m256d vxy = _mm256_fnmadd_pd(dx, dy, mxy);
+  const __m256d num =
+      _mm256_mul_pd(_mm256_fmadd_pd(_mm256_mul_pd(two, ux), uy, c1), _mm256_fmadd_pd(two, vxy, c2));
+  const __m256d den = _mm256_mul_pd(_mm256_fmadd_pd(ux, ux, _mm256_fmadd_pd(uy, uy, c1)),
+                                    _mm256_add_pd(_mm256_add_pd(vx, vy), c2));
+  return _mm256_div_pd(num, den);
+}
+
+// Horizontal pass of the five moments, 8 columns at a time, straight into the formula: the
+// filtered moments never leave registers.
+void SsimHorizontalFormulaFast(const float* const* moments, const float* weights, int taps, int n,
+                               double offset, double c1, double c2, double* out) {
+  const int r = taps / 2;
+  const __m256d o = _mm256_set1_pd(offset), vc1 = _mm256_set1_pd(c1), vc2 = _mm256_set1_pd(c2);
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    __m256 m[5];
+    const __m256 wc = _mm256_broadcast_ss(weights + r);
+    for (int q = 0; q < 5; ++q) m[q] = _mm256_mul_ps(wc, _mm256_loadu_ps(moments[q] + j));
+    for (int k = 1; k <= r; ++k) {
+      const __m256 w = _mm256_broadcast_ss(weights + r + k);
+      for (int q = 0; q < 5; ++q) {
+        const float* p = moments[q] + j;
+        m[q] =
+            _mm256_fmadd_ps(w, _mm256_add_ps(_mm256_loadu_ps(p - k), _mm256_loadu_ps(p + k)), m[q]);
+      }
+    }
+    for (int half = 0; half < 2; ++half) {
+      __m256d d[5];
+      for (int q = 0; q < 5; ++q)
+        d[q] = _mm256_cvtps_pd(half == 0 ? _mm256_castps256_ps128(m[q])
+                                         : _mm256_extractf128_ps(m[q], 1));
+      _mm256_storeu_pd(out + j + 4 * half, FormulaPd(d[0], d[1], d[2], d[3], d[4], o, vc1, vc2));
+    }
+  }
+  if (j < n) {
+    const float* rest[5];
+    for (int q = 0; q < 5; ++q) rest[q] = moments[q] + j;
+    base::SsimHorizontalFormula(rest, weights, taps, n - j, offset, c1, c2, out + j);
+  }
+}
 }  // namespace avx2
 #pragma GCC pop_options
 #endif
@@ -81,17 +246,38 @@ bool UseAvx2() {
 #endif
 
 void WeightedRowSum(const float* const* rows, const float* weights, int taps, float* out, int n) {
-  #ifdef TURBID_HAVE_AVX2_COPY
+#ifdef TURBID_HAVE_AVX2_COPY
   if (UseAvx2()) return avx2::WeightedRowSumFast(rows, weights, taps, out, n);
 #endif
   base::WeightedRowSum(rows, weights, taps, out, n);
 }
 
 void Convolve1D(const float* in, const float* weights, int taps, float* out, int n) {
-  #ifdef TURBID_HAVE_AVX2_COPY
+#ifdef TURBID_HAVE_AVX2_COPY
   if (UseAvx2()) return avx2::Convolve1DFast(in, weights, taps, out, n);
 #endif
   base::Convolve1D(in, weights, taps, out, n);
+}
+
+void SymmetricColumnPair(const float* const* rows, const float* weights, int taps, float* out0,
+                         float* out1, int n) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::SymmetricColumnPairFast(rows, weights, taps, out0, out1, n);
+#endif
+  base::SymmetricColumnPair(rows, weights, taps, out0, out1, n);
+}
+
+void SsimHorizontalFormula(const float* const* moments, const float* weights, int taps, int n,
+                           double offset, double c1, double c2, double* out) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2())
+    return avx2::SsimHorizontalFormulaFast(moments, weights, taps, n, offset, c1, c2, out);
+#endif
+  base::SsimHorizontalFormula(moments, weights, taps, n, offset, c1, c2, out);
+}
+
+void CentreU8(const uint8_t* in, int step, float offset, float* out, int n) {
+  TURBID_DISPATCH(CentreU8(in, step, offset, out, n));
 }
 
 void Products(const float* x, const float* y, float* xx, float* yy, float* xy, int n) {

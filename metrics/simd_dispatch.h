@@ -14,6 +14,24 @@ void WeightedRowSum(const float* const* rows, const float* weights, int taps, fl
 // out[j] = sum_k weights[k] * in[j + k], j < n (in holds n + taps - 1 values).
 void Convolve1D(const float* in, const float* weights, int taps, float* out, int n);
 
+// Two consecutive output rows of a vertical pass with symmetric weights (weights[k] ==
+// weights[taps - 1 - k]): rows holds taps + 1 consecutive input rows; out0[j] = sum_k weights[k] *
+// rows[k][j] and out1[j] = sum_k weights[k] * rows[k + 1][j], j < n. Pairs of taps are added before
+// the multiply, and the shared rows are read once for both outputs.
+void SymmetricColumnPair(const float* const* rows, const float* weights, int taps, float* out0,
+                         float* out1, int n);
+
+// The horizontal symmetric pass of the five SSIM moments fused with the SSIM formula: moments[m]
+// points at column 0 of a row that holds radius = taps / 2 readable values on each side (the
+// reflected border); the moments are, in order, E[x - o], E[y - o] and the centred second moments
+// E[(x - o)^2], E[(y - o)^2], E[(x - o)(y - o)] after the vertical pass. Writes the SSIM of columns
+// [0, n) to out (formula as SsimFormulaRow, in double).
+void SsimHorizontalFormula(const float* const* moments, const float* weights, int taps, int n,
+                           double offset, double c1, double c2, double* out);
+
+// out[j] = float(in[j * step]) - offset, j < n: one channel of an interleaved 8-bit row, centred.
+void CentreU8(const uint8_t* in, int step, float offset, float* out, int n);
+
 // xx = x * x, yy = y * y, xy = x * y.
 void Products(const float* x, const float* y, float* xx, float* yy, float* xy, int n);
 

@@ -56,10 +56,11 @@ inline int Reflect(int i, int n) {
 }
 
 // The five windowed moments, fused: every input row is converted, centred and multiplied once
-// into a ring of (2r + 1) rows, then each output row is one vertical and one horizontal
-// separable pass per moment over float rows (vectorised by the SIMD clones), followed by the SSIM
-// formula in double. Centring by data_range / 2 keeps E[x^2] - E[x]^2 from cancelling badly in
-// float32; the variances are shift-invariant and the means get the offset back.
+// into a ring of (2r + 2) rows; each pair of output rows is one vertical pass per moment
+// (symmetric taps: pairs added before the multiply; input rows read once for both outputs), then
+// per row one horizontal pass of the five moments fused with the SSIM formula in double, so the
+// filtered moments stay in registers. Centring by data_range / 2 keeps E[x^2] - E[x]^2 from
+// cancelling badly in float32; the variances are shift-invariant and the means get the offset back.
 class SsimBand {
  public:
   SsimBand(const cv::Mat& ref, const cv::Mat& img, int channel, const std::vector<float>& taps,
@@ -75,45 +76,52 @@ class SsimBand {
         c1_(c1),
         c2_(c2) {
     const size_t n = static_cast<size_t>(width_);
-    const size_t ring_rows = taps_.size();
+    const size_t ring_rows = taps_.size() + 1;
     ring_.assign(kMoments * ring_rows * n, 0.0f);
-    padded_.assign(kMoments * (n + 2 * radius_), 0.0f);
-    filtered_.assign(kMoments * n, 0.0f);
+    padded_.assign(2 * kMoments * (n + 2 * radius_), 0.0f);
     ssim_row_.assign(n, 0.0);
   }
 
   // Computes output rows [row_begin, row_end); writes each row's cropped sum into row_sums[row]
-  // (rows outside the crop get 0) and, when map is not empty, the map row.
+  // (rows outside the crop get 0) and, when map is not empty, the map row. Rows go in pairs: the
+  // vertical pass shares its input rows between the two (an odd last row computes one row past
+  // row_end, reflected like any border row, and drops it).
   void Run(int row_begin, int row_end, int col_begin, int col_end, cv::Mat* map, double* row_sums) {
     const int taps = static_cast<int>(taps_.size());
+    const size_t padded_width = static_cast<size_t>(width_ + 2 * radius_);
     int next_virtual = row_begin - radius_;
-    const float* rows[kMaxTaps];
-    for (int i = row_begin; i < row_end; ++i) {
-      for (; next_virtual <= i + radius_; ++next_virtual) FillRing(next_virtual);
+    const float* rows[kMaxTaps + 1];
+    float* vertical[2][kMoments];
+    const float* horizontal[kMoments];
+    for (int half = 0; half < 2; ++half)
+      for (int m = 0; m < kMoments; ++m)
+        vertical[half][m] = padded_.data() + (half * kMoments + m) * padded_width + radius_;
+    for (int i = row_begin; i < row_end; i += 2) {
+      for (; next_virtual <= i + 1 + radius_; ++next_virtual) FillRing(next_virtual);
       for (int m = 0; m < kMoments; ++m) {
-        for (int k = 0; k < taps; ++k) rows[k] = RingRow(i - radius_ + k, m);
-        float* out = padded_.data() + m * (width_ + 2 * radius_) + radius_;
-        simd::WeightedRowSum(rows, taps_.data(), taps, out, width_);
-        for (int p = 0; p < radius_; ++p) {
-          out[-1 - p] = out[p];
-          out[width_ + p] = out[width_ - 1 - p];
-        }
-        simd::Convolve1D(out - radius_ + col_begin, taps_.data(), taps,
-                         filtered_.data() + m * width_ + col_begin, col_end - col_begin);
+        for (int k = 0; k <= taps; ++k) rows[k] = RingRow(i - radius_ + k, m);
+        simd::SymmetricColumnPair(rows, taps_.data(), taps, vertical[0][m], vertical[1][m], width_);
       }
-      const size_t n = static_cast<size_t>(width_);
-      float* map_row = nullptr;
-      if (map != nullptr && !map->empty()) map_row = map->ptr<float>(i);
-      simd::SsimFormulaRow(filtered_.data() + col_begin, filtered_.data() + n + col_begin,
-                           filtered_.data() + 2 * n + col_begin,
-                           filtered_.data() + 3 * n + col_begin,
-                           filtered_.data() + 4 * n + col_begin, col_end - col_begin, offset_, c1_,
-                           c2_, ssim_row_.data() + col_begin);
-      if (map_row != nullptr)
-        for (int j = col_begin; j < col_end; ++j) map_row[j] = static_cast<float>(ssim_row_[j]);
-      const bool inside = i >= radius_ && i < height_ - radius_;
-      row_sums[i] =
-          inside ? simd::OrderedSum(ssim_row_.data() + radius_, width_ - 2 * radius_) : 0.0;
+      for (int half = 0; half < 2 && i + half < row_end; ++half) {
+        const int row = i + half;
+        for (int m = 0; m < kMoments; ++m) {
+          float* out = vertical[half][m];
+          for (int p = 0; p < radius_; ++p) {
+            out[-1 - p] = out[p];
+            out[width_ + p] = out[width_ - 1 - p];
+          }
+          horizontal[m] = out + col_begin;
+        }
+        simd::SsimHorizontalFormula(horizontal, taps_.data(), taps, col_end - col_begin, offset_,
+                                    c1_, c2_, ssim_row_.data() + col_begin);
+        if (map != nullptr && !map->empty()) {
+          float* map_row = map->ptr<float>(row);
+          for (int j = col_begin; j < col_end; ++j) map_row[j] = static_cast<float>(ssim_row_[j]);
+        }
+        const bool inside = row >= radius_ && row < height_ - radius_;
+        row_sums[row] =
+            inside ? simd::OrderedSum(ssim_row_.data() + radius_, width_ - 2 * radius_) : 0.0;
+      }
     }
   }
 
@@ -123,9 +131,9 @@ class SsimBand {
   static constexpr int kMoments = 5;  // x, y, x^2, y^2, xy (centred)
 
   float* RingRow(int virtual_row, int moment) {
-    const int taps = static_cast<int>(taps_.size());
-    const int slot = ((virtual_row % taps) + taps) % taps;
-    return ring_.data() + (static_cast<size_t>(moment) * taps + slot) * width_;
+    const int slots = static_cast<int>(taps_.size()) + 1;  // a row pair needs taps + 1 rows
+    const int slot = ((virtual_row % slots) + slots) % slots;
+    return ring_.data() + (static_cast<size_t>(moment) * slots + slot) * width_;
   }
 
   template <typename T>
@@ -143,7 +151,8 @@ class SsimBand {
   void CentreRow(const cv::Mat& src, int row, float* out) const {
     switch (src.depth()) {
       case CV_8U:
-        Centre<uint8_t>(src, row, out);
+        simd::CentreU8(src.ptr<uint8_t>(row) + channel_, src.channels(),
+                       static_cast<float>(offset_), out, width_);
         break;
       case CV_16U:
         Centre<uint16_t>(src, row, out);
@@ -179,7 +188,6 @@ class SsimBand {
   double c2_;
   std::vector<float> ring_;
   std::vector<float> padded_;
-  std::vector<float> filtered_;
   std::vector<double> ssim_row_;
 };
 
