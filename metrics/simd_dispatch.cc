@@ -175,30 +175,39 @@ void CentreU8(const uint8_t* in, int step, float offset, float* out, int n) {
   }
 }
 
-// SSIM of four columns from their moments (double, as SsimFormulaRow).
-inline __m256d FormulaPd(__m256d dx, __m256d dy, __m256d mxx, __m256d myy, __m256d mxy,
-                         __m256d offset, __m256d c1, __m256d c2) {
-  const __m256d two = _mm256_set1_pd(2.0);
-  const __m256d ux = _mm256_add_pd(dx, offset);
-  const __m256d uy = _mm256_add_pd(dy, offset);
-  const __m256d vx = _mm256_fnmadd_pd(dx, dx, mxx);
-  const __m256d vy = _mm256_fnmadd_pd(dy, dy, myy);
-  const __m256d vxy = _mm256_fnmadd_pd(dx, dy, mxy);
-  const __m256d num =
-      _mm256_mul_pd(_mm256_fmadd_pd(_mm256_mul_pd(two, ux), uy, c1), _mm256_fmadd_pd(two, vxy, c2));
-  const __m256d den = _mm256_mul_pd(_mm256_fmadd_pd(ux, ux, _mm256_fmadd_pd(uy, uy, c1)),
-                                    _mm256_add_pd(_mm256_add_pd(vx, vy), c2));
-  return _mm256_div_pd(num, den);
+// SSIM of eight columns from their moments, in float: the moments themselves are float sums, so
+// the formula in double would only carry their rounding further, at twice the cost and two double
+// divides. The denominators are written as numerator + difference term, using
+// ux^2 + uy^2 = 2 ux uy + (ux - uy)^2 and vx + vy = 2 vxy + var(x - y): identical inputs then give
+// exactly 1, and the offset never cancels in ux - uy.
+inline __m256 FormulaPs(__m256 dx, __m256 dy, __m256 mxx, __m256 myy, __m256 mxy, __m256 offset,
+                        __m256 c1, __m256 c2) {
+  const __m256 two = _mm256_set1_ps(2.0f);
+  const __m256 ux = _mm256_add_ps(dx, offset);
+  const __m256 uy = _mm256_add_ps(dy, offset);
+  const __m256 vxy = _mm256_fnmadd_ps(dx, dy, mxy);
+  const __m256 a1 = _mm256_fmadd_ps(_mm256_mul_ps(two, ux), uy, c1);
+  const __m256 a2 = _mm256_fmadd_ps(two, vxy, c2);
+  const __m256 d = _mm256_sub_ps(dx, dy);
+  const __m256 d2 = _mm256_mul_ps(d, d);
+  const __m256 spread = _mm256_fnmadd_ps(two, mxy, _mm256_add_ps(mxx, myy));  // E[(x - y)^2]
+  const __m256 b1 = _mm256_add_ps(a1, d2);
+  const __m256 b2 = _mm256_add_ps(a2, _mm256_sub_ps(spread, d2));
+  return _mm256_div_ps(_mm256_mul_ps(a1, a2), _mm256_mul_ps(b1, b2));
 }
 
 // Horizontal pass of the five moments, 8 columns at a time, straight into the formula: the
-// filtered moments never leave registers.
+// filtered moments never leave registers. A ragged end is done as one more (overlapping) block, so
+// every column takes the same arithmetic wherever the column range starts.
 void SsimHorizontalFormulaFast(const float* const* moments, const float* weights, int taps, int n,
                                double offset, double c1, double c2, double* out) {
+  if (n < 8) return base::SsimHorizontalFormula(moments, weights, taps, n, offset, c1, c2, out);
   const int r = taps / 2;
-  const __m256d o = _mm256_set1_pd(offset), vc1 = _mm256_set1_pd(c1), vc2 = _mm256_set1_pd(c2);
-  int j = 0;
-  for (; j + 8 <= n; j += 8) {
+  const __m256 o = _mm256_set1_ps(static_cast<float>(offset));
+  const __m256 vc1 = _mm256_set1_ps(static_cast<float>(c1));
+  const __m256 vc2 = _mm256_set1_ps(static_cast<float>(c2));
+  for (int j0 = 0; j0 < n; j0 += 8) {
+    const int j = std::min(j0, n - 8);
     __m256 m[5];
     const __m256 wc = _mm256_broadcast_ss(weights + r);
     for (int q = 0; q < 5; ++q) m[q] = _mm256_mul_ps(wc, _mm256_loadu_ps(moments[q] + j));
@@ -210,18 +219,9 @@ void SsimHorizontalFormulaFast(const float* const* moments, const float* weights
             _mm256_fmadd_ps(w, _mm256_add_ps(_mm256_loadu_ps(p - k), _mm256_loadu_ps(p + k)), m[q]);
       }
     }
-    for (int half = 0; half < 2; ++half) {
-      __m256d d[5];
-      for (int q = 0; q < 5; ++q)
-        d[q] = _mm256_cvtps_pd(half == 0 ? _mm256_castps256_ps128(m[q])
-                                         : _mm256_extractf128_ps(m[q], 1));
-      _mm256_storeu_pd(out + j + 4 * half, FormulaPd(d[0], d[1], d[2], d[3], d[4], o, vc1, vc2));
-    }
-  }
-  if (j < n) {
-    const float* rest[5];
-    for (int q = 0; q < 5; ++q) rest[q] = moments[q] + j;
-    base::SsimHorizontalFormula(rest, weights, taps, n - j, offset, c1, c2, out + j);
+    const __m256 s = FormulaPs(m[0], m[1], m[2], m[3], m[4], o, vc1, vc2);
+    _mm256_storeu_pd(out + j, _mm256_cvtps_pd(_mm256_castps256_ps128(s)));
+    _mm256_storeu_pd(out + j + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(s, 1)));
   }
 }
 }  // namespace avx2
