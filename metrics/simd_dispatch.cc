@@ -17,20 +17,39 @@ namespace base {
 
 // The stride as a constant lets the vectoriser deinterleave (gray, RGB, RGBA rows).
 template <int kStep>
-void CentreU8Step(const uint8_t* __restrict in, float offset, float* __restrict out, int n) {
-  for (int j = 0; j < n; ++j) out[j] = static_cast<float>(in[j * kStep]) - offset;
+void CentredMomentsU8Step(const uint8_t* __restrict x, const uint8_t* __restrict y, float offset,
+                          float* __restrict cx, float* __restrict cy, float* __restrict xx,
+                          float* __restrict yy, float* __restrict xy, int n) {
+  for (int j = 0; j < n; ++j) {
+    const float a = static_cast<float>(x[j * kStep]) - offset;
+    const float b = static_cast<float>(y[j * kStep]) - offset;
+    cx[j] = a;
+    cy[j] = b;
+    xx[j] = a * a;
+    yy[j] = b * b;
+    xy[j] = a * b;
+  }
 }
 
-void CentreU8(const uint8_t* in, int step, float offset, float* out, int n) {
+void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset, float* cx,
+                      float* cy, float* xx, float* yy, float* xy, int n) {
   switch (step) {
     case 1:
-      return CentreU8Step<1>(in, offset, out, n);
+      return CentredMomentsU8Step<1>(x, y, offset, cx, cy, xx, yy, xy, n);
     case 3:
-      return CentreU8Step<3>(in, offset, out, n);
+      return CentredMomentsU8Step<3>(x, y, offset, cx, cy, xx, yy, xy, n);
     case 4:
-      return CentreU8Step<4>(in, offset, out, n);
+      return CentredMomentsU8Step<4>(x, y, offset, cx, cy, xx, yy, xy, n);
     default:
-      for (int j = 0; j < n; ++j) out[j] = static_cast<float>(in[j * step]) - offset;
+      for (int j = 0; j < n; ++j) {
+        cx[j] = static_cast<float>(x[j * step]) - offset;
+        cy[j] = static_cast<float>(y[j * step]) - offset;
+      }
+      for (int j = 0; j < n; ++j) {
+        xx[j] = cx[j] * cx[j];
+        yy[j] = cy[j] * cy[j];
+        xy[j] = cx[j] * cy[j];
+      }
   }
 }
 
@@ -114,9 +133,10 @@ void Convolve1DFast(const float* in, const float* weights, int taps, float* out,
 // rows[r + 2 + k - 1] row 1; walking k outwards, each input row is loaded once for both outputs
 // (taps + 1 loads per two outputs instead of 2 * taps). 16 columns per step: four independent
 // chains keep both FMA pipes busy while the loads stream from L2.
+template <int kRadius>
 void SymmetricColumnPairFast(const float* const* rows, const float* weights, int taps, float* out0,
                              float* out1, int n) {
-  const int r = taps / 2;
+  const int r = kRadius > 0 ? kRadius : taps / 2;
   int j = 0;
   for (; j + 16 <= n; j += 16) {
     __m256 lo_prev[2], hi[2], acc0[2], acc1[2];
@@ -157,21 +177,41 @@ void SymmetricColumnPairFast(const float* const* rows, const float* weights, int
   }
 }
 
+// The stride as a constant lets the vectoriser deinterleave (gray, RGB, RGBA rows).
 template <int kStep>
-void CentreU8Step(const uint8_t* __restrict in, float offset, float* __restrict out, int n) {
-  for (int j = 0; j < n; ++j) out[j] = static_cast<float>(in[j * kStep]) - offset;
+void CentredMomentsU8Step(const uint8_t* __restrict x, const uint8_t* __restrict y, float offset,
+                          float* __restrict cx, float* __restrict cy, float* __restrict xx,
+                          float* __restrict yy, float* __restrict xy, int n) {
+  for (int j = 0; j < n; ++j) {
+    const float a = static_cast<float>(x[j * kStep]) - offset;
+    const float b = static_cast<float>(y[j * kStep]) - offset;
+    cx[j] = a;
+    cy[j] = b;
+    xx[j] = a * a;
+    yy[j] = b * b;
+    xy[j] = a * b;
+  }
 }
 
-void CentreU8(const uint8_t* in, int step, float offset, float* out, int n) {
+void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset, float* cx,
+                      float* cy, float* xx, float* yy, float* xy, int n) {
   switch (step) {
     case 1:
-      return CentreU8Step<1>(in, offset, out, n);
+      return CentredMomentsU8Step<1>(x, y, offset, cx, cy, xx, yy, xy, n);
     case 3:
-      return CentreU8Step<3>(in, offset, out, n);
+      return CentredMomentsU8Step<3>(x, y, offset, cx, cy, xx, yy, xy, n);
     case 4:
-      return CentreU8Step<4>(in, offset, out, n);
+      return CentredMomentsU8Step<4>(x, y, offset, cx, cy, xx, yy, xy, n);
     default:
-      for (int j = 0; j < n; ++j) out[j] = static_cast<float>(in[j * step]) - offset;
+      for (int j = 0; j < n; ++j) {
+        cx[j] = static_cast<float>(x[j * step]) - offset;
+        cy[j] = static_cast<float>(y[j * step]) - offset;
+      }
+      for (int j = 0; j < n; ++j) {
+        xx[j] = cx[j] * cx[j];
+        yy[j] = cy[j] * cy[j];
+        xy[j] = cx[j] * cy[j];
+      }
   }
 }
 
@@ -199,10 +239,11 @@ inline __m256 FormulaPs(__m256 dx, __m256 dy, __m256 mxx, __m256 myy, __m256 mxy
 // Horizontal pass of the five moments, 8 columns at a time, straight into the formula: the
 // filtered moments never leave registers. A ragged end is done as one more (overlapping) block, so
 // every column takes the same arithmetic wherever the column range starts.
+template <int kRadius>
 void SsimHorizontalFormulaFast(const float* const* moments, const float* weights, int taps, int n,
                                double offset, double c1, double c2, double* out) {
   if (n < 8) return base::SsimHorizontalFormula(moments, weights, taps, n, offset, c1, c2, out);
-  const int r = taps / 2;
+  const int r = kRadius > 0 ? kRadius : taps / 2;
   const __m256 o = _mm256_set1_ps(static_cast<float>(offset));
   const __m256 vc1 = _mm256_set1_ps(static_cast<float>(c1));
   const __m256 vc2 = _mm256_set1_ps(static_cast<float>(c2));
@@ -262,7 +303,10 @@ void Convolve1D(const float* in, const float* weights, int taps, float* out, int
 void SymmetricColumnPair(const float* const* rows, const float* weights, int taps, float* out0,
                          float* out1, int n) {
 #ifdef TURBID_HAVE_AVX2_COPY
-  if (UseAvx2()) return avx2::SymmetricColumnPairFast(rows, weights, taps, out0, out1, n);
+  // The default window (sigma 1.5, truncate 3.5: 11 taps) with the tap loop unrolled.
+  if (UseAvx2() && taps == 11)
+    return avx2::SymmetricColumnPairFast<5>(rows, weights, taps, out0, out1, n);
+  if (UseAvx2()) return avx2::SymmetricColumnPairFast<0>(rows, weights, taps, out0, out1, n);
 #endif
   base::SymmetricColumnPair(rows, weights, taps, out0, out1, n);
 }
@@ -271,13 +315,16 @@ void SsimHorizontalFormula(const float* const* moments, const float* weights, in
                            double offset, double c1, double c2, double* out) {
 #ifdef TURBID_HAVE_AVX2_COPY
   if (UseAvx2())
-    return avx2::SsimHorizontalFormulaFast(moments, weights, taps, n, offset, c1, c2, out);
+    return taps == 11
+               ? avx2::SsimHorizontalFormulaFast<5>(moments, weights, taps, n, offset, c1, c2, out)
+               : avx2::SsimHorizontalFormulaFast<0>(moments, weights, taps, n, offset, c1, c2, out);
 #endif
   base::SsimHorizontalFormula(moments, weights, taps, n, offset, c1, c2, out);
 }
 
-void CentreU8(const uint8_t* in, int step, float offset, float* out, int n) {
-  TURBID_DISPATCH(CentreU8(in, step, offset, out, n));
+void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset, float* cx,
+                      float* cy, float* xx, float* yy, float* xy, int n) {
+  TURBID_DISPATCH(CentredMomentsU8(x, y, step, offset, cx, cy, xx, yy, xy, n));
 }
 
 void Products(const float* x, const float* y, float* xx, float* yy, float* xy, int n) {

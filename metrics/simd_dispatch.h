@@ -29,8 +29,11 @@ void SymmetricColumnPair(const float* const* rows, const float* weights, int tap
 void SsimHorizontalFormula(const float* const* moments, const float* weights, int taps, int n,
                            double offset, double c1, double c2, double* out);
 
-// out[j] = float(in[j * step]) - offset, j < n: one channel of an interleaved 8-bit row, centred.
-void CentreU8(const uint8_t* in, int step, float offset, float* out, int n);
+// One channel of two interleaved 8-bit rows (element j at x[j * step], y[j * step]), centred and
+// multiplied in one pass: cx = x - offset, cy = y - offset, xx = cx^2, yy = cy^2, xy = cx * cy
+// (exact in float for 8-bit values and offset 127.5).
+void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset, float* cx,
+                      float* cy, float* xx, float* yy, float* xy, int n);
 
 // xx = x * x, yy = y * y, xy = x * y.
 void Products(const float* x, const float* y, float* xx, float* yy, float* xy, int n);

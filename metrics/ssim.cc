@@ -150,9 +150,7 @@ class SsimBand {
 
   void CentreRow(const cv::Mat& src, int row, float* out) const {
     switch (src.depth()) {
-      case CV_8U:
-        simd::CentreU8(src.ptr<uint8_t>(row) + channel_, src.channels(),
-                       static_cast<float>(offset_), out, width_);
+      case CV_8U:  // FillRing does 8-bit rows in one pass
         break;
       case CV_16U:
         Centre<uint16_t>(src, row, out);
@@ -170,6 +168,13 @@ class SsimBand {
     const int row = Reflect(virtual_row, height_);
     float* x = RingRow(virtual_row, 0);
     float* y = RingRow(virtual_row, 1);
+    if (ref_.depth() == CV_8U) {
+      simd::CentredMomentsU8(ref_.ptr<uint8_t>(row) + channel_, img_.ptr<uint8_t>(row) + channel_,
+                             ref_.channels(), static_cast<float>(offset_), x, y,
+                             RingRow(virtual_row, 2), RingRow(virtual_row, 3),
+                             RingRow(virtual_row, 4), width_);
+      return;
+    }
     CentreRow(ref_, row, x);
     CentreRow(img_, row, y);
     simd::Products(x, y, RingRow(virtual_row, 2), RingRow(virtual_row, 3), RingRow(virtual_row, 4),
