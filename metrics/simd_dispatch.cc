@@ -69,6 +69,12 @@ void SymmetricColumnPair(const float* const* rows, const float* weights, int tap
   }
 }
 
+void SymmetricColumnQuad(const float* const* rows, const float* weights, int taps,
+                         float* const* out, int n) {
+  SymmetricColumnPair(rows, weights, taps, out[0], out[1], n);
+  SymmetricColumnPair(rows + 2, weights, taps, out[2], out[3], n);
+}
+
 void SsimHorizontalFormula(const float* const* moments, const float* weights, int taps, int n,
                            double offset, double c1, double c2, double* out) {
   const int r = taps / 2;
@@ -215,6 +221,37 @@ void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset
   }
 }
 
+// Four output rows from taps + 3 input rows, 8 columns at a time: the input vectors are loaded once
+// (from L2: the ring of five moments does not fit L1) and reused from registers or L1 for all four
+// rows, which cuts the L2 traffic of the vertical pass from 6 to 3.5 loads per output.
+template <int kRadius>
+void SymmetricColumnQuadFast(const float* const* rows, const float* weights, float* const* out,
+                             int n) {
+  constexpr int kTaps = 2 * kRadius + 1;
+  __m256 w[kRadius + 1];
+  for (int k = 0; k <= kRadius; ++k) w[k] = _mm256_broadcast_ss(weights + kRadius + k);
+  const auto row_sum = [&](const __m256* v, int t) {
+    __m256 acc = _mm256_mul_ps(w[0], v[kRadius + t]);
+    for (int k = 1; k <= kRadius; ++k)
+      acc = _mm256_fmadd_ps(w[k], _mm256_add_ps(v[kRadius + t - k], v[kRadius + t + k]), acc);
+    return acc;
+  };
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    __m256 v[kTaps + 3];
+    for (int s = 0; s < kTaps + 3; ++s) v[s] = _mm256_loadu_ps(rows[s] + j);
+    for (int t = 0; t < 4; ++t) _mm256_storeu_ps(out[t] + j, row_sum(v, t));
+  }
+  for (; j < n; ++j)
+    for (int t = 0; t < 4; ++t) {
+      float acc = weights[kRadius] * rows[kRadius + t][j];
+      for (int k = 1; k <= kRadius; ++k)
+        acc = std::fma(weights[kRadius + k], rows[kRadius + t - k][j] + rows[kRadius + t + k][j],
+                       acc);
+      out[t][j] = acc;
+    }
+}
+
 // SSIM of eight columns from their moments, in float: the moments themselves are float sums, so
 // the formula in double would only carry their rounding further, at twice the cost and two double
 // divides. The denominators are written as numerator + difference term, using
@@ -309,6 +346,18 @@ void SymmetricColumnPair(const float* const* rows, const float* weights, int tap
   if (UseAvx2()) return avx2::SymmetricColumnPairFast<0>(rows, weights, taps, out0, out1, n);
 #endif
   base::SymmetricColumnPair(rows, weights, taps, out0, out1, n);
+}
+
+void SymmetricColumnQuad(const float* const* rows, const float* weights, int taps,
+                         float* const* out, int n) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2() && taps == 11) return avx2::SymmetricColumnQuadFast<5>(rows, weights, out, n);
+  if (UseAvx2()) {
+    SymmetricColumnPair(rows, weights, taps, out[0], out[1], n);
+    return SymmetricColumnPair(rows + 2, weights, taps, out[2], out[3], n);
+  }
+#endif
+  base::SymmetricColumnQuad(rows, weights, taps, out, n);
 }
 
 void SsimHorizontalFormula(const float* const* moments, const float* weights, int taps, int n,

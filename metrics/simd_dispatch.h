@@ -21,6 +21,11 @@ void Convolve1D(const float* in, const float* weights, int taps, float* out, int
 void SymmetricColumnPair(const float* const* rows, const float* weights, int taps, float* out0,
                          float* out1, int n);
 
+// The same for four consecutive output rows (rows holds taps + 3 input rows; out[t][j] = sum_k
+// weights[k] * rows[k + t][j]): each input row is read from memory once for all four outputs.
+void SymmetricColumnQuad(const float* const* rows, const float* weights, int taps,
+                         float* const* out, int n);
+
 // The horizontal symmetric pass of the five SSIM moments fused with the SSIM formula: moments[m]
 // points at column 0 of a row that holds radius = taps / 2 readable values on each side (the
 // reflected border); the moments are, in order, E[x - o], E[y - o] and the centred second moments

@@ -56,7 +56,7 @@ inline int Reflect(int i, int n) {
 }
 
 // The five windowed moments, fused: every input row is converted, centred and multiplied once
-// into a ring of (2r + 2) rows; each pair of output rows is one vertical pass per moment
+// into a ring of (2r + 4) rows; each group of four output rows is one vertical pass per moment
 // (symmetric taps: pairs added before the multiply; input rows read once for both outputs), then
 // per row one horizontal pass of the five moments fused with the SSIM formula in double, so the
 // filtered moments stay in registers. Centring by data_range / 2 keeps E[x^2] - E[x]^2 from
@@ -76,52 +76,42 @@ class SsimBand {
         c1_(c1),
         c2_(c2) {
     const size_t n = static_cast<size_t>(width_);
-    const size_t ring_rows = taps_.size() + 1;
+    const size_t ring_rows = taps_.size() + kGroup - 1;
     ring_.assign(kMoments * ring_rows * n, 0.0f);
-    padded_.assign(2 * kMoments * (n + 2 * radius_), 0.0f);
+    padded_.assign(kGroup * kMoments * (n + 2 * radius_), 0.0f);
     ssim_row_.assign(n, 0.0);
   }
 
   // Computes output rows [row_begin, row_end); writes each row's cropped sum into row_sums[row]
-  // (rows outside the crop get 0) and, when map is not empty, the map row. Rows go in pairs: the
-  // vertical pass shares its input rows between the two (an odd last row computes one row past
-  // row_end, reflected like any border row, and drops it).
+  // (rows outside the crop get 0) and, when map is not empty, the map row. Rows go in groups of
+  // four, then pairs: the vertical pass shares its input rows within a group (an odd last row
+  // computes one row past row_end, reflected like any border row, and drops it). Every row takes
+  // the same arithmetic whatever its group, so results do not depend on the banding.
   void Run(int row_begin, int row_end, int col_begin, int col_end, cv::Mat* map, double* row_sums) {
     const int taps = static_cast<int>(taps_.size());
     const size_t padded_width = static_cast<size_t>(width_ + 2 * radius_);
     int next_virtual = row_begin - radius_;
-    const float* rows[kMaxTaps + 1];
-    float* vertical[2][kMoments];
-    const float* horizontal[kMoments];
-    for (int half = 0; half < 2; ++half)
+    const float* rows[kMaxTaps + 3];
+    float* vertical[kGroup][kMoments];
+    for (int t = 0; t < kGroup; ++t)
       for (int m = 0; m < kMoments; ++m)
-        vertical[half][m] = padded_.data() + (half * kMoments + m) * padded_width + radius_;
-    for (int i = row_begin; i < row_end; i += 2) {
-      for (; next_virtual <= i + 1 + radius_; ++next_virtual) FillRing(next_virtual);
+        vertical[t][m] = padded_.data() + (t * kMoments + m) * padded_width + radius_;
+    for (int i = row_begin; i < row_end;) {
+      const int group = i + kGroup <= row_end ? kGroup : 2;
+      for (; next_virtual <= i + group - 1 + radius_; ++next_virtual) FillRing(next_virtual);
       for (int m = 0; m < kMoments; ++m) {
-        for (int k = 0; k <= taps; ++k) rows[k] = RingRow(i - radius_ + k, m);
-        simd::SymmetricColumnPair(rows, taps_.data(), taps, vertical[0][m], vertical[1][m], width_);
-      }
-      for (int half = 0; half < 2 && i + half < row_end; ++half) {
-        const int row = i + half;
-        for (int m = 0; m < kMoments; ++m) {
-          float* out = vertical[half][m];
-          for (int p = 0; p < radius_; ++p) {
-            out[-1 - p] = out[p];
-            out[width_ + p] = out[width_ - 1 - p];
-          }
-          horizontal[m] = out + col_begin;
+        for (int k = 0; k < taps + group - 1; ++k) rows[k] = RingRow(i - radius_ + k, m);
+        if (group == kGroup) {
+          float* out[kGroup] = {vertical[0][m], vertical[1][m], vertical[2][m], vertical[3][m]};
+          simd::SymmetricColumnQuad(rows, taps_.data(), taps, out, width_);
+        } else {
+          simd::SymmetricColumnPair(rows, taps_.data(), taps, vertical[0][m], vertical[1][m],
+                                    width_);
         }
-        simd::SsimHorizontalFormula(horizontal, taps_.data(), taps, col_end - col_begin, offset_,
-                                    c1_, c2_, ssim_row_.data() + col_begin);
-        if (map != nullptr && !map->empty()) {
-          float* map_row = map->ptr<float>(row);
-          for (int j = col_begin; j < col_end; ++j) map_row[j] = static_cast<float>(ssim_row_[j]);
-        }
-        const bool inside = row >= radius_ && row < height_ - radius_;
-        row_sums[row] =
-            inside ? simd::OrderedSum(ssim_row_.data() + radius_, width_ - 2 * radius_) : 0.0;
       }
+      for (int t = 0; t < group && i + t < row_end; ++t)
+        FinishRow(i + t, vertical[t], col_begin, col_end, map, row_sums);
+      i += group;
     }
   }
 
@@ -129,9 +119,35 @@ class SsimBand {
 
  private:
   static constexpr int kMoments = 5;  // x, y, x^2, y^2, xy (centred)
+  static constexpr int kGroup = 4;    // output rows per vertical pass
+
+  // Reflects the vertically filtered moments of one row into their borders, then the horizontal
+  // pass and the formula; stores the map row and the cropped row sum.
+  void FinishRow(int row, float* const* vertical, int col_begin, int col_end, cv::Mat* map,
+                 double* row_sums) {
+    const float* horizontal[kMoments];
+    for (int m = 0; m < kMoments; ++m) {
+      float* out = vertical[m];
+      for (int p = 0; p < radius_; ++p) {
+        out[-1 - p] = out[p];
+        out[width_ + p] = out[width_ - 1 - p];
+      }
+      horizontal[m] = out + col_begin;
+    }
+    const int taps = static_cast<int>(taps_.size());
+    simd::SsimHorizontalFormula(horizontal, taps_.data(), taps, col_end - col_begin, offset_, c1_,
+                                c2_, ssim_row_.data() + col_begin);
+    if (map != nullptr && !map->empty()) {
+      float* map_row = map->ptr<float>(row);
+      for (int j = col_begin; j < col_end; ++j) map_row[j] = static_cast<float>(ssim_row_[j]);
+    }
+    const bool inside = row >= radius_ && row < height_ - radius_;
+    row_sums[row] =
+        inside ? simd::OrderedSum(ssim_row_.data() + radius_, width_ - 2 * radius_) : 0.0;
+  }
 
   float* RingRow(int virtual_row, int moment) {
-    const int slots = static_cast<int>(taps_.size()) + 1;  // a row pair needs taps + 1 rows
+    const int slots = static_cast<int>(taps_.size()) + kGroup - 1;  // one group's input rows
     const int slot = ((virtual_row % slots) + slots) % slots;
     return ring_.data() + (static_cast<size_t>(moment) * slots + slot) * width_;
   }
