@@ -279,8 +279,22 @@ inline __m256 FormulaPs(__m256 dx, __m256 dy, __m256 mxx, __m256 myy, __m256 mxy
 template <int kRadius>
 void SsimHorizontalFormulaFast(const float* const* moments, const float* weights, int taps, int n,
                                double offset, double c1, double c2, double* out) {
-  if (n < 8) return base::SsimHorizontalFormula(moments, weights, taps, n, offset, c1, c2, out);
   const int r = kRadius > 0 ? kRadius : taps / 2;
+  if (n < 8) {
+    // Fewer than 8 columns: the same vector arithmetic on a zero-extended copy, so that a narrow
+    // column range gives bit for bit what the wide one gives for the same columns.
+    constexpr int kMaxRadius = 64;
+    alignas(32) float copy[5][8 + 2 * kMaxRadius] = {};
+    const float* rows[5];
+    for (int q = 0; q < 5; ++q) {
+      std::copy(moments[q] - r, moments[q] + n + r, copy[q]);
+      rows[q] = copy[q] + r;
+    }
+    double block[8];
+    SsimHorizontalFormulaFast<kRadius>(rows, weights, taps, 8, offset, c1, c2, block);
+    std::copy(block, block + n, out);
+    return;
+  }
   const __m256 o = _mm256_set1_ps(static_cast<float>(offset));
   const __m256 vc1 = _mm256_set1_ps(static_cast<float>(c1));
   const __m256 vc2 = _mm256_set1_ps(static_cast<float>(c2));
