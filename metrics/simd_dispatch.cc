@@ -15,44 +15,6 @@ namespace turbid::simd {
 namespace base {
 #include "metrics/simd_kernels.inc"
 
-// The stride as a constant lets the vectoriser deinterleave (gray, RGB, RGBA rows).
-template <int kStep>
-void CentredMomentsU8Step(const uint8_t* __restrict x, const uint8_t* __restrict y, float offset,
-                          float* __restrict cx, float* __restrict cy, float* __restrict xx,
-                          float* __restrict yy, float* __restrict xy, int n) {
-  for (int j = 0; j < n; ++j) {
-    const float a = static_cast<float>(x[j * kStep]) - offset;
-    const float b = static_cast<float>(y[j * kStep]) - offset;
-    cx[j] = a;
-    cy[j] = b;
-    xx[j] = a * a;
-    yy[j] = b * b;
-    xy[j] = a * b;
-  }
-}
-
-void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset, float* cx,
-                      float* cy, float* xx, float* yy, float* xy, int n) {
-  switch (step) {
-    case 1:
-      return CentredMomentsU8Step<1>(x, y, offset, cx, cy, xx, yy, xy, n);
-    case 3:
-      return CentredMomentsU8Step<3>(x, y, offset, cx, cy, xx, yy, xy, n);
-    case 4:
-      return CentredMomentsU8Step<4>(x, y, offset, cx, cy, xx, yy, xy, n);
-    default:
-      for (int j = 0; j < n; ++j) {
-        cx[j] = static_cast<float>(x[j * step]) - offset;
-        cy[j] = static_cast<float>(y[j * step]) - offset;
-      }
-      for (int j = 0; j < n; ++j) {
-        xx[j] = cx[j] * cx[j];
-        yy[j] = cy[j] * cy[j];
-        xy[j] = cx[j] * cy[j];
-      }
-  }
-}
-
 // Plain references of the fused SSIM kernels (the AVX2 copies below add in the same order).
 void SymmetricColumnPair(const float* const* rows, const float* weights, int taps, float* out0,
                          float* out1, int n) {
@@ -180,44 +142,6 @@ void SymmetricColumnPairFast(const float* const* rows, const float* weights, int
     }
     out0[j] = a0;
     out1[j] = a1;
-  }
-}
-
-// The stride as a constant lets the vectoriser deinterleave (gray, RGB, RGBA rows).
-template <int kStep>
-void CentredMomentsU8Step(const uint8_t* __restrict x, const uint8_t* __restrict y, float offset,
-                          float* __restrict cx, float* __restrict cy, float* __restrict xx,
-                          float* __restrict yy, float* __restrict xy, int n) {
-  for (int j = 0; j < n; ++j) {
-    const float a = static_cast<float>(x[j * kStep]) - offset;
-    const float b = static_cast<float>(y[j * kStep]) - offset;
-    cx[j] = a;
-    cy[j] = b;
-    xx[j] = a * a;
-    yy[j] = b * b;
-    xy[j] = a * b;
-  }
-}
-
-void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset, float* cx,
-                      float* cy, float* xx, float* yy, float* xy, int n) {
-  switch (step) {
-    case 1:
-      return CentredMomentsU8Step<1>(x, y, offset, cx, cy, xx, yy, xy, n);
-    case 3:
-      return CentredMomentsU8Step<3>(x, y, offset, cx, cy, xx, yy, xy, n);
-    case 4:
-      return CentredMomentsU8Step<4>(x, y, offset, cx, cy, xx, yy, xy, n);
-    default:
-      for (int j = 0; j < n; ++j) {
-        cx[j] = static_cast<float>(x[j * step]) - offset;
-        cy[j] = static_cast<float>(y[j * step]) - offset;
-      }
-      for (int j = 0; j < n; ++j) {
-        xx[j] = cx[j] * cx[j];
-        yy[j] = cy[j] * cy[j];
-        xy[j] = cx[j] * cy[j];
-      }
   }
 }
 
