@@ -314,9 +314,11 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
       } else if (t_per_value) {
         for (int i = 0; i < n; ++i) d[i] = (in[i] - e[i]) / t[i] + e[i];
       } else {
-        for (int i = 0; i < n; ++i) {
-          const float ti = t[i / channels];
-          d[i] = e == nullptr ? in[i] / ti : (in[i] - e[i]) / ti + e[i];
+        for (int x = 0; x < current.cols; ++x) {
+          const float ti = t[x];
+          for (int i = x * channels; i < (x + 1) * channels; ++i) {
+            d[i] = e == nullptr ? in[i] / ti : (in[i] - e[i]) / ti + e[i];
+          }
         }
       }
     }
