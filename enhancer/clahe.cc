@@ -440,7 +440,6 @@ cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image) {
     ValidateGray(image);
     return ClaheGray(options, image);
   }
-  if (!cv::checkRange(image)) throw Error("clahe: image has non-finite values");
   // Colour: equalise Rec. 709 luminance, scale the channels by the luminance ratio (hue kept).
   cv::Mat lum(image.size(), CV_32F);
   for (int y = 0; y < image.rows; ++y) {
@@ -450,6 +449,8 @@ cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image) {
       l[x] = 0.0722f * s[x][0] + 0.7152f * s[x][1] + 0.2126f * s[x][2];
     }
   }
+  // A non-finite channel makes the luminance non-finite (positive weights summing to 1, so finite
+  // values never overflow): ClaheGray's binning throws the same error a separate pass would.
   const cv::Mat eq = ClaheGray(options, lum);
   cv::Mat out(image.size(), CV_32FC3);
   for (int y = 0; y < image.rows; ++y) {
