@@ -60,43 +60,6 @@ void SsimHorizontalFormula(const float* const* moments, const float* weights, in
 namespace avx2 {
 #include "metrics/simd_kernels.inc"
 
-// The two hot loops by hand: 64 columns = 8 independent FMA chains, enough to hide the FMA
-// latency (11 taps x 4-5 cycles) behind two FMAs per cycle.
-template <typename RowAt>
-inline void FilterColumns(RowAt row_at, const float* weights, int taps, float* out, int n) {
-  int j = 0;
-  for (; j + 64 <= n; j += 64) {
-    __m256 acc[8];
-    for (int l = 0; l < 8; ++l) acc[l] = _mm256_setzero_ps();
-    for (int k = 0; k < taps; ++k) {
-      const __m256 w = _mm256_broadcast_ss(weights + k);
-      const float* r = row_at(k) + j;
-      for (int l = 0; l < 8; ++l) acc[l] = _mm256_fmadd_ps(w, _mm256_loadu_ps(r + 8 * l), acc[l]);
-    }
-    for (int l = 0; l < 8; ++l) _mm256_storeu_ps(out + j + 8 * l, acc[l]);
-  }
-  for (; j + 8 <= n; j += 8) {
-    __m256 acc = _mm256_setzero_ps();
-    for (int k = 0; k < taps; ++k)
-      acc = _mm256_fmadd_ps(_mm256_broadcast_ss(weights + k), _mm256_loadu_ps(row_at(k) + j), acc);
-    _mm256_storeu_ps(out + j, acc);
-  }
-  for (; j < n; ++j) {
-    float s = 0.0f;
-    for (int k = 0; k < taps; ++k) s = std::fma(weights[k], row_at(k)[j], s);
-    out[j] = s;
-  }
-}
-
-void WeightedRowSumFast(const float* const* rows, const float* weights, int taps, float* out,
-                        int n) {
-  FilterColumns([rows](int k) { return rows[k]; }, weights, taps, out, n);
-}
-
-void Convolve1DFast(const float* in, const float* weights, int taps, float* out, int n) {
-  FilterColumns([in](int k) { return in + k; }, weights, taps, out, n);
-}
-
 // Vertical pass, two output rows: rows[r - k] + rows[r + k] feeds row 0 and rows[r + 1 - k] +
 // rows[r + 2 + k - 1] row 1; walking k outwards, each input row is loaded once for both outputs
 // (taps + 1 loads per two outputs instead of 2 * taps). 16 columns per step: four independent
@@ -261,20 +224,6 @@ bool UseAvx2() {
 #define TURBID_DISPATCH(call) return base::call
 #endif
 
-void WeightedRowSum(const float* const* rows, const float* weights, int taps, float* out, int n) {
-#ifdef TURBID_HAVE_AVX2_COPY
-  if (UseAvx2()) return avx2::WeightedRowSumFast(rows, weights, taps, out, n);
-#endif
-  base::WeightedRowSum(rows, weights, taps, out, n);
-}
-
-void Convolve1D(const float* in, const float* weights, int taps, float* out, int n) {
-#ifdef TURBID_HAVE_AVX2_COPY
-  if (UseAvx2()) return avx2::Convolve1DFast(in, weights, taps, out, n);
-#endif
-  base::Convolve1D(in, weights, taps, out, n);
-}
-
 void SymmetricColumnPair(const float* const* rows, const float* weights, int taps, float* out0,
                          float* out1, int n) {
 #ifdef TURBID_HAVE_AVX2_COPY
@@ -316,11 +265,6 @@ void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset
 
 void Products(const float* x, const float* y, float* xx, float* yy, float* xy, int n) {
   TURBID_DISPATCH(Products(x, y, xx, yy, xy, n));
-}
-
-void SsimFormulaRow(const float* mx, const float* my, const float* mxx, const float* myy,
-                    const float* mxy, int n, double offset, double c1, double c2, double* out) {
-  TURBID_DISPATCH(SsimFormulaRow(mx, my, mxx, myy, mxy, n, offset, c1, c2, out));
 }
 
 double OrderedSum(const double* values, int n) { TURBID_DISPATCH(OrderedSum(values, n)); }

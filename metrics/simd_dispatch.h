@@ -8,12 +8,6 @@
 
 namespace turbid::simd {
 
-// out[j] = sum_k weights[k] * rows[k][j], j < n.
-void WeightedRowSum(const float* const* rows, const float* weights, int taps, float* out, int n);
-
-// out[j] = sum_k weights[k] * in[j + k], j < n (in holds n + taps - 1 values).
-void Convolve1D(const float* in, const float* weights, int taps, float* out, int n);
-
 // Two consecutive output rows of a vertical pass with symmetric weights (weights[k] ==
 // weights[taps - 1 - k]): rows holds taps + 1 consecutive input rows; out0[j] = sum_k weights[k] *
 // rows[k][j] and out1[j] = sum_k weights[k] * rows[k + 1][j], j < n. Pairs of taps are added before
@@ -30,7 +24,7 @@ void SymmetricColumnQuad(const float* const* rows, const float* weights, int tap
 // points at column 0 of a row that holds radius = taps / 2 readable values on each side (the
 // reflected border); the moments are, in order, E[x - o], E[y - o] and the centred second moments
 // E[(x - o)^2], E[(y - o)^2], E[(x - o)(y - o)] after the vertical pass. Writes the SSIM of columns
-// [0, n) to out (formula as SsimFormulaRow, in double).
+// [0, n) to out (Wang 2004 Eq. 13).
 void SsimHorizontalFormula(const float* const* moments, const float* weights, int taps, int n,
                            double offset, double c1, double c2, double* out);
 
@@ -42,11 +36,6 @@ void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset
 
 // xx = x * x, yy = y * y, xy = x * y.
 void Products(const float* x, const float* y, float* xx, float* yy, float* xy, int n);
-
-// SSIM (Wang 2004 Eq. 13) from windowed moments of centred values: mx, my are E[x - o], E[y - o];
-// mxx, myy, mxy the centred second moments. Writes n values to out.
-void SsimFormulaRow(const float* mx, const float* my, const float* mxx, const float* myy,
-                    const float* mxy, int n, double offset, double c1, double c2, double* out);
 
 // Sum of n doubles in a fixed 4-lane order (vectorisable, deterministic).
 double OrderedSum(const double* values, int n);
