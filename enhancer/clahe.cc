@@ -6,7 +6,9 @@
 #include <cstring>
 #include <limits>
 
+#include "enhancer/simd_switch.h"
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -57,13 +59,7 @@ Padding ComputePadding(const ClaheOptions& o, int rows, int cols) {
   return p;
 }
 
-// Row kernels: whole rows of contiguous values, so the loops vectorise; on x86-64 GCC builds an
-// AVX2 clone besides the baseline one and picks it at load time.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define TURBID_ROW_KERNEL __attribute__((target_clones("avx2", "default")))
-#else
-#define TURBID_ROW_KERNEL
-#endif
+// Row kernels (TURBID_ROW_KERNEL): whole rows of contiguous values, so the loops vectorise.
 
 // imhist bins on [0,1] data: round(v * (bins - 1)), v clamped. Returns false when the row holds a
 // non-finite value (so the check costs no separate pass).
@@ -110,8 +106,8 @@ __attribute__((target("avx2"))) bool BinRowAvx2(const float* g, uint8_t* o, int 
 }
 
 bool BinRow(const float* g, uint8_t* o, int n, float scale) {
-  static const bool avx2 = __builtin_cpu_supports("avx2");
-  return avx2 ? BinRowAvx2(g, o, n, scale) : BinRowScalar(g, o, n, scale);
+  return enhancer_internal::UseHandWrittenAvx2() ? BinRowAvx2(g, o, n, scale)
+                                                 : BinRowScalar(g, o, n, scale);
 }
 #else
 bool BinRow(const float* g, uint8_t* o, int n, float scale) { return BinRowScalar(g, o, n, scale); }
@@ -219,25 +215,93 @@ Interp Interpolation(int n, int pre, int tile, int tiles) {
   return in;
 }
 
-// Row LUT: the mappings of tile row `up` blended towards tile row `dn` by wy (all tile columns).
+// Row LUT: the mappings of tile row `up` blended towards tile row `dn` by wy, all tile columns
+// (tiles * bins values), into `blend`; then, per tile column j and bin b, the pair
+// (value of j, value of j+1 minus value of j) at pairs[2 (j bins + b)], so a pixel reads both
+// halves of its horizontal interpolation with one 8-byte load. The last tile column's difference
+// is taken against zeros (its pixels have weight 0 towards the right).
 TURBID_ROW_KERNEL void BlendRows(const float* __restrict up, const float* __restrict dn, float wy,
-                                 float* __restrict out, int n) {
-  for (int i = 0; i < n; ++i) out[i] = up[i] + wy * (dn[i] - up[i]);
+                                 float* __restrict blend, int n) {
+  for (int i = 0; i < n; ++i) blend[i] = up[i] + wy * (dn[i] - up[i]);
 }
 
-// One output row from the row LUT: for pixel x, lut[lo + b] blended towards lut[lo + bins + b]
-// by wx (wx is 0 where both neighbours are the same tile; the LUT has one spare tile of zeros
-// after the last so the read stays in bounds).
-template <typename Index>
-TURBID_ROW_KERNEL void InterpolateRow(const float* __restrict lut, const Index* __restrict b,
-                                      const int* __restrict lo, const float* __restrict wx,
-                                      int bins, float* __restrict dst, int n) {
-  for (int x = 0; x < n; ++x) {
-    const int l = lo[x] + b[x];
-    const float left = lut[l];
-    // Blends of values in [0,1] stay there up to rounding; the clamp makes it exact.
-    dst[x] = std::min(std::max(left + wx[x] * (lut[l + bins] - left), 0.0f), 1.0f);
+TURBID_ROW_KERNEL void PairRows(const float* __restrict blend, int n, int bins,
+                                float* __restrict pairs) {
+  for (int i = 0; i < n - bins; ++i) {
+    pairs[2 * i] = blend[i];
+    pairs[2 * i + 1] = blend[i + bins] - blend[i];
   }
+  for (int i = std::max(n - bins, 0); i < n; ++i) {
+    pairs[2 * i] = blend[i];
+    pairs[2 * i + 1] = 0.0f - blend[i];
+  }
+}
+
+// One output row from the pair LUT: for pixel x, left + wx * (right - left) with (left, right -
+// left) at pairs[2 (lo[x] + b[x])] (wx is 0 where both neighbours are the same tile).
+template <typename Index>
+TURBID_ROW_KERNEL void InterpolateRow(const float* __restrict pairs, const Index* __restrict b,
+                                      const int* __restrict lo, const float* __restrict wx,
+                                      float* __restrict dst, int n) {
+  for (int x = 0; x < n; ++x) {
+    const float* p = pairs + 2 * (lo[x] + b[x]);
+    // Blends of values in [0,1] stay there up to rounding; the clamp makes it exact.
+    dst[x] = std::min(std::max(p[0] + wx[x] * p[1], 0.0f), 1.0f);
+  }
+}
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// AVX2 version of InterpolateRow for 8-bit indices: two 4-lane gathers of 8-byte pairs per 8
+// pixels (GCC builds the plain loop's loads from scalar loads and inserts). Same operations in
+// the same order (no FMA), so bit-identical to the scalar loop.
+__attribute__((target("avx2"))) void InterpolateRowAvx2(const float* pairs, const uint8_t* b,
+                                                        const int* lo, const float* wx, float* dst,
+                                                        int n) {
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  const double* base = reinterpret_cast<const double*>(pairs);
+  const __m256d zero_pd = _mm256_setzero_pd();
+  const __m256d all_pd = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+  int x = 0;
+  for (; x + 8 <= n; x += 8) {
+    const __m128i bytes = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(b + x));
+    const __m256i l = _mm256_add_epi32(
+        _mm256_cvtepu8_epi32(bytes), _mm256_loadu_si256(reinterpret_cast<const __m256i*>(lo + x)));
+    // Pixels 0-3 and 4-7: (left, diff) pairs as 64-bit lanes.
+    // (The masked form with a zero source: GCC 12 warns that the plain form's source is unset.)
+    const __m256 p03 = _mm256_castpd_ps(
+        _mm256_mask_i32gather_pd(zero_pd, base, _mm256_castsi256_si128(l), all_pd, 8));
+    const __m256 p47 = _mm256_castpd_ps(
+        _mm256_mask_i32gather_pd(zero_pd, base, _mm256_extracti128_si256(l, 1), all_pd, 8));
+    // Even floats are the lefts, odd the diffs; shuffle_ps works per 128-bit half, giving pixel
+    // order 0 1 4 5 | 2 3 6 7, which the 64-bit permute puts back to 0..7.
+    const __m256 left = _mm256_castpd_ps(_mm256_permute4x64_pd(
+        _mm256_castps_pd(_mm256_shuffle_ps(p03, p47, _MM_SHUFFLE(2, 0, 2, 0))), 0xD8));
+    const __m256 diff = _mm256_castpd_ps(_mm256_permute4x64_pd(
+        _mm256_castps_pd(_mm256_shuffle_ps(p03, p47, _MM_SHUFFLE(3, 1, 3, 1))), 0xD8));
+    const __m256 v = _mm256_add_ps(left, _mm256_mul_ps(_mm256_loadu_ps(wx + x), diff));
+    // Operand order as std::min / std::max take theirs (so -0 and NaN come out the same).
+    _mm256_storeu_ps(dst + x, _mm256_min_ps(one, _mm256_max_ps(zero, v)));
+  }
+  InterpolateRow(pairs, b + x, lo + x, wx + x, dst + x, n - x);
+}
+
+void Interpolate(const float* pairs, const uint8_t* b, const int* lo, const float* wx, float* dst,
+                 int n) {
+  if (enhancer_internal::UseHandWrittenAvx2()) {
+    InterpolateRowAvx2(pairs, b, lo, wx, dst, n);
+  } else {
+    InterpolateRow(pairs, b, lo, wx, dst, n);
+  }
+}
+#else
+void Interpolate(const float* pairs, const uint8_t* b, const int* lo, const float* wx, float* dst,
+                 int n) {
+  InterpolateRow(pairs, b, lo, wx, dst, n);
+}
+#endif
+void Interpolate(const float* pairs, const uint16_t* b, const int* lo, const float* wx, float* dst,
+                 int n) {
+  InterpolateRow(pairs, b, lo, wx, dst, n);
 }
 
 template <typename Index>
@@ -253,7 +317,7 @@ cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) 
     lo[x] = ix.lo[x] * bins;
     wx[x] = ix.w[x];
   }
-  std::vector<float> lut(static_cast<size_t>(row_len + bins), 0.0f);
+  std::vector<float> blend(row_len), pairs(2 * static_cast<size_t>(row_len));
   cv::Mat out(idx.size(), CV_32F);
   const float* m = maps.ptr<float>(0);
   int lut_lo = -1, lut_hi = -1;
@@ -263,10 +327,10 @@ cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) 
     if (iy.lo[y] != lut_lo || iy.hi[y] != lut_hi || iy.w[y] != lut_w) {
       lut_lo = iy.lo[y], lut_hi = iy.hi[y], lut_w = iy.w[y];
       BlendRows(m + static_cast<size_t>(lut_lo) * row_len,
-                m + static_cast<size_t>(lut_hi) * row_len, lut_w, lut.data(), row_len);
+                m + static_cast<size_t>(lut_hi) * row_len, lut_w, blend.data(), row_len);
+      PairRows(blend.data(), row_len, bins, pairs.data());
     }
-    InterpolateRow(lut.data(), idx.ptr<Index>(y), lo.data(), wx.data(), bins, out.ptr<float>(y),
-                   idx.cols);
+    Interpolate(pairs.data(), idx.ptr<Index>(y), lo.data(), wx.data(), out.ptr<float>(y), idx.cols);
   }
   return out;
 }

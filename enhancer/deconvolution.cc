@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
 
 namespace turbid {
 namespace {
@@ -133,12 +134,7 @@ cv::Mat RichardsonLucy(const cv::Mat& plane, const cv::Mat& psf, int iterations,
   return u(f.roi).clone();
 }
 
-// Row kernels; on x86-64 GCC builds an AVX2 clone besides the baseline one (picked at load time).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define TURBID_ROW_KERNEL __attribute__((target_clones("avx2", "default")))
-#else
-#define TURBID_ROW_KERNEL
-#endif
+// Row kernels (TURBID_ROW_KERNEL: an AVX2 clone besides the baseline one).
 
 // Vertical pass of one separable term: out[x] = sum_j c[j] rows[j][x], K taps.
 template <int K>

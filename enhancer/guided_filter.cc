@@ -5,9 +5,16 @@
 #include <functional>
 #include <memory>
 #include <opencv2/imgproc.hpp>
+#include <utility>
 #include <vector>
 
+#include "enhancer/simd_switch.h"
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 namespace turbid {
 namespace {
@@ -108,14 +115,8 @@ void CheckInputs(const GuidedFilterOptions& options, const cv::Mat& guide, const
   }
 }
 
-// Row kernels of the one-channel filter. Each processes a whole row of contiguous floats, so the
-// loops vectorise; on x86-64 GCC builds an AVX2 clone besides the baseline one and picks it
-// at load time (the project is compiled for baseline x86-64).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define TURBID_ROW_KERNEL __attribute__((target_clones("avx2", "default")))
-#else
-#define TURBID_ROW_KERNEL
-#endif
+// Row kernels of the one-channel filter (TURBID_ROW_KERNEL). Each processes a whole row of
+// contiguous floats, so the loops vectorise.
 
 // Vertical running sums, in place on the row of column sums: col += add - sub (either may be
 // null), or for a product plane col += add_u*add_v - sub_u*sub_v. Float, 8 lanes per AVX2
@@ -264,6 +265,332 @@ TURBID_ROW_KERNEL void ApplyCoefficients(const float* __restrict s_a, const floa
   for (int x = 0; x < w; ++x) q[x] = (s_a[x] * guide[x] + s_b[x]) * (inv_cx[x] * inv_cy);
 }
 
+// Fused row kernels for radii 1..12 (window W = 2r+1), so the window sums of a row are never
+// stored: the coefficients (stage A) and the output (stage B) are computed straight from the
+// padded column sums. Each window sum adds the same values in the same order as
+// DirectWindowSums / BlockedWindowSums, so the results are bit-identical to the unfused passes.
+
+// Sum of W consecutive values from ext[x]; for W >= 9 from the sums of 4 in `quads`.
+template <int W>
+inline float WindowSumAt(const float* __restrict ext, const float* __restrict quads, int x) {
+  if constexpr (W >= 9) {
+    constexpr int kQuads = W / 4;
+    float s = quads[x];
+    for (int q = 1; q < kQuads; ++q) s += quads[x + 4 * q];
+    for (int k = 4 * kQuads; k < W; ++k) s += ext[x + k];
+    return s;
+  } else {
+    float s = ext[x];
+    for (int k = 1; k < W; ++k) s += ext[x + k];
+    return s;
+  }
+}
+
+// Sums of 4 consecutive values of two padded rows (the first pass of BlockedWindowSums).
+template <int W>
+TURBID_ROW_KERNEL void QuadSumsPair(const float* __restrict e0, const float* __restrict e1,
+                                    float* __restrict q0, float* __restrict q1, int w) {
+  const int n = w + 4 * (W / 4 - 1);
+  for (int x = 0; x < n; ++x) {
+    q0[x] = e0[x] + e0[x + 1] + e0[x + 2] + e0[x + 3];
+    q1[x] = e1[x] + e1[x + 1] + e1[x + 2] + e1[x + 3];
+  }
+}
+
+template <int W>
+TURBID_ROW_KERNEL void SelfCoefficientsFused(
+    const float* __restrict e_i, const float* __restrict e_ii, const float* __restrict q_i,
+    const float* __restrict q_ii, const float* __restrict inv_cx, float inv_cy, float eps,
+    float* __restrict a, float* __restrict b, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float inv = inv_cx[x] * inv_cy;
+    const float m = WindowSumAt<W>(e_i, q_i, x) * inv;
+    const float var = WindowSumAt<W>(e_ii, q_ii, x) * inv - m * m;
+    const float av = var / (var + eps);
+    a[x] = av;
+    b[x] = m - av * m;
+  }
+}
+
+template <int W>
+TURBID_ROW_KERNEL void GuidedCoefficientsFused(const float* const* __restrict e,
+                                               const float* const* __restrict q,
+                                               const float* __restrict inv_cx, float inv_cy,
+                                               float eps, float* __restrict a, float* __restrict b,
+                                               int w) {
+  // Planes: 0 I, 1 I^2, 2 p, 3 I p (as GrayStream stores them).
+  const float* __restrict e0 = e[0];
+  const float* __restrict e1 = e[1];
+  const float* __restrict e2 = e[2];
+  const float* __restrict e3 = e[3];
+  const float* __restrict q0 = q[0];
+  const float* __restrict q1 = q[1];
+  const float* __restrict q2 = q[2];
+  const float* __restrict q3 = q[3];
+  for (int x = 0; x < w; ++x) {
+    const float inv = inv_cx[x] * inv_cy;
+    const float mi = WindowSumAt<W>(e0, q0, x) * inv, mp = WindowSumAt<W>(e2, q2, x) * inv;
+    const float var = WindowSumAt<W>(e1, q1, x) * inv - mi * mi;
+    const float cov = WindowSumAt<W>(e3, q3, x) * inv - mi * mp;
+    const float av = cov / (var + eps);
+    a[x] = av;
+    b[x] = mp - av * mi;
+  }
+}
+
+template <int W>
+TURBID_ROW_KERNEL void ApplyCoefficientsFused(
+    const float* __restrict e_a, const float* __restrict e_b, const float* __restrict q_a,
+    const float* __restrict q_b, const float* __restrict guide, const float* __restrict inv_cx,
+    float inv_cy, float* __restrict q, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float s_a = WindowSumAt<W>(e_a, q_a, x), s_b = WindowSumAt<W>(e_b, q_b, x);
+    q[x] = (s_a * guide[x] + s_b) * (inv_cx[x] * inv_cy);
+  }
+}
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// AVX2 kernels for W >= 9 without the separate pass of 4-sums: each 8-pixel step at x needs the
+// 4-sums starting at x, x+4, ..., x+4(K-1) (K = W/4); all but the last two were already formed by
+// the step at x-8, so each step forms two and carries the rest in registers. Same additions in the
+// same order as WindowSumAt (and no FMA), so bit-identical to the portable kernels.
+#define TURBID_AVX2 __attribute__((target("avx2")))
+
+TURBID_AVX2 inline __m256 QuadAt(const float* p) {
+  return _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_loadu_ps(p), _mm256_loadu_ps(p + 1)),
+                                     _mm256_loadu_ps(p + 2)),
+                       _mm256_loadu_ps(p + 3));
+}
+
+template <int W>
+struct RollingQuads {
+  static constexpr int kQuads = W / 4;
+  static_assert(kQuads >= 2, "rolling 4-sums need W >= 8");
+  __m256 q[kQuads];
+};
+
+template <int W>
+TURBID_AVX2 inline void RollStart(RollingQuads<W>& r, const float* e) {
+  for (int k = 0; k < RollingQuads<W>::kQuads; ++k) r.q[k] = QuadAt(e + 4 * k);
+}
+
+// Advance from x - 8 to x.
+template <int W>
+TURBID_AVX2 inline void RollNext(RollingQuads<W>& r, const float* e, int x) {
+  constexpr int kQuads = RollingQuads<W>::kQuads;
+  for (int k = 0; k + 2 < kQuads; ++k) r.q[k] = r.q[k + 2];
+  r.q[kQuads - 2] = QuadAt(e + x + 4 * (kQuads - 2));
+  r.q[kQuads - 1] = QuadAt(e + x + 4 * (kQuads - 1));
+}
+
+template <int W>
+TURBID_AVX2 inline __m256 RollSum(const RollingQuads<W>& r, const float* e, int x) {
+  constexpr int kQuads = RollingQuads<W>::kQuads;
+  __m256 s = r.q[0];
+  for (int k = 1; k < kQuads; ++k) s = _mm256_add_ps(s, r.q[k]);
+  for (int k = 4 * kQuads; k < W; ++k) s = _mm256_add_ps(s, _mm256_loadu_ps(e + x + k));
+  return s;
+}
+
+// Scalar window sum with the 4-sums formed on the fly (for the last < 8 pixels of a row).
+template <int W>
+inline float WindowSumQuadsInline(const float* e, int x) {
+  constexpr int kQuads = W / 4;
+  auto quad = [e](int o) { return e[o] + e[o + 1] + e[o + 2] + e[o + 3]; };
+  float s = quad(x);
+  for (int q = 1; q < kQuads; ++q) s += quad(x + 4 * q);
+  for (int k = 4 * kQuads; k < W; ++k) s += e[x + k];
+  return s;
+}
+
+template <int W>
+TURBID_AVX2 void SelfCoefficientsRolling(const float* e_i, const float* e_ii, const float*,
+                                         const float*, const float* inv_cx, float inv_cy, float eps,
+                                         float* a, float* b, int w) {
+  int x = 0;
+  if (w >= 8) {
+    RollingQuads<W> ri, rii;
+    RollStart(ri, e_i);
+    RollStart(rii, e_ii);
+    const __m256 vcy = _mm256_set1_ps(inv_cy), veps = _mm256_set1_ps(eps);
+    for (; x + 8 <= w; x += 8) {
+      if (x > 0) {
+        RollNext(ri, e_i, x);
+        RollNext(rii, e_ii, x);
+      }
+      const __m256 inv = _mm256_mul_ps(_mm256_loadu_ps(inv_cx + x), vcy);
+      const __m256 m = _mm256_mul_ps(RollSum(ri, e_i, x), inv);
+      const __m256 var =
+          _mm256_sub_ps(_mm256_mul_ps(RollSum(rii, e_ii, x), inv), _mm256_mul_ps(m, m));
+      const __m256 av = _mm256_div_ps(var, _mm256_add_ps(var, veps));
+      _mm256_storeu_ps(a + x, av);
+      _mm256_storeu_ps(b + x, _mm256_sub_ps(m, _mm256_mul_ps(av, m)));
+    }
+  }
+  for (; x < w; ++x) {
+    const float inv = inv_cx[x] * inv_cy;
+    const float m = WindowSumQuadsInline<W>(e_i, x) * inv;
+    const float var = WindowSumQuadsInline<W>(e_ii, x) * inv - m * m;
+    const float av = var / (var + eps);
+    a[x] = av;
+    b[x] = m - av * m;
+  }
+}
+
+template <int W>
+TURBID_AVX2 void GuidedCoefficientsRolling(const float* const* e, const float* const*,
+                                           const float* inv_cx, float inv_cy, float eps, float* a,
+                                           float* b, int w) {
+  int x = 0;
+  if (w >= 8) {
+    RollingQuads<W> r[4];
+    for (int k = 0; k < 4; ++k) RollStart(r[k], e[k]);
+    const __m256 vcy = _mm256_set1_ps(inv_cy), veps = _mm256_set1_ps(eps);
+    for (; x + 8 <= w; x += 8) {
+      if (x > 0) {
+        for (int k = 0; k < 4; ++k) RollNext(r[k], e[k], x);
+      }
+      const __m256 inv = _mm256_mul_ps(_mm256_loadu_ps(inv_cx + x), vcy);
+      const __m256 mi = _mm256_mul_ps(RollSum(r[0], e[0], x), inv);
+      const __m256 mp = _mm256_mul_ps(RollSum(r[2], e[2], x), inv);
+      const __m256 var =
+          _mm256_sub_ps(_mm256_mul_ps(RollSum(r[1], e[1], x), inv), _mm256_mul_ps(mi, mi));
+      const __m256 cov =
+          _mm256_sub_ps(_mm256_mul_ps(RollSum(r[3], e[3], x), inv), _mm256_mul_ps(mi, mp));
+      const __m256 av = _mm256_div_ps(cov, _mm256_add_ps(var, veps));
+      _mm256_storeu_ps(a + x, av);
+      _mm256_storeu_ps(b + x, _mm256_sub_ps(mp, _mm256_mul_ps(av, mi)));
+    }
+  }
+  for (; x < w; ++x) {
+    const float inv = inv_cx[x] * inv_cy;
+    const float mi = WindowSumQuadsInline<W>(e[0], x) * inv;
+    const float mp = WindowSumQuadsInline<W>(e[2], x) * inv;
+    const float var = WindowSumQuadsInline<W>(e[1], x) * inv - mi * mi;
+    const float cov = WindowSumQuadsInline<W>(e[3], x) * inv - mi * mp;
+    const float av = cov / (var + eps);
+    a[x] = av;
+    b[x] = mp - av * mi;
+  }
+}
+
+template <int W>
+TURBID_AVX2 void ApplyCoefficientsRolling(const float* e_a, const float* e_b, const float*,
+                                          const float*, const float* guide, const float* inv_cx,
+                                          float inv_cy, float* q, int w) {
+  int x = 0;
+  if (w >= 8) {
+    RollingQuads<W> ra, rb;
+    RollStart(ra, e_a);
+    RollStart(rb, e_b);
+    const __m256 vcy = _mm256_set1_ps(inv_cy);
+    for (; x + 8 <= w; x += 8) {
+      if (x > 0) {
+        RollNext(ra, e_a, x);
+        RollNext(rb, e_b, x);
+      }
+      const __m256 v = _mm256_add_ps(_mm256_mul_ps(RollSum(ra, e_a, x), _mm256_loadu_ps(guide + x)),
+                                     RollSum(rb, e_b, x));
+      _mm256_storeu_ps(q + x, _mm256_mul_ps(v, _mm256_mul_ps(_mm256_loadu_ps(inv_cx + x), vcy)));
+    }
+  }
+  for (; x < w; ++x) {
+    const float s_a = WindowSumQuadsInline<W>(e_a, x), s_b = WindowSumQuadsInline<W>(e_b, x);
+    q[x] = (s_a * guide[x] + s_b) * (inv_cx[x] * inv_cy);
+  }
+}
+#undef TURBID_AVX2
+#define TURBID_HAVE_ROLLING_QUADS 1
+#endif
+
+// The fused kernels of one radius; quads is null where W < 9 (direct sums) and where the AVX2
+// kernels form the 4-sums themselves.
+struct FusedKernels {
+  void (*quads)(const float*, const float*, float*, float*, int) = nullptr;
+  void (*self_coefficients)(const float*, const float*, const float*, const float*, const float*,
+                            float, float, float*, float*, int) = nullptr;
+  void (*guided_coefficients)(const float* const*, const float* const*, const float*, float, float,
+                              float*, float*, int) = nullptr;
+  void (*apply)(const float*, const float*, const float*, const float*, const float*, const float*,
+                float, float*, int) = nullptr;
+};
+
+constexpr int kMaxFusedRadius = 12;
+
+template <int R>
+FusedKernels MakeFusedKernels([[maybe_unused]] bool avx2) {
+  constexpr int W = 2 * R + 1;
+  FusedKernels k;
+  k.self_coefficients = &SelfCoefficientsFused<W>;
+  k.guided_coefficients = &GuidedCoefficientsFused<W>;
+  k.apply = &ApplyCoefficientsFused<W>;
+  if constexpr (W >= 9) {
+    k.quads = &QuadSumsPair<W>;
+#ifdef TURBID_HAVE_ROLLING_QUADS
+    if (avx2) {
+      k.quads = nullptr;
+      k.self_coefficients = &SelfCoefficientsRolling<W>;
+      k.guided_coefficients = &GuidedCoefficientsRolling<W>;
+      k.apply = &ApplyCoefficientsRolling<W>;
+    }
+#endif
+  }
+  return k;
+}
+
+template <int... R>
+FusedKernels FusedKernelsFor(int r, std::integer_sequence<int, R...>) {
+  static const FusedKernels portable[] = {MakeFusedKernels<R + 1>(false)...};
+  static const FusedKernels avx2[] = {MakeFusedKernels<R + 1>(true)...};
+  return enhancer_internal::UseHandWrittenAvx2() ? avx2[r - 1] : portable[r - 1];
+}
+
+// Stage A / B column-sum updates of two planes at once (one pass; the same arithmetic per plane
+// as ColumnStep / ColumnProductStep): self-guided stage A keeps I and I^2 (both from rows of I),
+// stage B keeps a and b.
+TURBID_ROW_KERNEL void ColumnStepSelf(float* __restrict c_i, float* __restrict c_ii,
+                                      const float* __restrict add, const float* __restrict sub,
+                                      int w) {
+  if (add != nullptr && sub != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c_i[x] += add[x] - sub[x];
+      c_ii[x] += add[x] * add[x] - sub[x] * sub[x];
+    }
+  } else if (add != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c_i[x] += add[x];
+      c_ii[x] += add[x] * add[x];
+    }
+  } else if (sub != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c_i[x] -= sub[x];
+      c_ii[x] -= sub[x] * sub[x];
+    }
+  }
+}
+
+TURBID_ROW_KERNEL void ColumnStepPair(float* __restrict c0, float* __restrict c1,
+                                      const float* __restrict add0, const float* __restrict sub0,
+                                      const float* __restrict add1, const float* __restrict sub1,
+                                      int w) {
+  if (add0 != nullptr && sub0 != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c0[x] += add0[x] - sub0[x];
+      c1[x] += add1[x] - sub1[x];
+    }
+  } else if (add0 != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c0[x] += add0[x];
+      c1[x] += add1[x];
+    }
+  } else if (sub0 != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c0[x] -= sub0[x];
+      c1[x] -= sub1[x];
+    }
+  }
+}
+
 // Vertical window bookkeeping for output row t of a clipped (2r+1)-row window over h rows: the
 // rows entering and leaving (-1: none). Row t's window is [max(t-r, 0), min(t+r, h-1)]; the
 // first row primes the sums with the whole window.
@@ -288,6 +615,7 @@ class GrayStream {
         planes_a_(self ? 2 : 4),  // I, I^2 [, p, I p]
         ring_(std::min(window_ + 1, h_)),
         ext_(static_cast<size_t>(planes_a_ + 2) * ext_len_, 0.0f),
+        quads_(static_cast<size_t>(planes_a_ + 2) * ext_len_, 0.0f),
         sums_(static_cast<size_t>(planes_a_ + 2) * w_, 0.0f),
         t0_(ext_len_),
         t1_(ext_len_),
@@ -295,6 +623,9 @@ class GrayStream {
         a_ring_(ring_, w_, CV_32F),
         b_ring_(ring_, w_, CV_32F) {
     for (int x = 0; x < w_; ++x) inv_cx_[x] = 1.0f / static_cast<float>(InvCount(x, r_, w_));
+    if (r_ >= 1 && r_ <= kMaxFusedRadius) {
+      fused_ = FusedKernelsFor(r_, std::make_integer_sequence<int, kMaxFusedRadius>{});
+    }
   }
 
   // Writes output row t (rows must be asked for in order 0, 1, ..., h-1).
@@ -302,17 +633,34 @@ class GrayStream {
     const int need = std::min(t + r_, h_ - 1);
     while (next_a_ <= need) StageA(next_a_++);
     const int ka = planes_a_, kb = planes_a_ + 1;
-    Vertical(ka, t, a_ring_, nullptr, true);
-    Vertical(kb, t, b_ring_, nullptr, true);
+    if (t % kAnchorRows == 0) {
+      Vertical(ka, t, a_ring_, nullptr, true);
+      Vertical(kb, t, b_ring_, nullptr, true);
+    } else {
+      const int add = t + r_ < h_ ? (t + r_) % ring_ : -1;
+      const int sub = t - r_ - 1 >= 0 ? (t - r_ - 1) % ring_ : -1;
+      ColumnStepPair(Ext(ka) + r_, Ext(kb) + r_, RingRow(a_ring_, add), RingRow(a_ring_, sub),
+                     RingRow(b_ring_, add), RingRow(b_ring_, sub), w_);
+    }
+    const float inv_cy = 1.0f / static_cast<float>(InvCount(t, r_, h_));
+    const float* guide = guide_.ptr<float>(t);
+    if (fused_.apply != nullptr) {
+      if (fused_.quads != nullptr) fused_.quads(Ext(ka), Ext(kb), Quad(ka), Quad(kb), w_);
+      fused_.apply(Ext(ka), Ext(kb), Quad(ka), Quad(kb), guide, inv_cx_.data(), inv_cy, dst, w_);
+      return;
+    }
     WindowSums(Ext(ka), w_, window_, Sum(ka), t0_.data(), t1_.data());
     WindowSums(Ext(kb), w_, window_, Sum(kb), t0_.data(), t1_.data());
-    const float inv_cy = 1.0f / static_cast<float>(InvCount(t, r_, h_));
-    ApplyCoefficients(Sum(ka), Sum(kb), guide_.ptr<float>(t), inv_cx_.data(), inv_cy, dst, w_);
+    ApplyCoefficients(Sum(ka), Sum(kb), guide, inv_cx_.data(), inv_cy, dst, w_);
   }
 
  private:
   float* Ext(int k) { return ext_.data() + static_cast<size_t>(k) * ext_len_; }
+  float* Quad(int k) { return quads_.data() + static_cast<size_t>(k) * ext_len_; }
   float* Sum(int k) { return sums_.data() + static_cast<size_t>(k) * w_; }
+  static const float* RingRow(const cv::Mat& ring, int slot) {
+    return slot >= 0 ? ring.ptr<float>(slot) : nullptr;
+  }
 
   // Vertical step of plane k for output row t: plane u, or the product u*v when v is given.
   // `in_ring`: u is a ring of rows (a or b), row y in slot y % ring.
@@ -346,18 +694,40 @@ class GrayStream {
   }
 
   void StageA(int y) {
-    Vertical(0, y, guide_, nullptr, false);
-    Vertical(1, y, guide_, &guide_, false);
-    if (!self_) {
-      Vertical(2, y, src_, nullptr, false);
-      Vertical(3, y, guide_, &src_, false);
-    }
-    for (int k = 0; k < planes_a_; ++k) {
-      WindowSums(Ext(k), w_, window_, Sum(k), t0_.data(), t1_.data());
+    if (self_ && y % kAnchorRows != 0) {
+      const float* add = y + r_ < h_ ? guide_.ptr<float>(y + r_) : nullptr;
+      const float* sub = y - r_ - 1 >= 0 ? guide_.ptr<float>(y - r_ - 1) : nullptr;
+      ColumnStepSelf(Ext(0) + r_, Ext(1) + r_, add, sub, w_);
+    } else {
+      Vertical(0, y, guide_, nullptr, false);
+      Vertical(1, y, guide_, &guide_, false);
+      if (!self_) {
+        Vertical(2, y, src_, nullptr, false);
+        Vertical(3, y, guide_, &src_, false);
+      }
     }
     const float inv_cy = 1.0f / static_cast<float>(InvCount(y, r_, h_));
     float* ar = a_ring_.ptr<float>(y % ring_);
     float* br = b_ring_.ptr<float>(y % ring_);
+    if (fused_.apply != nullptr) {
+      if (fused_.quads != nullptr) {
+        for (int k = 0; k < planes_a_; k += 2) {
+          fused_.quads(Ext(k), Ext(k + 1), Quad(k), Quad(k + 1), w_);
+        }
+      }
+      if (self_) {
+        fused_.self_coefficients(Ext(0), Ext(1), Quad(0), Quad(1), inv_cx_.data(), inv_cy, eps_, ar,
+                                 br, w_);
+      } else {
+        const float* e[4] = {Ext(0), Ext(1), Ext(2), Ext(3)};
+        const float* q[4] = {Quad(0), Quad(1), Quad(2), Quad(3)};
+        fused_.guided_coefficients(e, q, inv_cx_.data(), inv_cy, eps_, ar, br, w_);
+      }
+      return;
+    }
+    for (int k = 0; k < planes_a_; ++k) {
+      WindowSums(Ext(k), w_, window_, Sum(k), t0_.data(), t1_.data());
+    }
     if (self_) {
       SelfCoefficients(Sum(0), Sum(1), inv_cx_.data(), inv_cy, eps_, ar, br, w_);
     } else {
@@ -371,8 +741,9 @@ class GrayStream {
   const bool self_;
   const int h_, w_, window_, ext_len_, planes_a_, ring_;
   // Per-plane buffers: column sums with r zeros each side (the clipped window); window sums.
-  std::vector<float> ext_, sums_, t0_, t1_, inv_cx_;
+  std::vector<float> ext_, quads_, sums_, t0_, t1_, inv_cx_;
   cv::Mat a_ring_, b_ring_;
+  FusedKernels fused_;  // empty beyond kMaxFusedRadius (window sums by binary doubling)
   int next_a_ = 0;
 };
 

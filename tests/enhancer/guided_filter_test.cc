@@ -104,6 +104,46 @@ INSTANTIATE_TEST_SUITE_P(Radii, GuidedVsOpenCv,
                            return name;
                          });
 
+// He 2013 Alg. 1 written with whole-image box means (BoxMean: running sums along the row, no
+// fused kernels), double arithmetic for a and b.
+cv::Mat ReferenceGuided(const cv::Mat& guide, const cv::Mat& src, int r, double eps) {
+  cv::Mat g, p;
+  guide.convertTo(g, CV_32F);
+  src.convertTo(p, CV_32F);
+  const cv::Mat mi = BoxMean(g, r), mp = BoxMean(p, r);
+  const cv::Mat mii = BoxMean(g.mul(g), r), mip = BoxMean(g.mul(p), r);
+  cv::Mat a(g.size(), CV_32F), b(g.size(), CV_32F);
+  for (int y = 0; y < g.rows; ++y)
+    for (int x = 0; x < g.cols; ++x) {
+      const double var = mii.at<float>(y, x) - double{mi.at<float>(y, x)} * mi.at<float>(y, x);
+      const double cov = mip.at<float>(y, x) - double{mi.at<float>(y, x)} * mp.at<float>(y, x);
+      const double av = cov / (var + eps);
+      a.at<float>(y, x) = static_cast<float>(av);
+      b.at<float>(y, x) = static_cast<float>(mp.at<float>(y, x) - av * mi.at<float>(y, x));
+    }
+  return BoxMean(a, r).mul(g) + BoxMean(b, r);
+}
+
+TEST(GuidedFilter, EveryRadiusMatchesBoxMeanFormulaIncludingBorders) {
+  // Radii 1..12 run the fused row kernels (window sums straight into the coefficients and the
+  // output), 13+ the general path; all must follow the clipped-window rule on every pixel.
+  const cv::Mat guide = RandomImage(45, 67, 1, 21);
+  const cv::Mat src = RandomImage(45, 67, 1, 22);
+  for (int r = 1; r <= 14; ++r) {
+    GuidedFilterOptions o;
+    o.radius = r;
+    o.eps = 0.02;
+    EXPECT_LE(cv::norm(GuidedFilter(o, guide, guide), ReferenceGuided(guide, guide, r, o.eps),
+                       cv::NORM_INF),
+              2e-5)
+        << "self, r " << r;
+    EXPECT_LE(
+        cv::norm(GuidedFilter(o, guide, src), ReferenceGuided(guide, src, r, o.eps), cv::NORM_INF),
+        2e-5)
+        << "guided, r " << r;
+  }
+}
+
 TEST(GuidedFilter, LongColumnsDoNotDrift) {
   // 1024 rows: the vertical running sums add and subtract a thousand rows; they must not drift
   // away from OpenCV's (whose box filter sums in double). Same 1e-4 bound as above, the measured
