@@ -88,13 +88,17 @@ bool RowIsFinite(const float* row, size_t count) {
 
 }  // namespace
 
-void ValidateEnhanceImage(const cv::Mat& image, const std::string& method) {
+void ValidateEnhanceImageLayout(const cv::Mat& image, const std::string& method) {
   if (image.empty()) throw Error(method + ": empty input image");
   if (image.depth() != CV_32F) throw Error(method + ": input image must be float32");
   if (image.channels() != 1 && image.channels() != 3) {
     throw Error(method + ": input image must have 1 or 3 channels, got " +
                 std::to_string(image.channels()));
   }
+}
+
+void ValidateEnhanceImage(const cv::Mat& image, const std::string& method) {
+  ValidateEnhanceImageLayout(image, method);
   const size_t row_floats = static_cast<size_t>(image.cols) * image.channels();
   for (int y = 0; y < image.rows; ++y) {
     if (!RowIsFinite(image.ptr<float>(y), row_floats)) {

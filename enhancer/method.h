@@ -3,11 +3,10 @@
 // for method implementers (enhancer/*.cc, including enhancer/baselines*.cc).
 #pragma once
 
-#include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-
 #include <functional>
 #include <initializer_list>
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <set>
 #include <string>
 #include <type_traits>
@@ -72,5 +71,9 @@ inline MethodParam Param(std::string name, nlohmann::json default_value, std::st
 // Shared input validation for methods: non-empty CV_32F, 1 or 3 channels, all finite. Throws
 // Error("<method>: ...").
 void ValidateEnhanceImage(const cv::Mat& image, const std::string& method);
+// The same without the finiteness scan (a pass over the image), for methods whose own arithmetic
+// turns any non-finite input into a non-finite value they detect anyway; they call
+// ValidateEnhanceImage then, for its message.
+void ValidateEnhanceImageLayout(const cv::Mat& image, const std::string& method);
 
 }  // namespace turbid

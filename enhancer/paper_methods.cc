@@ -2,13 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/guided_filter.h"
 #include "enhancer/method.h"
 #include "enhancer/plane_fit.h"
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
@@ -424,9 +427,65 @@ bool SimplifiedOptions::Check(std::string* why) const {
   return true;
 }
 
+namespace {
+
+// I_g + alpha (I_f - I_g), as addWeighted(I_g, 1 - alpha, I_f, alpha). Returns false when a result
+// is not finite (NaN or ±inf: exponent bits all ones), which is how a non-finite input shows: the
+// guided filters' box sums carry it into every output of its windows.
+TURBID_ROW_KERNEL bool DetailBoostRow(const float* __restrict i_f, const float* __restrict i_g,
+                                      float alpha, float one_minus_alpha, float* __restrict dst,
+                                      int w) {
+  uint32_t non_finite = 0;
+  for (int x = 0; x < w; ++x) {
+    const float v = i_g[x] * one_minus_alpha + i_f[x] * alpha;
+    dst[x] = v;
+    uint32_t bits;
+    std::memcpy(&bits, &v, sizeof(bits));
+    non_finite |= static_cast<uint32_t>((bits & 0x7f800000u) == 0x7f800000u);
+  }
+  return non_finite == 0;
+}
+
+// Clamped to [0, 1] (a loop of its own: GCC vectorises it alone, not after the arithmetic).
+TURBID_ROW_KERNEL void ClampRow(float* __restrict v, int w) {
+  for (int x = 0; x < w; ++x) v[x] = std::min(std::max(v[x], 0.0f), 1.0f);
+}
+
+// One-channel `simplified`, streamed: both guided filters by rows, the detail boost per row, then
+// straight into CLAHE's bin indices; no full-size float intermediates (each costs ~1 ms of page
+// faults). The input's finiteness is not scanned up front: a non-finite input value makes the
+// boosted rows around it non-finite, which the binning (or, without CLAHE, the boost) detects.
+cv::Mat SimplifiedGray(const SimplifiedOptions& o, const GuidedFilterOptions& fine,
+                       const GuidedFilterOptions& coarse, const cv::Mat& image) {
+  const int w = image.cols;
+  const float a = static_cast<float>(o.alpha), one_minus_a = static_cast<float>(1.0 - o.alpha);
+  cv::Mat out, bins;
+  std::vector<float> boosted;
+  if (o.contrast) {
+    bins = ClaheNewBins(o.clahe, image.size());
+    boosted.resize(w);
+  } else {
+    out.create(image.size(), CV_32F);
+  }
+  GuidedFilterSelfRows({fine, coarse}, image, [&](int y, const std::vector<const float*>& q) {
+    float* dst = o.contrast ? boosted.data() : out.ptr<float>(y);
+    const bool finite = DetailBoostRow(q[0], q[1], a, one_minus_a, dst, w);
+    if (o.contrast) {
+      ClaheBinRow(o.clahe, dst, bins, y);  // clamps to [0, 1] as it bins; throws if not finite
+    } else {
+      if (!finite) throw Error("simplified: the detail layers have non-finite values");
+      ClampRow(dst, w);
+    }
+  });
+  // CLAHE's output is in [0, 1] already.
+  return o.contrast ? ClaheFromBins(o.clahe, bins) : out;
+}
+
+}  // namespace
+
 cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
   ThrowIfInvalid(o, "simplified");
-  ValidateEnhanceImage(image, "simplified");
+  ValidateEnhanceImageLayout(image, "simplified");
   GuidedFilterOptions fine, coarse;
   fine.radius = o.fine_radius;
   fine.eps = o.fine_eps;
@@ -434,31 +493,14 @@ cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
   coarse.eps = o.coarse_eps;
   coarse.subsample = o.coarse_subsample;
   if (image.channels() == 1) {
-    // Streamed: both filters by rows, the detail boost and clamp per row, then straight into
-    // CLAHE's bin indices; no full-size float intermediates (each costs ~1 ms of page faults).
-    const int w = image.cols;
-    const float a = static_cast<float>(o.alpha), one_minus_a = static_cast<float>(1.0 - o.alpha);
-    cv::Mat out, bins;
-    std::vector<float> boosted;
-    if (o.contrast) {
-      bins = ClaheNewBins(o.clahe, image.size());
-      boosted.resize(w);
-    } else {
-      out.create(image.size(), CV_32F);
+    try {
+      return SimplifiedGray(o, fine, coarse, image);
+    } catch (const Error&) {
+      ValidateEnhanceImage(image, "simplified");  // a non-finite input: say where
+      throw;
     }
-    GuidedFilterSelfRows({fine, coarse}, image, [&](int y, const std::vector<const float*>& q) {
-      const float* i_f = q[0];
-      const float* i_g = q[1];
-      float* dst = o.contrast ? boosted.data() : out.ptr<float>(y);
-      // I_g + alpha (I_f - I_g), as addWeighted(I_g, 1 - alpha, I_f, alpha), clamped to [0, 1].
-      // Two loops: GCC vectorises each alone, not the clamp after arithmetic (-ftrapping-math).
-      for (int x = 0; x < w; ++x) dst[x] = i_g[x] * one_minus_a + i_f[x] * a;
-      for (int x = 0; x < w; ++x) dst[x] = std::min(std::max(dst[x], 0.0f), 1.0f);
-      if (o.contrast) ClaheBinRow(o.clahe, dst, bins, y);
-    });
-    // CLAHE's output is in [0, 1] already.
-    return o.contrast ? ClaheFromBins(o.clahe, bins) : out;
   }
+  ValidateEnhanceImage(image, "simplified");
   const cv::Mat i_f = GuidedFilterSelf(fine, image);
   const cv::Mat i_g = GuidedFilterSelf(coarse, image);
   cv::Mat out;
