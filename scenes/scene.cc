@@ -19,7 +19,7 @@ bool CameraIntrinsics::Check(std::string* why) const {
   return true;
 }
 
-void Scene::Validate() const {
+void Scene::ValidateLayout() const {
   const std::string context = name.empty() ? std::string("scene") : "scene " + name;
   ThrowIfInvalid(camera, context);
   if (image.empty()) throw Error(context, "has no image");
@@ -37,7 +37,12 @@ void Scene::Validate() const {
                              std::to_string(image.cols) + "x" + std::to_string(image.rows));
   if (!normals.empty() && (normals.type() != CV_32FC3 || normals.size() != image.size()))
     throw Error(context, "normals must be float32, 3 channels, image-sized");
-  // Fast check on the float bits (integer compares vectorise; this runs on every render): NaN is
+}
+
+void Scene::Validate() const {
+  ValidateLayout();
+  const std::string context = name.empty() ? std::string("scene") : "scene " + name;
+  // Fast check on the float bits (integer compares vectorise): NaN is
   // (bits & 0x7fffffff) > 0x7f800000; positive, finite and non-zero is bits in [1, 0x7f7fffff].
   // The loop below only runs to name the first bad pixel.
   int64_t valid = 0, bad = 0;

@@ -52,6 +52,10 @@ struct Scene {
   int channels() const { return image.channels(); }
   // Throws turbid::Error when sizes, types or values are inconsistent.
   void Validate() const;
+  // Validate without the pass over the depth values (sizes, types and the camera only), for
+  // callers that check the depth in a pass of their own and call Validate when it finds a bad
+  // value (the renderer's range pass).
+  void ValidateLayout() const;
 };
 
 // Range along the viewing ray r = z * |K^-1 [u v 1]| (metres); NaN where depth is NaN.

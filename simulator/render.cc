@@ -122,6 +122,9 @@ struct RangeStats {
   uint32_t lo = std::numeric_limits<uint32_t>::max();
   uint32_t hi = 0;
   int64_t count = 0;
+  // Values that are neither NaN nor positive and finite: zero, negative or infinite depth (or a
+  // finite depth so large that the range overflows), which Scene::Validate decides on.
+  int64_t suspect = 0;
 };
 
 __attribute__((target_clones("avx2", "default"))) void RangeStatsRow(const float* r, int width,
@@ -136,9 +139,16 @@ __attribute__((target_clones("avx2", "default"))) void RangeStatsRow(const float
   for (int x = 0; x < width; ++x)
     hi = std::max(hi, bits[x] & (0u - static_cast<uint32_t>(bits[x] <= kInf)));
   for (int x = 0; x < width; ++x) count += bits[x] <= kInf;
+  // Positive finite is bits in [1, 0x7f7fffff]; NaN is (bits & 0x7fffffff) > 0x7f800000.
+  int suspect = 0;
+  for (int x = 0; x < width; ++x) {
+    suspect += static_cast<int>(bits[x] - 1u >= 0x7f7fffffu) &
+               static_cast<int>((bits[x] & 0x7fffffffu) <= kInf);
+  }
   stats->lo = lo;
   stats->hi = hi;
   stats->count += count;
+  stats->suspect += suspect;
 }
 
 // J = (E_A + E_L) rho for one row; e == nullptr: no artificial light.
@@ -608,7 +618,9 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
 }  // namespace
 
 Renderer::Renderer(const Scene& scene) : scene_(scene), cache_(std::make_unique<Cache>()) {
-  scene_.Validate();
+  // The depth values are checked by the range pass below (a depth that is not NaN and not
+  // positive and finite gives a range that is not either); Validate runs only to name the pixel.
+  scene_.ValidateLayout();
   // The range map as RangeFromDepth computes it, and its statistics, in one vectorised pass.
   const CameraIntrinsics& camera = scene_.camera;
   const cv::Mat& depth = scene_.depth_m;
@@ -624,6 +636,7 @@ Renderer::Renderer(const Scene& scene) : scene_(scene), cache_(std::make_unique<
     RangeRow(depth.ptr<float>(y), dx2.data(), dy * dy, depth.cols, range_m_.ptr<float>(y));
     RangeStatsRow(range_m_.ptr<float>(y), depth.cols, &stats);
   }
+  if (stats.suspect > 0 || stats.count == 0) scene_.Validate();  // throws for a bad depth
   const float lo = std::bit_cast<float>(stats.lo), hi = std::bit_cast<float>(stats.hi);
   cache_->min_range = stats.count ? lo : std::numeric_limits<double>::infinity();
   cache_->max_range = stats.count ? hi : 0.0;
