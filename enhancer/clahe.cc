@@ -251,33 +251,31 @@ TURBID_ROW_KERNEL void InterpolateRow(const float* __restrict pairs, const Index
 }
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-// AVX2 version of InterpolateRow for 8-bit indices: two 4-lane gathers of 8-byte pairs per 8
-// pixels (GCC builds the plain loop's loads from scalar loads and inserts). Same operations in
-// the same order (no FMA), so bit-identical to the scalar loop.
+// AVX2 version of InterpolateRow for 8-bit indices: the eight (left, diff) pairs of 8 pixels are
+// read with 8-byte loads (on this project's AMD Zen 3 machine these beat vgatherdpd by ~0.5 ms per
+// 1360x1024 image; GCC builds the plain loop's loads from single floats and inserts) and
+// de-interleaved with one shuffle each. Same operations in the same order (no FMA), so
+// bit-identical to the portable loop.
 __attribute__((target("avx2"))) void InterpolateRowAvx2(const float* pairs, const uint8_t* b,
                                                         const int* lo, const float* wx, float* dst,
                                                         int n) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
-  const double* base = reinterpret_cast<const double*>(pairs);
-  const __m256d zero_pd = _mm256_setzero_pd();
-  const __m256d all_pd = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+  const double* base = reinterpret_cast<const double*>(pairs);  // one pair per double
   int x = 0;
   for (; x + 8 <= n; x += 8) {
-    const __m128i bytes = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(b + x));
-    const __m256i l = _mm256_add_epi32(
-        _mm256_cvtepu8_epi32(bytes), _mm256_loadu_si256(reinterpret_cast<const __m256i*>(lo + x)));
-    // Pixels 0-3 and 4-7: (left, diff) pairs as 64-bit lanes.
-    // (The masked form with a zero source: GCC 12 warns that the plain form's source is unset.)
-    const __m256 p03 = _mm256_castpd_ps(
-        _mm256_mask_i32gather_pd(zero_pd, base, _mm256_castsi256_si128(l), all_pd, 8));
-    const __m256 p47 = _mm256_castpd_ps(
-        _mm256_mask_i32gather_pd(zero_pd, base, _mm256_extracti128_si256(l, 1), all_pd, 8));
-    // Even floats are the lefts, odd the diffs; shuffle_ps works per 128-bit half, giving pixel
-    // order 0 1 4 5 | 2 3 6 7, which the 64-bit permute puts back to 0..7.
-    const __m256 left = _mm256_castpd_ps(_mm256_permute4x64_pd(
-        _mm256_castps_pd(_mm256_shuffle_ps(p03, p47, _MM_SHUFFLE(2, 0, 2, 0))), 0xD8));
-    const __m256 diff = _mm256_castpd_ps(_mm256_permute4x64_pd(
-        _mm256_castps_pd(_mm256_shuffle_ps(p03, p47, _MM_SHUFFLE(3, 1, 3, 1))), 0xD8));
+    const double* q[8];
+    for (int k = 0; k < 8; ++k) q[k] = base + lo[x + k] + b[x + k];
+    // Floats l0 d0 l1 d1 | l4 d4 l5 d5 and l2 d2 l3 d3 | l6 d6 l7 d7: the even-float shuffle of
+    // the two (per 128-bit half) is l0..l7 in order, the odd-float one d0..d7.
+    const __m256d p0145 =
+        _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadh_pd(_mm_load_sd(q[0]), q[1])),
+                             _mm_loadh_pd(_mm_load_sd(q[4]), q[5]), 1);
+    const __m256d p2367 =
+        _mm256_insertf128_pd(_mm256_castpd128_pd256(_mm_loadh_pd(_mm_load_sd(q[2]), q[3])),
+                             _mm_loadh_pd(_mm_load_sd(q[6]), q[7]), 1);
+    const __m256 a = _mm256_castpd_ps(p0145), c = _mm256_castpd_ps(p2367);
+    const __m256 left = _mm256_shuffle_ps(a, c, _MM_SHUFFLE(2, 0, 2, 0));
+    const __m256 diff = _mm256_shuffle_ps(a, c, _MM_SHUFFLE(3, 1, 3, 1));
     const __m256 v = _mm256_add_ps(left, _mm256_mul_ps(_mm256_loadu_ps(wx + x), diff));
     // Operand order as std::min / std::max take theirs (so -0 and NaN come out the same).
     _mm256_storeu_ps(dst + x, _mm256_min_ps(one, _mm256_max_ps(zero, v)));
