@@ -229,17 +229,37 @@ void WindowSums(const float* ext, int w, int window, float* out, float* t0, floa
   }
 }
 
+// The per-pixel formulas (He 2013 Alg. 1), from window sums and 1/N = inv_cx[x] * inv_cy; every
+// kernel below uses these, so all paths round alike. Self-guided: a = var / (var + eps),
+// b = m (1 - a). Guided: a = cov(I, p) / (var(I) + eps), b = mean p - a mean I. Output:
+// q = (sum a * I + sum b) / N.
+inline void SelfCoefficient(float s_i, float s_ii, float inv, float eps, float* a, float* b) {
+  const float m = s_i * inv;
+  const float var = s_ii * inv - m * m;
+  const float av = var / (var + eps);
+  *a = av;
+  *b = m - av * m;
+}
+
+inline void GuidedCoefficient(float s_i, float s_p, float s_ii, float s_ip, float inv, float eps,
+                              float* a, float* b) {
+  const float mi = s_i * inv, mp = s_p * inv;
+  const float var = s_ii * inv - mi * mi;
+  const float cov = s_ip * inv - mi * mp;
+  const float av = cov / (var + eps);
+  *a = av;
+  *b = mp - av * mi;
+}
+
+inline float ApplyCoefficient(float s_a, float s_b, float guide, float inv) {
+  return (s_a * guide + s_b) * inv;
+}
+
 TURBID_ROW_KERNEL void SelfCoefficients(const float* __restrict s_i, const float* __restrict s_ii,
                                         const float* __restrict inv_cx, float inv_cy, float eps,
                                         float* __restrict a, float* __restrict b, int w) {
-  for (int x = 0; x < w; ++x) {
-    const float inv = inv_cx[x] * inv_cy;
-    const float m = s_i[x] * inv;
-    const float var = s_ii[x] * inv - m * m;
-    const float av = var / (var + eps);
-    a[x] = av;
-    b[x] = m - av * m;
-  }
+  for (int x = 0; x < w; ++x)
+    SelfCoefficient(s_i[x], s_ii[x], inv_cx[x] * inv_cy, eps, a + x, b + x);
 }
 
 TURBID_ROW_KERNEL void GuidedCoefficients(const float* __restrict s_i, const float* __restrict s_p,
@@ -248,13 +268,7 @@ TURBID_ROW_KERNEL void GuidedCoefficients(const float* __restrict s_i, const flo
                                           const float* __restrict inv_cx, float inv_cy, float eps,
                                           float* __restrict a, float* __restrict b, int w) {
   for (int x = 0; x < w; ++x) {
-    const float inv = inv_cx[x] * inv_cy;
-    const float mi = s_i[x] * inv, mp = s_p[x] * inv;
-    const float var = s_ii[x] * inv - mi * mi;
-    const float cov = s_ip[x] * inv - mi * mp;
-    const float av = cov / (var + eps);
-    a[x] = av;
-    b[x] = mp - av * mi;
+    GuidedCoefficient(s_i[x], s_p[x], s_ii[x], s_ip[x], inv_cx[x] * inv_cy, eps, a + x, b + x);
   }
 }
 
@@ -262,7 +276,7 @@ TURBID_ROW_KERNEL void ApplyCoefficients(const float* __restrict s_a, const floa
                                          const float* __restrict guide,
                                          const float* __restrict inv_cx, float inv_cy,
                                          float* __restrict q, int w) {
-  for (int x = 0; x < w; ++x) q[x] = (s_a[x] * guide[x] + s_b[x]) * (inv_cx[x] * inv_cy);
+  for (int x = 0; x < w; ++x) q[x] = ApplyCoefficient(s_a[x], s_b[x], guide[x], inv_cx[x] * inv_cy);
 }
 
 // Fused row kernels for radii 1..12 (window W = 2r+1), so the window sums of a row are never
@@ -303,12 +317,8 @@ TURBID_ROW_KERNEL void SelfCoefficientsFused(
     const float* __restrict q_ii, const float* __restrict inv_cx, float inv_cy, float eps,
     float* __restrict a, float* __restrict b, int w) {
   for (int x = 0; x < w; ++x) {
-    const float inv = inv_cx[x] * inv_cy;
-    const float m = WindowSumAt<W>(e_i, q_i, x) * inv;
-    const float var = WindowSumAt<W>(e_ii, q_ii, x) * inv - m * m;
-    const float av = var / (var + eps);
-    a[x] = av;
-    b[x] = m - av * m;
+    SelfCoefficient(WindowSumAt<W>(e_i, q_i, x), WindowSumAt<W>(e_ii, q_ii, x), inv_cx[x] * inv_cy,
+                    eps, a + x, b + x);
   }
 }
 
@@ -328,13 +338,9 @@ TURBID_ROW_KERNEL void GuidedCoefficientsFused(const float* const* __restrict e,
   const float* __restrict q2 = q[2];
   const float* __restrict q3 = q[3];
   for (int x = 0; x < w; ++x) {
-    const float inv = inv_cx[x] * inv_cy;
-    const float mi = WindowSumAt<W>(e0, q0, x) * inv, mp = WindowSumAt<W>(e2, q2, x) * inv;
-    const float var = WindowSumAt<W>(e1, q1, x) * inv - mi * mi;
-    const float cov = WindowSumAt<W>(e3, q3, x) * inv - mi * mp;
-    const float av = cov / (var + eps);
-    a[x] = av;
-    b[x] = mp - av * mi;
+    GuidedCoefficient(WindowSumAt<W>(e0, q0, x), WindowSumAt<W>(e2, q2, x),
+                      WindowSumAt<W>(e1, q1, x), WindowSumAt<W>(e3, q3, x), inv_cx[x] * inv_cy, eps,
+                      a + x, b + x);
   }
 }
 
@@ -344,8 +350,8 @@ TURBID_ROW_KERNEL void ApplyCoefficientsFused(
     const float* __restrict q_b, const float* __restrict guide, const float* __restrict inv_cx,
     float inv_cy, float* __restrict q, int w) {
   for (int x = 0; x < w; ++x) {
-    const float s_a = WindowSumAt<W>(e_a, q_a, x), s_b = WindowSumAt<W>(e_b, q_b, x);
-    q[x] = (s_a * guide[x] + s_b) * (inv_cx[x] * inv_cy);
+    q[x] = ApplyCoefficient(WindowSumAt<W>(e_a, q_a, x), WindowSumAt<W>(e_b, q_b, x), guide[x],
+                            inv_cx[x] * inv_cy);
   }
 }
 
@@ -428,12 +434,8 @@ TURBID_AVX2 void SelfCoefficientsRolling(const float* e_i, const float* e_ii, co
     }
   }
   for (; x < w; ++x) {
-    const float inv = inv_cx[x] * inv_cy;
-    const float m = WindowSumQuadsInline<W>(e_i, x) * inv;
-    const float var = WindowSumQuadsInline<W>(e_ii, x) * inv - m * m;
-    const float av = var / (var + eps);
-    a[x] = av;
-    b[x] = m - av * m;
+    SelfCoefficient(WindowSumQuadsInline<W>(e_i, x), WindowSumQuadsInline<W>(e_ii, x),
+                    inv_cx[x] * inv_cy, eps, a + x, b + x);
   }
 }
 
@@ -463,14 +465,9 @@ TURBID_AVX2 void GuidedCoefficientsRolling(const float* const* e, const float* c
     }
   }
   for (; x < w; ++x) {
-    const float inv = inv_cx[x] * inv_cy;
-    const float mi = WindowSumQuadsInline<W>(e[0], x) * inv;
-    const float mp = WindowSumQuadsInline<W>(e[2], x) * inv;
-    const float var = WindowSumQuadsInline<W>(e[1], x) * inv - mi * mi;
-    const float cov = WindowSumQuadsInline<W>(e[3], x) * inv - mi * mp;
-    const float av = cov / (var + eps);
-    a[x] = av;
-    b[x] = mp - av * mi;
+    GuidedCoefficient(WindowSumQuadsInline<W>(e[0], x), WindowSumQuadsInline<W>(e[2], x),
+                      WindowSumQuadsInline<W>(e[1], x), WindowSumQuadsInline<W>(e[3], x),
+                      inv_cx[x] * inv_cy, eps, a + x, b + x);
   }
 }
 
@@ -495,8 +492,8 @@ TURBID_AVX2 void ApplyCoefficientsRolling(const float* e_a, const float* e_b, co
     }
   }
   for (; x < w; ++x) {
-    const float s_a = WindowSumQuadsInline<W>(e_a, x), s_b = WindowSumQuadsInline<W>(e_b, x);
-    q[x] = (s_a * guide[x] + s_b) * (inv_cx[x] * inv_cy);
+    q[x] = ApplyCoefficient(WindowSumQuadsInline<W>(e_a, x), WindowSumQuadsInline<W>(e_b, x),
+                            guide[x], inv_cx[x] * inv_cy);
   }
 }
 #undef TURBID_AVX2
@@ -615,16 +612,20 @@ class GrayStream {
         planes_a_(self ? 2 : 4),  // I, I^2 [, p, I p]
         ring_(std::min(window_ + 1, h_)),
         ext_(static_cast<size_t>(planes_a_ + 2) * ext_len_, 0.0f),
-        quads_(static_cast<size_t>(planes_a_ + 2) * ext_len_, 0.0f),
-        sums_(static_cast<size_t>(planes_a_ + 2) * w_, 0.0f),
-        t0_(ext_len_),
-        t1_(ext_len_),
         inv_cx_(w_),
         a_ring_(ring_, w_, CV_32F),
         b_ring_(ring_, w_, CV_32F) {
     for (int x = 0; x < w_; ++x) inv_cx_[x] = 1.0f / static_cast<float>(InvCount(x, r_, w_));
     if (r_ >= 1 && r_ <= kMaxFusedRadius) {
       fused_ = FusedKernelsFor(r_, std::make_integer_sequence<int, kMaxFusedRadius>{});
+    }
+    // Buffers of the path in use: sums of 4 for the portable fused kernels (W >= 9); window sums
+    // and doubling scratch for the unfused one.
+    if (fused_.quads != nullptr) quads_.assign(static_cast<size_t>(planes_a_ + 2) * ext_len_, 0.0f);
+    if (fused_.apply == nullptr) {
+      sums_.assign(static_cast<size_t>(planes_a_ + 2) * w_, 0.0f);
+      t0_.resize(ext_len_);
+      t1_.resize(ext_len_);
     }
   }
 
@@ -656,7 +657,10 @@ class GrayStream {
 
  private:
   float* Ext(int k) { return ext_.data() + static_cast<size_t>(k) * ext_len_; }
-  float* Quad(int k) { return quads_.data() + static_cast<size_t>(k) * ext_len_; }
+  // Null where the kernels form their sums of 4 themselves (they ignore the argument).
+  float* Quad(int k) {
+    return quads_.empty() ? nullptr : quads_.data() + static_cast<size_t>(k) * ext_len_;
+  }
   float* Sum(int k) { return sums_.data() + static_cast<size_t>(k) * w_; }
   static const float* RingRow(const cv::Mat& ring, int slot) {
     return slot >= 0 ? ring.ptr<float>(slot) : nullptr;

@@ -71,8 +71,6 @@ void ParamBinder::FinishKeys() {
   }
 }
 
-namespace {
-
 // True when every float of the row is finite: a float is NaN or ±inf exactly when its exponent
 // bits are all ones. An integer OR over the row vectorises (cv::checkRange is a scalar pass, ~1.5
 // ms on a 1360x1024 image, a tenth of `simplified`).
@@ -85,8 +83,6 @@ bool RowIsFinite(const float* row, size_t count) {
   }
   return all_ones_exponent == 0;
 }
-
-}  // namespace
 
 void ValidateEnhanceImageLayout(const cv::Mat& image, const std::string& method) {
   if (image.empty()) throw Error(method + ": empty input image");

@@ -75,5 +75,7 @@ void ValidateEnhanceImage(const cv::Mat& image, const std::string& method);
 // turns any non-finite input into a non-finite value they detect anyway; they call
 // ValidateEnhanceImage then, for its message.
 void ValidateEnhanceImageLayout(const cv::Mat& image, const std::string& method);
+// True when every one of `count` floats is finite (no NaN, no ±inf); vectorises.
+bool RowIsFinite(const float* row, size_t count);
 
 }  // namespace turbid

@@ -2,9 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <cstdio>
-#include <cstring>
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/guided_filter.h"
@@ -429,21 +427,11 @@ bool SimplifiedOptions::Check(std::string* why) const {
 
 namespace {
 
-// I_g + alpha (I_f - I_g), as addWeighted(I_g, 1 - alpha, I_f, alpha). Returns false when a result
-// is not finite (NaN or ±inf: exponent bits all ones), which is how a non-finite input shows: the
-// guided filters' box sums carry it into every output of its windows.
-TURBID_ROW_KERNEL bool DetailBoostRow(const float* __restrict i_f, const float* __restrict i_g,
+// I_g + alpha (I_f - I_g), as addWeighted(I_g, 1 - alpha, I_f, alpha).
+TURBID_ROW_KERNEL void DetailBoostRow(const float* __restrict i_f, const float* __restrict i_g,
                                       float alpha, float one_minus_alpha, float* __restrict dst,
                                       int w) {
-  uint32_t non_finite = 0;
-  for (int x = 0; x < w; ++x) {
-    const float v = i_g[x] * one_minus_alpha + i_f[x] * alpha;
-    dst[x] = v;
-    uint32_t bits;
-    std::memcpy(&bits, &v, sizeof(bits));
-    non_finite |= static_cast<uint32_t>((bits & 0x7f800000u) == 0x7f800000u);
-  }
-  return non_finite == 0;
+  for (int x = 0; x < w; ++x) dst[x] = i_g[x] * one_minus_alpha + i_f[x] * alpha;
 }
 
 // Clamped to [0, 1] (a loop of its own: GCC vectorises it alone, not after the arithmetic).
@@ -454,7 +442,7 @@ TURBID_ROW_KERNEL void ClampRow(float* __restrict v, int w) {
 // One-channel `simplified`, streamed: both guided filters by rows, the detail boost per row, then
 // straight into CLAHE's bin indices; no full-size float intermediates (each costs ~1 ms of page
 // faults). The input's finiteness is not scanned up front: a non-finite input value makes the
-// boosted rows around it non-finite, which the binning (or, without CLAHE, the boost) detects.
+// boosted rows around it non-finite, which the binning (or, without CLAHE, RowIsFinite) detects.
 cv::Mat SimplifiedGray(const SimplifiedOptions& o, const GuidedFilterOptions& fine,
                        const GuidedFilterOptions& coarse, const cv::Mat& image) {
   const int w = image.cols;
@@ -469,11 +457,13 @@ cv::Mat SimplifiedGray(const SimplifiedOptions& o, const GuidedFilterOptions& fi
   }
   GuidedFilterSelfRows({fine, coarse}, image, [&](int y, const std::vector<const float*>& q) {
     float* dst = o.contrast ? boosted.data() : out.ptr<float>(y);
-    const bool finite = DetailBoostRow(q[0], q[1], a, one_minus_a, dst, w);
+    DetailBoostRow(q[0], q[1], a, one_minus_a, dst, w);
     if (o.contrast) {
       ClaheBinRow(o.clahe, dst, bins, y);  // clamps to [0, 1] as it bins; throws if not finite
     } else {
-      if (!finite) throw Error("simplified: the detail layers have non-finite values");
+      if (!RowIsFinite(dst, static_cast<size_t>(w))) {
+        throw Error("simplified: the detail layers have non-finite values");
+      }
       ClampRow(dst, w);
     }
   });
