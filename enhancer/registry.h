@@ -30,6 +30,13 @@ struct MethodInfo {
   std::string source;    // paper / reference the method follows
   bool needs_geometry = false;  // needs EnhanceInput::scene
   bool needs_sidecar = false;   // needs EnhanceInput::sidecar (oracle)
+  // Privileged (SPEC "Fair comparisons"): receives true simulation parameters (water, light, PSF,
+  // noise, exact geometry) beyond what its published version has. The CLI's --list, tables and the
+  // report mark it; no default method but the oracle is privileged.
+  bool privileged = false;
+  // What the method reads besides the degraded image, in words, e.g. "scene plane (depth or DVL);
+  // sidecar: camera, LED geometry and power". Empty: the image alone. docs/methods.md lists them.
+  std::string inputs;
   std::vector<MethodParam> params;
 };
 
