@@ -24,6 +24,9 @@ namespace turbid {
 struct MethodEntry {
   MethodInfo info;
   std::function<cv::Mat(const nlohmann::json& params, const EnhanceInput& input)> run;
+  // Optional: whether these parameter overrides make the method privileged (a variant that reads
+  // true simulation parameters); info.privileged covers the defaults. Throws like `run`'s binding.
+  std::function<bool(const nlohmann::json& params)> privileged_with;
 };
 
 // Binds a JSON params object onto an Options struct strictly:

@@ -124,6 +124,13 @@ cv::Mat Upsample(const cv::Mat& small, cv::Size size) {
   return out;
 }
 
+// The value at `percentile` (%) of `values` (reordered), by rank floor(p/100 (n - 1)).
+double PercentileOf(std::vector<float>& values, double percentile) {
+  const size_t k = static_cast<size_t>(std::floor(percentile / 100.0 * (values.size() - 1)));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
 // %g-style number for the step log (0.7, not 0.700000).
 std::string FormatNumber(double v) {
   char buf[32];
@@ -139,8 +146,25 @@ bool FullOptions::Check(std::string* why) const {
   if (denoise_radius < 1 || denoise_radius > 1000)
     return Fail(why, "denoise_radius must be in [1, 1000]");
   if (!std::isfinite(denoise_eps) || denoise_eps <= 0) return Fail(why, "denoise_eps must be > 0");
-  if (light_scaling != "range" && light_scaling != "physical") {
-    return Fail(why, "light_scaling must be 'range' or 'physical', got '" + light_scaling + "'");
+  if (light_scaling != "blind" && light_scaling != "range" && light_scaling != "physical") {
+    return Fail(why, "light_scaling must be 'blind', 'range' or 'physical', got '" +
+                         light_scaling + "'");
+  }
+  if (!std::isfinite(denoise_noise_factor) || denoise_noise_factor < 0 ||
+      denoise_noise_factor > 100) {
+    return Fail(why, "denoise_noise_factor must be in [0, 100]");
+  }
+  if (!std::isfinite(light_scale_percentile) || light_scale_percentile <= 0 ||
+      light_scale_percentile > 50) {
+    return Fail(why, "light_scale_percentile must be in (0, 50]");
+  }
+  if (!std::isfinite(light_scale_support) || light_scale_support <= 0 ||
+      light_scale_support >= 1) {
+    return Fail(why, "light_scale_support must be in (0, 1)");
+  }
+  if (!std::isfinite(exposure_percentile) || exposure_percentile < 0 ||
+      exposure_percentile > 100) {
+    return Fail(why, "exposure_percentile must be in [0, 100]");
   }
   if (light_subsample < 1 || light_subsample > 64)
     return Fail(why, "light_subsample must be in [1, 64]");
@@ -216,126 +240,286 @@ cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& pl
 
 namespace {
 
-// The full pipeline. `keep_steps`: fill every inspection-only field of FullResult (range_m);
-// FullEnhance passes false and saves the full-size work they cost.
-FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Scene* scene,
-                           const nlohmann::json* sidecar, bool keep_steps) {
-  ThrowIfInvalid(o, "full");
-  ValidateEnhanceImage(image, "full");
-  FullResult r;
-  const int channels = image.channels();
-  cv::Mat current = image;
-
-  // 1. Denoise (eq. 4).
-  if (o.denoise) {
-    GuidedFilterOptions g;
-    g.radius = o.denoise_radius;
-    g.eps = o.denoise_eps;
-    current = GuidedFilterSelf(g, image);
-    r.steps.push_back("denoise: guided filter r " + std::to_string(o.denoise_radius));
-  } else {
-    r.steps.push_back("denoise: skipped (off)");
+// Least squares of I = c0 t + c1 (1 - t) L + c2 t L over the samples (normal equations in
+// double), twice: the second pass drops the 20% largest absolute residuals of the first. Returns
+// false when the system is singular or the samples are too few.
+bool FitVeilModel(const std::vector<cv::Vec4d>& samples, cv::Vec3d* c) {
+  if (samples.size() < 16) return false;
+  std::vector<char> use(samples.size(), 1);
+  for (int pass = 0; pass < 2; ++pass) {
+    cv::Matx33d ata = cv::Matx33d::zeros();
+    cv::Vec3d atb(0, 0, 0);
+    for (size_t i = 0; i < samples.size(); ++i) {
+      if (!use[i]) continue;
+      const cv::Vec3d x(samples[i][0], samples[i][1], samples[i][2]);
+      ata += x * x.t();
+      atb += x * samples[i][3];
+    }
+    cv::Vec3d solution;
+    if (!cv::solve(ata, atb, solution, cv::DECOMP_CHOLESKY)) return false;
+    // Condition: reject near-collinear regressors (constant light or transmission).
+    cv::Vec3d eig;
+    cv::eigen(ata, eig);
+    if (!(eig[2] > 1e-9 * eig[0])) return false;
+    *c = solution;
+    if (pass == 1) break;
+    std::vector<double> residuals(samples.size());
+    for (size_t i = 0; i < samples.size(); ++i) {
+      residuals[i] = std::abs(solution[0] * samples[i][0] + solution[1] * samples[i][1] +
+                              solution[2] * samples[i][2] - samples[i][3]);
+    }
+    std::vector<double> sorted = residuals;
+    const size_t k = sorted.size() * 8 / 10;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
+    for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= sorted[k];
   }
-  r.denoised = current;
+  return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
+}
 
-  // Geometry, lights and water.
-  IrradianceOptions lights;
-  std::vector<double> beta = {o.beta_per_m};
-  r.beta_source = "beta_per_m";
+}  // namespace
+
+std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, const cv::Mat& light,
+                                                   const cv::Mat& transmission, double percentile,
+                                                   double support, int stride) {
+  CV_Assert(denoised.depth() == CV_32F && light.depth() == CV_32F &&
+            transmission.depth() == CV_32F && stride >= 1);
+  CV_Assert(denoised.size() == light.size() && denoised.size() == transmission.size());
+  const int ch = denoised.channels(), lc = light.channels(), tc = transmission.channels();
+  std::vector<LightScaleEstimate> out(ch);
+  std::vector<float> ratios;
+  std::vector<cv::Vec4d> samples;
+  for (int c = 0; c < ch; ++c) {
+    const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
+    float w_max = 0.0f;
+    for (int y = 0; y < denoised.rows; y += stride) {
+      const float* t = transmission.ptr<float>(y);
+      const float* l = light.ptr<float>(y);
+      for (int x = 0; x < denoised.cols; x += stride) {
+        w_max = std::max(w_max, (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
+      }
+    }
+    if (!(w_max > 0.0f) || !std::isfinite(w_max)) continue;
+    const float w_min = static_cast<float>(support) * w_max;
+    ratios.clear();
+    samples.clear();
+    for (int y = 0; y < denoised.rows; y += stride) {
+      const float* in = denoised.ptr<float>(y);
+      const float* t = transmission.ptr<float>(y);
+      const float* l = light.ptr<float>(y);
+      for (int x = 0; x < denoised.cols; x += stride) {
+        const double ti = t[x * tc + t_at], li = l[x * lc + l_at], v = in[x * ch + c];
+        const float w = static_cast<float>((1.0 - ti) * li);
+        if (!std::isfinite(v) || !std::isfinite(li)) continue;
+        if (w >= w_min) ratios.push_back(static_cast<float>(std::max(v, 0.0) / w));
+        samples.push_back(cv::Vec4d(ti, (1.0 - ti) * li, ti * li, v));
+      }
+    }
+    if (ratios.empty()) continue;
+    LightScaleEstimate& e = out[c];
+    e.bound = std::max(0.0, PercentileOf(ratios, percentile));
+    cv::Vec3d fit;
+    // The fit is usable when it is physical: a > 0 and 0 <= mean reflectance (c2 / c1) <= 1.
+    if (FitVeilModel(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
+      e.fit = fit[1];
+      e.scale = std::min(e.fit, e.bound);
+      e.source = e.fit <= e.bound ? "fit" : "bound";
+    } else {
+      e.scale = e.bound;
+      e.source = "bound (no usable fit)";
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// Noise standard deviation of a float image (all channels), J. Immerkaer, "Fast noise variance
+// estimation", CVIU 64(2) 1996, eq. 2: sqrt(pi/2) / (6 (W-2)(H-2)) sum |I * N| with the 3x3
+// Laplacian-difference mask N = [1 -2 1; -2 4 -2; 1 -2 1], over interior pixels.
+double EstimateNoiseSigma(const cv::Mat& image) {
+  if (image.rows < 3 || image.cols < 3) return 0.0;
+  const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
+  cv::Mat response;
+  cv::filter2D(image, response, CV_32F, kernel);
+  const cv::Mat inner = cv::abs(response(cv::Rect(1, 1, image.cols - 2, image.rows - 2)));
+  const cv::Scalar sums = cv::sum(inner);
+  double total = 0;
+  for (int c = 0; c < image.channels(); ++c) total += sums[c];
+  const double n = 6.0 * (image.cols - 2) * (image.rows - 2) * image.channels();
+  return std::sqrt(CV_PI / 2.0) * total / n;
+}
+
+// Step 1 (eq. 4): self-guided filter per channel; with denoise_adaptive the epsilon follows the
+// haze (t_med) and the noise.
+cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r) {
+  if (!o.denoise) {
+    r->steps.push_back("denoise: skipped (off)");
+    return image;
+  }
+  GuidedFilterOptions g;
+  g.radius = o.denoise_radius;
+  g.eps = o.denoise_eps;
+  std::string how;
+  if (o.denoise_adaptive) {
+    double t_med = 1.0;
+    if (!r->transmission.empty()) {
+      std::vector<float> sample;
+      const cv::Mat& t = r->transmission;
+      for (int y = 0; y < t.rows; y += 4) {
+        const float* p = t.ptr<float>(y);
+        for (int i = 0; i < t.cols * t.channels(); i += 4) sample.push_back(p[i]);
+      }
+      if (!sample.empty()) t_med = PercentileOf(sample, 50.0);
+    }
+    r->noise_sigma = EstimateNoiseSigma(image);
+    const double noise_eps = std::pow(o.denoise_noise_factor * r->noise_sigma, 2);
+    g.eps = std::min(o.denoise_eps, std::max(o.denoise_eps * t_med * t_med, noise_eps));
+    g.eps = std::max(g.eps, 1e-8);
+    how = " (adaptive: t_med " + FormatNumber(t_med) + ", noise sigma " +
+          FormatNumber(r->noise_sigma) + ")";
+  }
+  r->denoise_eps = g.eps;
+  r->steps.push_back("denoise: guided filter r " + std::to_string(o.denoise_radius) + ", eps " +
+                     FormatNumber(g.eps) + how);
+  return GuidedFilterSelf(g, image);
+}
+
+// The LED specification (the sidecar's lights, else the simulator's default LED) and beta: the
+// fixed beta_per_m, or with beta_source=auto the sidecar's water per channel. One value when every
+// channel has the same beta.
+void ResolveLightsAndBeta(const FullOptions& o, const nlohmann::json* sidecar, int channels,
+                          IrradianceOptions* lights, std::vector<double>* beta, FullResult* r) {
+  *beta = {o.beta_per_m};
+  r->beta_source = "beta_per_m";
   if (sidecar != nullptr && sidecar->contains("options")) {
     const RenderOptions rendered = RenderOptionsFromJson((*sidecar)["options"]);
-    lights = rendered.light;
+    *lights = rendered.light;
     if (o.beta_source == "auto") {
       const WaterOptions& water = rendered.water;
-      beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, channels);
-      r.beta_source = "sidecar water";
+      *beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, channels);
+      r->beta_source = "sidecar water";
     }
   }
-  // Equal values (gray, or a flat spectrum) keep one map for every channel.
-  if (std::all_of(beta.begin(), beta.end(), [&](double b) { return b == beta[0]; })) {
-    beta.resize(1);
+  if (std::all_of(beta->begin(), beta->end(), [&](double b) { return b == (*beta)[0]; })) {
+    beta->resize(1);
   }
-  r.beta_per_m = beta.size() == 1 ? std::vector<double>(channels, beta[0]) : beta;
-  const bool any_beta = std::any_of(beta.begin(), beta.end(), [](double b) { return b > 0; });
-  const bool need_geometry = (o.light && !lights.lights.empty()) || (o.dehaze && any_beta);
-  CameraIntrinsics camera;
-  if (need_geometry) {
-    camera = ResolveCamera(image, scene, sidecar, &r.steps);
-    std::string source;
-    r.plane = ResolvePlane(o, scene, camera, &source);
-    r.plane_source = source;
-    r.steps.push_back("plane: from " + source);
-  }
+  r->beta_per_m = beta->size() == 1 ? std::vector<double>(channels, (*beta)[0]) : *beta;
+}
 
-  // 2. Artificial light (eq. 5), scaled into [min I, max I].
-  cv::Mat e_l;
-  if (!o.light) {
-    r.steps.push_back("light: skipped (off)");
-  } else if (lights.lights.empty()) {
-    r.steps.push_back("light: skipped (no lights)");
+// t = exp(-beta r) on the plane, clamped to t_min, at 1/light_subsample and upsampled; one map per
+// distinct beta. Fills r->transmission (and r->range_m when inspecting).
+void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,
+                      const std::vector<double>& beta, cv::Size size, bool keep_steps,
+                      FullResult* r) {
+  const CameraIntrinsics small = Downscaled(camera, o.light_subsample);
+  const cv::Mat range = RangeFromDepth(small, PlaneDepth(*r->plane, small, o.max_range_m));
+  std::vector<cv::Mat> t_planes;
+  for (double b : beta) {
+    cv::Mat t;
+    cv::exp(range * -b, t);
+    cv::max(t, o.t_min, t);
+    t_planes.push_back(Upsample(t, size));
+  }
+  if (keep_steps) r->range_m = Upsample(range, size);
+  if (t_planes.size() == 1) {
+    r->transmission = t_planes[0];
   } else {
-    e_l = EstimateArtificialLight(lights, *r.plane, camera, beta, current,
-                                  o.light_scaling == "range", o.light_subsample, o.max_range_m);
-    r.light = e_l;
-    r.steps.push_back("light: " + std::to_string(lights.lights.size()) + " light(s), " +
-                      o.light_scaling + " scaling");
+    cv::merge(t_planes, r->transmission);
   }
+}
 
-  // 3. Plane-induced dehazing (eq. 6).
-  if (o.dehaze && any_beta) {
-    const CameraIntrinsics small = Downscaled(camera, o.light_subsample);
-    const cv::Mat range = RangeFromDepth(small, PlaneDepth(*r.plane, small, o.max_range_m));
-    std::vector<cv::Mat> t_planes;
-    for (double b : beta) {
-      cv::Mat t;
-      cv::exp(range * -b, t);
-      cv::max(t, o.t_min, t);
-      t_planes.push_back(Upsample(t, image.size()));
-    }
-    if (keep_steps) r.range_m = Upsample(range, image.size());
-    if (t_planes.size() == 1) {
-      r.transmission = t_planes[0];
+// Step 2 (eq. 5): E_L on the plane, scaled into image units blind, by the range fit, or as is.
+cv::Mat LightStep(const FullOptions& o, const IrradianceOptions& lights,
+                  const CameraIntrinsics& camera, const std::vector<double>& beta,
+                  const cv::Mat& denoised, FullResult* r) {
+  if (!o.light) {
+    r->steps.push_back("light: skipped (off)");
+    return {};
+  }
+  if (lights.lights.empty()) {
+    r->steps.push_back("light: skipped (no lights)");
+    return {};
+  }
+  cv::Mat e_l = EstimateArtificialLight(lights, *r->plane, camera, beta, denoised,
+                                        o.light_scaling == "range", o.light_subsample,
+                                        o.max_range_m);
+  std::string detail = o.light_scaling + " scaling";
+  if (o.light_scaling == "physical") {
+    r->light_scale.assign(denoised.channels(), 1.0);
+  } else if (o.light_scaling == "blind") {
+    if (r->transmission.empty()) {
+      // No attenuation: no veil to measure the light by, and eq. 6 leaves I unchanged.
+      r->light_scale.assign(denoised.channels(), 0.0);
     } else {
-      cv::merge(t_planes, r.transmission);
+      const std::vector<LightScaleEstimate> est = EstimateLightScale(
+          denoised, e_l, r->transmission, o.light_scale_percentile, o.light_scale_support);
+      for (const LightScaleEstimate& e : est) {
+        r->light_scale.push_back(e.scale);
+        detail += "; scale " + FormatNumber(e.scale) + " (" + e.source + "; fit " +
+                  FormatNumber(e.fit) + ", bound " + FormatNumber(e.bound) + ")";
+      }
     }
-    // Eq. 6 in one pass into a fresh Mat (r.denoised keeps its buffer): (I - E_L) / t + E_L, or
-    // I / t without light; a one-channel t serves every channel.
-    const cv::Mat& tm = r.transmission;
-    const bool t_per_value = tm.channels() == channels;  // else one t for every channel
-    const int n = current.cols * channels;
-    // In place over the denoised image when nobody inspects it (it is our own buffer then).
-    cv::Mat dehazed = !keep_steps && o.denoise ? current : cv::Mat(current.size(), current.type());
-    for (int y = 0; y < current.rows; ++y) {
-      const float* in = current.ptr<float>(y);
-      const float* t = tm.ptr<float>(y);
-      const float* e = e_l.empty() ? nullptr : e_l.ptr<float>(y);
-      float* d = dehazed.ptr<float>(y);
-      if (t_per_value && e == nullptr) {
-        for (int i = 0; i < n; ++i) d[i] = in[i] / t[i];
-      } else if (t_per_value) {
-        for (int i = 0; i < n; ++i) d[i] = (in[i] - e[i]) / t[i] + e[i];
-      } else {
-        for (int x = 0; x < current.cols; ++x) {
-          const float ti = t[x];
-          for (int i = x * channels; i < (x + 1) * channels; ++i) {
-            d[i] = e == nullptr ? in[i] / ti : (in[i] - e[i]) / ti + e[i];
-          }
+    cv::Scalar a;
+    for (int c = 0; c < denoised.channels(); ++c) a[c] = r->light_scale[c];
+    cv::multiply(e_l, a, e_l);
+  }
+  r->steps.push_back("light: " + std::to_string(lights.lights.size()) + " light(s), " + detail);
+  return e_l;
+}
+
+// Step 3 (eq. 6): (I - E_L) / t + E_L, or I / t without light; a one-channel t serves every
+// channel. Written into `dehazed`, which may be `current` itself.
+void DehazeRows(const cv::Mat& current, const cv::Mat& e_l, const cv::Mat& tm, cv::Mat& dehazed) {
+  const int channels = current.channels();
+  const bool t_per_value = tm.channels() == channels;  // else one t for every channel
+  const int n = current.cols * channels;
+  for (int y = 0; y < current.rows; ++y) {
+    const float* in = current.ptr<float>(y);
+    const float* t = tm.ptr<float>(y);
+    const float* e = e_l.empty() ? nullptr : e_l.ptr<float>(y);
+    float* d = dehazed.ptr<float>(y);
+    if (t_per_value && e == nullptr) {
+      for (int i = 0; i < n; ++i) d[i] = in[i] / t[i];
+    } else if (t_per_value) {
+      for (int i = 0; i < n; ++i) d[i] = (in[i] - e[i]) / t[i] + e[i];
+    } else {
+      for (int x = 0; x < current.cols; ++x) {
+        const float ti = t[x];
+        for (int i = x * channels; i < (x + 1) * channels; ++i) {
+          d[i] = e == nullptr ? in[i] / ti : (in[i] - e[i]) / ti + e[i];
         }
       }
     }
-    current = dehazed;
-    std::string values;
-    for (double b : r.beta_per_m) values += (values.empty() ? "" : "/") + FormatNumber(b);
-    r.steps.push_back("dehaze: beta " + values + " 1/m (" + r.beta_source +
-                      "), t >= " + FormatNumber(o.t_min));
-  } else {
-    r.steps.push_back(o.dehaze ? "dehaze: skipped (beta 0)" : "dehaze: skipped (off)");
   }
-  r.dehazed = current;
+}
 
-  // 4. Deblur with the PSF (eq. 7).
-  // Without inspection, a one-channel spatial Wiener deblur streams its rows straight into
-  // CLAHE's bin indices (step 5): no full-size deblurred image.
+// Divides J_plane by its exposure_percentile percentile when that exceeds 1 (sampled on a
+// stride-2 grid, every channel).
+void ExposureStep(const FullOptions& o, cv::Mat& dehazed, FullResult* r) {
+  if (o.exposure_percentile <= 0) return;
+  std::vector<float> sample;
+  sample.reserve(static_cast<size_t>(dehazed.total() * dehazed.channels() / 4 + 16));
+  const int n = dehazed.cols * dehazed.channels();
+  for (int y = 0; y < dehazed.rows; y += 2) {
+    const float* p = dehazed.ptr<float>(y);
+    for (int i = 0; i < n; i += 2) {
+      if (std::isfinite(p[i])) sample.push_back(p[i]);
+    }
+  }
+  if (sample.empty()) return;
+  const double level = PercentileOf(sample, o.exposure_percentile);
+  if (level > 1.0) {
+    r->exposure_scale = level;
+    dehazed.convertTo(dehazed, CV_32F, 1.0 / level);
+    r->steps.push_back("exposure: J_plane divided by its " + FormatNumber(o.exposure_percentile) +
+                       "th percentile " + FormatNumber(level));
+  }
+}
+
+// Steps 4 (eq. 7) and 5 (CLAHE). Without inspection, a one-channel spatial Wiener deblur streams
+// its rows straight into CLAHE's bin indices: no full-size deblurred image.
+cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps, FullResult* r) {
+  const int channels = current.channels();
   cv::Mat bins;
   if (o.deblur) {
     PsfOptions p;
@@ -343,7 +527,7 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
     p.forward_scatter = o.psf_forward_scatter;
     const Psf psf = PsfKernel(p);
     if (psf.is_delta) {
-      r.steps.push_back("deblur: skipped (PSF is a delta at this pixel scale)");
+      r->steps.push_back("deblur: skipped (PSF is a delta at this pixel scale)");
     } else {
       bool streamed = false;
       if (!keep_steps && o.contrast && channels == 1) {
@@ -360,15 +544,14 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
         bins.release();
         current = Deconvolve(o.deconvolution, current, psf.kernel);
       }
-      r.steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
-                        ", PSF radius " + std::to_string(psf.radius_px));
+      r->steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
+                         ", PSF radius " + std::to_string(psf.radius_px));
     }
   } else {
-    r.steps.push_back("deblur: skipped (off)");
+    r->steps.push_back("deblur: skipped (off)");
   }
-  if (bins.empty()) r.deblurred = current;
+  if (bins.empty()) r->deblurred = current;
 
-  // 5. CLAHE (Rayleigh) on the result clamped to [0, 1].
   cv::Mat out;
   if (!bins.empty()) {
     out = ClaheFromBins(o.clahe, bins);  // in [0, 1]
@@ -389,9 +572,55 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
     if (o.contrast) out = Clahe(o.clahe, out);
     ClampUnit(out);
   }
-  r.steps.push_back(o.contrast ? "contrast: CLAHE " + ClaheDistributionName(o.clahe.distribution)
-                               : "contrast: skipped (off)");
-  r.image = out;
+  r->steps.push_back(o.contrast ? "contrast: CLAHE " + ClaheDistributionName(o.clahe.distribution)
+                                : "contrast: skipped (off)");
+  return out;
+}
+
+// The full pipeline. `keep_steps`: fill every inspection-only field of FullResult (range_m);
+// FullEnhance passes false and saves the full-size work they cost.
+FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Scene* scene,
+                           const nlohmann::json* sidecar, bool keep_steps) {
+  ThrowIfInvalid(o, "full");
+  ValidateEnhanceImage(image, "full");
+  FullResult r;
+  const int channels = image.channels();
+
+  IrradianceOptions lights;
+  std::vector<double> beta;
+  ResolveLightsAndBeta(o, sidecar, channels, &lights, &beta, &r);
+  const bool any_beta = std::any_of(beta.begin(), beta.end(), [](double b) { return b > 0; });
+  const bool need_light = o.light && !lights.lights.empty();
+  const bool need_geometry = need_light || (o.dehaze && any_beta);
+  CameraIntrinsics camera;
+  if (need_geometry) {
+    camera = ResolveCamera(image, scene, sidecar, &r.steps);
+    std::string source;
+    r.plane = ResolvePlane(o, scene, camera, &source);
+    r.plane_source = source;
+    r.steps.push_back("plane: from " + source);
+    if (any_beta) TransmissionStep(o, camera, beta, image.size(), keep_steps, &r);
+  }
+  cv::Mat current = DenoiseStep(o, image, &r);
+  r.denoised = current;
+  const cv::Mat e_l = LightStep(o, lights, camera, beta, current, &r);
+  r.light = e_l;
+
+  if (o.dehaze && any_beta) {
+    // In place over the denoised image when nobody inspects it (it is our own buffer then).
+    cv::Mat dehazed = !keep_steps && o.denoise ? current : cv::Mat(current.size(), current.type());
+    DehazeRows(current, e_l, r.transmission, dehazed);
+    current = dehazed;
+    std::string values;
+    for (double b : r.beta_per_m) values += (values.empty() ? "" : "/") + FormatNumber(b);
+    r.steps.push_back("dehaze: beta " + values + " 1/m (" + r.beta_source +
+                      "), t >= " + FormatNumber(o.t_min));
+    ExposureStep(o, current, &r);
+  } else {
+    r.steps.push_back(o.dehaze ? "dehaze: skipped (beta 0)" : "dehaze: skipped (off)");
+  }
+  r.dehazed = current;
+  r.image = DeblurAndContrast(o, current, keep_steps, &r);
   return r;
 }
 
@@ -612,14 +841,41 @@ std::vector<MethodParam> ClahePar(const std::string& prefix, const ClaheOptions&
 
 }  // namespace
 
-FullOptions FullOptionsFromJson(const nlohmann::json& params) {
+FullOptions FullVariantDefaults(const std::string& variant) {
   FullOptions o;
-  ParamBinder b("full", params);
+  if (variant == "full") return o;
+  if (variant == "full_literal") {
+    o.light_scaling = "range";
+    o.denoise_adaptive = false;
+    o.exposure_percentile = 0;
+  } else if (variant == "full_matched") {
+    o.beta_source = "auto";
+  } else if (variant == "full_physical") {
+    o.light_scaling = "physical";
+    o.beta_source = "auto";
+    o.exposure_percentile = 0;
+  } else {
+    throw Error("unknown variant of full '" + variant + "'");
+  }
+  return o;
+}
+
+bool FullOptionsArePrivileged(const FullOptions& o) {
+  return o.beta_source == "auto" || o.light_scaling == "physical";
+}
+
+FullOptions FullOptionsFromJson(const nlohmann::json& params, const std::string& variant) {
+  FullOptions o = FullVariantDefaults(variant);
+  ParamBinder b(variant, params);
   b.Bind("denoise", &o.denoise);
   b.Bind("denoise_radius", &o.denoise_radius);
   b.Bind("denoise_eps", &o.denoise_eps);
+  b.Bind("denoise_adaptive", &o.denoise_adaptive);
+  b.Bind("denoise_noise_factor", &o.denoise_noise_factor);
   b.Bind("light", &o.light);
   b.Bind("light_scaling", &o.light_scaling);
+  b.Bind("light_scale_percentile", &o.light_scale_percentile);
+  b.Bind("light_scale_support", &o.light_scale_support);
   b.Bind("light_subsample", &o.light_subsample);
   b.Bind("dehaze", &o.dehaze);
   b.Bind("beta_per_m", &o.beta_per_m);
@@ -628,6 +884,7 @@ FullOptions FullOptionsFromJson(const nlohmann::json& params) {
   if (params.is_object() && params.contains("beta_per_m")) o.beta_source = "fixed";
   b.Bind("beta_source", &o.beta_source);
   b.Bind("t_min", &o.t_min);
+  b.Bind("exposure_percentile", &o.exposure_percentile);
   b.Bind("plane", &o.plane);
   b.Bind("frontal_distance_m", &o.frontal_distance_m);
   b.Bind("max_range_m", &o.max_range_m);
@@ -646,7 +903,7 @@ FullOptions FullOptionsFromJson(const nlohmann::json& params) {
     o.deconvolution.method = DeconvolutionMethodFromName(deconv);
     o.clahe.distribution = ClaheDistributionFromName(dist);
   } catch (const Error& e) {
-    throw Error(std::string("full: ") + e.what());
+    throw Error(variant + ": " + e.what());
   }
   b.Finish(o);
   return o;
@@ -688,30 +945,63 @@ OracleOptions BindOracle(const nlohmann::json& params) {
   return o;
 }
 
-MethodEntry FullEntry() {
-  const FullOptions d;
+// What each variant of `full` reads besides the image (docs/methods.md).
+std::string FullInputs(const FullOptions& d) {
+  std::string inputs =
+      "plane (DVL points, else a plane fitted to the scene depth); camera; LED geometry from the "
+      "vehicle's specification (the sidecar's options.light)";
+  inputs += d.light_scaling == "physical" ? ", with the LED power in image units (true)"
+                                          : ", not its power";
+  inputs += d.beta_source == "auto" ? "; beta: the sidecar's water (true)" : "; beta: fixed 0.7 /m";
+  return inputs;
+}
+
+MethodEntry FullEntry(const std::string& variant) {
+  const FullOptions d = FullVariantDefaults(variant);
   MethodEntry e;
-  e.info.name = "full";
-  e.info.summary =
-      "paper full model: denoise, light estimate, plane-induced dehazing, PSF deconvolution, CLAHE";
+  e.info.name = variant;
+  const std::string steps = "denoise, light estimate, plane-induced dehazing, PSF deconvolution, CLAHE";
+  if (variant == "full") {
+    e.info.summary = "paper full model (" + steps + "), light scale estimated blind";
+  } else if (variant == "full_literal") {
+    e.info.summary = "paper full model as written: E_L fitted into [min I, max I] (§III-A.2)";
+  } else if (variant == "full_matched") {
+    e.info.summary = "full with the true water (beta per channel from the sidecar): privileged";
+  } else {
+    e.info.summary =
+        "full with the true water and the light's true power in image units: privileged";
+  }
   e.info.source =
       "the reproduced paper (Visibility Enhancement for Underwater Visual SLAM), §III-A, eqs. 4-7";
   e.info.needs_geometry = true;
+  e.info.privileged = FullOptionsArePrivileged(d);
+  e.info.inputs = FullInputs(d);
   e.info.params = {
       Param("denoise", d.denoise, "step 1: guided-filter denoise (eq. 4)"),
       Param("denoise_radius", d.denoise_radius, "guided filter k, pixels (paper: 4)"),
       Param("denoise_eps", d.denoise_eps, "guided filter epsilon on [0,1] data (paper: 0.1^2)"),
+      Param("denoise_adaptive", d.denoise_adaptive,
+            "epsilon scaled by t_med^2, floored at (factor * noise sigma)^2 (false: as given)"),
+      Param("denoise_noise_factor", d.denoise_noise_factor,
+            "adaptive denoise: multiple of the Immerkaer noise estimate, [0, 100]"),
       Param("light", d.light, "step 2: artificial-light estimate (eq. 5; lights from the sidecar)"),
       Param("light_scaling", d.light_scaling,
-            "range: E_L mapped onto [min I, max I] (paper) | physical: E_L as modelled"),
+            "blind: scale estimated from the veil | range: E_L mapped onto [min I, max I] (paper "
+            "as written) | physical: E_L as modelled (privileged)"),
+      Param("light_scale_percentile", d.light_scale_percentile,
+            "blind: percentile of I_de / ((1 - t) L), %, (0, 50]"),
+      Param("light_scale_support", d.light_scale_support,
+            "blind: share of max (1 - t) L a pixel needs to count, (0, 1)"),
       Param("light_subsample", d.light_subsample, "E_L and t computed at 1/this size, [1, 64]"),
       Param("dehaze", d.dehaze, "step 3: plane-induced dehazing (eq. 6)"),
       Param("beta_per_m", d.beta_per_m,
             "attenuation in t = exp(-beta r), 1/m (paper: 0.7); setting it implies beta_source "
             "fixed"),
       Param("beta_source", d.beta_source,
-            "auto: the sidecar's water (per channel) when given, else beta_per_m | fixed"),
+            "fixed: beta_per_m | auto: the sidecar's water (per channel) when given (privileged)"),
       Param("t_min", d.t_min, "lower clamp on t in eq. 6, (0, 1]"),
+      Param("exposure_percentile", d.exposure_percentile,
+            "J_plane divided by this percentile when above 1 (0: clip), [0, 100]"),
       Param("plane", d.plane, "plane source: auto | dvl | depth | scene | frontal"),
       Param("frontal_distance_m", d.frontal_distance_m,
             "distance of the fallback frontal plane, m"),
@@ -726,8 +1016,11 @@ MethodEntry FullEntry() {
       Param("contrast", d.contrast, "step 5: CLAHE"),
   };
   for (MethodParam& p : ClahePar("clahe_", d.clahe)) e.info.params.push_back(p);
-  e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
-    return FullEnhance(FullOptionsFromJson(params), in.image, in.scene, in.sidecar);
+  e.run = [variant](const nlohmann::json& params, const EnhanceInput& in) {
+    return FullEnhance(FullOptionsFromJson(params, variant), in.image, in.scene, in.sidecar);
+  };
+  e.privileged_with = [variant](const nlohmann::json& params) {
+    return FullOptionsArePrivileged(FullOptionsFromJson(params, variant));
   };
   return e;
 }
@@ -738,6 +1031,7 @@ MethodEntry SimplifiedEntry() {
   e.info.name = "simplified";
   e.info.summary = "paper simplified model: dual guided-filter detail boost, then CLAHE";
   e.info.source = "the reproduced paper §III-B, eqs. 8-9 (after He et al. TPAMI 2013 §4.2)";
+  e.info.inputs = "";  // the image alone
   e.info.params = {
       Param("fine_radius", d.fine_radius, "k_f, pixels (paper: 2)"),
       Param("fine_eps", d.fine_eps, "sigma_f on [0,1] data (paper: 0.1^2)"),
@@ -781,7 +1075,8 @@ MethodEntry OracleEntry() {
 }  // namespace
 
 std::vector<MethodEntry> PaperMethodEntries() {
-  return {FullEntry(), SimplifiedEntry(), OracleEntry()};
+  return {FullEntry("full"),         FullEntry("full_literal"), FullEntry("full_matched"),
+          FullEntry("full_physical"), SimplifiedEntry(),         OracleEntry()};
 }
 
 }  // namespace turbid

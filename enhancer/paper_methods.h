@@ -31,22 +31,50 @@ struct MethodEntry;
 // Where the dehazing plane comes from: "auto" (DVL points if >= 3, else RANSAC on the scene depth,
 // else the scene's dominant plane, else frontal), "dvl", "depth", "scene", "frontal" (a plane
 // facing the camera at frontal_distance_m).
+//
+// What `full` reads (docs/methods.md, "Which inputs each method sees"): the image; the plane (DVL
+// points, or a plane fitted to the scene's depth, as the paper's DVL gives); the camera; the LED
+// geometry (position, axis, half-power angle, colour) from the vehicle's specification, which
+// turbid takes from the render sidecar's `options.light` when one is given. With the default
+// `light_scaling=blind` the LED power is not used: its scale is estimated from the image. Reading
+// the water's beta (`beta_source=auto`) or the light's power in image units
+// (`light_scaling=physical`) makes the method privileged (IsPrivileged in enhancer/registry.h).
 struct FullOptions {
   bool denoise = true;        // step 1 (§III-A.1)
   int denoise_radius = 4;     // guided filter k, pixels, >= 1 (paper: 4)
   double denoise_eps = 0.01;  // guided filter epsilon on [0,1] data, > 0 (paper: 0.1^2)
+  // Haze-adaptive epsilon: texture of contrast dJ appears in I as t dJ (eq. 4), so the epsilon
+  // that keeps in I what denoise_eps keeps in J is denoise_eps * t_med^2 (t_med: the median
+  // transmission on the plane); never below (denoise_noise_factor * sigma_n)^2, sigma_n the
+  // image's noise estimated after Immerkaer 1996, nor above denoise_eps. false: denoise_eps as is
+  // (the paper read literally).
+  bool denoise_adaptive = true;
+  double denoise_noise_factor = 3.0;  // multiple of the noise estimate (3-sigma rule), [0, 100]
   bool light = true;          // step 2 (§III-A.2); also skipped when there are no lights
-  // "range": E_L scaled per channel into [min I_de, max I_de] (the paper); "physical": E_L from
-  // the light model as is (U0 calibrated in image units, as the simulator's are).
-  std::string light_scaling = "range";
+  // How the light model's units map to pixel values:
+  //   "blind"    — E_L = a_c L per channel, a_c estimated from the image as the largest scale the
+  //                veil can have where it dominates: a low percentile (light_scale_percentile) of
+  //                I_de / ((1 - t) L) over the pixels where (1 - t) L >= light_scale_support of its
+  //                maximum (docs/methods.md, "Blind light scale"). The default.
+  //   "range"    — E_L mapped per channel onto [min I_de, max I_de] (§III-A.2 read literally);
+  //   "physical" — E_L from the light model as is (U0 calibrated in image units, as the
+  //                simulator's are): privileged.
+  std::string light_scaling = "blind";
+  double light_scale_percentile = 1.0;  // blind: percentile of the ratio, %, (0, 50]
+  double light_scale_support = 0.25;    // blind: share of max (1 - t) L a pixel needs, (0, 1)
   int light_subsample = 8;  // E_L and t computed at 1/this resolution, upsampled (smooth), [1, 64]
   bool dehaze = true;       // step 3 (§III-A.3)
   double beta_per_m = 0.7;  // attenuation for t = exp(-beta r), 1/m, [0, 10] (paper: 0.7)
-  // Where beta comes from: "auto" — the water of a render sidecar when one is given (per channel,
-  // options.water: beta_rgb_per_m / beta_gray_per_m, as rendered), else beta_per_m; "fixed" —
-  // always beta_per_m (the paper's single tuned value).
-  std::string beta_source = "auto";
+  // Where beta comes from: "fixed" — always beta_per_m (the paper's single tuned value; the
+  // default); "auto" — the water of a render sidecar when one is given (per channel,
+  // options.water: beta_rgb_per_m / beta_gray_per_m, as rendered), else beta_per_m: privileged.
+  std::string beta_source = "fixed";
   double t_min = 0.1;                  // transmission clamp in eq. 6, (0, 1]
+  // Exposure after dehazing: when the `exposure_percentile` percentile of J_plane (all channels)
+  // exceeds 1, J_plane is divided by it, so that the lit radiance eq. 6 returns is not clipped
+  // before CLAHE (the paper's concern, "prevented from being over-saturated", §III-A.2). 0: off
+  // (values above 1 clip). [0, 100].
+  double exposure_percentile = 99.5;
   std::string plane = "auto";          // plane source, see above
   double frontal_distance_m = 2.0;     // distance of the fallback frontal plane, metres, > 0
   double max_range_m = 20.0;           // range used where a ray misses the plane, metres, > 0
@@ -59,21 +87,51 @@ struct FullOptions {
   bool Check(std::string* why) const;
 };
 
+// The registry's variants of `full` (one options struct, different defaults):
+//   full          blind light scale, beta 0.7 fixed, exposure kept in range;
+//   full_literal  the paper as written: E_L fitted into [min I, max I], beta 0.7, clipped;
+//   full_matched  blind light scale, beta from the render sidecar's water (privileged);
+//   full_physical E_L in the simulator's image units and the sidecar's beta (privileged).
+FullOptions FullVariantDefaults(const std::string& variant);
+
 struct FullResult {
   cv::Mat image;         // final output, [0,1]
   cv::Mat denoised;      // I_de (eq. 4)
+  double denoise_eps = 0.0;    // the epsilon the denoising used
+  double noise_sigma = 0.0;    // Immerkaer's noise estimate of the input (adaptive denoise)
   cv::Mat light;         // estimated E_L (scaled), image channels; empty when skipped
   cv::Mat range_m;       // plane-induced range along the ray, CV_32FC1; empty when skipped
   cv::Mat transmission;  // exp(-beta r) clamped, CV_32FC1 (one beta) or image channels (beta per
                          // channel differs); empty when skipped
   std::vector<double> beta_per_m;  // beta used per image channel ({gray} or {B, G, R})
   std::string beta_source;         // "sidecar water" or "beta_per_m"
-  cv::Mat dehazed;                 // J_plane (eq. 6)
+  // Per image channel: E_L = light_scale * (light model with the specification's U0); from the
+  // blind estimate, or the range fit's slope, or 1 (physical). Empty when the light step is off.
+  std::vector<double> light_scale;
+  double exposure_scale = 1.0;     // J_plane was divided by this before deblurring (>= 1)
+  cv::Mat dehazed;                 // J_plane (eq. 6), after the exposure scale
   cv::Mat deblurred;               // J_deblur
   std::optional<Plane> plane;
   std::string plane_source;        // which source gave the plane
   std::vector<std::string> steps;  // what ran / what was skipped and why
 };
+
+// Blind light scale (docs/methods.md, "Blind light scale"), per channel of `denoised`:
+//   bound — the `percentile` (%) of I_de / w over the pixels where w = (1 - t) L >= support * max w:
+//           the largest scale for which I_de - (1 - t) a L >= 0 holds (J >= 0), robustly;
+//   fit   — a of the least-squares fit I_de = u t + a (1 - t) L + a rho (t L) over every sampled
+//           pixel (eq. 2 with a constant mean reflectance rho and ambient term u), trimmed of its
+//           20% worst residuals; usable when a > 0 and 0 <= rho <= 1;
+//   scale — min(fit, bound) (the bound alone when the fit is unusable).
+// `light` has the channels of `denoised` (or one), `transmission` one or the image's channels.
+// Channels without support get 0. Pixels are sampled on a stride-`stride` grid.
+struct LightScaleEstimate {
+  double scale = 0.0, bound = 0.0, fit = 0.0;
+  std::string source = "none";  // "fit", "bound" or "bound (no usable fit)"
+};
+std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, const cv::Mat& light,
+                                                   const cv::Mat& transmission, double percentile,
+                                                   double support, int stride = 2);
 
 // Geometry: `scene` (may be null), the sidecar's light options and camera (may be null).
 FullResult FullEnhanceDetailed(const FullOptions& options, const cv::Mat& image, const Scene* scene,
@@ -81,9 +139,12 @@ FullResult FullEnhanceDetailed(const FullOptions& options, const cv::Mat& image,
 cv::Mat FullEnhance(const FullOptions& options, const cv::Mat& image, const Scene* scene,
                     const nlohmann::json* sidecar);
 
-// Strict binding of a JSON params object (registry keys, `turbid enhance --list`) onto FullOptions;
-// throws Error naming the key.
-FullOptions FullOptionsFromJson(const nlohmann::json& params);
+// Strict binding of a JSON params object (registry keys, `turbid enhance --list`) onto FullOptions
+// (starting from the defaults of `variant`, "full" unless said); throws Error naming the key.
+FullOptions FullOptionsFromJson(const nlohmann::json& params, const std::string& variant = "full");
+// True when options with these settings read true simulation parameters (sidecar water or the
+// light's power in image units).
+bool FullOptionsArePrivileged(const FullOptions& options);
 
 // Artificial-light estimate (§III-A.2): E_L from IrradianceMap on the plane (every surface normal
 // = the plane normal), at 1/subsample resolution then upsampled bilinearly; with `range_scaling`

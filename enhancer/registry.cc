@@ -45,6 +45,15 @@ const std::vector<MethodInfo>& ListMethods() { return GetTable().infos; }
 
 const MethodInfo& FindMethod(const std::string& name) { return FindEntry(name).info; }
 
+bool IsPrivileged(const std::string& name, const nlohmann::json& params) {
+  const MethodEntry& entry = FindEntry(name);
+  if (!entry.privileged_with) return entry.info.privileged;
+  if (!params.is_null() && !params.is_object()) {
+    throw Error(name + ": parameters must be a JSON object");
+  }
+  return entry.privileged_with(params.is_null() ? nlohmann::json::object() : params);
+}
+
 cv::Mat Enhance(const std::string& name, const nlohmann::json& params, const EnhanceInput& input) {
   const MethodEntry& entry = FindEntry(name);
   if (!params.is_null() && !params.is_object()) {

@@ -42,6 +42,10 @@ struct MethodInfo {
 
 const std::vector<MethodInfo>& ListMethods();
 const MethodInfo& FindMethod(const std::string& name);  // throws Error for unknown names
+// Whether method `name` with parameter overrides `params` is privileged (SPEC "Fair comparisons"):
+// info.privileged, or a parameter that makes it read true simulation parameters (e.g. `full` with
+// beta_source=auto). Throws Error for unknown names and bad params.
+bool IsPrivileged(const std::string& name, const nlohmann::json& params);
 
 // Runs method `name` with parameter overrides `params` (an object; unknown keys or bad values
 // throw Error). Returns float32 in [0,1] with the input's channel count.

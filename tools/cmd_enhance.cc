@@ -6,11 +6,13 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <sstream>
 
 #include "enhancer/paper_methods.h"
 #include "enhancer/registry.h"
+#include "metrics/registry.h"
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
@@ -67,13 +69,17 @@ void PrintList(bool as_json) {
                      {"source", m.source},
                      {"needs_geometry", m.needs_geometry},
                      {"needs_sidecar", m.needs_sidecar},
+                     {"privileged", m.privileged},
+                     {"inputs", m.inputs.empty() ? "the image alone" : m.inputs},
                      {"params", params}});
     }
     std::cout << all.dump(2) << "\n";
     return;
   }
   for (const MethodInfo& m : ListMethods()) {
-    std::cout << m.name << " — " << m.summary << "\n  source: " << m.source << "\n";
+    std::cout << m.name << (m.privileged ? " [privileged]" : "") << " — " << m.summary
+              << "\n  source: " << m.source
+              << "\n  reads: " << (m.inputs.empty() ? "the image alone" : m.inputs) << "\n";
     if (m.needs_geometry || m.needs_sidecar) {
       std::cout << "  uses:" << (m.needs_geometry ? " --scene" : "")
                 << (m.needs_sidecar ? " --sidecar" : "") << "\n";
@@ -151,11 +157,23 @@ void Run(const EnhanceArgs& a) {
       if (!m.empty()) WriteImage((fs::path(a.dump_steps) / (name + ".exr")).string(), m, so);
     };
     json steps = {{"method", a.method}, {"params", params}};
+    // Hautiere's e of each image step against the input: where visible edges are lost.
+    json edges = json::array();
+    const auto edge_gain = [&](const std::string& name, const cv::Mat& m) {
+      if (m.empty()) return;
+      cv::Mat clamped = cv::min(cv::max(m, 0.0), 1.0);
+      MetricInputs mi;
+      mi.image = clamped;
+      mi.original = input.image;
+      const double e = ComputeMetrics({"hautiere_e"}, mi).at("hautiere_e");
+      edges.push_back({{"step", name}, {"hautiere_e", MetricValueToJson(e)}});
+      std::cout << "  " << name << ": e = " << MetricValueToText(e) << "\n";
+    };
     dump("00_input", input.image);
-    if (a.method == "full") {
-      // Same binding and same result as Enhance("full", ...), with every intermediate.
-      FullResult r = FullEnhanceDetailed(FullOptionsFromJson(params), input.image, input.scene,
-                                         input.sidecar);
+    if (a.method.rfind("full", 0) == 0) {
+      // Same binding and same result as Enhance(a.method, ...), with every intermediate.
+      FullResult r = FullEnhanceDetailed(FullOptionsFromJson(params, a.method), input.image,
+                                         input.scene, input.sidecar);
       dump("01_denoised", r.denoised);
       dump("02_light", r.light);
       dump("03_range_m", r.range_m);
@@ -163,7 +181,26 @@ void Run(const EnhanceArgs& a) {
       dump("04_dehazed", r.dehazed);
       dump("05_deblurred", r.deblurred);
       out = r.image;
+      std::cout << "visible edges against the input (Hautiere e, clamped to [0, 1]):\n";
+      edge_gain("01_denoised", r.denoised);
+      if (!r.light.empty() && !r.transmission.empty()) {
+        // The light step's effect: I_de - (1 - t) E_L, the veil removed before dividing by t.
+        cv::Mat t = r.transmission;
+        if (t.channels() != r.light.channels()) {
+          std::vector<cv::Mat> planes(r.light.channels(), t);
+          cv::merge(planes, t);
+        }
+        const cv::Mat veil_removed = r.denoised - (1.0 - t).mul(r.light);
+        dump("02_veil_removed", veil_removed);
+        edge_gain("02_veil_removed", veil_removed);
+      }
+      edge_gain("04_dehazed", r.dehazed);
+      edge_gain("05_deblurred", r.deblurred);
+      edge_gain("99_output", out);
       steps["steps"] = r.steps;
+      steps["visible_edges"] = edges;
+      steps["light_scale"] = r.light_scale;
+      steps["exposure_scale"] = r.exposure_scale;
       if (r.plane) {
         steps["plane"] = {{"normal", {r.plane->normal[0], r.plane->normal[1], r.plane->normal[2]}},
                           {"offset_m", r.plane->offset_m},
@@ -172,6 +209,8 @@ void Run(const EnhanceArgs& a) {
     } else {
       out = Enhance(a.method, params, input);
       steps["steps"] = json::array({"single step: " + a.method});
+      edge_gain("99_output", out);
+      steps["visible_edges"] = edges;
     }
     dump("99_output", out);
     AtomicWriteText((fs::path(a.dump_steps) / "steps.json").string(), steps.dump(2) + "\n", true);

@@ -120,7 +120,12 @@ TEST(Full, BetaFromSidecarWaterPerChannel) {
   ro.water.beta_rgb_per_m = {1.95, 1.5, 1.2};
   const RenderResult r = Render(ro, scene);
   FullOptions o;
-  o.light_subsample = 1;  // t at full resolution: exactly exp(-beta r) per pixel
+  o.beta_source = "auto";  // the privileged reading (full_matched); `full` keeps beta 0.7
+  o.light_subsample = 1;   // t at full resolution: exactly exp(-beta r) per pixel
+  // The paper's light fit and no exposure scale: J_plane is eq. 6 exactly (as full_literal).
+  o.light_scaling = "range";
+  o.exposure_percentile = 0;
+  o.denoise_adaptive = false;
   const FullResult f = FullEnhanceDetailed(o, r.image, &scene, &r.sidecar);
   EXPECT_EQ(f.beta_source, "sidecar water");
   ASSERT_EQ(f.beta_per_m.size(), 3u);

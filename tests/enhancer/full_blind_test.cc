@@ -1,0 +1,197 @@
+// `full` run blind (issue "The paper's full method must work blind"): the light scale estimated
+// from the image against renders whose true scale is known, the never-collapse property on the
+// built-in scenes, and the registry's privileged marks for the variants.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "enhancer/paper_methods.h"
+#include "enhancer/registry.h"
+#include "metrics/registry.h"
+#include "scenes/builtin.h"
+#include "scenes/error.h"
+#include "simulator/render.h"
+
+namespace turbid {
+namespace {
+
+double Metric(const std::string& name, const cv::Mat& image, const cv::Mat& reference,
+              const cv::Mat& original) {
+  MetricInputs in;
+  in.image = image;
+  in.reference = reference;
+  in.original = original;
+  return ComputeMetrics({name}, in).at(name);
+}
+
+// Share of the tiles (8x8 grid) textured in the degraded input (standard deviation >= 0.02, twice
+// the default sensor's noise, so that a tile of noise alone does not count as texture) that
+// the output makes flat (standard deviation below half the input's: contrast lost where an
+// enhancement should add it) or saturated (half the pixels at 0 or 1 within 1/255). The check
+// docs/methods.md states for "never collapses".
+double CollapsedTileShare(const cv::Mat& output, const cv::Mat& input) {
+  int textured = 0, collapsed = 0;
+  for (int ty = 0; ty < 8; ++ty) {
+    for (int tx = 0; tx < 8; ++tx) {
+      const cv::Rect tile(tx * input.cols / 8, ty * input.rows / 8, input.cols / 8,
+                          input.rows / 8);
+      cv::Scalar m_i, s_i, m_o, s_o;
+      cv::meanStdDev(input(tile).reshape(1), m_i, s_i);
+      if (s_i[0] < 0.02) continue;
+      ++textured;
+      const cv::Mat o = output(tile).reshape(1);
+      cv::meanStdDev(o, m_o, s_o);
+      const double extreme = static_cast<double>(cv::countNonZero(o <= 1.0 / 255) +
+                                                 cv::countNonZero(o >= 254.0 / 255)) /
+                             static_cast<double>(o.total());
+      if (s_o[0] < 0.5 * s_i[0] || extreme >= 0.5) ++collapsed;
+    }
+  }
+  return textured == 0 ? 0.0 : static_cast<double>(collapsed) / textured;
+}
+
+RenderOptions Clean(double beta, double power) {
+  RenderOptions o;
+  o.snow.enabled = false;
+  o.sensor.enabled = false;
+  o.psf.enabled = false;
+  o.camera.bit_depth = 16;
+  o.water.beta_gray_per_m = beta;
+  o.water.beta_rgb_per_m = {beta, beta, beta};
+  o.light.lights[0].power = power;
+  return o;
+}
+
+// The render's sidecar with the LED power replaced by 1: the blind estimate then has to find
+// the true power (in image units) from the image alone.
+nlohmann::json WithUnitPower(nlohmann::json sidecar) {
+  for (auto& light : sidecar["options"]["light"]["lights"]) light["power"] = 1.0;
+  return sidecar;
+}
+
+// The estimate against the true scale, with beta matched (the only beta at which "the true scale"
+// of the light model is defined). Measured (a / U0, 2026-11-25): hull 0.77-1.10, seafloor
+// 0.69-1.10, room 0.60-1.36 for U0 = 4-16 and beta 0.4-1.0 (docs/methods.md). Tolerances: 25% on
+// the hull (the paper's plane), 40% on the seafloor and room, whose geometry is not a plane. At
+// U0 = 32 the lit plate saturates the sensor (values clip at 1), so the veil's true size is not
+// observable: the estimate stays below the truth, the side that cannot over-subtract.
+TEST(FullBlind, LightScaleRecoversTheTrueLedPower) {
+  BuiltinSceneOptions so;
+  so.scale = 0.25;
+  for (const char* name : {"hull", "seafloor", "room"}) {
+    const Scene scene = MakeBuiltinScene(name, so);
+    const double tolerance = std::string(name) == "hull" ? 0.25 : 0.4;
+    for (double beta : {0.4, 0.7, 1.0}) {
+      for (double power : {4.0, 8.0, 16.0, 32.0}) {
+        const RenderResult r = Render(Clean(beta, power), scene);
+        const nlohmann::json unit = WithUnitPower(r.sidecar);
+        const FullResult f =
+            FullEnhanceDetailed(FullVariantDefaults("full_matched"), r.image, &scene, &unit);
+        ASSERT_EQ(f.light_scale.size(), static_cast<size_t>(r.image.channels()));
+        for (double a : f.light_scale) {
+          const std::string where = std::string(name) + " beta " + std::to_string(beta) +
+                                    " power " + std::to_string(power) + " estimate " +
+                                    std::to_string(a);
+          if (power < 32) {
+            EXPECT_NEAR(a / power, 1.0, tolerance) << where;
+          } else {
+            EXPECT_LT(a / power, 1.0) << where;
+            EXPECT_GT(a / power, 0.3) << where;
+          }
+        }
+      }
+    }
+  }
+}
+
+// The bound alone is an upper bound on the veil: I_de - (1 - t) a L stays >= 0 on all but the
+// percentile's share of the supported pixels (noise-free: the bound is exact at the dark end).
+TEST(FullBlind, ScaleKeepsTheVeilBelowTheImage) {
+  BuiltinSceneOptions so;
+  so.scale = 0.25;
+  const Scene scene = MakeBuiltinScene("hull", so);
+  const RenderResult r = Render(Clean(0.7, 8.0), scene);
+  const FullResult f = FullEnhanceDetailed(FullOptions{}, r.image, &scene, &r.sidecar);
+  ASSERT_FALSE(f.light.empty());
+  const cv::Mat rest = f.denoised - (1.0 - f.transmission).mul(f.light);
+  const double negative_share =
+      static_cast<double>(cv::countNonZero(rest < -1e-3)) / static_cast<double>(rest.total());
+  EXPECT_LE(negative_share, 0.01);
+}
+
+// Never collapses: on the built-in scenes with the default render (noise, snow, PSF) at the
+// paper's beta and either side, blind `full` keeps the mean SSIM over the scenes >= the degraded
+// input's (the issue's bar is on means per turbidity level), Hautiere's e >= 0 on every image, and
+// leaves no textured tile flat or saturated; the literal [min I, max I] reading does collapse on
+// the hull (what the issue reported), so the check can fail.
+TEST(FullBlind, NeverCollapsesWhereTheLiteralReadingDoes) {
+  BuiltinSceneOptions so;
+  so.scale = 0.25;
+  for (double beta : {0.4, 0.7, 1.0}) {
+    double ssim_out = 0, ssim_in = 0;
+    for (const char* name : {"hull", "seafloor", "room"}) {
+      const Scene scene = MakeBuiltinScene(name, so);
+      RenderOptions ro;
+      ro.seed = 7;
+      ro.water.beta_gray_per_m = beta;
+      ro.water.beta_rgb_per_m = {beta * 1.3, beta, beta * 0.8};
+      const RenderResult r = Render(ro, scene);
+      const EnhanceInput in{r.image, &scene, &r.sidecar};
+      const cv::Mat out = Enhance("full", {}, in);
+      const std::string where = std::string(name) + " beta " + std::to_string(beta);
+      ssim_out += Metric("ssim", out, scene.image, r.image) / 3;
+      ssim_in += Metric("ssim", r.image, scene.image, r.image) / 3;
+      EXPECT_GE(Metric("hautiere_e", out, scene.image, r.image), 0.0) << where;
+      EXPECT_EQ(CollapsedTileShare(out, r.image), 0.0) << where;
+    }
+    EXPECT_GE(ssim_out, ssim_in) << "beta " << beta;
+  }
+  BuiltinSceneOptions half;
+  half.scale = 0.25;
+  const Scene hull = MakeBuiltinScene("hull", half);
+  RenderOptions ro;
+  ro.seed = 7;
+  const RenderResult r = Render(ro, hull);
+  const cv::Mat literal = Enhance("full_literal", {}, EnhanceInput{r.image, &hull, &r.sidecar});
+  EXPECT_GT(CollapsedTileShare(literal, r.image), 0.5);
+}
+
+TEST(FullBlind, PrivilegedVariantsAreMarked) {
+  EXPECT_FALSE(IsPrivileged("full", {}));
+  EXPECT_FALSE(IsPrivileged("full_literal", {}));
+  EXPECT_TRUE(IsPrivileged("full_matched", {}));
+  EXPECT_TRUE(IsPrivileged("full_physical", {}));
+  EXPECT_TRUE(IsPrivileged("full", {{"beta_source", "auto"}}));
+  EXPECT_TRUE(IsPrivileged("full", {{"light_scaling", "physical"}}));
+  EXPECT_FALSE(IsPrivileged("full_matched", {{"beta_source", "fixed"}}));
+  EXPECT_FALSE(IsPrivileged("simplified", {}));
+  EXPECT_FALSE(IsPrivileged("clahe", {}));
+  EXPECT_THROW(IsPrivileged("nope", {}), Error);
+  EXPECT_THROW(IsPrivileged("full", {{"light_scaling", "guess"}}), Error);
+  for (const MethodInfo& m : ListMethods()) {
+    if (m.name.rfind("full", 0) == 0) {
+      EXPECT_NE(m.inputs.find("plane"), std::string::npos) << m.name;
+    }
+  }
+}
+
+// Defaults: `full` is the paper's method with what the paper has (beta 0.7 fixed).
+TEST(FullBlind, DefaultReadsNoWater) {
+  BuiltinSceneOptions so;
+  so.scale = 0.2;
+  const Scene scene = MakeBuiltinScene("seafloor", so);
+  RenderOptions ro = Clean(1.5, 8.0);
+  const RenderResult r = Render(ro, scene);
+  const FullResult f = FullEnhanceDetailed(FullOptions{}, r.image, &scene, &r.sidecar);
+  EXPECT_EQ(f.beta_source, "beta_per_m");
+  EXPECT_EQ(f.beta_per_m, std::vector<double>(3, 0.7));
+  std::string why;
+  for (const char* v : {"full", "full_literal", "full_matched", "full_physical"}) {
+    EXPECT_TRUE(FullVariantDefaults(v).Check(&why)) << v << ": " << why;
+  }
+}
+
+}  // namespace
+}  // namespace turbid
