@@ -340,7 +340,8 @@ json Experiment::ToJson() const {
   out["seed_path"] = seed_path;
   json method_list = json::array();
   for (const ExperimentMethod& m : methods) {
-    method_list.push_back({{"name", m.name}, {"label", m.label}, {"params", m.params}});
+    method_list.push_back(
+        {{"name", m.name}, {"label", m.label}, {"params", m.params}, {"privileged", m.privileged}});
   }
   out["methods"] = method_list;
   json metric_list = json::array();
@@ -397,8 +398,8 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     e.level_bins = in.at("level").at("bins").get<int>();
     e.seed_path = in.at("seed_path").get<std::string>();
     for (const json& m : in.at("methods")) {
-      e.methods.push_back(
-          {m.at("name").get<std::string>(), m.at("label").get<std::string>(), m.at("params")});
+      e.methods.push_back({m.at("name").get<std::string>(), m.at("label").get<std::string>(),
+                           m.at("params"), m.value("privileged", false)});
     }
     for (const json& m : in.at("metrics")) {
       e.metrics.push_back({m.at("name").get<std::string>(), m.at("higher_is_better").get<bool>(),
@@ -651,6 +652,11 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
   for (size_t i = 0; i < listed.size(); ++i) {
     if (!placed[i]) e.methods.push_back(listed[i]);
   }
+  for (ExperimentMethod& method : e.methods) {
+    if (method.name != catalog.identity_method && catalog.is_privileged) {
+      method.privileged = catalog.is_privileged(method.name, method.params);
+    }
+  }
   std::set<std::string> labels;
   for (const ExperimentMethod& method : e.methods) {
     if (!labels.insert(method.label).second) {
@@ -693,6 +699,12 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
   } else {
     for (const std::string& name : catalog.reference_methods) {
       if (labels.count(name)) e.best_excludes.push_back(name);
+    }
+  }
+  for (const ExperimentMethod& method : e.methods) {
+    if (method.privileged && std::find(e.best_excludes.begin(), e.best_excludes.end(),
+                                       method.label) == e.best_excludes.end()) {
+      e.best_excludes.push_back(method.label);
     }
   }
   if (in.contains("thumbnails")) {

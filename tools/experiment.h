@@ -29,6 +29,9 @@ struct HarnessMetricInfo {
 struct HarnessCatalog {
   // Checks that the method exists and that every key of `params` is one of its parameters.
   std::function<void(const std::string& method, const nlohmann::json& params)> check_method;
+  // Whether the method with these params is privileged (receives true simulation parameters,
+  // SPEC "Fair comparisons"); unset: none is.
+  std::function<bool(const std::string& method, const nlohmann::json& params)> is_privileged;
   // Returns what the registry says about the metric; throws for unknown names.
   std::function<HarnessMetricInfo(const std::string& metric)> find_metric;
   // Parses render options strictly and returns them fully resolved (defaults filled in).
@@ -56,6 +59,9 @@ struct ExperimentMethod {
   std::string name;   // registry key ("none" is the identity row)
   std::string label;  // column name in tables (defaults to name); unique
   nlohmann::json params = nlohmann::json::object();  // overrides of the method's defaults
+  // Receives true simulation parameters (the registry's IsPrivileged for name + params): marked
+  // with a dagger in tables and the report, never marked best.
+  bool privileged = false;
 };
 
 // One randomly sampled parameter. Values are drawn from a counter-based generator keyed by
@@ -86,7 +92,8 @@ struct Experiment {
   std::vector<ExperimentMethod> methods;
   std::vector<HarnessMetricInfo> metrics;
   std::string ground_truth = "clean";      // "clean" (rho) or "lit" (J = (E_A + E_L) rho)
-  std::vector<std::string> best_excludes;  // method labels never marked best (floor/identity rows)
+  // Method labels never marked best (floor/identity rows, and every privileged method).
+  std::vector<std::string> best_excludes;
   int thumbnail_width = 160;  // thumbnails saved during the sweep for the report (0: none)
 
   int ConditionCount() const;  // grid points x max(1, sample_count)

@@ -59,6 +59,9 @@ HarnessCatalog RegistryCatalog() {
       }
     }
   };
+  catalog.is_privileged = [](const std::string& name, const json& params) {
+    return IsPrivileged(name, params);
+  };
   catalog.find_metric = [](const std::string& name) {
     const MetricInfo& info = FindMetric(name);
     return HarnessMetricInfo{info.name, info.higher_is_better, info.needs_reference,

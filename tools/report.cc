@@ -398,7 +398,7 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   if (e.ground_truth == "lit") html << "<th>lit J</th>";
   html << "<th>degraded</th>";
   for (const ExperimentMethod& m : e.methods) {
-    if (m.name != "none") html << "<th>" << Html(m.label) << "</th>";
+    if (m.name != "none") html << "<th>" << Html(m.privileged ? m.label + " †" : m.label) << "</th>";
   }
   html << "</tr>\n";
   std::set<std::pair<std::string, std::string>> shown;

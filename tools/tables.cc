@@ -13,6 +13,12 @@
 namespace turbid {
 namespace {
 
+// A method's column header: its label, with a dagger when it is privileged.
+std::string MethodHeader(const ExperimentMethod& m) {
+  return m.privileged ? m.label + " †" : m.label;
+}
+
+
 using nlohmann::json;
 
 json ValueToJson(double value) {
@@ -410,6 +416,12 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
     md << ")";
   }
   md << "; ↑ higher is better, ↓ lower is better. Run times: timings.md.\n";
+  if (std::any_of(experiment.methods.begin(), experiment.methods.end(),
+                  [](const ExperimentMethod& m) { return m.privileged; })) {
+    md << "\n† privileged: receives true simulation parameters (water, light power, PSF, noise or "
+          "exact geometry) that its published version does not have — a reference, not a "
+          "competitor (docs/methods.md, \"Which inputs each method sees\").\n";
+  }
   std::vector<std::string> levels = LevelLabels(experiment);
   levels.insert(levels.begin(), "all");
   for (const std::string& level : levels) {
@@ -420,7 +432,7 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
                                  : experiment.level_path;
     md << "\n## " << (level == "all" ? "All levels" : axis + " = " + level) << " (" << n_items
        << " items)\n\n| metric |";
-    for (const ExperimentMethod& m : experiment.methods) md << " " << m.label << " |";
+    for (const ExperimentMethod& m : experiment.methods) md << " " << MethodHeader(m) << " |";
     if (any_reference) md << " ground truth |";
     md << "\n|---|";
     for (size_t i = 0; i < experiment.methods.size(); ++i) md << "---|";
@@ -459,7 +471,7 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
   timings_md << "# " << experiment.name << ": run time per image (ms, mean ± sd)\n\n"
              << "Wall time of each method alone on one sweep thread; not deterministic, so kept "
                 "apart from summary.md.\n\n| size | render |";
-  for (const ExperimentMethod& m : experiment.methods) timings_md << " " << m.label << " |";
+  for (const ExperimentMethod& m : experiment.methods) timings_md << " " << MethodHeader(m) << " |";
   timings_md << "\n|---|---|";
   for (size_t i = 0; i < experiment.methods.size(); ++i) timings_md << "---|";
   timings_md << "\n";

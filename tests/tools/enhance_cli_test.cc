@@ -38,16 +38,29 @@ TEST(EnhanceCli, OracleFullDumpStepsAndErrors) {
     EXPECT_TRUE(std::filesystem::exists(dir.File(std::string("steps/") + f))) << f;
   }
   // --scene naming the sidecar's scene takes the render's scale (0.2) from the sidecar; the
-  // steps name the water the sidecar gives (default render water, gray).
-  r = RunTurbid({"enhance", "--method", "full", dir.File("h.png"), dir.File("g.png"), "--sidecar",
-                 dir.File("h.json"), "--scene", "hull", "--dump-steps", dir.File("steps2")});
+  // privileged full_matched names the water the sidecar gives (default render water, gray), the
+  // blind default the paper's fixed beta; both report e per step and the light scale.
+  r = RunTurbid({"enhance", "--method", "full_matched", dir.File("h.png"), dir.File("g.png"),
+                 "--sidecar", dir.File("h.json"), "--scene", "hull", "--dump-steps",
+                 dir.File("steps2")});
   EXPECT_EQ(r.exit_code, 0) << r.err;
+  EXPECT_NE(r.out.find("99_output: e = "), std::string::npos) << r.out;
   {
     std::ifstream in(dir.File("steps2/steps.json"));
     std::stringstream text;
     text << in.rdbuf();
     EXPECT_NE(text.str().find("(sidecar water)"), std::string::npos) << text.str();
+    EXPECT_NE(text.str().find("\"visible_edges\""), std::string::npos) << text.str();
   }
+  {
+    std::ifstream in(dir.File("steps/steps.json"));
+    std::stringstream text;
+    text << in.rdbuf();
+    EXPECT_NE(text.str().find("(beta_per_m)"), std::string::npos) << text.str();
+    EXPECT_NE(text.str().find("blind scaling"), std::string::npos) << text.str();
+  }
+  r = RunTurbid({"enhance", "--list"});
+  EXPECT_NE(r.out.find("full_physical [privileged]"), std::string::npos) << r.out;
   r = RunTurbid({"enhance", "--method", "full", dir.File("h.png"), dir.File("g2.png"),
                  "--scene", "hull"});
   EXPECT_NE(r.exit_code, 0);  // no sidecar: the scene at scale 1 does not fit the image
