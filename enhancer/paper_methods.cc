@@ -162,6 +162,9 @@ bool FullOptions::Check(std::string* why) const {
       light_scale_support >= 1) {
     return Fail(why, "light_scale_support must be in (0, 1)");
   }
+  if (!std::isfinite(keep_detail) || keep_detail < 0 || keep_detail > 10) {
+    return Fail(why, "keep_detail must be in [0, 10]");
+  }
   if (!std::isfinite(exposure_percentile) || exposure_percentile < 0 ||
       exposure_percentile > 100) {
     return Fail(why, "exposure_percentile must be in [0, 100]");
@@ -603,6 +606,10 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
   }
   cv::Mat current = DenoiseStep(o, image, &r);
   r.denoised = current;
+  // The layer the denoising removes (noise and texture finer than its epsilon), taken before the
+  // dehazing may reuse the denoised buffer.
+  cv::Mat detail;
+  if (o.keep_detail > 0 && o.denoise) cv::subtract(image, current, detail);
   const cv::Mat e_l = LightStep(o, lights, camera, beta, current, &r);
   r.light = e_l;
 
@@ -620,6 +627,15 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
     r.steps.push_back(o.dehaze ? "dehaze: skipped (beta 0)" : "dehaze: skipped (off)");
   }
   r.dehazed = current;
+  if (!detail.empty()) {
+    // Added back at its input amplitude, not divided by t: noise is not amplified, and texture
+    // visible in the input stays visible (a structure-texture split: only the structure layer is
+    // dehazed).
+    cv::Mat with_detail;
+    cv::scaleAdd(detail, o.keep_detail, current, with_detail);
+    current = with_detail;
+    r.steps.push_back("detail: the denoising residual added back x" + FormatNumber(o.keep_detail));
+  }
   r.image = DeblurAndContrast(o, current, keep_steps, &r);
   return r;
 }
@@ -847,6 +863,7 @@ FullOptions FullVariantDefaults(const std::string& variant) {
   if (variant == "full_literal") {
     o.light_scaling = "range";
     o.denoise_adaptive = false;
+    o.keep_detail = 0;
     o.exposure_percentile = 0;
   } else if (variant == "full_matched") {
     o.beta_source = "auto";
@@ -885,6 +902,7 @@ FullOptions FullOptionsFromJson(const nlohmann::json& params, const std::string&
   b.Bind("beta_source", &o.beta_source);
   b.Bind("t_min", &o.t_min);
   b.Bind("exposure_percentile", &o.exposure_percentile);
+  b.Bind("keep_detail", &o.keep_detail);
   b.Bind("plane", &o.plane);
   b.Bind("frontal_distance_m", &o.frontal_distance_m);
   b.Bind("max_range_m", &o.max_range_m);
@@ -1002,6 +1020,8 @@ MethodEntry FullEntry(const std::string& variant) {
       Param("t_min", d.t_min, "lower clamp on t in eq. 6, (0, 1]"),
       Param("exposure_percentile", d.exposure_percentile,
             "J_plane divided by this percentile when above 1 (0: clip), [0, 100]"),
+      Param("keep_detail", d.keep_detail,
+            "weight of the denoising residual added back after dehazing (0: discarded), [0, 10]"),
       Param("plane", d.plane, "plane source: auto | dvl | depth | scene | frontal"),
       Param("frontal_distance_m", d.frontal_distance_m,
             "distance of the fallback frontal plane, m"),

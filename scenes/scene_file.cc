@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -127,8 +128,34 @@ CameraIntrinsics ParseCamera(const std::string& file, const json& value) {
   return camera;
 }
 
-std::string Resolve(const fs::path& folder, const std::string& path) {
-  const fs::path p(path);
+// "${NAME}" in a path is replaced by the environment variable NAME (e.g. ${TURBID_DATA}, where the
+// real datasets live), so that committed scene files can name data that is not committed. An unset
+// or empty variable is an error naming it; "$" not followed by "{" is kept as is.
+std::string ExpandEnvironment(const std::string& path, const std::string& json_path) {
+  std::string out;
+  size_t at = 0;
+  while (true) {
+    const size_t open = path.find("${", at);
+    if (open == std::string::npos) break;
+    const size_t close = path.find('}', open + 2);
+    if (close == std::string::npos) {
+      throw Error(json_path, "path '" + path + "' has '${' without a closing '}'");
+    }
+    const std::string name = path.substr(open + 2, close - open - 2);
+    const char* value = name.empty() ? nullptr : std::getenv(name.c_str());
+    if (value == nullptr || *value == '\0') {
+      throw Error(json_path, "path '" + path + "' names ${" + name +
+                                 "}, which is not set (e.g. export " +
+                                 (name.empty() ? std::string("NAME") : name) + "=...)");
+    }
+    out += path.substr(at, open - at) + value;
+    at = close + 1;
+  }
+  return out + path.substr(at);
+}
+
+std::string Resolve(const fs::path& folder, const std::string& raw, const std::string& json_path) {
+  const fs::path p(ExpandEnvironment(raw, json_path));
   return p.is_absolute() ? p.string() : (folder / p).lexically_normal().string();
 }
 
@@ -243,7 +270,7 @@ SceneFileSpec ParseSceneFile(const std::string& json_path) {
     return spec;
   }
 
-  spec.image = Resolve(folder, reader.String("image"));
+  spec.image = Resolve(folder, reader.String("image"), json_path);
   if (reader.Has("color")) {
     const std::string color = reader.String("color");
     if (color == "srgb") {
@@ -262,11 +289,11 @@ SceneFileSpec ParseSceneFile(const std::string& json_path) {
     reader.Fail("missing required key 'camera' (an object {fx, fy, cx, cy} or a preset name)");
   }
   if (spec.type == "rgbd" || spec.type == "depth") {
-    spec.depth = Resolve(folder, reader.String("depth"));
+    spec.depth = Resolve(folder, reader.String("depth"), json_path);
     spec.depth_scale = spec.type == "rgbd" ? 5000.0 : 1.0;
     if (reader.Has("depth_scale")) spec.depth_scale = reader.Positive("depth_scale");
   } else {  // stereo
-    spec.disparity = Resolve(folder, reader.String("disparity"));
+    spec.disparity = Resolve(folder, reader.String("disparity"), json_path);
     spec.baseline_m = reader.Positive("baseline_m");
     if (reader.Has("disparity_scale")) spec.disparity_scale = reader.Positive("disparity_scale");
     if (reader.Has("doffs_px")) spec.doffs_px = reader.Number("doffs_px");

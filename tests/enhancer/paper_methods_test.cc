@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "enhancer/guided_filter.h"
@@ -86,7 +87,14 @@ TEST(Full, StepsRecordedAndPlaneFromDvl) {
   }
   EXPECT_FALSE(f.light.empty());
   EXPECT_FALSE(f.transmission.empty());
-  EXPECT_EQ(f.steps.size(), 6u);  // plane + 5 steps
+  // plane + the 5 steps, and the blind variant's detail step (exposure only when J_plane > 1).
+  for (const char* step : {"plane:", "denoise:", "light:", "dehaze:", "detail:", "deblur:",
+                           "contrast:"}) {
+    EXPECT_EQ(std::count_if(f.steps.begin(), f.steps.end(),
+                            [&](const std::string& s) { return s.rfind(step, 0) == 0; }),
+              1)
+        << step;
+  }
   EXPECT_TRUE(cv::checkRange(f.image, true, nullptr, 0.0, 1.0 + 1e-6));
   // The dehazed step satisfies eq. 6 exactly.
   cv::Mat expect = (f.denoised - f.light) / f.transmission + f.light;
@@ -126,6 +134,7 @@ TEST(Full, BetaFromSidecarWaterPerChannel) {
   o.light_scaling = "range";
   o.exposure_percentile = 0;
   o.denoise_adaptive = false;
+  o.keep_detail = 0;
   const FullResult f = FullEnhanceDetailed(o, r.image, &scene, &r.sidecar);
   EXPECT_EQ(f.beta_source, "sidecar water");
   ASSERT_EQ(f.beta_per_m.size(), 3u);
