@@ -285,7 +285,10 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
                                                    const cv::Mat& transmission, double percentile,
                                                    double support, int stride) {
   CV_Assert(denoised.depth() == CV_32F && light.depth() == CV_32F &&
-            transmission.depth() == CV_32F && stride >= 1);
+            transmission.depth() == CV_32F && stride >= 0);
+  if (stride == 0) {
+    stride = std::max(1, static_cast<int>(std::floor(std::sqrt(denoised.total() / 65536.0))));
+  }
   CV_Assert(denoised.size() == light.size() && denoised.size() == transmission.size());
   const int ch = denoised.channels(), lc = light.channels(), tc = transmission.channels();
   std::vector<LightScaleEstimate> out(ch);
@@ -305,6 +308,10 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
     const float w_min = static_cast<float>(support) * w_max;
     ratios.clear();
     samples.clear();
+    const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
+                            static_cast<size_t>((denoised.cols + stride - 1) / stride);
+    samples.reserve(expected);
+    ratios.reserve(expected);
     for (int y = 0; y < denoised.rows; y += stride) {
       const float* in = denoised.ptr<float>(y);
       const float* t = transmission.ptr<float>(y);
@@ -341,15 +348,23 @@ namespace {
 // Laplacian-difference mask N = [1 -2 1; -2 4 -2; 1 -2 1], over interior pixels.
 double EstimateNoiseSigma(const cv::Mat& image) {
   if (image.rows < 3 || image.cols < 3) return 0.0;
-  const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
-  cv::Mat response;
-  cv::filter2D(image, response, CV_32F, kernel);
-  const cv::Mat inner = cv::abs(response(cv::Rect(1, 1, image.cols - 2, image.rows - 2)));
-  const cv::Scalar sums = cv::sum(inner);
-  double total = 0;
-  for (int c = 0; c < image.channels(); ++c) total += sums[c];
-  const double n = 6.0 * (image.cols - 2) * (image.rows - 2) * image.channels();
-  return std::sqrt(CV_PI / 2.0) * total / n;
+  CV_Assert(image.depth() == CV_32F);
+  const int ch = image.channels(), n = (image.cols - 2) * ch;
+  double total = 0.0;
+  for (int y = 1; y + 1 < image.rows; ++y) {
+    const float* a = image.ptr<float>(y - 1);
+    const float* b = image.ptr<float>(y);
+    const float* c = image.ptr<float>(y + 1);
+    float row = 0.0f;  // one row's sum in float (vectorises), accumulated in double
+    for (int i = ch; i < n + ch; ++i) {
+      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
+                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
+      row += std::abs(v);
+    }
+    total += row;
+  }
+  const double count = 6.0 * (image.cols - 2) * (image.rows - 2) * ch;
+  return std::sqrt(CV_PI / 2.0) * total / count;
 }
 
 // Step 1 (eq. 4): self-guided filter per channel; with denoise_adaptive the epsilon follows the
@@ -630,10 +645,13 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
   if (!detail.empty()) {
     // Added back at its input amplitude, not divided by t: noise is not amplified, and texture
     // visible in the input stays visible (a structure-texture split: only the structure layer is
-    // dehazed).
-    cv::Mat with_detail;
-    cv::scaleAdd(detail, o.keep_detail, current, with_detail);
-    current = with_detail;
+    // dehazed). In place unless r.dehazed is inspected; `detail` is ours either way.
+    if (keep_steps || current.data == image.data) {
+      cv::scaleAdd(detail, o.keep_detail, current, detail);
+      current = detail;
+    } else {
+      cv::scaleAdd(detail, o.keep_detail, current, current);
+    }
     r.steps.push_back("detail: the denoising residual added back x" + FormatNumber(o.keep_detail));
   }
   r.image = DeblurAndContrast(o, current, keep_steps, &r);

@@ -128,14 +128,15 @@ struct FullResult {
 //           20% worst residuals; usable when a > 0 and 0 <= rho <= 1;
 //   scale — min(fit, bound) (the bound alone when the fit is unusable).
 // `light` has the channels of `denoised` (or one), `transmission` one or the image's channels.
-// Channels without support get 0. Pixels are sampled on a stride-`stride` grid.
+// Channels without support get 0. Pixels are sampled on a stride-`stride` grid; 0: the largest
+// stride that keeps >= 65,536 samples (4 at 1360x1024, 2 at 640x480, 1 below 512x256).
 struct LightScaleEstimate {
   double scale = 0.0, bound = 0.0, fit = 0.0;
   std::string source = "none";  // "fit", "bound" or "bound (no usable fit)"
 };
 std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, const cv::Mat& light,
                                                    const cv::Mat& transmission, double percentile,
-                                                   double support, int stride = 2);
+                                                   double support, int stride = 0);
 
 // Geometry: `scene` (may be null), the sidecar's light options and camera (may be null).
 FullResult FullEnhanceDetailed(const FullOptions& options, const cv::Mat& image, const Scene* scene,
