@@ -7,9 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <cstdlib>
 #include <limits>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/registry.h"
@@ -123,7 +121,9 @@ TEST(Oracle, ExactInverseReachesFloatPrecisionOnNoiseFreeFloatRenders) {
       EXPECT_LE(MaxAbsDiff(out.image, scene.image), 1e-5)
           << name << (depth_dependent ? " range-dependent PSF" : " one PSF") << ", "
           << out.iterations << " iterations, residual " << out.residual;
-      if (depth_dependent) EXPECT_GT(out.iterations, 1) << name;
+      if (depth_dependent) {
+        EXPECT_GT(out.iterations, 1) << name;
+      }
       // The lit target returns J (unclipped here).
       OracleExactOptions lit;
       lit.target = "lit";
@@ -191,46 +191,4 @@ TEST(Oracle, MasksOpenWaterWithoutRinging) {
 }
 
 }  // namespace
-}  // namespace turbid
-namespace turbid {
-TEST(OracleDebug, DISABLED_Grid) {
-  BuiltinSceneOptions so;
-  so.scale = 0.25;
-  const char* variants[] = {"{}", "{\"middle_radius\": 2, \"coarse_radius\": 8}",
-                            "{\"middle_radius\": 3, \"coarse_radius\": 12, \"pixel_radius\": 1}",
-                            "{\"middle_radius\": 2, \"coarse_radius\": 8, \"deblur\": false}"};
-  const char* env = std::getenv("ORACLE_VARIANTS");
-  std::vector<std::string> vs(std::begin(variants), std::end(variants));
-  if (env) vs = {env};
-  for (const char* name : {"hull", "seafloor", "room"}) {
-    const Scene scene = MakeBuiltinScene(name, so);
-    for (double beta : {0.1, 0.7, 1.0, 1.5}) {
-      RenderOptions o;
-      o.water.beta_rgb_per_m = {beta, beta, beta};
-      o.water.beta_gray_per_m = beta;
-      o.seed = 7;
-      const RenderResult r = Render(o, scene);
-      EnhanceInput in{r.image, &scene, &r.sidecar};
-      double bp = Psnr(PsnrOptions{}, scene.image, r.image), bs = Ssim(SsimOptions{}, scene.image, r.image).mean;
-      for (const char* m : {"simplified", "clahe", "full", "fusion"}) {
-        cv::Mat x = Enhance(m, {}, in);
-        bp = std::max(bp, Psnr(PsnrOptions{}, scene.image, x));
-        bs = std::max(bs, Ssim(SsimOptions{}, scene.image, x).mean);
-      }
-      printf("%-8s %.1f best blind %.2f %.3f |", name, beta, bp, bs);
-      for (const std::string& v : vs) {
-        cv::Mat x = Enhance("oracle", nlohmann::json::parse(v), in);
-        printf(" %.2f %.3f |", Psnr(PsnrOptions{}, scene.image, x), Ssim(SsimOptions{}, scene.image, x).mean);
-      }
-      printf("\n");
-      if (std::string(name) == "room" && beta == 1.5) {
-        cv::Mat x = Enhance("oracle", {}, in), o8;
-        x.convertTo(o8, CV_8U, 255); cv::imwrite("/tmp/oracle_dbg_o.png", o8);
-        scene.image.convertTo(o8, CV_8U, 255); cv::imwrite("/tmp/oracle_dbg_c.png", o8);
-        r.image.convertTo(o8, CV_8U, 255); cv::imwrite("/tmp/oracle_dbg_i.png", o8);
-        Enhance("simplified", {}, in).convertTo(o8, CV_8U, 255); cv::imwrite("/tmp/oracle_dbg_s.png", o8);
-      }
-    }
-  }
-}
 }  // namespace turbid
