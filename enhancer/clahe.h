@@ -4,9 +4,11 @@
 // Rayleigh target, α = 0.4).
 //
 // adapthisteq semantics reproduced here (docs/methods.md has the details):
-//  - the image is split into tiles_y x tiles_x contextual regions; when the size is not divisible,
-//    the image is padded at the bottom/right by mirroring (MATLAB 'symmetric') to the next
-//    multiple, and the padding is dropped at the end;
+//  - the image is split into tiles_y x tiles_x contextual regions; when the size is not divisible
+//    by the tile count, or the tile size would be odd, the image is padded by mirroring (MATLAB
+//    'symmetric') to the next multiple with an even tile size, half the padding before the first
+//    row/column and the rest after the last (adapthisteq's parseInputs), and the padding is
+//    dropped at the end;
 //  - values are binned as imhist bins [0,1] data: bin = round(v * (bins - 1));
 //  - clip limit as a fraction c in [0,1]: with P pixels per tile, the count limit is
 //    ceil(P / bins) + round(c * (P - ceil(P / bins))); the excess above it is redistributed as

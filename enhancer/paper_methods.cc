@@ -766,90 +766,6 @@ cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
 
 // ---------------------------------------------------------------------------------------------
 
-bool OracleOptions::Check(std::string* why) const {
-  if (target != "clean" && target != "lit") return Fail(why, "target must be 'clean' or 'lit'");
-  if (!std::isfinite(nsr) || nsr < 1e-8 || nsr > 10) return Fail(why, "nsr must be in [1e-8, 10]");
-  if (!std::isfinite(min_transmission) || min_transmission <= 0 || min_transmission > 1) {
-    return Fail(why, "min_transmission must be in (0, 1]");
-  }
-  if (!std::isfinite(min_irradiance) || min_irradiance <= 0) {
-    return Fail(why, "min_irradiance must be > 0");
-  }
-  return true;
-}
-
-cv::Mat OracleEnhance(const OracleOptions& o, const cv::Mat& image, const Scene& scene,
-                      const nlohmann::json& sidecar) {
-  ThrowIfInvalid(o, "oracle");
-  ValidateEnhanceImage(image, "oracle");
-  if (!sidecar.is_object() || !sidecar.contains("options")) {
-    throw Error("oracle: the sidecar has no \"options\" object (not a turbid render sidecar?)");
-  }
-  if (scene.image.size() != image.size() || scene.channels() != image.channels()) {
-    throw Error("oracle: the scene (" + std::to_string(scene.width()) + "x" +
-                std::to_string(scene.height()) + ", " + std::to_string(scene.channels()) +
-                " channels) does not match the image (" + std::to_string(image.cols) + "x" +
-                std::to_string(image.rows) + ", " + std::to_string(image.channels()) + ")");
-  }
-  const RenderOptions ro = RenderOptionsFromJson(sidecar["options"]);
-  const WaterOptions water = ResolveWater(ro.water);
-  const int ch = image.channels();
-  const std::vector<double> beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, ch);
-  const std::vector<double> ambient = ChannelValues(water.ambient_rgb, water.ambient_gray, ch);
-  const bool zero_beta = std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
-  const cv::Mat range = RangeFromDepth(scene.camera, scene.depth_m);
-
-  cv::Mat e_l(image.size(), image.type(), cv::Scalar::all(0));
-  if (!ro.light.lights.empty()) {
-    const cv::Mat normals =
-        scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
-    e_l = IrradianceMap(ro.light, scene.camera, scene.depth_m, normals, beta);
-  }
-  cv::Mat signal = image.clone();
-  if (o.remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
-    const MarineSnow snow =
-        RenderMarineSnow(ro.snow, ro.light, scene.camera, range, beta, ambient, ro.seed);
-    signal -= snow.layer;
-  }
-  cv::Mat blurred = signal;
-  if (!zero_beta) {
-    cv::Mat t = TransmissionMap(range, beta);
-    cv::Mat source = e_l.clone();
-    if (water.backscatter) {
-      const std::vector<double> b =
-          ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch);
-      cv::Scalar bs;
-      for (int c = 0; c < ch; ++c) bs[c] = b[c];
-      source += bs;
-    }
-    const cv::Mat one(image.size(), image.type(), cv::Scalar::all(1));
-    blurred = (signal - (one - t).mul(source)) / cv::max(t, o.min_transmission);
-  }
-  cv::Mat lit = blurred;
-  if (ro.psf.enabled) {
-    const Psf psf = PsfKernel(ro.psf);
-    if (!psf.is_delta) {
-      DeconvolutionOptions d;
-      d.nsr = o.nsr;
-      d.spatial_max_radius = 0;  // exact FFT Wiener for the error floor
-      lit = Deconvolve(d, blurred, psf.kernel);
-    }
-  }
-  cv::Mat out;
-  if (o.target == "lit") {
-    out = lit.clone();
-  } else {
-    cv::Scalar a;
-    for (int c = 0; c < ch; ++c) a[c] = ambient[c];
-    cv::Mat irradiance = e_l + a;
-    out = lit / cv::max(irradiance, o.min_irradiance);
-  }
-  ClampUnit(out);
-  return out;
-}
-
-// ---------------------------------------------------------------------------------------------
-
 namespace {
 
 void BindClahe(ParamBinder& b, const std::string& prefix, ClaheOptions* c, std::string* dist) {
@@ -969,18 +885,6 @@ SimplifiedOptions BindSimplified(const nlohmann::json& params) {
   return o;
 }
 
-OracleOptions BindOracle(const nlohmann::json& params) {
-  OracleOptions o;
-  ParamBinder b("oracle", params);
-  b.Bind("target", &o.target);
-  b.Bind("remove_snow", &o.remove_snow);
-  b.Bind("nsr", &o.nsr);
-  b.Bind("min_transmission", &o.min_transmission);
-  b.Bind("min_irradiance", &o.min_irradiance);
-  b.Finish(o);
-  return o;
-}
-
 // What each variant of `full` reads besides the image (docs/methods.md).
 std::string FullInputs(const FullOptions& d) {
   std::string inputs =
@@ -1086,35 +990,11 @@ MethodEntry SimplifiedEntry() {
   return e;
 }
 
-MethodEntry OracleEntry() {
-  const OracleOptions d;
-  MethodEntry e;
-  e.info.name = "oracle";
-  e.info.summary = "inverts the simulator with the true parameters (the error floor)";
-  e.info.source = "turbid's forward model (docs/model.md), paper eq. 2";
-  e.info.needs_geometry = true;
-  e.info.needs_sidecar = true;
-  e.info.params = {
-      Param("target", d.target, "clean: recover rho (ground truth) | lit: recover J"),
-      Param("remove_snow", d.remove_snow, "re-render the marine snow from the seed and subtract"),
-      Param("nsr", d.nsr, "Wiener NSR for the true PSF, [1e-8, 10]"),
-      Param("min_transmission", d.min_transmission, "floor on t when dividing, (0, 1]"),
-      Param("min_irradiance", d.min_irradiance, "floor on E_A + E_L when dividing, > 0"),
-  };
-  e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
-    const OracleOptions o = BindOracle(params);
-    if (in.scene == nullptr) throw Error("oracle: needs the scene (--scene)");
-    if (in.sidecar == nullptr) throw Error("oracle: needs the render's sidecar (--sidecar)");
-    return OracleEnhance(o, in.image, *in.scene, *in.sidecar);
-  };
-  return e;
-}
-
 }  // namespace
 
 std::vector<MethodEntry> PaperMethodEntries() {
   return {FullEntry("full"),         FullEntry("full_literal"), FullEntry("full_matched"),
-          FullEntry("full_physical"), SimplifiedEntry(),         OracleEntry()};
+          FullEntry("full_physical"), SimplifiedEntry()};
 }
 
 }  // namespace turbid

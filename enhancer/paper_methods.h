@@ -1,13 +1,10 @@
-// The paper's enhancement methods (§III) and the simulator-inverting oracle:
+// The paper's enhancement methods (§III) (the oracles: enhancer/oracle.h):
 //   full       — §III-A: guided-filter denoise (eq. 4) -> artificial-light estimate from the light
 //                model (eq. 5, simulator/light.h) on the fitted plane, scaled into [min I, max I]
 //                -> plane-induced dehazing (eq. 6, t = exp(-beta r) clamped) -> PSF deconvolution
 //                (eq. 7, simulator/psf.h) -> CLAHE with a Rayleigh target (§III-A.5);
 //   simplified — §III-B: I_g + alpha (I_f - I_g) (eqs. 8-9), I_f = GIF_{2,0.1^2}(I),
 //                I_g = GIF_{8,0.4^2}(I), then CLAHE;
-//   oracle     — inverts the renderer (simulator/render.h) with the true parameters from a render's
-//                sidecar and the scene: subtracts the marine snow it re-renders from the seed and
-//                the veil, divides by t, deconvolves with the true PSF and divides by E_A + E_L.
 // Inputs float32 linear [0,1], 1 or 3 channels; outputs the same size and channels in [0,1].
 // docs/methods.md has formulas, defaults, the geometry fallbacks and the choices the paper leaves
 // open.
@@ -174,20 +171,7 @@ struct SimplifiedOptions {
 };
 cv::Mat SimplifiedEnhance(const SimplifiedOptions& options, const cv::Mat& image);
 
-struct OracleOptions {
-  // "clean": recover rho (the scoring ground truth); "lit": recover J = (E_A + E_L) rho.
-  std::string target = "clean";
-  bool remove_snow = true;         // re-render the marine snow from the seed and subtract it
-  double nsr = 1e-3;               // Wiener NSR for the true PSF, [1e-8, 10]
-  double min_transmission = 1e-3;  // floor on t when dividing, (0, 1]
-  double min_irradiance = 1e-3;    // floor on E_A + E_L when dividing, > 0
-  bool Check(std::string* why) const;
-};
-// Needs the scene the render was made from (same size and channels) and its sidecar.
-cv::Mat OracleEnhance(const OracleOptions& options, const cv::Mat& image, const Scene& scene,
-                      const nlohmann::json& sidecar);
-
-// Registry entries for full, simplified and oracle.
+// Registry entries for full and simplified.
 std::vector<MethodEntry> PaperMethodEntries();
 
 }  // namespace turbid

@@ -1,5 +1,5 @@
-// The one method table: the paper's methods and the oracle (paper_methods.h) and the baselines
-// (baselines.h), in that order.
+// The one method table: the paper's methods (paper_methods.h), the oracles (oracle.h) and the
+// baselines (baselines.h), in that order.
 #include "enhancer/registry.h"
 
 #include <map>
@@ -7,6 +7,7 @@
 
 #include "enhancer/baselines.h"
 #include "enhancer/method.h"
+#include "enhancer/oracle.h"
 #include "enhancer/paper_methods.h"
 #include "scenes/error.h"
 
@@ -22,6 +23,7 @@ const Table& GetTable() {
   static const Table table = [] {
     Table t;
     t.entries = PaperMethodEntries();
+    for (MethodEntry& e : OracleMethodEntries()) t.entries.push_back(std::move(e));
     for (MethodEntry& e : BaselineMethodEntries()) t.entries.push_back(std::move(e));
     for (const MethodEntry& e : t.entries) t.infos.push_back(e.info);
     return t;

@@ -573,7 +573,8 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
   d.zero_beta = std::all_of(d.beta.begin(), d.beta.end(), [](double b) { return b == 0.0; });
   d.uniform_range = max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
   if (d.zero_beta)
-    plan.skipped.push_back("attenuation: beta = 0, t = 1 (no exp, no veil)");
+    plan.skipped.push_back(
+        "attenuation: beta = 0, t = 1 (no exp, no veil; t = 0 where depth is invalid)");
   else if (d.uniform_range)
     plan.steps.push_back("attenuation: uniform range " + Format(min_range) +
                          " m, t constant per channel");
@@ -784,6 +785,11 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
     bs[c] = backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
     t_const[c] = static_cast<float>(std::exp(-d.beta[c] * cache_->min_range));
   }
+  // beta = 0: what open water (NaN depth) shows, B_inf when enabled (t = 0 there).
+  const bool open_water = d.zero_beta && cache_->valid_pixels < size.area();
+  float open_bs[3] = {0, 0, 0};
+  for (int c = 0; c < channels; ++c)
+    open_bs[c] = options.water.backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
   const float levels = options.camera.bit_depth == 8 ? 255.0f : 65535.0f;
   const bool quantise = options.camera.bit_depth != 32;
   cv::parallel_for_(
@@ -836,6 +842,21 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
           float* out = image.ptr<float>(y);
           if (d.zero_beta) {
             std::copy(jb, jb + per_row, out);
+            // Invalid depth is open water at infinite range: t = 0 there even at beta = 0 (the
+            // limit beta -> 0+ taken along the ray), leaving the backscatter B_inf alone.
+            if (open_water) {
+              const float* r = range_m_.ptr<float>(y);
+              float* t = t_map.empty() ? nullptr : t_map.ptr<float>(y);
+              float* v = veil.empty() ? nullptr : veil.ptr<float>(y);
+              for (int x = 0; x < width; ++x) {
+                if (r[x] == r[x]) continue;
+                for (int c = 0; c < channels; ++c) {
+                  out[x * channels + c] = open_bs[c];
+                  if (t) t[x * channels + c] = 0.0f;
+                  if (v) v[x * channels + c] = open_bs[c];
+                }
+              }
+            }
           } else {
             const float* r = range_m_.ptr<float>(y);
             float* t = t_row.data();

@@ -1,5 +1,5 @@
-// full, simplified, oracle and the registry: oracle PSNR floors on built-in scenes, strict
-// parameters, finite in-range output on extreme inputs for every registered method.
+// full, simplified and the registry (the oracles: oracle_test.cc): strict parameters, finite
+// in-range output on extreme inputs for every registered method.
 #include "enhancer/paper_methods.h"
 
 #include <gtest/gtest.h>
@@ -38,27 +38,6 @@ TEST(PaperMethods, DefaultsPassCheck) {
   std::string why;
   EXPECT_TRUE(FullOptions{}.Check(&why)) << why;
   EXPECT_TRUE(SimplifiedOptions{}.Check(&why)) << why;
-  EXPECT_TRUE(OracleOptions{}.Check(&why)) << why;
-}
-
-TEST(Oracle, NoiseFreeRendersComeBackAbove40dBAnd30dBWithPsf) {
-  BuiltinSceneOptions so;
-  so.scale = 0.25;
-  for (const char* name : {"hull", "seafloor", "room"}) {
-    const Scene scene = MakeBuiltinScene(name, so);
-    for (bool psf : {false, true}) {
-      const RenderResult r = Render(ModerateNoiseFree(psf), scene);
-      EnhanceInput in{r.image, &scene, &r.sidecar};
-      const cv::Mat out = Enhance("oracle", nlohmann::json::object(), in);
-      const double p = Psnr(out, scene.image);
-      EXPECT_GE(p, psf ? 30.0 : 40.0) << name << (psf ? " with PSF" : " without PSF");
-    }
-  }
-}
-
-TEST(Oracle, NeedsSceneAndSidecar) {
-  cv::Mat img(8, 8, CV_32F, cv::Scalar(0.5));
-  EXPECT_THROW(Enhance("oracle", {}, EnhanceInput{img, nullptr, nullptr}), Error);
 }
 
 TEST(Simplified, MatchesEquation9BeforeClahe) {
@@ -217,7 +196,7 @@ TEST(Registry, EveryMethodFiniteInRangeOnExtremes) {
   sat.colRange(0, 10).setTo(cv::Scalar::all(1.0));
   inputs.push_back(sat);
   for (const MethodInfo& m : ListMethods()) {
-    if (m.needs_sidecar) continue;  // oracle: covered with real renders above
+    if (m.needs_sidecar) continue;  // oracles: covered with real renders in oracle_test.cc
     for (const cv::Mat& img : inputs) {
       cv::Mat out;
       ASSERT_NO_THROW(out = Enhance(m.name, {}, EnhanceInput{img, nullptr, nullptr}))

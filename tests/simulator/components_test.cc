@@ -384,3 +384,58 @@ TEST(Noise, SnowIsSeededLitAndHiddenBehindSurface) {
 
 }  // namespace
 }  // namespace turbid
+
+namespace turbid {
+namespace {
+
+// E_L on a tilted plane (normal not along the optical axis, so cos psi varies across the image
+// and differs from the fronto-parallel case) against the closed form of SPEC's eq.: U0 cos^m(phi)
+// f(psi) exp(-beta l) / l^2 with cos psi = -n . v / l.
+TEST(Light, TiltedPlaneMatchesClosedForm) {
+  const int w = 48, h = 36;
+  Scene scene = testing::MakePlaneScene(w, h, 2.0, 3, 40.0);
+  const cv::Vec3d n = cv::normalize(cv::Vec3d(0.4, -0.3, -1.0));  // faces the camera
+  const cv::Vec3d p0(0.0, 0.0, 2.0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const cv::Vec3d ray((x - scene.camera.cx) / scene.camera.fx,
+                          (y - scene.camera.cy) / scene.camera.fy, 1.0);
+      scene.depth_m.at<float>(y, x) = static_cast<float>(n.dot(p0) / n.dot(ray));
+      scene.normals.at<cv::Vec3f>(y, x) = cv::Vec3f(n);
+    }
+  LightOptions light;
+  light.position_in_camera_m = {0.15, 0.25, 0.0};
+  light.axis_in_camera = {0.0, -0.1, 1.0};
+  light.power = 4.0;
+  light.half_power_angle_deg = 40.0;
+  IrradianceOptions options;
+  options.lights = {light};
+  const double m = LambertianOrder(light.half_power_angle_deg);
+  const std::vector<double> beta = {0.2, 0.5, 0.8};
+  const cv::Mat e = IrradianceMap(options, scene.camera, scene.depth_m, scene.normals, beta);
+  const cv::Mat e_est = IrradianceMap(options, scene.camera, scene.depth_m, cv::Mat(), beta);
+  const cv::Vec3d axis = cv::normalize(light.axis_in_camera);
+  double lo_cos = 1, hi_cos = 0;
+  for (int y = 0; y < h; y += 3)
+    for (int x = 0; x < w; x += 3) {
+      const double z = scene.depth_m.at<float>(y, x);
+      const cv::Vec3d point((x - scene.camera.cx) / scene.camera.fx * z,
+                            (y - scene.camera.cy) / scene.camera.fy * z, z);
+      const cv::Vec3d v = point - light.position_in_camera_m;
+      const double l = cv::norm(v);
+      const double cos_phi = std::max(axis.dot(v) / l, 0.0);
+      const double cos_psi = std::max(-n.dot(v) / l, 0.0);
+      lo_cos = std::min(lo_cos, cos_psi), hi_cos = std::max(hi_cos, cos_psi);
+      for (int c = 0; c < 3; ++c) {
+        const double expected =
+            light.power * std::pow(cos_phi, m) * cos_psi * std::exp(-beta[c] * l) / (l * l);
+        ASSERT_NEAR(e.at<cv::Vec3f>(y, x)[c], expected, 2e-5 * expected + 1e-7) << x << "," << y;
+        if (x > 0 && y > 0 && x < w - 1 && y < h - 1)  // normals from depth: central differences
+          ASSERT_NEAR(e_est.at<cv::Vec3f>(y, x)[c], expected, 1e-3 * expected + 1e-6);
+      }
+    }
+  EXPECT_GT(hi_cos - lo_cos, 0.05) << "the tilt must make cos psi vary";
+}
+
+}  // namespace
+}  // namespace turbid
