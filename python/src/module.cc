@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -540,4 +541,21 @@ PYBIND11_MODULE(_turbid, m) {
       .def("scene", [](const GeneratePlan& p, size_t s) { return p.scenes.at(s); })
       .def_property_readonly("format", [](const GeneratePlan& p) { return p.config.format; });
   m.def("draw_params", &DrawParams);
+  // For python/benchmarks/bench.py: the C++ time alone (no conversion, no Python), seconds/call.
+  m.def("_cpp_render_seconds", [](const PyScene& scene, const std::string& params_text, int n) {
+    py::gil_scoped_release release;
+    const RenderOptions options = RenderOptionsFromJson(ParseJsonText(params_text, "params"));
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < n; ++i) scene.renderer->Render(options);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+  });
+  m.def("_cpp_enhance_seconds", [](const py::array& image, const std::string& method, int n) {
+    const ArrayView v = ViewArray(image, "image");
+    py::gil_scoped_release release;
+    EnhanceInput input;
+    input.image = ToInternal(v, Encoding::kNone, "image");
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < n; ++i) Enhance(method, json::object(), input);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+  });
 }
