@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs turbid's build and test dependencies from Debian 12 packages, only what is missing.
-# Usage: scripts/install_deps.sh [--test]   (--test adds what the test suite needs: chromium, gnuplot)
+# Usage: scripts/install_deps.sh [--test]   (--test adds what the test suite needs: chromium, and
+# python3-torch for the DataLoader test of the Python package)
 set -euo pipefail
 
 packages=(
@@ -9,9 +10,10 @@ packages=(
   nlohmann-json3-dev libcli11-dev libtbb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
+  python3-pybind11 python3-numpy python3-pytest
 )
 if [[ "${1:-}" == "--test" ]]; then
-  packages+=(chromium)
+  packages+=(chromium python3-torch)
 fi
 
 missing=()

@@ -14,6 +14,7 @@
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/cli.h"
+#include "tools/generate.h"
 
 namespace turbid {
 namespace {
@@ -31,45 +32,6 @@ json ReadJsonFile(const std::string& path) {
   }
 }
 
-// Sets a dotted path ("psf.forward_scatter", "light.lights.0.power") in a JSON object.
-void SetPath(json& root, const std::string& path, const json& value) {
-  json* node = &root;
-  std::stringstream stream(path);
-  std::string part;
-  std::vector<std::string> parts;
-  while (std::getline(stream, part, '.')) parts.push_back(part);
-  if (parts.empty()) throw Error("parameter path '" + path + "' is empty");
-  for (size_t i = 0; i < parts.size(); ++i) {
-    const bool last = i + 1 == parts.size();
-    const std::string& key = parts[i];
-    if (node->is_array()) {
-      size_t index = 0;
-      try {
-        index = std::stoul(key);
-      } catch (...) {
-        throw Error("parameter path '" + path + "': '" + key + "' is not an array index");
-      }
-      while (node->size() <= index) node->push_back(json::object());
-      node = &(*node)[index];
-    } else {
-      if (!node->is_object()) *node = json::object();
-      node = &(*node)[key];
-    }
-    if (last) *node = value;
-  }
-}
-
-// SetPath for render parameters: indexing a light ("light.lights.0.power") starts from the
-// default light list when the parameters name none, so defaults are not written twice.
-void SetParam(json& params, const std::string& path, const json& value) {
-  if (path.rfind("light.lights.", 0) == 0 &&
-      !(params.contains("light") && params["light"].contains("lights"))) {
-    if (!params.contains("light")) params["light"] = json::object();
-    params["light"]["lights"] = RenderOptionsToJson(RenderOptions{})["light"]["lights"];
-  }
-  SetPath(params, path, value);
-}
-
 // "--set key=value": value parsed as JSON, else taken as a string.
 void ApplySet(json& params, const std::string& assignment) {
   const size_t eq = assignment.find('=');
@@ -82,7 +44,7 @@ void ApplySet(json& params, const std::string& assignment) {
   } catch (const json::exception&) {
     value = text;
   }
-  SetParam(params, key, value);
+  SetRenderParam(params, key, value);
 }
 
 std::string Extension(const std::string& path) {
@@ -124,23 +86,23 @@ struct RenderArgs {
 void RunRender(const RenderArgs& args) {
   json params = args.params.empty() ? json::object() : ReadJsonFile(args.params);
   if (!params.is_object()) throw Error(args.params, "parameters must be a JSON object");
-  if (!args.water.empty()) SetPath(params, "water.type", args.water);
+  if (!args.water.empty()) SetRenderParam(params, "water.type", args.water);
   if (!args.beta.empty()) {
     if (args.beta.size() != 1 && args.beta.size() != 3)
       throw Error("--beta: give 1 value or 3 (R,G,B)");
     const double r = args.beta[0], g = args.beta.size() == 3 ? args.beta[1] : r,
                  b = args.beta.back();
-    SetPath(params, "water.type", "custom");
-    SetPath(params, "water.beta_rgb_per_m", json::array({r, g, b}));
-    if (args.beta.size() == 1) SetPath(params, "water.beta_gray_per_m", r);
+    SetRenderParam(params, "water.type", "custom");
+    SetRenderParam(params, "water.beta_rgb_per_m", json::array({r, g, b}));
+    if (args.beta.size() == 1) SetRenderParam(params, "water.beta_gray_per_m", r);
   }
   for (const std::string& s : args.sets) ApplySet(params, s);
   if (args.seed >= 0) params["seed"] = static_cast<uint64_t>(args.seed);
-  if (args.bit_depth) SetPath(params, "camera.bit_depth", args.bit_depth);
+  if (args.bit_depth) SetRenderParam(params, "camera.bit_depth", args.bit_depth);
   const std::string ext = args.out.empty() ? "" : Extension(args.out);
   if (!args.out.empty() && ext != ".png" && ext != ".exr")
     throw Error(args.out, "output must end in .png or .exr");
-  if (ext == ".exr" && !params.contains("camera")) SetPath(params, "camera.bit_depth", 32);
+  if (ext == ".exr" && !params.contains("camera")) SetRenderParam(params, "camera.bit_depth", 32);
   RenderOptions options = RenderOptionsFromJson(params);
   options.maps = MapSelection::FromList(args.maps);
   if (ext == ".png" && options.camera.bit_depth == 32)
@@ -201,240 +163,6 @@ void RunRender(const RenderArgs& args) {
   std::cout << "wrote " << args.out << " and " << stem << ".json\n";
 }
 
-// ---- generate ----------------------------------------------------------------------------------
-
-// One dataset item: a scene and the JSON render parameters.
-struct Item {
-  int index = 0;
-  std::string id;
-  size_t scene = 0;
-  json params;
-};
-
-json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::string& path) {
-  if (!spec.is_object() || spec.size() != 1)
-    throw Error("generate: random.params." + path +
-                ": expected {\"uniform\": [lo, hi]}, "
-                "{\"log_uniform\": [lo, hi]} or {\"choice\": [...]}");
-  const std::string kind = spec.begin().key();
-  const json& args = spec.begin().value();
-  const double u = RandomUniform(key, index);
-  if (kind == "choice") {
-    if (!args.is_array() || args.empty())
-      throw Error("generate: random.params." + path + ".choice: non-empty array");
-    return args[std::min<size_t>(static_cast<size_t>(u * args.size()), args.size() - 1)];
-  }
-  if (!args.is_array() || args.size() != 2 || !args[0].is_number() || !args[1].is_number())
-    throw Error("generate: random.params." + path + "." + kind + ": expected [lo, hi]");
-  const double lo = args[0].get<double>(), hi = args[1].get<double>();
-  if (kind == "uniform") return lo + u * (hi - lo);
-  if (kind == "log_uniform") {
-    if (lo <= 0.0 || hi <= 0.0)
-      throw Error("generate: random.params." + path + ".log_uniform: bounds must be > 0");
-    return std::exp(std::log(lo) + u * (std::log(hi) - std::log(lo)));
-  }
-  throw Error("generate: random.params." + path + ": unknown distribution '" + kind + "'");
-}
-
-void RunGenerate(const std::string& config_path, const std::string& out_dir, int threads) {
-  const json config = ReadJsonFile(config_path);
-  if (!config.is_object()) throw Error(config_path, "must be a JSON object");
-  for (auto it = config.begin(); it != config.end(); ++it)
-    if (it.key() != "scenes" && it.key() != "scale" && it.key() != "base" && it.key() != "grid" &&
-        it.key() != "random" && it.key() != "seed" && it.key() != "format")
-      throw Error(config_path,
-                  it.key() + ": unknown key (scenes, scale, base, grid, random, seed, format)");
-  if (!config.contains("scenes") || !config["scenes"].is_array() || config["scenes"].empty())
-    throw Error(config_path, "scenes: a non-empty array of scene specs is required");
-  const double scale = config.value("scale", 1.0);
-  const uint64_t seed = config.value("seed", uint64_t{0});
-  const std::string format = config.value("format", std::string("png"));
-  if (format != "png" && format != "exr") throw Error(config_path, "format: png or exr");
-  const json base = config.value("base", json::object());
-  RenderOptionsFromJson(base);  // fail early on a bad base
-
-  // Grid: cartesian product over dotted parameter paths, in key order.
-  std::vector<json> combos = {json::object()};
-  if (config.contains("grid")) {
-    const json& grid = config["grid"];
-    if (!grid.is_object())
-      throw Error(config_path, "grid: must be an object of path -> array of values");
-    for (auto it = grid.begin(); it != grid.end(); ++it) {
-      if (!it.value().is_array() || it.value().empty())
-        throw Error(config_path, "grid." + it.key() + ": must be a non-empty array");
-      std::vector<json> next;
-      for (const json& combo : combos)
-        for (const json& value : it.value()) {
-          json c = combo;
-          c[it.key()] = value;
-          next.push_back(c);
-        }
-      combos = next;
-    }
-  }
-  int samples = 1;
-  json random_params = json::object();
-  uint64_t random_seed = seed;
-  if (config.contains("random")) {
-    const json& random = config["random"];
-    if (!random.is_object()) throw Error(config_path, "random: must be an object");
-    samples = random.value("count", 1);
-    random_seed = random.value("seed", seed);
-    random_params = random.value("params", json::object());
-    if (samples < 1 || samples > 1000000)
-      throw Error(config_path, "random.count: must be in [1, 1e6]");
-  }
-
-  LoadSceneOptions scene_options;
-  scene_options.builtin_scale = scale;
-  ThrowIfInvalid(scene_options, config_path + ": scale");
-  std::vector<std::unique_ptr<Renderer>> renderers;
-  std::vector<std::string> specs;
-  for (const json& spec : config["scenes"]) {
-    if (!spec.is_string()) throw Error(config_path, "scenes: entries must be strings");
-    specs.push_back(spec.get<std::string>());
-    renderers.push_back(std::make_unique<Renderer>(LoadScene(specs.back(), scene_options)));
-  }
-
-  // Items and their fully resolved parameters (validated before any rendering starts).
-  std::vector<Item> items;
-  const uint64_t sample_key = RandomKey(random_seed, 0x5a4d);
-  const uint64_t seed_key = RandomKey(seed, 0x5eed);
-  for (size_t s = 0; s < specs.size(); ++s)
-    for (size_t g = 0; g < combos.size(); ++g)
-      for (int r = 0; r < samples; ++r) {
-        Item item;
-        item.index = static_cast<int>(items.size());
-        item.scene = s;
-        json params = base;
-        for (auto it = combos[g].begin(); it != combos[g].end(); ++it)
-          SetParam(params, it.key(), it.value());
-        // Random samples depend on (random seed, grid point, sample number), not on the scene.
-        uint64_t draw = 0;
-        for (auto it = random_params.begin(); it != random_params.end(); ++it, ++draw)
-          SetParam(params, it.key(),
-                   SampleValue(it.value(), sample_key, (g * samples + r) * 64 + draw, it.key()));
-        if (!params.contains("seed")) params["seed"] = RandomBits(seed_key, item.index) >> 1;
-        try {
-          params = RenderOptionsToJson(RenderOptionsFromJson(params));
-        } catch (const Error& e) {
-          throw Error(config_path,
-                      std::string("item ") + std::to_string(item.index) + ": " + e.what());
-        }
-        item.params = params;
-        std::ostringstream id;
-        id << renderers[s]->scene().name << "_" << std::setw(6) << std::setfill('0') << item.index;
-        item.id = id.str();
-        items.push_back(item);
-      }
-
-  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"})
-    fs::create_directories(fs::path(out_dir) / sub);
-  const std::string ext = "." + format;
-  auto paths = [&](const Item& item) {
-    const fs::path dir(out_dir);
-    return std::array<std::string, 4>{(dir / "images" / (item.id + ext)).string(),
-                                      (dir / "ground_truth" / (item.id + ext)).string(),
-                                      (dir / "lit" / (item.id + ".pfm")).string(),
-                                      (dir / "sidecars" / (item.id + ".json")).string()};
-  };
-  // An item is complete when its sidecar (written last) exists and names the same parameters.
-  auto complete = [&](const Item& item) {
-    const auto p = paths(item);
-    if (!fs::exists(p[3])) return false;
-    for (int i = 0; i < 3; ++i)
-      if (!fs::exists(p[i])) return false;
-    try {
-      return ReadJsonFile(p[3]).at("options") == item.params;
-    } catch (...) {
-      return false;
-    }
-  };
-
-  std::atomic<int> next{0}, done{0}, skipped{0};
-  std::mutex error_mutex;
-  std::string first_error;
-  auto worker = [&] {
-    for (;;) {
-      const int i = next.fetch_add(1);
-      if (i >= static_cast<int>(items.size())) return;
-      {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (!first_error.empty()) return;
-      }
-      const Item& item = items[i];
-      try {
-        if (complete(item)) {
-          ++skipped;
-        } else {
-          const auto p = paths(item);
-          const Renderer& renderer = *renderers[item.scene];
-          RenderOptions options = RenderOptionsFromJson(item.params);
-          if (format == "exr") options.camera.bit_depth = 32;
-          const RenderResult result = renderer.Render(options);
-          const int bits = options.camera.bit_depth == 32 ? 16 : options.camera.bit_depth;
-          WriteMap(p[0], result.image, bits, true);
-          WriteMap(p[1], renderer.scene().image, 16, true);
-          WriteMap(p[2], result.lit, 16, true);
-          json sidecar = result.sidecar;
-          sidecar["options"] = item.params;
-          sidecar["scene"]["spec"] = specs[item.scene];
-          sidecar["scene"]["builtin_scale"] = scale;
-          sidecar["item"] = {{"index", item.index}, {"id", item.id}};
-          sidecar["outputs"] = {{"image", "images/" + item.id + ext},
-                                {"ground_truth", "ground_truth/" + item.id + ext},
-                                {"lit", "lit/" + item.id + ".pfm"}};
-          AtomicWriteText(p[3], sidecar.dump(2) + "\n", true);
-        }
-        const int n = ++done;
-        if (n % 10 == 0 || n == static_cast<int>(items.size()))
-          std::cerr << "generate: " << n << "/" << items.size() << " items\r" << std::flush;
-      } catch (const std::exception& e) {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (first_error.empty()) first_error = item.id + ": " + e.what();
-      }
-    }
-  };
-  const int count = std::max(1, threads);
-  std::vector<std::thread> pool;
-  for (int t = 0; t < count; ++t) pool.emplace_back(worker);
-  for (auto& t : pool) t.join();
-  std::cerr << "\n";
-  if (!first_error.empty()) throw Error("generate: " + first_error);
-
-  // Manifest in item order: the same bytes whatever the thread count or interruption history.
-  std::string csv =
-      "index,id,scene,image,ground_truth,lit,sidecar,seed,beta_r,beta_g,beta_b,beta_gray,psf_T,psf_"
-      "q\n";
-  std::string jsonl;
-  for (const Item& item : items) {
-    const json& o = item.params;
-    const json& b = o["water"]["beta_rgb_per_m"];
-    std::ostringstream row;
-    row << item.index << "," << item.id << "," << specs[item.scene] << ",images/" << item.id << ext
-        << ",ground_truth/" << item.id << ext << ",lit/" << item.id << ".pfm,sidecars/" << item.id
-        << ".json," << o["seed"].get<uint64_t>() << "," << b[0].dump() << "," << b[1].dump() << ","
-        << b[2].dump() << "," << o["water"]["beta_gray_per_m"].dump() << ","
-        << o["psf"]["optical_thickness"].dump() << "," << o["psf"]["forward_scatter"].dump()
-        << "\n";
-    csv += row.str();
-    jsonl += json({{"index", item.index},
-                   {"id", item.id},
-                   {"scene", specs[item.scene]},
-                   {"image", "images/" + item.id + ext},
-                   {"ground_truth", "ground_truth/" + item.id + ext},
-                   {"lit", "lit/" + item.id + ".pfm"},
-                   {"sidecar", "sidecars/" + item.id + ".json"},
-                   {"options", o}})
-                 .dump() +
-             "\n";
-  }
-  AtomicWriteText((fs::path(out_dir) / "manifest.csv").string(), csv, true);
-  AtomicWriteText((fs::path(out_dir) / "manifest.jsonl").string(), jsonl, true);
-  std::cout << "generate: " << items.size() << " items (" << skipped.load()
-            << " already complete) in " << out_dir << "\n";
-}
-
 }  // namespace
 
 void AddRenderCommands(CLI::App& app) {
@@ -481,7 +209,9 @@ void AddRenderCommands(CLI::App& app) {
       ->required();
   generate->add_option("--threads", *threads, "worker threads (output bytes do not depend on it)")
       ->check(CLI::Range(1, 256));
-  generate->callback([config, out, threads] { RunGenerate(*config, *out, *threads); });
+  generate->callback([config, out, threads] {
+    RunGenerate(ParseGenerateConfig(ReadJsonFile(*config), *config), *out, *threads);
+  });
 }
 
 }  // namespace turbid

@@ -1,0 +1,561 @@
+// turbid._turbid: the C++ half of the Python package. Thin: every function converts NumPy arrays
+// (RGB at the boundary) to the cv::Mat the libraries take (BGR float32 linear [0, 1]), releases
+// the GIL, calls the same library functions as the CLI, and converts back. The pure-Python half
+// (python/turbid/*.py) adds dict <-> JSON and docstrings. Reference: docs/python.md.
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "enhancer/registry.h"
+#include "metrics/feature_matching.h"
+#include "metrics/registry.h"
+#include "scenes/error.h"
+#include "scenes/image_io.h"
+#include "scenes/scene_loader.h"
+#include "simulator/render.h"
+#include "tools/experiment.h"
+#include "tools/generate.h"
+#include "tools/harness_runner.h"
+#include "tools/metric_image.h"
+#include "tools/sweep.h"
+#include "turbid_version.h"
+
+namespace py = pybind11;
+using nlohmann::json;
+
+namespace turbid {
+namespace {
+
+// turbid::Error is raised as ValueError, except the messages of failed file access (OSError).
+class IoError : public Error {
+ public:
+  using Error::Error;
+};
+
+bool LooksLikeIo(const std::string& m) {
+  for (const char* s : {": cannot open", ": file not found", ": write failed", ": cannot rename",
+                        "exists (use --force", "already exists", ": is a folder", ": empty file"})
+    if (m.find(s) != std::string::npos) return true;
+  return false;
+}
+
+json ParseJsonText(const std::string& text, const std::string& what) {
+  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (j.is_discarded()) throw Error(what + ": not valid JSON");
+  return j;
+}
+
+// The CLI's reading of JSON files (tools/cmd_render.cc), with its messages.
+json ReadJsonFile(const std::string& path) {
+  std::ifstream file(path);
+  if (!file) throw IoError(path, "cannot open");
+  try {
+    return json::parse(file);
+  } catch (const json::exception& e) {
+    throw Error(path, std::string("not valid JSON: ") + e.what());
+  }
+}
+
+// ---- arrays ------------------------------------------------------------------------------------
+
+enum class Encoding { kNone, kLinear, kSrgb };
+
+Encoding ParseEncoding(const std::optional<std::string>& text) {
+  if (!text) return Encoding::kNone;
+  if (*text == "linear") return Encoding::kLinear;
+  if (*text == "srgb") return Encoding::kSrgb;
+  throw Error("encoding must be 'srgb' or 'linear', not '" + *text + "'");
+}
+
+struct ArrayView {
+  cv::Mat mat;  // header over the NumPy buffer (no copy); depth CV_8U, CV_16U or CV_32F
+  int channels = 1;
+};
+
+// Checks dtype, shape and layout and wraps the buffer. `allow_channels_3`: H x W x 3 accepted.
+ArrayView ViewArray(const py::array& a, const std::string& what, bool allow_color = true) {
+  int depth = -1;
+  if (a.dtype().kind() == 'u' && a.itemsize() == 1)
+    depth = CV_8U;
+  else if (a.dtype().kind() == 'u' && a.itemsize() == 2)
+    depth = CV_16U;
+  else if (a.dtype().kind() == 'f' && a.itemsize() == 4)
+    depth = CV_32F;
+  if (depth < 0)
+    throw Error(what + ": dtype " + std::string(py::str(a.dtype())) +
+                " is not supported (uint8, uint16 or float32)");
+  const char order = a.dtype().attr("byteorder").cast<std::string>()[0];
+  if (order == '>') throw Error(what + ": byte order must be native (little-endian)");
+  const bool shape_ok = a.ndim() == 2 || (a.ndim() == 3 && (a.shape(2) == 1 || a.shape(2) == 3));
+  if (!shape_ok || (!allow_color && a.ndim() == 3 && a.shape(2) != 1)) {
+    std::string shape = "(";
+    for (py::ssize_t i = 0; i < a.ndim(); ++i) shape += (i ? ", " : "") + std::to_string(a.shape(i));
+    throw Error(what + ": shape " + shape + ") is not H x W" + (allow_color ? " or H x W x 3" : ""));
+  }
+  if (a.shape(0) < 1 || a.shape(1) < 1) throw Error(what + ": array is empty");
+  if (!(a.flags() & py::array::c_style))
+    throw Error(what + ": array is not C-contiguous (use numpy.ascontiguousarray)");
+  ArrayView v;
+  v.channels = a.ndim() == 3 ? static_cast<int>(a.shape(2)) : 1;
+  v.mat = cv::Mat(static_cast<int>(a.shape(0)), static_cast<int>(a.shape(1)),
+                  CV_MAKETYPE(depth, v.channels), const_cast<void*>(a.data()));
+  return v;
+}
+
+// NumPy image -> turbid's in-memory image (float32 linear [0, 1], BGR). Integer arrays are decoded
+// as ReadImage decodes integer files (scale by 1 / max, then the sRGB curve), so an array holding a
+// PNG's values gives the bytes ReadImage gives for that PNG. A float32 gray array is wrapped, not
+// copied; a float32 RGB array costs one channel-reordering pass. Call without the GIL.
+cv::Mat ToInternal(const ArrayView& v, Encoding encoding, const std::string& what) {
+  cv::Mat m = v.mat;
+  if (m.depth() != CV_32F) {
+    if (encoding == Encoding::kNone)
+      throw Error(what + ": integer arrays need encoding='srgb' or 'linear'");
+    const double max_value = m.depth() == CV_8U ? 255.0 : 65535.0;
+    cv::Mat f;
+    m.convertTo(f, CV_32F);
+    f *= 1.0 / max_value;  // the same two steps as ReadImage
+    m = f;
+  }
+  if (encoding == Encoding::kSrgb) m = SrgbToLinear(m);
+  if (v.channels == 3) {
+    cv::Mat bgr;
+    cv::cvtColor(m, bgr, cv::COLOR_RGB2BGR);
+    return bgr;
+  }
+  return m;
+}
+
+// turbid's image -> NumPy (RGB for 3 channels). One-channel results share the Mat's buffer.
+py::array ToNumpy(const cv::Mat& mat) {
+  if (mat.empty()) return py::none();
+  // A Mat over memory it does not own (a NumPy input passed through) is copied.
+  cv::Mat m = mat.isContinuous() && mat.u != nullptr ? mat : mat.clone();
+  CV_Assert(m.depth() == CV_32F);
+  const int c = m.channels();
+  if (c == 1) {
+    auto* keep = new cv::Mat(m);
+    py::capsule owner(keep, [](void* p) { delete static_cast<cv::Mat*>(p); });
+    return py::array_t<float>({m.rows, m.cols}, {m.cols * 4, 4}, keep->ptr<float>(), owner);
+  }
+  py::array_t<float> out({m.rows, m.cols, c});
+  cv::Mat dst(m.rows, m.cols, m.type(), out.mutable_data());
+  {
+    py::gil_scoped_release release;
+    if (c == 3)
+      cv::cvtColor(m, dst, cv::COLOR_BGR2RGB);
+    else
+      m.copyTo(dst);
+  }
+  return out;
+}
+
+// ---- scenes ------------------------------------------------------------------------------------
+
+struct PyScene {
+  std::shared_ptr<const Renderer> renderer;
+  std::string spec;  // how it was loaded ("" for arrays)
+  double scale = 1.0;
+  const Scene& scene() const { return renderer->scene(); }
+};
+
+PyScene SceneFromSpec(const std::string& spec, double scale) {
+  PyScene s;
+  s.spec = spec;
+  s.scale = scale;
+  py::gil_scoped_release release;
+  LoadSceneOptions options;
+  options.builtin_scale = scale;
+  ThrowIfInvalid(options, "scale");
+  try {
+    s.renderer = std::make_shared<Renderer>(LoadScene(spec, options));
+  } catch (const Error& e) {
+    if (LooksLikeIo(e.what())) throw IoError(e.what());
+    throw;
+  }
+  return s;
+}
+
+PyScene SceneFromArrays(const py::array& image, const py::array& depth_m, double fx, double fy,
+                        double cx, double cy, const std::optional<py::array>& normals,
+                        const std::string& name, const std::optional<std::string>& encoding) {
+  const Encoding enc = ParseEncoding(encoding);
+  const ArrayView iv = ViewArray(image, "image");
+  const ArrayView dv = ViewArray(depth_m, "depth_m", /*allow_color=*/false);
+  if (dv.mat.depth() != CV_32F) throw Error("depth_m: must be float32 metres (NaN = invalid)");
+  if (dv.mat.size() != iv.mat.size()) throw Error("depth_m: size differs from the image's");
+  std::optional<ArrayView> nv;
+  if (normals) {
+    nv = ViewArray(*normals, "normals");
+    if (nv->mat.type() != CV_32FC3 || nv->mat.size() != iv.mat.size())
+      throw Error("normals: must be float32 H x W x 3 (camera-frame x, y, z) like the image");
+  }
+  PyScene s;
+  py::gil_scoped_release release;
+  Scene scene;
+  scene.name = name;
+  scene.camera = {fx, fy, cx, cy, iv.mat.cols, iv.mat.rows};
+  // The scene outlives the call: it owns its pixels (the Renderer's copy shares them).
+  scene.image = ToInternal(iv, enc, "image");
+  if (scene.image.data == iv.mat.data) scene.image = scene.image.clone();
+  if (cv::checkRange(scene.image, /*quiet=*/true) == false)
+    throw Error("image: contains NaN or infinite values");
+  scene.depth_m = dv.mat.clone();
+  if (nv) scene.normals = nv->mat.clone();
+  s.renderer = std::make_shared<Renderer>(scene);
+  return s;
+}
+
+// ---- render ------------------------------------------------------------------------------------
+
+struct PyRenderResult {
+  std::shared_ptr<RenderResult> result;
+};
+
+PyRenderResult RenderScene(const PyScene& scene, const std::string& params_text,
+                           std::optional<int64_t> seed, const std::string& maps) {
+  json params = ParseJsonText(params_text, "params");
+  if (!params.is_object()) throw Error("params: parameters must be a JSON object");
+  if (seed) {
+    if (*seed < 0) throw Error("seed: must be >= 0");
+    params["seed"] = static_cast<uint64_t>(*seed);
+  }
+  PyRenderResult out;
+  py::gil_scoped_release release;
+  RenderOptions options = RenderOptionsFromJson(params);
+  options.maps = MapSelection::FromList(maps);
+  out.result = std::make_shared<RenderResult>(scene.renderer->Render(options));
+  if (!scene.spec.empty()) {
+    out.result->sidecar["scene"]["spec"] = scene.spec;
+    out.result->sidecar["scene"]["builtin_scale"] = scene.scale;
+  }
+  return out;
+}
+
+// ---- enhance / score -----------------------------------------------------------------------------
+
+py::array EnhanceArray(const py::array& image, const std::string& method,
+                       const std::string& params_text, const std::optional<std::string>& sidecar_text,
+                       const std::optional<PyScene>& scene, const std::optional<std::string>& encoding) {
+  const Encoding enc = ParseEncoding(encoding);
+  const ArrayView iv = ViewArray(image, "image");
+  const json params = ParseJsonText(params_text, "params");
+  std::optional<json> sidecar;
+  if (sidecar_text) sidecar = ParseJsonText(*sidecar_text, "sidecar");
+  cv::Mat out;
+  {
+    py::gil_scoped_release release;
+    const MethodInfo& info = FindMethod(method);
+    EnhanceInput input;
+    input.image = ToInternal(iv, enc, "image");
+    input.sidecar = sidecar ? &*sidecar : nullptr;
+    // As the CLI: without a scene, a geometry method uses the scene the sidecar names.
+    std::optional<Scene> loaded;
+    if (scene) {
+      input.scene = &scene->scene();
+    } else if (sidecar && info.needs_geometry && sidecar->contains("scene") &&
+               (*sidecar)["scene"].contains("spec")) {
+      LoadSceneOptions so;
+      so.builtin_scale = (*sidecar)["scene"].value("builtin_scale", 1.0);
+      loaded = LoadScene((*sidecar)["scene"]["spec"].get<std::string>(), so);
+      input.scene = &*loaded;
+    }
+    if (info.needs_sidecar && !input.sidecar)
+      throw Error("enhance: method '" + method + "' needs --sidecar");
+    out = Enhance(method, params, input);
+  }
+  return ToNumpy(out);
+}
+
+// As `turbid score` reads files: integer arrays keep their raw values with data range 255 / 65535.
+MetricImage MetricFromArray(const py::array& a, const std::string& what) {
+  const ArrayView v = ViewArray(a, what);
+  MetricImage m;
+  m.data_range = v.mat.depth() == CV_8U ? 255.0 : (v.mat.depth() == CV_16U ? 65535.0 : 1.0);
+  cv::Mat f = v.mat;
+  if (f.depth() != CV_32F) f.convertTo(f, CV_32F);
+  if (v.channels == 3) {
+    cv::Mat bgr;
+    cv::cvtColor(f, bgr, cv::COLOR_RGB2BGR);
+    f = bgr;
+  }
+  m.pixels = f;
+  return m;
+}
+
+std::map<std::string, double> ScoreArrays(const py::array& image, const std::optional<py::array>& ref,
+                                          const std::optional<py::array>& original,
+                                          const std::string& metric_list) {
+  MetricImage img, r, o;
+  img = MetricFromArray(image, "image");
+  if (ref) r = MetricFromArray(*ref, "ref");
+  if (original) o = MetricFromArray(*original, "original");
+  py::gil_scoped_release release;
+  const std::string list = metric_list.empty() ? (ref ? "ssim,psnr" : "cnr") : metric_list;
+  const std::vector<std::string> metrics = ParseMetricList(list, bool(ref), bool(original));
+  MetricInputs in;
+  in.data_range = CommonScale({&r, &img, &o});
+  in.reference = r.pixels;
+  in.image = img.pixels;
+  in.original = o.pixels;
+  return ComputeMetrics(metrics, in);
+}
+
+std::string MatchArrays(const py::array& a, const py::array& b, const std::string& detector) {
+  const MetricImage ia = MetricFromArray(a, "a"), ib = MetricFromArray(b, "b");
+  py::gil_scoped_release release;
+  FeatureMatchOptions options;
+  options.detector = ParseFeatureDetector(detector);
+  cv::Mat a01, b01;  // each with its own data range, as `turbid score --pairs`
+  ia.pixels.convertTo(a01, CV_32F, 1.0 / ia.data_range);
+  ib.pixels.convertTo(b01, CV_32F, 1.0 / ib.data_range);
+  return MatchFeatures(options, a01, b01, 1.0).ToJson().dump();
+}
+
+// ---- generate / sweep / data ---------------------------------------------------------------------
+
+json ConfigFrom(const py::object& config, std::string* source) {
+  if (py::isinstance<py::str>(config) || py::hasattr(config, "__fspath__")) {
+    *source = py::str(py::module_::import("os").attr("fspath")(config));
+    return ReadJsonFile(*source);
+  }
+  *source = "<dict>";
+  return ParseJsonText(py::module_::import("json").attr("dumps")(config).cast<std::string>(),
+                       "config");
+}
+
+// A generate config with its scenes loaded and items expanded: renders item i on demand.
+struct GeneratePlan {
+  GenerateConfig config;
+  std::vector<PyScene> scenes;
+  std::vector<GenerateItem> items;
+};
+
+std::shared_ptr<GeneratePlan> PlanFrom(const py::object& config_obj) {
+  std::string source;
+  const json config = ConfigFrom(config_obj, &source);
+  auto plan = std::make_shared<GeneratePlan>();
+  plan->config = ParseGenerateConfig(config, source);
+  std::vector<std::string> names;
+  for (const std::string& spec : plan->config.scene_specs) {
+    plan->scenes.push_back(SceneFromSpec(spec, plan->config.scale));
+    names.push_back(plan->scenes.back().scene().name);
+  }
+  py::gil_scoped_release release;
+  plan->items = ExpandGenerateItems(plan->config, names);
+  return plan;
+}
+
+std::string DrawParams(const std::string& base_text, const std::string& random_text,
+                       uint64_t random_seed, uint64_t seed, uint64_t index) {
+  json params = ParseJsonText(base_text, "base");
+  const json random = ParseJsonText(random_text, "random.params");
+  if (!params.is_object()) throw Error("base: parameters must be a JSON object");
+  if (!random.is_object()) throw Error("random.params: must be an object");
+  ApplyRandomDraw(params, random, random_seed, index);
+  if (!params.contains("seed")) params["seed"] = GenerateItemSeed(seed, index);
+  return RenderOptionsToJson(RenderOptionsFromJson(params)).dump();
+}
+
+}  // namespace
+}  // namespace turbid
+
+PYBIND11_MODULE(_turbid, m) {
+  using namespace turbid;
+  m.doc() = "turbid's C++ core (use the `turbid` package, not this module)";
+  m.attr("__version__") = TURBID_VERSION;
+
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const IoError& e) {
+      PyErr_SetString(PyExc_OSError, e.what());
+    } catch (const Error& e) {
+      PyErr_SetString(LooksLikeIo(e.what()) ? PyExc_OSError : PyExc_ValueError, e.what());
+    } catch (const std::filesystem::filesystem_error& e) {
+      PyErr_SetString(PyExc_OSError, e.what());
+    } catch (const nlohmann::json::exception& e) {
+      PyErr_SetString(PyExc_ValueError, e.what());
+    }
+  });
+
+  py::class_<PyScene>(m, "Scene")
+      .def_static("builtin", [](const std::string& name, double scale) {
+        return SceneFromSpec(name.rfind("builtin:", 0) == 0 ? name : "builtin:" + name, scale);
+      }, py::arg("name"), py::arg("scale") = 1.0)
+      .def_static("load", [](const std::string& path) { return SceneFromSpec(path, 1.0); },
+                  py::arg("path"))
+      .def_static("from_arrays", &SceneFromArrays, py::arg("image"), py::arg("depth_m"),
+                  py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"),
+                  py::arg("normals") = py::none(), py::arg("name") = "arrays",
+                  py::arg("encoding") = py::none())
+      .def_property_readonly("name", [](const PyScene& s) { return s.scene().name; })
+      .def_property_readonly("spec", [](const PyScene& s) { return s.spec; })
+      .def_property_readonly("width", [](const PyScene& s) { return s.scene().width(); })
+      .def_property_readonly("height", [](const PyScene& s) { return s.scene().height(); })
+      .def_property_readonly("image", [](const PyScene& s) { return ToNumpy(s.scene().image); })
+      .def_property_readonly("depth", [](const PyScene& s) { return ToNumpy(s.scene().depth_m); })
+      .def_property_readonly("range", [](const PyScene& s) { return ToNumpy(s.renderer->range_m()); })
+      .def_property_readonly("normals", [](const PyScene& s) {
+        // Vectors, not colours: x, y, z order (no channel reordering).
+        const cv::Mat& n = s.scene().normals;
+        if (n.empty()) return py::array(py::none());
+        py::array_t<float> out({n.rows, n.cols, 3});
+        cv::Mat dst(n.rows, n.cols, CV_32FC3, out.mutable_data());
+        n.copyTo(dst);
+        return py::array(out);
+      })
+      .def_property_readonly("camera", [](const PyScene& s) {
+        const CameraIntrinsics& c = s.scene().camera;
+        py::dict d;
+        d["fx"] = c.fx; d["fy"] = c.fy; d["cx"] = c.cx; d["cy"] = c.cy;
+        d["width"] = c.width; d["height"] = c.height;
+        return d;
+      });
+
+  py::class_<PyRenderResult>(m, "RenderResult")
+      .def("image", [](const PyRenderResult& r) { return ToNumpy(r.result->image); })
+      .def("lit", [](const PyRenderResult& r) { return ToNumpy(r.result->lit); })
+      .def("map", [](const PyRenderResult& r, const std::string& name) -> py::object {
+        const RenderResult& x = *r.result;
+        const cv::Mat* m = name == "transmission" ? &x.transmission : name == "light" ? &x.light
+                         : name == "veil" ? &x.veil : name == "psf" ? &x.psf
+                         : name == "noise" ? &x.noise : nullptr;
+        if (m == nullptr) throw Error("unknown map '" + name + "'");
+        if (m->empty()) return py::none();
+        return ToNumpy(*m);
+      })
+      .def("sidecar", [](const PyRenderResult& r) { return r.result->sidecar.dump(); })
+      .def("plan", [](const PyRenderResult& r) { return r.result->plan.ToText(); });
+
+  m.def("render", &RenderScene, py::arg("scene"), py::arg("params"), py::arg("seed"),
+        py::arg("maps"));
+  m.def("enhance", &EnhanceArray, py::arg("image"), py::arg("method"), py::arg("params"),
+        py::arg("sidecar"), py::arg("scene"), py::arg("encoding"));
+  m.def("score", &ScoreArrays, py::arg("image"), py::arg("ref"), py::arg("original"),
+        py::arg("metrics"));
+  m.def("match_features", &MatchArrays, py::arg("a"), py::arg("b"), py::arg("detector"));
+  m.def("methods", [] {
+    json all = json::array();
+    for (const MethodInfo& mi : ListMethods()) {
+      json params = json::object();
+      json docs = json::object();
+      for (const MethodParam& p : mi.params) {
+        params[p.name] = p.default_value;
+        docs[p.name] = p.doc;
+      }
+      all.push_back({{"name", mi.name}, {"summary", mi.summary}, {"source", mi.source},
+                     {"needs_geometry", mi.needs_geometry}, {"needs_sidecar", mi.needs_sidecar},
+                     {"privileged", mi.privileged}, {"params", params}, {"param_docs", docs}});
+    }
+    return all.dump();
+  });
+  m.def("metrics", [] {
+    json all = json::array();
+    for (const MetricInfo& mi : ListMetrics())
+      all.push_back({{"name", mi.name}, {"summary", mi.summary},
+                     {"needs_reference", mi.needs_reference},
+                     {"needs_original", mi.needs_original},
+                     {"higher_is_better", mi.higher_is_better}});
+    return all.dump();
+  });
+  m.def("default_params", [] { return RenderOptionsToJson(RenderOptions{}).dump(); });
+  m.def("resolve_params", [](const std::string& text) {
+    return RenderOptionsToJson(RenderOptionsFromJson(ParseJsonText(text, "params"))).dump();
+  });
+  m.def("read_image", [](const std::string& path, const std::string& encoding) {
+    ReadImageOptions o;
+    o.transfer = ParseEncoding(encoding) == Encoding::kSrgb ? Transfer::kSrgb : Transfer::kLinear;
+    cv::Mat image;
+    {
+      py::gil_scoped_release release;
+      image = ReadImage(path, o);
+    }
+    return ToNumpy(image);
+  }, py::arg("path"), py::arg("encoding"));
+  m.def("write_image", [](const std::string& path, const py::array& image, int bit_depth,
+                          const std::string& encoding, bool overwrite) {
+    const ArrayView v = ViewArray(image, "image");
+    if (v.mat.depth() != CV_32F) throw Error("image: write_image takes float32 [0, 1]");
+    py::gil_scoped_release release;
+    cv::Mat m = v.mat;
+    if (v.channels == 3) cv::cvtColor(v.mat, m, cv::COLOR_RGB2BGR);
+    WriteImageOptions o;
+    o.bit_depth = bit_depth;
+    o.transfer = ParseEncoding(encoding) == Encoding::kSrgb ? Transfer::kSrgb : Transfer::kLinear;
+    o.overwrite = overwrite;
+    WriteImage(path, m, o);
+  }, py::arg("path"), py::arg("image"), py::arg("bit_depth"), py::arg("encoding"),
+     py::arg("overwrite"));
+  m.def("generate", [](const py::object& config_obj, const std::string& out, int threads) {
+    std::string source;
+    const json config = ConfigFrom(config_obj, &source);
+    const GenerateConfig parsed = ParseGenerateConfig(config, source);
+    py::gil_scoped_release release;
+    RunGenerate(parsed, out, threads);
+  });
+  m.def("sweep", [](const py::object& experiment_obj, const std::string& out, int threads,
+                    const std::string& shard, bool force, bool reuse) {
+    std::string source;
+    const json doc = ConfigFrom(experiment_obj, &source);
+    py::gil_scoped_release release;
+    const Experiment experiment = ParseExperiment(doc, source, RegistryCatalog());
+    SweepOptions options;
+    options.out_dir = out;
+    options.threads = threads;
+    options.shard = ParseShard(shard);
+    options.force = force;
+    options.progress = false;
+    ThrowIfInvalid(options, "sweep");
+    HarnessRunnerOptions ro;
+    ro.reuse = reuse;
+    HarnessRunner r2(experiment, out, ro);
+    const SweepSummary s =
+        RunSweep(experiment, options, [&](const ItemSpec& item) { return r2.Run(item); });
+    return json({{"items_total", s.items_total}, {"items_in_shard", s.items_in_shard},
+                 {"ran", s.ran}, {"already_done", s.already_done},
+                 {"failed_rows", s.failed_rows}, {"tables_written", s.tables_written}}).dump();
+  });
+
+  py::class_<GeneratePlan, std::shared_ptr<GeneratePlan>>(m, "GeneratePlan")
+      .def(py::init(&PlanFrom))
+      .def("__len__", [](const GeneratePlan& p) { return p.items.size(); })
+      .def("item", [](const GeneratePlan& p, int64_t i) {
+        if (i < 0 || i >= static_cast<int64_t>(p.items.size()))
+          throw py::index_error("item " + std::to_string(i) + " out of range");
+        const GenerateItem& it = p.items[i];
+        return py::make_tuple(it.id, it.scene, it.params.dump());
+      })
+      .def("scene", [](const GeneratePlan& p, size_t s) { return p.scenes.at(s); })
+      .def_property_readonly("format", [](const GeneratePlan& p) { return p.config.format; });
+  m.def("draw_params", &DrawParams);
+  // For python/benchmarks/bench.py: the C++ time alone (no conversion, no Python), seconds/call.
+  m.def("_cpp_render_seconds", [](const PyScene& scene, const std::string& params_text, int n) {
+    py::gil_scoped_release release;
+    const RenderOptions options = RenderOptionsFromJson(ParseJsonText(params_text, "params"));
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < n; ++i) scene.renderer->Render(options);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+  });
+  m.def("_cpp_enhance_seconds", [](const py::array& image, const std::string& method, int n) {
+    const ArrayView v = ViewArray(image, "image");
+    py::gil_scoped_release release;
+    EnhanceInput input;
+    input.image = ToInternal(v, Encoding::kNone, "image");
+    const auto t0 = std::chrono::steady_clock::now();
+    for (int i = 0; i < n; ++i) Enhance(method, json::object(), input);
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+  });
+}

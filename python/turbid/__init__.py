@@ -1,0 +1,211 @@
+"""turbid: underwater image degradation, enhancement and scoring from NumPy.
+
+The same C++ libraries as the ``turbid`` command line, so the same scene, parameters and seed give
+byte-identical images, and ``score`` gives the numbers ``turbid score`` prints.
+
+Arrays: H x W or H x W x 3, **RGB order**, dtype float32 (linear light in [0, 1]), uint8 or uint16
+(integer arrays need ``encoding="srgb"`` or ``encoding="linear"``). Outputs are float32 RGB in
+[0, 1]. Parameters are the CLI's JSON schema (docs/model.md) as Python dicts. Errors raise
+``ValueError`` (bad parameters or data), ``OSError`` (files) or ``RuntimeError`` with the CLI's
+one-line message. The GIL is released while C++ runs. Reference: docs/python.md.
+"""
+
+import json as _json
+import os as _os
+
+from . import _turbid
+
+__version__ = _turbid.__version__
+
+__all__ = ["Scene", "RenderResult", "render", "enhance", "methods", "score", "metrics",
+           "match_features", "generate", "sweep", "default_params", "resolve_params",
+           "read_image", "write_image", "__version__"]
+
+
+class Scene:
+    """A scene: clean image rho (linear RGB), z-depth in metres, normals and pinhole intrinsics.
+
+    Make one with :meth:`builtin`, :meth:`load` or :meth:`from_arrays`. Attributes (NumPy, read
+    only): ``image`` (H x W x 3 RGB or H x W float32), ``depth`` (H x W metres, NaN = invalid),
+    ``normals`` (H x W x 3, camera-frame x, y, z), ``range`` (metres along the viewing ray),
+    ``camera`` (dict fx, fy, cx, cy, width, height), ``name``, ``width``, ``height``.
+    """
+
+    def __init__(self, core):
+        self._core = core
+
+    @staticmethod
+    def builtin(name, scale=1.0):
+        """A procedural built-in scene: "hull", "seafloor" or "room" (``builtin:NAME`` works too).
+
+        ``scale`` in (0, 1] shrinks it (hull is 1360 x 1024, seafloor and room 640 x 480)."""
+        return Scene(_turbid.Scene.builtin(str(name), float(scale)))
+
+    @staticmethod
+    def load(path):
+        """A scene JSON file (docs/formats.md, "Scene files"), read as ``turbid render --scene``."""
+        return Scene(_turbid.Scene.load(_os.fspath(path)))
+
+    @staticmethod
+    def from_arrays(image, depth_m, fx, fy, cx, cy, normals=None, name="arrays", encoding=None):
+        """A scene from arrays: ``image`` RGB (float32 linear, or uint8/uint16 with ``encoding``),
+        ``depth_m`` float32 H x W z-depth in metres (NaN where unknown), pinhole intrinsics in
+        pixels; ``normals`` (optional, float32 H x W x 3, camera frame) else derived from depth."""
+        return Scene(_turbid.Scene.from_arrays(image, depth_m, float(fx), float(fy), float(cx),
+                                               float(cy), normals, str(name), encoding))
+
+    name = property(lambda self: self._core.name)
+    spec = property(lambda self: self._core.spec)
+    width = property(lambda self: self._core.width)
+    height = property(lambda self: self._core.height)
+    image = property(lambda self: self._core.image)
+    depth = property(lambda self: self._core.depth)
+    normals = property(lambda self: self._core.normals)
+    range = property(lambda self: self._core.range)
+    camera = property(lambda self: self._core.camera)
+
+    def __repr__(self):
+        return "turbid.Scene(%r, %dx%d)" % (self.name, self.width, self.height)
+
+
+class RenderResult:
+    """What :func:`render` returns. ``image``: the degraded image I (float32 RGB [0, 1], quantised
+    as the camera's bit depth says); ``lit``: J = (E_A + E_L) rho, the lit ground truth; ``maps``:
+    dict of the requested maps (transmission, light, veil, psf, noise); ``sidecar``: the dict the
+    CLI writes as OUT.json; ``plan``: what was computed and skipped. Arrays are converted on first
+    access."""
+
+    def __init__(self, core, maps):
+        self._core = core
+        self._names = maps
+        self._cache = {}
+
+    def _get(self, key, make):
+        if key not in self._cache:
+            self._cache[key] = make()
+        return self._cache[key]
+
+    image = property(lambda self: self._get("image", self._core.image))
+    lit = property(lambda self: self._get("lit", self._core.lit))
+    maps = property(lambda self: self._get(
+        "maps", lambda: {n: self._core.map(n) for n in self._names}))
+    sidecar = property(lambda self: self._get("sidecar", lambda: _json.loads(self._core.sidecar())))
+    plan = property(lambda self: self._core.plan())
+
+
+def _dumps(value, what):
+    if value is None:
+        return "{}"
+    if isinstance(value, (str, bytes, _os.PathLike)):
+        raise ValueError("%s: a dict of parameters, not a %s" % (what, type(value).__name__))
+    try:
+        return _json.dumps(value, allow_nan=False)
+    except (TypeError, ValueError) as e:
+        raise ValueError("%s: not JSON-serialisable: %s" % (what, e)) from None
+
+
+def _map_list(maps):
+    if maps is None:
+        return []
+    if isinstance(maps, str):
+        maps = [m for m in maps.split(",") if m]
+    return [str(m) for m in maps]
+
+
+def render(scene, params=None, seed=None, maps=None):
+    """Degrade ``scene`` with the forward model (paper eq. 2), as ``turbid render``.
+
+    ``params``: dict in the CLI's JSON schema (docs/model.md), e.g.
+    ``{"water": {"type": "II"}, "psf": {"forward_scatter": 0.5}}``; unknown keys and bad values
+    raise ValueError with the CLI's message. ``seed`` overrides ``params["seed"]`` (noise, snow).
+    ``maps``: any of "transmission", "light", "veil", "psf", "noise". Returns a RenderResult."""
+    if not isinstance(scene, Scene):
+        raise ValueError("scene: a turbid.Scene, not a %s" % type(scene).__name__)
+    names = _map_list(maps)
+    core = _turbid.render(scene._core, _dumps(params, "params"),
+                          None if seed is None else int(seed), ",".join(names))
+    return RenderResult(core, names)
+
+
+def enhance(image, method, params=None, sidecar=None, scene=None, encoding=None):
+    """Enhance ``image`` (RGB or gray) with a registered method (see :func:`methods`), as
+    ``turbid enhance``. ``params``: the method's parameters (dict); ``sidecar``: a render's sidecar
+    dict (the oracle needs it; ``full`` reads the lights from it); ``scene``: a Scene giving the
+    geometry (else the one the sidecar names, for methods that need geometry). Returns float32."""
+    if scene is not None and not isinstance(scene, Scene):
+        raise ValueError("scene: a turbid.Scene, not a %s" % type(scene).__name__)
+    return _turbid.enhance(image, str(method), _dumps(params, "params"),
+                           None if sidecar is None else _dumps(sidecar, "sidecar"),
+                           None if scene is None else scene._core, encoding)
+
+
+def methods():
+    """The enhancement methods: list of dicts (name, summary, source, needs_geometry,
+    needs_sidecar, privileged, params {name: default}, param_docs)."""
+    return _json.loads(_turbid.methods())
+
+
+def score(image, ref=None, original=None, metrics=None):
+    """Metrics of ``image`` against ``ref`` (full-reference) and/or ``original`` (the degraded
+    input, for visible-edge metrics), as ``turbid score`` computes them for files holding these
+    values: uint8 / uint16 arrays are scored on their raw values (data range 255 / 65535), float32
+    on [0, 1]. ``metrics``: list of names or "all" (default: ssim, psnr with ``ref``, else cnr).
+    Returns {name: float}."""
+    if metrics is None:
+        text = ""
+    elif isinstance(metrics, str):
+        text = metrics
+    else:
+        text = ",".join(str(m) for m in metrics)
+    return dict(_turbid.score(image, ref, original, text))
+
+
+def metrics():
+    """The metrics: list of dicts (name, summary, needs_reference, needs_original,
+    higher_is_better)."""
+    return _json.loads(_turbid.metrics())
+
+
+def match_features(a, b, detector="orb"):
+    """Feature matching between two images (the paper's criterion, as ``turbid score --pairs``):
+    detector "orb", "akaze" or "sift". Returns dict keypoints_a, keypoints_b, correspondences,
+    inliers, active."""
+    return _json.loads(_turbid.match_features(a, b, str(detector)))
+
+
+def generate(config, out, threads=None):
+    """``turbid generate``: render a dataset (config dict or JSON path; docs/cli/render.md) into
+    folder ``out`` (resumable). ``threads``: default all cores; the bytes do not depend on it."""
+    threads = (_os.cpu_count() or 1) if threads is None else int(threads)
+    _turbid.generate(config, _os.fspath(out), threads)
+
+
+def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True):
+    """``turbid sweep``: run an experiment (dict or JSON path; docs/experiments.md) into ``out``
+    (rerun to resume). Returns the summary dict (items_total, ran, already_done, ...)."""
+    return _json.loads(_turbid.sweep(experiment, _os.fspath(out), int(threads), str(shard),
+                                     bool(force), bool(reuse)))
+
+
+def default_params():
+    """Every render parameter with its default (the sidecar's "options" object)."""
+    return _json.loads(_turbid.default_params())
+
+
+def resolve_params(params):
+    """``params`` with every default filled in and checked (raises ValueError as render does)."""
+    return _json.loads(_turbid.resolve_params(_dumps(params, "params")))
+
+
+def read_image(path, encoding="linear"):
+    """Read an image file as turbid does (float32, RGB, integer files scaled to [0, 1] and decoded
+    with the sRGB curve when ``encoding="srgb"``)."""
+    return _turbid.read_image(_os.fspath(path), str(encoding))
+
+
+def write_image(path, image, bit_depth=8, encoding="linear", overwrite=False):
+    """Write a float32 RGB/gray image: .png (8/16-bit), .exr or .pfm, as the CLI writes them."""
+    _turbid.write_image(_os.fspath(path), image, int(bit_depth), str(encoding), bool(overwrite))
+
+
+from . import data  # noqa: E402,F401  (turbid.data: on-the-fly training data)
