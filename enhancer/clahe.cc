@@ -137,10 +137,86 @@ cv::Mat BinIndices(const cv::Mat& gray, int bins) {
 }
 
 // Tile mappings (tiles_y * tiles_x rows of `bins` floats) from bin indices of the unpadded image.
+// The target's quantile at cumulative fraction `frac` in [0, 1] (adapthisteq's makeMapping), with
+// the per-tile constants computed once.
+struct TargetQuantile {
+  ClaheDistribution distribution;
+  double alpha, hconst, rayleigh_vmax, exponential_vmax;
+  TargetQuantile(ClaheDistribution d, double a)
+      : distribution(d),
+        alpha(a),
+        hconst(2.0 * a * a),
+        rayleigh_vmax(1.0 - std::exp(-1.0 / (2.0 * a * a))),
+        exponential_vmax(1.0 - std::exp(-a)) {}
+  double operator()(double frac) const {
+    const double one_minus_eps = 1.0 - std::numeric_limits<double>::epsilon();
+    switch (distribution) {
+      case ClaheDistribution::kUniform:
+        return std::min(frac, 1.0);
+      case ClaheDistribution::kRayleigh: {
+        double val = rayleigh_vmax * frac;
+        if (val >= 1.0) val = one_minus_eps;
+        return std::min(std::sqrt(-hconst * std::log(1.0 - val)), 1.0);
+      }
+      case ClaheDistribution::kExponential: {
+        double val = exponential_vmax * frac;
+        if (val >= 1.0) val = one_minus_eps;
+        return std::min(-1.0 / alpha * std::log(1.0 - val), 1.0);
+      }
+    }
+    return frac;
+  }
+};
+
+// adapthisteq's clipHistogram, in place (see ClaheMapHistogram).
+void ClipHistogram(const ClaheOptions& o, std::vector<int>& hist, int pixels);
+// makeMapping: the clipped histogram's cumulative fractions shaped by `target`.
+std::vector<float> ShapeMapping(const TargetQuantile& target, const std::vector<int>& clipped,
+                                int pixels) {
+  std::vector<float> map(clipped.size());
+  long long sum = 0;
+  const double inv = 1.0 / pixels;
+  for (size_t b = 0; b < clipped.size(); ++b) {
+    sum += clipped[b];
+    map[b] = static_cast<float>(target(sum * inv));
+  }
+  return map;
+}
+
+// keep_mean: the pixels' cumulative fractions on a grid of kMeanGrid steps (pixel counts per grid
+// point), so the mapped mean for a candidate alpha costs kMeanGrid + 1 quantiles, not one per
+// tile and bin. Quantising the fraction to 1/4096 moves the mean by < 1e-3.
+constexpr int kMeanGrid = 4096;
+double GridMean(const TargetQuantile& target, const std::vector<double>& weight, double total) {
+  double acc = 0.0;
+  for (int k = 0; k <= kMeanGrid; ++k) {
+    if (weight[k] != 0.0) acc += weight[k] * target(static_cast<double>(k) / kMeanGrid);
+  }
+  return acc / total;
+}
+
+// The alpha (bisection on log alpha in [1e-3, 1e3]) whose mapped mean is `mean`: the truncated
+// Rayleigh target grows stochastically with alpha, the truncated exponential shrinks.
+double AlphaForMappedMean(ClaheDistribution d, const std::vector<double>& weight, double total,
+                          double mean) {
+  double lo = std::log(1e-3), hi = std::log(1e3);
+  const bool rising = d == ClaheDistribution::kRayleigh;
+  for (int i = 0; i < 48; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    const double got = GridMean(TargetQuantile(d, std::exp(mid)), weight, total);
+    if ((got < mean) == rising) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return std::exp(0.5 * (lo + hi));
+}
+
 // Each tile's histogram is counted into four interleaved sub-histograms (consecutive pixels
 // often share a bin; separate counters avoid a store-to-load dependency per pixel).
 template <typename Index>
-cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) {
+cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, ClaheStats* stats) {
   cv::Mat maps(o.tiles_y * o.tiles_x, o.bins, CV_32F);
   std::vector<int> row_src(p.padded_h), col_src(p.padded_w);
   for (int y = 0; y < p.padded_h; ++y) row_src[y] = SymmetricIndex(y - p.pre_y, idx.rows);
@@ -149,6 +225,13 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) {
   const int bins = o.bins;
   std::vector<int> sub(static_cast<size_t>(o.tiles_x) * 4 * bins);
   std::vector<int> hist(bins);
+  // keep_mean: the clipped histograms wait for alpha; the pixel counts go onto the fraction grid.
+  const bool match = o.keep_mean && o.distribution != ClaheDistribution::kUniform;
+  std::vector<int> clipped;
+  std::vector<double> weight(match ? kMeanGrid + 1 : 0);
+  if (match) clipped.resize(static_cast<size_t>(o.tiles_y) * o.tiles_x * bins);
+  const TargetQuantile fixed(o.distribution, o.alpha);
+  double bin_sum = 0.0, mapped_sum = 0.0;
   for (int ty = 0; ty < o.tiles_y; ++ty) {
     std::fill(sub.begin(), sub.end(), 0);
     for (int y = ty * p.tile_h; y < (ty + 1) * p.tile_h; ++y) {
@@ -181,15 +264,53 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) {
       for (int b = 0; b < bins; ++b) {
         hist[b] = h0[b] + h0[bins + b] + h0[2 * bins + b] + h0[3 * bins + b];
       }
-      std::vector<float> m = ClaheMapHistogram(o, hist, pixels);
-      std::copy(m.begin(), m.end(), maps.ptr<float>(ty * o.tiles_x + tx));
+      for (int b = 0; b < bins; ++b) bin_sum += static_cast<double>(b) * hist[b];
+      if (!match) {
+        std::vector<int> counts = hist;
+        ClipHistogram(o, hist, pixels);
+        const std::vector<float> m = ShapeMapping(fixed, hist, pixels);
+        for (int b = 0; b < bins; ++b) mapped_sum += static_cast<double>(counts[b]) * m[b];
+        std::copy(m.begin(), m.end(), maps.ptr<float>(ty * o.tiles_x + tx));
+        continue;
+      }
+      int* c = clipped.data() + static_cast<size_t>(ty * o.tiles_x + tx) * bins;
+      std::copy(hist.begin(), hist.end(), c);
+      std::vector<int> tile(c, c + bins);
+      ClipHistogram(o, tile, pixels);
+      long long sum = 0;
+      for (int b = 0; b < bins; ++b) {
+        sum += tile[b];
+        const int k = static_cast<int>(std::lround(static_cast<double>(sum) * kMeanGrid / pixels));
+        weight[std::min(k, kMeanGrid)] += hist[b];
+        c[b] = tile[b];
+      }
     }
   }
+  const double total = static_cast<double>(pixels) * o.tiles_x * o.tiles_y;
+  ClaheStats st;
+  st.input_mean = bin_sum / (static_cast<double>(bins - 1) * total);
+  st.alpha = o.distribution == ClaheDistribution::kUniform ? 0.0 : o.alpha;
+  if (match) {
+    st.target_mean = std::max(st.input_mean, o.min_mean);
+    st.alpha = AlphaForMappedMean(o.distribution, weight, total, st.target_mean);
+    const TargetQuantile chosen(o.distribution, st.alpha);
+    for (int t = 0; t < o.tiles_x * o.tiles_y; ++t) {
+      const int* c = clipped.data() + static_cast<size_t>(t) * bins;
+      const std::vector<float> m = ShapeMapping(chosen, std::vector<int>(c, c + bins), pixels);
+      std::copy(m.begin(), m.end(), maps.ptr<float>(t));
+    }
+    st.mapped_mean = GridMean(chosen, weight, total);
+  } else {
+    st.mapped_mean = mapped_sum / total;
+  }
+  if (stats) *stats = st;
   return maps;
 }
 
-cv::Mat Mappings(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) {
-  return idx.depth() == CV_8U ? MappingsT<uint8_t>(o, idx, p) : MappingsT<uint16_t>(o, idx, p);
+cv::Mat Mappings(const ClaheOptions& o, const cv::Mat& idx, const Padding& p,
+                 ClaheStats* stats = nullptr) {
+  return idx.depth() == CV_8U ? MappingsT<uint8_t>(o, idx, p, stats)
+                              : MappingsT<uint16_t>(o, idx, p, stats);
 }
 
 // Per output coordinate: the two neighbouring tiles and the weight of the second (adapthisteq's
@@ -303,8 +424,9 @@ void Interpolate(const float* pairs, const uint16_t* b, const int* lo, const flo
 }
 
 template <typename Index>
-cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) {
-  const cv::Mat maps = Mappings(o, idx, p);
+cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p,
+                   ClaheStats* stats) {
+  const cv::Mat maps = Mappings(o, idx, p, stats);
   const Interp iy = Interpolation(idx.rows, p.pre_y, p.tile_h, o.tiles_y);
   const Interp ix = Interpolation(idx.cols, p.pre_x, p.tile_w, o.tiles_x);
   const int bins = o.bins;
@@ -333,13 +455,14 @@ cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p) 
   return out;
 }
 
-cv::Mat ClaheFromIndices(const ClaheOptions& o, const cv::Mat& idx) {
+cv::Mat ClaheFromIndices(const ClaheOptions& o, const cv::Mat& idx, ClaheStats* stats) {
   const Padding p = ComputePadding(o, idx.rows, idx.cols);
-  return idx.depth() == CV_8U ? ClaheGrayT<uint8_t>(o, idx, p) : ClaheGrayT<uint16_t>(o, idx, p);
+  return idx.depth() == CV_8U ? ClaheGrayT<uint8_t>(o, idx, p, stats)
+                              : ClaheGrayT<uint16_t>(o, idx, p, stats);
 }
 
-cv::Mat ClaheGray(const ClaheOptions& o, const cv::Mat& gray) {
-  return ClaheFromIndices(o, BinIndices(gray, o.bins));
+cv::Mat ClaheGray(const ClaheOptions& o, const cv::Mat& gray, ClaheStats* stats) {
+  return ClaheFromIndices(o, BinIndices(gray, o.bins), stats);
 }
 
 }  // namespace
@@ -381,10 +504,15 @@ bool ClaheOptions::Check(std::string* why) const {
     *why = "alpha must be finite and > 0, got " + std::to_string(alpha);
     return false;
   }
+  if (!std::isfinite(min_mean) || min_mean < 0.0 || min_mean > 0.6) {
+    *why = "min_mean must be in [0, 0.6], got " + std::to_string(min_mean);
+    return false;
+  }
   return true;
 }
 
-std::vector<float> ClaheMapHistogram(const ClaheOptions& o, std::vector<int> hist, int pixels) {
+namespace {
+void ClipHistogram(const ClaheOptions& o, std::vector<int>& hist, int pixels) {
   const int bins = static_cast<int>(hist.size());
   // adapthisteq: clip limit from the normalised value.
   const int min_clip = static_cast<int>(std::ceil(static_cast<double>(pixels) / bins));
@@ -427,40 +555,13 @@ std::vector<float> ClaheMapHistogram(const ClaheOptions& o, std::vector<int> his
       if (!any) break;
     }
   }
+}
+}  // namespace
+
+std::vector<float> ClaheMapHistogram(const ClaheOptions& o, std::vector<int> hist, int pixels) {
+  ClipHistogram(o, hist, pixels);
   // makeMapping: cumulative histogram shaped to the target on the full range [0, 1].
-  std::vector<float> map(bins);
-  long long sum = 0;
-  const double inv = 1.0 / pixels;
-  const double alpha = o.alpha;
-  const double one_minus_eps = 1.0 - std::numeric_limits<double>::epsilon();
-  // Target constants, once per tile (not per bin).
-  const double hconst = 2.0 * alpha * alpha;
-  const double rayleigh_vmax = 1.0 - std::exp(-1.0 / hconst);
-  const double exponential_vmax = 1.0 - std::exp(-alpha);
-  for (int b = 0; b < bins; ++b) {
-    sum += hist[b];
-    const double frac = sum * inv;
-    double v = 0.0;
-    switch (o.distribution) {
-      case ClaheDistribution::kUniform:
-        v = std::min(frac, 1.0);
-        break;
-      case ClaheDistribution::kRayleigh: {
-        double val = rayleigh_vmax * frac;
-        if (val >= 1.0) val = one_minus_eps;
-        v = std::min(std::sqrt(-hconst * std::log(1.0 - val)), 1.0);
-        break;
-      }
-      case ClaheDistribution::kExponential: {
-        double val = exponential_vmax * frac;
-        if (val >= 1.0) val = one_minus_eps;
-        v = std::min(-1.0 / alpha * std::log(1.0 - val), 1.0);
-        break;
-      }
-    }
-    map[b] = static_cast<float>(v);
-  }
-  return map;
+  return ShapeMapping(TargetQuantile(o.distribution, o.alpha), hist, pixels);
 }
 
 cv::Mat ClaheNewBins(const ClaheOptions& options, cv::Size size) {
@@ -476,13 +577,13 @@ void ClaheBinRow(const ClaheOptions& options, const float* row, cv::Mat& bins, i
   if (!ok) throw Error("clahe: image has non-finite values");
 }
 
-cv::Mat ClaheFromBins(const ClaheOptions& options, const cv::Mat& bins) {
+cv::Mat ClaheFromBins(const ClaheOptions& options, const cv::Mat& bins, ClaheStats* stats) {
   ThrowIfInvalid(options, "clahe");
   const int want = options.bins <= 256 ? CV_8UC1 : CV_16UC1;
   if (bins.empty() || bins.type() != want) {
     throw Error("clahe: bin image must come from ClaheNewBins with the same options");
   }
-  return ClaheFromIndices(options, bins);
+  return ClaheFromIndices(options, bins, stats);
 }
 
 cv::Mat ClaheTileMappings(const ClaheOptions& options, const cv::Mat& gray) {
@@ -492,7 +593,7 @@ cv::Mat ClaheTileMappings(const ClaheOptions& options, const cv::Mat& gray) {
   return Mappings(options, BinIndices(gray, options.bins), p);
 }
 
-cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image) {
+cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image, ClaheStats* stats) {
   ThrowIfInvalid(options, "clahe");
   if (image.empty()) throw Error("clahe: empty image");
   if (image.depth() != CV_32F || (image.channels() != 1 && image.channels() != 3)) {
@@ -500,7 +601,7 @@ cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image) {
   }
   if (image.channels() == 1) {
     ValidateGray(image);
-    return ClaheGray(options, image);
+    return ClaheGray(options, image, stats);
   }
   // Colour: equalise Rec. 709 luminance, scale the channels by the luminance ratio (hue kept).
   cv::Mat lum(image.size(), CV_32F);
@@ -513,7 +614,7 @@ cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image) {
   }
   // A non-finite channel makes the luminance non-finite (positive weights summing to 1, so finite
   // values never overflow): ClaheGray's binning throws the same error a separate pass would.
-  const cv::Mat eq = ClaheGray(options, lum);
+  const cv::Mat eq = ClaheGray(options, lum, stats);
   cv::Mat out(image.size(), CV_32FC3);
   for (int y = 0; y < image.rows; ++y) {
     const cv::Vec3f* s = image.ptr<cv::Vec3f>(y);

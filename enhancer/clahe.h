@@ -45,15 +45,35 @@ struct ClaheOptions {
   ClaheDistribution distribution = ClaheDistribution::kRayleigh;
   // Rayleigh / exponential parameter α, > 0 (adapthisteq 'Alpha' 0.4, paper default).
   double alpha = 0.4;
+  // Brightness-keeping target (not in adapthisteq; `full`'s clahe_target_mean): α is chosen per
+  // image, by bisection on log α in [1e-3, 1e3], so that the mean of the mapped bins (each pixel
+  // through its own tile's mapping, before the bilinear blend) equals the mean of the binned
+  // input; `alpha` is then unused. The fixed Rayleigh(0.4) target has a mean near 0.5 whatever
+  // the scene, so it lifts a dark image towards mid-grey. Ignored for the uniform target.
+  bool keep_mean = false;
+  // keep_mean's floor: the mapped mean is max(input mean, min_mean), in [0, 0.6], so an
+  // underexposed image is still brought up to this mean (and no further).
+  double min_mean = 0.0;
 
   bool Check(std::string* why) const;
+};
+
+// What one equalisation did: the target parameter used (keep_mean: the one chosen; 0 for the
+// uniform target), the mean of the binned input (b / (bins - 1) over the padded tiles), the mean
+// aimed at (keep_mean: max(input mean, min_mean); else 0) and the mean of the mapped bins (before
+// the bilinear blend between tiles).
+struct ClaheStats {
+  double alpha = 0.0;
+  double input_mean = 0.0;
+  double target_mean = 0.0;
+  double mapped_mean = 0.0;
 };
 
 // CLAHE of a one-channel CV_32F image (values clamped to [0,1] for binning). Colour images
 // (CV_32FC3) are equalised on luminance (Rec. 709) and the channels rescaled by the luminance
 // ratio (hue kept), as ClaheColor below. Throws Error for empty / non-float / other channel
 // counts / non-finite values, or options failing Check.
-cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image);
+cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image, ClaheStats* stats = nullptr);
 
 // For pipelines that produce their image row by row (no full-size float image before CLAHE):
 // ClaheNewBins allocates the bin-index image (CV_8U for bins <= 256, else CV_16U), ClaheBinRow
@@ -61,7 +81,8 @@ cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image);
 // equalises it. The result equals Clahe(options, image) of the one-channel image those rows form.
 cv::Mat ClaheNewBins(const ClaheOptions& options, cv::Size size);
 void ClaheBinRow(const ClaheOptions& options, const float* row, cv::Mat& bins, int y);
-cv::Mat ClaheFromBins(const ClaheOptions& options, const cv::Mat& bins);
+cv::Mat ClaheFromBins(const ClaheOptions& options, const cv::Mat& bins,
+                      ClaheStats* stats = nullptr);
 
 // The per-tile mapping tables (tiles_y*tiles_x rows, `bins` columns, output values in [0,1]) of
 // a one-channel image after padding: exposed so tests can pin known histograms.

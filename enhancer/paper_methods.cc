@@ -171,6 +171,9 @@ bool FullOptions::Check(std::string* why) const {
   }
   if (light_subsample < 1 || light_subsample > 64)
     return Fail(why, "light_subsample must be in [1, 64]");
+  if (!std::isfinite(clahe_min_mean) || clahe_min_mean < 0 || clahe_min_mean > 0.6) {
+    return Fail(why, "clahe_min_mean must be in [0, 0.6]");
+  }
   if (!std::isfinite(beta_per_m) || beta_per_m < 0 || beta_per_m > 10) {
     return Fail(why, "beta_per_m must be in [0, 10]");
   }
@@ -570,16 +573,20 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
   }
   if (bins.empty()) r->deblurred = current;
 
+  ClaheOptions clahe = o.clahe;
+  clahe.keep_mean = o.clahe_target_mean;
+  clahe.min_mean = o.clahe_min_mean;
+  ClaheStats stats;
   cv::Mat out;
   if (!bins.empty()) {
-    out = ClaheFromBins(o.clahe, bins);  // in [0, 1]
+    out = ClaheFromBins(clahe, bins, &stats);  // in [0, 1]
   } else if (o.contrast && channels == 1) {
     // CLAHE clamps while binning, so the clamped copy is not needed; its output is in [0, 1].
     // Non-finite values (ClampUnit turns NaN into 0) take the general path below.
-    bins = ClaheNewBins(o.clahe, current.size());
+    bins = ClaheNewBins(clahe, current.size());
     try {
-      for (int y = 0; y < current.rows; ++y) ClaheBinRow(o.clahe, current.ptr<float>(y), bins, y);
-      out = ClaheFromBins(o.clahe, bins);
+      for (int y = 0; y < current.rows; ++y) ClaheBinRow(clahe, current.ptr<float>(y), bins, y);
+      out = ClaheFromBins(clahe, bins, &stats);
     } catch (const Error&) {
       out.release();
     }
@@ -587,11 +594,23 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
   if (out.empty()) {
     out = current.clone();
     ClampUnit(out);
-    if (o.contrast) out = Clahe(o.clahe, out);
+    if (o.contrast) out = Clahe(clahe, out, &stats);
     ClampUnit(out);
   }
-  r->steps.push_back(o.contrast ? "contrast: CLAHE " + ClaheDistributionName(o.clahe.distribution)
-                                : "contrast: skipped (off)");
+  if (o.contrast) {
+    r->clahe_alpha = stats.alpha;
+    std::string what = "contrast: CLAHE " + ClaheDistributionName(clahe.distribution);
+    if (clahe.distribution != ClaheDistribution::kUniform) {
+      what += ", alpha " + FormatNumber(stats.alpha);
+      if (clahe.keep_mean) {
+        what += " (chosen for the mean " + FormatNumber(stats.target_mean) + "; mean in " +
+                FormatNumber(stats.input_mean) + ")";
+      }
+    }
+    r->steps.push_back(what);
+  } else {
+    r->steps.push_back("contrast: skipped (off)");
+  }
   return out;
 }
 
@@ -799,6 +818,7 @@ FullOptions FullVariantDefaults(const std::string& variant) {
     o.denoise_adaptive = false;
     o.keep_detail = 0;
     o.exposure_percentile = 0;
+    o.clahe_target_mean = false;
   } else if (variant == "full_matched") {
     o.beta_source = "auto";
   } else if (variant == "full_physical") {
@@ -848,6 +868,10 @@ FullOptions FullOptionsFromJson(const nlohmann::json& params, const std::string&
   b.Bind("nsr", &o.deconvolution.nsr);
   b.Bind("iterations", &o.deconvolution.iterations);
   b.Bind("contrast", &o.contrast);
+  // An alpha the user names is the alpha they want, unless clahe_target_mean says otherwise.
+  if (params.is_object() && params.contains("clahe_alpha")) o.clahe_target_mean = false;
+  b.Bind("clahe_target_mean", &o.clahe_target_mean);
+  b.Bind("clahe_min_mean", &o.clahe_min_mean);
   std::string dist = ClaheDistributionName(o.clahe.distribution);
   BindClahe(b, "clahe_", &o.clahe, &dist);
   b.FinishKeys();
@@ -956,6 +980,11 @@ MethodEntry FullEntry(const std::string& variant) {
       Param("nsr", d.deconvolution.nsr, "Wiener noise-to-signal ratio, [1e-8, 10]"),
       Param("iterations", d.deconvolution.iterations, "Richardson-Lucy iterations, [1, 1000]"),
       Param("contrast", d.contrast, "step 5: CLAHE"),
+      Param("clahe_target_mean", d.clahe_target_mean,
+            "CLAHE alpha chosen so the target's mean equals the image's (brightness kept); "
+            "false: clahe_alpha (naming clahe_alpha implies false)"),
+      Param("clahe_min_mean", d.clahe_min_mean,
+            "floor of the kept mean (an underexposed image is brought up to it), [0, 0.6]"),
   };
   for (MethodParam& p : ClahePar("clahe_", d.clahe)) e.info.params.push_back(p);
   e.run = [variant](const nlohmann::json& params, const EnhanceInput& in) {

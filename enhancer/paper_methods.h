@@ -85,6 +85,18 @@ struct FullOptions {
   DeconvolutionOptions deconvolution;  // Wiener, NSR 0.01
   bool contrast = true;                // step 5 (§III-A.5)
   ClaheOptions clahe;                  // 8x8 tiles, clip 0.01, 256 bins, Rayleigh, alpha 0.4
+  // Brightness-keeping CLAHE target: the Rayleigh / exponential alpha is chosen per image so that
+  // the target distribution's mean equals the mean of the image entering CLAHE
+  // (ClaheAlphaForMean), instead of the fixed clahe.alpha, whose Rayleigh(0.4) target has mean
+  // ~0.5 whatever the scene (it brightens a dark restored room to twice its radiance; docs/
+  // methods.md, "Blind full: choices measured"). false: clahe.alpha as given (the paper). Naming
+  // clahe_alpha in the parameters implies false.
+  bool clahe_target_mean = true;
+  // clahe_target_mean's floor: the target mean is max(mean entering CLAHE, clahe_min_mean). 0.18 is
+  // photographic middle grey (the linear reflectance reflected-light meters are calibrated to):
+  // an underexposed restoration (a dark hull far from a weak light) is brought up to it, no
+  // further; a brighter one keeps its own mean.
+  double clahe_min_mean = 0.18;
   bool Check(std::string* why) const;
 };
 
@@ -110,6 +122,7 @@ struct FullResult {
   // blind estimate, or the range fit's slope, or 1 (physical). Empty when the light step is off.
   std::vector<double> light_scale;
   double exposure_scale = 1.0;     // J_plane was divided by this before deblurring (>= 1)
+  double clahe_alpha = 0.0;        // the CLAHE target parameter used (0 when CLAHE is off)
   cv::Mat dehazed;                 // J_plane (eq. 6), after the exposure scale
   cv::Mat deblurred;               // J_deblur
   std::optional<Plane> plane;

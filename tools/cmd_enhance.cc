@@ -201,6 +201,7 @@ void Run(const EnhanceArgs& a) {
       steps["visible_edges"] = edges;
       steps["light_scale"] = r.light_scale;
       steps["exposure_scale"] = r.exposure_scale;
+      steps["clahe_alpha"] = r.clahe_alpha;
       if (r.plane) {
         steps["plane"] = {{"normal", {r.plane->normal[0], r.plane->normal[1], r.plane->normal[2]}},
                           {"offset_m", r.plane->offset_m},

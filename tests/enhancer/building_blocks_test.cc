@@ -76,6 +76,76 @@ TEST(Clahe, RayleighMappingClosedForm) {
   EXPECT_NEAR(e[0], -std::log(1 - (1 - std::exp(-a)) * 0.5) / a, 1e-6);
 }
 
+// keep_mean: a dark textured image (mean ~0.15, 64x64 so the 8x8 tiles need no padding). The
+// reference mapped mean is computed here from ClaheTileMappings with the alpha the equalisation
+// reports (each pixel through its own tile's mapping), independent of the solver's fraction grid.
+TEST(Clahe, KeepMeanChoosesTheAlphaThatKeepsTheMean) {
+  cv::Mat g(64, 64, CV_32F);
+  cv::RNG rng(5);
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x)
+      g.at<float>(y, x) = static_cast<float>(0.05 + 0.002 * x + 0.001 * y + rng.uniform(0.0, 0.04));
+  double binned = 0.0;
+  for (int y = 0; y < 64; ++y)
+    for (int x = 0; x < 64; ++x) binned += std::round(g.at<float>(y, x) * 255.0) / 255.0;
+  binned /= g.total();
+  auto mapped_mean = [&](const ClaheOptions& o) {
+    const cv::Mat maps = ClaheTileMappings(o, g);
+    double sum = 0.0;
+    for (int y = 0; y < 64; ++y)
+      for (int x = 0; x < 64; ++x) {
+        const int b = static_cast<int>(std::round(g.at<float>(y, x) * 255.0));
+        sum += maps.at<float>((y / 8) * 8 + x / 8, b);
+      }
+    return sum / g.total();
+  };
+  for (ClaheDistribution dist : {ClaheDistribution::kRayleigh, ClaheDistribution::kExponential}) {
+    ClaheOptions o;
+    o.distribution = dist;
+    ClaheStats fixed;
+    const cv::Mat out_fixed = Clahe(o, g, &fixed);
+    EXPECT_DOUBLE_EQ(fixed.alpha, 0.4);
+    EXPECT_NEAR(fixed.input_mean, binned, 1e-12);
+    EXPECT_NEAR(fixed.mapped_mean, mapped_mean(o), 1e-6);
+    o.keep_mean = true;
+    ClaheStats kept;
+    const cv::Mat out = Clahe(o, g, &kept);
+    EXPECT_NEAR(kept.input_mean, binned, 1e-12);
+    EXPECT_NEAR(kept.mapped_mean, binned, 1e-6) << ClaheDistributionName(dist);
+    ClaheOptions check = o;
+    check.keep_mean = false;
+    check.alpha = kept.alpha;
+    EXPECT_NEAR(mapped_mean(check), binned, 1e-3) << ClaheDistributionName(dist);
+    // The image itself (bilinear blend between tiles) keeps its mean within 0.01; the fixed
+    // target lifts it by more than 0.1, so the check can fail.
+    EXPECT_NEAR(cv::mean(out)[0], binned, 0.01) << ClaheDistributionName(dist);
+    if (dist == ClaheDistribution::kRayleigh) {
+      EXPECT_GT(cv::mean(out_fixed)[0] - binned, 0.1);
+    }
+  }
+  // The floor: an image darker than min_mean is brought up to it.
+  ClaheOptions floor;
+  floor.keep_mean = true;
+  floor.min_mean = 0.3;
+  ClaheStats lifted;
+  const cv::Mat up = Clahe(floor, g, &lifted);
+  EXPECT_DOUBLE_EQ(lifted.target_mean, 0.3);
+  EXPECT_NEAR(lifted.mapped_mean, 0.3, 1e-6);
+  EXPECT_NEAR(cv::mean(up)[0], 0.3, 0.01);
+  floor.min_mean = 0.7;
+  std::string why;
+  EXPECT_FALSE(floor.Check(&why));
+  // The uniform target has no parameter: keep_mean changes nothing.
+  ClaheOptions u;
+  u.distribution = ClaheDistribution::kUniform;
+  const cv::Mat a = Clahe(u, g);
+  u.keep_mean = true;
+  ClaheStats su;
+  const cv::Mat b = Clahe(u, g, &su);
+  EXPECT_EQ(cv::norm(a, b, cv::NORM_INF), 0.0);
+  EXPECT_EQ(su.alpha, 0.0);
+}
+
 TEST(Clahe, ConstantImageAndPaddingAndInterpolation) {
   // A constant image: every tile has one full bin; output is the mapping of that bin everywhere.
   ClaheOptions o;

@@ -3,6 +3,7 @@
 // built-in scenes, and the registry's privileged marks for the variants.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -159,6 +160,53 @@ TEST(FullBlind, NeverCollapsesWhereTheLiteralReadingDoes) {
   const RenderResult r = Render(ro, hull);
   const cv::Mat literal = Enhance("full_literal", {}, EnhanceInput{r.image, &hull, &r.sidecar});
   EXPECT_GT(CollapsedTileShare(literal, r.image), 0.5);
+}
+
+// Mean Rec. 709 luminance (BGR order) of an image clamped to [0, 1].
+double LumaMean(const cv::Mat& image) {
+  cv::Mat c;
+  cv::min(cv::max(image, 0.0), 1.0, c);
+  const cv::Scalar m = cv::mean(c);
+  return c.channels() == 1 ? m[0] : 0.0722 * m[0] + 0.7152 * m[1] + 0.2126 * m[2];
+}
+
+// Brightness kept (clahe_target_mean): the CLAHE target's alpha is chosen so that the mapped mean
+// equals the mean of the image entering CLAHE, or middle grey (clahe_min_mean 0.18) when that is
+// darker, so the output's mean luminance stays within a few hundredths of that aim; the fixed
+// Rayleigh(0.4) target lifts the restored scenes above it, so the check can fail. Measured 2026-11-25 (scale 0.25, default
+// render): kept within 0.005 (hull 0.000, seafloor 0.002, room 0.005); fixed +0.10 (hull),
+// +0.12 (seafloor), +0.12 (room).
+TEST(FullBlind, ClaheTargetKeepsTheRestoredBrightness) {
+  BuiltinSceneOptions so;
+  so.scale = 0.25;
+  double worst_fixed = 0.0;
+  for (const char* name : {"hull", "seafloor", "room"}) {
+    const Scene scene = MakeBuiltinScene(name, so);
+    RenderOptions ro;
+    ro.seed = 7;
+    const RenderResult r = Render(ro, scene);
+    for (bool target : {true, false}) {
+      FullOptions o = FullVariantDefaults("full");
+      o.clahe_target_mean = target;
+      const FullResult f = FullEnhanceDetailed(o, r.image, &scene, &r.sidecar);
+      ASSERT_FALSE(f.deblurred.empty());
+      const double before = LumaMean(f.deblurred), after = LumaMean(f.image);
+      std::printf("%s target_mean %d: mean before CLAHE %.3f, after %.3f, alpha %.3f\n", name,
+                  target ? 1 : 0, before, after, f.clahe_alpha);
+      const double aim = std::max(before, o.clahe_min_mean);
+      if (target) {
+        EXPECT_NEAR(after, aim, 0.03) << name;
+      } else {
+        EXPECT_DOUBLE_EQ(f.clahe_alpha, o.clahe.alpha) << name;
+        worst_fixed = std::max(worst_fixed, after - aim);
+      }
+    }
+  }
+  EXPECT_GT(worst_fixed, 0.1);
+  // Naming clahe_alpha selects the fixed target.
+  EXPECT_FALSE(FullOptionsFromJson({{"clahe_alpha", 0.3}}, "full").clahe_target_mean);
+  EXPECT_TRUE(FullOptionsFromJson(nlohmann::json::object(), "full").clahe_target_mean);
+  EXPECT_FALSE(FullVariantDefaults("full_literal").clahe_target_mean);
 }
 
 TEST(FullBlind, PrivilegedVariantsAreMarked) {

@@ -94,7 +94,12 @@ TEST(Full, StepsRecordedAndPlaneFromDvl) {
   FullOptions only;
   only.denoise = only.light = only.dehaze = only.deblur = false;
   const cv::Mat c = FullEnhance(only, r.image, &scene, &r.sidecar);
-  EXPECT_LE(cv::norm(c, Clahe(ClaheOptions{}, r.image), cv::NORM_INF), 1e-6);
+  ClaheOptions kept;
+  kept.keep_mean = true;  // clahe_target_mean, the default
+  EXPECT_LE(cv::norm(c, Clahe(kept, r.image), cv::NORM_INF), 1e-6);
+  only.clahe_target_mean = false;
+  const cv::Mat fixed = FullEnhance(only, r.image, &scene, &r.sidecar);
+  EXPECT_LE(cv::norm(fixed, Clahe(ClaheOptions{}, r.image), cv::NORM_INF), 1e-6);
 }
 
 // With a render sidecar, `full` dehazes with the water that was rendered, per channel (auto);
