@@ -26,6 +26,7 @@ struct SweepArgs {
   bool force = false;
   bool dry_run = false;
   bool no_reuse = false;
+  bool retry_failed = false;
 };
 
 void RunSweepCommand(const SweepArgs& args) {
@@ -36,6 +37,7 @@ void RunSweepCommand(const SweepArgs& args) {
   options.threads = args.threads;
   options.shard = ParseShard(args.shard);
   options.force = args.force;
+  options.retry_failed = args.retry_failed;
   options.progress = !args.quiet && ShouldShowProgress();
   ThrowIfInvalid(options, "sweep");
   if (args.dry_run) {
@@ -52,19 +54,22 @@ void RunSweepCommand(const SweepArgs& args) {
   HarnessRunnerOptions runner_options;
   runner_options.reuse = !args.no_reuse;
   HarnessRunner runner(experiment, args.out, runner_options);
-  const SweepSummary summary =
-      RunSweep(experiment, options, [&](const ItemSpec& item) { return runner.Run(item); });
+  const SweepSummary summary = RunSweep(experiment, options, runner.Hooks());
   if (summary.ran == 0 && !summary.tables_written) {
     std::cout << "sweep: nothing to do: all " << summary.items_in_shard << " items of "
               << (options.shard.count > 1 ? "shard " + args.shard : std::string("the sweep"))
               << " are done in " << args.out << "\n";
   } else {
-    std::cout << "sweep: " << summary.ran << " items run, " << summary.already_done
+    std::cout << "sweep: " << summary.ran << " items run";
+    if (summary.retried > 0) std::cout << " (" << summary.retried << " retried)";
+    std::cout << ", " << summary.already_done
               << " already done (" << summary.items_in_shard << " in "
               << (options.shard.count > 1 ? "shard " + args.shard : std::string("the sweep"))
               << ", " << summary.items_total << " in the experiment)";
     if (summary.failed_rows > 0) {
-      std::cout << "; " << summary.failed_rows << " method runs failed (see the error column)";
+      std::cout << "; " << summary.failed_rows
+                << " method runs failed (see the error column; rerun with --retry-failed to "
+                   "retry them)";
     }
     std::cout << "\n";
   }
@@ -161,6 +166,8 @@ void AddHarnessCommands(CLI::App& app) {
   sweep->add_flag("--force", sweep_args->force,
                   "start over when --out holds a different experiment");
   sweep->add_flag("--dry-run", sweep_args->dry_run, "validate and count the items, run nothing");
+  sweep->add_flag("--retry-failed", sweep_args->retry_failed,
+                  "run again the method cells that failed in journaled items");
   sweep->add_flag("--no-reuse", sweep_args->no_reuse,
                   "recompute scene loading, renderer caches and ground-truth scores per item "
                   "(for benchmarks)");
