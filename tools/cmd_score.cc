@@ -621,12 +621,12 @@ void AddScoreCommand(CLI::App& app) {
   cmd->add_flag("--list", args->list, "List the metrics and exit");
   cmd->callback([args]() {
     if (args->list) return ListMetricsCommand();
+    if (!args->results.empty() && args->manifest.empty())
+      throw Error("score: --results needs --manifest DIR/manifest.csv (the dataset)");
     const int modes = (!args->manifest.empty()) + (!args->pairs.empty()) + (!args->images.empty());
     if (modes != 1)
       throw Error(
           "score: give images (with --ref / --original), or --manifest FILE, or --pairs FILE");
-    if (!args->results.empty() && args->manifest.empty())
-      throw Error("score: --results needs --manifest DIR/manifest.csv (the dataset)");
     if (!args->results.empty()) return ScoreResults(*args);
     if (!args->manifest.empty()) return ScoreManifest(*args);
     if (!args->pairs.empty()) return ScorePairs(*args);

@@ -669,7 +669,9 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
           continue;  // not available in this build
         }
       }
-      e.methods.push_back({name, name, json::object()});
+      ExperimentMethod method;
+      method.name = method.label = name;
+      e.methods.push_back(std::move(method));
     }
   }
   for (size_t i = 0; i < listed.size(); ++i) {

@@ -267,17 +267,17 @@ json ParseExternalMethodSpec(const json& method) {
   const char* need_b = batch ? "{output_dir}" : "{output}";
   const char* wrong_a = batch ? "{input}" : "{input_dir}";
   const char* wrong_b = batch ? "{output}" : "{output_dir}";
+  for (const char* wrong : {wrong_a, wrong_b}) {
+    if (CommandHas(command, wrong)) {
+      throw Error(std::string("'command' holds ") + wrong + ", which " +
+                  (batch ? "needs \"batch\": false" : "needs \"batch\": true"));
+    }
+  }
   for (const char* need : {need_a, need_b}) {
     if (!CommandHas(command, need)) {
       throw Error(std::string("'command' must contain ") + need +
                   (batch ? " (\"batch\": true: one process per batch of items)"
                          : " (\"batch\": false: one process per image)"));
-    }
-  }
-  for (const char* wrong : {wrong_a, wrong_b}) {
-    if (CommandHas(command, wrong)) {
-      throw Error(std::string("'command' holds ") + wrong + ", which " +
-                  (batch ? "needs \"batch\": false" : "needs \"batch\": true"));
     }
   }
   int batch_size = 32;

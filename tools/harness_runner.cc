@@ -215,7 +215,33 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
     render = renderer->Render(RenderOptionsFromJson(item.render_options));
   } catch (const Error& error) {
     result.error = std::string("render: ") + error.what();
-    bool batch_pending = false;
+    for (const ExperimentMethod& method : experiment_.methods) {
+      if (!Selected(task, method.label)) continue;
+      result.methods.push_back({method.label, NanMetrics(metric_names_), result.error, 0.0});
+    }
+    return result;
+  }
+  result.render_ms = MillisecondsSince(start_render);
+
+  // Ground truth: the clean rho, or the lit J clipped to the metrics' [0, 1] range.
+  cv::Mat reference = scene->image;
+  if (experiment_.ground_truth == "lit") {
+    cv::min(cv::max(render.lit, 0.0), 1.0, reference);
+    if (!reference_only_metrics_.empty()) {
+      MetricInputs inputs;
+      inputs.image = reference;
+      reference_metrics = ComputeMetrics(reference_only_metrics_, inputs);
+    }
+  }
+  result.reference_metrics = reference_metrics;
+  if (experiment_.thumbnail_width > 0) {
+    WriteThumbnail(thumbs + "/degraded.png", render.image, experiment_.thumbnail_width);
+    if (experiment_.ground_truth == "lit") {
+      WriteThumbnail(thumbs + "/lit.png", reference, experiment_.thumbnail_width);
+    }
+  }
+
+  bool batch_pending = false;
   for (const ExperimentMethod& method : experiment_.methods) {
     if (!Selected(task, method.label)) continue;
     MethodResult row;
