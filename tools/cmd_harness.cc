@@ -1,6 +1,7 @@
 // `turbid sweep`, `turbid merge`, `turbid regress`, `turbid report`: the experiment harness.
 // Reference: docs/cli/harness.md; experiment files: docs/experiments.md.
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 
@@ -122,8 +123,15 @@ void RunRegressCommand(const RegressArgs& args) {
   // RESULTS: a sweep folder (its table of the baseline's kind) or a CSV file.
   std::string results = args.results;
   if (fs::is_directory(results)) {
+    // The baseline's kind from its header (a summary.csv starts "level,method,metric"), else
+    // from its name.
+    std::string header;
+    std::ifstream baseline_in(args.baseline);
+    std::getline(baseline_in, header);
     const bool summary_baseline =
-        fs::path(args.baseline).filename().string().find("summary") != std::string::npos;
+        header.rfind("level,method,metric", 0) == 0 ||
+        (header.empty() &&
+         fs::path(args.baseline).filename().string().find("summary") != std::string::npos);
     results += summary_baseline ? "/summary.csv" : "/items.csv";
     // Metric directions from the sweep's experiment.
     try {
