@@ -2,9 +2,10 @@
 # A real single-node Slurm run of the job scripts in this folder: starts munged, slurmctld and
 # slurmd on localhost (private config, ports, state and sockets in a temporary folder), submits
 # scripts/slurm/submit.sh with N shards of test_experiment.json, requeues one array task while it
-# runs (it must resume from its journal), waits for the dependent merge + report job, runs the
-# same experiment unsharded, and checks that the merged deterministic files equal the unsharded
-# ones byte for byte. Stops every daemon it started, whatever happens.
+# runs (it must resume from its journal), waits for the dependent merge + report + regress job
+# (baseline: the same experiment run unsharded beforehand), and checks that the merged
+# deterministic files equal the unsharded ones byte for byte. Stops every daemon it started,
+# whatever happens.
 #
 # Usage: scripts/slurm/test_local.sh [--bin PATH/turbid] [--shards N] [--keep] [--limit SECONDS]
 # Exit status: 0 passed, 1 failed, 77 skipped (Slurm cannot start here; the reason is printed).
@@ -152,7 +153,12 @@ exp="$tmp/work/test_experiment.json"
 out="$tmp/work/results"
 total=$("$bin" sweep "$exp" --out "$tmp/work/none" --dry-run | grep -o '= [0-9]* items' | cut -d' ' -f2)
 [[ -n "$total" ]] || fail "turbid sweep --dry-run does not print the item count"
-ids=$(cd "$tmp/work" && TURBID_BIN="$bin" bash "$here/submit.sh" "$exp" "$out" "$shards") ||
+# The unsharded reference, outside Slurm, first: its summary is the merge job's regress baseline.
+timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet >"$tmp/log/whole.out" 2>&1 ||
+  fail "the unsharded sweep failed: $(tail -n 1 "$tmp/log/whole.out")"
+note "unsharded sweep done"
+ids=$(cd "$tmp/work" && TURBID_BIN="$bin" TURBID_BASELINE="$tmp/work/whole/summary.csv" \
+  bash "$here/submit.sh" "$exp" "$out" "$shards") ||
   fail "submit.sh failed"
 read -r array merge <<<"$ids"
 note "submitted array job $array (shards 0-$((shards - 1)) of $total items) and merge job $merge"
@@ -207,11 +213,8 @@ for ((i = 0; i < shards; ++i)); do
 done
 note "task $victim restarted $restarts time(s); every shard journaled each of its items once"
 [[ -s "$out/merged/report.html" ]] || fail "the merge job wrote no report"
+grep -q "regress: OK" "$out"/logs/merge-*.out || fail "the merge job's regress did not pass"
 
-# The unsharded reference, outside Slurm.
-timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet >"$tmp/log/whole.out" 2>&1 ||
-  fail "the unsharded sweep failed: $(tail -n 1 "$tmp/log/whole.out")"
-note "unsharded sweep done"
 for f in experiment.json items.csv items.jsonl summary.md summary.csv; do
   cmp -s "$out/merged/$f" "$tmp/work/whole/$f" || fail "merged $f differs from the unsharded run's"
 done
