@@ -1,7 +1,11 @@
 #!/usr/bin/env bash
 # Installs turbid's build and test dependencies from Debian 12 packages, only what is missing.
-# Usage: scripts/install_deps.sh [--test]   (--test adds what the test suite needs: chromium, and
-# python3-torch for the DataLoader test of the Python package)
+# Usage: scripts/install_deps.sh [--test] [--slurm]
+#   --test   adds what the test suite needs: chromium, and python3-torch for the DataLoader test of
+#            the Python package
+#   --slurm  adds slurm-wlm and munge for the single-node Slurm test (scripts/slurm/test_local.sh,
+#            ctest slurm/local_array; it skips, saying why, when they are missing). Opt-in: CI
+#            does not need it.
 set -euo pipefail
 
 packages=(
@@ -12,9 +16,13 @@ packages=(
   gnuplot-nox
   python3-pybind11 python3-numpy python3-pytest
 )
-if [[ "${1:-}" == "--test" ]]; then
-  packages+=(chromium python3-torch)
-fi
+for flag in "$@"; do
+  case "$flag" in
+    --test) packages+=(chromium python3-torch) ;;
+    --slurm) packages+=(slurm-wlm munge) ;;
+    *) echo "usage: $0 [--test] [--slurm]" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${packages[@]}"; do

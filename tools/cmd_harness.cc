@@ -1,6 +1,7 @@
 // `turbid sweep`, `turbid merge`, `turbid regress`, `turbid report`: the experiment harness.
 // Reference: docs/cli/harness.md; experiment files: docs/experiments.md.
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
 
@@ -26,6 +27,7 @@ struct SweepArgs {
   bool force = false;
   bool dry_run = false;
   bool no_reuse = false;
+  bool retry_failed = false;
 };
 
 void RunSweepCommand(const SweepArgs& args) {
@@ -36,6 +38,7 @@ void RunSweepCommand(const SweepArgs& args) {
   options.threads = args.threads;
   options.shard = ParseShard(args.shard);
   options.force = args.force;
+  options.retry_failed = args.retry_failed;
   options.progress = !args.quiet && ShouldShowProgress();
   ThrowIfInvalid(options, "sweep");
   if (args.dry_run) {
@@ -52,19 +55,22 @@ void RunSweepCommand(const SweepArgs& args) {
   HarnessRunnerOptions runner_options;
   runner_options.reuse = !args.no_reuse;
   HarnessRunner runner(experiment, args.out, runner_options);
-  const SweepSummary summary =
-      RunSweep(experiment, options, [&](const ItemSpec& item) { return runner.Run(item); });
+  const SweepSummary summary = RunSweep(experiment, options, runner.Hooks());
   if (summary.ran == 0 && !summary.tables_written) {
     std::cout << "sweep: nothing to do: all " << summary.items_in_shard << " items of "
               << (options.shard.count > 1 ? "shard " + args.shard : std::string("the sweep"))
               << " are done in " << args.out << "\n";
   } else {
-    std::cout << "sweep: " << summary.ran << " items run, " << summary.already_done
+    std::cout << "sweep: " << summary.ran << " items run";
+    if (summary.retried > 0) std::cout << " (" << summary.retried << " retried)";
+    std::cout << ", " << summary.already_done
               << " already done (" << summary.items_in_shard << " in "
               << (options.shard.count > 1 ? "shard " + args.shard : std::string("the sweep"))
               << ", " << summary.items_total << " in the experiment)";
     if (summary.failed_rows > 0) {
-      std::cout << "; " << summary.failed_rows << " method runs failed (see the error column)";
+      std::cout << "; " << summary.failed_rows
+                << " method runs failed (see the error column; rerun with --retry-failed to "
+                   "retry them)";
     }
     std::cout << "\n";
   }
@@ -117,8 +123,15 @@ void RunRegressCommand(const RegressArgs& args) {
   // RESULTS: a sweep folder (its table of the baseline's kind) or a CSV file.
   std::string results = args.results;
   if (fs::is_directory(results)) {
+    // The baseline's kind from its header (a summary.csv starts "level,method,metric"), else
+    // from its name.
+    std::string header;
+    std::ifstream baseline_in(args.baseline);
+    std::getline(baseline_in, header);
     const bool summary_baseline =
-        fs::path(args.baseline).filename().string().find("summary") != std::string::npos;
+        header.rfind("level,method,metric", 0) == 0 ||
+        (header.empty() &&
+         fs::path(args.baseline).filename().string().find("summary") != std::string::npos);
     results += summary_baseline ? "/summary.csv" : "/items.csv";
     // Metric directions from the sweep's experiment.
     try {
@@ -161,6 +174,8 @@ void AddHarnessCommands(CLI::App& app) {
   sweep->add_flag("--force", sweep_args->force,
                   "start over when --out holds a different experiment");
   sweep->add_flag("--dry-run", sweep_args->dry_run, "validate and count the items, run nothing");
+  sweep->add_flag("--retry-failed", sweep_args->retry_failed,
+                  "run again the method cells that failed in journaled items");
   sweep->add_flag("--no-reuse", sweep_args->no_reuse,
                   "recompute scene loading, renderer caches and ground-truth scores per item "
                   "(for benchmarks)");

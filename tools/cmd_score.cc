@@ -3,7 +3,12 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
+#include <cmath>
+#include <mutex>
+#include <set>
+#include <thread>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -17,6 +22,8 @@
 #include "scenes/error.h"
 #include "scenes/image_io.h"
 #include "tools/cli.h"
+#include "tools/experiment.h"
+#include "tools/external_method.h"
 #include "tools/metric_image.h"
 #include "tools/tables.h"
 
@@ -170,6 +177,16 @@ std::string FindColumn(const std::vector<std::string>& keys,
   return "";
 }
 
+// A level's position on plot axes: its number, else its rank.
+double ParseValueOr(const std::string& text, int rank) {
+  try {
+    const double value = ParseValue(text);
+    return std::isfinite(value) ? value : rank;
+  } catch (const Error&) {
+    return rank;
+  }
+}
+
 std::string ResolvePath(const std::string& manifest, const std::string& value) {
   const fs::path p(value);
   if (p.is_absolute()) return value;
@@ -192,6 +209,14 @@ struct ScoreArgs {
   bool json = false;
   bool csv = false;
   bool list = false;
+  // --results: a folder of enhanced images scored against a `turbid generate` dataset.
+  std::string results;
+  std::string name;
+  std::string out;
+  std::string level = "beta_gray";
+  std::string encoding = "linear";
+  std::string ground_truth = "clean";
+  int threads = 0;
 };
 
 void ListMetricsCommand() {
@@ -309,6 +334,160 @@ void ScoreManifest(const ScoreArgs& args) {
   PrintRows(metrics, rows, ParseFormat(args.json, args.csv), header, std::cout);
 }
 
+// A results folder against a generate dataset: the enhanced image of item ID is RESULTS/ID.<ext>.
+// Writes a sweep's tables (items.csv, items.jsonl, summary.md, summary.csv) with two methods:
+// `none` (the degraded input as it is) and NAME (the results).
+void ScoreResults(const ScoreArgs& args) {
+  const std::vector<Record> records = ReadManifest(args.manifest);
+  if (records.empty()) throw Error(args.manifest, "manifest has no rows");
+  if (!fs::is_directory(args.results)) throw Error(args.results, "not a folder");
+  const std::string gt_column = args.ground_truth == "lit" ? "lit" : "ground_truth";
+  if (args.ground_truth != "clean" && args.ground_truth != "lit") {
+    throw Error("--ground-truth must be clean or lit, not '" + args.ground_truth + "'");
+  }
+  if (args.encoding != "srgb" && args.encoding != "linear") {
+    throw Error("--encoding must be srgb or linear, not '" + args.encoding + "'");
+  }
+  for (const std::string& column : {std::string("id"), std::string("image"), gt_column,
+                                    args.level}) {
+    if (!records.front().count(column)) {
+      throw Error(args.manifest, "no column '" + column +
+                                     "' (a manifest.csv or manifest.jsonl of `turbid generate`)");
+    }
+  }
+  std::string name = args.name;
+  if (name.empty()) name = fs::path(args.results).lexically_normal().filename().string();
+  if (name.empty()) name = fs::path(args.results).lexically_normal().parent_path().filename().string();
+  const bool safe = !name.empty() && name.size() <= 64 && name != "none" &&
+                    name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                           "0123456789_-") == std::string::npos;
+  if (!safe) {
+    throw Error("--name '" + name + "': need 1-64 characters of [A-Za-z0-9_-], not 'none'");
+  }
+  const std::string out = args.out.empty() ? (fs::path(args.results) / "turbid-score").string()
+                                           : args.out;
+
+  Experiment e;
+  e.name = name;
+  e.description = "results folder " + args.results + " scored against the dataset " +
+                  args.manifest + " (`turbid score --results`)";
+  e.source_path = args.manifest;
+  for (const std::string& metric :
+       ParseMetricList(args.metrics.empty() ? "ssim,psnr" : args.metrics, true, true)) {
+    const MetricInfo& info = FindMetric(metric);
+    e.metrics.push_back(
+        {info.name, info.higher_is_better, info.needs_reference, info.needs_original});
+  }
+  ExperimentMethod identity, scored;
+  identity.name = identity.label = "none";
+  scored.name = scored.label = name;
+  e.methods = {identity, scored};
+  e.best_excludes = {"none"};
+  e.ground_truth = args.ground_truth;
+  e.thumbnail_width = 0;
+  e.level_path = args.level;
+  e.listed_items = static_cast<int>(records.size());
+  std::vector<nlohmann::json> levels;
+  std::set<std::string> seen;
+  for (const Record& record : records) {
+    if (seen.insert(record.at(args.level)).second) levels.push_back(record.at(args.level));
+  }
+  e.grid.emplace_back(args.level, levels);
+  e.scenes.push_back({"", "", "dataset", 1.0});
+  std::vector<std::string> metric_names, reference_only;
+  for (const HarnessMetricInfo& m : e.metrics) {
+    metric_names.push_back(m.name);
+    if (!m.needs_reference && !m.needs_original) reference_only.push_back(m.name);
+  }
+
+  std::vector<ItemResult> items(records.size());
+  std::set<std::string> ids;
+  for (const Record& record : records) {
+    if (!ids.insert(record.at("id")).second) {
+      throw Error(args.manifest, "item id '" + record.at("id") + "' appears twice");
+    }
+  }
+  std::atomic<size_t> next{0};
+  std::mutex error_mutex;
+  std::string first_error;
+  const auto nan_metrics = [&] {
+    std::map<std::string, double> values;
+    for (const std::string& m : metric_names) values[m] = std::nan("");
+    return values;
+  };
+  const auto work = [&] {
+    for (size_t k = next++; k < records.size(); k = next++) {
+      const Record& record = records[k];
+      ItemResult& item = items[k];
+      item.index = static_cast<int>(k);
+      item.id = record.at("id");
+      const size_t underscore = item.id.rfind('_');
+      item.scene = underscore == std::string::npos ? item.id : item.id.substr(0, underscore);
+      item.level = record.at(args.level);
+      item.condition = static_cast<int>(
+          std::find(levels.begin(), levels.end(), nlohmann::json(item.level)) - levels.begin());
+      item.level_value = ParseValueOr(item.level, item.condition);
+      item.params = {{args.level, item.level}};
+      try {
+        const cv::Mat degraded = ReadImage(ResolvePath(args.manifest, record.at("image")));
+        cv::Mat reference = ReadImage(ResolvePath(args.manifest, record.at(gt_column)));
+        if (args.ground_truth == "lit") cv::min(cv::max(reference, 0.0), 1.0, reference);
+        item.width = degraded.cols;
+        item.height = degraded.rows;
+        if (!reference_only.empty()) {
+          MetricInputs inputs;
+          inputs.image = reference;
+          item.reference_metrics = ComputeMetrics(reference_only, inputs);
+        }
+        MetricInputs inputs;
+        inputs.reference = reference;
+        inputs.original = degraded;
+        inputs.image = degraded;
+        MethodResult none{"none", ComputeMetrics(metric_names, inputs), "", std::nan("")};
+        MethodResult row{name, nan_metrics(), "", std::nan("")};
+        try {
+          const std::string path = FindOutputFile(args.results, item.id);
+          if (path.empty()) throw Error("missing results file " + item.id + ".*");
+          inputs.image = ReadMethodOutput(path, args.encoding, degraded);
+          row.metrics = ComputeMetrics(metric_names, inputs);
+        } catch (const std::exception& error) {
+          row.error = error.what();
+        }
+        item.methods = {none, row};
+      } catch (const std::exception& error) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (first_error.empty()) first_error = item.id + ": " + error.what();
+      }
+    }
+  };
+  const int threads = std::max(
+      1, std::min<int>(args.threads > 0 ? args.threads
+                                        : static_cast<int>(std::thread::hardware_concurrency()),
+                       static_cast<int>(records.size())));
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(work);
+  for (std::thread& thread : pool) thread.join();
+  if (!first_error.empty()) throw Error(args.manifest, first_error);
+
+  // Files in RESULTS that belong to no item (a typo in the names shows here).
+  int unmatched = 0;
+  for (const auto& entry : fs::directory_iterator(args.results)) {
+    if (entry.is_regular_file() && !ids.count(entry.path().stem().string())) ++unmatched;
+  }
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  if (ec) throw Error(out, "cannot create the output folder: " + ec.message());
+  WriteTables(e, items, out, /*with_timings=*/false);
+  int failed = 0;
+  for (const ItemResult& item : items) failed += !item.methods[1].error.empty();
+  std::cout << "score: " << items.size() << " items of " << args.manifest << ", " << name
+            << " from " << args.results << ": " << (items.size() - failed) << " scored, "
+            << failed << " failed or missing (see the error column of items.csv)";
+  if (unmatched > 0) std::cout << "; " << unmatched << " files in the folder match no item";
+  std::cout << "\ntables: " << out << "/summary.md, " << out << "/summary.csv, " << out
+            << "/items.csv\n";
+}
+
 // Pairs file: one pair per line, "A,B" or "A B"; '#' comments; an optional header line whose
 // first field is a non-file word like "a", "first", "image_a".
 std::vector<std::pair<std::string, std::string>> ReadPairs(const std::string& path) {
@@ -419,6 +598,21 @@ void AddScoreCommand(CLI::App& app) {
   cmd->add_option("--ref-column", args->ref_column, "Manifest column of the ground truth");
   cmd->add_option("--original-column", args->original_column,
                   "Manifest column of the original degraded image");
+  cmd->add_option("--results", args->results,
+                  "With --manifest: a folder of enhanced images named by item id, scored against "
+                  "the dataset into a sweep's tables");
+  cmd->add_option("--name", args->name, "With --results: the method's name (default: the folder's)");
+  cmd->add_option("--out", args->out,
+                  "With --results: folder for the tables (default: RESULTS/turbid-score)");
+  cmd->add_option("--level", args->level,
+                  "With --results: manifest column that is the tables' level (default beta_gray)");
+  cmd->add_option("--encoding", args->encoding,
+                  "With --results: srgb | linear, how 8/16-bit result files are encoded "
+                  "(default linear, as generate writes)");
+  cmd->add_option("--ground-truth", args->ground_truth,
+                  "With --results: clean (rho, default) | lit (J, clipped to [0, 1])");
+  cmd->add_option("--threads", args->threads, "With --results: worker threads (0 = all cores)")
+      ->check(CLI::Range(0, 1024));
   cmd->add_option("--pairs", args->pairs,
                   "Feature matching over a file of image pairs (one 'A,B' per line)");
   cmd->add_option("--detector", args->detector, "orb | akaze | sift | all (with --pairs)");
@@ -427,10 +621,13 @@ void AddScoreCommand(CLI::App& app) {
   cmd->add_flag("--list", args->list, "List the metrics and exit");
   cmd->callback([args]() {
     if (args->list) return ListMetricsCommand();
+    if (!args->results.empty() && args->manifest.empty())
+      throw Error("score: --results needs --manifest DIR/manifest.csv (the dataset)");
     const int modes = (!args->manifest.empty()) + (!args->pairs.empty()) + (!args->images.empty());
     if (modes != 1)
       throw Error(
           "score: give images (with --ref / --original), or --manifest FILE, or --pairs FILE");
+    if (!args->results.empty()) return ScoreResults(*args);
     if (!args->manifest.empty()) return ScoreManifest(*args);
     if (!args->pairs.empty()) return ScorePairs(*args);
     ScoreAgainstReference(*args);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "scenes/error.h"
+#include "tools/external_method.h"
 
 namespace turbid {
 namespace {
@@ -340,8 +341,10 @@ json Experiment::ToJson() const {
   out["seed_path"] = seed_path;
   json method_list = json::array();
   for (const ExperimentMethod& m : methods) {
-    method_list.push_back(
-        {{"name", m.name}, {"label", m.label}, {"params", m.params}, {"privileged", m.privileged}});
+    json entry = {
+        {"name", m.name}, {"label", m.label}, {"params", m.params}, {"privileged", m.privileged}};
+    if (m.IsExternal()) entry["external"] = m.external;
+    method_list.push_back(entry);
   }
   out["methods"] = method_list;
   json metric_list = json::array();
@@ -398,8 +401,14 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     e.level_bins = in.at("level").at("bins").get<int>();
     e.seed_path = in.at("seed_path").get<std::string>();
     for (const json& m : in.at("methods")) {
-      e.methods.push_back({m.at("name").get<std::string>(), m.at("label").get<std::string>(),
-                           m.at("params"), m.value("privileged", false)});
+      ExperimentMethod method;
+      method.name = m.at("name").get<std::string>();
+      method.label = m.at("label").get<std::string>();
+      method.params = m.at("params");
+      method.privileged = m.value("privileged", false);
+      if (m.contains("external")) method.external = m.at("external");
+      method.base_dir = fs::path(source).parent_path().string();
+      e.methods.push_back(method);
     }
     for (const json& m : in.at("metrics")) {
       e.metrics.push_back({m.at("name").get<std::string>(), m.at("higher_is_better").get<bool>(),
@@ -586,9 +595,19 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
     ExperimentMethod method;
     json object = entry.is_string() ? json{{"name", entry}} : entry;
     if (!object.is_object()) throw Error(file, "each method must be a string or an object");
-    CheckKeys(object, {"name", "label", "params"}, file, "a method");
     if (!object.contains("name") || !object["name"].is_string()) {
       throw Error(file, "each method needs a 'name' string");
+    }
+    if (IsExternalMethodObject(object)) {
+      // A user's program or a results folder (docs/experiments.md, "External methods").
+      try {
+        method.external = ParseExternalMethodSpec(object);
+      } catch (const Error& error) {
+        throw Error(file, "method '" + object["name"].get<std::string>() + "': " + error.what());
+      }
+      method.base_dir = fs::path(file).parent_path().string();
+    } else {
+      CheckKeys(object, {"name", "label", "params"}, file, "a method");
     }
     method.name = object["name"].get<std::string>();
     method.label = object.contains("label") && object["label"].is_string()
@@ -604,7 +623,11 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
       throw Error(file,
                   "method label '" + method.label + "' must be 1-64 characters of [A-Za-z0-9_-]");
     }
-    if (method.name == catalog.identity_method) {
+    if (method.IsExternal()) {
+      if (method.name == catalog.identity_method) {
+        throw Error(file, "method name '" + method.name + "' is reserved for the degraded input");
+      }
+    } else if (method.name == catalog.identity_method) {
       if (!method.params.empty()) {
         throw Error(file, "method '" + method.name + "' (the degraded input) takes no params");
       }
@@ -627,7 +650,7 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
   // Reference rows (identity, oracle) first in the catalog's order, listed or added; then the
   // listed methods in their order.
   const auto is_plain = [](const ExperimentMethod& m, const std::string& name) {
-    return m.name == name && m.label == name && m.params.empty();
+    return m.name == name && m.label == name && m.params.empty() && !m.IsExternal();
   };
   std::vector<bool> placed(listed.size(), false);
   if (add_reference_rows) {
@@ -646,14 +669,17 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
           continue;  // not available in this build
         }
       }
-      e.methods.push_back({name, name, json::object()});
+      ExperimentMethod method;
+      method.name = method.label = name;
+      e.methods.push_back(std::move(method));
     }
   }
   for (size_t i = 0; i < listed.size(); ++i) {
     if (!placed[i]) e.methods.push_back(listed[i]);
   }
   for (ExperimentMethod& method : e.methods) {
-    if (method.name != catalog.identity_method && catalog.is_privileged) {
+    // External methods see only the degraded image: never privileged.
+    if (method.name != catalog.identity_method && !method.IsExternal() && catalog.is_privileged) {
       method.privileged = catalog.is_privileged(method.name, method.params);
     }
   }

@@ -62,6 +62,14 @@ struct ExperimentMethod {
   // Receives true simulation parameters (the registry's IsPrivileged for name + params): marked
   // with a dagger in tables and the report, never marked best.
   bool privileged = false;
+  // An external method (a program or a results folder, tools/external_method.h): its resolved
+  // spec as saved in experiment.json; null for registry methods.
+  nlohmann::json external;
+  // The experiment file's folder: relative 'cwd' and 'results' paths resolve against it (not
+  // saved: shards on other machines resolve it themselves).
+  std::string base_dir;
+  bool IsExternal() const { return !external.is_null(); }
+  bool IsBatch() const { return IsExternal() && external.value("batch", false); }
 };
 
 // One randomly sampled parameter. Values are drawn from a counter-based generator keyed by
@@ -97,7 +105,12 @@ struct Experiment {
   int thumbnail_width = 160;  // thumbnails saved during the sweep for the report (0: none)
 
   int ConditionCount() const;  // grid points x max(1, sample_count)
-  int ItemCount() const { return ConditionCount() * static_cast<int>(scenes.size()); }
+  // > 0: the items are listed, not expanded from the grid (a dataset scored by `turbid score
+  // --results`); ItemCount() returns it.
+  int listed_items = 0;
+  int ItemCount() const {
+    return listed_items > 0 ? listed_items : ConditionCount() * static_cast<int>(scenes.size());
+  }
   // The resolved experiment as canonical JSON: what is saved as DIR/experiment.json and compared
   // on resume and merge.
   nlohmann::json ToJson() const;

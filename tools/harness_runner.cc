@@ -1,5 +1,6 @@
 #include "tools/harness_runner.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -14,6 +15,7 @@
 #include "scenes/image_io.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
+#include "tools/external_method.h"
 
 namespace turbid {
 namespace {
@@ -30,6 +32,41 @@ std::map<std::string, double> NanMetrics(const std::vector<std::string>& names) 
   std::map<std::string, double> out;
   for (const std::string& name : names) out[name] = std::nan("");
   return out;
+}
+
+bool Selected(const ItemTask& task, const std::string& label) {
+  return task.only.empty() || std::find(task.only.begin(), task.only.end(), label) != task.only.end();
+}
+
+// A path of the experiment file (relative to its folder), made absolute.
+std::string ResolveAgainst(const std::string& base_dir, const std::string& path) {
+  const fs::path p(path);
+  if (p.is_absolute()) return path;
+  return fs::absolute(fs::path(base_dir.empty() ? "." : base_dir) / p).lexically_normal().string();
+}
+
+// Reads a method's output; errors name the file as `shown` (work folders are deleted).
+cv::Mat ReadOutput(const std::string& path, const std::string& shown, const std::string& encoding,
+                   const cv::Mat& degraded) {
+  try {
+    return ReadMethodOutput(path, encoding, degraded);
+  } catch (const Error& error) {
+    std::string message = error.what();
+    if (message.rfind(path, 0) == 0) message = shown + message.substr(path.size());
+    throw Error(message);
+  }
+}
+
+// Working directory, environment and timeout of an external command method.
+ProcessOptions ProcessFor(const ExperimentMethod& method) {
+  const nlohmann::json& spec = method.external;
+  ProcessOptions process;
+  process.cwd = ResolveAgainst(method.base_dir, spec.at("cwd").get<std::string>());
+  for (const auto& [name, value] : spec.at("env").items()) {
+    process.env[name] = value.get<std::string>();
+  }
+  process.timeout_s = spec.at("timeout_s").get<double>();
+  return process;
 }
 
 Scene LoadExperimentScene(const ExperimentScene& scene) {
@@ -86,6 +123,11 @@ HarnessCatalog RegistryCatalog() {
 
 bool HarnessRunnerOptions::Check(std::string* /*why*/) const { return true; }
 
+struct HarnessRunner::Pending {
+  cv::Mat degraded;
+  cv::Mat reference;
+};
+
 struct HarnessRunner::SceneContext {
   std::once_flag once;
   std::exception_ptr error;
@@ -135,7 +177,10 @@ HarnessRunner::SceneContext& HarnessRunner::Context(int scene_index) const {
   return context;
 }
 
-ItemResult HarnessRunner::Run(const ItemSpec& item) const {
+ItemResult HarnessRunner::Run(const ItemSpec& item) const { return Run(ItemTask{&item, {}}); }
+
+ItemResult HarnessRunner::Run(const ItemTask& task) const {
+  const ItemSpec& item = *task.spec;
   const ExperimentScene& scene_spec = experiment_.scenes[static_cast<size_t>(item.scene_index)];
   // Without reuse every item starts from nothing: load, a fresh renderer, ground-truth scores.
   std::unique_ptr<SceneContext> fresh;
@@ -171,6 +216,7 @@ ItemResult HarnessRunner::Run(const ItemSpec& item) const {
   } catch (const Error& error) {
     result.error = std::string("render: ") + error.what();
     for (const ExperimentMethod& method : experiment_.methods) {
+      if (!Selected(task, method.label)) continue;
       result.methods.push_back({method.label, NanMetrics(metric_names_), result.error, 0.0});
     }
     return result;
@@ -195,14 +241,26 @@ ItemResult HarnessRunner::Run(const ItemSpec& item) const {
     }
   }
 
+  bool batch_pending = false;
   for (const ExperimentMethod& method : experiment_.methods) {
+    if (!Selected(task, method.label)) continue;
     MethodResult row;
     row.label = method.label;
+    if (method.IsBatch()) {
+      // Run once for the whole batch by FinishBatch; this row is replaced there.
+      row.metrics = NanMetrics(metric_names_);
+      row.error = "batch method not run";
+      batch_pending = true;
+      result.methods.push_back(std::move(row));
+      continue;
+    }
     cv::Mat enhanced;
     const auto start = Clock::now();
     try {
-      if (method.name == "none") {
+      if (method.name == "none" && !method.IsExternal()) {
         enhanced = render.image;
+      } else if (method.IsExternal()) {
+        enhanced = RunExternal(method, item.id, render.image, &row.time_ms);
       } else {
         EnhanceInput input;
         input.image = render.image;
@@ -210,15 +268,9 @@ ItemResult HarnessRunner::Run(const ItemSpec& item) const {
         input.sidecar = &render.sidecar;
         enhanced = Enhance(method.name, method.params, input);
       }
-      row.time_ms = MillisecondsSince(start);
-      MetricInputs inputs;
-      inputs.reference = reference;
-      inputs.image = enhanced;
-      inputs.original = render.image;
-      row.metrics = ComputeMetrics(metric_names_, inputs);
-      if (experiment_.thumbnail_width > 0 && method.name != "none") {
-        WriteThumbnail(thumbs + "/" + method.label + ".png", enhanced, experiment_.thumbnail_width);
-      }
+      if (!method.IsExternal()) row.time_ms = MillisecondsSince(start);
+      Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
+            reference, render.image, &row);
     } catch (const std::exception& error) {
       if (row.time_ms == 0.0) row.time_ms = MillisecondsSince(start);
       row.error = error.what();
@@ -226,7 +278,192 @@ ItemResult HarnessRunner::Run(const ItemSpec& item) const {
     }
     result.methods.push_back(std::move(row));
   }
+  if (batch_pending) {
+    auto pending = std::make_unique<Pending>();
+    pending->degraded = render.image;
+    pending->reference = reference;
+    std::lock_guard<std::mutex> lock(pending_mutex_);
+    pending_[item.id] = std::move(pending);
+  }
   return result;
+}
+
+void HarnessRunner::Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,
+                          const cv::Mat& reference, const cv::Mat& degraded,
+                          MethodResult* row) const {
+  MetricInputs inputs;
+  inputs.reference = reference;
+  inputs.image = enhanced;
+  inputs.original = degraded;
+  row->metrics = ComputeMetrics(metric_names_, inputs);
+  if (experiment_.thumbnail_width > 0 && !label.empty()) {
+    WriteThumbnail(out_dir_ + "/thumbs/" + id + "/" + label + ".png", enhanced,
+                   experiment_.thumbnail_width);
+  }
+}
+
+cv::Mat HarnessRunner::RunExternal(const ExperimentMethod& method, const std::string& id,
+                                   const cv::Mat& degraded, double* time_ms) const {
+  const nlohmann::json& spec = method.external;
+  if (spec.at("kind") == "results") {
+    *time_ms = std::nan("");  // nothing ran
+    const std::string pattern = spec.at("results").get<std::string>();
+    const std::string written = ExpandCommand(nlohmann::json::array({pattern}), {{"id", id}})[0];
+    const std::string path = ResolveAgainst(method.base_dir, written);
+    if (!fs::exists(path)) throw Error("missing results file " + written);
+    return ReadOutput(path, written, spec.at("encoding").get<std::string>(), degraded);
+  }
+  const std::string folder = out_dir_ + "/external/" + method.label;
+  const std::string work = fs::absolute(folder + "/work-" + id).string();
+  std::error_code ec;
+  fs::remove_all(work, ec);
+  fs::create_directories(work + "/in", ec);
+  fs::create_directories(work + "/out", ec);
+  if (ec) throw Error(work, "cannot create the work folder: " + ec.message());
+  const std::string input = work + "/in/" + id + InputExtension(spec);
+  const std::string output = work + "/out/" + id + OutputExtension(spec);
+  WriteMethodInput(input, degraded, spec.at("input"));
+  ProcessOptions process = ProcessFor(method);
+  process.argv = ExpandCommand(spec.at("command"),
+                               {{"input", input}, {"output", output}, {"id", id}});
+  process.log_path = folder + "/" + id + ".log";
+  const ProcessResult ran = RunProcess(process);
+  *time_ms = ran.wall_ms;
+  const std::string failure = ran.Failure();
+  cv::Mat enhanced;
+  std::string problem;
+  if (!failure.empty()) {
+    problem = failure + " (log: external/" + method.label + "/" + id + ".log)";
+  } else if (!fs::exists(output)) {
+    const std::string other = FindOutputFile(work + "/out", id);
+    if (other.empty()) {
+      problem = "wrote no output (expected " + id + OutputExtension(spec) + ")";
+    } else {
+      try {
+        enhanced = ReadOutput(other, fs::path(other).filename().string(),
+                              spec.at("output").at("encoding").get<std::string>(), degraded);
+      } catch (const Error& error) {
+        problem = error.what();
+      }
+    }
+  } else {
+    try {
+      enhanced = ReadOutput(output, fs::path(output).filename().string(),
+                            spec.at("output").at("encoding").get<std::string>(), degraded);
+    } catch (const Error& error) {
+      problem = error.what();
+    }
+  }
+  fs::remove_all(work, ec);
+  if (!problem.empty()) throw Error(problem);
+  fs::remove(process.log_path, ec);  // logs are kept for failures only
+  return enhanced;
+}
+
+void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
+                                std::vector<ItemResult>* results) const {
+  for (const ExperimentMethod& method : experiment_.methods) {
+    if (!method.IsBatch()) continue;
+    const nlohmann::json& spec = method.external;
+    // The items of this batch that wait for this method (rendered, selected).
+    std::vector<size_t> members;
+    {
+      std::lock_guard<std::mutex> lock(pending_mutex_);
+      for (size_t k = 0; k < tasks.size(); ++k) {
+        if (Selected(tasks[k], method.label) && pending_.count(tasks[k].spec->id)) {
+          members.push_back(k);
+        }
+      }
+    }
+    if (members.empty()) continue;
+    const auto pending_of = [&](size_t k) -> const Pending& {
+      std::lock_guard<std::mutex> lock(pending_mutex_);
+      return *pending_.at(tasks[k].spec->id);
+    };
+    const auto row_of = [&](size_t k) -> MethodResult& {
+      for (MethodResult& row : (*results)[k].methods) {
+        if (row.label == method.label) return row;
+      }
+      throw Error("internal: no row for " + method.label);
+    };
+    const std::string first_id = tasks[members.front()].spec->id;
+    const std::string folder = out_dir_ + "/external/" + method.label;
+    const std::string work = fs::absolute(folder + "/work-" + first_id).string();
+    const std::string log_name = "batch-" + first_id + ".log";
+    std::error_code ec;
+    fs::remove_all(work, ec);
+    fs::create_directories(work + "/in", ec);
+    fs::create_directories(work + "/out", ec);
+    std::string batch_problem;
+    if (ec) batch_problem = work + ": cannot create the work folder: " + ec.message();
+    for (size_t k : members) {
+      if (!batch_problem.empty()) break;
+      try {
+        WriteMethodInput(work + "/in/" + tasks[k].spec->id + InputExtension(spec),
+                         pending_of(k).degraded, spec.at("input"));
+      } catch (const Error& error) {
+        batch_problem = std::string("cannot write the inputs: ") + error.what();
+      }
+    }
+    double share_ms = 0.0;
+    if (batch_problem.empty()) {
+      ProcessOptions process = ProcessFor(method);
+      process.argv = ExpandCommand(spec.at("command"),
+                                   {{"input_dir", work + "/in"}, {"output_dir", work + "/out"}});
+      process.log_path = folder + "/" + log_name;
+      const ProcessResult ran = RunProcess(process);
+      share_ms = ran.wall_ms / static_cast<double>(members.size());
+      const std::string failure = ran.Failure();
+      if (!failure.empty()) {
+        batch_problem = failure + " (log: external/" + method.label + "/" + log_name + ")";
+      } else {
+        fs::remove(process.log_path, ec);  // logs are kept for failures only
+      }
+    }
+    for (size_t k : members) {
+      MethodResult& row = row_of(k);
+      row.time_ms = share_ms;
+      row.time_is_batch_share = true;
+      row.metrics = NanMetrics(metric_names_);
+      row.error = batch_problem;
+      if (!batch_problem.empty()) continue;
+      const std::string& id = tasks[k].spec->id;
+      try {
+        const std::string path = FindOutputFile(work + "/out", id);
+        if (path.empty()) throw Error("wrote no output for this item (expected " + id + ".*)");
+        const Pending& pending = pending_of(k);
+        const cv::Mat enhanced =
+            ReadOutput(path, fs::path(path).filename().string(),
+                       spec.at("output").at("encoding").get<std::string>(), pending.degraded);
+        Score(id, method.label, enhanced, pending.reference, pending.degraded, &row);
+        row.error.clear();
+      } catch (const std::exception& error) {
+        row.error = error.what();
+        row.metrics = NanMetrics(metric_names_);
+      }
+    }
+    fs::remove_all(work, ec);
+  }
+  std::lock_guard<std::mutex> lock(pending_mutex_);
+  for (const ItemTask& task : tasks) pending_.erase(task.spec->id);
+}
+
+SweepHooks HarnessRunner::Hooks() const {
+  SweepHooks hooks;
+  hooks.run = [this](const ItemTask& task) { return Run(task); };
+  int batch = 0;
+  for (const ExperimentMethod& method : experiment_.methods) {
+    if (!method.IsBatch()) continue;
+    const int size = method.external.value("batch_size", 32);
+    batch = batch == 0 ? size : std::min(batch, size);
+  }
+  if (batch > 0) {
+    hooks.finish = [this](const std::vector<ItemTask>& tasks, std::vector<ItemResult>* results) {
+      FinishBatch(tasks, results);
+    };
+    hooks.batch_items = batch;
+  }
+  return hooks;
 }
 
 void WriteThumbnail(const std::string& path, const cv::Mat& linear, int width) {

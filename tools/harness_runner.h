@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "tools/experiment.h"
+#include "tools/sweep.h"
 #include "tools/tables.h"
 
 namespace turbid {
@@ -40,10 +41,26 @@ class HarnessRunner {
   // Thread-safe. Method and metric failures are recorded in the result; a scene that cannot be
   // loaded throws (the sweep stops; finished items are kept).
   ItemResult Run(const ItemSpec& item) const;
+  // Runs only the methods of task.only (all when empty). Batch external methods get a placeholder
+  // row here; their inputs are kept until FinishBatch runs them.
+  ItemResult Run(const ItemTask& task) const;
+  // Runs every batch external method once on the items of a batch (after Run on each of them)
+  // and fills in their rows. One thread.
+  void FinishBatch(const std::vector<ItemTask>& tasks, std::vector<ItemResult>* results) const;
+  // The sweep hooks for RunSweep: run, and finish + batch size when the experiment has batch
+  // external methods (the batch size is the smallest of their batch_size).
+  SweepHooks Hooks() const;
 
  private:
   struct SceneContext;
+  struct Pending;  // a degraded image (and its ground truth) waiting for the batch methods
   SceneContext& Context(int scene_index) const;
+  // A per-image external method or a results folder on one item; throws Error with the reason.
+  cv::Mat RunExternal(const ExperimentMethod& method, const std::string& id,
+                      const cv::Mat& degraded, double* time_ms) const;
+  // Scores `enhanced` into row (metrics) and saves its thumbnail.
+  void Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,
+             const cv::Mat& reference, const cv::Mat& degraded, MethodResult* row) const;
 
   const Experiment& experiment_;
   std::string out_dir_;
@@ -51,6 +68,8 @@ class HarnessRunner {
   std::vector<std::string> metric_names_;
   std::vector<std::string> reference_only_metrics_;  // no reference, no original needed
   std::vector<std::unique_ptr<SceneContext>> contexts_;
+  mutable std::mutex pending_mutex_;
+  mutable std::map<std::string, std::unique_ptr<Pending>> pending_;  // by item id
 };
 
 // Writes a small sRGB PNG (width px wide, aspect kept) of a linear [0, 1] image, atomically.

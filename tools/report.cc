@@ -326,9 +326,12 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     bool positive = true;
     for (const ExperimentMethod& m : e.methods) {
       std::vector<double> times;
+      bool batch_share = false;  // an external batch process's time / its items
       for (const ItemResult& item : sweep.items) {
         for (const MethodResult& row : item.methods) {
-          if (row.label == m.label) times.push_back(row.time_ms);
+          if (row.label != m.label) continue;
+          times.push_back(row.time_ms);
+          batch_share |= row.time_is_batch_share;
         }
       }
       const Stats t = ComputeStats(times);
@@ -336,8 +339,8 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
       if (t.n == 0 || q.n == 0 || !std::isfinite(q.mean)) continue;
       const double time_ms = std::max(t.mean, 1e-3);
       positive &= time_ms > 0;
-      data << FormatValue(time_ms) << " " << FormatValue(q.mean) << " " << GpString(m.label)
-           << "\n";
+      data << FormatValue(time_ms) << " " << FormatValue(q.mean) << " "
+           << GpString(batch_share ? m.label + " (batch)" : m.label) << "\n";
       ++points;
     }
     if (points > 0) {

@@ -95,6 +95,7 @@ void ClaimDir(const Experiment& experiment, const std::string& dir, bool force) 
       fs::remove(dir + "/" + name, ec);
     }
     fs::remove_all(dir + "/thumbs", ec);
+    fs::remove_all(dir + "/external", ec);
     fs::remove_all(dir + "/report", ec);
   }
   AtomicWriteText(path, text, true);
@@ -179,7 +180,7 @@ std::map<std::string, json> Journal::Load(bool repair) {
       }
       const std::string id = entry.value("id", "");
       if (id.empty()) throw Error(path_, "line " + std::to_string(line_number) + " has no id");
-      entries.emplace(id, std::move(entry));
+      entries[id] = std::move(entry);
     }
     start = newline + 1;
     good_end = start;
@@ -235,7 +236,43 @@ bool ShouldShowProgress() {
 
 SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
                       const ItemRunner& runner) {
+  SweepHooks hooks;
+  hooks.run = [&runner](const ItemTask& task) { return runner(*task.spec); };
+  return RunSweep(experiment, options, hooks);
+}
+
+namespace {
+
+// Labels of the failed method rows of a journaled item; all labels when the item itself failed.
+std::vector<std::string> FailedLabels(const ItemResult& item, bool* whole_item) {
+  std::vector<std::string> labels;
+  *whole_item = !item.error.empty();
+  for (const MethodResult& row : item.methods) {
+    if (!row.error.empty()) labels.push_back(row.label);
+  }
+  return labels;
+}
+
+// A retried item: the journaled rows, with the rows of the retried methods replaced.
+ItemResult MergeRetry(ItemResult previous, const ItemResult& fresh,
+                      const std::vector<std::string>& only) {
+  for (MethodResult& row : previous.methods) {
+    if (std::find(only.begin(), only.end(), row.label) == only.end()) continue;
+    for (const MethodResult& update : fresh.methods) {
+      if (update.label == row.label) row = update;
+    }
+  }
+  previous.error = fresh.error;
+  previous.render_ms = fresh.render_ms;
+  return previous;
+}
+
+}  // namespace
+
+SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
+                      const SweepHooks& hooks) {
   ThrowIfInvalid(options, "sweep");
+  if (!hooks.run) throw Error("sweep: no item runner");
   const DirLock lock(options.out_dir);
   ClaimDir(experiment, options.out_dir, options.force);
   Journal journal(options.out_dir + "/journal.jsonl");
@@ -245,24 +282,33 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
 
   SweepSummary summary;
   summary.items_total = static_cast<int>(specs.size());
-  std::vector<const ItemSpec*> pending;
+  std::vector<ItemTask> pending;
+  std::map<std::string, ItemResult> previous;  // journaled results of retried items
   for (const ItemSpec& spec : specs) {
     if (!options.shard.Contains(spec.index)) continue;
     ++summary.items_in_shard;
-    if (done.count(spec.id)) {
-      ++summary.already_done;
-    } else {
-      pending.push_back(&spec);
+    const auto entry = done.find(spec.id);
+    if (entry == done.end()) {
+      pending.push_back({&spec, {}});
+      continue;
     }
+    if (options.retry_failed) {
+      ItemResult item = ItemResultFromJson(entry->second);
+      bool whole_item = false;
+      std::vector<std::string> labels = FailedLabels(item, &whole_item);
+      if (whole_item || !labels.empty()) {
+        if (whole_item) labels.clear();  // rerun everything
+        pending.push_back({&spec, labels});
+        previous.emplace(spec.id, std::move(item));
+        ++summary.retried;
+        continue;
+      }
+    }
+    ++summary.already_done;
   }
   const bool tables_exist = fs::exists(options.out_dir + "/summary.md");
   if (pending.empty() && tables_exist) return summary;  // a finished sweep: nothing to do
 
-  int threads =
-      options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::max(1, std::min<int>(threads, static_cast<int>(pending.size())));
-
-  std::atomic<size_t> next{0};
   std::atomic<int> finished{0};
   std::atomic<int> failed_rows{0};
   std::atomic<bool> stop{false};
@@ -270,41 +316,93 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
   std::exception_ptr first_error;
   std::mutex wake_mutex;
   std::condition_variable wake;
+  const auto record_error = [&] {
+    std::lock_guard<std::mutex> lock(error_mutex);
+    if (!first_error) first_error = std::current_exception();
+    stop = true;
+  };
 
-  const auto work = [&]() {
-    while (!stop.load()) {
-      const size_t k = next.fetch_add(1);
-      if (k >= pending.size()) break;
-      try {
-        ItemResult result = runner(*pending[k]);
-        // The runner fills the results; identity fields always come from the spec.
-        result.index = pending[k]->index;
-        result.id = pending[k]->id;
-        result.scene = experiment.scenes[pending[k]->scene_index].name;
-        result.condition = pending[k]->condition;
-        result.level = pending[k]->level;
-        result.level_value = pending[k]->level_value;
-        result.params = pending[k]->params;
-        result.seed = pending[k]->seed;
-        int failures = 0;
-        for (const MethodResult& m : result.methods) failures += !m.error.empty();
-        journal.Append(ItemResultToJson(result, true));
-        failed_rows += failures;
-        ++finished;
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (!first_error) first_error = std::current_exception();
-        stop = true;
+  // Completes a result (identity fields from the spec, journaled rows kept when retrying) and
+  // appends it to the journal.
+  const auto journal_result = [&](const ItemTask& task, ItemResult result) {
+    const ItemSpec& spec = *task.spec;
+    result.index = spec.index;
+    result.id = spec.id;
+    result.scene = experiment.scenes[spec.scene_index].name;
+    result.condition = spec.condition;
+    result.level = spec.level;
+    result.level_value = spec.level_value;
+    result.params = spec.params;
+    result.seed = spec.seed;
+    const auto old = previous.find(spec.id);
+    if (old != previous.end() && !task.only.empty()) {
+      result = MergeRetry(old->second, result, task.only);
+    }
+    int failures = 0;
+    for (const MethodResult& m : result.methods) failures += !m.error.empty();
+    journal.Append(ItemResultToJson(result, true));
+    failed_rows += failures;
+    ++finished;
+  };
+
+  // Runs tasks [begin, end) on the thread pool; results are journaled at once, or stored in
+  // `out` (indexed from begin) when the batch is finished afterwards.
+  const auto run_range = [&](size_t begin, size_t end, std::vector<ItemResult>* out) {
+    int threads = options.threads > 0 ? options.threads
+                                      : static_cast<int>(std::thread::hardware_concurrency());
+    threads = std::max(1, std::min<int>(threads, static_cast<int>(end - begin)));
+    std::atomic<size_t> next{begin};
+    const auto work = [&]() {
+      while (!stop.load()) {
+        const size_t k = next.fetch_add(1);
+        if (k >= end) break;
+        try {
+          ItemResult result = hooks.run(pending[k]);
+          if (out != nullptr) {
+            (*out)[k - begin] = std::move(result);
+          } else {
+            journal_result(pending[k], std::move(result));
+          }
+        } catch (...) {
+          record_error();
+        }
+        wake.notify_all();
       }
       wake.notify_all();
+    };
+    std::vector<std::thread> pool;
+    for (int t = 0; t < threads; ++t) pool.emplace_back(work);
+    for (std::thread& thread : pool) thread.join();
+  };
+
+  const auto drive = [&] {
+    if (!hooks.finish) {
+      run_range(0, pending.size(), nullptr);
+    } else {
+      const size_t batch = hooks.batch_items > 0 ? static_cast<size_t>(hooks.batch_items)
+                                                 : std::max<size_t>(1, pending.size());
+      for (size_t begin = 0; begin < pending.size() && !stop.load(); begin += batch) {
+        const size_t end = std::min(pending.size(), begin + batch);
+        std::vector<ItemResult> results(end - begin);
+        run_range(begin, end, &results);
+        if (stop.load()) break;
+        try {
+          const std::vector<ItemTask> tasks(pending.begin() + static_cast<long>(begin),
+                                            pending.begin() + static_cast<long>(end));
+          hooks.finish(tasks, &results);
+          for (size_t k = begin; k < end; ++k) journal_result(pending[k], results[k - begin]);
+        } catch (...) {
+          record_error();
+        }
+      }
     }
+    stop = true;  // wakes the progress loop
     wake.notify_all();
   };
 
   const auto start = std::chrono::steady_clock::now();
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) pool.emplace_back(work);
   const int total = static_cast<int>(pending.size());
+  std::thread driver(drive);
   if (options.progress && total > 0) {
     std::unique_lock<std::mutex> lock(wake_mutex);
     while (finished.load() < total && !stop.load()) {
@@ -314,7 +412,7 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
       wake.wait_for(lock, std::chrono::milliseconds(250));
     }
   }
-  for (std::thread& thread : pool) thread.join();
+  driver.join();
   if (options.progress && total > 0) {
     const double elapsed =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

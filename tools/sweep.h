@@ -22,12 +22,34 @@ namespace turbid {
 // thrown exception stops the sweep (what is already journaled is kept).
 using ItemRunner = std::function<ItemResult(const ItemSpec& item)>;
 
+// One unit of work for the extended form of RunSweep: an item, and, when failed cells are retried,
+// the labels of the methods to run again (empty: every method).
+struct ItemTask {
+  const ItemSpec* spec = nullptr;
+  std::vector<std::string> only;
+};
+
+struct SweepHooks {
+  // Runs one item (thread-safe). Rows of methods outside task.only are ignored: the journaled
+  // rows of those methods are kept.
+  std::function<ItemResult(const ItemTask& task)> run;
+  // Set: the pending items run in batches of batch_items; when a batch's items have run, finish
+  // completes their results (one call on one thread, e.g. an external program started once for
+  // the batch), then they are journaled. Unset: each item is journaled as soon as it has run.
+  std::function<void(const std::vector<ItemTask>& tasks, std::vector<ItemResult>* results)>
+      finish;
+  int batch_items = 0;  // items per batch when finish is set (0: every pending item at once)
+};
+
 struct SweepOptions {
   std::string out_dir;    // created if missing; holds experiment.json, journal and tables
   int threads = 0;        // worker threads; 0 = std::thread::hardware_concurrency()
   Shard shard;            // which slice of the items to run (default: all)
   bool progress = false;  // draw a progress bar with ETA on stderr
   bool force = false;     // start over when out_dir holds a different experiment
+  // Run again the method cells that failed (error set) in journaled items; the other cells are
+  // kept. Without it a journaled item is never rerun.
+  bool retry_failed = false;
   bool Check(std::string* why) const;
 };
 
@@ -35,20 +57,24 @@ struct SweepSummary {
   int items_total = 0;     // items in the whole experiment
   int items_in_shard = 0;  // items this run is responsible for
   int already_done = 0;    // found in the journal at start
-  int ran = 0;             // run now
-  int failed_rows = 0;     // method rows with an error (recorded, not fatal)
+  int ran = 0;             // run now (retried items included)
+  int retried = 0;         // journaled items whose failed cells were run again
+  int failed_rows = 0;     // method rows with an error among the items run now (not fatal)
   bool tables_written = false;
 };
 
 SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
                       const ItemRunner& runner);
+SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
+                      const SweepHooks& hooks);
 
 // The results journal: one JSON object per line, each appended with a single write() on an
 // O_APPEND descriptor, so a kill leaves at most one partial last line, which Load() drops.
 class Journal {
  public:
   explicit Journal(std::string path) : path_(std::move(path)) {}
-  // Reads every complete entry (by item id; the first of duplicates wins) and truncates a
+  // Reads every complete entry (by item id; the last of duplicates wins, so an item whose failed
+  // cells were retried is read as its latest entry) and truncates a
   // partial trailing line. Throws Error for a corrupt line that is not the last one.
   std::map<std::string, nlohmann::json> Load(bool repair);
   void Append(const nlohmann::json& entry);  // thread-safe across processes' appends

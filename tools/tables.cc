@@ -246,7 +246,10 @@ json ItemResultToJson(const ItemResult& item, bool with_timing) {
   for (const MethodResult& m : item.methods) {
     json row = {{"method", m.label}, {"metrics", MetricsToJson(m.metrics)}};
     if (!m.error.empty()) row["error"] = m.error;
-    if (with_timing) row["time_ms"] = m.time_ms;
+    if (with_timing) {
+      row["time_ms"] = ValueToJson(m.time_ms);
+      if (m.time_is_batch_share) row["time_batch"] = true;
+    }
     methods.push_back(row);
   }
   out["methods"] = methods;
@@ -274,7 +277,8 @@ ItemResult ItemResultFromJson(const json& in) {
       m.label = row.at("method").get<std::string>();
       m.metrics = MetricsFromJson(row.at("metrics"));
       m.error = row.value("error", "");
-      m.time_ms = row.value("time_ms", 0.0);
+      m.time_ms = row.contains("time_ms") ? ValueFromJson(row["time_ms"]) : 0.0;
+      m.time_is_batch_share = row.value("time_batch", false);
       item.methods.push_back(std::move(m));
     }
     item.reference_metrics = MetricsFromJson(in.at("reference_metrics"));
@@ -318,15 +322,17 @@ std::vector<SummaryCell> Summarize(const Experiment& experiment,
       const std::string& label = experiment.methods[m].label;
       for (const HarnessMetricInfo& metric : experiment.metrics) {
         std::vector<double> values;
+        int failed = 0;
         for (const ItemResult& item : items) {
           if (level != "all" && item.level != level) continue;
           for (const MethodResult& row : item.methods) {
             if (row.label != label) continue;
             const auto it = row.metrics.find(metric.name);
             values.push_back(it == row.metrics.end() ? std::nan("") : it->second);
+            failed += !row.error.empty() || !item.error.empty();
           }
         }
-        cells.push_back({level, label, metric.name, ComputeStats(values)});
+        cells.push_back({level, label, metric.name, ComputeStats(values), failed});
       }
     }
   }
@@ -340,7 +346,7 @@ const std::vector<std::string>& DeterministicOutputs() {
 }
 
 void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& items,
-                 const std::string& dir) {
+                 const std::string& dir, bool with_timings) {
   // Column sets.
   std::vector<std::string> param_paths;
   for (const auto& entry : experiment.grid) param_paths.push_back(entry.first);
@@ -373,17 +379,24 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
   // summary.csv (long format) and summary.md (Table I style, one table per level and overall).
   const std::vector<SummaryCell> cells = Summarize(experiment, items);
   std::ostringstream summary_csv;
-  summary_csv << "level,method,metric,n,mean,sd,min,max\n";
+  summary_csv << "level,method,metric,n,mean,sd,min,max,failed\n";
   for (const SummaryCell& cell : cells) {
     summary_csv << CsvEscape(cell.level) << "," << CsvEscape(cell.method) << ","
                 << CsvEscape(cell.metric) << "," << cell.stats.n << ","
                 << (cell.stats.n ? FormatValue(cell.stats.mean) : "nan") << ","
                 << (cell.stats.n ? FormatValue(cell.stats.sd) : "nan") << ","
                 << (cell.stats.n ? FormatValue(cell.stats.min) : "nan") << ","
-                << (cell.stats.n ? FormatValue(cell.stats.max) : "nan") << "\n";
+                << (cell.stats.n ? FormatValue(cell.stats.max) : "nan") << "," << cell.failed
+                << "\n";
   }
   std::map<std::tuple<std::string, std::string, std::string>, Stats> lookup;
-  for (const SummaryCell& cell : cells) lookup[{cell.level, cell.method, cell.metric}] = cell.stats;
+  std::map<std::pair<std::string, std::string>, int> failed_items;  // (level, method)
+  int any_failed = 0;
+  for (const SummaryCell& cell : cells) {
+    lookup[{cell.level, cell.method, cell.metric}] = cell.stats;
+    failed_items[{cell.level, cell.method}] = cell.failed;
+    any_failed += cell.failed;
+  }
 
   std::vector<bool> excluded;
   for (const ExperimentMethod& m : experiment.methods) {
@@ -452,17 +465,33 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
       if (any_reference) md << " " << FormatCell(reference_stats(level, metric.name)) << " |";
       md << "\n";
     }
+    if (any_failed > 0) {
+      // Items on which a method failed (its metrics are NaN and left out of the cells above).
+      md << "| failed (items) |";
+      for (const ExperimentMethod& m : experiment.methods) {
+        md << " " << failed_items[{level, m.label}] << " |";
+      }
+      if (any_reference) md << " |";
+      md << "\n";
+    }
   }
 
   // Timings (not deterministic): per item and method, and a Table I style "time" table per size.
   std::ostringstream timings_csv, timings_md;
-  timings_csv << "id,method,time_ms\n";
+  // timing: "alone" (the method's own wall time), "batch_share" (a batch process's wall time /
+  // its items) or "none" (precomputed results: nothing ran).
+  timings_csv << "id,method,time_ms,timing\n";
   std::vector<std::string> sizes;
+  std::set<std::string> batch_share, not_run;
   for (const ItemResult& item : items) {
-    timings_csv << CsvEscape(item.id) << ",render," << FormatValue(item.render_ms) << "\n";
+    timings_csv << CsvEscape(item.id) << ",render," << FormatValue(item.render_ms) << ",alone\n";
     for (const MethodResult& row : item.methods) {
+      const char* timing =
+          row.time_is_batch_share ? "batch_share" : (std::isnan(row.time_ms) ? "none" : "alone");
+      if (row.time_is_batch_share) batch_share.insert(row.label);
+      if (std::isnan(row.time_ms)) not_run.insert(row.label);
       timings_csv << CsvEscape(item.id) << "," << CsvEscape(row.label) << ","
-                  << FormatValue(row.time_ms) << "\n";
+                  << FormatValue(row.time_ms) << "," << timing << "\n";
     }
     if (std::find(sizes.begin(), sizes.end(), SizeLabel(item)) == sizes.end()) {
       sizes.push_back(SizeLabel(item));
@@ -470,8 +499,19 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
   }
   timings_md << "# " << experiment.name << ": run time per image (ms, mean ± sd)\n\n"
              << "Wall time of each method alone on one sweep thread; not deterministic, so kept "
-                "apart from summary.md.\n\n| size | render |";
-  for (const ExperimentMethod& m : experiment.methods) timings_md << " " << MethodHeader(m) << " |";
+                "apart from summary.md.";
+  if (!batch_share.empty()) {
+    timings_md << " (batch): the wall time of a process run once per batch of items, divided by "
+                  "the batch's items (input and output files included).";
+  }
+  if (!not_run.empty()) timings_md << " (precomputed): results read from files, nothing ran.";
+  timings_md << "\n\n| size | render |";
+  for (const ExperimentMethod& m : experiment.methods) {
+    timings_md << " " << MethodHeader(m)
+               << (batch_share.count(m.label) ? " (batch)"
+                                              : (not_run.count(m.label) ? " (precomputed)" : ""))
+               << " |";
+  }
   timings_md << "\n|---|---|";
   for (size_t i = 0; i < experiment.methods.size(); ++i) timings_md << "---|";
   timings_md << "\n";
@@ -500,8 +540,10 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
   AtomicWriteText(dir + "/items.jsonl", jsonl.str(), true);
   AtomicWriteText(dir + "/summary.csv", summary_csv.str(), true);
   AtomicWriteText(dir + "/summary.md", md.str(), true);
-  AtomicWriteText(dir + "/timings.csv", timings_csv.str(), true);
-  AtomicWriteText(dir + "/timings.md", timings_md.str(), true);
+  if (with_timings) {
+    AtomicWriteText(dir + "/timings.csv", timings_csv.str(), true);
+    AtomicWriteText(dir + "/timings.md", timings_md.str(), true);
+  }
 }
 
 // ---- Regression ---------------------------------------------------------------------------

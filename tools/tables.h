@@ -21,7 +21,10 @@ struct MethodResult {
   std::string label;                      // the method's label in the experiment
   std::map<std::string, double> metrics;  // metric name -> value (+-inf allowed, NaN = failed)
   std::string error;                      // non-empty when the method failed on this item
-  double time_ms = 0.0;                   // wall time of the method alone (not deterministic)
+  double time_ms = 0.0;                   // wall time of the method alone (not deterministic);
+                                          // NaN when nothing ran (precomputed results)
+  // time_ms is the wall time of a batch process divided by the items of its batch.
+  bool time_is_batch_share = false;
 };
 
 struct ItemResult {
@@ -61,8 +64,9 @@ Stats ComputeStats(const std::vector<double>& values);
 
 // Writes items.csv, items.jsonl, summary.md, summary.csv, timings.csv, timings.md into dir
 // (atomically, replacing older versions). `items` must be sorted by index.
+// with_timings = false leaves out timings.csv and timings.md (scores of files, nothing timed).
 void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& items,
-                 const std::string& dir);
+                 const std::string& dir, bool with_timings = true);
 // The deterministic files, i.e. those that are byte-identical for any thread count and shard
 // layout (documented in docs/experiments.md).
 const std::vector<std::string>& DeterministicOutputs();
@@ -71,6 +75,7 @@ const std::vector<std::string>& DeterministicOutputs();
 struct SummaryCell {
   std::string level, method, metric;
   Stats stats;
+  int failed = 0;  // items of the level on which the method failed (error set; metrics NaN)
 };
 std::vector<SummaryCell> Summarize(const Experiment& experiment,
                                    const std::vector<ItemResult>& items);
