@@ -1,19 +1,20 @@
 #!/usr/bin/env bash
 # Installs turbid's build and test dependencies from Debian 12 packages, only what is missing.
-# Usage: scripts/install_deps.sh [--test]   (--test adds what the test suite needs: chromium, and
-# python3-torch for the DataLoader test of the Python package)
+# Usage: scripts/install_deps.sh [--test]   (--test adds what the test suite needs: chromium,
+# python3-torch for the DataLoader test of the Python package, python3-h5py to write NYU-layout
+# HDF5 files independently of our reader)
 set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config
   libopencv-dev libopencv-contrib-dev libeigen3-dev libopenexr-dev libopenimageio-dev
-  nlohmann-json3-dev libcli11-dev libtbb-dev
+  nlohmann-json3-dev libcli11-dev libtbb-dev libhdf5-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
   python3-pybind11 python3-numpy python3-pytest
 )
 if [[ "${1:-}" == "--test" ]]; then
-  packages+=(chromium python3-torch)
+  packages+=(chromium python3-torch python3-h5py)
 fi
 
 missing=()
