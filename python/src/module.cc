@@ -490,8 +490,13 @@ PYBIND11_MODULE(_turbid, m) {
     const ArrayView v = ViewArray(image, "image");
     if (v.mat.depth() != CV_32F) throw Error("image: write_image takes float32 [0, 1]");
     py::gil_scoped_release release;
-    cv::Mat m = v.mat;
-    if (v.channels == 3) cv::cvtColor(v.mat, m, cv::COLOR_RGB2BGR);
+    // A new Mat for the BGR copy: converting into v.mat's header would swap the caller's array.
+    cv::Mat m;
+    if (v.channels == 3) {
+      cv::cvtColor(v.mat, m, cv::COLOR_RGB2BGR);
+    } else {
+      m = v.mat;
+    }
     WriteImageOptions o;
     o.bit_depth = bit_depth;
     o.transfer = ParseEncoding(encoding) == Encoding::kSrgb ? Transfer::kSrgb : Transfer::kLinear;
