@@ -440,6 +440,14 @@ PYBIND11_MODULE(_turbid, m) {
       .def("sidecar", [](const PyRenderResult& r) { return r.result->sidecar.dump(); })
       .def("plan", [](const PyRenderResult& r) { return r.result->plan.ToText(); });
 
+  m.def("expand_scene_spec", [](const std::string& spec) {
+    try {
+      return ExpandSceneSpec(spec);
+    } catch (const Error& e) {
+      if (LooksLikeIo(e.what())) throw IoError(e.what());
+      throw;
+    }
+  }, py::arg("spec"));
   m.def("render", &RenderScene, py::arg("scene"), py::arg("params"), py::arg("seed"),
         py::arg("maps"));
   m.def("enhance", &EnhanceArray, py::arg("image"), py::arg("method"), py::arg("params"),
