@@ -431,10 +431,10 @@ TEST(FolderDataset, NaturalOrder) {
   EXPECT_FALSE(NaturalLess("x", "x"));
 }
 
-TEST(FolderDataset, PngPlusNpyPngPlusExrAndPng16) {
+TEST(FolderDataset, NpyExrPfmAndPng16Depth) {
   TempDir dir;
   namespace fs = std::filesystem;
-  for (const char* sub : {"npy/rgb", "npy/depth", "exr/rgb", "exr/depth", "mm/rgb", "mm/depth"})
+  for (const char* sub : {"npy/rgb", "npy/depth", "exr/rgb", "exr/depth", "pfm/rgb", "pfm/depth", "mm/rgb", "mm/depth"})
     fs::create_directories(dir.File(sub));
   const std::vector<std::string> stems = {"f10", "f2", "f1"};
   for (size_t i = 0; i < stems.size(); ++i) {
@@ -451,15 +451,17 @@ TEST(FolderDataset, PngPlusNpyPngPlusExrAndPng16) {
     depth.at<float>(0, 0) = std::numeric_limits<float>::quiet_NaN();  // Hypersim-style hole
     values[0] = std::numeric_limits<float>::quiet_NaN();
     mm.at<uint16_t>(0, 0) = 0;
-    for (const char* set : {"npy", "exr", "mm"}) WriteRgb(dir.File(std::string(set) + "/rgb/" + stems[i] + ".png"), f);
+    for (const char* set : {"npy", "exr", "pfm", "mm"}) WriteRgb(dir.File(std::string(set) + "/rgb/" + stems[i] + ".png"), f);
     WriteText(dir.File("npy/depth/" + stems[i] + ".npy"),
               NpyBytes("<f4", "(" + std::to_string(kFh) + ", " + std::to_string(kFw) + ")", RawBytes(values)));
     WriteImage(dir.File("exr/depth/" + stems[i] + ".exr"), depth);
+    WriteImage(dir.File("pfm/depth/" + stems[i] + ".pfm"), depth);
     cv::imwrite(dir.File("mm/depth/" + stems[i] + ".png"), mm);
   }
   const std::string camera = R"("camera": {"fx": 10, "fy": 11, "cx": 3.5, "cy": 2.5})";
   WriteText(dir.File("npy.json"), R"({"type": "folder", "folder": "npy", "color": "linear", )" + camera + "}");
   WriteText(dir.File("exr.json"), R"({"type": "folder", "folder": "exr", "frames": ["f2", "f10"], )" + camera + "}");
+  WriteText(dir.File("pfm.json"), R"({"type": "folder", "folder": "pfm", )" + camera + "}");
   WriteText(dir.File("mm.json"), R"({"type": "folder", "folder": "mm", "depth_scale": 1000, "frames": "1:3", )" + camera + "}");
   // Natural stem order: f1, f2, f10.
   EXPECT_EQ(ExpandSceneSpec(dir.File("npy.json")),
@@ -468,7 +470,7 @@ TEST(FolderDataset, PngPlusNpyPngPlusExrAndPng16) {
             (std::vector<std::string>{dir.File("exr.json#f2"), dir.File("exr.json#f10")}));
   EXPECT_EQ(ExpandSceneSpec(dir.File("mm.json")),
             (std::vector<std::string>{dir.File("mm.json#f2"), dir.File("mm.json#f10")}));
-  for (const char* set : {"npy", "exr", "mm"}) {
+  for (const char* set : {"npy", "exr", "pfm", "mm"}) {
     const Scene scene = LoadScene(dir.File(std::string(set) + ".json#f10"));  // written as frame 0
     EXPECT_EQ(scene.name, std::string(set) + "_f10");
     ASSERT_EQ(scene.image.size(), cv::Size(kFw, kFh));
