@@ -1,7 +1,8 @@
 // Scene JSON files and the dataset adapters they drive (TUM / ICL-NUIM RGB-D, float depth, stereo
-// disparity). Schema: docs/formats.md.
+// disparity, NYU Depth v2 labelled file, RGB-D folders). Schema: docs/formats.md.
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -13,8 +14,10 @@
 #include "scenes/atomic_file.h"
 #include "scenes/builtin.h"
 #include "scenes/error.h"
+#include "scenes/folder_dataset.h"
 #include "scenes/image_io.h"
 #include "scenes/normals.h"
+#include "scenes/nyu_depth_v2.h"
 #include "scenes/scene_loader.h"
 
 namespace turbid {
@@ -195,6 +198,138 @@ void CheckImageRange(const std::string& path, const cv::Mat& image) {
   }
 }
 
+// "FILE.json#KEY" -> (FILE.json, KEY) when FILE.json#KEY itself is not a file; (spec, "") otherwise.
+std::pair<std::string, std::string> SplitFrameSuffix(const std::string& spec) {
+  const size_t hash = spec.rfind('#');
+  std::error_code ec;
+  if (hash == std::string::npos || fs::exists(spec, ec)) return {spec, ""};
+  return {spec.substr(0, hash), spec.substr(hash + 1)};
+}
+
+// Frame selection of a multi-frame scene file over `keys` (every frame, in order): absent = all;
+// an index; an array of indices (or, when `stems`, file stems); "START:STOP[:STEP]" (half-open,
+// as a Python slice with non-negative bounds; STOP may be empty = to the end).
+std::vector<std::string> SelectFrames(ObjectReader& reader, const json* value,
+                                      const std::vector<std::string>& keys, bool stems) {
+  if (value == nullptr) return keys;
+  const long long count = static_cast<long long>(keys.size());
+  auto index = [&](const json& v, const std::string& what) -> std::string {
+    if (!v.is_number_integer())
+      reader.Fail(what + " must be an integer frame index" + (stems ? " or a file stem" : ""));
+    const long long i = v.get<long long>();
+    if (i < 0 || i >= count)
+      reader.Fail(what + " = " + std::to_string(i) + " is out of range (" + std::to_string(count) +
+                  " frames, 0.." + std::to_string(count - 1) + ")");
+    return keys[static_cast<size_t>(i)];
+  };
+  std::vector<std::string> out;
+  if (value->is_number_integer()) return {index(*value, "'frames'")};
+  if (value->is_array()) {
+    if (value->empty()) reader.Fail("'frames' must not be empty");
+    std::set<std::string> seen;
+    for (size_t i = 0; i < value->size(); ++i) {
+      const json& v = (*value)[i];
+      const std::string what = "'frames[" + std::to_string(i) + "]'";
+      std::string key;
+      if (stems && v.is_string()) {
+        key = v.get<std::string>();
+        if (std::find(keys.begin(), keys.end(), key) == keys.end())
+          reader.Fail(what + ": no frame with stem '" + key + "'");
+      } else {
+        key = index(v, what);
+      }
+      if (!seen.insert(key).second) reader.Fail(what + ": frame '" + key + "' is listed twice");
+      out.push_back(key);
+    }
+    return out;
+  }
+  if (value->is_string()) {
+    const std::string text = value->get<std::string>();
+    std::vector<std::string> parts;
+    std::stringstream stream(text);
+    std::string part;
+    while (std::getline(stream, part, ':')) parts.push_back(part);
+    if (!text.empty() && text.back() == ':') parts.push_back("");
+    auto number = [&](const std::string& p, long long fallback) {
+      if (p.empty()) return fallback;
+      if (p.find_first_not_of("0123456789") != std::string::npos || p.size() > 12)
+        reader.Fail("'frames' range '" + text + "' must be START:STOP[:STEP] with non-negative integers");
+      return std::stoll(p);
+    };
+    if (parts.size() < 2 || parts.size() > 3)
+      reader.Fail("'frames' range '" + text + "' must be START:STOP[:STEP] (half-open)");
+    const long long start = number(parts[0], 0);
+    const long long stop = std::min(number(parts[1], count), count);
+    const long long step = parts.size() == 3 ? number(parts[2], 1) : 1;
+    if (step <= 0) reader.Fail("'frames' range '" + text + "' needs STEP >= 1");
+    for (long long i = start; i < stop; i += step) out.push_back(keys[static_cast<size_t>(i)]);
+    if (out.empty())
+      reader.Fail("'frames' range '" + text + "' selects no frame (" + std::to_string(count) +
+                  " frames)");
+    return out;
+  }
+  reader.Fail("'frames' must be an index, an array, or a \"START:STOP[:STEP]\" range");
+}
+
+// nyu_v2 and folder: the dataset, its frame list, the selection and the frame to load.
+void ParseMultiFrame(ObjectReader& reader, const json& root, const fs::path& folder,
+                     const std::string& json_path, const std::string& frame_suffix,
+                     SceneFileSpec& spec) {
+  std::vector<std::string> keys;
+  std::vector<FolderFrame> folder_frames;
+  if (spec.type == "nyu_v2") {
+    spec.dataset = Resolve(folder, reader.String("file"), json_path);
+    if (reader.Has("crop_border")) {
+      const json& v = root.at("crop_border");
+      if (!v.is_boolean()) reader.Fail("'crop_border' must be true or false");
+      spec.crop_border = v.get<bool>();
+    }
+    if (reader.Has("depth_dataset")) spec.depth_dataset = reader.String("depth_dataset");
+    NyuFrameOptions options;
+    options.depth_dataset = spec.depth_dataset;
+    std::string why;
+    if (!options.Check(&why)) reader.Fail("'depth_dataset': " + why);
+    const int count = NyuFrameCount(spec.dataset, options);
+    for (int i = 0; i < count; ++i) keys.push_back(std::to_string(i));
+  } else {  // folder
+    spec.dataset = Resolve(folder, reader.String("folder"), json_path);
+    if (reader.Has("rgb_dir")) spec.rgb_dir = reader.String("rgb_dir");
+    if (reader.Has("depth_dir")) spec.depth_dir = reader.String("depth_dir");
+    if (reader.Has("depth_scale")) spec.depth_scale = reader.Positive("depth_scale");
+    if (reader.Has("depth_kind")) {
+      const std::string kind = reader.String("depth_kind");
+      if (kind != "z" && kind != "ray")
+        reader.Fail("'depth_kind' must be 'z' (along the optical axis) or 'ray' (distance from "
+                    "the camera centre), got '" + kind + "'");
+      spec.depth_is_range = kind == "ray";
+    }
+    FolderDatasetOptions options;
+    options.rgb_dir = spec.rgb_dir;
+    options.depth_dir = spec.depth_dir;
+    folder_frames = ListFolderFrames(spec.dataset, options);
+    for (const FolderFrame& f : folder_frames) keys.push_back(f.stem);
+  }
+  reader.Allow("frames");
+  spec.frames = SelectFrames(reader, root.contains("frames") ? &root.at("frames") : nullptr, keys,
+                             spec.type == "folder");
+  if (!frame_suffix.empty()) {
+    if (std::find(keys.begin(), keys.end(), frame_suffix) == keys.end())
+      reader.Fail("'#" + frame_suffix + "': no such frame (" +
+                  (spec.type == "nyu_v2" ? "0-based index, " + std::to_string(keys.size()) + " frames"
+                                         : "a file stem in " + spec.dataset) + ")");
+    spec.frame = frame_suffix;
+  } else if (spec.frames.size() == 1) {
+    spec.frame = spec.frames.front();
+  }
+  if (spec.type == "folder" && !spec.frame.empty()) {
+    for (const FolderFrame& f : folder_frames)
+      if (f.stem == spec.frame) {
+        spec.image = f.rgb_path;
+        spec.depth = f.depth_path;
+      }
+  }
+}
+
 }  // namespace
 
 std::vector<std::string> CameraPresetNames() {
@@ -233,7 +368,8 @@ cv::Mat DepthFromDisparity(const cv::Mat& disparity_px, double fx_px, double bas
   return depth;
 }
 
-SceneFileSpec ParseSceneFile(const std::string& json_path) {
+SceneFileSpec ParseSceneFile(const std::string& spec_path) {
+  const auto [json_path, frame_suffix] = SplitFrameSuffix(spec_path);
   std::error_code ec;
   if (!fs::exists(json_path, ec)) throw Error(json_path, "file not found");
   if (fs::is_directory(json_path, ec)) throw Error(json_path, "is a folder, not a scene file");
@@ -251,12 +387,16 @@ SceneFileSpec ParseSceneFile(const std::string& json_path) {
   SceneFileSpec spec;
   spec.source = json_path;
   spec.type = reader.String("type");
-  const std::set<std::string> types = {"rgbd", "depth", "stereo", "builtin"};
+  const std::set<std::string> types = {"rgbd", "depth", "stereo", "builtin", "nyu_v2", "folder"};
   if (!types.count(spec.type))
     reader.Fail("'type' must be one of " + Join(types) + ", got '" + spec.type + "'");
   spec.name = reader.Has("name") ? reader.String("name") : fs::path(json_path).stem().string();
   if (spec.name.empty()) reader.Fail("'name' must not be empty");
   const fs::path folder = fs::path(json_path).parent_path();
+  const bool multi_frame = spec.type == "nyu_v2" || spec.type == "folder";
+  if (!frame_suffix.empty() && !multi_frame)
+    reader.Fail("'#" + frame_suffix + "' selects a frame, which only nyu_v2 and folder scene files "
+                "have (or no file " + spec_path + ")");
 
   if (spec.type == "builtin") {
     spec.builtin = reader.String("builtin");
@@ -270,7 +410,7 @@ SceneFileSpec ParseSceneFile(const std::string& json_path) {
     return spec;
   }
 
-  spec.image = Resolve(folder, reader.String("image"), json_path);
+  if (!multi_frame) spec.image = Resolve(folder, reader.String("image"), json_path);
   if (reader.Has("color")) {
     const std::string color = reader.String("color");
     if (color == "srgb") {
@@ -283,10 +423,17 @@ SceneFileSpec ParseSceneFile(const std::string& json_path) {
   }
   if (reader.Has("camera")) {
     spec.camera = ParseCamera(json_path, root.at("camera"));
+  } else if (spec.type == "nyu_v2") {
+    // BuildScene uses NyuKinectRgbCamera(), shifted when cropped.
   } else if (spec.type == "rgbd") {
     spec.camera = CameraPreset("icl_nuim");  // the issue's documented default for RGB-D frames
   } else {
     reader.Fail("missing required key 'camera' (an object {fx, fy, cx, cy} or a preset name)");
+  }
+  if (multi_frame) {
+    ParseMultiFrame(reader, root, folder, json_path, frame_suffix, spec);
+    reader.Finish();
+    return spec;
   }
   if (spec.type == "rgbd" || spec.type == "depth") {
     spec.depth = Resolve(folder, reader.String("depth"), json_path);
@@ -326,6 +473,71 @@ SceneFileSpec ParseSceneFile(const std::string& json_path) {
   return spec;
 }
 
+namespace {
+
+// Distance along the viewing ray -> z-depth: z = r / |K^-1 [u v 1]| (inverse of RangeFromDepth).
+cv::Mat DepthFromRange(const CameraIntrinsics& camera, const cv::Mat& range_m) {
+  cv::Mat depth(range_m.size(), CV_32FC1);
+  for (int y = 0; y < range_m.rows; ++y) {
+    const float* r = range_m.ptr<float>(y);
+    float* z = depth.ptr<float>(y);
+    for (int x = 0; x < range_m.cols; ++x)
+      z[x] = static_cast<float>(r[x] / cv::norm(camera.Ray(x, y)));
+  }
+  return depth;
+}
+
+Scene BuildNyuScene(const SceneFileSpec& spec) {
+  NyuFrameOptions options;
+  options.crop_border = spec.crop_border;
+  options.depth_dataset = spec.depth_dataset;
+  options.color = spec.color;
+  const int index = std::stoi(spec.frame);
+  NyuFrame frame = ReadNyuFrame(spec.dataset, index, options);
+  Scene scene;
+  scene.name = spec.name + "_" + spec.frame;
+  scene.image = frame.image;
+  scene.depth_m = frame.depth_m;
+  scene.camera = frame.camera;
+  if (spec.camera) {
+    const CameraIntrinsics& c = *spec.camera;
+    if ((c.width != 0 && c.width != frame.camera.width) ||
+        (c.height != 0 && c.height != frame.camera.height))
+      throw Error(spec.source, "camera size " + std::to_string(c.width) + "x" +
+                                   std::to_string(c.height) + " differs from the frame (" +
+                                   SizeText(frame.image.size()) + ")");
+    scene.camera = {c.fx, c.fy, c.cx, c.cy, frame.camera.width, frame.camera.height};
+  }
+  const std::string frame_source = spec.dataset + "#" + spec.frame;
+  if (cv::countNonZero(scene.depth_m == scene.depth_m) == 0)
+    throw Error(frame_source, "no valid depth pixel (all zero)");
+  scene.normals = NormalsFromDepth(scene.camera, scene.depth_m);
+  scene.input_hashes[spec.source] = Sha256File(spec.source);
+  // The .mat file is gigabytes: the hash covers the frame's values as read, not the whole file.
+  scene.input_hashes[frame_source] = frame.sha256;
+  try {
+    scene.Validate();
+  } catch (const Error& e) {
+    throw Error(spec.source, e.what());
+  }
+  return scene;
+}
+
+}  // namespace
+
+std::vector<std::string> ExpandSceneSpec(const std::string& spec) {
+  if (IsBuiltinSpec(spec)) return {spec};
+  const auto [json_path, frame_suffix] = SplitFrameSuffix(spec);
+  std::error_code ec;
+  // A spec naming a frame, or no file at all (LoadScene reports that in its place), stays as is.
+  if (!frame_suffix.empty() || !fs::is_regular_file(json_path, ec)) return {spec};
+  const SceneFileSpec parsed = ParseSceneFile(json_path);
+  if (parsed.type != "nyu_v2" && parsed.type != "folder") return {spec};
+  std::vector<std::string> out;
+  for (const std::string& key : parsed.frames) out.push_back(json_path + "#" + key);
+  return out;
+}
+
 Scene BuildScene(const SceneFileSpec& spec) {
   if (spec.type == "builtin") {
     BuiltinSceneOptions options;
@@ -335,8 +547,16 @@ Scene BuildScene(const SceneFileSpec& spec) {
     scene.input_hashes[spec.source] = Sha256File(spec.source);
     return scene;
   }
+  const bool multi_frame = spec.type == "nyu_v2" || spec.type == "folder";
+  if (multi_frame && spec.frame.empty())
+    throw Error(spec.source, "selects " + std::to_string(spec.frames.size()) + " frames (" +
+                                 spec.frames.front() + " .. " + spec.frames.back() +
+                                 "); load one as '" + spec.source + "#" + spec.frames.front() +
+                                 "', or list the file in a generate config (it expands to every "
+                                 "selected frame)");
+  if (spec.type == "nyu_v2") return BuildNyuScene(spec);
   Scene scene;
-  scene.name = spec.name;
+  scene.name = multi_frame ? spec.name + "_" + spec.frame : spec.name;
   ReadImageOptions image_options;
   image_options.transfer = spec.color;
   scene.image = ReadImage(spec.image, image_options);
@@ -352,10 +572,9 @@ Scene BuildScene(const SceneFileSpec& spec) {
   scene.camera.width = size.width;
   scene.camera.height = size.height;
 
-  ReadImageOptions raw_options;
-  raw_options.keep_raw = true;
   const std::string& geometry_path = spec.type == "stereo" ? spec.disparity : spec.depth;
-  const cv::Mat raw = ReadImage(geometry_path, raw_options);
+  const RawDepthFile raw_file = ReadRawDepthFile(geometry_path);
+  const cv::Mat& raw = raw_file.values;
   if (raw.size() != size)
     throw Error(geometry_path, "size " + SizeText(raw.size()) + " differs from image " + spec.image +
                                    " (" + SizeText(size) + ")");
@@ -370,7 +589,15 @@ Scene BuildScene(const SceneFileSpec& spec) {
     scene.depth_m = DepthFromDisparity(raw / spec.disparity_scale, scene.camera.fx, spec.baseline_m,
                                        spec.doffs_px);
   } else {
-    scene.depth_m = DepthFromRaw(geometry_path, raw, spec.depth_scale);
+    double depth_scale = spec.depth_scale;
+    if (depth_scale == 0.0) {  // folder without "depth_scale"
+      if (raw_file.integer)
+        throw Error(spec.source, "'depth_scale' is required for integer depth files such as " +
+                                     geometry_path + " (file units per metre, e.g. 1000 for mm)");
+      depth_scale = 1.0;
+    }
+    scene.depth_m = DepthFromRaw(geometry_path, raw, depth_scale);
+    if (spec.depth_is_range) scene.depth_m = DepthFromRange(scene.camera, scene.depth_m);
   }
   if (cv::countNonZero(scene.depth_m == scene.depth_m) == 0)
     throw Error(geometry_path, "no valid depth pixel (all zero, unknown or non-finite)");

@@ -1,5 +1,6 @@
 // One entry point for every scene source: built-in procedural scenes and scene files (JSON) that
-// point at dataset frames (TUM / ICL-NUIM RGB-D, stereo disparity, float depth). The harness,
+// point at dataset frames (TUM / ICL-NUIM RGB-D, stereo disparity, float depth, NYU Depth v2
+// labelled file, RGB-D folders). The harness,
 // `turbid render` and `turbid scene` all call LoadScene. Schema and units: docs/formats.md.
 #pragma once
 
@@ -20,13 +21,19 @@ struct LoadSceneOptions {
   bool Check(std::string* why) const;
 };
 
-// spec: "builtin:NAME", a bare built-in name ("hull", "seafloor", "room"), or the path of a scene
-// JSON file. The result has passed Scene::Validate(). Throws Error("<file>: <problem>").
+// spec: "builtin:NAME", a bare built-in name ("hull", "seafloor", "room"), the path of a scene
+// JSON file, or "FILE.json#KEY" for one frame of a multi-frame scene file (nyu_v2: KEY is the
+// 0-based frame index; folder: the file stem). The result has passed Scene::Validate(). Throws Error("<file>: <problem>").
 Scene LoadScene(const std::string& spec, const LoadSceneOptions& options = {});
 
 // True when `spec` names a built-in scene ("builtin:NAME" or a bare known name that is not an
 // existing file).
 bool IsBuiltinSpec(const std::string& spec);
+
+// The single-frame specs a spec stands for, in order: "FILE.json#KEY" for every frame a nyu_v2 or
+// folder scene file selects ("frames"); the spec itself otherwise (built-ins, single-frame types,
+// specs that already name a frame). `generate` expands its "scenes" with it. Throws Error.
+std::vector<std::string> ExpandSceneSpec(const std::string& spec);
 
 // Loads a scene JSON file (strict schema: unknown keys and bad values are errors naming the file).
 // Relative paths inside the file are resolved against the file's folder. input_hashes records the
@@ -37,7 +44,7 @@ Scene LoadSceneFile(const std::string& json_path);
 struct SceneFileSpec {
   std::string source;  // the JSON file's path (used in messages and input_hashes)
   std::string name;    // default: the JSON file's stem
-  std::string type;    // "rgbd", "depth", "stereo" or "builtin"
+  std::string type;    // "rgbd", "depth", "stereo", "builtin", "nyu_v2" or "folder"
   std::string image;   // clean image path, resolved against the JSON's folder
   std::string depth;   // rgbd / depth: depth file path
   std::string disparity;  // stereo: disparity file path
@@ -53,9 +60,20 @@ struct SceneFileSpec {
   std::vector<cv::Vec3d> dvl;              // DVL beam hits, camera frame, metres
   std::string builtin;                     // builtin: scene name
   double builtin_scale = 1.0;              // builtin: size scale in (0, 1]
+  // nyu_v2 and folder (multi-frame datasets). depth_scale 0 = not given (folder: required for
+  // integer depth files, 1 for float ones).
+  std::string dataset;              // nyu_v2: the labelled .mat file; folder: the dataset root
+  std::vector<std::string> frames;  // selected frame keys in order (NYU: 0-based index; folder: stem)
+  std::string frame;  // the frame BuildScene loads: "#KEY" of the spec, or the only selected one
+  bool crop_border = false;                // nyu_v2: crop to the NYU toolbox's valid region
+  std::string depth_dataset = "depths";    // nyu_v2: "depths" or "rawDepths"
+  std::string rgb_dir = "rgb";             // folder: colour subfolder
+  std::string depth_dir = "depth";         // folder: depth subfolder
+  bool depth_is_range = false;             // folder: files hold distance along the ray, not z
 };
 
-// Parses and checks a scene JSON file (no image is read). Throws Error("<json>: <problem>").
+// Parses and checks a scene JSON file (no image is read; multi-frame types list their frames).
+// json_path may end in "#KEY" (see LoadScene). Throws Error("<json>: <problem>").
 SceneFileSpec ParseSceneFile(const std::string& json_path);
 // Reads the files a spec names and builds a validated Scene.
 Scene BuildScene(const SceneFileSpec& spec);

@@ -1,24 +1,24 @@
 #!/usr/bin/env bash
 # Installs turbid's build and test dependencies from Debian 12 packages, only what is missing.
 # Usage: scripts/install_deps.sh [--test] [--slurm]
-#   --test   adds what the test suite needs: chromium, and python3-torch for the DataLoader test of
-#            the Python package
-#   --slurm  adds slurm-wlm and munge for the single-node Slurm test (scripts/slurm/test_local.sh,
-#            ctest slurm/local_array; it skips, saying why, when they are missing). Opt-in: CI
-#            does not need it.
+#   --test   adds what the test suite needs: chromium, python3-torch for the DataLoader test of
+#            the Python package, python3-h5py to write NYU-layout HDF5 files independently of our
+#            reader, and slurm-wlm + munge for the single-node Slurm test
+#   --slurm  adds only slurm-wlm and munge (scripts/slurm/test_local.sh, ctest slurm/local_array;
+#            the test skips, saying why, when they are missing or it cannot start the daemons)
 set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config
   libopencv-dev libopencv-contrib-dev libeigen3-dev libopenexr-dev libopenimageio-dev
-  nlohmann-json3-dev libcli11-dev libtbb-dev
+  nlohmann-json3-dev libcli11-dev libtbb-dev libhdf5-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox
   python3-pybind11 python3-numpy python3-pytest
 )
 for flag in "$@"; do
   case "$flag" in
-    --test) packages+=(chromium python3-torch) ;;
+    --test) packages+=(chromium python3-torch python3-h5py slurm-wlm munge) ;;
     --slurm) packages+=(slurm-wlm munge) ;;
     *) echo "usage: $0 [--test] [--slurm]" >&2; exit 2 ;;
   esac

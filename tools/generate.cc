@@ -159,7 +159,9 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   ThrowIfInvalid(scene_options, config_path + ": scale");
   for (const json& spec : config["scenes"]) {
     if (!spec.is_string()) throw Error(config_path, "scenes: entries must be strings");
-    out.scene_specs.push_back(spec.get<std::string>());
+    // A multi-frame scene file (nyu_v2, folder) stands for every frame it selects.
+    for (const std::string& one : ExpandSceneSpec(spec.get<std::string>()))
+      out.scene_specs.push_back(one);
   }
   return out;
 }

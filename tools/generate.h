@@ -15,7 +15,8 @@ namespace turbid {
 // A parsed and checked generate config (nothing loaded yet).
 struct GenerateConfig {
   std::string source;                   // the config file (or "<dict>"), used in messages
-  std::vector<std::string> scene_specs;  // "builtin:NAME" or scene JSON paths
+  // "builtin:NAME" or scene JSON paths; multi-frame files expanded to "FILE.json#KEY" per frame
+  std::vector<std::string> scene_specs;
   double scale = 1.0;                    // built-in scene scale in (0, 1]
   uint64_t seed = 0;                     // seeds each item's render (noise, snow)
   std::string format = "png";            // "png" or "exr"

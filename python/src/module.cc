@@ -440,6 +440,14 @@ PYBIND11_MODULE(_turbid, m) {
       .def("sidecar", [](const PyRenderResult& r) { return r.result->sidecar.dump(); })
       .def("plan", [](const PyRenderResult& r) { return r.result->plan.ToText(); });
 
+  m.def("expand_scene_spec", [](const std::string& spec) {
+    try {
+      return ExpandSceneSpec(spec);
+    } catch (const Error& e) {
+      if (LooksLikeIo(e.what())) throw IoError(e.what());
+      throw;
+    }
+  }, py::arg("spec"));
   m.def("render", &RenderScene, py::arg("scene"), py::arg("params"), py::arg("seed"),
         py::arg("maps"));
   m.def("enhance", &EnhanceArray, py::arg("image"), py::arg("method"), py::arg("params"),
@@ -490,8 +498,13 @@ PYBIND11_MODULE(_turbid, m) {
     const ArrayView v = ViewArray(image, "image");
     if (v.mat.depth() != CV_32F) throw Error("image: write_image takes float32 [0, 1]");
     py::gil_scoped_release release;
-    cv::Mat m = v.mat;
-    if (v.channels == 3) cv::cvtColor(v.mat, m, cv::COLOR_RGB2BGR);
+    // A new Mat for the BGR copy: converting into v.mat's header would swap the caller's array.
+    cv::Mat m;
+    if (v.channels == 3) {
+      cv::cvtColor(v.mat, m, cv::COLOR_RGB2BGR);
+    } else {
+      m = v.mat;
+    }
     WriteImageOptions o;
     o.bit_depth = bit_depth;
     o.transfer = ParseEncoding(encoding) == Encoding::kSrgb ? Transfer::kSrgb : Transfer::kLinear;

@@ -65,6 +65,17 @@ def test_rgb_order_at_the_boundary():
     assert np.nanmean(t[..., 0]) < np.nanmean(t[..., 2])
 
 
+def test_write_image_leaves_the_array_alone(tmp_path):
+    # RGB in, RGB back; the BGR conversion for OpenCV must not swap the caller's array in place.
+    a = np.zeros((2, 3, 3), np.float32)
+    a[..., 0] = 1.0
+    a[..., 1] = 0.5
+    kept = a.copy()
+    turbid.write_image(tmp_path / "a.png", a, bit_depth=16)
+    assert np.array_equal(a, kept)
+    assert np.array_equal(turbid.read_image(tmp_path / "a.png"), np.rint(kept * 65535) / 65535)
+
+
 def test_integer_decoding_matches_the_png_reader(cli, tmp_path):
     out = tmp_path / "a.png"
     run(cli, "render", "--scene", "builtin:room", "--scale", "0.2", "--out", out)

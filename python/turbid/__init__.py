@@ -43,8 +43,15 @@ class Scene:
 
     @staticmethod
     def load(path):
-        """A scene JSON file (docs/formats.md, "Scene files"), read as ``turbid render --scene``."""
+        """A scene JSON file (docs/formats.md, "Scene files"), read as ``turbid render --scene``;
+        ``"FILE.json#KEY"`` picks one frame of a multi-frame (``nyu_v2``, ``folder``) file."""
         return Scene(_turbid.Scene.load(_os.fspath(path)))
+
+    @staticmethod
+    def frames(path):
+        """The single-frame specs a scene file stands for: ``"FILE.json#KEY"`` for every frame a
+        ``nyu_v2`` or ``folder`` file selects (pass each to :meth:`load`); ``[path]`` otherwise."""
+        return list(_turbid.expand_scene_spec(_os.fspath(path)))
 
     @staticmethod
     def from_arrays(image, depth_m, fx, fy, cx, cy, normals=None, name="arrays", encoding=None):
