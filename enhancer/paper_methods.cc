@@ -818,7 +818,6 @@ FullOptions FullVariantDefaults(const std::string& variant) {
     o.denoise_adaptive = false;
     o.keep_detail = 0;
     o.exposure_percentile = 0;
-    o.clahe_target_mean = false;
   } else if (variant == "full_matched") {
     o.beta_source = "auto";
   } else if (variant == "full_physical") {
@@ -981,8 +980,8 @@ MethodEntry FullEntry(const std::string& variant) {
       Param("iterations", d.deconvolution.iterations, "Richardson-Lucy iterations, [1, 1000]"),
       Param("contrast", d.contrast, "step 5: CLAHE"),
       Param("clahe_target_mean", d.clahe_target_mean,
-            "CLAHE alpha chosen so the target's mean equals the image's (brightness kept); "
-            "false: clahe_alpha (naming clahe_alpha implies false)"),
+            "CLAHE alpha chosen per image so the output keeps the restored image's mean (at "
+            "least clahe_min_mean) instead of clahe_alpha; naming clahe_alpha implies false"),
       Param("clahe_min_mean", d.clahe_min_mean,
             "floor of the kept mean (an underexposed image is brought up to it), [0, 0.6]"),
   };

@@ -85,17 +85,14 @@ struct FullOptions {
   DeconvolutionOptions deconvolution;  // Wiener, NSR 0.01
   bool contrast = true;                // step 5 (§III-A.5)
   ClaheOptions clahe;                  // 8x8 tiles, clip 0.01, 256 bins, Rayleigh, alpha 0.4
-  // Brightness-keeping CLAHE target: the Rayleigh / exponential alpha is chosen per image so that
-  // the target distribution's mean equals the mean of the image entering CLAHE
-  // (ClaheAlphaForMean), instead of the fixed clahe.alpha, whose Rayleigh(0.4) target has mean
-  // ~0.5 whatever the scene (it brightens a dark restored room to twice its radiance; docs/
-  // methods.md, "Blind full: choices measured"). false: clahe.alpha as given (the paper). Naming
-  // clahe_alpha in the parameters implies false.
-  bool clahe_target_mean = true;
-  // clahe_target_mean's floor: the target mean is max(mean entering CLAHE, clahe_min_mean). 0.18 is
-  // photographic middle grey (the linear reflectance reflected-light meters are calibrated to):
-  // an underexposed restoration (a dark hull far from a weak light) is brought up to it, no
-  // further; a brighter one keeps its own mean.
+  // Brightness-keeping CLAHE target (ClaheOptions::keep_mean): alpha chosen per image so that the
+  // mapped mean is max(mean entering CLAHE, clahe_min_mean) instead of the fixed clahe.alpha, whose
+  // Rayleigh(0.4) target lifts every restored scene towards mid-grey. Off by default: which is
+  // better depends on how bright the ground truth is, which a blind method cannot know (measured
+  // both ways in docs/methods.md, "Blind full: choices measured"). Naming clahe_alpha implies off.
+  bool clahe_target_mean = false;
+  // clahe_target_mean's floor; 0.18 is photographic middle grey (the linear reflectance
+  // reflected-light meters are calibrated to).
   double clahe_min_mean = 0.18;
   bool Check(std::string* why) const;
 };

@@ -204,8 +204,11 @@ TEST(FullBlind, ClaheTargetKeepsTheRestoredBrightness) {
   }
   EXPECT_GT(worst_fixed, 0.1);
   // Naming clahe_alpha selects the fixed target.
+  EXPECT_TRUE(FullOptionsFromJson({{"clahe_alpha", 0.3}, {"clahe_target_mean", true}}, "full")
+                  .clahe_target_mean);
   EXPECT_FALSE(FullOptionsFromJson({{"clahe_alpha", 0.3}}, "full").clahe_target_mean);
-  EXPECT_TRUE(FullOptionsFromJson(nlohmann::json::object(), "full").clahe_target_mean);
+  EXPECT_TRUE(FullOptionsFromJson({{"clahe_target_mean", true}}, "full").clahe_target_mean);
+  EXPECT_FALSE(FullOptionsFromJson(nlohmann::json::object(), "full").clahe_target_mean);
   EXPECT_FALSE(FullVariantDefaults("full_literal").clahe_target_mean);
 }
 
