@@ -4,8 +4,6 @@
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
 #include <OpenEXR/ImfOutputFile.h>
-#include <OpenImageIO/imageio.h>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -20,6 +18,7 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
+#include "scenes/image_codecs.h"
 
 namespace turbid {
 namespace fs = std::filesystem;
@@ -195,60 +194,9 @@ cv::Mat ReadPnm(const std::string& path, const std::string& bytes, int* max_valu
   return image;
 }
 
-// EXR and TIFF through OpenImageIO: it reports truncated and corrupt files as errors. Integer
-// TIFFs come back with their raw values and the type's maximum in *max_value (0 for floats).
-// Returns an empty Mat for LogLuv TIFFs (see below).
-cv::Mat ReadWithOiio(const std::string& path, int* max_value) {
-  auto input = OIIO::ImageInput::open(path);
-  if (!input) {
-    std::string why = OIIO::geterror();
-    if (why.empty()) why = "cannot decode";
-    std::replace(why.begin(), why.end(), '\n', ' ');
-    throw Error(path, why);
-  }
-  const OIIO::ImageSpec spec = input->spec();
-  // OpenImageIO hands SGI LogLuv TIFFs (what OpenCV writes for float data) over as 8-bit
-  // tone-mapped RGB; return nothing so that the caller decodes them with OpenCV instead.
-  const int photometric = spec.get_int_attribute("tiff:PhotometricInterpretation", 0);
-  if (photometric == 32844 || photometric == 32845) return cv::Mat();
-  if (spec.width <= 0 || spec.height <= 0 || spec.width > kMaxSide || spec.height > kMaxSide)
-    throw Error(path, "bad image size " + std::to_string(spec.width) + "x" + std::to_string(spec.height));
-  if (spec.depth > 1) throw Error(path, "volume images are not supported");
-  const int file_channels = spec.nchannels;
-  if (file_channels < 1 || file_channels > 4)
-    throw Error(path, "unsupported channel count " + std::to_string(file_channels));
-  // 2 channels: gray + alpha; 4: RGB + alpha. Alpha is dropped.
-  const int channels = file_channels >= 3 ? 3 : 1;
-  OIIO::TypeDesc read_type = OIIO::TypeDesc::FLOAT;
-  int cv_depth = CV_32F;
-  *max_value = 0;
-  if (spec.format == OIIO::TypeDesc::UINT8) {
-    read_type = OIIO::TypeDesc::UINT8;
-    cv_depth = CV_8U;
-    *max_value = 255;
-  } else if (spec.format == OIIO::TypeDesc::UINT16) {
-    read_type = OIIO::TypeDesc::UINT16;
-    cv_depth = CV_16U;
-    *max_value = 65535;
-  }
-  cv::Mat raw(spec.height, spec.width, CV_MAKETYPE(cv_depth, channels));
-  if (!input->read_image(0, 0, 0, channels, read_type, raw.data)) {
-    std::string why = input->geterror();
-    if (why.empty()) why = "cannot read pixel data (corrupt or truncated)";
-    std::replace(why.begin(), why.end(), '\n', ' ');
-    throw Error(path, why);
-  }
-  input->close();
-  cv::Mat out;
-  raw.convertTo(out, CV_32F);
-  if (channels == 3) cv::cvtColor(out, out, cv::COLOR_RGB2BGR);
-  return out;
-}
-
-// PNG and JPEG through OpenCV. Its decoders tolerate some truncations silently (libjpeg fills
-// the missing part with gray), so the end markers are checked first.
-cv::Mat ReadWithOpenCv(const std::string& path, const std::string& bytes, ImageFormat format,
-                       int* max_value) {
+// PNG and JPEG decoders tolerate some truncations silently (libjpeg fills the missing part with
+// gray), so the end markers are checked first.
+void CheckEndMarker(const std::string& path, const std::string& bytes, ImageFormat format) {
   if (format == ImageFormat::kPng) {
     static const char kIend[] = "IEND";
     if (bytes.size() < 12 || bytes.compare(bytes.size() - 8, 4, kIend) != 0)
@@ -259,27 +207,6 @@ cv::Mat ReadWithOpenCv(const std::string& path, const std::string& bytes, ImageF
     if (bytes.substr(bytes.size() - tail).find("\xff\xd9") == std::string::npos)
       throw Error(path, "truncated JPEG (no end-of-image marker)");
   }
-  const std::vector<uchar> buffer(bytes.begin(), bytes.end());
-  cv::Mat raw;
-  try {
-    raw = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw Error(path, std::string("cannot decode: ") + e.err);
-  }
-  if (raw.empty()) throw Error(path, "cannot decode image (corrupt file)");
-  if (raw.channels() == 4) cv::cvtColor(raw, raw, cv::COLOR_BGRA2BGR);
-  if (raw.channels() == 2) cv::extractChannel(raw, raw, 0);
-  if (raw.channels() != 1 && raw.channels() != 3)
-    throw Error(path, "unsupported channel count " + std::to_string(raw.channels()));
-  switch (raw.depth()) {
-    case CV_8U: *max_value = 255; break;
-    case CV_16U: *max_value = 65535; break;
-    case CV_32F: *max_value = 0; break;
-    default: throw Error(path, "unsupported sample type");
-  }
-  cv::Mat out;
-  raw.convertTo(out, CV_32F);
-  return out;
 }
 
 void WritePfm(const std::string& path, const std::string& temp, const cv::Mat& data) {
@@ -360,13 +287,20 @@ cv::Mat ReadImage(const std::string& path, const ReadImageOptions& options) {
   int max_value = 0;  // integer formats: the value that maps to 1.0; 0 for float formats
   switch (format) {
     case ImageFormat::kPng:
+      CheckEndMarker(path, bytes, format);
+      image = codecs::DecodePng(path, bytes, &max_value);
+      break;
     case ImageFormat::kJpeg:
-      image = ReadWithOpenCv(path, bytes, format, &max_value);
+      CheckEndMarker(path, bytes, format);
+      image = codecs::DecodeJpeg(path, bytes, &max_value);
+      if (image.empty()) image = codecs::DecodeWithPlugin(path, bytes, &max_value);
+      break;
+    case ImageFormat::kExr:
+      image = codecs::DecodeExr(path, bytes, &max_value);
+      if (image.empty()) image = codecs::DecodeWithPlugin(path, bytes, &max_value);
       break;
     case ImageFormat::kTiff:
-    case ImageFormat::kExr:
-      image = ReadWithOiio(path, &max_value);
-      if (image.empty()) image = ReadWithOpenCv(path, bytes, format, &max_value);
+      image = codecs::DecodeWithPlugin(path, bytes, &max_value);
       break;
     case ImageFormat::kPfm:
       image = ReadPfm(path, bytes);
@@ -417,7 +351,7 @@ void WriteImage(const std::string& path, const cv::Mat& image, const WriteImageO
   cv::Mat encoded;
   clipped.convertTo(encoded, options.bit_depth == 16 ? CV_16U : CV_8U);  // rounds to nearest
   AtomicWrite(path, options.overwrite, [&](const std::string& temp) {
-    if (!cv::imwrite(temp, encoded)) throw Error(path, "PNG encoder failed");
+    codecs::EncodePng(path, temp, encoded);
   });
 }
 

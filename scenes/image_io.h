@@ -1,8 +1,9 @@
 // Image files <-> cv::Mat. In memory images are float32, linear, [0, 1], 1 or 3 channels (BGR order,
 // as OpenCV). The sRGB transfer curve is applied only at this boundary and only when asked.
-// Formats (detected from the file's first bytes, not its name): read PNG 8/16, JPEG, TIFF 8/16/float,
-// EXR half/float (OpenImageIO), PFM (own reader: scale sign = endianness, rows bottom-to-top,
-// inf kept), binary PGM/PPM 8/16 (own reader); write PNG 8/16, EXR float32 and PFM.
+// Formats (detected from the file's first bytes, not its name): read PNG 8/16 (libpng), JPEG
+// (libjpeg), EXR half/float (OpenEXR), TIFF 8/16/float (OpenImageIO, in a plugin loaded only when
+// such a file is read; image_codecs.h), PFM (own reader: scale sign = endianness, rows
+// bottom-to-top, inf kept), binary PGM/PPM 8/16 (own reader); write PNG 8/16, EXR float32 and PFM.
 // Corrupt or truncated files raise Error("<path>: <problem>"). Policy: docs/formats.md.
 #pragma once
 

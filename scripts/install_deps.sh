@@ -11,6 +11,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   libopencv-dev libopencv-contrib-dev libeigen3-dev libopenexr-dev libopenimageio-dev
+  libpng-dev libjpeg62-turbo-dev zlib1g-dev
   nlohmann-json3-dev libcli11-dev libtbb-dev libhdf5-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   gnuplot-nox

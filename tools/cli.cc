@@ -17,7 +17,11 @@ int RunCli(int argc, const char* const* argv) {
   AddEnhanceCommand(app);
   AddScoreCommand(app);
   AddHarnessCommands(app);
-  AddBenchCommand(app);
+  AddBenchLauncher(app);
+  return RunApp(app, argc, argv);
+}
+
+int RunApp(CLI::App& app, int argc, const char* const* argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -25,6 +29,8 @@ int RunCli(int argc, const char* const* argv) {
     // not CLI11's own numbering.
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
+  } catch (const ExitStatus& e) {
+    return e.code;
   } catch (const Error& e) {
     std::cerr << "turbid: error: " << e.what() << "\n";
     return 1;

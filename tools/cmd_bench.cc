@@ -457,8 +457,7 @@ void RunBench(const BenchArgs& args) {
 
 void AddBenchCommand(CLI::App& app) {
   auto args = std::make_shared<BenchArgs>();
-  CLI::App* cmd = app.add_subcommand(
-      "bench", "time the speed goals: ours against the peer (OpenCV) in one process");
+  CLI::App* cmd = app.add_subcommand("bench", kBenchDescription);
   cmd->add_option("--filter", args->filter, "regular expression on case names (see --list)");
   cmd->add_option("--min-time", args->min_time_s, "minimum seconds per timing loop (default 0.3)");
   cmd->add_option("--repetitions", args->repetitions,

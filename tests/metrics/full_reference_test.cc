@@ -5,9 +5,12 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <string>
 
+#include "metrics/image_checks.h"
 #include "scenes/error.h"
 #include "tests/metrics/reference_files.h"
 
@@ -129,6 +132,51 @@ TEST(Cnr, ConstantImageIsZeroAndBadInputThrows) {
   masks.signal_mask = cv::Mat(3, 3, CV_8U, 255);
   masks.background_mask = cv::Mat(3, 3, CV_8U, 255);
   EXPECT_THROW(Cnr(masks, cv::Mat(4, 4, CV_32F, 0.1)), Error);
+}
+
+// The finite check names the pixel and value of the first non-finite element that cv::checkRange
+// (the check it replaced) finds, in float and double, gray and colour, wide rows and narrow ones.
+// checkRange reports the pixel column; the message printed before divided it by the channel count
+// again (and printed another element's value) for colour images.
+TEST(MetricImageCheck, NamesTheFirstNonFiniteElementAsCheckRange) {
+  const float values[] = {NAN, INFINITY, -INFINITY};
+  int cases = 0;
+  for (int depth : {CV_32F, CV_64F}) {
+    for (int channels : {1, 3}) {
+      for (cv::Size size : {cv::Size(1, 1), cv::Size(37, 5), cv::Size(640, 48)}) {
+        for (int k = 0; k < 3; ++k) {
+          cv::Mat image(size, CV_MAKETYPE(depth, channels));
+          cv::randu(image, -1e6, 1e6);
+          EXPECT_NO_THROW(CheckMetricImage(image, "fine"));
+          cv::Mat flat = image.reshape(1, image.rows);
+          const int y = (k * 7) % size.height, x = (k * 53 + 11) % flat.cols;
+          const int y2 = std::min(y + 1, size.height - 1);  // a later one that must not be named
+          if (depth == CV_32F) {
+            flat.at<float>(y2, flat.cols - 1) = values[(k + 1) % 3];
+            flat.at<float>(y, x) = values[k];
+          } else {
+            flat.at<double>(y2, flat.cols - 1) = values[(k + 1) % 3];
+            flat.at<double>(y, x) = values[k];
+          }
+          cv::Point expected;
+          ASSERT_FALSE(cv::checkRange(image, true, &expected));
+          std::string message;
+          try {
+            CheckMetricImage(image, "img");
+          } catch (const Error& e) {
+            message = e.what();
+          }
+          const std::string where =
+              "at x=" + std::to_string(expected.x) + " y=" + std::to_string(expected.y);
+          const std::string value = k == 0 ? "(nan)" : (k == 1 ? "(inf)" : "(-inf)");
+          EXPECT_NE(message.find("non-finite pixel value " + value), std::string::npos) << message;
+          EXPECT_NE(message.find(where), std::string::npos) << message << " vs " << where;
+          ++cases;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(cases, 36);
 }
 
 }  // namespace
