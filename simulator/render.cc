@@ -454,8 +454,13 @@ RenderOptions RenderOptionsFromJson(const json& j) {
     const json& s = j.at("camera");
     const std::string p = "camera.";
     RequireObject(s, "camera");
-    RejectUnknown(s, p, {"bit_depth"});
+    RejectUnknown(s, p, {"bit_depth", "encoding"});
     Read(s, "bit_depth", p, o.camera.bit_depth);
+    if (s.contains("encoding")) {
+      std::string name;
+      Read(s, "encoding", p, name);
+      o.camera.encoding = CameraEncodingFromName(name, "render options: camera.encoding");
+    }
     CheckSection(o.camera, p);
   }
   return o;
@@ -513,7 +518,8 @@ json RenderOptionsToJson(const RenderOptions& options) {
        {{"enabled", o.sensor.enabled},
         {"photons_at_white", o.sensor.photons_at_white},
         {"read_noise", o.sensor.read_noise}}},
-      {"camera", {{"bit_depth", o.camera.bit_depth}}},
+      {"camera",
+       {{"bit_depth", o.camera.bit_depth}, {"encoding", CameraEncodingName(o.camera.encoding)}}},
       {"seed", o.seed},
   };
 }
@@ -610,8 +616,9 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
   else
     plan.skipped.push_back("sensor noise: none");
   plan.steps.push_back(options.camera.bit_depth == 32
-                           ? std::string("camera: clip to [0, 1], float")
-                           : "camera: clip and quantise to " +
+                           ? std::string("camera: clip to [0, 1], float, linear")
+                           : "camera: clip, " + CameraEncodingName(options.camera.encoding) +
+                                 " encoding, quantise to " +
                                  std::to_string(options.camera.bit_depth) + " bit");
   return d;
 }
@@ -792,6 +799,7 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
     open_bs[c] = options.water.backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
   const float levels = options.camera.bit_depth == 8 ? 255.0f : 65535.0f;
   const bool quantise = options.camera.bit_depth != 32;
+  const bool srgb = quantise && options.camera.encoding == CameraEncoding::kSrgb;
   cv::parallel_for_(
       cv::Range(0, size.height),
       [&](const cv::Range& rows) {
@@ -889,7 +897,10 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
                                         scratch.data());
           if (noise)
             for (int i = 0; i < per_row; ++i) noise[i] = out[i] - noise[i];
-          QuantiseRow(out, per_row, levels, quantise);
+          if (srgb)
+            QuantiseEncodedRow(out, per_row, CameraEncoding::kSrgb, options.camera.bit_depth);
+          else
+            QuantiseRow(out, per_row, levels, quantise);
         }
       },
       stripes);
@@ -945,6 +956,8 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
           {"separable", d.psf.separable}}},
         {"snow", {{"particles", snow.particles}, {"visible", snow.visible}}}}},
       {"plan", d.plan.ToJson()},
+      // How the image file's values are coded (what `turbid score` and `enhance` read).
+      {"encoding", CameraEncodingName(options.camera.FileEncoding())},
   };
   return result;
 }

@@ -87,6 +87,7 @@ struct Inputs {
     RenderOptions o;
     o.water.type = "3C";
     o.seed = 1;
+    o.camera.encoding = CameraEncoding::kLinear;  // the peers read these values as 8-bit codes
     const cv::Mat gray = Render(o, hull_gray).image;
     const cv::Mat color = Render(o, hull_color).image;
     degraded_gray_linear = gray;

@@ -61,12 +61,21 @@ void SetPath(json& root, const std::string& path, const json& value) {
   }
 }
 
-// Writes an image as 16-bit PNG (maps, ground truth) or float EXR.
-void WriteMap(const std::string& path, const cv::Mat& image, int png_bits, bool overwrite) {
+// Writes an image as PNG (`png_bits`, values coded with `transfer`) or float EXR / PFM (linear).
+void WriteMap(const std::string& path, const cv::Mat& image, int png_bits, bool overwrite,
+              Transfer transfer = Transfer::kLinear) {
   WriteImageOptions options;
   options.bit_depth = png_bits;
   options.overwrite = overwrite;
+  options.transfer = transfer;
   WriteImage(path, image, options);
+}
+
+// The encoding of an item's image and ground-truth files (linear for EXR datasets).
+std::string FileEncodingName(const json& params, const std::string& format) {
+  if (format == "exr") return "linear";
+  RenderOptions options = RenderOptionsFromJson(params);
+  return CameraEncodingName(options.camera.FileEncoding());
 }
 
 }  // namespace
@@ -267,8 +276,13 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
           if (format == "exr") options.camera.bit_depth = 32;
           const RenderResult result = renderer.Render(options);
           const int bits = options.camera.bit_depth == 32 ? 16 : options.camera.bit_depth;
-          WriteMap(p[0], result.image, bits, true);
-          WriteMap(p[1], renderer.scene().image, 16, true);
+          // The ground truth goes through the same camera (encoding and bit depth) as the image,
+          // so an identity render scores SSIM 1 against it; lit J is float (PFM), linear.
+          const CameraEncoding encoding = options.camera.FileEncoding();
+          const cv::Mat& clean = renderer.scene().image;
+          WriteMap(p[0], result.image, bits, true, TransferFor(encoding));
+          WriteMap(p[1], format == "exr" ? clean : QuantiseEncoded(clean, encoding, bits), bits,
+                   true, TransferFor(encoding));
           WriteMap(p[2], result.lit, 16, true);
           json sidecar = result.sidecar;
           sidecar["options"] = item.params;
@@ -299,7 +313,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   // Manifest in item order: the same bytes whatever the thread count or interruption history.
   std::string csv =
       "index,id,scene,image,ground_truth,lit,sidecar,seed,beta_r,beta_g,beta_b,beta_gray,psf_T,psf_"
-      "q\n";
+      "q,encoding\n";
   std::string jsonl;
   for (const Item& item : items) {
     const json& o = item.params;
@@ -310,7 +324,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
         << ".json," << o["seed"].get<uint64_t>() << "," << b[0].dump() << "," << b[1].dump() << ","
         << b[2].dump() << "," << o["water"]["beta_gray_per_m"].dump() << ","
         << o["psf"]["optical_thickness"].dump() << "," << o["psf"]["forward_scatter"].dump()
-        << "\n";
+        << "," << FileEncodingName(o, format) << "\n";
     csv += row.str();
     jsonl += json({{"index", item.index},
                    {"id", item.id},
@@ -319,6 +333,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
                    {"ground_truth", "ground_truth/" + item.id + ext},
                    {"lit", "lit/" + item.id + ".pfm"},
                    {"sidecar", "sidecars/" + item.id + ".json"},
+                   {"encoding", FileEncodingName(o, format)},
                    {"options", o}})
                  .dump() +
              "\n";
