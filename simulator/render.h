@@ -17,6 +17,7 @@
 #include "scenes/camera_encoding.h"
 #include "scenes/scene.h"
 #include "simulator/light.h"
+#include "simulator/models.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
 #include "simulator/water.h"
@@ -51,6 +52,12 @@ struct MapSelection {
 };
 
 struct RenderOptions {
+  // Image-formation model (simulator/models.h, docs/model.md "Models"): the paper's eq. 2 by
+  // default; "revised" (Akkaynak & Treibitz 2018) and "uwcnn" (Li, Anwar & Porikli 2020) read
+  // their own sections below as well.
+  ImageModel model = ImageModel::kPaper;
+  RevisedOptions revised;
+  UwcnnOptions uwcnn;
   WaterOptions water;
   IrradianceOptions light;
   PsfOptions psf;

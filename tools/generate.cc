@@ -116,13 +116,54 @@ json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::stri
   throw Error("generate: random.params." + path + ": unknown distribution '" + kind + "'");
 }
 
+json GeneratePreset(const std::string& name) {
+  // The UWCNN synthesis recipes (Li, Anwar & Porikli 2020; docs/model.md "Models"): the ten
+  // Jerlov types with equal probability, a distance scale and the background light as published,
+  // no forward scatter, snow or noise (the recipes have none).
+  const json no_extras = {{"psf", {{"enabled", false}}},
+                          {"snow", {{"enabled", false}}},
+                          {"sensor", {{"enabled", false}}}};
+  const json types = json::array({"I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"});
+  if (name == "uwcnn_nyu") {
+    json base = no_extras;
+    base["model"] = "uwcnn";
+    base["uwcnn"] = {{"backlight_scale", 1.5}};
+    return {{"base", base},
+            {"random_params",
+             {{"uwcnn.type", {{"choice", types}}},
+              {"uwcnn.max_distance_m", {{"uniform", {0.5, 15.0}}}},
+              {"uwcnn.backlight_exponent", {{"uniform", {3.0, 5.0}}}}}}};
+  }
+  if (name == "uwcnn_constant_b") {
+    json base = no_extras;
+    base["model"] = "uwcnn";
+    base["uwcnn"] = {{"backlight_scale", 0.8}, {"backlight_exponent", 0.0}};
+    return {{"base", base},
+            {"random_params",
+             {{"uwcnn.type", {{"choice", types}}},
+              {"uwcnn.max_distance_m", {{"uniform", {0.5, 10.0}}}}}}};
+  }
+  throw Error("generate: preset: unknown preset '" + name + "' (uwcnn_nyu, uwcnn_constant_b)");
+}
+
 GenerateConfig ParseGenerateConfig(const json& config, const std::string& config_path) {
   if (!config.is_object()) throw Error(config_path, "must be a JSON object");
   for (auto it = config.begin(); it != config.end(); ++it)
     if (it.key() != "scenes" && it.key() != "scale" && it.key() != "base" && it.key() != "grid" &&
-        it.key() != "random" && it.key() != "seed" && it.key() != "format")
-      throw Error(config_path,
-                  it.key() + ": unknown key (scenes, scale, base, grid, random, seed, format)");
+        it.key() != "random" && it.key() != "seed" && it.key() != "format" &&
+        it.key() != "preset")
+      throw Error(config_path, it.key() +
+                                   ": unknown key (scenes, scale, base, grid, random, seed, format, "
+                                   "preset)");
+  json preset = {{"base", json::object()}, {"random_params", json::object()}};
+  if (config.contains("preset")) {
+    if (!config["preset"].is_string()) throw Error(config_path, "preset: must be a string");
+    try {
+      preset = GeneratePreset(config["preset"].get<std::string>());
+    } catch (const Error& e) {
+      throw Error(config_path, e.what());
+    }
+  }
   if (!config.contains("scenes") || !config["scenes"].is_array() || config["scenes"].empty())
     throw Error(config_path, "scenes: a non-empty array of scene specs is required");
   GenerateConfig out;
@@ -131,7 +172,9 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   out.seed = config.value("seed", uint64_t{0});
   out.format = config.value("format", std::string("png"));
   if (out.format != "png" && out.format != "exr") throw Error(config_path, "format: png or exr");
-  out.base = config.value("base", json::object());
+  // A preset's base and random draws come first; the config's own entries override them.
+  out.base = preset["base"];
+  out.base.merge_patch(config.value("base", json::object()));
   RenderOptionsFromJson(out.base);  // fail early on a bad base
 
   // Grid: cartesian product over dotted parameter paths, in key order.
@@ -162,6 +205,12 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
     out.random_params = random.value("params", json::object());
     if (out.samples < 1 || out.samples > 1000000)
       throw Error(config_path, "random.count: must be in [1, 1e6]");
+  }
+  if (!preset["random_params"].empty()) {
+    json params = preset["random_params"];
+    for (auto it = out.random_params.begin(); it != out.random_params.end(); ++it)
+      params[it.key()] = it.value();
+    out.random_params = params;
   }
   LoadSceneOptions scene_options;
   scene_options.builtin_scale = out.scale;
