@@ -258,6 +258,18 @@ __attribute__((target_clones("avx2", "default"))) void ComposeVeil(const float* 
     }
 }
 
+// Model "revised": I = Jb t_D + (1 - t_B)(E_L + B_inf); e may alias out (E_L kept in place) or
+// be nullptr (no light).
+void ComposeRevised(const float* jb, const float* t_d, const float* t_b, const float* e,
+                    const float* bs, int width, int channels, float* out) {
+  for (int x = 0; x < width; ++x)
+    for (int c = 0; c < channels; ++c) {
+      const int i = x * channels + c;
+      const float e_value = e ? e[i] : 0.0f;
+      out[i] = jb[i] * t_d[i] + (1.0f - t_b[i]) * (e_value + bs[c]);
+    }
+}
+
 // The veiling term alone, (1 - t)(E_L + B_inf), for the veil map.
 void VeilRow(const float* t, const float* e, const float* bs, int width, int channels,
              float* veil) {
@@ -319,14 +331,71 @@ bool RenderOptions::Check(std::string* why) const {
     if (why) *why = name + "." + inner;
     return false;
   };
-  return section(water, "water") && section(light, "light") && section(psf, "psf") &&
+  return section(revised, "revised") && section(uwcnn, "uwcnn") && section(water, "water") &&
+         section(light, "light") && section(psf, "psf") &&
          section(snow, "snow") && section(sensor, "sensor") && section(camera, "camera");
 }
 
 RenderOptions RenderOptionsFromJson(const json& j) {
   RenderOptions o;
   RequireObject(j, "");
-  RejectUnknown(j, "", {"water", "light", "psf", "snow", "sensor", "camera", "seed"});
+  RejectUnknown(j, "",
+                {"model", "revised", "uwcnn", "water", "light", "psf", "snow", "sensor", "camera",
+                 "seed"});
+  if (j.contains("model")) {
+    std::string name;
+    Read(j, "model", "", name);
+    o.model = ImageModelFromName(name);
+  }
+  if (j.contains("revised")) {
+    const json& v = j.at("revised");
+    const std::string p = "revised.";
+    RequireObject(v, "revised");
+    RejectUnknown(v, p,
+                  {"beta_b_rgb_per_m", "beta_b_gray_per_m", "range_dependent", "a_rgb", "b_rgb",
+                   "c_rgb", "d_rgb", "a_gray", "b_gray", "c_gray", "d_gray"});
+    ReadTriple(v, "beta_b_rgb_per_m", p, o.revised.beta_b_rgb_per_m);
+    Read(v, "beta_b_gray_per_m", p, o.revised.beta_b_gray_per_m);
+    Read(v, "range_dependent", p, o.revised.range_dependent);
+    ReadTriple(v, "a_rgb", p, o.revised.a_rgb);
+    ReadTriple(v, "b_rgb", p, o.revised.b_rgb);
+    ReadTriple(v, "c_rgb", p, o.revised.c_rgb);
+    ReadTriple(v, "d_rgb", p, o.revised.d_rgb);
+    Read(v, "a_gray", p, o.revised.a_gray);
+    Read(v, "b_gray", p, o.revised.b_gray);
+    Read(v, "c_gray", p, o.revised.c_gray);
+    Read(v, "d_gray", p, o.revised.d_gray);
+    CheckSection(o.revised, p);
+  }
+  if (j.contains("uwcnn")) {
+    const json& v = j.at("uwcnn");
+    const std::string p = "uwcnn.";
+    RequireObject(v, "uwcnn");
+    RejectUnknown(v, p,
+                  {"type", "n_rgb_per_m", "n_gray_per_m", "backlight_scale", "backlight_exponent",
+                   "max_distance_m"});
+    Read(v, "type", p, o.uwcnn.type);
+    ReadTriple(v, "n_rgb_per_m", p, o.uwcnn.n_rgb_per_m);
+    Read(v, "n_gray_per_m", p, o.uwcnn.n_gray_per_m);
+    Read(v, "backlight_scale", p, o.uwcnn.backlight_scale);
+    Read(v, "backlight_exponent", p, o.uwcnn.backlight_exponent);
+    Read(v, "max_distance_m", p, o.uwcnn.max_distance_m);
+    CheckSection(o.uwcnn, p);
+    if (o.uwcnn.type != "custom") {
+      // As for water.type: a sidecar repeats the preset's N, anything else would be overridden.
+      const UwcnnOptions preset = ResolveUwcnn(o.uwcnn);
+      const bool rgb_conflict =
+          v.contains("n_rgb_per_m") && !SameRgb(o.uwcnn.n_rgb_per_m, preset.n_rgb_per_m);
+      const bool gray_conflict = v.contains("n_gray_per_m") &&
+                                 std::abs(o.uwcnn.n_gray_per_m - preset.n_gray_per_m) > 1e-9;
+      if (rgb_conflict || gray_conflict)
+        throw Error(std::string("render options: uwcnn.") +
+                    (rgb_conflict ? "n_rgb_per_m" : "n_gray_per_m") +
+                    ": conflicts with uwcnn.type '" + o.uwcnn.type +
+                    "' (use type \"custom\" to set N)");
+      o.uwcnn = preset;
+    }
+  }
   if (j.contains("seed")) {
     const json& s = j.at("seed");
     if (!s.is_number_integer() ||
@@ -454,8 +523,13 @@ RenderOptions RenderOptionsFromJson(const json& j) {
     const json& s = j.at("camera");
     const std::string p = "camera.";
     RequireObject(s, "camera");
-    RejectUnknown(s, p, {"bit_depth"});
+    RejectUnknown(s, p, {"bit_depth", "encoding"});
     Read(s, "bit_depth", p, o.camera.bit_depth);
+    if (s.contains("encoding")) {
+      std::string name;
+      Read(s, "encoding", p, name);
+      o.camera.encoding = CameraEncodingFromName(name, "render options: camera.encoding");
+    }
     CheckSection(o.camera, p);
   }
   return o;
@@ -466,6 +540,7 @@ json RenderOptionsToJson(const RenderOptions& options) {
   RenderOptions o = options;
   std::string why;
   if (o.water.type != "custom" && o.water.Check(&why)) o.water = ResolveWater(o.water);
+  if (o.uwcnn.type != "custom" && o.uwcnn.Check(&why)) o.uwcnn = ResolveUwcnn(o.uwcnn);
   json lights = json::array();
   for (const LightOptions& l : o.light.lights)
     lights.push_back({{"position_in_camera_m", Triple(l.position_in_camera_m)},
@@ -473,7 +548,8 @@ json RenderOptionsToJson(const RenderOptions& options) {
                       {"power", l.power},
                       {"half_power_angle_deg", l.half_power_angle_deg},
                       {"color_rgb", Triple(l.color_rgb)}});
-  return {
+  json out = {
+      {"model", ImageModelName(o.model)},
       {"water",
        {{"type", o.water.type},
         {"beta_rgb_per_m", Triple(o.water.beta_rgb_per_m)},
@@ -513,9 +589,31 @@ json RenderOptionsToJson(const RenderOptions& options) {
        {{"enabled", o.sensor.enabled},
         {"photons_at_white", o.sensor.photons_at_white},
         {"read_noise", o.sensor.read_noise}}},
-      {"camera", {{"bit_depth", o.camera.bit_depth}}},
+      {"camera",
+       {{"bit_depth", o.camera.bit_depth}, {"encoding", CameraEncodingName(o.camera.encoding)}}},
       {"seed", o.seed},
   };
+  // The active model's own section (the others are unused and left out).
+  if (o.model == ImageModel::kRevised)
+    out["revised"] = {{"beta_b_rgb_per_m", Triple(o.revised.beta_b_rgb_per_m)},
+                      {"beta_b_gray_per_m", o.revised.beta_b_gray_per_m},
+                      {"range_dependent", o.revised.range_dependent},
+                      {"a_rgb", Triple(o.revised.a_rgb)},
+                      {"b_rgb", Triple(o.revised.b_rgb)},
+                      {"c_rgb", Triple(o.revised.c_rgb)},
+                      {"d_rgb", Triple(o.revised.d_rgb)},
+                      {"a_gray", o.revised.a_gray},
+                      {"b_gray", o.revised.b_gray},
+                      {"c_gray", o.revised.c_gray},
+                      {"d_gray", o.revised.d_gray}};
+  if (o.model == ImageModel::kUwcnn)
+    out["uwcnn"] = {{"type", o.uwcnn.type},
+                    {"n_rgb_per_m", Triple(o.uwcnn.n_rgb_per_m)},
+                    {"n_gray_per_m", o.uwcnn.n_gray_per_m},
+                    {"backlight_scale", o.uwcnn.backlight_scale},
+                    {"backlight_exponent", o.uwcnn.backlight_exponent},
+                    {"max_distance_m", o.uwcnn.max_distance_m}};
+  return out;
 }
 
 std::string RenderPlan::ToText() const {
@@ -533,6 +631,11 @@ json RenderPlan::ToJson() const { return {{"steps", steps}, {"skipped", skipped}
 struct Decisions {
   WaterOptions water;
   std::vector<double> beta, ambient, backscatter;
+  bool backscatter_on = false;  // the (1 - t) B_inf term
+  // model "revised": beta^B (image channel order) and, when range-dependent, Sea-thru's a, b, c, d.
+  bool revised = false, sea_thru = false;
+  bool lights_used = true;  // false for uwcnn (its recipe has no illumination)
+  std::vector<double> beta_b, sea_a, sea_b, sea_c, sea_d;
   bool any_light = false;
   bool zero_beta = false;
   bool uniform_range = false;
@@ -559,19 +662,63 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
   d.beta = ChannelValues(d.water.beta_rgb_per_m, d.water.beta_gray_per_m, channels);
   d.ambient = ChannelValues(d.water.ambient_rgb, d.water.ambient_gray, channels);
   d.backscatter = ChannelValues(d.water.backscatter_rgb, d.water.backscatter_gray, channels);
+  d.backscatter_on = options.water.backscatter;
   RenderPlan& plan = d.plan;
+  bool& lights_used = d.lights_used;
+  if (options.model == ImageModel::kRevised) {
+    const RevisedOptions& v = options.revised;
+    d.revised = true;
+    d.backscatter_on = true;
+    d.beta_b = ChannelValues(v.beta_b_rgb_per_m, v.beta_b_gray_per_m, channels);
+    d.sea_thru = v.range_dependent;
+    if (d.sea_thru) {
+      d.sea_a = ChannelValues(v.a_rgb, v.a_gray, channels);
+      d.sea_b = ChannelValues(v.b_rgb, v.b_gray, channels);
+      d.sea_c = ChannelValues(v.c_rgb, v.c_gray, channels);
+      d.sea_d = ChannelValues(v.d_rgb, v.d_gray, channels);
+    }
+    plan.steps.push_back(
+        "model: revised (Akkaynak & Treibitz 2018): I = [J*h] exp(-beta^D r) + (1 - exp(-beta^B "
+        "r)) (B_inf + E_L), beta^B = " +
+        ListText(d.beta_b) + " 1/m" +
+        (d.sea_thru ? ", beta^D(r) = a exp(b r) + c exp(d r) (Sea-thru)" : ""));
+  } else if (options.model == ImageModel::kUwcnn) {
+    // t = N^d = exp(d ln N): beta = -ln N, scaled when distances are rescaled; J = rho (no
+    // ambient or artificial light in this recipe); B = scale N^exponent.
+    const UwcnnOptions u = ResolveUwcnn(options.uwcnn);
+    const std::vector<double> n = ChannelValues(u.n_rgb_per_m, u.n_gray_per_m, channels);
+    const bool rescale = u.max_distance_m > 0.0 && std::isfinite(max_range) && max_range > 0.0;
+    const double distance_scale = rescale ? u.max_distance_m / max_range : 1.0;
+    for (int c = 0; c < channels; ++c) {
+      d.beta[c] = -std::log(n[c]) * distance_scale;
+      d.ambient[c] = 1.0;
+      d.backscatter[c] = u.backlight_scale * std::pow(n[c], u.backlight_exponent);
+    }
+    d.backscatter_on = true;
+    lights_used = false;
+    plan.steps.push_back("model: uwcnn (Li, Anwar & Porikli 2020): I = rho N^d + B (1 - N^d), " +
+                         std::string("type ") + u.type + ", N = " + ListText(n) + ", B = " +
+                         ListText(d.backscatter) +
+                         (rescale ? ", d = r x " + Format(distance_scale) : ", d = r"));
+    plan.skipped.push_back("uwcnn: no ambient E_A or artificial light (J = rho)");
+  } else {
+    plan.steps.push_back("model: paper (eq. 2): I = [J*h] t + (1 - t) E_L");
+  }
   const std::string what = channels == 1 ? "1 channel (gray)" : "3 channels (BGR)";
   plan.steps.push_back("input: " + scene.name + " " + std::to_string(scene.width()) + "x" +
                        std::to_string(scene.height()) + ", " + what);
   if (channels == 1) plan.skipped.push_back("colour: gray input, every term computed on 1 channel");
-  for (const LightOptions& l : options.light.lights) d.any_light = d.any_light || l.power > 0.0;
+  for (const LightOptions& l : options.light.lights)
+    d.any_light = d.any_light || (lights_used && l.power > 0.0);
   if (d.any_light)
     plan.steps.push_back("light: " + std::to_string(options.light.lights.size()) + " LED(s), " +
                          IncidenceModelName(options.light.incidence) + " incidence");
   else
     plan.skipped.push_back("light: no light (or zero power): E_L = 0, no veiling term");
-  d.zero_beta = std::all_of(d.beta.begin(), d.beta.end(), [](double b) { return b == 0.0; });
-  d.uniform_range = max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
+  // The revised model always takes the general path (two transmissions, maybe range-dependent).
+  d.zero_beta = !d.revised &&
+                std::all_of(d.beta.begin(), d.beta.end(), [](double b) { return b == 0.0; });
+  d.uniform_range = !d.revised && max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
   if (d.zero_beta)
     plan.skipped.push_back(
         "attenuation: beta = 0, t = 1 (no exp, no veil; t = 0 where depth is invalid)");
@@ -579,8 +726,10 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
     plan.steps.push_back("attenuation: uniform range " + Format(min_range) +
                          " m, t constant per channel");
   else
-    plan.steps.push_back("attenuation: t = exp(-beta r), beta = " + ListText(d.beta) + " 1/m");
-  if (options.water.backscatter && !d.zero_beta)
+    plan.steps.push_back(std::string(d.revised ? "attenuation: direct t = exp(-beta^D r)"
+                                               : "attenuation: t = exp(-beta r)") +
+                         ", beta = " + ListText(d.beta) + " 1/m");
+  if (d.backscatter_on && !d.zero_beta)
     plan.steps.push_back("backscatter: (1 - t) B_inf, B_inf = " + ListText(d.backscatter));
   if (!options.psf.enabled) {
     plan.skipped.push_back("psf: disabled");
@@ -610,8 +759,9 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
   else
     plan.skipped.push_back("sensor noise: none");
   plan.steps.push_back(options.camera.bit_depth == 32
-                           ? std::string("camera: clip to [0, 1], float")
-                           : "camera: clip and quantise to " +
+                           ? std::string("camera: clip to [0, 1], float, linear")
+                           : "camera: clip, " + CameraEncodingName(options.camera.encoding) +
+                                 " encoding, quantise to " +
                                  std::to_string(options.camera.bit_depth) + " bit");
   return d;
 }
@@ -668,7 +818,7 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   // E_L reaches pass B through the output image's own rows (overwritten in place), or through
   // the light map when that is asked for. Every row is computed from its inputs alone, so the
   // bytes do not depend on the thread count.
-  const bool backscatter = options.water.backscatter && !d.zero_beta;
+  const bool backscatter = d.backscatter_on && !d.zero_beta;
   const bool veil_term = !d.zero_beta && (d.any_light || backscatter);
   const bool keep_light = d.any_light && veil_term;  // E_L needed again in pass B
   cv::Mat image = internal::PooledMat(size, type), lit = internal::PooledMat(size, type);
@@ -774,10 +924,12 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
 
   // ---- pass B: attenuation, veil, snow, sensor noise, camera ----
   internal::SnowSplats snow;
+  IrradianceOptions no_light;
+  no_light.lights.clear();
   const bool snowing = options.snow.enabled && options.snow.density_per_m3 > 0.0;
   if (snowing)
-    snow = internal::DrawMarineSnow(options.snow, options.light, scene_.camera, range_m_, d.beta,
-                                    d.ambient, options.seed);
+    snow = internal::DrawMarineSnow(options.snow, d.lights_used ? options.light : no_light,
+                                    scene_.camera, range_m_, d.beta, d.ambient, options.seed);
   const bool sensor = options.sensor.enabled &&
                       (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0);
   float bs[3] = {0, 0, 0}, t_const[3] = {0, 0, 0};
@@ -789,9 +941,17 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   const bool open_water = d.zero_beta && cache_->valid_pixels < size.area();
   float open_bs[3] = {0, 0, 0};
   for (int c = 0; c < channels; ++c)
-    open_bs[c] = options.water.backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
+    open_bs[c] = d.backscatter_on ? static_cast<float>(d.backscatter[c]) : 0.0f;
+  float sea_values[4][3] = {};
+  const float* sea[4] = {sea_values[0], sea_values[1], sea_values[2], sea_values[3]};
+  if (d.sea_thru) {
+    const std::vector<double>* coefficients[4] = {&d.sea_a, &d.sea_b, &d.sea_c, &d.sea_d};
+    for (int k = 0; k < 4; ++k)
+      for (int c = 0; c < channels; ++c) sea_values[k][c] = static_cast<float>((*coefficients[k])[c]);
+  }
   const float levels = options.camera.bit_depth == 8 ? 255.0f : 65535.0f;
   const bool quantise = options.camera.bit_depth != 32;
+  const bool srgb = quantise && options.camera.encoding == CameraEncoding::kSrgb;
   cv::parallel_for_(
       cv::Range(0, size.height),
       [&](const cv::Range& rows) {
@@ -799,6 +959,7 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
         RowAScratch scratch_a = make_scratch();
         std::vector<float> e_scratch(d.any_light ? per_row : 0);
         std::vector<float> t_row(per_row), jb_row, padded, scratch(per_row);
+        std::vector<float> tb_row(d.revised ? per_row : 0);
         if (blur) jb_row.resize(per_row), padded.resize(per_row + 2 * radius * channels);
         // Rows of J outside the band that its blur reads (mirrored at the image borders), computed
         // here rather than shared with the neighbouring band: at most 2R rows.
@@ -857,6 +1018,19 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
                 }
               }
             }
+          } else if (d.revised) {
+            // Direct transmission (constant or Sea-thru beta^D(r)) and backscatter transmission.
+            const float* r = range_m_.ptr<float>(y);
+            float* t = t_row.data();
+            if (d.sea_thru)
+              SeaThruTransmissionRow(r, width, channels, sea[0], sea[1], sea[2], sea[3], t);
+            else
+              TransmissionRows(r, width, d.beta, t);
+            TransmissionRows(r, width, d.beta_b, tb_row.data());
+            if (!t_map.empty()) std::copy(t, t + per_row, t_map.ptr<float>(y));
+            const float* e = e_in_map ? light_map.ptr<float>(y) : (e_in_image ? out : nullptr);
+            if (!veil.empty()) VeilRow(tb_row.data(), e, bs, width, channels, veil.ptr<float>(y));
+            ComposeRevised(jb, t, tb_row.data(), e, bs, width, channels, out);
           } else {
             const float* r = range_m_.ptr<float>(y);
             float* t = t_row.data();
@@ -889,7 +1063,10 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
                                         scratch.data());
           if (noise)
             for (int i = 0; i < per_row; ++i) noise[i] = out[i] - noise[i];
-          QuantiseRow(out, per_row, levels, quantise);
+          if (srgb)
+            QuantiseEncodedRow(out, per_row, CameraEncoding::kSrgb, options.camera.bit_depth);
+          else
+            QuantiseRow(out, per_row, levels, quantise);
         }
       },
       stripes);
@@ -930,7 +1107,10 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
       {"options", RenderOptionsToJson(used)},
       {"derived",
        {{"channel_order", channels == 3 ? "BGR" : "gray"},
+        {"model", ImageModelName(options.model)},
         {"beta_per_m", d.beta},
+        {"beta_b_per_m", d.revised ? json(d.beta_b) : json()},
+        {"backscatter", d.backscatter_on ? json(d.backscatter) : json()},
         {"ambient", d.ambient},
         {"lambertian_order_m", orders},
         {"range_m", {{"min", cache_->min_range}, {"max", cache_->max_range}}},
@@ -945,6 +1125,8 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
           {"separable", d.psf.separable}}},
         {"snow", {{"particles", snow.particles}, {"visible", snow.visible}}}}},
       {"plan", d.plan.ToJson()},
+      // How the image file's values are coded (what `turbid score` and `enhance` read).
+      {"encoding", CameraEncodingName(options.camera.FileEncoding())},
   };
   return result;
 }

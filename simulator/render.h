@@ -14,8 +14,10 @@
 #include <string>
 #include <vector>
 
+#include "scenes/camera_encoding.h"
 #include "scenes/scene.h"
 #include "simulator/light.h"
+#include "simulator/models.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
 #include "simulator/water.h"
@@ -23,9 +25,17 @@
 namespace turbid {
 
 struct CameraOutputOptions {
-  // 8 or 16: values clipped to [0, 1] and quantised to 2^bits - 1 levels (the in-memory image
-  // equals what an integer PNG stores); 32: float32, clipped to [0, 1], not quantised (EXR).
+  // 8 or 16: values clipped to [0, 1] and quantised to 2^bits - 1 codes of `encoding` (the
+  // in-memory image stays linear: it holds the decoded codes, which is what reading the PNG back
+  // with that encoding returns); 32: float32, clipped to [0, 1], not quantised (EXR), linear.
   int bit_depth = 8;
+  // Transfer curve applied before quantisation (scenes/camera_encoding.h): sRGB by default, as a
+  // camera writes integer images; ignored for bit_depth 32.
+  CameraEncoding encoding = CameraEncoding::kSrgb;
+  // The encoding of the written file: `encoding` for integer outputs, linear for float.
+  CameraEncoding FileEncoding() const {
+    return bit_depth == 32 ? CameraEncoding::kLinear : encoding;
+  }
   bool Check(std::string* why) const;
 };
 
@@ -42,6 +52,12 @@ struct MapSelection {
 };
 
 struct RenderOptions {
+  // Image-formation model (simulator/models.h, docs/model.md "Models"): the paper's eq. 2 by
+  // default; "revised" (Akkaynak & Treibitz 2018) and "uwcnn" (Li, Anwar & Porikli 2020) read
+  // their own sections below as well.
+  ImageModel model = ImageModel::kPaper;
+  RevisedOptions revised;
+  UwcnnOptions uwcnn;
   WaterOptions water;
   IrradianceOptions light;
   PsfOptions psf;
@@ -72,7 +88,7 @@ struct RenderPlan {
 };
 
 struct RenderResult {
-  cv::Mat image;         // degraded I, float32 in [0, 1] (quantised when bit_depth is 8 or 16)
+  cv::Mat image;  // degraded I, float32 linear in [0, 1] (decoded codes when bit_depth is 8 or 16)
   cv::Mat lit;           // J = (E_A + E_L) rho: lit, unattenuated, unblurred ground truth (float32)
   cv::Mat transmission;  // optional maps (empty unless selected in options.maps)
   cv::Mat light;

@@ -44,6 +44,16 @@ int TypeIndex(const std::string& type) {
   return -1;
 }
 
+// UWCNN's N_lambda (R, G, B) per Jerlov type, kTypeNames order: Li, Anwar & Porikli, Pattern
+// Recognition 98 (2020) 107038, as the public synthesis scripts list them ([B, G, R] there, e.g.
+// deepxzy/underwater-image-synthesis-algorithm utils.py @22dd0a9; provenance and the data file
+// tests check against: shared/data/jerlov/uwcnn_nlambda.csv and its SOURCE.md).
+const double kUwcnnN[kTypes][3] = {
+    {0.805, 0.961, 0.982}, {0.804, 0.955, 0.975}, {0.830, 0.950, 0.968}, {0.800, 0.925, 0.940},
+    {0.750, 0.885, 0.890}, {0.750, 0.885, 0.875}, {0.710, 0.820, 0.800}, {0.670, 0.730, 0.670},
+    {0.620, 0.610, 0.500}, {0.550, 0.460, 0.290},
+};
+
 double BandMean(int column, int first_nm, int last_nm) {
   double sum = 0.0;
   int count = 0;
@@ -100,6 +110,18 @@ double JerlovKd(const std::string& type, int wavelength_nm) {
   if (wavelength_nm < 350 || wavelength_nm > 700 || (wavelength_nm - 350) % 25 != 0)
     throw Error("Jerlov table: no row for " + std::to_string(wavelength_nm) + " nm");
   return kKd[(wavelength_nm - 350) / 25][column];
+}
+
+Rgb UwcnnResidualEnergy(const std::string& type) {
+  const int column = TypeIndex(type);
+  if (column < 0) throw Error("uwcnn.type: unknown Jerlov water type '" + type + "'");
+  return {kUwcnnN[column][0], kUwcnnN[column][1], kUwcnnN[column][2]};
+}
+
+std::string CanonicalJerlovType(const std::string& type) {
+  const int column = TypeIndex(type);
+  if (column < 0) throw Error("unknown Jerlov water type '" + type + "'");
+  return kTypeNames[column];
 }
 
 WaterOptions ResolveWater(const WaterOptions& options) {

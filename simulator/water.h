@@ -57,6 +57,15 @@ JerlovBetas JerlovBeta(const std::string& type);
 // (350 ... 700 nm in 25 nm steps). Throws Error otherwise. Exposed so tests can check the table.
 double JerlovKd(const std::string& type, int wavelength_nm);
 
+// UWCNN's normalized residual energy ratio N_lambda per metre (t = N^d) for a Jerlov type, as
+// used to synthesise the UWCNN training sets: C. Li, S. Anwar, F. Porikli, "Underwater scene prior
+// inspired deep underwater image and video enhancement", Pattern Recognition 98 (2020) 107038
+// (values as in the public synthesis scripts; provenance: shared/data/jerlov/SOURCE.md). R, G, B.
+// Throws Error for an unknown type.
+Rgb UwcnnResidualEnergy(const std::string& type);
+// The canonical spelling of a Jerlov type ("C3" -> "3C"); Error when unknown.
+std::string CanonicalJerlovType(const std::string& type);
+
 // Returns options with beta_* filled in from the Jerlov preset when type is not "custom", and the
 // type spelled canonically ("C3" -> "3C"). Throws Error for an unknown type.
 WaterOptions ResolveWater(const WaterOptions& options);

@@ -87,6 +87,7 @@ struct Inputs {
     RenderOptions o;
     o.water.type = "3C";
     o.seed = 1;
+    o.camera.encoding = CameraEncoding::kLinear;  // the peers read these values as 8-bit codes
     const cv::Mat gray = Render(o, hull_gray).image;
     const cv::Mat color = Render(o, hull_color).image;
     degraded_gray_linear = gray;
@@ -250,6 +251,34 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
       benchmark::DoNotOptimize(Render(o, color ? in().hull_color : in().hull_gray).image.data);
     };
     c.goal = {0.0, color ? 40.0 : 15.0, "issue 3 item 7 (at 1360x1024, one core)"};
+    cases.push_back(c);
+  }
+  // The other image-formation models beside eq. 2 (same scene, same light, PSF, snow and noise).
+  for (const char* model : {"revised", "revised_seathru", "uwcnn"}) {
+    BenchCase c;
+    c.name = std::string("render/color/") + model;
+    const std::string name = model;
+    c.ours = [in, name] {
+      RenderOptions o;
+      o.water.type = "3C";
+      o.seed = 1;
+      if (name == "uwcnn") {
+        o.model = ImageModel::kUwcnn;
+        o.uwcnn.type = "3C";
+      } else {
+        o.model = ImageModel::kRevised;
+        o.revised.beta_b_rgb_per_m = {0.3, 0.4, 0.5};
+        if (name == "revised_seathru") {
+          o.revised.range_dependent = true;
+          o.revised.a_rgb = {0.6, 0.3, 0.3};
+          o.revised.b_rgb = {-0.2, -0.1, -0.1};
+          o.revised.c_rgb = {0.1, 0.05, 0.05};
+          o.revised.d_rgb = {-0.01, -0.01, -0.01};
+        }
+      }
+      benchmark::DoNotOptimize(Render(o, in().hull_color).image.data);
+    };
+    c.goal = {0.0, 0.0, "issue 16 item 1 (timed beside render/color/full; no goal set)"};
     cases.push_back(c);
   }
 

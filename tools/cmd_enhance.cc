@@ -18,6 +18,7 @@
 #include "scenes/image_io.h"
 #include "scenes/scene_loader.h"
 #include "tools/cli.h"
+#include "tools/file_encoding.h"
 
 namespace turbid {
 namespace {
@@ -34,7 +35,7 @@ struct EnhanceArgs {
   double scale = 0.0;  // built-in scene scale; 0: the sidecar's, else 1
   std::vector<std::string> params;
   std::string dump_steps;
-  std::string transfer = "linear";
+  std::string transfer = "auto";
   int bit_depth = 8;
   bool force = false;
 };
@@ -107,18 +108,33 @@ void Run(const EnhanceArgs& a) {
   if (a.in.empty() || a.out.empty()) throw Error("enhance: IN and OUT are required");
   const MethodInfo& info = FindMethod(a.method);
   const json params = ParseParams(a.params);
-  if (a.transfer != "linear" && a.transfer != "srgb") {
-    throw Error("enhance: --transfer must be linear or srgb");
+  if (a.transfer != "auto" && a.transfer != "linear" && a.transfer != "srgb") {
+    throw Error("enhance: --transfer must be auto, linear or srgb");
   }
   if (a.bit_depth != 8 && a.bit_depth != 16) throw Error("enhance: --bit-depth must be 8 or 16");
   if (!a.force && fs::exists(a.out)) throw Error(a.out, "exists (use --force to replace it)");
 
-  ReadImageOptions ro;
-  ro.transfer = a.transfer == "srgb" ? Transfer::kSrgb : Transfer::kLinear;
-  EnhanceInput input;
-  input.image = ReadImage(a.in, ro);
   std::optional<json> sidecar;
   if (!a.sidecar.empty()) sidecar = ReadJsonFile(a.sidecar);
+  // How the input's integer values are coded: --transfer, else what the sidecar (given, or the
+  // render's OUT.json / scene.json beside the input) records, else sRGB as a camera writes.
+  // Every method works on the decoded, linear image.
+  std::optional<KnownEncoding> recorded;
+  if (sidecar) {
+    if (auto name = SidecarEncoding(*sidecar)) recorded = KnownEncoding{*name, a.sidecar};
+  }
+  if (!recorded) recorded = EncodingBeside(a.in);
+  std::string transfer = a.transfer;
+  if (transfer == "auto") {
+    transfer = recorded ? recorded->name : "srgb";
+  } else {
+    WarnOnEncodingMismatch("enhance", "--transfer", KnownEncoding{transfer, "given"}, a.in,
+                           recorded);
+  }
+  ReadImageOptions ro;
+  ro.transfer = transfer == "srgb" ? Transfer::kSrgb : Transfer::kLinear;
+  EnhanceInput input;
+  input.image = ReadImage(a.in, ro);
   input.sidecar = sidecar ? &*sidecar : nullptr;
   // The scene: --scene, else the one the sidecar names (turbid render records its spec).
   std::string spec = a.scene;
@@ -238,7 +254,8 @@ void AddEnhanceCommand(CLI::App& app) {
   cmd->add_option("--param,-p", args->params, "parameter override key=value (repeatable)")
       ->allow_extra_args(false);  // one value per -p, so positionals may follow
   cmd->add_option("--dump-steps", args->dump_steps, "write every intermediate into this folder");
-  cmd->add_option("--transfer", args->transfer, "linear (default, turbid's files) or srgb");
+  cmd->add_option("--transfer", args->transfer,
+                  "input/output coding: auto (the sidecar's encoding, else srgb), srgb or linear");
   cmd->add_option("--bit-depth", args->bit_depth, "PNG output bits: 8 or 16");
   cmd->add_flag("--force", args->force, "replace existing outputs");
   cmd->callback([args] { Run(*args); });

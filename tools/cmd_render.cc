@@ -58,11 +58,13 @@ std::string Stem(const std::string& path) {
   return (p.parent_path() / p.stem()).string();
 }
 
-// Writes an image as 16-bit PNG (maps, ground truth) or float EXR.
-void WriteMap(const std::string& path, const cv::Mat& image, int png_bits, bool overwrite) {
+// Writes an image as PNG (`png_bits`, values coded with `transfer`) or float EXR (linear).
+void WriteMap(const std::string& path, const cv::Mat& image, int png_bits, bool overwrite,
+              Transfer transfer = Transfer::kLinear) {
   WriteImageOptions options;
   options.bit_depth = png_bits;
   options.overwrite = overwrite;
+  options.transfer = transfer;
   WriteImage(path, image, options);
 }
 
@@ -144,7 +146,9 @@ void RunRender(const RenderArgs& args) {
       {"psf", &result.psf},
       {"noise", &result.noise}};
   const int bits = options.camera.bit_depth == 32 ? 16 : options.camera.bit_depth;
-  WriteMap(args.out, result.image, bits, args.force);
+  // The image holds decoded codes of the camera encoding: written with it, the file stores them.
+  WriteMap(args.out, result.image, bits, args.force,
+           TransferFor(options.camera.FileEncoding()));
   for (const auto& [name, mat] : maps) {
     if (mat->empty()) continue;
     cv::Mat image = *mat;

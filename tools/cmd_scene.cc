@@ -15,6 +15,7 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/builtin.h"
+#include "scenes/camera_encoding.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
 #include "scenes/scene_loader.h"
@@ -37,6 +38,7 @@ struct SceneArgs {
   std::string depth_format = "exr";
   std::string normals_format = "png";
   bool image_exr = false;
+  std::string encoding = "srgb";
   double scale = 1.0;
 };
 
@@ -69,14 +71,19 @@ std::vector<PlannedFile> PlanOutputs(const Scene& scene, const SceneArgs& args, 
                                      nlohmann::json* files) {
   std::vector<PlannedFile> plan;
   nlohmann::json scene_file = {{"name", scene.name}, {"camera", CameraToJson(scene.camera)}};
-  // Clean image: 8-bit sRGB PNG for viewing; linear float EXR on request (lossless).
-  plan.push_back({(dir / "image.png").string(), [&scene](const std::string& path, bool overwrite) {
+  // Clean image: 8-bit PNG coded with --encoding (sRGB by default) through the same camera
+  // quantiser as `turbid render`, so an identity render scores SSIM 1 against it; linear float
+  // EXR on request (lossless).
+  const CameraEncoding encoding = CameraEncodingFromName(args.encoding, "--encoding");
+  plan.push_back({(dir / "image.png").string(),
+                  [&scene, encoding](const std::string& path, bool overwrite) {
                     WriteImageOptions options;
-                    options.transfer = Transfer::kSrgb;
+                    options.transfer = TransferFor(encoding);
                     options.overwrite = overwrite;
-                    WriteImage(path, scene.image, options);
+                    WriteImage(path, QuantiseEncoded(scene.image, encoding, 8), options);
                   }});
   (*files)["image"] = "image.png";
+  (*files)["image_encoding"] = CameraEncodingName(encoding);
   if (args.image_exr) {
     plan.push_back({(dir / "image.exr").string(), [&scene](const std::string& path, bool overwrite) {
                       WriteImageOptions options;
@@ -88,7 +95,7 @@ std::vector<PlannedFile> PlanOutputs(const Scene& scene, const SceneArgs& args, 
     scene_file["color"] = "linear";
   } else {
     scene_file["image"] = "image.png";
-    scene_file["color"] = "srgb";
+    scene_file["color"] = CameraEncodingName(encoding);
   }
   // Depth: float metres in EXR (NaN = invalid), or TUM-style 16-bit PNG (x5000, 0 = invalid).
   if (args.depth_format == "png16") {
@@ -278,6 +285,10 @@ void AddSceneCommand(CLI::App& app) {
   cmd->add_flag("--image-exr", args->image_exr,
                 "also write the clean image as linear float32 EXR (scene.json then points at it)");
   cmd->add_option("--scale", args->scale, "size scale for built-in scenes, in (0, 1]")
+      ->capture_default_str();
+  cmd->add_option("--encoding", args->encoding,
+                  "image.png coding: srgb (as cameras, the default) or linear")
+      ->check(CLI::IsMember({"srgb", "linear"}))
       ->capture_default_str();
   cmd->callback([args]() { RunScene(*args); });
 }

@@ -15,6 +15,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "metrics/feature_matching.h"
@@ -24,6 +25,7 @@
 #include "tools/cli.h"
 #include "tools/experiment.h"
 #include "tools/external_method.h"
+#include "tools/file_encoding.h"
 #include "tools/metric_image.h"
 #include "tools/tables.h"
 
@@ -206,6 +208,7 @@ struct ScoreArgs {
   std::string original_column;
   std::string pairs;
   std::string detector = "orb";
+  std::string sidecar;
   bool json = false;
   bool csv = false;
   bool list = false;
@@ -238,8 +241,23 @@ void ScoreAgainstReference(const ScoreArgs& args) {
   MetricImage ref, orig;
   if (has_ref) ref = LoadMetricImage(args.ref);
   if (has_orig) orig = LoadMetricImage(args.original);
+  // Encodings as recorded (--sidecar for the scored images, else beside each file): the metrics
+  // compare stored values, so differently coded images get a warning.
+  std::optional<KnownEncoding> given;
+  if (!args.sidecar.empty()) {
+    std::ifstream in(args.sidecar);
+    if (!in) throw Error(args.sidecar, "cannot open");
+    const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+    const std::optional<std::string> name = SidecarEncoding(j);
+    if (!name) throw Error(args.sidecar, "not a turbid render sidecar (no encoding recorded)");
+    given = KnownEncoding{*name, args.sidecar};
+  }
+  const std::optional<KnownEncoding> ref_encoding =
+      has_ref ? EncodingBeside(args.ref) : std::nullopt;
   std::vector<ScoreRow> rows;
   for (const std::string& path : args.images) {
+    WarnOnEncodingMismatch("score", path, given ? given : EncodingBeside(path),
+                           "the reference " + args.ref, ref_encoding);
     MetricImage img = LoadMetricImage(path);
     MetricImage r = ref, o = orig;  // shallow copies; rescaled only when depths differ
     MetricInputs in;
@@ -296,6 +314,18 @@ void ScoreManifest(const ScoreArgs& args) {
   const std::string default_list = has_ref ? "ssim,psnr" : "cnr";
   const std::vector<std::string> metrics =
       ParseMetricList(args.metrics.empty() ? default_list : args.metrics, has_ref, has_orig);
+  // A generate manifest's "encoding" column codes its own image and ground_truth files; other
+  // files are looked up beside them. Differently coded image and reference: one warning.
+  int mismatches = 0;
+  auto encoding_of = [&](const Record& record, const std::string& col, const std::string& path)
+      -> std::optional<KnownEncoding> {
+    if (auto beside = EncodingBeside(path)) return beside;
+    auto it = record.find("encoding");
+    if ((col == "image" || col == "ground_truth") && it != record.end() &&
+        (it->second == "srgb" || it->second == "linear"))
+      return KnownEncoding{it->second, args.manifest};
+    return std::nullopt;
+  };
   std::vector<ScoreRow> rows;
   for (const Record& record : records) {
     auto get = [&](const std::string& col) {
@@ -303,6 +333,14 @@ void ScoreManifest(const ScoreArgs& args) {
       return it == record.end() ? std::string() : it->second;
     };
     const std::string image_path = ResolvePath(args.manifest, get(image_col));
+    if (has_ref) {
+      const std::string ref_path = ResolvePath(args.manifest, get(ref_col));
+      const auto a = encoding_of(record, image_col, image_path);
+      const auto b = encoding_of(record, ref_col, ref_path);
+      if (a && b && a->name != b->name &&
+          mismatches++ == 0)
+        WarnOnEncodingMismatch("score", image_path, a, "its reference " + ref_path, b);
+    }
     MetricImage img = LoadMetricImage(image_path), ref, orig;
     ScoreRow row;
     row.label = id_col.empty() ? get(image_col) : get(id_col);
@@ -327,6 +365,9 @@ void ScoreManifest(const ScoreArgs& args) {
     }
     rows.push_back(row);
   }
+  if (mismatches > 1)
+    std::cerr << "score: warning: " << mismatches
+              << " rows compare differently coded image and reference\n";
   nlohmann::json header = {{"manifest", args.manifest},
                            {"image_column", image_col},
                            {"reference_column", ref_col},
@@ -616,6 +657,9 @@ void AddScoreCommand(CLI::App& app) {
   cmd->add_option("--pairs", args->pairs,
                   "Feature matching over a file of image pairs (one 'A,B' per line)");
   cmd->add_option("--detector", args->detector, "orb | akaze | sift | all (with --pairs)");
+  cmd->add_option("--sidecar", args->sidecar,
+                  "the render sidecar of the scored images (their encoding; default: OUT.json "
+                  "beside each image)");
   cmd->add_flag("--json", args->json, "JSON on stdout");
   cmd->add_flag("--csv", args->csv, "CSV on stdout");
   cmd->add_flag("--list", args->list, "List the metrics and exit");

@@ -61,12 +61,21 @@ void SetPath(json& root, const std::string& path, const json& value) {
   }
 }
 
-// Writes an image as 16-bit PNG (maps, ground truth) or float EXR.
-void WriteMap(const std::string& path, const cv::Mat& image, int png_bits, bool overwrite) {
+// Writes an image as PNG (`png_bits`, values coded with `transfer`) or float EXR / PFM (linear).
+void WriteMap(const std::string& path, const cv::Mat& image, int png_bits, bool overwrite,
+              Transfer transfer = Transfer::kLinear) {
   WriteImageOptions options;
   options.bit_depth = png_bits;
   options.overwrite = overwrite;
+  options.transfer = transfer;
   WriteImage(path, image, options);
+}
+
+// The encoding of an item's image and ground-truth files (linear for EXR datasets).
+std::string FileEncodingName(const json& params, const std::string& format) {
+  if (format == "exr") return "linear";
+  RenderOptions options = RenderOptionsFromJson(params);
+  return CameraEncodingName(options.camera.FileEncoding());
 }
 
 }  // namespace
@@ -107,13 +116,54 @@ json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::stri
   throw Error("generate: random.params." + path + ": unknown distribution '" + kind + "'");
 }
 
+json GeneratePreset(const std::string& name) {
+  // The UWCNN synthesis recipes (Li, Anwar & Porikli 2020; docs/model.md "Models"): the ten
+  // Jerlov types with equal probability, a distance scale and the background light as published,
+  // no forward scatter, snow or noise (the recipes have none).
+  const json no_extras = {{"psf", {{"enabled", false}}},
+                          {"snow", {{"enabled", false}}},
+                          {"sensor", {{"enabled", false}}}};
+  const json types = json::array({"I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"});
+  if (name == "uwcnn_nyu") {
+    json base = no_extras;
+    base["model"] = "uwcnn";
+    base["uwcnn"] = {{"backlight_scale", 1.5}};
+    return {{"base", base},
+            {"random_params",
+             {{"uwcnn.type", {{"choice", types}}},
+              {"uwcnn.max_distance_m", {{"uniform", {0.5, 15.0}}}},
+              {"uwcnn.backlight_exponent", {{"uniform", {3.0, 5.0}}}}}}};
+  }
+  if (name == "uwcnn_constant_b") {
+    json base = no_extras;
+    base["model"] = "uwcnn";
+    base["uwcnn"] = {{"backlight_scale", 0.8}, {"backlight_exponent", 0.0}};
+    return {{"base", base},
+            {"random_params",
+             {{"uwcnn.type", {{"choice", types}}},
+              {"uwcnn.max_distance_m", {{"uniform", {0.5, 10.0}}}}}}};
+  }
+  throw Error("generate: preset: unknown preset '" + name + "' (uwcnn_nyu, uwcnn_constant_b)");
+}
+
 GenerateConfig ParseGenerateConfig(const json& config, const std::string& config_path) {
   if (!config.is_object()) throw Error(config_path, "must be a JSON object");
   for (auto it = config.begin(); it != config.end(); ++it)
     if (it.key() != "scenes" && it.key() != "scale" && it.key() != "base" && it.key() != "grid" &&
-        it.key() != "random" && it.key() != "seed" && it.key() != "format")
-      throw Error(config_path,
-                  it.key() + ": unknown key (scenes, scale, base, grid, random, seed, format)");
+        it.key() != "random" && it.key() != "seed" && it.key() != "format" &&
+        it.key() != "preset")
+      throw Error(config_path, it.key() +
+                                   ": unknown key (scenes, scale, base, grid, random, seed, format, "
+                                   "preset)");
+  json preset = {{"base", json::object()}, {"random_params", json::object()}};
+  if (config.contains("preset")) {
+    if (!config["preset"].is_string()) throw Error(config_path, "preset: must be a string");
+    try {
+      preset = GeneratePreset(config["preset"].get<std::string>());
+    } catch (const Error& e) {
+      throw Error(config_path, e.what());
+    }
+  }
   if (!config.contains("scenes") || !config["scenes"].is_array() || config["scenes"].empty())
     throw Error(config_path, "scenes: a non-empty array of scene specs is required");
   GenerateConfig out;
@@ -122,7 +172,9 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   out.seed = config.value("seed", uint64_t{0});
   out.format = config.value("format", std::string("png"));
   if (out.format != "png" && out.format != "exr") throw Error(config_path, "format: png or exr");
-  out.base = config.value("base", json::object());
+  // A preset's base and random draws come first; the config's own entries override them.
+  out.base = preset["base"];
+  out.base.merge_patch(config.value("base", json::object()));
   RenderOptionsFromJson(out.base);  // fail early on a bad base
 
   // Grid: cartesian product over dotted parameter paths, in key order.
@@ -153,6 +205,12 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
     out.random_params = random.value("params", json::object());
     if (out.samples < 1 || out.samples > 1000000)
       throw Error(config_path, "random.count: must be in [1, 1e6]");
+  }
+  if (!preset["random_params"].empty()) {
+    json params = preset["random_params"];
+    for (auto it = out.random_params.begin(); it != out.random_params.end(); ++it)
+      params[it.key()] = it.value();
+    out.random_params = params;
   }
   LoadSceneOptions scene_options;
   scene_options.builtin_scale = out.scale;
@@ -269,8 +327,13 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
           if (format == "exr") options.camera.bit_depth = 32;
           const RenderResult result = renderer.Render(options);
           const int bits = options.camera.bit_depth == 32 ? 16 : options.camera.bit_depth;
-          WriteMap(p[0], result.image, bits, true);
-          WriteMap(p[1], renderer.scene().image, 16, true);
+          // The ground truth goes through the same camera (encoding and bit depth) as the image,
+          // so an identity render scores SSIM 1 against it; lit J is float (PFM), linear.
+          const CameraEncoding encoding = options.camera.FileEncoding();
+          const cv::Mat& clean = renderer.scene().image;
+          WriteMap(p[0], result.image, bits, true, TransferFor(encoding));
+          WriteMap(p[1], format == "exr" ? clean : QuantiseEncoded(clean, encoding, bits), bits,
+                   true, TransferFor(encoding));
           WriteMap(p[2], result.lit, 16, true);
           json sidecar = result.sidecar;
           sidecar["options"] = item.params;
@@ -301,7 +364,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   // Manifest in item order: the same bytes whatever the thread count or interruption history.
   std::string csv =
       "index,id,scene,image,ground_truth,lit,sidecar,seed,beta_r,beta_g,beta_b,beta_gray,psf_T,psf_"
-      "q\n";
+      "q,encoding\n";
   std::string jsonl;
   for (const Item& item : items) {
     const json& o = item.params;
@@ -312,7 +375,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
         << ".json," << o["seed"].get<uint64_t>() << "," << b[0].dump() << "," << b[1].dump() << ","
         << b[2].dump() << "," << o["water"]["beta_gray_per_m"].dump() << ","
         << o["psf"]["optical_thickness"].dump() << "," << o["psf"]["forward_scatter"].dump()
-        << "\n";
+        << "," << FileEncodingName(o, format) << "\n";
     csv += row.str();
     jsonl += json({{"index", item.index},
                    {"id", item.id},
@@ -321,6 +384,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
                    {"ground_truth", "ground_truth/" + item.id + ext},
                    {"lit", "lit/" + item.id + ".pfm"},
                    {"sidecar", "sidecars/" + item.id + ".json"},
+                   {"encoding", FileEncodingName(o, format)},
                    {"options", o}})
                  .dump() +
              "\n";

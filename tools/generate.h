@@ -35,6 +35,12 @@ struct GenerateItem {
   nlohmann::json params;
 };
 
+// A named preset: {"base": render parameters, "random_params": path -> distribution}. Known:
+// "uwcnn_nyu" (UWCNN's NYU-v2 recipe: ten Jerlov types, farthest pixel at U(0.5, 15) m,
+// B = 1.5 N^b with b ~ U(3, 5)) and "uwcnn_constant_b" (B = 0.8, farthest pixel at U(0.5, 10) m).
+// A config's "preset" key applies one under its own base and random params. Throws Error.
+nlohmann::json GeneratePreset(const std::string& name);
+
 // Checks the config object; throws Error("<source>: <problem>") on the first problem.
 GenerateConfig ParseGenerateConfig(const nlohmann::json& config, const std::string& source);
 

@@ -42,12 +42,12 @@ def test_render_is_byte_identical_to_cli(cli, tmp_path, bits):
     scene = turbid.Scene.builtin("seafloor", scale=0.25)
     r = turbid.render(scene, params, seed=11)
     assert r.image.dtype == np.float32 and r.image.shape == (scene.height, scene.width, 3)
-    # The in-memory image holds the CLI's PNG codes (RGB both sides; float k / (2^bits - 1) up to
-    # the last bit of the division)...
-    top = 2 ** bits - 1
-    assert np.array_equal(np.rint(turbid.read_image(out) * top), np.rint(r.image * top))
-    # ...and writing it gives the same file bytes.
-    turbid.write_image(tmp_path / "py.png", r.image, bit_depth=bits)
+    # The in-memory image holds the CLI's PNG codes, decoded (sRGB, camera.encoding's default; RGB
+    # both sides; image_io decodes in float, the camera's table in double: < 2e-6 apart)...
+    assert np.abs(turbid.read_image(out, encoding="srgb") - r.image).max() < 2e-6
+    assert r.sidecar["encoding"] == "srgb"
+    # ...and writing it with that encoding gives the same file bytes.
+    turbid.write_image(tmp_path / "py.png", r.image, bit_depth=bits, encoding="srgb")
     assert (tmp_path / "py.png").read_bytes() == out.read_bytes()
     sidecar = json.loads((tmp_path / "cli.json").read_text())
     sidecar.pop("outputs")
@@ -112,7 +112,8 @@ def test_enhance_equals_cli(cli, tmp_path):
     for method in ("clahe", "dcp"):
         out = tmp_path / (method + ".exr")
         run(cli, "enhance", "--method", method, img, out)
-        got = turbid.enhance(turbid.read_image(img), method)
+        # The CLI decodes the sRGB PNG per the render's sidecar beside it (img.json).
+        got = turbid.enhance(turbid.read_image(img, encoding="srgb"), method)
         assert got.dtype == np.float32
         assert np.array_equal(got, turbid.read_image(out)), method
 

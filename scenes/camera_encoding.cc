@@ -1,0 +1,99 @@
+#include "scenes/camera_encoding.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "scenes/error.h"
+
+namespace turbid {
+namespace {
+
+// IEC 61966-2-1 decoding (code value in [0, 1] -> linear), in double.
+double SrgbDecode(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
+
+// Tables for one bit depth: decision thresholds, decoded codes and a bin index that gives a lower
+// bound of the code from floor(v * bins).
+struct SrgbTables {
+  int levels = 0;                  // L = 2^bits - 1
+  int bins = 0;
+  std::vector<double> threshold;   // threshold[k] = decode((k + 1/2) / L), k = 0 .. L - 1
+  std::vector<float> decoded;      // decoded[k] = decode(k / L), k = 0 .. L
+  std::vector<uint16_t> first;     // first[i]: codes certainly reached by every v in bin i
+
+  explicit SrgbTables(int bits) : levels((1 << bits) - 1), bins(bits == 8 ? 4096 : 65536) {
+    threshold.resize(levels);
+    decoded.resize(levels + 1);
+    for (int k = 0; k < levels; ++k)
+      threshold[k] = SrgbDecode((k + 0.5) / levels);
+    for (int k = 0; k <= levels; ++k) decoded[k] = static_cast<float>(SrgbDecode(double(k) / levels));
+    first.resize(bins + 1);
+    int count = 0;
+    for (int i = 0; i <= bins; ++i) {
+      // A value in bin i is at least i / bins up to float rounding of v * bins.
+      const double low = static_cast<double>(i) / bins * (1.0 - 1e-6);
+      while (count < levels && threshold[count] <= low) ++count;
+      first[i] = static_cast<uint16_t>(count);
+    }
+  }
+
+  // Compared in double: a float v on either side of a threshold gets the code of the exact curve.
+  int Code(float v) const {
+    int q = first[static_cast<int>(v * static_cast<float>(bins))];
+    const double value = v;
+    while (q < levels && value >= threshold[q]) ++q;
+    return q;
+  }
+};
+
+const SrgbTables& TablesFor(int bits) {
+  static const SrgbTables eight(8), sixteen(16);
+  return bits == 16 ? sixteen : eight;
+}
+
+}  // namespace
+
+std::string CameraEncodingName(CameraEncoding encoding) {
+  return encoding == CameraEncoding::kSrgb ? "srgb" : "linear";
+}
+
+CameraEncoding CameraEncodingFromName(const std::string& name, const std::string& what) {
+  if (name == "srgb") return CameraEncoding::kSrgb;
+  if (name == "linear") return CameraEncoding::kLinear;
+  throw Error(what + ": unknown encoding '" + name + "' (srgb, linear)");
+}
+
+Transfer TransferFor(CameraEncoding encoding) {
+  return encoding == CameraEncoding::kSrgb ? Transfer::kSrgb : Transfer::kLinear;
+}
+
+void QuantiseEncodedRow(float* values, int n, CameraEncoding encoding, int bits) {
+  CV_Assert(bits == 8 || bits == 16);
+  if (encoding == CameraEncoding::kLinear) {
+    const float levels = bits == 8 ? 255.0f : 65535.0f;
+    for (int i = 0; i < n; ++i) {
+      const float v = std::min(values[i] > 0.0f ? values[i] : 0.0f, 1.0f);  // NaN -> 0
+      values[i] = static_cast<float>(static_cast<int>(v * levels + 0.5f)) / levels;
+    }
+    return;
+  }
+  const SrgbTables& tables = TablesFor(bits);
+  for (int i = 0; i < n; ++i) {
+    const float v = std::min(values[i] > 0.0f ? values[i] : 0.0f, 1.0f);
+    values[i] = tables.decoded[tables.Code(v)];
+  }
+}
+
+cv::Mat QuantiseEncoded(const cv::Mat& linear, CameraEncoding encoding, int bits) {
+  CV_Assert(linear.depth() == CV_32F);
+  cv::Mat out = linear.clone();
+  const int per_row = out.cols * out.channels();
+  cv::parallel_for_(cv::Range(0, out.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y)
+      QuantiseEncodedRow(out.ptr<float>(y), per_row, encoding, bits);
+  });
+  return out;
+}
+
+}  // namespace turbid

@@ -1,0 +1,109 @@
+#include "simulator/models.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "scenes/error.h"
+#include "simulator/fast_math.h"
+
+namespace turbid {
+namespace {
+
+bool InRange(double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; }
+
+}  // namespace
+
+std::string ImageModelName(ImageModel model) {
+  switch (model) {
+    case ImageModel::kRevised:
+      return "revised";
+    case ImageModel::kUwcnn:
+      return "uwcnn";
+    case ImageModel::kPaper:
+      break;
+  }
+  return "paper";
+}
+
+ImageModel ImageModelFromName(const std::string& name) {
+  if (name == "paper") return ImageModel::kPaper;
+  if (name == "revised") return ImageModel::kRevised;
+  if (name == "uwcnn") return ImageModel::kUwcnn;
+  throw Error("render options: model: unknown model '" + name + "' (paper, revised, uwcnn)");
+}
+
+bool RevisedOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why) *why = message;
+    return false;
+  };
+  for (double v : beta_b_rgb_per_m)
+    if (!InRange(v, 0.0, 10.0)) return fail("beta_b_rgb_per_m: each value must be in [0, 10] 1/m");
+  if (!InRange(beta_b_gray_per_m, 0.0, 10.0))
+    return fail("beta_b_gray_per_m: must be in [0, 10] 1/m");
+  for (int i = 0; i < 3; ++i) {
+    if (!InRange(a_rgb[i], 0.0, 10.0) || !InRange(c_rgb[i], 0.0, 10.0))
+      return fail("a_rgb, c_rgb: each value must be in [0, 10] 1/m");
+    if (!InRange(b_rgb[i], -10.0, 0.0) || !InRange(d_rgb[i], -10.0, 0.0))
+      return fail("b_rgb, d_rgb: each value must be in [-10, 0] 1/m");
+  }
+  if (!InRange(a_gray, 0.0, 10.0) || !InRange(c_gray, 0.0, 10.0))
+    return fail("a_gray, c_gray: must be in [0, 10] 1/m");
+  if (!InRange(b_gray, -10.0, 0.0) || !InRange(d_gray, -10.0, 0.0))
+    return fail("b_gray, d_gray: must be in [-10, 0] 1/m");
+  return true;
+}
+
+bool UwcnnOptions::Check(std::string* why) const {
+  auto fail = [&](const std::string& message) {
+    if (why) *why = message;
+    return false;
+  };
+  if (type != "custom") {
+    try {
+      CanonicalJerlovType(type);
+    } catch (const Error&) {
+      return fail("type: unknown water type '" + type +
+                  "' (custom, I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C)");
+    }
+  }
+  for (double v : n_rgb_per_m)
+    if (!(std::isfinite(v) && v > 0.0 && v <= 1.0))
+      return fail("n_rgb_per_m: each value must be in (0, 1]");
+  if (!(std::isfinite(n_gray_per_m) && n_gray_per_m > 0.0 && n_gray_per_m <= 1.0))
+    return fail("n_gray_per_m: must be in (0, 1]");
+  if (!InRange(backlight_scale, 0.0, 10.0)) return fail("backlight_scale: must be in [0, 10]");
+  if (!InRange(backlight_exponent, 0.0, 50.0))
+    return fail("backlight_exponent: must be in [0, 50]");
+  if (!InRange(max_distance_m, 0.0, 1000.0)) return fail("max_distance_m: must be in [0, 1000] m");
+  return true;
+}
+
+UwcnnOptions ResolveUwcnn(const UwcnnOptions& options) {
+  UwcnnOptions resolved = options;
+  if (options.type == "custom") return resolved;
+  resolved.type = CanonicalJerlovType(options.type);
+  resolved.n_rgb_per_m = UwcnnResidualEnergy(resolved.type);
+  resolved.n_gray_per_m =
+      (resolved.n_rgb_per_m[0] + resolved.n_rgb_per_m[1] + resolved.n_rgb_per_m[2]) / 3.0;
+  return resolved;
+}
+
+void SeaThruTransmissionRow(const float* range_row, int width, int channels, const float* a,
+                            const float* b, const float* c, const float* d, float* out) {
+  for (int x = 0; x < width; ++x) {
+    const float r = range_row[x];
+    for (int ch = 0; ch < channels; ++ch) {
+      if (!(r == r)) {  // open water: infinite range
+        out[x * channels + ch] = 0.0f;
+        continue;
+      }
+      const float rr = std::max(r, 0.0f);
+      const float beta = a[ch] * internal::ExpNonPositive(b[ch] * rr) +
+                         c[ch] * internal::ExpNonPositive(d[ch] * rr);
+      out[x * channels + ch] = internal::ExpNonPositive(-beta * rr);
+    }
+  }
+}
+
+}  // namespace turbid

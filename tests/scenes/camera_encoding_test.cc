@@ -1,0 +1,84 @@
+// The camera quantiser (scenes/camera_encoding.h) against an independent formula: the IEC 61966-2-1
+// encoding evaluated in double and rounded, and the PNG round trip through image_io.
+#include "scenes/camera_encoding.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "scenes/error.h"
+#include "tests/support/test_support.h"
+
+namespace turbid {
+namespace {
+
+double EncodeReference(double v) {
+  return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+}
+double DecodeReference(double c) {
+  return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+}
+
+TEST(CameraEncoding, SrgbCodesMatchTheRoundedCurve) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  for (int bits : {8, 16}) {
+    const double levels = (1 << bits) - 1;
+    int checked = 0;
+    for (int i = 0; i < 200000; ++i) {
+      // Uniform in the code domain, so dark values get their share.
+      const float v = static_cast<float>(DecodeReference(uniform(rng)));
+      const double code = EncodeReference(v) * levels;
+      // Skip values within double rounding of a decision threshold (half a code).
+      if (std::abs(code - std::floor(code) - 0.5) < 1e-6) continue;
+      float q = v;
+      QuantiseEncodedRow(&q, 1, CameraEncoding::kSrgb, bits);
+      const double expected = DecodeReference(std::round(code) / levels);
+      ASSERT_NEAR(q, expected, 1e-6 * expected + 1e-12) << "bits " << bits << " v " << v;
+      ++checked;
+    }
+    EXPECT_GT(checked, 190000);
+  }
+}
+
+TEST(CameraEncoding, ClipsNanAndLinearMatchesRounding) {
+  float values[5] = {-0.5f, std::nanf(""), 2.0f, 0.5f, 0.25f};
+  QuantiseEncodedRow(values, 5, CameraEncoding::kSrgb, 8);
+  EXPECT_EQ(values[0], 0.0f);
+  EXPECT_EQ(values[1], 0.0f);
+  EXPECT_FLOAT_EQ(values[2], 1.0f);
+  EXPECT_NEAR(values[3], DecodeReference(std::round(EncodeReference(0.5) * 255) / 255), 1e-7);
+  float lin[2] = {0.5f, 0.2f};
+  QuantiseEncodedRow(lin, 2, CameraEncoding::kLinear, 8);
+  EXPECT_FLOAT_EQ(lin[0], 128.0f / 255.0f);
+  EXPECT_FLOAT_EQ(lin[1], 51.0f / 255.0f);
+  EXPECT_THROW(CameraEncodingFromName("gamma", "x"), Error);
+}
+
+TEST(CameraEncoding, PngRoundTripStoresTheCodesExactly) {
+  testing::TempDir dir;
+  for (int bits : {8, 16}) {
+    for (CameraEncoding encoding : {CameraEncoding::kSrgb, CameraEncoding::kLinear}) {
+      cv::Mat ramp(1, 70000, CV_32FC1);
+      for (int x = 0; x < ramp.cols; ++x) ramp.at<float>(0, x) = x / 69999.0f;
+      const cv::Mat q = QuantiseEncoded(ramp, encoding, bits);
+      WriteImageOptions write;
+      write.bit_depth = bits;
+      write.transfer = TransferFor(encoding);
+      const std::string path = dir.File("ramp.png");
+      write.overwrite = true;
+      WriteImage(path, q, write);
+      ReadImageOptions read;
+      read.transfer = TransferFor(encoding);
+      const cv::Mat back = ReadImage(path, read);
+      // Reading gives the decoded codes back (float decode in image_io vs double here).
+      EXPECT_LT(cv::norm(back, q, cv::NORM_INF), 2e-6) << bits;
+      // Quantising is idempotent: the decoded codes are fixed points.
+      EXPECT_EQ(cv::norm(QuantiseEncoded(q, encoding, bits), q, cv::NORM_INF), 0.0) << bits;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace turbid
