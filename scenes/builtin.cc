@@ -388,10 +388,13 @@ Model SeafloorModel() {
   const cv::Vec3d n = Normalized({0.10, -0.80, -0.60});  // towards the camera (y is down)
   const cv::Vec3d base{0, 0, 2.5};
   model.objects.push_back(MakePlane(base, n, {1, 0, 0}, SandTexture));
-  Object& seabed = model.objects.back();
+  // The seabed's in-plane axes, copied: the push_backs below reallocate model.objects, so a
+  // reference to the plane would dangle.
+  const cv::Vec3d seabed_u = model.objects.back().axis_u;
+  const cv::Vec3d seabed_v = model.objects.back().axis_v;
   // "Up" off the seabed is the plane normal facing the camera.
   const cv::Vec3d up = n;
-  auto on_seabed = [&](double u, double v) { return base + seabed.axis_u * u + seabed.axis_v * v; };
+  auto on_seabed = [&](double u, double v) { return base + seabed_u * u + seabed_v * v; };
   struct Rock {
     double u, v, radius, sink;
     cv::Vec3d tint;
@@ -411,11 +414,11 @@ Model SeafloorModel() {
     }));
   }
   // Two slab rocks.
-  model.objects.push_back(MakeBox(on_seabed(-0.05, -0.15) + up * 0.08, up, seabed.axis_u, 0.5,
+  model.objects.push_back(MakeBox(on_seabed(-0.05, -0.15) + up * 0.08, up, seabed_u, 0.5,
                                   {0.30, 0.18, 0.12}, [](const SurfacePoint& p) {
                                     return RockTexture(p, {0.40, 0.38, 0.33}, 61u);
                                   }));
-  model.objects.push_back(MakeBox(on_seabed(-0.60, 1.90) + up * 0.10, up, seabed.axis_u, -0.3,
+  model.objects.push_back(MakeBox(on_seabed(-0.60, 1.90) + up * 0.10, up, seabed_u, -0.3,
                                   {0.35, 0.25, 0.15}, [](const SurfacePoint& p) {
                                     return RockTexture(p, {0.36, 0.37, 0.38}, 62u);
                                   }));

@@ -222,6 +222,20 @@ TEST(BuiltinScene, DeterministicWhateverTheThreadCount) {
   EXPECT_EQ(cv::norm(a.normals, b.normals, cv::NORM_INF), 0.0);
 }
 
+// Regression (issue 17): SeafloorModel kept a reference to the seabed plane across push_backs that
+// reallocated the object vector, so placing the rocks read freed memory. Release builds happened to
+// read the old values; the AddressSanitizer build (scripts/test.sh, build-asan) fails this test with
+// heap-use-after-free without the fix. Building the model twice, with allocations between, must also
+// give the same scene bit for bit.
+TEST(BuiltinScene, SeafloorModelBuildsWithoutDanglingReferences) {
+  const Scene a = MakeBuiltinScene("seafloor", {.scale = 0.05});
+  std::vector<std::vector<double>> churn(64, std::vector<double>(97, 1.0));  // reuse freed blocks
+  const Scene b = MakeBuiltinScene("seafloor", {.scale = 0.05});
+  EXPECT_EQ(cv::norm(a.image, b.image, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(a.depth_m, b.depth_m, cv::NORM_INF), 0.0);
+  EXPECT_GT(churn.size(), 0u);
+}
+
 // Textures must carry enough corners for feature-based tests (ORB at the default 500 features).
 TEST(BuiltinScene, TexturesAreRichEnoughForOrb) {
   for (const std::string& name : BuiltinSceneNames()) {
