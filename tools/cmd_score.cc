@@ -648,8 +648,9 @@ void AddScoreCommand(CLI::App& app) {
   cmd->add_option("--level", args->level,
                   "With --results: manifest column that is the tables' level (default beta_gray)");
   cmd->add_option("--encoding", args->encoding,
-                  "With --results: srgb | linear, how 8/16-bit result files are encoded "
-                  "(default linear, as generate writes)");
+                  "With --results: srgb | linear; srgb decodes the result files (only them) "
+                  "to linear. Default linear: results, ground truth and inputs are all scored "
+                  "on their stored codes, as score --manifest does");
   cmd->add_option("--ground-truth", args->ground_truth,
                   "With --results: clean (rho, default) | lit (J, clipped to [0, 1])");
   cmd->add_option("--threads", args->threads, "With --results: worker threads (0 = all cores)")

@@ -52,7 +52,7 @@ inline nlohmann::json RandomRenderParams(std::mt19937_64& rng) {
                  {"photons_at_white", log_uniform(10, 1e6)},
                  {"read_noise", uniform(0, 0.05)}};
   static const int kBits[] = {8, 16, 32};
-  p["camera"] = {{"bit_depth", kBits[rng() % 3]}};
+  p["camera"] = {{"bit_depth", kBits[rng() % 3]}, {"encoding", coin() ? "srgb" : "linear"}};
   p["seed"] = rng() >> 1;
   return p;
 }

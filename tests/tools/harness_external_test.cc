@@ -440,7 +440,8 @@ TEST(HarnessExternal, ScoreResultsFolderAgainstDataset) {
 
   // Independent path: the same files scored one by one through a hand-written manifest
   // (`turbid score --manifest` with image / ground_truth / original columns) give the same values.
-  // Tolerance: relative 1e-9 (both print %.10g of the same double computations).
+  // Tolerance: relative 1e-6: --results reads 8-bit files as float32 codes / 255, score --manifest
+  // keeps integer codes with data range 255: the same formulas, rounded differently (measured 3e-8).
   std::string manual = "id,image,ground_truth,original\n";
   for (const std::string& id : ids) {
     manual += id + "," + dir.File("degraded/" + id + ".png") + "," + data + "/ground_truth/" + id +
@@ -464,7 +465,7 @@ TEST(HarnessExternal, ScoreResultsFolderAgainstDataset) {
     for (const std::string& metric : kMetrics) {
       const double expected = std::stod(row.at(metric));
       const double got = std::stod(rows.at(row["image"] + " degraded").at(metric));
-      EXPECT_NEAR(got, expected, 1e-9 * std::abs(expected)) << row["image"] << " " << metric;
+      EXPECT_NEAR(got, expected, 1e-6 * std::abs(expected)) << row["image"] << " " << metric;
       ++compared;
     }
   }
