@@ -73,9 +73,9 @@ struct FullOptions {
   // (values above 1 clip). [0, 100].
   double exposure_percentile = 99.5;
   // Weight of the denoising residual I - I_de added back after dehazing (at its input amplitude,
-  // not divided by t), [0, 10]; 0: discarded (the paper). 0.2: keeps the input's visible edges
+  // not divided by t), [0, 10]; 0: discarded (the paper). 0.3: keeps the input's visible edges
   // (Hautiere e >= 0) at a small cost in SSIM (docs/methods.md, "Blind full: choices measured").
-  double keep_detail = 0.2;
+  double keep_detail = 0.3;
   std::string plane = "auto";          // plane source, see above
   double frontal_distance_m = 2.0;     // distance of the fallback frontal plane, metres, > 0
   double max_range_m = 20.0;           // range used where a ray misses the plane, metres, > 0
