@@ -10,25 +10,21 @@
 #include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfVersion.h>
-#include <dlfcn.h>
 #include <png.h>
-#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <csetjmp>
 #include <cstring>
-#include <filesystem>
-#include <mutex>
 #include <opencv2/imgproc.hpp>
 #include <set>
 #include <vector>
 
 #include "scenes/error.h"
 #include "scenes/plugin/image_plugin.h"
+#include "scenes/plugin_loader.h"
 
 namespace turbid::codecs {
-namespace fs = std::filesystem;
 
 namespace {
 
@@ -209,61 +205,6 @@ class MemoryStream : public Imf::IStream {
   uint64_t pos_ = 0;
 };
 
-// ---------------------------------------------------------------------------------------------
-// The plugin.
-
-std::string DirectoryOf(const std::string& file) {
-  std::error_code ec;
-  const fs::path resolved = fs::weakly_canonical(file, ec);
-  return (ec ? fs::path(file) : resolved).parent_path().string();
-}
-
-TurbidPluginDecodeFn* LoadPlugin(std::string* why) {
-  static std::mutex mutex;
-  static TurbidPluginDecodeFn* decode = nullptr;
-  static std::string failure;
-  std::lock_guard<std::mutex> lock(mutex);
-  if (decode || !failure.empty()) {
-    *why = failure;
-    return decode;
-  }
-  // Beside the binary holding this code (the turbid executable, the Python extension), beside
-  // the running executable, then in the build tree.
-  std::vector<std::string> folders;
-  Dl_info info{};
-  if (dladdr(reinterpret_cast<void*>(&LoadPlugin), &info) && info.dli_fname && *info.dli_fname)
-    folders.push_back(DirectoryOf(info.dli_fname));
-  std::error_code ec;
-  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-  if (!ec) folders.push_back(exe.parent_path().string());
-  folders.push_back(TURBID_PLUGIN_BUILD_DIR);
-  std::string tried;
-  for (const std::string& folder : folders) {
-    const std::string candidate = (fs::path(folder) / kTurbidPluginFileName).string();
-    if (!fs::exists(candidate, ec)) {
-      tried += (tried.empty() ? "" : ", ") + folder;
-      continue;
-    }
-    void* handle = dlopen(candidate.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!handle) {
-      const char* message = dlerror();
-      failure = "cannot load " + candidate + " (" + (message ? message : "unknown error") + ")";
-      *why = failure;
-      return nullptr;
-    }
-    decode = reinterpret_cast<TurbidPluginDecodeFn*>(dlsym(handle, kTurbidPluginDecodeSymbol));
-    if (!decode) {
-      failure = candidate + " has no " + kTurbidPluginDecodeSymbol;
-      *why = failure;
-    }
-    return decode;
-  }
-  failure = std::string("the OpenImageIO plugin ") + kTurbidPluginFileName +
-            " was not found (looked in " + tried + ")";
-  *why = failure;
-  return nullptr;
-}
-
 }  // namespace
 
 cv::Mat DecodePng(const std::string& path, const std::string& bytes, int* max_value) {
@@ -382,7 +323,8 @@ cv::Mat DecodeExr(const std::string& path, const std::string& bytes, int* max_va
 
 cv::Mat DecodeWithPlugin(const std::string& path, const std::string& bytes, int* max_value) {
   std::string why;
-  TurbidPluginDecodeFn* decode = LoadPlugin(&why);
+  auto* decode = reinterpret_cast<TurbidPluginDecodeFn*>(plugins::LoadPluginSymbol(
+      kTurbidPluginFileName, kTurbidPluginDecodeSymbol, "OpenImageIO", &why));
   if (!decode) throw Error(path, "reading this file needs OpenImageIO, but " + why);
   cv::Mat image;
   std::string error;
