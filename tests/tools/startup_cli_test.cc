@@ -1,14 +1,18 @@
 // What keeps `turbid` quick to start (docs/architecture.md, "Linking"): the executable does not
-// load OpenImageIO, OpenCV's imgcodecs, the contrib peers or Google Benchmark; TIFF files still
-// read through the OpenImageIO plugin found beside it; `turbid bench` runs turbid_bench.
+// load OpenImageIO, OpenCV's imgcodecs, libhdf5, the contrib peers or Google Benchmark; TIFF files
+// still read through the OpenImageIO plugin and NYU .mat files through the HDF5 plugin found
+// beside it; `turbid bench` runs turbid_bench.
 #include <gtest/gtest.h>
+#include <hdf5.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <string>
+#include <vector>
 
 #include "tests/support/test_support.h"
 
@@ -36,7 +40,7 @@ TEST(StartupCli, ExecutableLoadsNoHeavyLibraries) {
   ASSERT_NE(bin, nullptr) << "run through ctest";
   const std::string libraries = LoadedLibraries(bin);
   ASSERT_NE(libraries.find("libpng16"), std::string::npos) << libraries;  // the trace worked
-  for (const char* heavy : {"OpenImageIO", "opencv_imgcodecs", "opencv_ximgproc",
+  for (const char* heavy : {"OpenImageIO", "opencv_imgcodecs", "libhdf5", "opencv_ximgproc",
                             "opencv_quality", "libbenchmark", "libgdal", "libavcodec"})
     EXPECT_EQ(libraries.find(heavy), std::string::npos) << heavy << " is linked:\n" << libraries;
 }
@@ -62,6 +66,51 @@ TEST(StartupCli, TiffInputsReadThroughThePlugin) {
   // two differ by float rounding only: 1e-6 (measured 6e-7 dB and 2e-8).
   EXPECT_NEAR(t.at("psnr").get<double>(), p.at("psnr").get<double>(), 1e-6);
   EXPECT_NEAR(t.at("ssim").get<double>(), p.at("ssim").get<double>(), 1e-6);
+}
+
+TEST(StartupCli, NyuMatFilesReadThroughThePlugin) {
+  // A two-frame NYU Depth v2 labelled file as MATLAB v7.3 stores it (scenes/nyu_depth_v2.h):
+  // 512-byte user block, images uint8 (2, 3, 640, 480), depths float32 (2, 640, 480).
+  TempDir dir;
+  const hsize_t image_dims[4] = {2, 3, 640, 480};
+  const hsize_t depth_dims[3] = {2, 640, 480};
+  std::vector<unsigned char> codes(2 * 3 * 640 * 480);
+  for (size_t i = 0; i < codes.size(); ++i) codes[i] = static_cast<unsigned char>((i * 7) % 256);
+  std::vector<float> depth(2 * 640 * 480);
+  for (size_t i = 0; i < depth.size(); ++i) depth[i] = 0.5f + static_cast<float>(i % 1000) / 250;
+  {
+    const hid_t create = H5Pcreate(H5P_FILE_CREATE);
+    H5Pset_userblock(create, 512);
+    const hid_t file = H5Fcreate(dir.File("nyu.mat").c_str(), H5F_ACC_TRUNC, create, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    const auto write = [&](const char* name, int rank, const hsize_t* dims, hid_t file_type,
+                           hid_t memory_type, const void* data) {
+      const hid_t space = H5Screate_simple(rank, dims, nullptr);
+      const hid_t dataset =
+          H5Dcreate2(file, name, file_type, space, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+      const herr_t status = H5Dwrite(dataset, memory_type, H5S_ALL, H5S_ALL, H5P_DEFAULT, data);
+      H5Dclose(dataset);
+      H5Sclose(space);
+      return status;
+    };
+    EXPECT_GE(write("images", 4, image_dims, H5T_STD_U8LE, H5T_NATIVE_UINT8, codes.data()), 0);
+    EXPECT_GE(write("depths", 3, depth_dims, H5T_IEEE_F32LE, H5T_NATIVE_FLOAT, depth.data()), 0);
+    H5Fclose(file);
+    H5Pclose(create);
+  }
+  {
+    std::ofstream spec(dir.File("nyu.json"));
+    spec << R"({"type": "nyu_v2", "file": "nyu.mat", "color": "linear"})";
+  }
+  const auto scene = RunTurbid({"scene", dir.File("nyu.json") + "#1"});
+  ASSERT_EQ(scene.exit_code, 0) << scene.err;
+  // Frame 1's depths are the stored values 0.5 + k / 250, k in 0..999: 0.500..4.496 m.
+  EXPECT_NE(scene.out.find("nyu_1: 640x480, color; depth 0.500..4.496 m"), std::string::npos)
+      << scene.out;
+  const auto outside = RunTurbid({"scene", dir.File("nyu.json") + "#2"});
+  EXPECT_NE(outside.exit_code, 0);
+  EXPECT_NE(outside.err.find("no such frame (0-based index, 2 frames)"), std::string::npos)
+      << outside.err;
 }
 
 TEST(StartupCli, BenchRunsTheBenchExecutable) {
