@@ -230,12 +230,59 @@ ProcessResult RunProcess(const ProcessOptions& options) {
 }
 
 bool IsExternalMethodObject(const json& method) {
-  return method.is_object() && (method.contains("command") || method.contains("results"));
+  return method.is_object() &&
+         (method.contains("command") || method.contains("results") || method.contains("python"));
 }
 
+namespace {
+
+// "batch" and "batch_size" of a command or Python method.
+void ParseBatch(const json& method, bool* batch, int* batch_size) {
+  *batch = false;
+  if (method.contains("batch")) {
+    if (!method["batch"].is_boolean()) throw Error("'batch' must be true or false");
+    *batch = method["batch"].get<bool>();
+  }
+  *batch_size = 32;
+  if (method.contains("batch_size")) {
+    const json& value = method["batch_size"];
+    if (!*batch) throw Error("'batch_size' applies to \"batch\": true methods only");
+    if (!value.is_number_integer() || value.get<int64_t>() < 1 || value.get<int64_t>() > 100000) {
+      throw Error("'batch_size' must be an integer in [1, 100000]");
+    }
+    *batch_size = value.get<int>();
+  }
+}
+
+}  // namespace
+
 json ParseExternalMethodSpec(const json& method) {
-  if (method.contains("command") && method.contains("results")) {
-    throw Error("give either 'command' (a program to run) or 'results' (precomputed files)");
+  const int kinds = static_cast<int>(method.contains("command")) +
+                    static_cast<int>(method.contains("results")) +
+                    static_cast<int>(method.contains("python"));
+  if (kinds > 1) {
+    throw Error(
+        "give one of 'command' (a program to run), 'results' (precomputed files) or 'python' (a "
+        "callable passed to turbid.sweep)");
+  }
+  if (method.contains("python")) {
+    CheckObjectKeys(method, {"name", "label", "python", "batch", "batch_size", "encoding"},
+                    "a Python method");
+    const json& key = method["python"];
+    if (!key.is_string() || key.get<std::string>().empty()) {
+      throw Error("'python' must be the key of the callable in turbid.sweep(..., methods={...})");
+    }
+    bool batch = false;
+    int batch_size = 32;
+    ParseBatch(method, &batch, &batch_size);
+    json spec = {{"kind", "python"},
+                 {"python", key},
+                 {"batch", batch},
+                 {"encoding", method.contains("encoding")
+                                  ? ParseEncoding(method["encoding"], "'encoding'")
+                                  : std::string("linear")}};
+    if (batch) spec["batch_size"] = batch_size;
+    return spec;
   }
   if (method.contains("results")) {
     CheckObjectKeys(method, {"name", "label", "results", "encoding"}, "a results method");
@@ -259,10 +306,8 @@ json ParseExternalMethodSpec(const json& method) {
   }
   if (command[0].get<std::string>().empty()) throw Error("'command' names no program");
   bool batch = false;
-  if (method.contains("batch")) {
-    if (!method["batch"].is_boolean()) throw Error("'batch' must be true or false");
-    batch = method["batch"].get<bool>();
-  }
+  int batch_size = 32;
+  ParseBatch(method, &batch, &batch_size);
   const char* need_a = batch ? "{input_dir}" : "{input}";
   const char* need_b = batch ? "{output_dir}" : "{output}";
   const char* wrong_a = batch ? "{input}" : "{input_dir}";
@@ -279,15 +324,6 @@ json ParseExternalMethodSpec(const json& method) {
                   (batch ? " (\"batch\": true: one process per batch of items)"
                          : " (\"batch\": false: one process per image)"));
     }
-  }
-  int batch_size = 32;
-  if (method.contains("batch_size")) {
-    const json& value = method["batch_size"];
-    if (!batch) throw Error("'batch_size' applies to \"batch\": true methods only");
-    if (!value.is_number_integer() || value.get<int64_t>() < 1 || value.get<int64_t>() > 100000) {
-      throw Error("'batch_size' must be an integer in [1, 100000]");
-    }
-    batch_size = value.get<int>();
   }
   json input = {{"format", "png"}, {"bits", 8}, {"encoding", "srgb"}};
   if (method.contains("input")) {
@@ -398,14 +434,21 @@ cv::Mat ReadMethodOutput(const std::string& path, const std::string& encoding,
                          const cv::Mat& degraded) {
   ReadImageOptions options;
   options.transfer = encoding == "srgb" ? Transfer::kSrgb : Transfer::kLinear;
-  cv::Mat image = ReadImage(path, options);
+  return CheckMethodOutput(ReadImage(path, options), degraded, path);
+}
+
+cv::Mat CheckMethodOutput(const cv::Mat& image, const cv::Mat& degraded, const std::string& where) {
+  const auto fail = [&](const std::string& problem) {
+    return where.empty() ? Error(problem) : Error(where, problem);
+  };
+  if (image.empty()) throw fail("empty image");
   if (image.cols != degraded.cols || image.rows != degraded.rows) {
-    throw Error(path, "wrong size: " + std::to_string(image.cols) + "x" +
+    throw fail("wrong size: " + std::to_string(image.cols) + "x" +
                           std::to_string(image.rows) + ", the input is " +
                           std::to_string(degraded.cols) + "x" + std::to_string(degraded.rows));
   }
   if (image.channels() != degraded.channels()) {
-    throw Error(path, "has " + std::to_string(image.channels()) + " channels, the input has " +
+    throw fail("has " + std::to_string(image.channels()) + " channels, the input has " +
                           std::to_string(degraded.channels()));
   }
   cv::Mat data;
@@ -416,7 +459,7 @@ cv::Mat ReadMethodOutput(const std::string& path, const std::string& encoding,
   const float* p = flat.ptr<float>(0);
   for (size_t i = 0; i < values; ++i) bad += !std::isfinite(p[i]);
   if (bad > 0) {
-    throw Error(path, std::to_string(bad) + " non-finite values (NaN or inf) of " +
+    throw fail(std::to_string(bad) + " non-finite values (NaN or inf) of " +
                           std::to_string(values));
   }
   cv::min(cv::max(data, 0.0), 1.0, data);

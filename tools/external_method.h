@@ -48,10 +48,14 @@ ProcessResult RunProcess(const ProcessOptions& options);
 //    "input": {"format", "bits", "encoding"}, "output": {"format", "encoding"},
 //    "timeout_s": s, "cwd": "...", "env": {...}}
 //   {"kind": "results", "results": "path/{id}.png", "encoding": "srgb" | "linear"}
+//   {"kind": "python", "python": KEY, "batch": bool, ["batch_size": n,] "encoding": "linear" |
+//    "srgb"}: a callable passed to turbid.sweep(..., methods={KEY: f}) by the Python package
+//    (python/src/module.cc); the CLI cannot run it (HarnessRunner refuses it up front)
 // Parses the method object of an experiment file (keys other than name/label); throws
 // Error(problem) (the caller adds the file and the method).
 nlohmann::json ParseExternalMethodSpec(const nlohmann::json& method);
-// Whether an experiment method object describes an external method ("command" or "results").
+// Whether an experiment method object describes an external method ("command", "results" or
+// "python").
 bool IsExternalMethodObject(const nlohmann::json& method);
 
 // Replaces {input_dir}, {output_dir}, {input}, {output} and {id} in every argument.
@@ -70,6 +74,11 @@ std::string OutputExtension(const nlohmann::json& spec);
 // Throws Error("<path>: <reason>").
 cv::Mat ReadMethodOutput(const std::string& path, const std::string& encoding,
                          const cv::Mat& degraded);
+
+// The checks of ReadMethodOutput on an image already in memory (any depth; integer images are not
+// rescaled): size and channels as `degraded`, every value finite; returns float32 clipped to
+// [0, 1]. Throws Error("<where>: <reason>"), or Error("<reason>") when `where` is empty.
+cv::Mat CheckMethodOutput(const cv::Mat& image, const cv::Mat& degraded, const std::string& where);
 
 // The file in `dir` named "<id>.<extension>" (any extension ReadImage reads); "" when none.
 // Throws Error when several match.

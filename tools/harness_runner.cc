@@ -148,6 +148,15 @@ HarnessRunner::HarnessRunner(const Experiment& experiment, std::string out_dir,
   for (size_t i = 0; i < experiment_.scenes.size(); ++i) {
     contexts_.push_back(std::make_unique<SceneContext>());
   }
+  for (const ExperimentMethod& method : experiment_.methods) {
+    if (!method.IsExternal() || method.external.at("kind") != "python") continue;
+    const std::string key = method.external.at("python").get<std::string>();
+    if (!options_.in_process.count(key)) {
+      throw Error("method '" + method.label + "' is a Python callable ('python': '" + key +
+                  "'): run the experiment from Python, turbid.sweep(experiment, out, methods={'" +
+                  key + "': f}) (docs/python.md)");
+    }
+  }
 }
 
 HarnessRunner::~HarnessRunner() = default;
@@ -302,9 +311,38 @@ void HarnessRunner::Score(const std::string& id, const std::string& label, const
   }
 }
 
+std::vector<cv::Mat> HarnessRunner::RunInProcess(const ExperimentMethod& method,
+                                                 const std::vector<cv::Mat>& degraded,
+                                                 const std::vector<std::string>& ids) const {
+  const InProcessMethod& run =
+      options_.in_process.at(method.external.at("python").get<std::string>());
+  std::vector<cv::Mat> outputs = run(method.external, degraded, ids);
+  if (outputs.size() != degraded.size()) {
+    throw Error("returned " + std::to_string(outputs.size()) + " images for " +
+                std::to_string(degraded.size()) + " inputs");
+  }
+  for (size_t k = 0; k < outputs.size(); ++k) {
+    outputs[k] = CheckMethodOutput(outputs[k], degraded[k],
+                                   degraded.size() > 1 ? "output for " + ids[k] : "");
+  }
+  return outputs;
+}
+
 cv::Mat HarnessRunner::RunExternal(const ExperimentMethod& method, const std::string& id,
                                    const cv::Mat& degraded, double* time_ms) const {
   const nlohmann::json& spec = method.external;
+  if (spec.at("kind") == "python") {
+    const auto start = Clock::now();
+    std::vector<cv::Mat> out;
+    try {
+      out = RunInProcess(method, {degraded}, {id});
+    } catch (...) {
+      *time_ms = MillisecondsSince(start);
+      throw;
+    }
+    *time_ms = MillisecondsSince(start);
+    return out[0];
+  }
   if (spec.at("kind") == "results") {
     *time_ms = std::nan("");  // nothing ran
     const std::string pattern = spec.at("results").get<std::string>();
@@ -386,6 +424,41 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
       }
       throw Error("internal: no row for " + method.label);
     };
+    if (spec.at("kind") == "python") {
+      // One call for the batch; outputs are checked and scored per item.
+      std::vector<cv::Mat> degraded;
+      std::vector<std::string> ids;
+      for (size_t k : members) {
+        degraded.push_back(pending_of(k).degraded);
+        ids.push_back(tasks[k].spec->id);
+      }
+      std::vector<cv::Mat> outputs;
+      std::string problem;
+      const auto start = Clock::now();
+      try {
+        outputs = RunInProcess(method, degraded, ids);
+      } catch (const std::exception& error) {
+        problem = error.what();
+      }
+      const double share_ms = MillisecondsSince(start) / static_cast<double>(members.size());
+      for (size_t m = 0; m < members.size(); ++m) {
+        MethodResult& row = row_of(members[m]);
+        row.time_ms = share_ms;
+        row.time_is_batch_share = true;
+        row.metrics = NanMetrics(metric_names_);
+        row.error = problem;
+        if (!problem.empty()) continue;
+        try {
+          const Pending& pending = pending_of(members[m]);
+          Score(ids[m], method.label, outputs[m], pending.reference, pending.degraded, &row);
+          row.error.clear();
+        } catch (const std::exception& error) {
+          row.error = error.what();
+          row.metrics = NanMetrics(metric_names_);
+        }
+      }
+      continue;
+    }
     const std::string first_id = tasks[members.front()].spec->id;
     const std::string folder = out_dir_ + "/external/" + method.label;
     const std::string work = fs::absolute(folder + "/work-" + first_id).string();

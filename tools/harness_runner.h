@@ -3,6 +3,7 @@
 // harness to the simulator (simulator/render.h), the enhancer registry and the metrics registry.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -20,12 +21,25 @@ namespace turbid {
 // strict RenderOptionsFromJson and the scene loader.
 HarnessCatalog RegistryCatalog();
 
+// A method that runs in this process: a Python callable handed to turbid.sweep (experiment
+// methods of kind "python", tools/external_method.h). Receives the method's resolved spec (batch,
+// encoding) and degraded images as the libraries hold them (float32 linear [0, 1], BGR) with their
+// item ids — one for a per-image method, a batch for a batch method — and returns one image per
+// input (checked like a file output: CheckMethodOutput). Throws to fail those cells; called from
+// the sweep's worker threads.
+using InProcessMethod = std::function<std::vector<cv::Mat>(
+    const nlohmann::json& spec, const std::vector<cv::Mat>& degraded,
+    const std::vector<std::string>& ids)>;
+
 struct HarnessRunnerOptions {
   // Reuse work that does not depend on the swept parameters: each scene is loaded once, one
   // Renderer per scene keeps its caches (range map, light geometry, PSF kernels, blurred J) across
   // items, and no-reference scores of the ground truth are computed once per scene. false loads,
   // renders and scores from scratch for every item (the baseline of benchmarks/harness_bench.cc).
   bool reuse = true;
+  // The callables of the experiment's "python" methods, by their key; the runner refuses an
+  // experiment whose Python method has none here (the CLI passes none).
+  std::map<std::string, InProcessMethod> in_process;
   bool Check(std::string* why) const;
 };
 
@@ -58,6 +72,11 @@ class HarnessRunner {
   // A per-image external method or a results folder on one item; throws Error with the reason.
   cv::Mat RunExternal(const ExperimentMethod& method, const std::string& id,
                       const cv::Mat& degraded, double* time_ms) const;
+  // Runs a "python" method on degraded images (one per id) and checks each output; throws Error
+  // when the call fails or returns the wrong number of images.
+  std::vector<cv::Mat> RunInProcess(const ExperimentMethod& method,
+                                    const std::vector<cv::Mat>& degraded,
+                                    const std::vector<std::string>& ids) const;
   // Scores `enhanced` into row (metrics) and saves its thumbnail.
   void Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,
              const cv::Mat& reference, const cv::Mat& degraded, MethodResult* row) const;

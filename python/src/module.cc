@@ -9,12 +9,14 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -326,6 +328,93 @@ std::string MatchArrays(const py::array& a, const py::array& b, const std::strin
 
 // ---- generate / sweep / data ---------------------------------------------------------------------
 
+// Experiment methods that name a key of turbid.sweep's `methods` dict become Python methods: a
+// string "k" or an object {"name": "k", ...} without command/results/python gets "python": "k".
+// Every key must be used; a key may not shadow a built-in method or the reserved rows.
+json BindPythonMethods(json doc, const std::set<std::string>& keys) {
+  if (keys.empty() || !doc.is_object() || !doc.contains("methods") || !doc["methods"].is_array())
+    return doc;
+  std::set<std::string> used;
+  for (json& entry : doc["methods"]) {
+    if (entry.is_string() && keys.count(entry.get<std::string>())) {
+      entry = json{{"name", entry}, {"python", entry}};
+    } else if (entry.is_object() && entry.contains("name") && entry["name"].is_string() &&
+               keys.count(entry["name"].get<std::string>()) && !entry.contains("command") &&
+               !entry.contains("results") && !entry.contains("python")) {
+      entry["python"] = entry["name"];
+    }
+    if (entry.is_object() && entry.contains("python") && entry["python"].is_string())
+      used.insert(entry["python"].get<std::string>());
+  }
+  for (const std::string& key : keys)
+    if (!used.count(key))
+      throw Error("methods: '" + key + "' is not a method of the experiment (list it in its "
+                  "'methods', as \"" + key + "\" or {\"name\": \"" + key + "\", ...})");
+  return doc;
+}
+
+// The first line of the Python exception being handled, "TypeName: message".
+std::string PythonErrorLine(const py::error_already_set& e) {
+  std::string type = "Exception";
+  if (e.type()) type = py::str(e.type().attr("__name__")).cast<std::string>();
+  std::string text = e.value() ? py::str(e.value()).cast<std::string>() : std::string();
+  const size_t newline = text.find('\n');
+  if (newline != std::string::npos) text = text.substr(0, newline);
+  return text.empty() ? type : type + ": " + text;
+}
+
+// One returned image -> turbid's in-memory image. Lenient where NumPy code usually is: any array-
+// like (a torch tensor on the CPU too) and float64 are accepted.
+cv::Mat FromCallable(const py::handle& value, Encoding encoding, const std::string& what) {
+  py::module_ np = py::module_::import("numpy");
+  py::object a = np.attr("ascontiguousarray")(value);
+  py::array arr = a.cast<py::array>();
+  if (arr.dtype().kind() == 'f' && arr.itemsize() != 4)
+    arr = np.attr("ascontiguousarray")(arr.attr("astype")("float32")).cast<py::array>();
+  else if (arr.dtype().kind() == 'b')
+    throw Error(what + ": a boolean array is not an image");
+  const ArrayView v = ViewArray(arr, what);
+  cv::Mat m = ToInternal(v, encoding, what);
+  return m.data == v.mat.data ? m.clone() : m;
+}
+
+// The InProcessMethod of one Python callable (borrowed: turbid.sweep's `methods` dict keeps it
+// alive for the whole sweep). Takes the GIL for the call and the conversions.
+InProcessMethod PythonCallable(py::handle fn) {
+  return [fn](const json& spec, const std::vector<cv::Mat>& degraded,
+              const std::vector<std::string>& ids) {
+    const bool batch = spec.value("batch", false);
+    const Encoding encoding =
+        spec.value("encoding", std::string("linear")) == "srgb" ? Encoding::kSrgb : Encoding::kLinear;
+    py::gil_scoped_acquire gil;
+    std::vector<cv::Mat> out;
+    try {
+      py::list inputs;
+      for (const cv::Mat& image : degraded)
+        inputs.append(ToNumpy(encoding == Encoding::kSrgb ? LinearToSrgb(image) : image));
+      if (!batch) {
+        out.push_back(FromCallable(fn(inputs[0]), encoding, "returned array"));
+        return out;
+      }
+      py::object result = fn(inputs);
+      if (!py::isinstance<py::sequence>(result) || py::isinstance<py::str>(result))
+        throw Error("a batch method must return a list of arrays, one per input, not " +
+                    py::str(py::type::of(result).attr("__name__")).cast<std::string>());
+      const py::sequence seq = result.cast<py::sequence>();
+      if (seq.size() != degraded.size())
+        throw Error("returned " + std::to_string(seq.size()) + " images for " +
+                    std::to_string(degraded.size()) + " inputs");
+      for (size_t k = 0; k < seq.size(); ++k)
+        out.push_back(FromCallable(seq[k], encoding, "returned array for " + ids[k]));
+    } catch (py::error_already_set& e) {
+      throw Error(PythonErrorLine(e));
+    } catch (const py::cast_error& e) {
+      throw Error(std::string("returned value: ") + e.what());
+    }
+    return out;
+  };
+}
+
 json ConfigFrom(const py::object& config, std::string* source) {
   if (py::isinstance<py::str>(config) || py::hasattr(config, "__fspath__")) {
     *source = py::str(py::module_::import("os").attr("fspath")(config));
@@ -520,9 +609,26 @@ PYBIND11_MODULE(_turbid, m) {
     RunGenerate(parsed, out, threads);
   });
   m.def("sweep", [](const py::object& experiment_obj, const std::string& out, int threads,
-                    const std::string& shard, bool force, bool reuse) {
+                    const std::string& shard, bool force, bool reuse, bool retry_failed,
+                    const py::dict& methods) {
     std::string source;
-    const json doc = ConfigFrom(experiment_obj, &source);
+    json doc = ConfigFrom(experiment_obj, &source);
+    HarnessRunnerOptions ro;
+    ro.reuse = reuse;
+    std::set<std::string> keys;
+    for (const auto& [key_obj, fn] : methods) {
+      if (!py::isinstance<py::str>(key_obj)) throw Error("methods: keys must be strings");
+      const std::string key = key_obj.cast<std::string>();
+      if (!PyCallable_Check(fn.ptr())) throw Error("methods: '" + key + "' is not callable");
+      const auto& listed = ListMethods();
+      const bool builtin = std::any_of(listed.begin(), listed.end(),
+                                       [&](const MethodInfo& info) { return info.name == key; });
+      if (key == "none" || builtin)
+        throw Error("methods: '" + key + "' is the name of a built-in method; choose another");
+      keys.insert(key);
+      ro.in_process[key] = PythonCallable(fn);
+    }
+    doc = BindPythonMethods(std::move(doc), keys);
     py::gil_scoped_release release;
     const Experiment experiment = ParseExperiment(doc, source, RegistryCatalog());
     SweepOptions options;
@@ -530,17 +636,17 @@ PYBIND11_MODULE(_turbid, m) {
     options.threads = threads;
     options.shard = ParseShard(shard);
     options.force = force;
+    options.retry_failed = retry_failed;
     options.progress = false;
     ThrowIfInvalid(options, "sweep");
-    HarnessRunnerOptions ro;
-    ro.reuse = reuse;
     HarnessRunner r2(experiment, out, ro);
-    const SweepSummary s =
-        RunSweep(experiment, options, [&](const ItemSpec& item) { return r2.Run(item); });
+    const SweepSummary s = RunSweep(experiment, options, r2.Hooks());
     return json({{"items_total", s.items_total}, {"items_in_shard", s.items_in_shard},
-                 {"ran", s.ran}, {"already_done", s.already_done},
+                 {"ran", s.ran}, {"already_done", s.already_done}, {"retried", s.retried},
                  {"failed_rows", s.failed_rows}, {"tables_written", s.tables_written}}).dump();
-  });
+  }, py::arg("experiment"), py::arg("out"), py::arg("threads"), py::arg("shard"),
+     py::arg("force"), py::arg("reuse"), py::arg("retry_failed") = false,
+     py::arg("methods") = py::dict());
 
   py::class_<GeneratePlan, std::shared_ptr<GeneratePlan>>(m, "GeneratePlan")
       .def(py::init(&PlanFrom))

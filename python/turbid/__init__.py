@@ -187,11 +187,33 @@ def generate(config, out, threads=None):
     _turbid.generate(config, _os.fspath(out), threads)
 
 
-def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True):
+def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True, methods=None,
+          retry_failed=False):
     """``turbid sweep``: run an experiment (dict or JSON path; docs/experiments.md) into ``out``
-    (rerun to resume). Returns the summary dict (items_total, ran, already_done, ...)."""
+    (rerun to resume). Returns the summary dict (items_total, ran, already_done, retried,
+    failed_rows, ...).
+
+    ``methods``: your own enhancement methods as Python callables, scored beside the built-in
+    ones on the same degraded images, with the same metrics and tables, e.g.
+    ``methods={"mine": f}`` with ``"mine"`` (or ``{"name": "mine", "label": ...}``) listed in the
+    experiment's ``methods``. ``f(image) -> image`` receives the degraded image as float32 RGB
+    (H x W x 3, or H x W for gray) in [0, 1], linear light; it returns an array of the same size
+    and channels (float32/float64 in [0, 1], or uint8/uint16; anything ``numpy.asarray`` takes,
+    a CPU torch tensor too). Options go in the experiment's method object:
+    ``{"name": "mine", "batch": true, "batch_size": 16}`` calls ``f(list_of_images)`` once per
+    batch and expects a list back (a network loaded once, batched inference);
+    ``"encoding": "srgb"`` hands it sRGB-encoded values (what a network trained on PNGs expects)
+    and reads its result the same way. A call that raises, or returns the wrong size, shape or
+    non-finite values, fails those cells (the reason is in the journal and the tables' failed
+    count); the sweep goes on. ``retry_failed=True`` runs the failed cells again on a resume.
+    The callable runs on the sweep's worker threads holding the GIL (one call at a time); its
+    wall time per image is recorded (a batch's time divided by its items, flagged). The
+    experiment.json records the method's key, not the callable: resuming with another function
+    under the same key mixes results, so change the key (or the output folder) when the method
+    changes. ``turbid sweep`` (the CLI) refuses an experiment with Python methods."""
     return _json.loads(_turbid.sweep(experiment, _os.fspath(out), int(threads), str(shard),
-                                     bool(force), bool(reuse)))
+                                     bool(force), bool(reuse), bool(retry_failed),
+                                     dict(methods or {})))
 
 
 def default_params():

@@ -359,6 +359,13 @@ TEST(HarnessExternal, BadExternalMethodsAreRejectedBeforeAnyWork) {
        "unknown key 'params'"},
       {R"({"name": "x", "results": "out/x.png"})", "{id}"},
       {R"({"name": "none", "results": "out/{id}.png"})", "reserved"},
+      {R"({"name": "x", "python": "x", "results": "out/{id}.png"})", "give one of"},
+      {R"({"name": "x", "python": ""})", "'python' must be the key"},
+      {R"({"name": "x", "python": "x", "batch_size": 4})", "\"batch\": true methods only"},
+      {R"({"name": "x", "python": "x", "encoding": "gamma"})", "'encoding'"},
+      {R"({"name": "x", "python": "x", "timeout_s": 5})", "unknown key 'timeout_s'"},
+      // Valid, but only turbid.sweep in Python can run it: refused before any work.
+      {R"({"name": "x", "python": "x", "batch": true})", "is a Python callable"},
   };
   for (const auto& [method, message] : cases) {
     const std::string exp = WriteFile(dir.path(), "bad.json", TinyExperiment(method));
