@@ -813,6 +813,9 @@ std::vector<MethodParam> ClahePar(const std::string& prefix, const ClaheOptions&
 FullOptions FullVariantDefaults(const std::string& variant) {
   FullOptions o;
   if (variant == "full") return o;
+  // The variants keep the paper's reading of the clamp (t >= 0.1): `full_literal` is the paper as
+  // written, `full_matched` / `full_physical` know the true beta (no over-correction to guard).
+  o.t_min = 0.1;
   if (variant == "full_literal") {
     o.light_scaling = "range";
     o.denoise_adaptive = false;

@@ -66,7 +66,10 @@ struct FullOptions {
   // default); "auto" — the water of a render sidecar when one is given (per channel,
   // options.water: beta_rgb_per_m / beta_gray_per_m, as rendered), else beta_per_m: privileged.
   std::string beta_source = "fixed";
-  double t_min = 0.1;                  // transmission clamp in eq. 6, (0, 1]
+  // Transmission clamp in eq. 6, (0, 1]. Blind `full` fixes beta at 0.7 /m whatever the water:
+  // where it is clearer, exp(-0.7 r) underestimates t and eq. 6 amplifies noise by 1/t. 0.3 caps
+  // that gain at 3.3 (docs/methods.md, "The transmission floor"); the variants use 0.1.
+  double t_min = 0.3;
   // Exposure after dehazing: when the `exposure_percentile` percentile of J_plane (all channels)
   // exceeds 1, J_plane is divided by it, so that the lit radiance eq. 6 returns is not clipped
   // before CLAHE (the paper's concern, "prevented from being over-saturated", §III-A.2). 0: off
