@@ -332,38 +332,44 @@ cv::Mat DecodeWithPlugin(const std::string& path, const std::string& bytes, int*
   return image;
 }
 
-void EncodePng(const std::string& path, const std::string& temp, const cv::Mat& encoded) {
+namespace {
+
+void PngWriteToString(png_structp png, png_bytep data, size_t n) {
+  auto* out = static_cast<std::string*>(png_get_io_ptr(png));
+  out->append(reinterpret_cast<const char*>(data), n);
+}
+
+void PngFlushNothing(png_structp) {}
+
+}  // namespace
+
+std::string EncodePng(const std::string& path, const cv::Mat& encoded) {
   CV_Assert((encoded.depth() == CV_8U || encoded.depth() == CV_16U) &&
             (encoded.channels() == 1 || encoded.channels() == 3));
   PngIo io;  // only its message is used
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &io, PngError, PngWarning);
   if (!png) throw Error(path, "out of memory");
   png_infop info = png_create_info_struct(png);
-  FILE* file = std::fopen(temp.c_str(), "wb");
   struct Cleanup {
     png_structp* png;
     png_infop* info;
-    FILE** file;
-    ~Cleanup() {
-      png_destroy_write_struct(png, info);
-      if (*file) std::fclose(*file);
-    }
-  } cleanup{&png, &info, &file};
+    ~Cleanup() { png_destroy_write_struct(png, info); }
+  } cleanup{&png, &info};
   if (!info) throw Error(path, "out of memory");
-  if (!file) throw Error(path, "cannot open " + temp + " for writing");
+  std::string bytes;
   std::vector<png_bytep> rows(static_cast<size_t>(encoded.rows));
   for (int y = 0; y < encoded.rows; ++y)
     rows[static_cast<size_t>(y)] = const_cast<png_bytep>(encoded.ptr(y));
   struct Args {
     png_structp png;
     png_infop info;
-    FILE* file;
+    std::string* bytes;
     png_uint_32 width, height;
     int bit_depth, color_type;
     png_bytepp rows;
   } args{png,
          info,
-         file,
+         &bytes,
          static_cast<png_uint_32>(encoded.cols),
          static_cast<png_uint_32>(encoded.rows),
          encoded.depth() == CV_8U ? 8 : 16,
@@ -372,7 +378,7 @@ void EncodePng(const std::string& path, const std::string& temp, const cv::Mat& 
   // OpenCV's PngEncoder::write without parameters, call for call.
   const bool ok = [](const Args& a) {
     if (setjmp(png_jmpbuf(a.png))) return false;
-    png_init_io(a.png, a.file);
+    png_set_write_fn(a.png, a.bytes, PngWriteToString, PngFlushNothing);
     png_set_filter(a.png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
     png_set_compression_level(a.png, Z_BEST_SPEED);
     png_set_compression_strategy(a.png, Z_RLE);
@@ -387,10 +393,7 @@ void EncodePng(const std::string& path, const std::string& temp, const cv::Mat& 
     return true;
   }(args);
   if (!ok) throw Error(path, std::string("PNG encoder failed: ") + io.message);
-  const bool flushed = std::fflush(file) == 0 && !std::ferror(file);
-  const int closed = std::fclose(file);
-  file = nullptr;
-  if (!flushed || closed != 0) throw Error(path, "write failed");
+  return bytes;
 }
 
 }  // namespace turbid::codecs

@@ -282,6 +282,10 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   const std::string& format = config.format;
   const double scale = config.scale;
   using Item = GenerateItem;
+  // One generate per folder at a time; holding the lock, the temporaries that killed earlier runs
+  // left (".NAME.tmpXXXX") are removed: their items are rendered again below.
+  const FolderLock lock(out_dir, "generate");
+  RemoveStaleTemporaries(out_dir, /*recursive=*/true);
   for (const char* sub : {"images", "ground_truth", "lit", "sidecars"})
     fs::create_directories(fs::path(out_dir) / sub);
   const std::string ext = "." + format;
@@ -306,6 +310,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   };
 
   std::atomic<int> next{0}, done{0}, skipped{0};
+  std::atomic<bool> progress_shown{false};
   std::mutex error_mutex;
   std::string first_error;
   auto worker = [&] {
@@ -346,8 +351,10 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
           AtomicWriteText(p[3], sidecar.dump(2) + "\n", true);
         }
         const int n = ++done;
-        if (n % 10 == 0 || n == static_cast<int>(items.size()))
+        if (n % 10 == 0 || n == static_cast<int>(items.size())) {
           std::cerr << "generate: " << n << "/" << items.size() << " items\r" << std::flush;
+          progress_shown = true;
+        }
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(error_mutex);
         if (first_error.empty()) first_error = item.id + ": " + e.what();
@@ -358,7 +365,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   std::vector<std::thread> pool;
   for (int t = 0; t < count; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
-  std::cerr << "\n";
+  if (progress_shown) std::cerr << "\n";  // an error after it starts a line of its own
   if (!first_error.empty()) throw Error("generate: " + first_error);
 
   // Manifest in item order: the same bytes whatever the thread count or interruption history.
