@@ -21,25 +21,13 @@
 #include <vector>
 
 #include "scenes/error.h"
+#include "scenes/limits.h"
 #include "scenes/plugin/image_plugin.h"
 #include "scenes/plugin_loader.h"
 
 namespace turbid::codecs {
 
 namespace {
-
-// The size limits cv::imdecode applies (CV_IO_MAX_IMAGE_WIDTH/HEIGHT/PIXELS), so that the same
-// files are accepted as before.
-constexpr long kMaxDecodeSide = 1L << 20;
-constexpr long kMaxDecodePixels = 1L << 30;
-// The limit the OpenImageIO path applied to EXR/TIFF sizes.
-constexpr long kMaxExrSide = 1L << 16;
-
-void CheckDecodeSize(const std::string& path, long width, long height) {
-  if (width <= 0 || height <= 0 || width > kMaxDecodeSide || height > kMaxDecodeSide ||
-      width * height > kMaxDecodePixels)
-    throw Error(path, "bad image size " + std::to_string(width) + "x" + std::to_string(height));
-}
 
 cv::Mat ToFloat(const cv::Mat& raw) {
   cv::Mat out;
@@ -226,7 +214,7 @@ cv::Mat DecodePng(const std::string& path, const std::string& bytes, int* max_va
   PngHeader header;
   if (!PngReadHeader(png, info, &header))
     throw Error(path, std::string("cannot decode PNG: ") + io.message);
-  CheckDecodeSize(path, header.width, header.height);
+  CheckImageSize(path, header.width, header.height);
   const int depth = header.bit_depth == 16 ? CV_16U : CV_8U;
   cv::Mat raw(static_cast<int>(header.height), static_cast<int>(header.width),
               CV_MAKETYPE(depth, header.channels));
@@ -252,8 +240,9 @@ cv::Mat DecodeJpeg(const std::string& path, const std::string& bytes, int* max_v
   } cleanup{&cinfo};
   const int header = JpegReadHeader(&cinfo, &error, &bytes);
   if (header == 0) throw Error(path, std::string("cannot decode JPEG: ") + error.message);
+  // The pixel limit (scenes/limits.h) from the header, for the plugin's variants too.
+  CheckImageSize(path, cinfo.image_width, cinfo.image_height);
   if (header == 2) return cv::Mat();
-  CheckDecodeSize(path, cinfo.image_width, cinfo.image_height);
   const int channels = cinfo.num_components > 1 ? 3 : 1;
   cv::Mat raw(static_cast<int>(cinfo.image_height), static_cast<int>(cinfo.image_width),
               CV_8UC(channels));
@@ -292,8 +281,7 @@ cv::Mat DecodeExr(const std::string& path, const std::string& bytes, int* max_va
     const Imath::Box2i window = header.dataWindow();
     const long width = static_cast<long>(window.max.x) - window.min.x + 1;
     const long height = static_cast<long>(window.max.y) - window.min.y + 1;
-    if (width <= 0 || height <= 0 || width > kMaxExrSide || height > kMaxExrSide)
-      throw Error(path, "bad image size " + std::to_string(width) + "x" + std::to_string(height));
+    CheckImageSize(path, width, height);
     cv::Mat image(static_cast<int>(height), static_cast<int>(width), CV_32FC(channels));
     const size_t pixel_stride = sizeof(float) * static_cast<size_t>(channels);
     Imf::FrameBuffer frame;

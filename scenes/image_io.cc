@@ -20,6 +20,7 @@
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_codecs.h"
+#include "scenes/limits.h"
 
 namespace turbid {
 namespace fs = std::filesystem;
@@ -121,7 +122,8 @@ class HeaderReader {
   size_t pos_ = 0;
 };
 
-constexpr long kMaxSide = 1 << 16;
+// Header sides are parsed up to this, then checked against the pixel limit (scenes/limits.h).
+constexpr long kMaxHeaderSide = 2147483647L;
 
 // Portable Float Map: "PF" (RGB) or "Pf" (gray), width height, scale (< 0: little-endian), then
 // rows from the bottom of the image to the top.
@@ -130,8 +132,9 @@ cv::Mat ReadPfm(const std::string& path, const std::string& bytes) {
   const std::string magic = header.Token();
   if (magic != "PF" && magic != "Pf") throw Error(path, "not a PFM file (magic '" + magic + "')");
   const int channels = magic == "PF" ? 3 : 1;
-  const long width = header.Integer("width", 1, kMaxSide);
-  const long height = header.Integer("height", 1, kMaxSide);
+  const long width = header.Integer("width", 1, kMaxHeaderSide);
+  const long height = header.Integer("height", 1, kMaxHeaderSide);
+  CheckImageSize(path, width, height);
   const std::string scale_token = header.Token();
   char* end = nullptr;
   const double scale = std::strtod(scale_token.c_str(), &end);
@@ -170,8 +173,9 @@ cv::Mat ReadPnm(const std::string& path, const std::string& bytes, int* max_valu
   const std::string magic = header.Token();
   if (magic != "P5" && magic != "P6") throw Error(path, "unsupported Netpbm type '" + magic + "'");
   const int channels = magic == "P6" ? 3 : 1;
-  const long width = header.Integer("width", 1, kMaxSide);
-  const long height = header.Integer("height", 1, kMaxSide);
+  const long width = header.Integer("width", 1, kMaxHeaderSide);
+  const long height = header.Integer("height", 1, kMaxHeaderSide);
+  CheckImageSize(path, width, height);
   *max_value = static_cast<int>(header.Integer("maxval", 1, 65535));
   const size_t start = header.DataStart();
   const int sample_bytes = *max_value > 255 ? 2 : 1;

@@ -17,6 +17,7 @@
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/limits.h"
 #include "scenes/scene_loader.h"
 #include "simulator/noise.h"
 #include "simulator/render.h"
@@ -177,15 +178,29 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   out.base.merge_patch(config.value("base", json::object()));
   RenderOptionsFromJson(out.base);  // fail early on a bad base
 
-  // Grid: cartesian product over dotted parameter paths, in key order.
+  // Grid: cartesian product over dotted parameter paths, in key order. Its size (times the
+  // samples) is checked against the item limit before the product is built.
   out.combos = {json::object()};
+  if (config.contains("random") && config["random"].is_object()) {
+    const json& count = config["random"].value("count", json(1));
+    if (!count.is_number_integer() || count.get<int64_t>() < 1 || count.get<int64_t>() > 1000000)
+      throw Error(config_path, "random.count: must be an integer in [1, 1e6]");
+  }
+  const int64_t samples = config.contains("random") && config["random"].is_object()
+                              ? config["random"].value("count", json(1)).get<int64_t>()
+                              : 1;
   if (config.contains("grid")) {
     const json& grid = config["grid"];
     if (!grid.is_object())
       throw Error(config_path, "grid: must be an object of path -> array of values");
+    int64_t points = samples;
     for (auto it = grid.begin(); it != grid.end(); ++it) {
       if (!it.value().is_array() || it.value().empty())
         throw Error(config_path, "grid." + it.key() + ": must be a non-empty array");
+      points = SaturatingProduct(points, static_cast<int64_t>(it.value().size()));
+    }
+    CheckItemCount(config_path, "the dataset (grid points x random.count)", points);
+    for (auto it = grid.begin(); it != grid.end(); ++it) {
       std::vector<json> next;
       for (const json& combo : out.combos)
         for (const json& value : it.value()) {
@@ -221,6 +236,10 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
     for (const std::string& one : ExpandSceneSpec(spec.get<std::string>()))
       out.scene_specs.push_back(one);
   }
+  CheckItemCount(
+      config_path, "the dataset (scenes x grid points x random.count)",
+      SaturatingProduct(static_cast<int64_t>(out.scene_specs.size()),
+                        SaturatingProduct(static_cast<int64_t>(out.combos.size()), out.samples)));
   return out;
 }
 
