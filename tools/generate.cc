@@ -304,9 +304,11 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   // One generate per folder at a time; holding the lock, the temporaries that killed earlier runs
   // left (".NAME.tmpXXXX") are removed: their items are rendered again below.
   const FolderLock lock(out_dir, "generate");
-  RemoveStaleTemporaries(out_dir, /*recursive=*/true);
-  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"})
+  RemoveStaleTemporaries(out_dir, /*recursive=*/false);
+  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"}) {
+    RemoveStaleTemporaries((fs::path(out_dir) / sub).string(), /*recursive=*/true);
     fs::create_directories(fs::path(out_dir) / sub);
+  }
   const std::string ext = "." + format;
   auto paths = [&](const Item& item) {
     const fs::path dir(out_dir);

@@ -47,8 +47,12 @@ std::string ExperimentText(const Experiment& experiment) {
 // earlier runs can be removed (RemoveStaleTemporaries) and the work folders that external methods
 // got in a killed run are scratch. `turbid report` writes report.html and report/ without the lock:
 // left alone.
+// Only the folder itself and the subfolders the sweep writes are visited (an --out that happens to
+// be some other folder keeps everything below it).
 void RemoveLeftovers(const std::string& dir) {
-  RemoveStaleTemporaries(dir, /*recursive=*/true, {"report.html", "report"});
+  RemoveStaleTemporaries(dir, /*recursive=*/false, {"report.html"});
+  RemoveStaleTemporaries(dir + "/thumbs", /*recursive=*/true);
+  RemoveStaleTemporaries(dir + "/external", /*recursive=*/true);
   std::error_code ec;
   if (!fs::is_directory(dir + "/external", ec)) return;
   for (const fs::directory_entry& method : fs::directory_iterator(dir + "/external", ec)) {
