@@ -98,6 +98,10 @@ void RemoveTemporaryFilesOnSignal() {
   ::sigaction(SIGXFSZ, &ignore, nullptr);
 }
 
+namespace {
+
+// Creates `file` (the temporary of `path`) and writes `bytes` with checked write() calls, then
+// close(); errors name `path` and the reason.
 void WriteFileBytes(const std::string& path, const std::string& file, const std::string& bytes) {
   const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) throw Error(path, std::string("cannot create: ") + std::strerror(errno));
@@ -120,8 +124,6 @@ void WriteFileBytes(const std::string& path, const std::string& file, const std:
     throw Error(path, std::string("cannot write: ") + std::strerror(errno) +
                           " (on close; nothing was written under this name)");
 }
-
-namespace {
 
 // The destination's file name of a temporary file name, "" when `name` is not one: "." + NAME +
 // ".tmp" + hex digits [+ EXT, where NAME ends with EXT] (TemporaryNameFor).
@@ -160,17 +162,20 @@ int RemoveStaleTemporaries(const std::string& folder, bool recursive,
     return false;
   };
   int removed = 0;
+  // Errors on single entries (a file gone meanwhile, no permission) skip that entry only.
   const auto visit = [&](const fs::directory_entry& entry) {
-    if (!entry.is_regular_file(ec)) return;
+    std::error_code entry_ec;
+    if (!entry.is_regular_file(entry_ec)) return;
     const std::string target = TemporaryTarget(entry.path().filename().string());
     // A temporary of a skipped file is skipped too: its writer may be alive.
     if (target.empty() || skipped(entry.path().parent_path() / target)) return;
-    if (fs::remove(entry.path(), ec)) ++removed;
+    if (fs::remove(entry.path(), entry_ec)) ++removed;
   };
   if (recursive) {
     fs::recursive_directory_iterator it(root, fs::directory_options::skip_permission_denied, ec);
     for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
-      if (it->is_directory(ec) && !it->is_symlink(ec) && skipped(it->path())) {
+      std::error_code entry_ec;
+      if (it->is_directory(entry_ec) && skipped(it->path())) {
         it.disable_recursion_pending();
         continue;
       }

@@ -23,13 +23,11 @@ void AtomicWrite(const std::string& path, bool overwrite,
 // and one clear error instead of killing the program with a core dump.
 void RemoveTemporaryFilesOnSignal();
 
-// Convenience: writes bytes atomically (WriteFileBytes into the temporary file).
+// Writes bytes atomically, with checked write() calls and close(): a full disk, a file-size limit
+// or an I/O error throws Error("<path>: cannot write: <reason> (after N of M bytes; nothing was
+// written under this name)") and removes the temporary. Image writers encode into memory and call
+// this, so every output goes through the same checks.
 void AtomicWriteText(const std::string& path, const std::string& bytes, bool overwrite);
-
-// Creates or truncates `file` and writes `bytes` with checked write() calls, then close(): a full
-// disk, a file-size limit or an I/O error throws Error("<path>: cannot write: <reason>") (`path`
-// names the destination in the message; `file` may be its temporary).
-void WriteFileBytes(const std::string& path, const std::string& file, const std::string& bytes);
 
 // True for the names AtomicWrite gives its temporaries: ".NAME.tmpHEX" or ".NAME.tmpHEX.EXT"
 // where NAME ends with .EXT.

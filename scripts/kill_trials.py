@@ -9,7 +9,7 @@ After every kill, every file under its final name must be byte-identical to the 
 folder must equal the uninterrupted run's folder file for file (timing fields of the journal
 aside), with no temporary file (".NAME.tmpXXXX") and no external-method work folder left.
 
-    python3 scripts/kill_trials.py --bin build/tools/turbid --trials 60 --table kill_table.md
+    python3 scripts/kill_trials.py --bin build/turbid --trials 50 --table kill_table.md
 
 Exit status 0 when every trial held, 1 otherwise (the table says where).
 """
