@@ -1,10 +1,14 @@
 #include "scenes/atomic_file.h"
 
+#include <fcntl.h>
 #include <signal.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <array>
 #include <atomic>
+#include <cctype>
+#include <cerrno>
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
@@ -86,7 +90,122 @@ void RemoveTemporaryFilesOnSignal() {
   action.sa_handler = RemoveTemporariesAndDie;
   sigemptyset(&action.sa_mask);
   for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) ::sigaction(signal_number, &action, nullptr);
+  // Past a file-size limit the kernel sends SIGXFSZ, whose default action kills the process
+  // mid-write; ignored, the write() fails with EFBIG and the error reaches the user as one line.
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  sigemptyset(&ignore.sa_mask);
+  ::sigaction(SIGXFSZ, &ignore, nullptr);
 }
+
+namespace {
+
+// Creates `file` (the temporary of `path`) and writes `bytes` with checked write() calls, then
+// close(); errors name `path` and the reason.
+void WriteFileBytes(const std::string& path, const std::string& file, const std::string& bytes) {
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw Error(path, std::string("cannot create: ") + std::strerror(errno));
+  size_t written = 0;
+  while (written < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      // n == 0 cannot make progress either; report it as the disk being full.
+      const int err = n < 0 ? errno : ENOSPC;
+      ::close(fd);
+      throw Error(path, std::string("cannot write: ") + std::strerror(err) + " (after " +
+                            std::to_string(written) + " of " + std::to_string(bytes.size()) +
+                            " bytes; nothing was written under this name)");
+    }
+    written += static_cast<size_t>(n);
+  }
+  // close() reports delayed write errors on some file systems (NFS): checked too.
+  if (::close(fd) != 0)
+    throw Error(path, std::string("cannot write: ") + std::strerror(errno) +
+                          " (on close; nothing was written under this name)");
+}
+
+// The destination's file name of a temporary file name, "" when `name` is not one: "." + NAME +
+// ".tmp" + hex digits [+ EXT, where NAME ends with EXT] (TemporaryNameFor).
+std::string TemporaryTarget(const std::string& name) {
+  if (name.size() < 6 || name[0] != '.') return "";
+  size_t at = name.rfind(".tmp");
+  while (at != std::string::npos && at > 1) {
+    size_t end = at + 4;
+    while (end < name.size() && std::isxdigit(static_cast<unsigned char>(name[end]))) ++end;
+    if (end > at + 4) {
+      const std::string stem = name.substr(1, at - 1);
+      const std::string ext = name.substr(end);
+      if (ext.empty()) return stem;
+      if (ext[0] == '.' && ext.find('.', 1) == std::string::npos && stem.size() > ext.size() &&
+          stem.compare(stem.size() - ext.size(), ext.size(), ext) == 0)
+        return stem;
+    }
+    at = name.rfind(".tmp", at - 1);
+  }
+  return "";
+}
+
+}  // namespace
+
+bool IsTemporaryName(const std::string& name) { return !TemporaryTarget(name).empty(); }
+
+int RemoveStaleTemporaries(const std::string& folder, bool recursive,
+                           const std::vector<std::string>& skip) {
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) return 0;
+  const fs::path root(folder);
+  const auto skipped = [&](const fs::path& entry) {
+    const std::string relative = entry.lexically_relative(root).generic_string();
+    for (const std::string& name : skip)
+      if (relative == name) return true;
+    return false;
+  };
+  int removed = 0;
+  // Errors on single entries (a file gone meanwhile, no permission) skip that entry only.
+  const auto visit = [&](const fs::directory_entry& entry) {
+    std::error_code entry_ec;
+    if (!entry.is_regular_file(entry_ec)) return;
+    const std::string target = TemporaryTarget(entry.path().filename().string());
+    // A temporary of a skipped file is skipped too: its writer may be alive.
+    if (target.empty() || skipped(entry.path().parent_path() / target)) return;
+    if (fs::remove(entry.path(), entry_ec)) ++removed;
+  };
+  if (recursive) {
+    fs::recursive_directory_iterator it(root, fs::directory_options::skip_permission_denied, ec);
+    for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+      std::error_code entry_ec;
+      if (it->is_directory(entry_ec) && skipped(it->path())) {
+        it.disable_recursion_pending();
+        continue;
+      }
+      visit(*it);
+    }
+  } else {
+    for (const fs::directory_entry& entry : fs::directory_iterator(root, ec)) visit(entry);
+  }
+  return removed;
+}
+
+FolderLock::FolderLock(const std::string& folder, const std::string& what) {
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  if (ec) throw Error(folder, "cannot create the output folder: " + ec.message());
+  const std::string path = folder + "/.turbid.lock";
+  fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw Error(path, std::string("cannot open the lock file: ") + std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int err = errno;
+    ::close(fd_);
+    if (err == EWOULDBLOCK) {
+      throw Error(folder, "is being written by another turbid " + what +
+                              "; wait for it to finish or use another --out");
+    }
+    throw Error(path, std::string("cannot lock: ") + std::strerror(err));
+  }
+}
+
+FolderLock::~FolderLock() { ::close(fd_); }  // closing releases the lock
 
 void AtomicWrite(const std::string& path, bool overwrite,
                  const std::function<void(const std::string& temp_path)>& write) {
@@ -115,12 +234,7 @@ void AtomicWrite(const std::string& path, bool overwrite,
 }
 
 void AtomicWriteText(const std::string& path, const std::string& bytes, bool overwrite) {
-  AtomicWrite(path, overwrite, [&](const std::string& temp) {
-    std::ofstream out(temp, std::ios::binary);
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) throw Error(path, "write failed");
-  });
+  AtomicWrite(path, overwrite, [&](const std::string& temp) { WriteFileBytes(path, temp, bytes); });
 }
 
 // FIPS 180-4 SHA-256.

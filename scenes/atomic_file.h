@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace turbid {
 
@@ -16,11 +17,44 @@ void AtomicWrite(const std::string& path, bool overwrite,
 // on SIGINT, SIGTERM or SIGHUP, removes the temporary files of the AtomicWrite calls in flight,
 // then dies of the same signal as it would have without the handler. Without it an interrupted
 // write leaves its hidden ".NAME.tmpXXXX" file beside the destination (never a partial output
-// under the final name either way). SIGKILL cannot be caught: its temporaries stay.
+// under the final name either way). SIGKILL cannot be caught: its temporaries stay until the next
+// sweep, merge or generate into that folder removes them (RemoveStaleTemporaries).
+// It also ignores SIGXFSZ, so that a write past a file-size limit (ulimit -f) fails with EFBIG
+// and one clear error instead of killing the program with a core dump.
 void RemoveTemporaryFilesOnSignal();
 
-// Convenience: writes bytes atomically.
+// Writes bytes atomically, with checked write() calls and close(): a full disk, a file-size limit
+// or an I/O error throws Error("<path>: cannot write: <reason> (after N of M bytes; nothing was
+// written under this name)") and removes the temporary. Image writers encode into memory and call
+// this, so every output goes through the same checks.
 void AtomicWriteText(const std::string& path, const std::string& bytes, bool overwrite);
+
+// True for the names AtomicWrite gives its temporaries: ".NAME.tmpHEX" or ".NAME.tmpHEX.EXT"
+// where NAME ends with .EXT.
+bool IsTemporaryName(const std::string& file_name);
+
+// Removes the temporaries that killed writers left in `folder` (and, when `recursive`, in its
+// subfolders); returns how many. Only for a folder the caller holds a FolderLock on: a live
+// writer's temporary would be removed from under it. `skip` names entries (files or folders,
+// relative to `folder`) to leave alone: outputs written without the lock, e.g. by `turbid report`.
+int RemoveStaleTemporaries(const std::string& folder, bool recursive,
+                           const std::vector<std::string>& skip = {});
+
+// An exclusive advisory lock (flock) on FOLDER/.turbid.lock for as long as the object lives: the
+// writers of a result folder (sweep, merge, generate) take it so that two runs never write one
+// folder at once, and so that the holder may remove the temporaries of killed earlier runs. The
+// kernel releases it when the process dies, so kill -9 leaves no stale lock. Creates the folder.
+// Throws Error naming `what` ("sweep or merge", "generate") when another process holds it.
+class FolderLock {
+ public:
+  FolderLock(const std::string& folder, const std::string& what);
+  ~FolderLock();
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
 
 // Hex sha256 of a file's bytes (for sidecars' input hashes). Throws Error when unreadable.
 std::string Sha256File(const std::string& path);

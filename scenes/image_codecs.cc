@@ -21,25 +21,13 @@
 #include <vector>
 
 #include "scenes/error.h"
+#include "scenes/limits.h"
 #include "scenes/plugin/image_plugin.h"
 #include "scenes/plugin_loader.h"
 
 namespace turbid::codecs {
 
 namespace {
-
-// The size limits cv::imdecode applies (CV_IO_MAX_IMAGE_WIDTH/HEIGHT/PIXELS), so that the same
-// files are accepted as before.
-constexpr long kMaxDecodeSide = 1L << 20;
-constexpr long kMaxDecodePixels = 1L << 30;
-// The limit the OpenImageIO path applied to EXR/TIFF sizes.
-constexpr long kMaxExrSide = 1L << 16;
-
-void CheckDecodeSize(const std::string& path, long width, long height) {
-  if (width <= 0 || height <= 0 || width > kMaxDecodeSide || height > kMaxDecodeSide ||
-      width * height > kMaxDecodePixels)
-    throw Error(path, "bad image size " + std::to_string(width) + "x" + std::to_string(height));
-}
 
 cv::Mat ToFloat(const cv::Mat& raw) {
   cv::Mat out;
@@ -226,7 +214,7 @@ cv::Mat DecodePng(const std::string& path, const std::string& bytes, int* max_va
   PngHeader header;
   if (!PngReadHeader(png, info, &header))
     throw Error(path, std::string("cannot decode PNG: ") + io.message);
-  CheckDecodeSize(path, header.width, header.height);
+  CheckImageSize(path, header.width, header.height);
   const int depth = header.bit_depth == 16 ? CV_16U : CV_8U;
   cv::Mat raw(static_cast<int>(header.height), static_cast<int>(header.width),
               CV_MAKETYPE(depth, header.channels));
@@ -252,8 +240,9 @@ cv::Mat DecodeJpeg(const std::string& path, const std::string& bytes, int* max_v
   } cleanup{&cinfo};
   const int header = JpegReadHeader(&cinfo, &error, &bytes);
   if (header == 0) throw Error(path, std::string("cannot decode JPEG: ") + error.message);
+  // The pixel limit (scenes/limits.h) from the header, for the plugin's variants too.
+  CheckImageSize(path, cinfo.image_width, cinfo.image_height);
   if (header == 2) return cv::Mat();
-  CheckDecodeSize(path, cinfo.image_width, cinfo.image_height);
   const int channels = cinfo.num_components > 1 ? 3 : 1;
   cv::Mat raw(static_cast<int>(cinfo.image_height), static_cast<int>(cinfo.image_width),
               CV_8UC(channels));
@@ -292,8 +281,7 @@ cv::Mat DecodeExr(const std::string& path, const std::string& bytes, int* max_va
     const Imath::Box2i window = header.dataWindow();
     const long width = static_cast<long>(window.max.x) - window.min.x + 1;
     const long height = static_cast<long>(window.max.y) - window.min.y + 1;
-    if (width <= 0 || height <= 0 || width > kMaxExrSide || height > kMaxExrSide)
-      throw Error(path, "bad image size " + std::to_string(width) + "x" + std::to_string(height));
+    CheckImageSize(path, width, height);
     cv::Mat image(static_cast<int>(height), static_cast<int>(width), CV_32FC(channels));
     const size_t pixel_stride = sizeof(float) * static_cast<size_t>(channels);
     Imf::FrameBuffer frame;
@@ -332,38 +320,44 @@ cv::Mat DecodeWithPlugin(const std::string& path, const std::string& bytes, int*
   return image;
 }
 
-void EncodePng(const std::string& path, const std::string& temp, const cv::Mat& encoded) {
+namespace {
+
+void PngWriteToString(png_structp png, png_bytep data, size_t n) {
+  auto* out = static_cast<std::string*>(png_get_io_ptr(png));
+  out->append(reinterpret_cast<const char*>(data), n);
+}
+
+void PngFlushNothing(png_structp) {}
+
+}  // namespace
+
+std::string EncodePng(const std::string& path, const cv::Mat& encoded) {
   CV_Assert((encoded.depth() == CV_8U || encoded.depth() == CV_16U) &&
             (encoded.channels() == 1 || encoded.channels() == 3));
   PngIo io;  // only its message is used
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &io, PngError, PngWarning);
   if (!png) throw Error(path, "out of memory");
   png_infop info = png_create_info_struct(png);
-  FILE* file = std::fopen(temp.c_str(), "wb");
   struct Cleanup {
     png_structp* png;
     png_infop* info;
-    FILE** file;
-    ~Cleanup() {
-      png_destroy_write_struct(png, info);
-      if (*file) std::fclose(*file);
-    }
-  } cleanup{&png, &info, &file};
+    ~Cleanup() { png_destroy_write_struct(png, info); }
+  } cleanup{&png, &info};
   if (!info) throw Error(path, "out of memory");
-  if (!file) throw Error(path, "cannot open " + temp + " for writing");
+  std::string bytes;
   std::vector<png_bytep> rows(static_cast<size_t>(encoded.rows));
   for (int y = 0; y < encoded.rows; ++y)
     rows[static_cast<size_t>(y)] = const_cast<png_bytep>(encoded.ptr(y));
   struct Args {
     png_structp png;
     png_infop info;
-    FILE* file;
+    std::string* bytes;
     png_uint_32 width, height;
     int bit_depth, color_type;
     png_bytepp rows;
   } args{png,
          info,
-         file,
+         &bytes,
          static_cast<png_uint_32>(encoded.cols),
          static_cast<png_uint_32>(encoded.rows),
          encoded.depth() == CV_8U ? 8 : 16,
@@ -372,7 +366,7 @@ void EncodePng(const std::string& path, const std::string& temp, const cv::Mat& 
   // OpenCV's PngEncoder::write without parameters, call for call.
   const bool ok = [](const Args& a) {
     if (setjmp(png_jmpbuf(a.png))) return false;
-    png_init_io(a.png, a.file);
+    png_set_write_fn(a.png, a.bytes, PngWriteToString, PngFlushNothing);
     png_set_filter(a.png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
     png_set_compression_level(a.png, Z_BEST_SPEED);
     png_set_compression_strategy(a.png, Z_RLE);
@@ -387,10 +381,7 @@ void EncodePng(const std::string& path, const std::string& temp, const cv::Mat& 
     return true;
   }(args);
   if (!ok) throw Error(path, std::string("PNG encoder failed: ") + io.message);
-  const bool flushed = std::fflush(file) == 0 && !std::ferror(file);
-  const int closed = std::fclose(file);
-  file = nullptr;
-  if (!flushed || closed != 0) throw Error(path, "write failed");
+  return bytes;
 }
 
 }  // namespace turbid::codecs

@@ -25,8 +25,9 @@ cv::Mat DecodeExr(const std::string& path, const std::string& bytes, int* max_va
 // cannot be loaded.
 cv::Mat DecodeWithPlugin(const std::string& path, const std::string& bytes, int* max_value);
 
-// Writes `encoded` (CV_8U or CV_16U, 1 or 3 channels, BGR) as PNG to file `temp` with the
-// settings cv::imwrite uses by default (SUB filter, zlib level 1, Z_RLE). Errors name `path`.
-void EncodePng(const std::string& path, const std::string& temp, const cv::Mat& encoded);
+// Encodes `encoded` (CV_8U or CV_16U, 1 or 3 channels, BGR) as PNG bytes with the settings
+// cv::imwrite uses by default (SUB filter, zlib level 1, Z_RLE). Errors name `path`. Encoding to
+// memory lets the caller write the file with checked writes (a full disk is one clear error).
+std::string EncodePng(const std::string& path, const cv::Mat& encoded);
 
 }  // namespace turbid::codecs

@@ -3,6 +3,7 @@
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfIO.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <opencv2/imgproc.hpp>
 
@@ -19,6 +20,7 @@
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_codecs.h"
+#include "scenes/limits.h"
 
 namespace turbid {
 namespace fs = std::filesystem;
@@ -120,7 +122,8 @@ class HeaderReader {
   size_t pos_ = 0;
 };
 
-constexpr long kMaxSide = 1 << 16;
+// Header sides are parsed up to this, then checked against the pixel limit (scenes/limits.h).
+constexpr long kMaxHeaderSide = 2147483647L;
 
 // Portable Float Map: "PF" (RGB) or "Pf" (gray), width height, scale (< 0: little-endian), then
 // rows from the bottom of the image to the top.
@@ -129,8 +132,9 @@ cv::Mat ReadPfm(const std::string& path, const std::string& bytes) {
   const std::string magic = header.Token();
   if (magic != "PF" && magic != "Pf") throw Error(path, "not a PFM file (magic '" + magic + "')");
   const int channels = magic == "PF" ? 3 : 1;
-  const long width = header.Integer("width", 1, kMaxSide);
-  const long height = header.Integer("height", 1, kMaxSide);
+  const long width = header.Integer("width", 1, kMaxHeaderSide);
+  const long height = header.Integer("height", 1, kMaxHeaderSide);
+  CheckImageSize(path, width, height);
   const std::string scale_token = header.Token();
   char* end = nullptr;
   const double scale = std::strtod(scale_token.c_str(), &end);
@@ -169,8 +173,9 @@ cv::Mat ReadPnm(const std::string& path, const std::string& bytes, int* max_valu
   const std::string magic = header.Token();
   if (magic != "P5" && magic != "P6") throw Error(path, "unsupported Netpbm type '" + magic + "'");
   const int channels = magic == "P6" ? 3 : 1;
-  const long width = header.Integer("width", 1, kMaxSide);
-  const long height = header.Integer("height", 1, kMaxSide);
+  const long width = header.Integer("width", 1, kMaxHeaderSide);
+  const long height = header.Integer("height", 1, kMaxHeaderSide);
+  CheckImageSize(path, width, height);
   *max_value = static_cast<int>(header.Integer("maxval", 1, 65535));
   const size_t start = header.DataStart();
   const int sample_bytes = *max_value > 255 ? 2 : 1;
@@ -209,14 +214,16 @@ void CheckEndMarker(const std::string& path, const std::string& bytes, ImageForm
   }
 }
 
-void WritePfm(const std::string& path, const std::string& temp, const cv::Mat& data) {
+std::string EncodePfm(const cv::Mat& data) {
   cv::Mat rgb = data;
   if (data.channels() == 3) cv::cvtColor(data, rgb, cv::COLOR_BGR2RGB);
-  std::ofstream out(temp, std::ios::binary);
-  out << (rgb.channels() == 3 ? "PF" : "Pf") << "\n" << rgb.cols << " " << rgb.rows << "\n-1.0\n";
+  std::string bytes = std::string(rgb.channels() == 3 ? "PF" : "Pf") + "\n" +
+                      std::to_string(rgb.cols) + " " + std::to_string(rgb.rows) + "\n-1.0\n";
   const uint16_t probe = 1;
   const bool little_endian_host = *reinterpret_cast<const unsigned char*>(&probe) == 1;
-  std::vector<unsigned char> row(static_cast<size_t>(rgb.cols) * rgb.channels() * 4);
+  const size_t row_bytes = static_cast<size_t>(rgb.cols) * rgb.channels() * 4;
+  bytes.reserve(bytes.size() + row_bytes * static_cast<size_t>(rgb.rows));
+  std::vector<unsigned char> row(row_bytes);
   for (int y = rgb.rows - 1; y >= 0; --y) {
     std::memcpy(row.data(), rgb.ptr(y), row.size());
     if (!little_endian_host) {
@@ -225,15 +232,33 @@ void WritePfm(const std::string& path, const std::string& temp, const cv::Mat& d
         std::swap(row[i + 1], row[i + 2]);
       }
     }
-    out.write(reinterpret_cast<const char*>(row.data()), static_cast<std::streamsize>(row.size()));
+    bytes.append(reinterpret_cast<const char*>(row.data()), row.size());
   }
-  out.close();
-  if (!out) throw Error(path, "write failed");
+  return bytes;
 }
 
-// Written with OpenEXR directly: OIIO's writer stamps a capture date into every file, and a
+// An OpenEXR output stream into memory (OpenEXR seeks back to fill in the line offset table).
+class MemoryOStream : public Imf::OStream {
+ public:
+  explicit MemoryOStream(const std::string& name) : Imf::OStream(name.c_str()) {}
+  void write(const char c[], int n) override {
+    const size_t end = pos_ + static_cast<size_t>(n);
+    if (bytes_.size() < end) bytes_.resize(end);
+    std::memcpy(bytes_.data() + pos_, c, static_cast<size_t>(n));
+    pos_ = end;
+  }
+  uint64_t tellp() override { return pos_; }
+  void seekp(uint64_t pos) override { pos_ = static_cast<size_t>(pos); }
+  std::string& bytes() { return bytes_; }
+
+ private:
+  std::string bytes_;
+  size_t pos_ = 0;
+};
+
+// Encoded with OpenEXR directly: OIIO's writer stamps a capture date into every file, and a
 // rerun must reproduce the same bytes. Float channels R,G,B (or Y), ZIP compression.
-void WriteExr(const std::string& path, const std::string& temp, const cv::Mat& data) {
+std::string EncodeExr(const std::string& path, const cv::Mat& data) {
   cv::Mat planar = data.isContinuous() ? data : data.clone();
   const int width = planar.cols;
   const int height = planar.rows;
@@ -257,9 +282,14 @@ void WriteExr(const std::string& path, const std::string& temp, const cv::Mat& d
       header.channels().insert("Y", Imf::Channel(Imf::FLOAT));
       frame.insert("Y", Imf::Slice(Imf::FLOAT, base, pixel_stride, row_stride));
     }
-    Imf::OutputFile file(temp.c_str(), header);
-    file.setFrameBuffer(frame);
-    file.writePixels(height);
+    MemoryOStream stream(path);
+    {
+      // The file is complete (offset table written) when OutputFile is destroyed.
+      Imf::OutputFile file(stream, header);
+      file.setFrameBuffer(frame);
+      file.writePixels(height);
+    }
+    return std::move(stream.bytes());
   } catch (const std::exception& e) {
     throw Error(path, std::string("EXR write failed: ") + e.what());
   }
@@ -328,13 +358,10 @@ void WriteImage(const std::string& path, const cv::Mat& image, const WriteImageO
   cv::Mat data;
   image.convertTo(data, CV_32F);
   if (ext == ".exr" || ext == ".pfm") {
-    AtomicWrite(path, options.overwrite, [&](const std::string& temp) {
-      if (ext == ".exr") {
-        WriteExr(path, temp, data);
-      } else {
-        WritePfm(path, temp, data);
-      }
-    });
+    // Encoded in memory, then written with checked writes into a temporary file that is renamed
+    // into place: a full disk or a file-size limit is one clear error and no partial file.
+    AtomicWriteText(path, ext == ".exr" ? EncodeExr(path, data) : EncodePfm(data),
+                    options.overwrite);
     return;
   }
   if (ext != ".png") throw Error(path, "unsupported output format (use .png, .exr or .pfm)");
@@ -350,9 +377,7 @@ void WriteImage(const std::string& path, const cv::Mat& image, const WriteImageO
   cv::Mat clipped = cv::min(cv::max(scaled, 0.0), max_value);
   cv::Mat encoded;
   clipped.convertTo(encoded, options.bit_depth == 16 ? CV_16U : CV_8U);  // rounds to nearest
-  AtomicWrite(path, options.overwrite, [&](const std::string& temp) {
-    codecs::EncodePng(path, temp, encoded);
-  });
+  AtomicWriteText(path, codecs::EncodePng(path, encoded), options.overwrite);
 }
 
 }  // namespace turbid

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "scenes/error.h"
+#include "scenes/limits.h"
 
 namespace turbid {
 namespace {
@@ -191,8 +192,9 @@ NpyArray ReadNpy(const std::string& path) {
   if (shape.size() != 2)
     throw Error(path, "array has " + std::to_string(shape.size()) + " dimensions " +
                           dict.at("shape") + ", a depth map must be 2-D (rows, cols)");
-  if (shape[0] <= 0 || shape[1] <= 0 || shape[0] > (1 << 16) || shape[1] > (1 << 16))
-    throw Error(path, "shape " + dict.at("shape") + " must have 1..65536 rows and columns");
+  if (shape[0] <= 0 || shape[1] <= 0)
+    throw Error(path, "shape " + dict.at("shape") + " must have at least one row and column");
+  CheckImageSize(path, shape[1], shape[0]);  // before the data size is computed or read
   const uint64_t data_size = static_cast<uint64_t>(shape[0] * shape[1]) * item_size;
   const uint64_t available = file_size - preamble_size - header_size;
   if (available != data_size)

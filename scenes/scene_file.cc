@@ -16,6 +16,7 @@
 #include "scenes/error.h"
 #include "scenes/folder_dataset.h"
 #include "scenes/image_io.h"
+#include "scenes/limits.h"
 #include "scenes/normals.h"
 #include "scenes/nyu_depth_v2.h"
 #include "scenes/scene_loader.h"
@@ -290,6 +291,8 @@ void ParseMultiFrame(ObjectReader& reader, const json& root, const fs::path& fol
     std::string why;
     if (!options.Check(&why)) reader.Fail("'depth_dataset': " + why);
     const int count = NyuFrameCount(spec.dataset, options);
+    // A (crafted or sparse) file may claim billions of frames: one key each would exhaust memory.
+    CheckItemCount(spec.dataset, "the dataset", count);
     for (int i = 0; i < count; ++i) keys.push_back(std::to_string(i));
   } else {  // folder
     spec.dataset = Resolve(folder, reader.String("folder"), json_path);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "scenes/error.h"
+#include "scenes/limits.h"
 #include "tools/external_method.h"
 
 namespace turbid {
@@ -558,14 +559,12 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
   if (e.grid.empty() && e.sampled.empty()) {
     throw Error(file, "empty grid: give 'grid' and/or 'samples' with at least one parameter");
   }
-  const int64_t conditions = [&] {
-    int64_t count = std::max(1, e.sample_count);
-    for (const auto& entry : e.grid) count *= static_cast<int64_t>(entry.second.size());
-    return count;
-  }();
-  if (conditions * static_cast<int64_t>(e.scenes.size()) > 10000000) {
-    throw Error(file, "the sweep has more than 10 million items");
-  }
+  // Counted without overflow and checked against the item limit before anything is expanded.
+  int64_t items = SaturatingProduct(std::max(1, e.sample_count),
+                                    static_cast<int64_t>(e.scenes.size()));
+  for (const auto& entry : e.grid)
+    items = SaturatingProduct(items, static_cast<int64_t>(entry.second.size()));
+  CheckItemCount(file, "the sweep (scenes x grid points x samples)", items);
 
   // Level.
   e.level_path = in.contains("level")

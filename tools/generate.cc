@@ -17,6 +17,7 @@
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/limits.h"
 #include "scenes/scene_loader.h"
 #include "simulator/noise.h"
 #include "simulator/render.h"
@@ -177,15 +178,29 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   out.base.merge_patch(config.value("base", json::object()));
   RenderOptionsFromJson(out.base);  // fail early on a bad base
 
-  // Grid: cartesian product over dotted parameter paths, in key order.
+  // Grid: cartesian product over dotted parameter paths, in key order. Its size (times the
+  // samples) is checked against the item limit before the product is built.
   out.combos = {json::object()};
+  if (config.contains("random") && config["random"].is_object()) {
+    const json& count = config["random"].value("count", json(1));
+    if (!count.is_number_integer() || count.get<int64_t>() < 1 || count.get<int64_t>() > 1000000)
+      throw Error(config_path, "random.count: must be an integer in [1, 1e6]");
+  }
+  const int64_t samples = config.contains("random") && config["random"].is_object()
+                              ? config["random"].value("count", json(1)).get<int64_t>()
+                              : 1;
   if (config.contains("grid")) {
     const json& grid = config["grid"];
     if (!grid.is_object())
       throw Error(config_path, "grid: must be an object of path -> array of values");
+    int64_t points = samples;
     for (auto it = grid.begin(); it != grid.end(); ++it) {
       if (!it.value().is_array() || it.value().empty())
         throw Error(config_path, "grid." + it.key() + ": must be a non-empty array");
+      points = SaturatingProduct(points, static_cast<int64_t>(it.value().size()));
+    }
+    CheckItemCount(config_path, "the dataset (grid points x random.count)", points);
+    for (auto it = grid.begin(); it != grid.end(); ++it) {
       std::vector<json> next;
       for (const json& combo : out.combos)
         for (const json& value : it.value()) {
@@ -221,6 +236,10 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
     for (const std::string& one : ExpandSceneSpec(spec.get<std::string>()))
       out.scene_specs.push_back(one);
   }
+  CheckItemCount(
+      config_path, "the dataset (scenes x grid points x random.count)",
+      SaturatingProduct(static_cast<int64_t>(out.scene_specs.size()),
+                        SaturatingProduct(static_cast<int64_t>(out.combos.size()), out.samples)));
   return out;
 }
 
@@ -282,8 +301,14 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   const std::string& format = config.format;
   const double scale = config.scale;
   using Item = GenerateItem;
-  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"})
+  // One generate per folder at a time; holding the lock, the temporaries that killed earlier runs
+  // left (".NAME.tmpXXXX") are removed: their items are rendered again below.
+  const FolderLock lock(out_dir, "generate");
+  RemoveStaleTemporaries(out_dir, /*recursive=*/false);
+  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"}) {
+    RemoveStaleTemporaries((fs::path(out_dir) / sub).string(), /*recursive=*/true);
     fs::create_directories(fs::path(out_dir) / sub);
+  }
   const std::string ext = "." + format;
   auto paths = [&](const Item& item) {
     const fs::path dir(out_dir);
@@ -306,6 +331,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   };
 
   std::atomic<int> next{0}, done{0}, skipped{0};
+  std::atomic<bool> progress_shown{false};
   std::mutex error_mutex;
   std::string first_error;
   auto worker = [&] {
@@ -346,8 +372,10 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
           AtomicWriteText(p[3], sidecar.dump(2) + "\n", true);
         }
         const int n = ++done;
-        if (n % 10 == 0 || n == static_cast<int>(items.size()))
+        if (n % 10 == 0 || n == static_cast<int>(items.size())) {
           std::cerr << "generate: " << n << "/" << items.size() << " items\r" << std::flush;
+          progress_shown = true;
+        }
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(error_mutex);
         if (first_error.empty()) first_error = item.id + ": " + e.what();
@@ -358,7 +386,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   std::vector<std::thread> pool;
   for (int t = 0; t < count; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
-  std::cerr << "\n";
+  if (progress_shown) std::cerr << "\n";  // an error after it starts a line of its own
   if (!first_error.empty()) throw Error("generate: " + first_error);
 
   // Manifest in item order: the same bytes whatever the thread count or interruption history.

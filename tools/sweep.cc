@@ -43,38 +43,28 @@ std::string ExperimentText(const Experiment& experiment) {
   return experiment.ToJson().dump(2) + "\n";
 }
 
-// An exclusive advisory lock on DIR/.turbid.lock for as long as a sweep or merge writes the folder:
-// a second sweep into the same folder would append duplicate rows to the journal (or, with
-// --force, delete the first one's results). flock() is released by the kernel when the process
-// dies, so kill -9 leaves no stale lock behind.
-class DirLock {
- public:
-  explicit DirLock(const std::string& dir) {
-    std::error_code ec;
-    fs::create_directories(dir, ec);
-    if (ec) throw Error(dir, "cannot create the output folder: " + ec.message());
-    const std::string path = dir + "/.turbid.lock";
-    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (fd_ < 0)
-      throw Error(path, std::string("cannot open the lock file: ") + std::strerror(errno));
-    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-      const int err = errno;
-      ::close(fd_);
-      if (err == EWOULDBLOCK) {
-        throw Error(dir,
-                    "is being written by another turbid sweep or merge; wait for it to finish "
-                    "or use another --out");
-      }
-      throw Error(path, std::string("cannot lock: ") + std::strerror(err));
+// What a sweep or merge owns in its folder: it holds the folder's lock, so temporaries of killed
+// earlier runs can be removed (RemoveStaleTemporaries) and the work folders that external methods
+// got in a killed run are scratch. `turbid report` writes report.html and report/ without the lock:
+// left alone.
+// Only the folder itself and the subfolders the sweep writes are visited (an --out that happens to
+// be some other folder keeps everything below it).
+void RemoveLeftovers(const std::string& dir) {
+  RemoveStaleTemporaries(dir, /*recursive=*/false, {"report.html"});
+  RemoveStaleTemporaries(dir + "/thumbs", /*recursive=*/true);
+  RemoveStaleTemporaries(dir + "/external", /*recursive=*/true);
+  std::error_code ec;
+  if (!fs::is_directory(dir + "/external", ec)) return;
+  for (const fs::directory_entry& method : fs::directory_iterator(dir + "/external", ec)) {
+    if (!method.is_directory(ec)) continue;
+    std::vector<fs::path> work;
+    for (const fs::directory_entry& entry : fs::directory_iterator(method.path(), ec)) {
+      if (entry.is_directory(ec) && entry.path().filename().string().rfind("work-", 0) == 0)
+        work.push_back(entry.path());
     }
+    for (const fs::path& folder : work) fs::remove_all(folder, ec);
   }
-  ~DirLock() { ::close(fd_); }  // closing releases the lock
-  DirLock(const DirLock&) = delete;
-  DirLock& operator=(const DirLock&) = delete;
-
- private:
-  int fd_ = -1;
-};
+}
 
 // Writes DIR/experiment.json, or checks that the one there is the same experiment.
 void ClaimDir(const Experiment& experiment, const std::string& dir, bool force) {
@@ -134,6 +124,27 @@ std::string FormatDuration(double seconds) {
     std::snprintf(buffer, sizeof buffer, "%ld:%02ld", total / 60, total % 60);
   }
   return buffer;
+}
+
+// Copies the thumbnails of a shard folder into the merged one, each file atomically (a kill leaves
+// a temporary, never a partial PNG under its name). Files already there are kept: the shards'
+// thumbnails of one item are the same bytes.
+void CopyThumbnails(const std::string& from, const std::string& to) {
+  std::error_code ec;
+  fs::recursive_directory_iterator it(from, ec);
+  for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+    const fs::path relative = it->path().lexically_relative(from);
+    const fs::path target = fs::path(to) / relative;
+    if (it->is_directory(ec)) {
+      fs::create_directories(target, ec);
+      if (ec) throw Error(target.string(), "cannot create the thumbnail folder: " + ec.message());
+      continue;
+    }
+    if (!it->is_regular_file(ec) || IsTemporaryName(relative.filename().string())) continue;
+    if (fs::exists(target, ec)) continue;
+    AtomicWriteText(target.string(), ReadAll(it->path().string()), true);
+  }
+  if (ec) throw Error(from, "cannot list the thumbnails: " + ec.message());
 }
 
 }  // namespace
@@ -199,20 +210,33 @@ void Journal::Append(const json& entry) {
   std::lock_guard<std::mutex> lock(mutex);
   const int fd = ::open(path_.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
   if (fd < 0) throw Error(path_, std::string("cannot open the journal: ") + std::strerror(errno));
+  // The journal's length before this line: a failed append (full disk, file-size limit) cuts the
+  // file back to it, so the partial line cannot end up in the middle of the journal when another
+  // thread appends after it.
+  struct stat before {};
+  if (::fstat(fd, &before) != 0) {
+    const std::string why = std::strerror(errno);
+    ::close(fd);
+    throw Error(path_, "cannot append to the journal: " + why);
+  }
   // One write() for the whole line: a kill leaves either the full line or a partial last line
   // (never interleaved lines); a short write on a full disk is completed by further writes.
   size_t written = 0;
   while (written < line.size()) {
     const ssize_t n = ::write(fd, line.data() + written, line.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      const std::string why = std::strerror(errno);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const std::string why = std::strerror(n < 0 ? errno : ENOSPC);
+      if (written > 0 && ::ftruncate(fd, before.st_size) != 0) {
+        // Left as a partial last line, which the next run drops (Load(repair)).
+      }
       ::close(fd);
       throw Error(path_, "cannot append to the journal: " + why);
     }
     written += static_cast<size_t>(n);
   }
-  ::close(fd);
+  if (::close(fd) != 0)
+    throw Error(path_, std::string("cannot append to the journal: ") + std::strerror(errno));
 }
 
 std::string ProgressLine(int done, int total, double elapsed_s, int width) {
@@ -273,7 +297,8 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
                       const SweepHooks& hooks) {
   ThrowIfInvalid(options, "sweep");
   if (!hooks.run) throw Error("sweep: no item runner");
-  const DirLock lock(options.out_dir);
+  const FolderLock lock(options.out_dir, "sweep or merge");
+  RemoveLeftovers(options.out_dir);
   ClaimDir(experiment, options.out_dir, options.force);
   Journal journal(options.out_dir + "/journal.jsonl");
   const std::vector<ItemSpec> specs = ExpandItems(experiment);
@@ -490,7 +515,8 @@ int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& option
                 std::to_string(specs.size()) + " items are missing (first: " + first_missing +
                 "); run the missing shards or pass --allow-partial");
   }
-  const DirLock lock(options.out_dir);
+  const FolderLock lock(options.out_dir, "sweep or merge");
+  RemoveLeftovers(options.out_dir);
   ClaimDir(experiment, options.out_dir, options.force);
   // The merged journal in item order, so the merged folder can be resumed and reported on.
   std::vector<ItemResult> items = SortedResults(merged);
@@ -500,12 +526,9 @@ int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& option
   }
   AtomicWriteText(options.out_dir + "/journal.jsonl", journal_text.str(), true);
   for (const std::string& dir : dirs) {
-    std::error_code ec;
     if (fs::is_directory(dir + "/thumbs") &&
         fs::weakly_canonical(dir) != fs::weakly_canonical(options.out_dir)) {
-      fs::copy(dir + "/thumbs", options.out_dir + "/thumbs",
-               fs::copy_options::recursive | fs::copy_options::skip_existing, ec);
-      if (ec) throw Error(dir + "/thumbs", "cannot copy thumbnails: " + ec.message());
+      CopyThumbnails(dir + "/thumbs", options.out_dir + "/thumbs");
     }
   }
   WriteTables(experiment, items, options.out_dir);

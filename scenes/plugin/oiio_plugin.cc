@@ -14,11 +14,10 @@
 #include <type_traits>
 #include <vector>
 
+#include "scenes/limits.h"
 #include "scenes/plugin/image_plugin.h"
 
 namespace {
-
-constexpr int kMaxSide = 1 << 16;
 
 std::string OneLine(std::string text) {
   std::replace(text.begin(), text.end(), '\n', ' ');
@@ -36,13 +35,13 @@ cv::Mat ReadWithOiio(const std::string& path, int* max_value) {
     throw std::runtime_error(OneLine(why));
   }
   const OIIO::ImageSpec spec = input->spec();
+  // The pixel limit (scenes/limits.h) before anything is allocated, for every path below.
+  const std::string size_problem = turbid::ImageSizeProblem(spec.width, spec.height);
+  if (!size_problem.empty()) throw std::runtime_error(size_problem);
   // OpenImageIO hands SGI LogLuv TIFFs (what OpenCV writes for float data) over as 8-bit
   // tone-mapped RGB; return nothing so that the caller decodes them with OpenCV instead.
   const int photometric = spec.get_int_attribute("tiff:PhotometricInterpretation", 0);
   if (photometric == 32844 || photometric == 32845) return cv::Mat();
-  if (spec.width <= 0 || spec.height <= 0 || spec.width > kMaxSide || spec.height > kMaxSide)
-    throw std::runtime_error("bad image size " + std::to_string(spec.width) + "x" +
-                             std::to_string(spec.height));
   if (spec.depth > 1) throw std::runtime_error("volume images are not supported");
   const int file_channels = spec.nchannels;
   if (file_channels < 1 || file_channels > 4)

@@ -387,7 +387,7 @@ TEST(Npy, BadFilesGiveOneLine) {
       {NpyBytes(">f4", "(2, 2)", four_floats), "dtype '>f4' is not supported"},
       {NpyBytes("<i8", "(2, 1)", four_floats), "dtype '<i8' is not supported"},
       {NpyBytes("<f4", "(2, 3)", four_floats), "holds 16 data bytes, shape (2, 3) of <f4 needs 24 (truncated)"},
-      {NpyBytes("<f4", "(0, 3)", ""), "1..65536 rows"},
+      {NpyBytes("<f4", "(0, 3)", ""), "must have at least one row and column"},
       {std::string("\x93NUMPY\x01\x00\x40\x00{'descr': '<f4'", 26), "truncated .npy header"},
       {"P5\n2 2\n255\nabcd", "not a .npy file"},
   };
