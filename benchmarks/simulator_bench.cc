@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "scenes/builtin.h"
+#include "simulator/psf.h"
 #include "simulator/render.h"
 
 namespace turbid {
@@ -155,6 +156,33 @@ void BM_PsfOursNonGaussian(benchmark::State& state) {
 VARIANTS(BENCHMARK(BM_RenderOneShot));
 VARIANTS(BENCHMARK(BM_RendererBetaSweep));
 BENCHMARK(BM_RenderUniformRange)->Unit(benchmark::kMillisecond);
+// Turbidity-dependent forward scatter: planning (per-pixel T -> levels, weights, e^{-T}) and
+// applying it, colour 1360x1024, T = beta r of the hull with beta (0.9, 0.7, 0.55) /m.
+cv::Mat HullThickness() {
+  static const cv::Mat t = [] {
+    const Scene& s = HullColor();
+    return ThicknessFromRange(RangeFromDepth(s.camera, s.depth_m), {0.9, 0.7, 0.55});
+  }();
+  return t;
+}
+
+void BM_TurbidityPsfPlan(benchmark::State& state) {
+  PsfOptions o;
+  o.turbidity_dependent = true;
+  const cv::Mat t = HullThickness();
+  for (auto _ : state) benchmark::DoNotOptimize(PlanTurbidityPsf(o, t).glow.size());
+}
+
+void BM_TurbidityPsfApply(benchmark::State& state) {
+  PsfOptions o;
+  o.turbidity_dependent = true;
+  const TurbidityPsf plan = PlanTurbidityPsf(o, HullThickness());
+  const cv::Mat image = ColorImage();
+  for (auto _ : state) benchmark::DoNotOptimize(ApplyTurbidityPsf(plan, image).data);
+}
+
+BENCHMARK(BM_TurbidityPsfPlan)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_TurbidityPsfApply)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PsfOurs)->Arg(5)->Arg(20)->Arg(50)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PsfPeerGaussianBlur)->Arg(5)->Arg(20)->Arg(50)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PsfPeerFilter2D)->Arg(5)->Arg(20)->Arg(50)->Unit(benchmark::kMillisecond);

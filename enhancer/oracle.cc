@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/deconvolution.h"
@@ -41,25 +42,34 @@ cv::Scalar ToScalar(const std::vector<double>& values) {
 // widest level), reproduced here so the inverse can blend the levels' inverses the same way.
 struct BlurModel {
   bool active = false;
-  bool depth_dependent = false;
+  bool depth_dependent = false;  // several levels blended per pixel (range- or turbidity-dependent)
   PsfOptions options;
   std::vector<Psf> levels;  // one kernel, or depth_levels kernels
   cv::Mat level;            // CV_32SC1: lower level index per pixel (depth-dependent)
   cv::Mat upper_weight;     // CV_32FC1: weight of level + 1
+  // psf.turbidity_dependent: the render's per-pixel kernels, and each level's whole kernel.
+  std::optional<TurbidityPsf> turbidity;
+  std::vector<cv::Mat> turbidity_kernels;
 
+  size_t Count() const { return turbidity ? turbidity_kernels.size() : levels.size(); }
+  const cv::Mat& Kernel(size_t i) const {
+    return turbidity ? turbidity_kernels[i] : levels[i].kernel;
+  }
   cv::Mat Forward(const cv::Mat& x, const cv::Mat& range_m) const {
     if (!active) return x.clone();
+    if (turbidity) return ApplyTurbidityPsf(*turbidity, x);
     return depth_dependent ? ApplyDepthDependentPsf(options, x, range_m) : ApplyPsf(levels[0], x);
   }
   // Blend of per-level inverses (exact for one kernel; a preconditioner otherwise).
   cv::Mat Inverse(const cv::Mat& b, double nsr) const {
     if (!active) return b.clone();
-    if (levels.size() == 1) return DeconvolveReflect101(b, levels[0].kernel, nsr);
+    if (Count() == 1) return DeconvolveReflect101(b, Kernel(0), nsr);
     std::vector<cv::Mat> inv;
-    for (const Psf& p : levels) inv.push_back(DeconvolveReflect101(b, p.kernel, nsr));
+    for (size_t i = 0; i < Count(); ++i) inv.push_back(DeconvolveReflect101(b, Kernel(i), nsr));
     return Blend(inv);
   }
   cv::Mat Blend(const std::vector<cv::Mat>& per_level) const {
+    if (turbidity) return turbidity->BlendLevels(per_level);
     cv::Mat out(per_level[0].size(), per_level[0].type());
     const int ch = out.channels();
     for (int y = 0; y < out.rows; ++y) {
@@ -76,10 +86,21 @@ struct BlurModel {
   }
 };
 
-BlurModel MakeBlurModel(const PsfOptions& options, const cv::Mat& range_m) {
+BlurModel MakeBlurModel(const PsfOptions& options, const cv::Mat& range_m,
+                        const std::vector<double>& beta) {
   BlurModel m;
   m.options = options;
   if (!options.enabled) return m;
+  if (options.turbidity_dependent) {
+    m.turbidity = PlanTurbidityPsf(options, ThicknessFromRange(range_m, beta));
+    for (size_t k = 0; k < m.turbidity->thickness.size(); ++k)
+      m.turbidity_kernels.push_back(m.turbidity->LevelKernel(static_cast<int>(k)));
+    m.active = true;
+    // The iterative inverse below also when the plan is exact: the levels differ per pixel.
+    m.depth_dependent = m.turbidity_kernels.size() > 1 || !m.turbidity->exact;
+    if (!m.depth_dependent && m.turbidity_kernels[0].total() == 1) m.active = false;
+    return m;
+  }
   const Psf base = PsfKernel(options);
   if (!options.depth_dependent) {
     m.active = !base.is_delta;
@@ -197,12 +218,15 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   } else {
     truth.steps.push_back("snow: none subtracted");
   }
-  truth.blur = MakeBlurModel(ro.psf, truth.range_m);
+  truth.blur = MakeBlurModel(ro.psf, truth.range_m, beta);
   if (!truth.blur.active) {
     truth.steps.push_back("psf: none (disabled or a delta)");
   } else {
     truth.steps.push_back(std::string("psf: ") +
-                          (truth.blur.depth_dependent
+                          (truth.blur.turbidity
+                               ? std::to_string(truth.blur.Count()) +
+                                     " turbidity-dependent levels"
+                           : truth.blur.depth_dependent
                                ? std::to_string(truth.blur.levels.size()) + " range-dependent levels"
                                : "one kernel, radius " +
                                      std::to_string(truth.blur.levels[0].radius_px) + " px"));
@@ -500,7 +524,8 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     DeconvolutionOptions d;
     d.nsr = result.deblur_nsr;
     std::vector<cv::Mat> per_level;
-    for (const Psf& p : blur.levels) per_level.push_back(Deconvolve(d, detail, p.kernel));
+    for (size_t i = 0; i < blur.Count(); ++i)
+      per_level.push_back(Deconvolve(d, detail, blur.Kernel(i)));
     est = prior + (blur.depth_dependent ? blur.Blend(per_level) : per_level[0]);
     prior.copyTo(est, masked);
     result.steps.push_back("deblur: Wiener, NSR " + std::to_string(result.deblur_nsr));

@@ -1,11 +1,14 @@
 #include "simulator/psf.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
+#include "simulator/fast_math.h"
 
 namespace turbid {
 namespace {
@@ -81,6 +84,11 @@ bool PsfOptions::Check(std::string* why) const {
   if (!InRange(reference_range_m, 1e-9, 1000.0) || reference_range_m <= 0.0)
     return fail("reference_range_m: must be in (0, 1000] m");
   if (depth_levels < 2 || depth_levels > 32) return fail("depth_levels: must be in [2, 32]");
+  if (thickness_levels < 2 || thickness_levels > 64)
+    return fail("thickness_levels: must be in [2, 64]");
+  if (turbidity_dependent && depth_dependent)
+    return fail(
+        "turbidity_dependent and depth_dependent are two range models of the blur; enable one");
   return true;
 }
 
@@ -199,6 +207,342 @@ cv::Mat ApplyDepthDependentPsf(const PsfOptions& options, const cv::Mat& image,
       for (int c = 0; c < channels; ++c) o[x * channels + c] = w0 * b0[c] + w1 * b1[c];
     }
   }
+  return out;
+}
+
+namespace {
+
+constexpr double kMinThickness = 1e-4, kMaxThickness = 100.0;
+
+// g_T: eq. 7's kernel at T, its tail judged by the share (1 - e^{-T}) it carries; a glow whose
+// spread share (1 - e^{-T}) (1 - centre) is below delta_tolerance is the identity.
+Psf GlowKernel(const PsfOptions& options, double thickness) {
+  PsfOptions o = options;
+  o.turbidity_dependent = o.depth_dependent = false;
+  o.optical_thickness = thickness;
+  const double scattered = -std::expm1(-thickness);
+  o.tail_mass = std::min(0.1, options.tail_mass / scattered);
+  Psf g = PsfKernel(o);
+  if (!g.is_delta && g.radius_px > 0) {
+    // The tail criterion is the mass outside the disc of radius R: the kernel is that disc (the
+    // square's corners carry less than tail_mass), renormalised.
+    const int r = g.radius_px;
+    for (int j = -r; j <= r; ++j)
+      for (int i = -r; i <= r; ++i)
+        if (i * i + j * j > r * r) g.kernel.at<float>(j + r, i + r) = 0.0f;
+    g.kernel /= cv::sum(g.kernel)[0];
+    g.kernel_1d = cv::Mat();
+    g.separable = false;
+  }
+  if (!g.is_delta) {
+    const double centre = g.kernel.at<float>(g.radius_px, g.radius_px);
+    if (scattered * (1.0 - centre) < options.delta_tolerance) {
+      g.kernel = cv::Mat::ones(1, 1, CV_32F);
+      g.kernel_1d = g.separable ? g.kernel.clone() : cv::Mat();
+      g.radius_px = 0;
+      g.is_delta = true;
+    }
+  }
+  return g;
+}
+
+// The smallest and largest non-NaN value (inf / -inf when there is none); 8 lanes so that the
+// comparisons vectorise.
+TURBID_ROW_KERNEL void MinMaxNotNaN(const float* t, size_t n, float* lo_out, float* hi_out) {
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  float lo[8], hi[8];
+  for (int l = 0; l < 8; ++l) lo[l] = kInf, hi[l] = -kInf;
+  size_t i = 0;
+  for (; i + 8 <= n; i += 8)
+    for (int l = 0; l < 8; ++l) {
+      const float v = t[i + l];
+      lo[l] = v < lo[l] ? v : lo[l];  // false for NaN: keeps the lane
+      hi[l] = v > hi[l] ? v : hi[l];
+    }
+  for (; i < n; ++i) {
+    lo[0] = t[i] < lo[0] ? t[i] : lo[0];
+    hi[0] = t[i] > hi[0] ? t[i] : hi[0];
+  }
+  *lo_out = kInf, *hi_out = -kInf;
+  for (int l = 0; l < 8; ++l) *lo_out = std::min(*lo_out, lo[l]), *hi_out = std::max(*hi_out, hi[l]);
+}
+
+// V(x) = up(x) + down(x).
+TURBID_ROW_KERNEL void AddRows(const float* up, const float* down, int n, float* out) {
+  for (int x = 0; x < n; ++x) out[x] = up[x] + down[x];
+}
+
+// For each run [x0, x1) of pixels at level k (runs: x0, x1, k triplets):
+// o(x) += (s(x) g_k + sw(x) dg_k) S(x), g_k = table[k * stride], dg_k = step[k * stride], and S the
+// sum of J over the offsets of class (a, b) (V_b: vertical pair sums at distance b; see
+// ApplyTurbidityPsf).
+TURBID_ROW_KERNEL void AccumulateClass(int a, int b, const float* v0, const float* va,
+                                       const float* vb, const float* s, const float* sw,
+                                       const float* table, const float* step, size_t stride,
+                                       const int* runs, int n_runs, float* o) {
+  for (int r = 0; r < n_runs; ++r) {
+    const int x0 = runs[3 * r], x1 = runs[3 * r + 1];
+    const float g = table[runs[3 * r + 2] * stride], dg = step[runs[3 * r + 2] * stride];
+    if (g == 0.0f && dg == 0.0f) continue;
+    if (a == 0) {
+      for (int x = x0; x < x1; ++x) o[x] += (s[x] * g + sw[x] * dg) * v0[x];
+    } else if (b == 0) {
+      for (int x = x0; x < x1; ++x)
+        o[x] += (s[x] * g + sw[x] * dg) * ((v0[x + a] + v0[x - a]) + va[x]);
+    } else if (a == b) {
+      for (int x = x0; x < x1; ++x) o[x] += (s[x] * g + sw[x] * dg) * (va[x + a] + va[x - a]);
+    } else {
+      for (int x = x0; x < x1; ++x)
+        o[x] += (s[x] * g + sw[x] * dg) * ((vb[x + a] + vb[x - a]) + (va[x + b] + va[x - b]));
+    }
+  }
+}
+
+// s = 1 - e^{-T}, sw = s w, and the unscattered part of the output, e^{-T} J.
+TURBID_ROW_KERNEL void StartRow(const float* direct, const float* weight, const float* j, int n,
+                                float* s, float* sw, float* o) {
+  for (int x = 0; x < n; ++x) {
+    s[x] = 1.0f - direct[x];
+    sw[x] = s[x] * weight[x];
+    o[x] = direct[x] * j[x];
+  }
+}
+
+// TurbidityPsf::Coefficients' loops.
+TURBID_ROW_KERNEL void ExactCoefficients(const float* t, int count, const float* level, int levels,
+                                         float nan_value, int* lower, float* weight,
+                                         float* direct) {
+  constexpr float kLo = static_cast<float>(kMinThickness), kHi = static_cast<float>(kMaxThickness);
+  for (int i = 0; i < count; ++i) {
+    const float v = t[i] == t[i] ? std::clamp(t[i], kLo, kHi) : nan_value;
+    direct[i] = internal::ExpNonPositive(-v);
+    int k = 0;
+    for (int l = 1; l < levels; ++l) k += v >= level[l] ? 1 : 0;
+    lower[i] = k;
+    weight[i] = 0.0f;
+  }
+}
+
+TURBID_ROW_KERNEL void SpacedCoefficients(const float* t, int count, float p_lo, float p_scale,
+                                          int levels, float nan_value, int* lower, float* weight,
+                                          float* direct) {
+  constexpr float kLo = static_cast<float>(kMinThickness), kHi = static_cast<float>(kMaxThickness);
+  const float top = static_cast<float>(levels - 1);
+  for (int i = 0; i < count; ++i) {
+    const float v = t[i] == t[i] ? std::clamp(t[i], kLo, kHi) : nan_value;
+    direct[i] = internal::ExpNonPositive(-v);
+    const float f = std::clamp((std::sqrt(v) - p_lo) * p_scale, 0.0f, top);
+    const int i0 = std::min(static_cast<int>(f), levels - 2);
+    lower[i] = i0;
+    weight[i] = f - static_cast<float>(i0);
+  }
+}
+
+}  // namespace
+
+cv::Mat ThicknessFromRange(const cv::Mat& range_m, const std::vector<double>& beta_per_m) {
+  CV_Assert(range_m.type() == CV_32FC1 && !beta_per_m.empty());
+  const int ch = static_cast<int>(beta_per_m.size());
+  cv::Mat out(range_m.size(), CV_32FC(ch));
+  for (int y = 0; y < range_m.rows; ++y) {
+    const float* r = range_m.ptr<float>(y);
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < range_m.cols; ++x)
+      for (int c = 0; c < ch; ++c) o[x * ch + c] = static_cast<float>(beta_per_m[c] * r[x]);
+  }
+  return out;
+}
+
+TurbidityPsf PlanTurbidityPsf(const PsfOptions& options, const cv::Mat& thickness) {
+  ThrowIfInvalid(options, "psf");
+  CV_Assert(thickness.depth() == CV_32F);
+  const int ch = thickness.channels();
+  const cv::Mat flat = thickness.isContinuous() ? thickness : thickness.clone();
+  const float* t = flat.ptr<float>(0);
+  const size_t values = flat.total() * static_cast<size_t>(ch);
+  constexpr float kLo = static_cast<float>(kMinThickness), kHi = static_cast<float>(kMaxThickness);
+  // The clamped range (NaN skipped: comparisons with NaN are false).
+  float lo = 0.0f, hi = 0.0f;
+  MinMaxNotNaN(t, values, &lo, &hi);
+  TurbidityPsf plan;
+  if (!(hi >= lo)) {  // no valid range at all: one level at the configured thickness
+    lo = hi = static_cast<float>(std::clamp(options.optical_thickness, kMinThickness,
+                                            kMaxThickness));
+  }
+  lo = std::clamp(lo, kLo, kHi);
+  hi = std::clamp(hi, kLo, kHi);
+  // The distinct clamped values while there are at most thickness_levels of them.
+  std::vector<float> distinct;
+  bool few = true;
+  for (size_t i = 0; i < values && few; ++i) {
+    if (std::isnan(t[i])) continue;
+    const float v = std::clamp(t[i], kLo, kHi);
+    if (std::find(distinct.begin(), distinct.end(), v) == distinct.end()) {
+      distinct.push_back(v);
+      few = static_cast<int>(distinct.size()) <= options.thickness_levels;
+    }
+  }
+  if (distinct.empty()) distinct.push_back(hi);
+  plan.exact = few;
+  const int k_levels = few ? static_cast<int>(distinct.size()) : options.thickness_levels;
+  if (few) {
+    std::sort(distinct.begin(), distinct.end());
+    for (float v : distinct) plan.thickness.push_back(v);
+  } else {
+    const double p_lo = std::sqrt(static_cast<double>(lo)), p_hi = std::sqrt(static_cast<double>(hi));
+    for (int i = 0; i < k_levels; ++i) {
+      const double p = p_lo + (p_hi - p_lo) * i / (k_levels - 1);
+      plan.thickness.push_back(i == 0 ? lo : (i == k_levels - 1 ? hi : p * p));
+    }
+  }
+  for (double v : plan.thickness) plan.glow.push_back(GlowKernel(options, v));
+  plan.map = thickness;
+  if (!few) {
+    plan.p_lo = std::sqrt(lo);
+    plan.p_scale = static_cast<float>(k_levels - 1) / (std::sqrt(hi) - plan.p_lo);
+  }
+  return plan;
+}
+
+void TurbidityPsf::Coefficients(const float* t, int count, int* lower, float* weight,
+                                float* direct) const {
+  const int levels = static_cast<int>(thickness.size());
+  const float nan_value = static_cast<float>(thickness.back());  // NaN (open water): largest T
+  if (exact) {
+    float level[64];
+    for (int l = 0; l < levels; ++l) level[l] = static_cast<float>(thickness[l]);
+    ExactCoefficients(t, count, level, levels, nan_value, lower, weight, direct);
+  } else {
+    SpacedCoefficients(t, count, p_lo, p_scale, levels, nan_value, lower, weight, direct);
+  }
+}
+
+cv::Mat TurbidityPsf::LevelKernel(int k) const {
+  const Psf& g = glow.at(static_cast<size_t>(k));
+  const double scattered = -std::expm1(-thickness[static_cast<size_t>(k)]);
+  cv::Mat h = g.kernel * scattered;
+  h.at<float>(g.radius_px, g.radius_px) += static_cast<float>(1.0 - scattered);
+  return h;
+}
+
+cv::Mat TurbidityPsf::BlendLevels(const std::vector<cv::Mat>& per_level) const {
+  CV_Assert(per_level.size() == thickness.size());
+  const int ch = map.channels(), n = map.cols * ch;
+  cv::Mat out(map.size(), CV_32FC(ch));
+  const int last = static_cast<int>(per_level.size()) - 1;
+  std::vector<int> li(static_cast<size_t>(n));
+  std::vector<float> w(static_cast<size_t>(n)), d(static_cast<size_t>(n));
+  for (int y = 0; y < out.rows; ++y) {
+    Coefficients(map.ptr<float>(y), n, li.data(), w.data(), d.data());
+    float* o = out.ptr<float>(y);
+    for (int i = 0; i < n; ++i) {
+      const float a = per_level[li[i]].ptr<float>(y)[i];
+      const float b = li[i] < last ? per_level[li[i] + 1].ptr<float>(y)[i] : a;
+      o[i] = (1.0f - w[i]) * a + w[i] * b;
+    }
+  }
+  return out;
+}
+
+cv::Mat ApplyTurbidityPsf(const TurbidityPsf& plan, const cv::Mat& image) {
+  CV_Assert(image.depth() == CV_32F && image.size() == plan.map.size() &&
+            image.channels() == plan.map.channels() && plan.map.depth() == CV_32F);
+  const int ch = image.channels(), width = image.cols, height = image.rows;
+  const int levels = static_cast<int>(plan.glow.size());
+  // Every g_k is radially symmetric and zero outside its disc, so its weight at offset (dx, dy)
+  // depends only on the class (a, b) = (max(|dx|, |dy|), min(|dx|, |dy|)) with a^2 + b^2 <= R^2.
+  // Per pixel the whole kernel is e^{-T} delta + s ((1 - w) g_k + w g_{k+1}), s = 1 - e^{-T}, so
+  //   out = e^{-T} J + s sum_classes ((1 - w) G_k + w G_{k+1}) S_class,
+  // S_class the sum of J over the class's offsets: the sums do not depend on the level, and within
+  // a run of pixels that share k the weights are two numbers per class (vectorised over the run).
+  int radius = 0;
+  for (const Psf& g : plan.glow) radius = std::max(radius, g.is_delta ? 0 : g.radius_px);
+  struct Class {
+    int a, b;
+  };
+  std::vector<Class> classes;
+  for (int a = 0; a <= radius; ++a)
+    for (int b = 0; b <= a; ++b)
+      if (a * a + b * b <= radius * radius) classes.push_back({a, b});
+  const size_t n_classes = classes.size();
+  std::vector<float> table(static_cast<size_t>(levels) * n_classes, 0.0f);
+  std::vector<float> step(table.size(), 0.0f);  // G_{k+1} - G_k
+  for (int k = 0; k < levels; ++k) {
+    const Psf& g = plan.glow[static_cast<size_t>(k)];
+    const int r = g.is_delta ? 0 : g.radius_px;
+    for (size_t j = 0; j < n_classes; ++j) {
+      const int a = classes[j].a, b = classes[j].b;
+      if (a > r) continue;
+      table[k * n_classes + j] = g.is_delta ? 1.0f : g.kernel.at<float>(r + b, r + a);
+    }
+  }
+  for (int k = 0; k + 1 < levels; ++k)
+    for (size_t j = 0; j < n_classes; ++j)
+      step[k * n_classes + j] = table[(k + 1) * n_classes + j] - table[k * n_classes + j];
+
+  cv::Mat out(image.size(), image.type());
+  const int wide = width + 2 * radius, ring = 2 * radius + 1;
+  cv::parallel_for_(cv::Range(0, height), [&](const cv::Range& rows) {
+    // Per channel, a ring of the 2R + 1 source rows around y, mirrored by R columns each side.
+    const size_t plane = static_cast<size_t>(ring) * wide;
+    std::vector<float> source(plane * ch);
+    std::vector<float> v(static_cast<size_t>(radius + 1) * wide), s(width), sw(width), e(width),
+        wc(width), tc(static_cast<size_t>(width) * ch), o(static_cast<size_t>(width) * ch);
+    std::vector<int> k(width);
+    std::vector<std::array<int, 3>> runs;  // [x0, x1), level
+    const auto slot = [&](int c, int yy) {
+      return source.data() + c * plane + static_cast<size_t>((yy + ring * height) % ring) * wide;
+    };
+    const auto load = [&](int yy) {
+      const float* src = image.ptr<float>(cv::borderInterpolate(yy, height, cv::BORDER_REFLECT_101));
+      for (int c = 0; c < ch; ++c) {
+        float* dst = slot(c, yy);
+        for (int x = 0; x < width; ++x) dst[radius + x] = src[x * ch + c];
+        for (int i = 1; i <= radius; ++i) {
+          dst[radius - i] = dst[radius + cv::borderInterpolate(-i, width, cv::BORDER_REFLECT_101)];
+          dst[radius + width - 1 + i] =
+              dst[radius + cv::borderInterpolate(width - 1 + i, width, cv::BORDER_REFLECT_101)];
+        }
+      }
+    };
+    for (int yy = rows.start - radius; yy < rows.start + radius; ++yy) load(yy);
+    for (int y = rows.start; y < rows.end; ++y) {
+      load(y + radius);
+      const float* tr = plan.map.ptr<float>(y);
+      for (int c = 0; c < ch; ++c)
+        for (int x = 0; x < width; ++x) tc[static_cast<size_t>(c) * width + x] = tr[x * ch + c];
+      for (int c = 0; c < ch; ++c) {
+        // V_b(x) = J(y + b, x) + J(y - b, x), V_0 = J(y, x), on the padded columns.
+        const float* centre = slot(c, y);
+        std::copy(centre, centre + wide, v.data());
+        for (int b = 1; b <= radius; ++b)
+          AddRows(slot(c, y - b), slot(c, y + b), wide, v.data() + static_cast<size_t>(b) * wide);
+        plan.Coefficients(tc.data() + static_cast<size_t>(c) * width, width, k.data(), wc.data(),
+                          e.data());
+        float* oc = o.data() + static_cast<size_t>(c) * width;
+        StartRow(e.data(), wc.data(), centre + radius, width, s.data(), sw.data(), oc);
+        runs.clear();
+        int x0 = 0;
+        for (int x = 1; x <= width; ++x) {
+          if (x == width || k[x] != k[x0]) {
+            runs.push_back({x0, x, k[x0]});
+            x0 = x;
+          }
+        }
+        for (size_t j = 0; j < n_classes; ++j) {
+          const int a = classes[j].a, b = classes[j].b;
+          const float* va = v.data() + static_cast<size_t>(a) * wide + radius;
+          const float* vb = v.data() + static_cast<size_t>(b) * wide + radius;
+          AccumulateClass(a, b, v.data() + radius, va, vb, s.data(), sw.data(), table.data() + j,
+                          step.data() + j, n_classes, runs.data()->data(),
+                          static_cast<int>(runs.size()), oc);
+        }
+      }
+      float* dst = out.ptr<float>(y);
+      for (int c = 0; c < ch; ++c)
+        for (int x = 0; x < width; ++x) dst[x * ch + c] = o[static_cast<size_t>(c) * width + x];
+    }
+  });
   return out;
 }
 

@@ -15,6 +15,7 @@
 
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 namespace turbid {
 
@@ -41,6 +42,16 @@ struct PsfOptions {
   bool depth_dependent = false;
   double reference_range_m = 2.0;  // range at which sigma(r) = sigma, metres, in (0, 1000]
   int depth_levels = 6;            // kernels blended across the range span, in [2, 32]
+  // Optional turbidity-dependent forward scatter (off by default; docs/model.md, "Turbidity-
+  // dependent forward scatter"): each pixel's own optical thickness along its ray,
+  // T(x) = beta_c r(x) per channel, replaces optical_thickness, and the kernel keeps the
+  // unscattered share: h_T = exp(-T) delta + (1 - exp(-T)) g_T, g_T eq. 7's kernel at
+  // p = sqrt(T). Near objects stay sharp, far ones blur as the water thickens. Exclusive with
+  // depth_dependent.
+  bool turbidity_dependent = false;
+  // Kernels g_T computed per image, in [2, 64]: the distinct T values when there are at most this
+  // many (exact), else levels evenly spaced in p = sqrt(T) with outputs blended linearly in p.
+  int thickness_levels = 32;
 
   bool Check(std::string* why) const;
 };
@@ -78,5 +89,40 @@ cv::Mat ApplyPsf(const Psf& psf, const cv::Mat& image);
 // uniform at reference_range_m.
 cv::Mat ApplyDepthDependentPsf(const PsfOptions& options, const cv::Mat& image,
                                const cv::Mat& range_m);
+
+// Turbidity-dependent forward scatter (options.turbidity_dependent): the plan for one image.
+// Pixel x of channel c is blurred with h_T = e^{-T} delta + (1 - e^{-T}) g_T at its own
+// T = thickness_c(x) (clamped to [1e-4, 100]; NaN, i.e. open water, takes the largest T of the
+// image). g_T is eq. 7's kernel at T on the disc of radius R where (1 - e^{-T}) x its outside mass
+// is below tail_mass, renormalised. Each pixel gathers with its own kernel
+//   e^{-T(x)} delta + (1 - e^{-T(x)}) [(1 - w) g_k + w g_{k+1}]:
+// exact (w = 0) where T takes at most thickness_levels distinct values, else the glow linear in
+// p = sqrt(T) between levels evenly spaced in p (docs/model.md gives the error).
+struct TurbidityPsf {
+  std::vector<double> thickness;  // T of each level, ascending
+  std::vector<Psf> glow;          // g_T of each level (is_delta: the level is the identity)
+  bool exact = false;             // every pixel's T is one level's T
+  cv::Mat map;                    // the per-pixel thickness planned for (shares its data)
+  // For `count` thickness values: the level at or below each (`lower`), the share w of level
+  // lower + 1 (0 when exact) and the unscattered share e^{-T}. Branch-free (vectorises).
+  void Coefficients(const float* t, int count, int* lower, float* weight, float* direct) const;
+  // The whole kernel of level k, e^{-T_k} delta + (1 - e^{-T_k}) g_k, CV_32FC1 (for inverses).
+  cv::Mat LevelKernel(int k) const;
+  // Per pixel and channel (1 - w) a_k + w a_{k+1} of per-level images a (one per level), e.g. the
+  // levels' inverses.
+  cv::Mat BlendLevels(const std::vector<cv::Mat>& per_level) const;
+
+  float p_lo = 0.0f, p_scale = 0.0f;  // level position (sqrt(T) - p_lo) * p_scale when !exact
+};
+
+// beta_c * r per channel (CV_32FC(beta.size())), NaN where the range is NaN.
+cv::Mat ThicknessFromRange(const cv::Mat& range_m, const std::vector<double>& beta_per_m);
+
+// The plan for an image whose per-channel optical thickness is `thickness` (CV_32FC1 or C3).
+// Throws Error when options fail Check.
+TurbidityPsf PlanTurbidityPsf(const PsfOptions& options, const cv::Mat& thickness);
+
+// image * h_T(x) per pixel (float32, the plan's channel count, BORDER_REFLECT_101 as ApplyPsf).
+cv::Mat ApplyTurbidityPsf(const TurbidityPsf& plan, const cv::Mat& image);
 
 }  // namespace turbid

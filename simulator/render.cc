@@ -478,7 +478,8 @@ RenderOptions RenderOptionsFromJson(const json& j) {
     RejectUnknown(s, p,
                   {"enabled", "optical_thickness", "forward_scatter", "pixels_per_unit",
                    "tail_mass", "max_radius_px", "delta_tolerance", "depth_dependent",
-                   "reference_range_m", "depth_levels"});
+                   "reference_range_m", "depth_levels", "turbidity_dependent",
+                   "thickness_levels"});
     Read(s, "enabled", p, o.psf.enabled);
     Read(s, "optical_thickness", p, o.psf.optical_thickness);
     Read(s, "forward_scatter", p, o.psf.forward_scatter);
@@ -489,6 +490,8 @@ RenderOptions RenderOptionsFromJson(const json& j) {
     Read(s, "depth_dependent", p, o.psf.depth_dependent);
     Read(s, "reference_range_m", p, o.psf.reference_range_m);
     Read(s, "depth_levels", p, o.psf.depth_levels);
+    Read(s, "turbidity_dependent", p, o.psf.turbidity_dependent);
+    Read(s, "thickness_levels", p, o.psf.thickness_levels);
     CheckSection(o.psf, p);
   }
   if (j.contains("snow")) {
@@ -574,7 +577,9 @@ json RenderOptionsToJson(const RenderOptions& options) {
         {"delta_tolerance", o.psf.delta_tolerance},
         {"depth_dependent", o.psf.depth_dependent},
         {"reference_range_m", o.psf.reference_range_m},
-        {"depth_levels", o.psf.depth_levels}}},
+        {"depth_levels", o.psf.depth_levels},
+        {"turbidity_dependent", o.psf.turbidity_dependent},
+        {"thickness_levels", o.psf.thickness_levels}}},
       {"snow",
        {{"enabled", o.snow.enabled},
         {"density_per_m3", o.snow.density_per_m3},
@@ -652,6 +657,32 @@ struct Renderer::Cache {
 };
 
 namespace {
+
+// The optical thickness of each pixel's ray per channel, -ln t of the direct signal: beta_c r, or
+// beta^D_c(r) r with Sea-thru's range-dependent coefficient. NaN where the range is NaN.
+cv::Mat ThicknessMap(const Decisions& d, const cv::Mat& range_m, int channels) {
+  if (!d.sea_thru) return ThicknessFromRange(range_m, d.beta);
+  cv::Mat out(range_m.size(), CV_32FC(channels));
+  for (int y = 0; y < range_m.rows; ++y) {
+    const float* r = range_m.ptr<float>(y);
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < range_m.cols; ++x)
+      for (int c = 0; c < channels; ++c)
+        o[x * channels + c] = static_cast<float>(
+            (d.sea_a[c] * std::exp(d.sea_b[c] * r[x]) + d.sea_c[c] * std::exp(d.sea_d[c] * r[x])) *
+            r[x]);
+  }
+  return out;
+}
+
+json TurbidityJson(const TurbidityPsf& plan) {
+  json radii = json::array();
+  for (const Psf& g : plan.glow) radii.push_back(g.radius_px);
+  return {{"levels", plan.thickness.size()},
+          {"exact", plan.exact},
+          {"thickness", plan.thickness},
+          {"radius_px", radii}};
+}
 
 Decisions Decide(const RenderOptions& options, const Scene& scene, double min_range,
                  double max_range) {
@@ -735,7 +766,14 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
     plan.skipped.push_back("psf: disabled");
   } else {
     d.psf = PsfKernel(options.psf);
-    if (d.psf.is_delta && !options.psf.depth_dependent) {
+    if (options.psf.turbidity_dependent) {
+      d.blur = true;
+      plan.steps.push_back(
+          "psf: turbidity-dependent, T = beta r per pixel and channel, h = exp(-T) delta + (1 - "
+          "exp(-T)) g_T (eq. 7 at p = sqrt(T), sigma = " +
+          Format(d.psf.sigma_px) + " px), up to " +
+          std::to_string(options.psf.thickness_levels) + " kernels");
+    } else if (d.psf.is_delta && !options.psf.depth_dependent) {
       plan.skipped.push_back("psf: kernel is a delta at this pixel scale (sigma " +
                              Format(d.psf.sigma_px) + " px)");
     } else {
@@ -891,7 +929,8 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   std::optional<SeparableBlur> blur;
   bool whole_image_blur = false;
   if (d.blur) {
-    if (d.psf.separable && !d.psf.kernel_1d.empty() && !options.psf.depth_dependent)
+    if (d.psf.separable && !d.psf.kernel_1d.empty() && !options.psf.depth_dependent &&
+        !options.psf.turbidity_dependent)
       blur.emplace(d.psf, width, size.height, channels);
     else
       whole_image_blur = true;
@@ -907,6 +946,7 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
       std::max(1.0, std::min<double>(4.0 * std::max(cv::getNumThreads(), 1), size.height / 16.0));
 
   cv::Mat blurred;  // J * h when it is not computed row by row
+  std::optional<TurbidityPsf> turbidity;  // the per-pixel kernels (psf.turbidity_dependent)
   if (!stream) {
     cv::parallel_for_(
         cv::Range(0, size.height),
@@ -917,9 +957,13 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
             row_a(y, scratch, e_target(y, e_scratch.data()), lit.ptr<float>(y));
         },
         stripes);
-    if (whole_image_blur)
+    if (whole_image_blur && options.psf.turbidity_dependent) {
+      turbidity = PlanTurbidityPsf(options.psf, ThicknessMap(d, range_m_, channels));
+      blurred = ApplyTurbidityPsf(*turbidity, lit);
+    } else if (whole_image_blur) {
       blurred = options.psf.depth_dependent ? ApplyDepthDependentPsf(options.psf, lit, range_m_)
                                             : ApplyPsf(d.psf, lit);
+    }
   }
 
   // ---- pass B: attenuation, veil, snow, sensor noise, camera ----
@@ -1122,7 +1166,8 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
           {"radius_px", d.psf.radius_px},
           {"tail_mass_outside", d.psf.tail_mass_outside},
           {"is_delta", d.psf.is_delta || !options.psf.enabled},
-          {"separable", d.psf.separable}}},
+          {"separable", d.psf.separable},
+          {"turbidity", turbidity ? TurbidityJson(*turbidity) : json()}}},
         {"snow", {{"particles", snow.particles}, {"visible", snow.visible}}}}},
       {"plan", d.plan.ToJson()},
       // How the image file's values are coded (what `turbid score` and `enhance` read).

@@ -253,6 +253,24 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
     c.goal = {0.0, color ? 40.0 : 15.0, "issue 3 item 7 (at 1360x1024, one core)"};
     cases.push_back(c);
   }
+  // Turbidity-dependent forward scatter (T = beta r per pixel) against the same render with the
+  // paper's one kernel: the goal is a ratio (at most 3x the fixed-PSF render's time).
+  for (bool color : {true, false}) {
+    BenchCase c;
+    c.name = color ? "render/color/turbidity_psf" : "render/gray/turbidity_psf";
+    c.peer_name = "the same render, fixed PSF";
+    const auto render = [in, color](bool turbidity) {
+      RenderOptions o;
+      o.water.type = "3C";
+      o.seed = 1;
+      o.psf.turbidity_dependent = turbidity;
+      benchmark::DoNotOptimize(Render(o, color ? in().hull_color : in().hull_gray).image.data);
+    };
+    c.ours = [render] { render(true); };
+    c.peer = [render] { render(false); };
+    c.goal = {1.0 / 3.0, 0.0, "issue 16 item 2 (at most 3x the fixed-PSF render, 1360x1024)"};
+    cases.push_back(c);
+  }
   // The other image-formation models beside eq. 2 (same scene, same light, PSF, snow and noise).
   for (const char* model : {"revised", "revised_seathru", "uwcnn"}) {
     BenchCase c;

@@ -89,8 +89,9 @@ TEST(Oracle, DeconvolveReflect101InvertsApplyPsf) {
 // Noise-free float renders: beta and the light keep t (E_A + E_L) away from 0 and I below the
 // clipping point, so every step of the inverse is well conditioned and the error is float
 // rounding. Snow stays on (re-rendered from the seed and subtracted).
-RenderOptions NoiseFreeFloat(bool depth_dependent_psf) {
+RenderOptions NoiseFreeFloat(bool depth_dependent_psf, bool turbidity_psf = false) {
   RenderOptions o;
+  o.psf.turbidity_dependent = turbidity_psf;
   o.sensor.enabled = false;
   o.camera.bit_depth = 32;
   o.water.beta_rgb_per_m = {0.5, 0.4, 0.3};
@@ -106,8 +107,10 @@ TEST(Oracle, ExactInverseReachesFloatPrecisionOnNoiseFreeFloatRenders) {
     const Scene scene = Builtin(name, 0.125);
     double max_range = 0;
     cv::minMaxLoc(Renderer(scene).range_m(), nullptr, &max_range);
-    for (bool depth_dependent : {false, true}) {
-      RenderOptions options = NoiseFreeFloat(depth_dependent);
+    for (int mode : {0, 1, 2}) {
+      // 0: one PSF; 1: range-dependent width; 2: turbidity-dependent (T = beta r per pixel).
+      const bool depth_dependent = mode == 1;
+      RenderOptions options = NoiseFreeFloat(depth_dependent, mode == 2);
       // Widths sigma sqrt(r / r_max) <= sigma: wider kernels make the blur numerically singular
       // (the float rounding of the render, divided by the kernel's smallest frequency response,
       // exceeds 1e-5).
@@ -119,9 +122,11 @@ TEST(Oracle, ExactInverseReachesFloatPrecisionOnNoiseFreeFloatRenders) {
       const OracleResult out = OracleExactEnhance(OracleExactOptions{}, r.image, scene, r.sidecar);
       EXPECT_EQ(out.masked_pixels, 0) << name;
       EXPECT_LE(MaxAbsDiff(out.image, scene.image), 1e-5)
-          << name << (depth_dependent ? " range-dependent PSF" : " one PSF") << ", "
-          << out.iterations << " iterations, residual " << out.residual;
-      if (depth_dependent) {
+          << name
+          << (mode == 2 ? " turbidity-dependent PSF"
+                        : (depth_dependent ? " range-dependent PSF" : " one PSF"))
+          << ", " << out.iterations << " iterations, residual " << out.residual;
+      if (mode > 0) {
         EXPECT_GT(out.iterations, 1) << name;
       }
       // The lit target returns J (unclipped here).

@@ -31,7 +31,7 @@ TEST(BenchCli, RunsSelectedCasesAndWritesJson) {
   const std::string json_path = dir.File("bench.json");
   const auto run =
       RunTurbid({"bench", "--scale", "0.1", "--min-time", "0.01", "--filter",
-                 "^(ssim/gray/8bit|psnr|guided_filter/gray/r2|render/gray)", "--json", json_path});
+                 "^(ssim/gray/8bit|psnr|guided_filter/gray/r2|render/gray/full)", "--json", json_path});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("| ssim/gray/8bit |"), std::string::npos) << run.out;
   const nlohmann::json report = nlohmann::json::parse(testing::ReadFileText(json_path));
