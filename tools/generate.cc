@@ -91,6 +91,21 @@ void SetRenderParam(json& params, const std::string& path, const json& value) {
   SetPath(params, path, value);
 }
 
+// "--set key=value": value parsed as JSON, else taken as a string.
+void ApplyRenderSet(json& params, const std::string& assignment) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw Error("--set '" + assignment + "': expected KEY=VALUE");
+  const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+  json value;
+  try {
+    value = json::parse(text);
+  } catch (const json::exception&) {
+    value = text;
+  }
+  SetRenderParam(params, key, value);
+}
+
 json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::string& path) {
   if (!spec.is_object() || spec.size() != 1)
     throw Error("generate: random.params." + path +
