@@ -110,8 +110,10 @@ const json& ConfigObject(const json& object, const char* key, const json& fallba
 // default light list when the parameters name none, so defaults are not written twice.
 void SetRenderParam(json& params, const std::string& path, const json& value) {
   if (path.rfind("light.lights.", 0) == 0 &&
-      !(params.contains("light") && params["light"].contains("lights"))) {
-    if (!params.contains("light")) params["light"] = json::object();
+      !(params.contains("light") && params["light"].is_object() &&
+        params["light"].contains("lights"))) {
+    // A "light" that is not an object is replaced, as SetPath replaces any non-object on a path.
+    if (!params.contains("light") || !params["light"].is_object()) params["light"] = json::object();
     params["light"]["lights"] = RenderOptionsToJson(RenderOptions{})["light"]["lights"];
   }
   SetPath(params, path, value);

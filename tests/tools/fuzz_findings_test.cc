@@ -54,5 +54,19 @@ TEST(FuzzFindings, GenerateConfigWrongTypesAreErrorsNamingTheKey) {
   EXPECT_EQ(GenerateError(base), "");
 }
 
+TEST(FuzzFindings, SetALightAfterSettingLightToANumber) {
+  // render_params_fuzzer: `--set light=7 --set light.lights.0.power=2` escaped as a JSON library
+  // type_error. As for any other path, the non-object on the way is replaced.
+  json params = json::object();
+  ApplyRenderSet(params, "light=7");
+  ApplyRenderSet(params, "light.lights.0.power=2");
+  ASSERT_TRUE(params["light"].is_object());
+  ASSERT_TRUE(params["light"]["lights"].is_array());
+  EXPECT_EQ(params["light"]["lights"][0]["power"], 2);
+  json replaced = {{"light", 7}};
+  ApplyRenderSet(replaced, "light.min_distance_m=0.5");
+  EXPECT_EQ(replaced["light"], json({{"min_distance_m", 0.5}}));
+}
+
 }  // namespace
 }  // namespace turbid
