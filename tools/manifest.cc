@@ -28,6 +28,8 @@ std::vector<ManifestRecord> ReadManifest(const std::string& path) {
       } catch (const std::exception&) {
         throw Error(path, "line " + std::to_string(number) + " is not valid JSON");
       }
+      if (!row.is_object())
+        throw Error(path, "line " + std::to_string(number) + " is not a JSON object");
       ManifestRecord record;
       for (auto it = row.begin(); it != row.end(); ++it)
         record[it.key()] = it->is_string() ? it->get<std::string>() : it->dump();

@@ -15,7 +15,7 @@ using ManifestRecord = std::map<std::string, std::string>;
 // Reads every row. ".jsonl"/".json": one JSON object per non-blank line; otherwise CSV whose first
 // line that is neither empty nor a '#' comment is the header (a row's fields beyond the header are
 // dropped, missing ones absent). Throws Error("<path>: <problem>") for an unreadable file, a line
-// that is not JSON, or a CSV without a header line.
+// that is not a JSON object, or a CSV without a header line.
 std::vector<ManifestRecord> ReadManifest(const std::string& path);
 
 }  // namespace turbid

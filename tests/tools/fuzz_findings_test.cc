@@ -5,15 +5,36 @@
 
 #include <nlohmann/json.hpp>
 
+#include <fstream>
+#include <functional>
 #include <string>
 
 #include "scenes/error.h"
+#include "tests/support/test_support.h"
 #include "tools/generate.h"
+#include "tools/manifest.h"
+#include "tools/sweep.h"
 
 namespace turbid {
 namespace {
 
 using nlohmann::json;
+
+// The message `body` throws ("" when it throws nothing; marked when it is not a turbid::Error).
+std::string ErrorOf(const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("not a turbid::Error: ") + e.what();
+  }
+  return "";
+}
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
 
 // The message ParseGenerateConfig throws for `config` ("" when it throws nothing or another type).
 std::string GenerateError(const json& config) {
@@ -66,6 +87,42 @@ TEST(FuzzFindings, SetALightAfterSettingLightToANumber) {
   json replaced = {{"light", 7}};
   ApplyRenderSet(replaced, "light.min_distance_m=0.5");
   EXPECT_EQ(replaced["light"], json({{"min_distance_m", 0.5}}));
+}
+
+TEST(FuzzFindings, JournalLinesThatAreNotEntriesAreCorruptOrHaveNoId) {
+  // journal_fuzzer: a number too large for a double and an id that is not a string escaped as
+  // JSON library exceptions from Journal::Load (a resume, merge or report would print them).
+  testing::TempDir dir;
+  const std::string path = dir.path() + "/journal.jsonl";
+  const struct {
+    const char* text;
+    const char* problem;
+  } cases[] = {
+      {"{\"id\": \"a\", \"x\": 2.3e1964}\n", "line 1 is corrupt"},
+      {"{\"id\": 7}\n", "line 1 has no id"},
+      {"[1, 2]\n", "line 1 has no id"},
+      {"\"text\"\n", "line 1 has no id"},
+      {"{\"id\": \"\"}\n", "line 1 has no id"},
+  };
+  for (const auto& c : cases) {
+    WriteText(path, c.text);
+    const std::string message = ErrorOf([&] { Journal(path).Load(false); });
+    EXPECT_EQ(message.rfind(path + ": " + c.problem, 0), 0u) << c.text << " -> " << message;
+  }
+  WriteText(path, "{\"id\": \"a\"}\n{\"id\": \"b\", \"n\": 1}\n");
+  EXPECT_EQ(Journal(path).Load(false).size(), 2u);
+}
+
+TEST(FuzzFindings, ManifestJsonLinesMustBeObjects) {
+  // manifest_fuzzer: a .jsonl line holding an array escaped as nlohmann's invalid_iterator.
+  testing::TempDir dir;
+  const std::string path = dir.path() + "/manifest.jsonl";
+  WriteText(path, "{\"image\": \"a.png\"}\n[1, 2]\n");
+  EXPECT_EQ(ErrorOf([&] { ReadManifest(path); }), path + ": line 2 is not a JSON object");
+  WriteText(path, "{\"image\": \"a.png\", \"n\": 3}\n\n");
+  const std::vector<ManifestRecord> rows = ReadManifest(path);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].at("n"), "3");
 }
 
 }  // namespace
