@@ -62,13 +62,14 @@ Padding ComputePadding(const ClaheOptions& o, int rows, int cols) {
 // Row kernels (TURBID_ROW_KERNEL): whole rows of contiguous values, so the loops vectorise.
 
 // imhist bins on [0,1] data: round(v * (bins - 1)), v clamped. Returns false when the row holds a
-// non-finite value (so the check costs no separate pass).
+// non-finite value (so the check costs no separate pass). The clamp sends NaN to 0, as the AVX2
+// copy's max_ps does, so that the float-to-int conversion is defined for every input (UBSan).
 template <typename Index>
 bool BinRowScalar(const float* g, Index* o, int n, float scale) {
   bool ok = true;
   for (int x = 0; x < n; ++x) {
     ok = ok && std::isfinite(g[x]);
-    const float c = std::min(std::max(g[x], 0.0f), 1.0f);
+    const float c = std::min(std::max(0.0f, g[x]), 1.0f);
     o[x] = static_cast<Index>(static_cast<int>(c * scale + 0.5f));
   }
   return ok;

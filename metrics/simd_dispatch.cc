@@ -55,8 +55,12 @@ void SsimHorizontalFormula(const float* const* moments, const float* weights, in
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #define TURBID_HAVE_AVX2_COPY 1
+#if defined(__clang__)  // the sanitizer build (CMakeLists.txt, TURBID_SANITIZE)
+#pragma clang attribute push(__attribute__((target("avx2,fma"))), apply_to = function)
+#else
 #pragma GCC push_options
 #pragma GCC target("avx2,fma")
+#endif
 namespace avx2 {
 #include "metrics/simd_kernels.inc"
 
@@ -204,7 +208,11 @@ void SsimHorizontalFormulaFast(const float* const* moments, const float* weights
   }
 }
 }  // namespace avx2
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
 #pragma GCC pop_options
+#endif
 #endif
 
 namespace {

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
 #include "simulator/fast_math.h"
 #include "simulator/kernels.h"
 
@@ -161,11 +162,12 @@ namespace {
 // without branches (selects) so that it vectorises; the AVX2 clone computes the same values (no
 // FMA contraction).
 template <bool kEq5>
-__attribute__((target_clones("avx2", "default"))) void GeometryRowKernel(
-    const float* __restrict ray_x, float ry, const float* __restrict z,
-    const float* __restrict normals, int width, const float* position, const float* axis,
-    float power, float min_cos, float min_l, float* __restrict l_out, float* __restrict g_out,
-    float* __restrict cos_phi) {
+TURBID_ROW_KERNEL void GeometryRowKernel(const float* __restrict ray_x, float ry,
+                                         const float* __restrict z, const float* __restrict normals,
+                                         int width, const float* position, const float* axis,
+                                         float power, float min_cos, float min_l,
+                                         float* __restrict l_out, float* __restrict g_out,
+                                         float* __restrict cos_phi) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float lx = position[0], ly = position[1], lz = position[2];
   const float ax = axis[0], ay = axis[1], az = axis[2];
@@ -206,7 +208,7 @@ __attribute__((target_clones("avx2", "default"))) void GeometryRowKernel(
 }
 
 // Whether any of n floats is NaN, on the bits (integer compares vectorise without fast-math).
-__attribute__((target_clones("avx2", "default"))) bool AnyNaN(const float* v, int n) {
+TURBID_ROW_KERNEL bool AnyNaN(const float* v, int n) {
   const uint32_t* bits = reinterpret_cast<const uint32_t*>(v);  // NOLINT: float bits
   uint32_t any = 0;
   for (int i = 0; i < n; ++i) any |= static_cast<uint32_t>((bits[i] & 0x7fffffffu) > 0x7f800000u);
@@ -214,13 +216,11 @@ __attribute__((target_clones("avx2", "default"))) bool AnyNaN(const float* v, in
 }
 
 // g *= c^k by repeated multiplication (left to right: p = 1 c c ... c), then non-finite -> 0.
-__attribute__((target_clones("avx2", "default"))) void PowerStep(const float* c, int width,
-                                                                 float* p) {
+TURBID_ROW_KERNEL void PowerStep(const float* c, int width, float* p) {
   for (int x = 0; x < width; ++x) p[x] *= c[x];
 }
 
-__attribute__((target_clones("avx2", "default"))) void MultiplyFiniteRow(const float* p, int width,
-                                                                         float* g) {
+TURBID_ROW_KERNEL void MultiplyFiniteRow(const float* p, int width, float* g) {
   for (int x = 0; x < width; ++x) {
     const float v = g[x] * p[x];
     g[x] = std::abs(v) <= std::numeric_limits<float>::max() ? v : 0.0f;
@@ -309,9 +309,9 @@ namespace {
 // out[x, c] += colour[c] g[x] exp(-beta[c] l[x]) for one row; NaN l (invalid depth) has g = 0.
 // kStore: out = ... instead (the first light; 0 + v = v, up to the sign of a zero).
 template <int kChannels, bool kStore>
-__attribute__((target_clones("avx2", "default"))) void AccumulateLightKernel(
-    const float* __restrict l, const float* __restrict g, int width, const float* neg_beta,
-    const float* color, float* __restrict out) {
+TURBID_ROW_KERNEL void AccumulateLightKernel(const float* __restrict l, const float* __restrict g,
+                                             int width, const float* neg_beta, const float* color,
+                                             float* __restrict out) {
   for (int x = 0; x < width; ++x) {
     const float range = std::max(0.0f, l[x]);  // NaN -> 0 without a branch
     for (int c = 0; c < kChannels; ++c) {

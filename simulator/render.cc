@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
 #include "simulator/image_pool.h"
 #include "simulator/kernels.h"
 #include "turbid_version.h"
@@ -110,8 +111,8 @@ std::string ListText(const std::vector<double>& values) {
 
 // Range along the viewing ray for one row: r = z sqrt(dx^2 + dy^2 + 1) in double, as
 // RangeFromDepth computes it (same bytes), with dx^2 per column precomputed.
-__attribute__((target_clones("avx2", "default"))) void RangeRow(const float* z, const double* dx2,
-                                                                double dy2, int width, float* r) {
+TURBID_ROW_KERNEL void RangeRow(const float* z, const double* dx2, double dy2, int width,
+                                float* r) {
   for (int x = 0; x < width; ++x) r[x] = static_cast<float>(z[x] * std::sqrt(dx2[x] + dy2 + 1.0));
 }
 
@@ -127,8 +128,7 @@ struct RangeStats {
   int64_t suspect = 0;
 };
 
-__attribute__((target_clones("avx2", "default"))) void RangeStatsRow(const float* r, int width,
-                                                                     RangeStats* stats) {
+TURBID_ROW_KERNEL void RangeStatsRow(const float* r, int width, RangeStats* stats) {
   // As unsigned integers, valid ranges lie in (0, 0x7f800000] (+inf at most) and every NaN above:
   // the minimum ignores NaN by itself, the maximum masks it to 0. One reduction per loop.
   const uint32_t* bits = reinterpret_cast<const uint32_t*>(r);  // NOLINT: float bits
@@ -153,9 +153,8 @@ __attribute__((target_clones("avx2", "default"))) void RangeStatsRow(const float
 
 // J = (E_A + E_L) rho for one row; e == nullptr: no artificial light.
 template <int kChannels>
-__attribute__((target_clones("avx2", "default"))) void LitRow(const float* rho, const float* e,
-                                                              const float* ambient, int width,
-                                                              float* out) {
+TURBID_ROW_KERNEL void LitRow(const float* rho, const float* e, const float* ambient, int width,
+                              float* out) {
   if (!e) {
     for (int x = 0; x < width; ++x)
       for (int c = 0; c < kChannels; ++c)
@@ -191,23 +190,19 @@ struct SeparableBlur {
 
 // out = k0 c[i] + sum_j k_j (a_j[i] + b_j[i]) with a_j, b_j = rows (vertical) or shifted views of
 // one padded row (horizontal); one vectorised pass per tap pair.
-__attribute__((target_clones("avx2", "default"))) void TapCentre(const float* c, float k0, int n,
-                                                                 float* out) {
+TURBID_ROW_KERNEL void TapCentre(const float* c, float k0, int n, float* out) {
   for (int i = 0; i < n; ++i) out[i] = k0 * c[i];
 }
 
-__attribute__((target_clones("avx2", "default"))) void TapPair(const float* a, const float* b,
-                                                               float kj, int n, float* out) {
+TURBID_ROW_KERNEL void TapPair(const float* a, const float* b, float kj, int n, float* out) {
   for (int i = 0; i < n; ++i) out[i] += kj * (a[i] + b[i]);
 }
 
 // The centre and three tap pairs in one pass (the paper's kernel has R = 3): the same sums in the
 // same order as TapCentre and three TapPair passes.
-__attribute__((target_clones("avx2", "default"))) void Taps3(const float* c, const float* a1,
-                                                             const float* b1, const float* a2,
-                                                             const float* b2, const float* a3,
-                                                             const float* b3, const float* k, int n,
-                                                             float* out) {
+TURBID_ROW_KERNEL void Taps3(const float* c, const float* a1, const float* b1, const float* a2,
+                             const float* b2, const float* a3, const float* b3, const float* k,
+                             int n, float* out) {
   for (int i = 0; i < n; ++i)
     out[i] =
         ((k[0] * c[i] + k[1] * (a1[i] + b1[i])) + k[2] * (a2[i] + b2[i])) + k[3] * (a3[i] + b3[i]);
@@ -240,16 +235,14 @@ void BlurRow(const SeparableBlur& blur, const float* const* rows, int width, flo
 }
 
 // I = Jb t (no veiling term).
-__attribute__((target_clones("avx2", "default"))) void ComposePlain(const float* jb, const float* t,
-                                                                    int n, float* out) {
+TURBID_ROW_KERNEL void ComposePlain(const float* jb, const float* t, int n, float* out) {
   for (int i = 0; i < n; ++i) out[i] = jb[i] * t[i];
 }
 
 // I = Jb t + (1 - t)(E_L + B_inf). kInPlace: out holds E_L on entry; e == nullptr: E_L = 0.
 template <int kChannels, bool kInPlace>
-__attribute__((target_clones("avx2", "default"))) void ComposeVeil(const float* jb, const float* t,
-                                                                   const float* e, const float* bs,
-                                                                   int width, float* out) {
+TURBID_ROW_KERNEL void ComposeVeil(const float* jb, const float* t, const float* e, const float* bs,
+                                   int width, float* out) {
   for (int x = 0; x < width; ++x)
     for (int c = 0; c < kChannels; ++c) {
       const int i = x * kChannels + c;
@@ -280,8 +273,7 @@ void VeilRow(const float* t, const float* e, const float* bs, int width, int cha
     }
 }
 
-__attribute__((target_clones("avx2", "default"))) void QuantiseRow(float* p, int n, float levels,
-                                                                   bool quantise) {
+TURBID_ROW_KERNEL void QuantiseRow(float* p, int n, float levels, bool quantise) {
   if (!quantise) {
     for (int i = 0; i < n; ++i) p[i] = std::min(std::max(p[i], 0.0f), 1.0f);
     return;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
 #include "simulator/fast_math.h"
 
 namespace turbid {
@@ -146,9 +147,8 @@ namespace {
 
 // t[x, c] = exp(-beta[c] r[x]); NaN range (open water) gives 0.
 template <int kChannels>
-__attribute__((target_clones("avx2", "default"))) void TransmissionRow(const float* r, int width,
-                                                                       const float* neg_beta,
-                                                                       float* out) {
+TURBID_ROW_KERNEL void TransmissionRow(const float* r, int width, const float* neg_beta,
+                                       float* out) {
   for (int x = 0; x < width; ++x) {
     // max(0, NaN) is 0 and keep is 0 for NaN: arithmetic selects keep the loop vectorisable.
     const float range = std::max(0.0f, r[x]);

@@ -32,21 +32,6 @@ json ReadJsonFile(const std::string& path) {
   }
 }
 
-// "--set key=value": value parsed as JSON, else taken as a string.
-void ApplySet(json& params, const std::string& assignment) {
-  const size_t eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0)
-    throw Error("--set '" + assignment + "': expected KEY=VALUE");
-  const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
-  json value;
-  try {
-    value = json::parse(text);
-  } catch (const json::exception&) {
-    value = text;
-  }
-  SetRenderParam(params, key, value);
-}
-
 std::string Extension(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -98,7 +83,7 @@ void RunRender(const RenderArgs& args) {
     SetRenderParam(params, "water.beta_rgb_per_m", json::array({r, g, b}));
     if (args.beta.size() == 1) SetRenderParam(params, "water.beta_gray_per_m", r);
   }
-  for (const std::string& s : args.sets) ApplySet(params, s);
+  for (const std::string& s : args.sets) ApplyRenderSet(params, s);
   if (args.seed >= 0) params["seed"] = static_cast<uint64_t>(args.seed);
   if (args.bit_depth) SetRenderParam(params, "camera.bit_depth", args.bit_depth);
   const std::string ext = args.out.empty() ? "" : Extension(args.out);

@@ -6,17 +6,17 @@
 #include <atomic>
 #include <cctype>
 #include <cmath>
-#include <mutex>
-#include <set>
-#include <thread>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
+#include <set>
 #include <sstream>
+#include <thread>
 
 #include "metrics/feature_matching.h"
 #include "metrics/registry.h"
@@ -26,6 +26,7 @@
 #include "tools/experiment.h"
 #include "tools/external_method.h"
 #include "tools/file_encoding.h"
+#include "tools/manifest.h"
 #include "tools/metric_image.h"
 #include "tools/tables.h"
 
@@ -123,47 +124,7 @@ Format ParseFormat(bool json, bool csv) {
 // ---------------------------------------------------------------------------------------------
 // Manifests: CSV with a header, or JSON lines; columns found by name.
 
-using Record = std::map<std::string, std::string>;
-
-std::vector<Record> ReadManifest(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw Error(path, "cannot open manifest");
-  std::vector<Record> records;
-  std::string line;
-  const bool jsonl = fs::path(path).extension() == ".jsonl" || fs::path(path).extension() == ".json";
-  if (jsonl) {
-    int number = 0;
-    while (std::getline(in, line)) {
-      ++number;
-      if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
-      nlohmann::json row;
-      try {
-        row = nlohmann::json::parse(line);
-      } catch (const std::exception&) {
-        throw Error(path, "line " + std::to_string(number) + " is not valid JSON");
-      }
-      Record record;
-      for (auto it = row.begin(); it != row.end(); ++it)
-        record[it.key()] = it->is_string() ? it->get<std::string>() : it->dump();
-      records.push_back(record);
-    }
-    return records;
-  }
-  std::vector<std::string> header;
-  while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
-    if (header.empty()) {
-      header = SplitCsvLine(line);
-      continue;
-    }
-    const std::vector<std::string> fields = SplitCsvLine(line);
-    Record record;
-    for (size_t i = 0; i < header.size() && i < fields.size(); ++i) record[header[i]] = fields[i];
-    records.push_back(record);
-  }
-  if (header.empty()) throw Error(path, "manifest is empty (expected a CSV header line)");
-  return records;
-}
+using Record = ManifestRecord;
 
 std::string Lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));

@@ -79,17 +79,60 @@ std::string FileEncodingName(const json& params, const std::string& format) {
   return CameraEncodingName(options.camera.FileEncoding());
 }
 
+// Typed reads of a config's optional keys: absent gives `fallback`; a value of the wrong type is an
+// Error naming the file and the key (nlohmann's value() throws its own type_error, and converts a
+// float or negative number to an integer silently or with undefined behaviour).
+double ConfigNumber(const json& object, const char* key, double fallback,
+                    const std::string& file, const std::string& where) {
+  if (!object.contains(key)) return fallback;
+  if (!object[key].is_number()) throw Error(file, where + key + ": must be a number");
+  return object[key].get<double>();
+}
+
+uint64_t ConfigSeed(const json& object, const char* key, uint64_t fallback,
+                    const std::string& file, const std::string& where) {
+  if (!object.contains(key)) return fallback;
+  const json& v = object[key];
+  if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<int64_t>() >= 0))
+    throw Error(file, where + key + ": must be an integer >= 0");
+  return v.get<uint64_t>();
+}
+
+const json& ConfigObject(const json& object, const char* key, const json& fallback,
+                         const std::string& file, const std::string& where) {
+  if (!object.contains(key)) return fallback;
+  if (!object[key].is_object()) throw Error(file, where + key + ": must be an object");
+  return object[key];
+}
+
 }  // namespace
 
 // SetPath for render parameters: indexing a light ("light.lights.0.power") starts from the
 // default light list when the parameters name none, so defaults are not written twice.
 void SetRenderParam(json& params, const std::string& path, const json& value) {
   if (path.rfind("light.lights.", 0) == 0 &&
-      !(params.contains("light") && params["light"].contains("lights"))) {
-    if (!params.contains("light")) params["light"] = json::object();
+      !(params.contains("light") && params["light"].is_object() &&
+        params["light"].contains("lights"))) {
+    // A "light" that is not an object is replaced, as SetPath replaces any non-object on a path.
+    if (!params.contains("light") || !params["light"].is_object()) params["light"] = json::object();
     params["light"]["lights"] = RenderOptionsToJson(RenderOptions{})["light"]["lights"];
   }
   SetPath(params, path, value);
+}
+
+// "--set key=value": value parsed as JSON, else taken as a string.
+void ApplyRenderSet(json& params, const std::string& assignment) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw Error("--set '" + assignment + "': expected KEY=VALUE");
+  const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+  json value;
+  try {
+    value = json::parse(text);
+  } catch (const json::exception&) {
+    value = text;
+  }
+  SetRenderParam(params, key, value);
 }
 
 json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::string& path) {
@@ -169,13 +212,16 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
     throw Error(config_path, "scenes: a non-empty array of scene specs is required");
   GenerateConfig out;
   out.source = config_path;
-  out.scale = config.value("scale", 1.0);
-  out.seed = config.value("seed", uint64_t{0});
+  const json empty = json::object();
+  out.scale = ConfigNumber(config, "scale", 1.0, config_path, "");
+  out.seed = ConfigSeed(config, "seed", 0, config_path, "");
+  if (config.contains("format") && !config["format"].is_string())
+    throw Error(config_path, "format: png or exr");
   out.format = config.value("format", std::string("png"));
   if (out.format != "png" && out.format != "exr") throw Error(config_path, "format: png or exr");
   // A preset's base and random draws come first; the config's own entries override them.
   out.base = preset["base"];
-  out.base.merge_patch(config.value("base", json::object()));
+  out.base.merge_patch(ConfigObject(config, "base", empty, config_path, ""));
   RenderOptionsFromJson(out.base);  // fail early on a bad base
 
   // Grid: cartesian product over dotted parameter paths, in key order. Its size (times the
@@ -215,11 +261,14 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   if (config.contains("random")) {
     const json& random = config["random"];
     if (!random.is_object()) throw Error(config_path, "random: must be an object");
-    out.samples = random.value("count", 1);
-    out.random_seed = random.value("seed", out.seed);
-    out.random_params = random.value("params", json::object());
-    if (out.samples < 1 || out.samples > 1000000)
-      throw Error(config_path, "random.count: must be in [1, 1e6]");
+    if (random.contains("count")) {
+      const json& count = random["count"];
+      if (!count.is_number_integer() || count.get<int64_t>() < 1 || count.get<int64_t>() > 1000000)
+        throw Error(config_path, "random.count: must be in [1, 1e6]");
+      out.samples = count.get<int>();
+    }
+    out.random_seed = ConfigSeed(random, "seed", out.seed, config_path, "random.");
+    out.random_params = ConfigObject(random, "params", empty, config_path, "random.");
   }
   if (!preset["random_params"].empty()) {
     json params = preset["random_params"];

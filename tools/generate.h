@@ -65,6 +65,9 @@ uint64_t GenerateItemSeed(uint64_t seed, uint64_t index);
 // Sets a render parameter at a dotted path ("psf.forward_scatter", "light.lights.0.power");
 // indexing a light starts from the default light list when the parameters name none.
 void SetRenderParam(nlohmann::json& params, const std::string& path, const nlohmann::json& value);
+// One `--set KEY=VALUE` of `turbid render`: VALUE parsed as JSON, else taken as a string, then
+// SetRenderParam(params, KEY, value). Throws Error for text without "=" or with an empty KEY.
+void ApplyRenderSet(nlohmann::json& params, const std::string& assignment);
 
 // Renders the dataset into out_dir (resumable; output bytes independent of `threads`).
 void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int threads);

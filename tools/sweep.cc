@@ -184,14 +184,15 @@ std::map<std::string, json> Journal::Load(bool repair) {
       json entry;
       try {
         entry = json::parse(line);
-      } catch (const json::parse_error&) {
+      } catch (const json::exception&) {  // parse_error, or out_of_range for a number like 1e999
         throw Error(path_, "line " + std::to_string(line_number) +
                                " is corrupt (not a partial "
                                "last line); move the file away to start over");
       }
-      const std::string id = entry.value("id", "");
-      if (id.empty()) throw Error(path_, "line " + std::to_string(line_number) + " has no id");
-      entries[id] = std::move(entry);
+      const json* id = entry.is_object() && entry.contains("id") ? &entry["id"] : nullptr;
+      if (!id || !id->is_string() || id->get<std::string>().empty())
+        throw Error(path_, "line " + std::to_string(line_number) + " has no id");
+      entries[id->get<std::string>()] = std::move(entry);
     }
     start = newline + 1;
     good_end = start;

@@ -132,7 +132,8 @@ TEST(HarnessExperiment, BadFilesAreRejectedWithOneLineErrors) {
   in["methods"] = {"fake_a", "nosuch"};
   expect_error(in, "unknown method 'nosuch'");
   in = FakeExperimentJson();
-  in["methods"] = {json{{"name", "fake_b"}, {"params", {{"gain", 1}}}}};
+  // json::array: a braced list holding one json is a copy of it under clang, an array under GCC.
+  in["methods"] = json::array({json{{"name", "fake_b"}, {"params", {{"gain", 1}}}}});
   expect_error(in, "has no parameter 'gain'");
   in = FakeExperimentJson();
   in["metrics"] = {"up", "nosuch"};

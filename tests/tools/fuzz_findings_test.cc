@@ -1,0 +1,129 @@
+// Regression tests of what the fuzzers of fuzz/ found (docs/reliability.md, "Fuzzing"): each input
+// that once escaped as a non-turbid::Error exception or a sanitizer report is now a one-line Error
+// naming the file and the key. The crash inputs themselves replay in fuzz/<name>.replay (build-san).
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <functional>
+#include <string>
+
+#include "scenes/error.h"
+#include "tests/support/test_support.h"
+#include "tools/generate.h"
+#include "tools/manifest.h"
+#include "tools/sweep.h"
+
+namespace turbid {
+namespace {
+
+using nlohmann::json;
+
+// The message `body` throws ("" when it throws nothing; marked when it is not a turbid::Error).
+std::string ErrorOf(const std::function<void()>& body) {
+  try {
+    body();
+  } catch (const Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("not a turbid::Error: ") + e.what();
+  }
+  return "";
+}
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+// The message ParseGenerateConfig throws for `config` ("" when it throws nothing or another type).
+std::string GenerateError(const json& config) {
+  try {
+    ParseGenerateConfig(config, "gen.json");
+  } catch (const Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    return std::string("not a turbid::Error: ") + e.what();
+  }
+  return "";
+}
+
+TEST(FuzzFindings, GenerateConfigWrongTypesAreErrorsNamingTheKey) {
+  const json base = {{"scenes", {"builtin:seafloor"}}, {"scale", 0.05}};
+  const struct {
+    const char* key;
+    json value;
+    const char* expected;
+  } cases[] = {
+      // generate_fuzzer: {"scenes": [...], "scale": {"count": 2, ...}} escaped as a JSON
+      // library type_error without the file or the key.
+      {"scale", json::object(), "gen.json: scale: must be a number"},
+      {"seed", -1, "gen.json: seed: must be an integer >= 0"},
+      {"seed", 1.5, "gen.json: seed: must be an integer >= 0"},
+      {"format", 3, "gen.json: format: png or exr"},
+      {"base", json::array(), "gen.json: base: must be an object"},
+      {"random", {{"count", 1e300}}, "gen.json: random.count: must be in [1, 1e6]"},
+      {"random", {{"count", "2"}}, "gen.json: random.count: must be in [1, 1e6]"},
+      {"random", {{"seed", "x"}}, "gen.json: random.seed: must be an integer >= 0"},
+      {"random", {{"params", json::array({1, 2})}}, "gen.json: random.params: must be an object"},
+  };
+  for (const auto& c : cases) {
+    json config = base;
+    config[c.key] = c.value;
+    EXPECT_EQ(GenerateError(config), c.expected) << config.dump();
+  }
+  EXPECT_EQ(GenerateError(base), "");
+}
+
+TEST(FuzzFindings, SetALightAfterSettingLightToANumber) {
+  // render_params_fuzzer: `--set light=7 --set light.lights.0.power=2` escaped as a JSON library
+  // type_error. As for any other path, the non-object on the way is replaced.
+  json params = json::object();
+  ApplyRenderSet(params, "light=7");
+  ApplyRenderSet(params, "light.lights.0.power=2");
+  ASSERT_TRUE(params["light"].is_object());
+  ASSERT_TRUE(params["light"]["lights"].is_array());
+  EXPECT_EQ(params["light"]["lights"][0]["power"], 2);
+  json replaced = {{"light", 7}};
+  ApplyRenderSet(replaced, "light.min_distance_m=0.5");
+  EXPECT_EQ(replaced["light"], json({{"min_distance_m", 0.5}}));
+}
+
+TEST(FuzzFindings, JournalLinesThatAreNotEntriesAreCorruptOrHaveNoId) {
+  // journal_fuzzer: a number too large for a double and an id that is not a string escaped as
+  // JSON library exceptions from Journal::Load (a resume, merge or report would print them).
+  testing::TempDir dir;
+  const std::string path = dir.path() + "/journal.jsonl";
+  const struct {
+    const char* text;
+    const char* problem;
+  } cases[] = {
+      {"{\"id\": \"a\", \"x\": 2.3e1964}\n", "line 1 is corrupt"},
+      {"{\"id\": 7}\n", "line 1 has no id"},
+      {"[1, 2]\n", "line 1 has no id"},
+      {"\"text\"\n", "line 1 has no id"},
+      {"{\"id\": \"\"}\n", "line 1 has no id"},
+  };
+  for (const auto& c : cases) {
+    WriteText(path, c.text);
+    const std::string message = ErrorOf([&] { Journal(path).Load(false); });
+    EXPECT_EQ(message.rfind(path + ": " + c.problem, 0), 0u) << c.text << " -> " << message;
+  }
+  WriteText(path, "{\"id\": \"a\"}\n{\"id\": \"b\", \"n\": 1}\n");
+  EXPECT_EQ(Journal(path).Load(false).size(), 2u);
+}
+
+TEST(FuzzFindings, ManifestJsonLinesMustBeObjects) {
+  // manifest_fuzzer: a .jsonl line holding an array escaped as nlohmann's invalid_iterator.
+  testing::TempDir dir;
+  const std::string path = dir.path() + "/manifest.jsonl";
+  WriteText(path, "{\"image\": \"a.png\"}\n[1, 2]\n");
+  EXPECT_EQ(ErrorOf([&] { ReadManifest(path); }), path + ": line 2 is not a JSON object");
+  WriteText(path, "{\"image\": \"a.png\", \"n\": 3}\n\n");
+  const std::vector<ManifestRecord> rows = ReadManifest(path);
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].at("n"), "3");
+}
+
+}  // namespace
+}  // namespace turbid
