@@ -242,7 +242,6 @@ cv::Mat ReduceChannels(const cv::Mat& m, int op) {
   return out.reshape(1, m.rows);
 }
 cv::Mat MaxOverChannels(const cv::Mat& m) { return ReduceChannels(m, cv::REDUCE_MAX); }
-cv::Mat MinOverChannels(const cv::Mat& m) { return ReduceChannels(m, cv::REDUCE_MIN); }
 
 // Pixels where any channel of t is below `floor` (NaN depth has t = 0): CV_8UC1, 255 = masked.
 cv::Mat MaskBelow(const cv::Mat& t, double floor) {

@@ -264,7 +264,7 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
     if (random.contains("count")) {
       const json& count = random["count"];
       if (!count.is_number_integer() || count.get<int64_t>() < 1 || count.get<int64_t>() > 1000000)
-        throw Error(config_path, "random.count: must be in [1, 1e6]");
+        throw Error(config_path, "random.count: must be an integer in [1, 1e6]");
       out.samples = count.get<int>();
     }
     out.random_seed = ConfigSeed(random, "seed", out.seed, config_path, "random.");

@@ -62,8 +62,8 @@ TEST(FuzzFindings, GenerateConfigWrongTypesAreErrorsNamingTheKey) {
       {"seed", 1.5, "gen.json: seed: must be an integer >= 0"},
       {"format", 3, "gen.json: format: png or exr"},
       {"base", json::array(), "gen.json: base: must be an object"},
-      {"random", {{"count", 1e300}}, "gen.json: random.count: must be in [1, 1e6]"},
-      {"random", {{"count", "2"}}, "gen.json: random.count: must be in [1, 1e6]"},
+      {"random", {{"count", 1e300}}, "gen.json: random.count: must be an integer in [1, 1e6]"},
+      {"random", {{"count", "2"}}, "gen.json: random.count: must be an integer in [1, 1e6]"},
       {"random", {{"seed", "x"}}, "gen.json: random.seed: must be an integer >= 0"},
       {"random", {{"params", json::array({1, 2})}}, "gen.json: random.params: must be an object"},
   };
