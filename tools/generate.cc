@@ -46,13 +46,17 @@ void SetPath(json& root, const std::string& path, const json& value) {
     const bool last = i + 1 == parts.size();
     const std::string& key = parts[i];
     if (node->is_array()) {
-      size_t index = 0;
-      try {
-        index = std::stoul(key);
-      } catch (...) {
-        throw Error("parameter path '" + path + "': '" + key + "' is not an array index");
-      }
-      while (node->size() <= index) node->push_back(json::object());
+      // An index into the list, or its size to append one entry; nothing further (a huge index
+      // would append entries until memory runs out).
+      const bool digits = !key.empty() && key.size() <= 9 &&
+                          key.find_first_not_of("0123456789") == std::string::npos;
+      if (!digits) throw Error("parameter path '" + path + "': '" + key + "' is not an array index");
+      const size_t index = std::stoul(key);
+      if (index > node->size())
+        throw Error("parameter path '" + path + "': index " + key +
+                    " is past the end of a list of " + std::to_string(node->size()) + " (index " +
+                    std::to_string(node->size()) + " appends one)");
+      if (index == node->size()) node->push_back(json::object());
       node = &(*node)[index];
     } else {
       if (!node->is_object()) *node = json::object();

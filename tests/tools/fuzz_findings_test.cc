@@ -11,6 +11,7 @@
 
 #include "scenes/error.h"
 #include "tests/support/test_support.h"
+#include "simulator/render.h"
 #include "tools/generate.h"
 #include "tools/manifest.h"
 #include "tools/sweep.h"
@@ -87,6 +88,31 @@ TEST(FuzzFindings, SetALightAfterSettingLightToANumber) {
   json replaced = {{"light", 7}};
   ApplyRenderSet(replaced, "light.min_distance_m=0.5");
   EXPECT_EQ(replaced["light"], json({{"min_distance_m", 0.5}}));
+}
+
+TEST(FuzzFindings, ALightIndexFarPastTheListIsAnError) {
+  // render_params_fuzzer: `--set light.lights.9999999999999.power=4` (and -1, read as the largest
+  // index) appended default lights until memory ran out. An index may be the list's size (append
+  // one) at most.
+  for (const char* bad : {"light.lights.9999999999999.power=4", "light.lights.-1.power=4",
+                          "light.lights.2.power=4", "light.lights.x.power=4"}) {
+    json params = json::object();
+    try {
+      ApplyRenderSet(params, bad);
+      ADD_FAILURE() << bad << " was accepted";
+    } catch (const Error& e) {
+      const std::string message = e.what();
+      EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+      EXPECT_TRUE(message.find("past the end") != std::string::npos ||
+                  message.find("not an array index") != std::string::npos)
+          << message;
+    }
+  }
+  json params = json::object();
+  ApplyRenderSet(params, "light.lights.1.power=4");  // the default list has one light: append
+  ASSERT_EQ(params["light"]["lights"].size(), 2u);
+  EXPECT_EQ(params["light"]["lights"][1]["power"], 4);
+  EXPECT_NO_THROW(RenderOptionsFromJson(params));
 }
 
 TEST(FuzzFindings, JournalLinesThatAreNotEntriesAreCorruptOrHaveNoId) {
