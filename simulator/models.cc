@@ -89,6 +89,16 @@ UwcnnOptions ResolveUwcnn(const UwcnnOptions& options) {
   return resolved;
 }
 
+namespace {
+
+// beta^D(r) = a exp(b r) + c exp(d r) of channel ch at range rr >= 0 (b, d <= 0).
+inline float SeaThruBeta(const float* a, const float* b, const float* c, const float* d, int ch,
+                         float rr) {
+  return a[ch] * internal::ExpNonPositive(b[ch] * rr) + c[ch] * internal::ExpNonPositive(d[ch] * rr);
+}
+
+}  // namespace
+
 void SeaThruTransmissionRow(const float* range_row, int width, int channels, const float* a,
                             const float* b, const float* c, const float* d, float* out) {
   for (int x = 0; x < width; ++x) {
@@ -99,10 +109,18 @@ void SeaThruTransmissionRow(const float* range_row, int width, int channels, con
         continue;
       }
       const float rr = std::max(r, 0.0f);
-      const float beta = a[ch] * internal::ExpNonPositive(b[ch] * rr) +
-                         c[ch] * internal::ExpNonPositive(d[ch] * rr);
-      out[x * channels + ch] = internal::ExpNonPositive(-beta * rr);
+      out[x * channels + ch] = internal::ExpNonPositive(-SeaThruBeta(a, b, c, d, ch, rr) * rr);
     }
+  }
+}
+
+void SeaThruThicknessRow(const float* range_row, int width, int channels, const float* a,
+                         const float* b, const float* c, const float* d, float* out) {
+  for (int x = 0; x < width; ++x) {
+    const float r = range_row[x];
+    const float rr = std::max(r, 0.0f);
+    for (int ch = 0; ch < channels; ++ch)
+      out[x * channels + ch] = r == r ? SeaThruBeta(a, b, c, d, ch, rr) * rr : r;  // NaN stays
   }
 }
 

@@ -69,5 +69,9 @@ UwcnnOptions ResolveUwcnn(const UwcnnOptions& options);
 // coefficients: 4 vectors (a, b, c, d) of `channels` values each.
 void SeaThruTransmissionRow(const float* range_row, int width, int channels, const float* a,
                             const float* b, const float* c, const float* d, float* out);
+// The optical thickness of the same direct path, beta^D_c(r) r (-ln of the above); NaN range stays
+// NaN. For the turbidity-dependent PSF (simulator/psf.h).
+void SeaThruThicknessRow(const float* range_row, int width, int channels, const float* a,
+                         const float* b, const float* c, const float* d, float* out);
 
 }  // namespace turbid

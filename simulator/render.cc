@@ -654,16 +654,14 @@ namespace {
 // beta^D_c(r) r with Sea-thru's range-dependent coefficient. NaN where the range is NaN.
 cv::Mat ThicknessMap(const Decisions& d, const cv::Mat& range_m, int channels) {
   if (!d.sea_thru) return ThicknessFromRange(range_m, d.beta);
+  std::vector<float> coefficients[4];  // a, b, c, d in float, as pass B uses them
+  const std::vector<double>* from[4] = {&d.sea_a, &d.sea_b, &d.sea_c, &d.sea_d};
+  for (int k = 0; k < 4; ++k) coefficients[k].assign(from[k]->begin(), from[k]->end());
   cv::Mat out(range_m.size(), CV_32FC(channels));
-  for (int y = 0; y < range_m.rows; ++y) {
-    const float* r = range_m.ptr<float>(y);
-    float* o = out.ptr<float>(y);
-    for (int x = 0; x < range_m.cols; ++x)
-      for (int c = 0; c < channels; ++c)
-        o[x * channels + c] = static_cast<float>(
-            (d.sea_a[c] * std::exp(d.sea_b[c] * r[x]) + d.sea_c[c] * std::exp(d.sea_d[c] * r[x])) *
-            r[x]);
-  }
+  for (int y = 0; y < range_m.rows; ++y)
+    SeaThruThicknessRow(range_m.ptr<float>(y), range_m.cols, channels, coefficients[0].data(),
+                        coefficients[1].data(), coefficients[2].data(), coefficients[3].data(),
+                        out.ptr<float>(y));
   return out;
 }
 

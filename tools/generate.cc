@@ -265,12 +265,7 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   if (config.contains("random")) {
     const json& random = config["random"];
     if (!random.is_object()) throw Error(config_path, "random: must be an object");
-    if (random.contains("count")) {
-      const json& count = random["count"];
-      if (!count.is_number_integer() || count.get<int64_t>() < 1 || count.get<int64_t>() > 1000000)
-        throw Error(config_path, "random.count: must be an integer in [1, 1e6]");
-      out.samples = count.get<int>();
-    }
+    out.samples = static_cast<int>(samples);  // checked above, before the grid was expanded
     out.random_seed = ConfigSeed(random, "seed", out.seed, config_path, "random.");
     out.random_params = ConfigObject(random, "params", empty, config_path, "random.");
   }

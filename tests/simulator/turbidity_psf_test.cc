@@ -113,10 +113,9 @@ TEST(TurbidityPsf, ExactWherePiecewiseConstant) {
   cv::Mat t(image.size(), CV_32FC3);
   for (int y = 0; y < t.rows; ++y)
     for (int x = 0; x < t.cols; ++x) {
-      const bool left = x < 20, top = y < 15;
-      t.at<cv::Vec3f>(y, x) = left ? cv::Vec3f(0.3f, 1.0f, 2.5f)
-                                   : (top ? cv::Vec3f(4.0f, 0.08f, 9.0f)
-                                          : cv::Vec3f(0.3f, 1.0f, 2.5f));
+      const bool top_right = x >= 20 && y < 15;
+      t.at<cv::Vec3f>(y, x) =
+          top_right ? cv::Vec3f(4.0f, 0.08f, 9.0f) : cv::Vec3f(0.3f, 1.0f, 2.5f);
     }
   const TurbidityPsf plan = PlanTurbidityPsf(o, t);
   ASSERT_TRUE(plan.exact);

@@ -21,6 +21,11 @@ TempDir::TempDir() {
   fs::create_directories(path_);
 }
 
+std::string TempDir::Write(const std::string& name, const std::string& text) const {
+  std::ofstream(File(name), std::ios::binary) << text;
+  return File(name);
+}
+
 TempDir::~TempDir() {
   std::error_code ec;
   fs::remove_all(path_, ec);

@@ -16,6 +16,8 @@ class TempDir {
   TempDir& operator=(const TempDir&) = delete;
   const std::string& path() const { return path_; }
   std::string File(const std::string& name) const { return path_ + "/" + name; }
+  // Writes `text` (bytes as they are) to File(name) and returns that path.
+  std::string Write(const std::string& name, const std::string& text) const;
 
  private:
   std::string path_;

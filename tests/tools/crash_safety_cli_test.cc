@@ -48,11 +48,6 @@ const char* kGenerate = R"({
   "grid": {"water.type": ["I", "III"]}
 })";
 
-std::string WriteFile(const TempDir& dir, const std::string& name, const std::string& text) {
-  std::ofstream(dir.File(name), std::ios::binary) << text;
-  return dir.File(name);
-}
-
 // Runs turbid with `args` under RLIMIT_FSIZE = limit_bytes (SIGXFSZ left at its default action, so
 // that a turbid that did not ignore it would die of it). Returns the exit code, or 128 + signal.
 int RunWithFileSizeLimit(rlim_t limit_bytes, const std::vector<std::string>& args,
@@ -101,7 +96,7 @@ void ExpectOneErrorLine(const std::string& err, const std::string& part) {
 
 TEST(CrashSafetyCli, GenerateUnderAFileSizeLimitLeavesNoHalfWrittenFile) {
   TempDir dir;
-  const std::string config = WriteFile(dir, "gen.json", kGenerate);
+  const std::string config = dir.Write("gen.json", kGenerate);
   ASSERT_EQ(RunTurbid({"generate", config, "--out", dir.File("ref")}).exit_code, 0);
   const auto reference = Files(dir.File("ref"));
   // A limit the sidecars fit in and some image files do not.
@@ -132,7 +127,7 @@ TEST(CrashSafetyCli, SweepUnderAFileSizeLimitKeepsTheJournalWhole) {
   std::string text = kExperiment;
   text.replace(text.find("[\"I\", \"II\", \"3C\"]"), 17,
                "[\"I\", \"IA\", \"IB\", \"II\", \"III\", \"1C\", \"3C\", \"5C\"]");
-  const std::string exp = WriteFile(dir, "exp.json", text);
+  const std::string exp = dir.Write("exp.json", text);
   ASSERT_EQ(RunTurbid({"sweep", exp, "--out", dir.File("ref"), "--quiet"}).exit_code, 0);
   // A limit experiment.json and the thumbnails fit in and the journal does not: a few lines are
   // appended, then an append fails in the middle of a line.
@@ -159,8 +154,8 @@ TEST(CrashSafetyCli, SweepUnderAFileSizeLimitKeepsTheJournalWhole) {
 
 TEST(CrashSafetyCli, TheNextRunRemovesTemporariesOfKilledWrites) {
   TempDir dir;
-  const std::string exp = WriteFile(dir, "exp.json", kExperiment);
-  const std::string config = WriteFile(dir, "gen.json", kGenerate);
+  const std::string exp = dir.Write("exp.json", kExperiment);
+  const std::string config = dir.Write("gen.json", kGenerate);
   for (int shard = 0; shard < 2; ++shard) {
     const std::string out = dir.File("s" + std::to_string(shard));
     ASSERT_EQ(

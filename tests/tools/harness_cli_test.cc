@@ -44,11 +44,6 @@ const char* kTinyExperiment = R"({
   "thumbnails": 48
 })";
 
-std::string WriteFile(const TempDir& dir, const std::string& name, const std::string& text) {
-  std::ofstream(dir.File(name), std::ios::binary) << text;
-  return dir.File(name);
-}
-
 void ExpectSameTables(const std::string& a, const std::string& b) {
   for (const std::string& name : DeterministicOutputs()) {
     const std::string left = ReadFileText(a + "/" + name);
@@ -71,7 +66,7 @@ int RowsOf(const std::string& csv, const std::string& method) {
 
 TEST(HarnessCli, OneAndTwoThreadsGiveIdenticalBytes) {
   TempDir dir;
-  const std::string exp = WriteFile(dir, "tiny.json", kTinyExperiment);
+  const std::string exp = dir.Write("tiny.json", kTinyExperiment);
   const CliRun one = RunTurbid({"sweep", exp, "--out", dir.File("t1"), "--threads", "1"});
   ASSERT_EQ(one.exit_code, 0) << one.err;
   const CliRun two = RunTurbid({"sweep", exp, "--out", dir.File("t2"), "--threads", "2"});
@@ -110,7 +105,7 @@ TEST(HarnessCli, BadExperimentsAreRejectedBeforeAnyWork) {
     const size_t at = text.find(c.patch_from);
     ASSERT_NE(at, std::string::npos) << c.patch_from;
     text.replace(at, c.patch_from.size(), c.patch_to);
-    const std::string exp = WriteFile(dir, "bad.json", text);
+    const std::string exp = dir.Write("bad.json", text);
     const CliRun run = RunTurbid({"sweep", exp, "--out", dir.File("never")});
     EXPECT_EQ(run.exit_code, 1) << c.message;
     EXPECT_NE(run.err.find(c.message), std::string::npos) << run.err;
@@ -123,7 +118,7 @@ TEST(HarnessCli, BadExperimentsAreRejectedBeforeAnyWork) {
   text.replace(text.find("\"grid\""), 6, "\"unused_grid\"");
   text.replace(text.find("\"unused_grid\""), 13, "\"comment\"");
   const CliRun run =
-      RunTurbid({"sweep", WriteFile(dir, "empty.json", text), "--out", dir.File("never")});
+      RunTurbid({"sweep", dir.Write("empty.json", text), "--out", dir.File("never")});
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("empty grid"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(dir.File("never")));
@@ -141,7 +136,7 @@ TEST(HarnessCli, KillNineThenRerunCompletesTheSweep) {
   text.replace(text.rfind('}'), 1,
                ", \"grid\": {\"water.type\": [\"I\", \"IA\", \"IB\", \"II\", \"III\", \"1C\", "
                "\"3C\", \"5C\"]}}");
-  const std::string exp = WriteFile(dir, "kill.json", text);
+  const std::string exp = dir.Write("kill.json", text);
   ASSERT_EQ(RunTurbid({"sweep", exp, "--out", dir.File("reference")}).exit_code, 0);
   for (int kill_after_ms : {150, 300}) {
     const pid_t child = fork();
@@ -174,7 +169,7 @@ TEST(HarnessCli, KillNineThenRerunCompletesTheSweep) {
 
 TEST(HarnessCli, ShardsMergeToTheUnshardedResult) {
   TempDir dir;
-  const std::string exp = WriteFile(dir, "tiny.json", kTinyExperiment);
+  const std::string exp = dir.Write("tiny.json", kTinyExperiment);
   ASSERT_EQ(RunTurbid({"sweep", exp, "--out", dir.File("whole"), "--quiet"}).exit_code, 0);
   for (int i = 0; i < 3; ++i) {
     const CliRun shard = RunTurbid({"sweep", exp, "--out", dir.File("s" + std::to_string(i)),
@@ -197,13 +192,13 @@ TEST(HarnessCli, ShardsMergeToTheUnshardedResult) {
 
 TEST(HarnessCli, RegressCatchesAPerturbedMethod) {
   TempDir dir;
-  const std::string exp = WriteFile(dir, "tiny.json", kTinyExperiment);
+  const std::string exp = dir.Write("tiny.json", kTinyExperiment);
   ASSERT_EQ(RunTurbid({"sweep", exp, "--out", dir.File("base"), "--quiet"}).exit_code, 0);
   // The same experiment with dcp perturbed: a much weaker haze removal under the same label.
   std::string text = kTinyExperiment;
   text.replace(text.find("\"dcp\"]"), 6,
                "{\"name\": \"dcp\", \"label\": \"dcp\", \"params\": {\"omega\": 0.2}}]");
-  const std::string perturbed_exp = WriteFile(dir, "perturbed.json", text);
+  const std::string perturbed_exp = dir.Write("perturbed.json", text);
   ASSERT_EQ(
       RunTurbid({"sweep", perturbed_exp, "--out", dir.File("perturbed"), "--quiet"}).exit_code, 0);
   const std::string baseline = dir.File("base/items.csv");
@@ -265,7 +260,7 @@ TEST(HarnessCli, CommittedDemoBaselineCatchesAWorseMethod) {
     out << "\n";
   }
   ASSERT_GT(changed, 0);
-  WriteFile(dir, "worse.csv", out.str());
+  dir.Write("worse.csv", out.str());
   const CliRun worse = RunTurbid({"regress", "--baseline", baseline, dir.File("worse.csv")});
   EXPECT_EQ(worse.exit_code, 1) << worse.out;
   EXPECT_NE(worse.out.find("REGRESSED"), std::string::npos) << worse.out;
@@ -275,7 +270,7 @@ TEST(HarnessCli, CommittedDemoBaselineCatchesAWorseMethod) {
 
 TEST(HarnessCli, ReportLoadsInHeadlessChromium) {
   TempDir dir;
-  const std::string exp = WriteFile(dir, "tiny.json", kTinyExperiment);
+  const std::string exp = dir.Write("tiny.json", kTinyExperiment);
   ASSERT_EQ(RunTurbid({"sweep", exp, "--out", dir.File("out"), "--quiet"}).exit_code, 0);
   const CliRun report = RunTurbid({"report", dir.File("out")});
   ASSERT_EQ(report.exit_code, 0) << report.err;
@@ -309,7 +304,7 @@ TEST(HarnessCli, ReportLoadsInHeadlessChromium) {
 
 TEST(HarnessCli, DryRunCountsItems) {
   TempDir dir;
-  const std::string exp = WriteFile(dir, "tiny.json", kTinyExperiment);
+  const std::string exp = dir.Write("tiny.json", kTinyExperiment);
   const CliRun run =
       RunTurbid({"sweep", exp, "--out", dir.File("o"), "--dry-run", "--shard", "1/2"});
   ASSERT_EQ(run.exit_code, 0) << run.err;

@@ -30,11 +30,6 @@ const char* kExperiment = R"({
   "thumbnails": 48
 })";
 
-std::string WriteFile(const TempDir& dir, const std::string& name, const std::string& text) {
-  std::ofstream(dir.File(name), std::ios::binary) << text;
-  return dir.File(name);
-}
-
 void ExpectOneErrorLine(const std::string& err, const std::string& part) {
   EXPECT_EQ(err.rfind("turbid: error: ", 0), 0u) << err;
   EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
@@ -58,7 +53,7 @@ TEST(LimitsCli, HugeSweepsAndDatasetsAreRefusedUpFront) {
   TempDir dir;
   unsetenv("TURBID_MAX_ITEMS");
   const std::string huge_grid = BigGrid(3, 1000);  // 10^9 grid points
-  const std::string exp = WriteFile(dir, "huge.json",
+  const std::string exp = dir.Write("huge.json",
                                     R"({"name": "huge", "scale": 0.1,
       "scenes": ["builtin:hull"], "methods": ["clahe"], "metrics": ["ssim"], "grid": )" +
                                         huge_grid + "}");
@@ -69,13 +64,13 @@ TEST(LimitsCli, HugeSweepsAndDatasetsAreRefusedUpFront) {
                      "the limit of 1000000 (raise it with the environment variable "
                      "TURBID_MAX_ITEMS)");
   const std::string gen =
-      WriteFile(dir, "huge_gen.json",
+      dir.Write("huge_gen.json",
                 R"({"scenes": ["builtin:hull"], "scale": 0.1, "grid": )" + huge_grid + "}");
   const CliRun generate = RunTurbid({"generate", gen, "--out", dir.File("never")});
   EXPECT_EQ(generate.exit_code, 1);
   ExpectOneErrorLine(generate.err, "has 1000000000 items, more than the limit of 1000000");
-  const std::string sampled = WriteFile(
-      dir, "sampled_gen.json",
+  const std::string sampled = dir.Write(
+      "sampled_gen.json",
       R"({"scenes": ["builtin:hull", "builtin:seafloor"], "scale": 0.1, "grid": )" +
           BigGrid(1, 1000) +
           R"(, "random": {"count": 1000000, "params": {"psf.forward_scatter": {"uniform": [0.5, 0.9]}}}})");
@@ -87,12 +82,12 @@ TEST(LimitsCli, HugeSweepsAndDatasetsAreRefusedUpFront) {
   std::string scaled = kExperiment;
   scaled.replace(scaled.find("\"scale\": 0.1"), 12, "\"scale\": 100000");
   const CliRun big_scale =
-      RunTurbid({"sweep", WriteFile(dir, "scaled.json", scaled), "--out", dir.File("never")});
+      RunTurbid({"sweep", dir.Write("scaled.json", scaled), "--out", dir.File("never")});
   EXPECT_EQ(big_scale.exit_code, 1);
   ExpectOneErrorLine(big_scale.err, "'scale' must be in (0, 1]");
 
   // The variable moves the limit: 6 items pass at 6 and are refused at 5.
-  const std::string small = WriteFile(dir, "small.json", kExperiment);
+  const std::string small = dir.Write("small.json", kExperiment);
   setenv("TURBID_MAX_ITEMS", "5", 1);
   const CliRun refused = RunTurbid({"sweep", small, "--out", dir.File("never"), "--dry-run"});
   setenv("TURBID_MAX_ITEMS", "6", 1);
@@ -106,7 +101,7 @@ TEST(LimitsCli, HugeSweepsAndDatasetsAreRefusedUpFront) {
 TEST(LimitsCli, AHugeImageHeaderIsOneLine) {
   TempDir dir;
   unsetenv("TURBID_MAX_PIXELS");
-  WriteFile(dir, "huge.pgm", "P5\n100000 100000\n255\n" + std::string(16, '\0'));
+  dir.Write("huge.pgm", "P5\n100000 100000\n255\n" + std::string(16, '\0'));
   const CliRun run = RunTurbid({"enhance", "-m", "clahe", dir.File("huge.pgm"), dir.File("o.png")});
   EXPECT_EQ(run.exit_code, 1);
   ExpectOneErrorLine(run.err,
