@@ -33,11 +33,18 @@
 #include "scenes/error.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
+#include "tools/bench_cases.h"
 #include "tools/cli.h"
 #include "turbid_version.h"
 
 namespace turbid {
 namespace {
+
+using bench::BenchCase;
+using bench::Format;
+using bench::Goal;
+using bench::InteriorMaxDiff;
+using bench::Inputs;
 
 struct BenchArgs {
   std::string filter = ".*";
@@ -50,67 +57,6 @@ struct BenchArgs {
   bool force = false;
   bool warm_allocator = false;  // keep freed memory in the heap (no fresh pages per call)
 };
-
-// A goal: the ratio peer/ours at least `min_ratio`, or ours at most `max_ms` milliseconds.
-struct Goal {
-  double min_ratio = 0.0;
-  double max_ms = 0.0;
-  std::string source;  // the issue item it comes from
-};
-
-struct BenchCase {
-  std::string name;
-  std::string peer_name;  // empty: no peer (absolute goal)
-  std::function<void()> ours;
-  std::function<void()> peer;
-  std::function<std::string()> agreement;  // how far the outputs agree; run once, untimed
-  Goal goal;
-};
-
-// The shared inputs, built once and only when a selected case needs them.
-struct Inputs {
-  double scale = 1.0;
-  Scene hull_gray;
-  Scene hull_color;
-  cv::Mat clean_gray8, degraded_gray8, clean_color8, degraded_color8;
-  cv::Mat clean_gray_f, degraded_gray_f;
-  cv::Mat degraded_gray_linear;  // float render output, the enhancers' input
-
-  explicit Inputs(double s) : scale(s) {
-    BuiltinSceneOptions so;
-    so.scale = s;
-    hull_gray = MakeBuiltinScene("hull", so);
-    hull_color = hull_gray;
-    cv::merge(std::vector<cv::Mat>{hull_gray.image * 0.8, hull_gray.image * 0.95, hull_gray.image},
-              hull_color.image);
-    hull_color.name = "hull_color";
-    RenderOptions o;
-    o.water.type = "3C";
-    o.seed = 1;
-    o.camera.encoding = CameraEncoding::kLinear;  // the peers read these values as 8-bit codes
-    const cv::Mat gray = Render(o, hull_gray).image;
-    const cv::Mat color = Render(o, hull_color).image;
-    degraded_gray_linear = gray;
-    gray.convertTo(degraded_gray8, CV_8U, 255.0);
-    color.convertTo(degraded_color8, CV_8U, 255.0);
-    hull_gray.image.convertTo(clean_gray8, CV_8U, 255.0);
-    hull_color.image.convertTo(clean_color8, CV_8U, 255.0);
-    clean_gray8.convertTo(clean_gray_f, CV_32F, 1.0 / 255.0);
-    degraded_gray8.convertTo(degraded_gray_f, CV_32F, 1.0 / 255.0);
-  }
-};
-
-std::string Format(const char* format, double value) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, format, value);
-  return buf;
-}
-
-double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int border) {
-  const cv::Rect inner(border, border, a.cols - 2 * border, a.rows - 2 * border);
-  if (inner.width <= 0 || inner.height <= 0) return cv::norm(a, b, cv::NORM_INF);
-  return cv::norm(a(inner), b(inner), cv::NORM_INF);
-}
 
 std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
   std::vector<BenchCase> cases;
