@@ -170,7 +170,8 @@ struct ClaheBaselineOptions {
   bool Check(std::string* why) const;
 };
 
-cv::Mat ClaheBaseline(const ClaheBaselineOptions& options, const cv::Mat& image);
+// rgb: a colour image in R, G, B order (the result keeps it); the same values as for B, G, R.
+cv::Mat ClaheBaseline(const ClaheBaselineOptions& options, const cv::Mat& image, bool rgb = false);
 
 // ---------------------------------------------------------------------------------------------
 // fusion

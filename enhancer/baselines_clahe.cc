@@ -1,6 +1,7 @@
 // CLAHE alone (uniform target) as a baseline, on luminance for colour. See enhancer/baselines.h.
 #include <algorithm>
 #include <cmath>
+#include <vector>
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/baselines.h"
@@ -10,12 +11,36 @@
 namespace turbid {
 namespace baselines_internal {
 
-cv::Mat Luminance(const cv::Mat& image) {
+cv::Mat Luminance(const cv::Mat& image, bool rgb) {
   CV_Assert(image.depth() == CV_32F && (image.channels() == 1 || image.channels() == 3));
   if (image.channels() == 1) return image.clone();
   cv::Mat luminance;
   // Rec. 709 / sRGB primaries on linear data, BGR order.
-  cv::transform(image, luminance, cv::Matx13f(0.0722f, 0.7152f, 0.2126f));
+  const cv::Matx13f weights(0.0722f, 0.7152f, 0.2126f);
+  if (!rgb) {
+    cv::transform(image, luminance, weights);
+    return luminance;
+  }
+  // R, G, B: bands of rows reordered into a small buffer (in cache) and transformed as one image.
+  // cv::transform computes each pixel alone, so the values equal the whole B, G, R image's
+  // (tests/enhancer/channel_order_test.cc).
+  luminance.create(image.size(), CV_32F);
+  const int band = std::max(1, 8192 / image.cols);
+  std::vector<float> bgr(static_cast<size_t>(band) * image.cols * 3);
+  for (int y0 = 0; y0 < image.rows; y0 += band) {
+    const int rows = std::min(band, image.rows - y0);
+    for (int y = y0; y < y0 + rows; ++y) {
+      const float* s = image.ptr<float>(y);
+      float* d = bgr.data() + static_cast<size_t>(y - y0) * image.cols * 3;
+      for (int x = 0; x < image.cols; ++x) {
+        d[3 * x] = s[3 * x + 2];
+        d[3 * x + 1] = s[3 * x + 1];
+        d[3 * x + 2] = s[3 * x];
+      }
+    }
+    cv::Mat out = luminance.rowRange(y0, y0 + rows);
+    cv::transform(cv::Mat(rows, image.cols, CV_32FC3, bgr.data()), out, weights);
+  }
   return luminance;
 }
 
@@ -55,10 +80,10 @@ bool ClaheBaselineOptions::Check(std::string* why) const {
   return true;
 }
 
-cv::Mat ClaheBaseline(const ClaheBaselineOptions& options, const cv::Mat& image) {
+cv::Mat ClaheBaseline(const ClaheBaselineOptions& options, const cv::Mat& image, bool rgb) {
   baselines_internal::ValidateImage(image, "clahe");
   ThrowIfInvalid(options, "clahe");
-  const cv::Mat luminance = baselines_internal::Luminance(image);
+  const cv::Mat luminance = baselines_internal::Luminance(image, rgb);
   const cv::Mat equalised = baselines_internal::ClaheGray(
       luminance, options.tiles_x, options.tiles_y, options.clip_limit, options.bins);
   return baselines_internal::ReplaceLuminance(image, luminance, equalised);

@@ -29,7 +29,8 @@ cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission,
 void ClampUnit(cv::Mat& image);
 
 // Luminance of a linear BGR image (Rec. 709 weights); gray images are returned as is (a copy).
-cv::Mat Luminance(const cv::Mat& image);
+// rgb: the image is in R, G, B order; the values are the same as for its B, G, R twin.
+cv::Mat Luminance(const cv::Mat& image, bool rgb = false);
 // Replaces the luminance of `image` by `new_luminance`, scaling the three channels by the ratio so
 // hue and saturation stay; pixels with zero luminance become gray. Output clamped to [0,1].
 cv::Mat ReplaceLuminance(const cv::Mat& image, const cv::Mat& luminance,

@@ -60,8 +60,9 @@ MethodEntry ClaheEntry() {
     ParamBinder b("clahe", params);
     BindClahe(b, "", &o);
     b.Finish(o);
-    return ClaheBaseline(o, input.image);
+    return ClaheBaseline(o, input.image, input.rgb);
   };
+  e.rgb_native = true;  // luminance weights follow the order; the channels share one gain
   return e;
 }
 

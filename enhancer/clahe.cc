@@ -606,11 +606,12 @@ cv::Mat Clahe(const ClaheOptions& options, const cv::Mat& image, ClaheStats* sta
   }
   // Colour: equalise Rec. 709 luminance, scale the channels by the luminance ratio (hue kept).
   cv::Mat lum(image.size(), CV_32F);
+  const int b = options.rgb ? 2 : 0, r = options.rgb ? 0 : 2;
   for (int y = 0; y < image.rows; ++y) {
     const cv::Vec3f* s = image.ptr<cv::Vec3f>(y);
     float* l = lum.ptr<float>(y);
     for (int x = 0; x < image.cols; ++x) {
-      l[x] = 0.0722f * s[x][0] + 0.7152f * s[x][1] + 0.2126f * s[x][2];
+      l[x] = 0.0722f * s[x][b] + 0.7152f * s[x][1] + 0.2126f * s[x][r];
     }
   }
   // A non-finite channel makes the luminance non-finite (positive weights summing to 1, so finite

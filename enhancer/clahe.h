@@ -54,6 +54,9 @@ struct ClaheOptions {
   // keep_mean's floor: the mapped mean is max(input mean, min_mean), in [0, 0.6], so an
   // underexposed image is still brought up to this mean (and no further).
   double min_mean = 0.0;
+  // Not a method parameter: a colour image is in R, G, B order (turbid's is B, G, R). Only the
+  // luminance weights depend on it; the values are the same as for the reordered image.
+  bool rgb = false;
 
   bool Check(std::string* why) const;
 };

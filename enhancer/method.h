@@ -27,6 +27,9 @@ struct MethodEntry {
   // Optional: whether these parameter overrides make the method privileged (a variant that reads
   // true simulation parameters); info.privileged covers the defaults. Throws like `run`'s binding.
   std::function<bool(const nlohmann::json& params)> privileged_with;
+  // `run` honours EnhanceInput::rgb (a 3-channel image in R, G, B order) and returns the same
+  // order; otherwise Enhance hands it B, G, R and reorders the result.
+  bool rgb_native = false;
 };
 
 // Binds a JSON params object onto an Options struct strictly:

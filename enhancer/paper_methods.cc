@@ -1016,8 +1016,11 @@ MethodEntry SimplifiedEntry() {
   };
   for (MethodParam& p : ClahePar("clahe_", d.clahe)) e.info.params.push_back(p);
   e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
-    return SimplifiedEnhance(BindSimplified(params), in.image);
+    SimplifiedOptions o = BindSimplified(params);
+    o.clahe.rgb = in.rgb;  // the guided filters and the detail boost are per channel
+    return SimplifiedEnhance(o, in.image);
   };
+  e.rgb_native = true;
   return e;
 }
 

@@ -2,8 +2,10 @@
 // baselines (baselines.h), in that order.
 #include "enhancer/registry.h"
 
+#include <algorithm>
 #include <map>
 #include <mutex>
+#include <opencv2/imgproc.hpp>
 
 #include "enhancer/baselines.h"
 #include "enhancer/method.h"
@@ -63,15 +65,36 @@ cv::Mat Enhance(const std::string& name, const nlohmann::json& params, const Enh
   }
   ValidateEnhanceImage(input.image, name);
   const nlohmann::json empty = nlohmann::json::object();
-  cv::Mat out = entry.run(params.is_null() ? empty : params, input);
+  const bool reorder = input.rgb && input.image.channels() == 3 && !entry.rgb_native;
+  cv::Mat out;
+  if (reorder) {
+    EnhanceInput bgr = input;
+    bgr.image = cv::Mat();  // a new buffer: the copied header still points at the caller's pixels
+    cv::cvtColor(input.image, bgr.image, cv::COLOR_RGB2BGR);
+    bgr.rgb = false;
+    out = entry.run(params.is_null() ? empty : params, bgr);
+  } else {
+    out = entry.run(params.is_null() ? empty : params, input);
+  }
   if (out.size() != input.image.size() || out.channels() != input.image.channels() ||
       out.depth() != CV_32F) {
     throw Error(name + ": internal error: output size, channels or type differ from the input");
   }
-  cv::patchNaNs(out, 0.0);
-  cv::min(out, 1.0, out);
-  cv::max(out, 0.0, out);
+  // An output that shares the input's memory (a method returning its input) is copied first.
+  if (out.data == input.image.data) out = out.clone();
+  ClampEnhanceOutput(out);
+  if (reorder) cv::cvtColor(out, out, cv::COLOR_BGR2RGB);
   return out;
+}
+
+void ClampEnhanceOutput(cv::Mat& image) {
+  CV_Assert(image.depth() == CV_32F);
+  const int n = image.cols * image.channels();
+  for (int y = 0; y < image.rows; ++y) {
+    float* p = image.ptr<float>(y);
+    // max(0, v) is 0 for NaN and -0 (the comparison 0 < v is false), as patchNaNs then cv::max.
+    for (int i = 0; i < n; ++i) p[i] = std::min(std::max(0.0f, p[i]), 1.0f);
+  }
 }
 
 }  // namespace turbid

@@ -16,6 +16,10 @@ struct EnhanceInput {
   cv::Mat image;                             // degraded image, float32 linear [0,1], 1 or 3 channels
   const Scene* scene = nullptr;              // geometry (camera, depth, plane, DVL) when known
   const nlohmann::json* sidecar = nullptr;   // the render's sidecar (true parameters) when known
+  // A 3-channel image in R, G, B order (the Python boundary) rather than turbid's B, G, R; the
+  // result comes back in the same order. Methods that read the order natively (MethodEntry::
+  // rgb_native) take it as it is; Enhance reorders for the others.
+  bool rgb = false;
 };
 
 struct MethodParam {
@@ -48,7 +52,11 @@ const MethodInfo& FindMethod(const std::string& name);  // throws Error for unkn
 bool IsPrivileged(const std::string& name, const nlohmann::json& params);
 
 // Runs method `name` with parameter overrides `params` (an object; unknown keys or bad values
-// throw Error). Returns float32 in [0,1] with the input's channel count.
+// throw Error). Returns float32 in [0,1] with the input's channel count (and channel order).
 cv::Mat Enhance(const std::string& name, const nlohmann::json& params, const EnhanceInput& input);
+
+// Enhance's last step, in place: NaN -> 0, then clamped to [0, 1] (-0 becomes +0). The same
+// values as cv::patchNaNs, cv::min(·, 1) and cv::max(·, 0) in one pass.
+void ClampEnhanceOutput(cv::Mat& image);
 
 }  // namespace turbid

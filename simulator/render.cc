@@ -1,6 +1,7 @@
 #include "simulator/render.h"
 
 #include <algorithm>
+#include <utility>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -1101,6 +1102,8 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
             QuantiseEncodedRow(out, per_row, CameraEncoding::kSrgb, options.camera.bit_depth);
           else
             QuantiseRow(out, per_row, levels, quantise);
+          if (options.rgb_image && channels == 3)
+            for (int x = 0; x < width; ++x) std::swap(out[3 * x], out[3 * x + 2]);
         }
       },
       stripes);

@@ -66,6 +66,10 @@ struct RenderOptions {
   CameraOutputOptions camera;
   uint64_t seed = 0;  // seeds snow and sensor noise (counter-based: any thread count, same bytes)
   MapSelection maps;  // not part of the JSON options (a CLI / caller choice)
+  // Not part of the JSON options either: write RenderResult::image's colour channels in R, G, B
+  // order instead of turbid's B, G, R (the Python package hands the buffer to NumPy as it is). The
+  // swap happens in the last pass over each row, so the values are the same bytes reordered.
+  bool rgb_image = false;
 
   bool Check(std::string* why) const;
 };

@@ -13,30 +13,44 @@ from turbid import _turbid, data
 PARAMS = {"water": {"type": "3C"}, "psf": {"forward_scatter": 0.5}}
 
 
-def best(fn, n, repeats=5):
-    out = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        for _ in range(n):
-            fn()
-        out.append((time.perf_counter() - t0) / n)
-    return min(out)
+def per_call(fn, n):
+    t0 = time.process_time()  # process CPU time, as _cpp_*_seconds: waiting for a core not counted
+    for _ in range(n):
+        fn()
+    return (time.process_time() - t0) / n
+
+
+def compare(label, cpp_fn, py_fn, n, rounds=9):
+    """C++ alone and the Python call, in process CPU time, interleaved round by round so that
+    load from other processes hits both alike; reports the minimum of each and the range of the
+    per-round overheads."""
+    cpp, py, ratios = [], [], []
+    for _ in range(rounds):
+        c = cpp_fn(n)
+        p = per_call(py_fn, n)
+        cpp.append(c)
+        py.append(p)
+        ratios.append(100 * (p - c) / c)
+    ratios.sort()
+    print("%s: C++ %.2f ms, Python %.2f ms CPU (minimum of %d rounds of %d), overhead %+.1f %% "
+          "(min over min; per-round median %+.1f %%, range %+.1f .. %+.1f %%)"
+          % (label, min(cpp) * 1e3, min(py) * 1e3, rounds, n,
+             100 * (min(py) - min(cpp)) / min(cpp), ratios[len(ratios) // 2], ratios[0],
+             ratios[-1]))
 
 
 def overhead():
     scene = turbid.Scene.builtin("seafloor")  # 640 x 480
     import json
     text = json.dumps(PARAMS)
-    cpp = min(_turbid._cpp_render_seconds(scene._core, text, 20) for _ in range(5))
-    py = best(lambda: turbid.render(scene, PARAMS).image, 20)
-    print("render 640x480: C++ %.2f ms, Python (render + .image) %.2f ms, overhead %+.1f %%"
-          % (cpp * 1e3, py * 1e3, 100 * (py - cpp) / cpp))
+    compare("render 640x480 (render + .image)",
+            lambda n: _turbid._cpp_render_seconds(scene._core, text, n),
+            lambda: turbid.render(scene, PARAMS).image, 20)
     img = turbid.render(scene, PARAMS).image
     for method in ("clahe", "simplified"):
-        cpp = min(_turbid._cpp_enhance_seconds(img, method, 10) for _ in range(5))
-        py = best(lambda: turbid.enhance(img, method), 10)
-        print("enhance %s 640x480: C++ %.2f ms, Python %.2f ms, overhead %+.1f %%"
-              % (method, cpp * 1e3, py * 1e3, 100 * (py - cpp) / cpp))
+        compare("enhance %s 640x480" % method,
+                lambda n: _turbid._cpp_enhance_seconds(img, method, n),
+                lambda: turbid.enhance(img, method), 10)
 
 
 def scaling(n=40):

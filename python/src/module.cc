@@ -1,6 +1,8 @@
 // turbid._turbid: the C++ half of the Python package. Thin: every function converts NumPy arrays
 // (RGB at the boundary) to the cv::Mat the libraries take (BGR float32 linear [0, 1]), releases
-// the GIL, calls the same library functions as the CLI, and converts back. The pure-Python half
+// the GIL, calls the same library functions as the CLI, and converts back. Where the libraries
+// can work in R, G, B order (RenderOptions::rgb_image, EnhanceInput::rgb) nothing is reordered
+// and the result's buffer becomes the NumPy array. The pure-Python half
 // (python/turbid/*.py) adds dict <-> JSON and docstrings. Reference: docs/python.md.
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
@@ -9,8 +11,9 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <time.h>
+
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -39,6 +42,12 @@ using nlohmann::json;
 
 namespace turbid {
 namespace {
+
+double ProcessCpuSeconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
 
 // turbid::Error is raised as ValueError, except the messages of failed file access (OSError).
 class IoError : public Error {
@@ -119,8 +128,11 @@ ArrayView ViewArray(const py::array& a, const std::string& what, bool allow_colo
 // NumPy image -> turbid's in-memory image (float32 linear [0, 1], BGR). Integer arrays are decoded
 // as ReadImage decodes integer files (scale by 1 / max, then the sRGB curve), so an array holding a
 // PNG's values gives the bytes ReadImage gives for that PNG. A float32 gray array is wrapped, not
-// copied; a float32 RGB array costs one channel-reordering pass. Call without the GIL.
-cv::Mat ToInternal(const ArrayView& v, Encoding encoding, const std::string& what) {
+// copied; a float32 RGB array costs one channel-reordering pass, unless keep_rgb (the caller
+// passes EnhanceInput::rgb): then float32 arrays are wrapped and others keep their R, G, B order.
+// Call without the GIL.
+cv::Mat ToInternal(const ArrayView& v, Encoding encoding, const std::string& what,
+                   bool keep_rgb = false) {
   cv::Mat m = v.mat;
   if (m.depth() != CV_32F) {
     if (encoding == Encoding::kNone)
@@ -132,12 +144,26 @@ cv::Mat ToInternal(const ArrayView& v, Encoding encoding, const std::string& wha
     m = f;
   }
   if (encoding == Encoding::kSrgb) m = SrgbToLinear(m);
-  if (v.channels == 3) {
+  if (v.channels == 3 && !keep_rgb) {
     cv::Mat bgr;
     cv::cvtColor(m, bgr, cv::COLOR_RGB2BGR);
     return bgr;
   }
   return m;
+}
+
+// A float32 Mat -> NumPy as it is (no reordering), sharing the Mat's buffer: the array keeps the
+// Mat alive. A Mat over memory it does not own (e.g. a NumPy input passed through) is copied.
+py::array WrapNumpy(const cv::Mat& mat) {
+  if (mat.empty()) return py::none();
+  CV_Assert(mat.depth() == CV_32F);
+  auto* keep = new cv::Mat(mat.isContinuous() && mat.u != nullptr ? mat : mat.clone());
+  py::capsule owner(keep, [](void* p) { delete static_cast<cv::Mat*>(p); });
+  const py::ssize_t c = keep->channels();
+  const py::ssize_t rows = keep->rows, cols = keep->cols;
+  if (c == 1) return py::array_t<float>({rows, cols}, {cols * 4, py::ssize_t{4}}, keep->ptr<float>(), owner);
+  return py::array_t<float>({rows, cols, c}, {cols * c * 4, c * 4, py::ssize_t{4}},
+                            keep->ptr<float>(), owner);
 }
 
 // turbid's image -> NumPy (RGB for 3 channels). One-channel results share the Mat's buffer.
@@ -147,11 +173,7 @@ py::array ToNumpy(const cv::Mat& mat) {
   cv::Mat m = mat.isContinuous() && mat.u != nullptr ? mat : mat.clone();
   CV_Assert(m.depth() == CV_32F);
   const int c = m.channels();
-  if (c == 1) {
-    auto* keep = new cv::Mat(m);
-    py::capsule owner(keep, [](void* p) { delete static_cast<cv::Mat*>(p); });
-    return py::array_t<float>({m.rows, m.cols}, {m.cols * 4, 4}, keep->ptr<float>(), owner);
-  }
+  if (c == 1) return WrapNumpy(m);
   py::array_t<float> out({m.rows, m.cols, c});
   cv::Mat dst(m.rows, m.cols, m.type(), out.mutable_data());
   {
@@ -223,7 +245,7 @@ PyScene SceneFromArrays(const py::array& image, const py::array& depth_m, double
 // ---- render ------------------------------------------------------------------------------------
 
 struct PyRenderResult {
-  std::shared_ptr<RenderResult> result;
+  std::shared_ptr<RenderResult> result;  // result->image in R, G, B order (RenderOptions::rgb_image)
 };
 
 PyRenderResult RenderScene(const PyScene& scene, const std::string& params_text,
@@ -238,6 +260,7 @@ PyRenderResult RenderScene(const PyScene& scene, const std::string& params_text,
   py::gil_scoped_release release;
   RenderOptions options = RenderOptionsFromJson(params);
   options.maps = MapSelection::FromList(maps);
+  options.rgb_image = true;  // written in NumPy's order by the render's last pass: no copy later
   out.result = std::make_shared<RenderResult>(scene.renderer->Render(options));
   if (!scene.spec.empty()) {
     out.result->sidecar["scene"]["spec"] = scene.spec;
@@ -261,7 +284,8 @@ py::array EnhanceArray(const py::array& image, const std::string& method,
     py::gil_scoped_release release;
     const MethodInfo& info = FindMethod(method);
     EnhanceInput input;
-    input.image = ToInternal(iv, enc, "image");
+    input.image = ToInternal(iv, enc, "image", /*keep_rgb=*/true);
+    input.rgb = true;  // methods that read R, G, B natively skip two reordering passes
     input.sidecar = sidecar ? &*sidecar : nullptr;
     // As the CLI: without a scene, a geometry method uses the scene the sidecar names.
     std::optional<Scene> loaded;
@@ -278,7 +302,7 @@ py::array EnhanceArray(const py::array& image, const std::string& method,
       throw Error("enhance: method '" + method + "' needs --sidecar");
     out = Enhance(method, params, input);
   }
-  return ToNumpy(out);
+  return WrapNumpy(out);  // R, G, B already
 }
 
 // As `turbid score` reads files: integer arrays keep their raw values with data range 255 / 65535.
@@ -515,7 +539,7 @@ PYBIND11_MODULE(_turbid, m) {
       });
 
   py::class_<PyRenderResult>(m, "RenderResult")
-      .def("image", [](const PyRenderResult& r) { return ToNumpy(r.result->image); })
+      .def("image", [](const PyRenderResult& r) { return WrapNumpy(r.result->image); })
       .def("lit", [](const PyRenderResult& r) { return ToNumpy(r.result->lit); })
       .def("map", [](const PyRenderResult& r, const std::string& name) -> py::object {
         const RenderResult& x = *r.result;
@@ -660,21 +684,22 @@ PYBIND11_MODULE(_turbid, m) {
       .def("scene", [](const GeneratePlan& p, size_t s) { return p.scenes.at(s); })
       .def_property_readonly("format", [](const GeneratePlan& p) { return p.config.format; });
   m.def("draw_params", &DrawParams);
-  // For python/benchmarks/bench.py: the C++ time alone (no conversion, no Python), seconds/call.
+  // For python/benchmarks/bench.py: the C++ time alone (no conversion, no Python), seconds of
+  // process CPU time per call (all threads; time spent waiting for a busy core is not counted).
   m.def("_cpp_render_seconds", [](const PyScene& scene, const std::string& params_text, int n) {
     py::gil_scoped_release release;
     const RenderOptions options = RenderOptionsFromJson(ParseJsonText(params_text, "params"));
-    const auto t0 = std::chrono::steady_clock::now();
+    const double t0 = ProcessCpuSeconds();
     for (int i = 0; i < n; ++i) scene.renderer->Render(options);
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+    return (ProcessCpuSeconds() - t0) / n;
   });
   m.def("_cpp_enhance_seconds", [](const py::array& image, const std::string& method, int n) {
     const ArrayView v = ViewArray(image, "image");
     py::gil_scoped_release release;
     EnhanceInput input;
     input.image = ToInternal(v, Encoding::kNone, "image");
-    const auto t0 = std::chrono::steady_clock::now();
+    const double t0 = ProcessCpuSeconds();
     for (int i = 0; i < n; ++i) Enhance(method, json::object(), input);
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() / n;
+    return (ProcessCpuSeconds() - t0) / n;
   });
 }
