@@ -4,8 +4,11 @@
 
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <thread>
@@ -178,6 +181,37 @@ TEST(Render, SameSeedSameBytesOnOneAndManyThreads) {
   EXPECT_EQ(one.sidecar.dump(), many.sidecar.dump());
   o.seed = 78;
   EXPECT_GT(cv::norm(Render(o, scene).image, one.image, cv::NORM_INF), 0.0);
+}
+
+// RenderOptions::rgb_image (the Python package's zero-copy image): the same bytes, R and B swapped,
+// the maps untouched, the sidecar unchanged; gray renders ignore it. Snow, sensor noise, light and
+// the PSF on, in the streamed and the plain path (the PSF switches between them).
+TEST(Render, RgbImageIsTheSameBytesReordered) {
+  for (bool psf : {true, false})
+    for (int channels : {3, 1}) {
+      Scene scene = MakeBuiltinScene("seafloor", {0.2});
+      if (channels == 1) cv::cvtColor(scene.image, scene.image, cv::COLOR_BGR2GRAY);
+      RenderOptions o;
+      o.seed = 9;
+      o.water.type = "5C";
+      o.snow.density_per_m3 = 150.0;
+      o.psf.enabled = psf;
+      o.maps = MapSelection::FromList("transmission,veil");
+      const RenderResult bgr = Render(o, scene);
+      o.rgb_image = true;
+      const RenderResult rgb = Render(o, scene);
+      cv::Mat expected;  // a new buffer (a header copy of bgr.image would be swapped in place)
+      if (channels == 3)
+        cv::cvtColor(bgr.image, expected, cv::COLOR_BGR2RGB);
+      else
+        expected = bgr.image;
+      const cv::Mat a = rgb.image.reshape(1), b = expected.reshape(1);
+      EXPECT_EQ(std::memcmp(a.data, b.data, a.total() * a.elemSize()), 0) << psf << channels;
+      EXPECT_EQ(cv::norm(rgb.transmission, bgr.transmission, cv::NORM_INF), 0.0);
+      EXPECT_EQ(cv::norm(rgb.veil, bgr.veil, cv::NORM_INF), 0.0);
+      EXPECT_EQ(rgb.sidecar.dump(), bgr.sidecar.dump());
+      if (channels == 3) EXPECT_GT(cv::norm(rgb.image, bgr.image, cv::NORM_INF), 0.0);
+    }
 }
 
 TEST(Render, RendererCachesGiveTheSameBytesAndAreThreadSafe) {
