@@ -1,6 +1,7 @@
 #include "metrics/registry.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -198,15 +199,25 @@ double ComputeOne(const std::string& name, SharedWork& work) {
 }  // namespace
 
 std::map<std::string, double> ComputeMetrics(const std::vector<std::string>& names,
-                                             const MetricInputs& inputs) {
+                                             const MetricInputs& inputs,
+                                             std::map<std::string, double>* elapsed_ms) {
   for (const std::string& name : names) FindMetric(name);  // all names valid before any work
   if (inputs.image.empty()) throw Error("score: the image to score is empty");
   if (inputs.data_range < 0.0 || !std::isfinite(inputs.data_range))
     throw Error("score: data_range must be >= 0");
   SharedWork work(inputs);
   std::map<std::string, double> values;
-  for (const std::string& name : names)
-    if (!values.count(name)) values[name] = ComputeOne(name, work);
+  for (const std::string& name : names) {
+    if (values.count(name)) continue;
+    if (elapsed_ms == nullptr) {
+      values[name] = ComputeOne(name, work);
+      continue;
+    }
+    const auto start = std::chrono::steady_clock::now();
+    values[name] = ComputeOne(name, work);
+    (*elapsed_ms)[name] =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
   return values;
 }
 

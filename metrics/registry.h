@@ -34,8 +34,11 @@ const MetricInfo& FindMetric(const std::string& name);  // throws Error for unkn
 
 // Computes exactly the named metrics, sharing intermediate work between them. Throws Error on
 // unknown names or unusable inputs (size/channel mismatch, empty). PSNR of identical images is +inf.
+// elapsed_ms, when given, receives each metric's wall time in ms (work shared between metrics is
+// charged to the first one that needs it).
 std::map<std::string, double> ComputeMetrics(const std::vector<std::string>& names,
-                                             const MetricInputs& inputs);
+                                             const MetricInputs& inputs,
+                                             std::map<std::string, double>* elapsed_ms = nullptr);
 
 // A metric value as JSON: a number when finite, else the string "inf", "-inf" or "nan".
 nlohmann::json MetricValueToJson(double value);

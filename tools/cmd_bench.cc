@@ -4,8 +4,10 @@
 // 1). The per-module benchmark binaries (benchmarks/*_bench.cc) hold the finer variants.
 #include <benchmark/benchmark.h>
 #include <malloc.h>
+#include <stdlib.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -20,6 +22,7 @@
 #include <opencv2/quality/qualityssim.hpp>
 #include <opencv2/ximgproc.hpp>
 #include <regex>
+#include <thread>
 #include <string>
 #include <vector>
 
@@ -35,6 +38,10 @@
 #include "simulator/render.h"
 #include "tools/bench_cases.h"
 #include "tools/cli.h"
+#include "tools/experiment.h"
+#include "tools/harness_runner.h"
+#include "tools/stage_profile.h"
+#include "tools/sweep.h"
 #include "turbid_version.h"
 
 namespace turbid {
@@ -56,6 +63,9 @@ struct BenchArgs {
   bool list = false;
   bool force = false;
   bool warm_allocator = false;  // keep freed memory in the heap (no fresh pages per call)
+  std::string sweep;            // --sweep EXPERIMENT: time a whole sweep by stage instead
+  std::string out;              // the sweep's folder (default: a temporary one, removed after)
+  bool threads_given = false;
 };
 
 std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
@@ -446,6 +456,89 @@ void RunBench(const BenchArgs& args) {
   }
 }
 
+// `turbid bench --sweep EXPERIMENT`: one whole sweep, from scratch, timed end to end and by stage.
+// Stage times are wall times summed over the sweep's threads, so with N threads they add up to at
+// most N x the wall time; the rest is threads waiting (the last items, locks) or untimed glue.
+void RunSweepBench(const BenchArgs& args) {
+  const Experiment experiment = LoadExperimentFile(args.sweep, RegistryCatalog());
+  const int threads = args.threads_given
+                          ? args.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  if (!args.json_path.empty() && !args.force && std::filesystem::exists(args.json_path))
+    throw Error(args.json_path, "exists (use --force to replace it)");
+  std::string dir = args.out;
+  const bool temporary = dir.empty();
+  if (temporary) {
+    std::string pattern = (std::filesystem::temp_directory_path() / "turbid-bench-sweep-XXXXXX");
+    if (mkdtemp(pattern.data()) == nullptr) throw Error(pattern, "cannot create a temporary folder");
+    dir = pattern;
+  } else if (std::filesystem::exists(dir + "/journal.jsonl") && !args.force) {
+    throw Error(dir, "holds a sweep already (use --force to start it over)");
+  } else if (std::filesystem::exists(dir + "/journal.jsonl")) {
+    std::filesystem::remove(dir + "/journal.jsonl");
+  }
+  StageProfile profile;
+  SweepOptions options;
+  options.out_dir = dir;
+  options.threads = threads;
+  options.force = true;
+  options.profile = &profile;
+  HarnessRunnerOptions runner_options;
+  runner_options.profile = &profile;
+  std::cerr << "bench: sweep " << experiment.name << " (" << experiment.ItemCount() << " items, "
+            << experiment.methods.size() << " methods, " << experiment.metrics.size()
+            << " metrics) on " << threads << " thread(s) into " << dir << "\n";
+  const auto start = std::chrono::steady_clock::now();
+  SweepSummary summary;
+  try {
+    HarnessRunner runner(experiment, dir, runner_options);
+    summary = RunSweep(experiment, options, runner.Hooks());
+  } catch (...) {
+    if (temporary) std::filesystem::remove_all(dir);
+    throw;
+  }
+  const double wall_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (temporary) std::filesystem::remove_all(dir);
+
+  const std::map<std::string, StageProfile::Entry> stages = profile.Snapshot();
+  std::vector<std::pair<std::string, StageProfile::Entry>> rows(stages.begin(), stages.end());
+  std::sort(rows.begin(), rows.end(),
+            [](const auto& a, const auto& b) { return a.second.ms > b.second.ms; });
+  double timed_ms = 0.0;
+  for (const auto& row : rows) timed_ms += row.second.ms;
+  const double capacity_ms = wall_s * 1e3 * threads;
+  std::cout << "\nsweep " << experiment.name << ": " << summary.ran << " items in "
+            << Format("%.2f", wall_s) << " s wall on " << threads << " thread(s) ("
+            << summary.failed_rows << " failed method runs)\n\n"
+            << "| stage | thread-s | share of thread time | calls | ms per call |\n"
+            << "|---|---|---|---|---|\n";
+  nlohmann::json report = {{"turbid_version", TURBID_VERSION},
+                           {"experiment", experiment.name},
+                           {"items", summary.ran},
+                           {"threads", threads},
+                           {"wall_s", wall_s},
+                           {"failed_rows", summary.failed_rows},
+                           {"stages", nlohmann::json::array()}};
+  for (const auto& [name, e] : rows) {
+    std::cout << "| " << name << " | " << Format("%.2f", e.ms / 1e3) << " | "
+              << Format("%.1f", 100.0 * e.ms / capacity_ms) << " % | " << e.calls << " | "
+              << Format("%.1f", e.ms / static_cast<double>(std::max<int64_t>(1, e.calls)))
+              << " |\n";
+    report["stages"].push_back({{"stage", name}, {"ms", e.ms}, {"calls", e.calls}});
+  }
+  const double rest_ms = std::max(0.0, capacity_ms - timed_ms);
+  std::cout << "| (untimed: idle threads, glue) | " << Format("%.2f", rest_ms / 1e3) << " | "
+            << Format("%.1f", 100.0 * rest_ms / capacity_ms) << " % | - | - |\n"
+            << "\nthread time = wall time x threads (" << Format("%.2f", capacity_ms / 1e3)
+            << " s); each stage is wall time summed over the threads. Metrics' shared work is "
+               "charged to the first metric that needs it.\n";
+  if (!args.json_path.empty()) {
+    AtomicWriteText(args.json_path, report.dump(2) + "\n", args.force);
+    std::cout << "wrote " << args.json_path << "\n";
+  }
+}
+
 }  // namespace
 
 void AddBenchCommand(CLI::App& app) {
@@ -455,16 +548,30 @@ void AddBenchCommand(CLI::App& app) {
   cmd->add_option("--min-time", args->min_time_s, "minimum seconds per timing loop (default 0.3)");
   cmd->add_option("--repetitions", args->repetitions,
                   "repeat each loop and report the median (default 1)");
-  cmd->add_option("--threads", args->threads,
-                  "OpenCV / worker threads for ours and the peer (default 1: the goals are "
-                  "single-core; >1 reports wall time)");
+  CLI::Option* threads = cmd->add_option(
+      "--threads", args->threads,
+      "OpenCV / worker threads for ours and the peer (default 1: the goals are single-core; >1 "
+      "reports wall time); with --sweep the sweep's threads (default: all cores)");
   cmd->add_option("--scale", args->scale, "input size scale in (0, 1] (1 = 1360x1024)");
   cmd->add_option("--json", args->json_path, "also write the results as JSON");
   cmd->add_flag("--force", args->force, "replace an existing --json file");
   cmd->add_flag("--list", args->list, "list the cases and exit");
   cmd->add_flag("--warm-allocator", args->warm_allocator,
                 "keep freed memory for reuse (no page faults per call; default: glibc defaults)");
-  cmd->callback([args] { RunBench(*args); });
+  cmd->add_option("--sweep", args->sweep,
+                  "time a whole sweep of this experiment JSON end to end and by stage (render, "
+                  "each method, each metric, I/O, tables) instead of the kernel cases");
+  cmd->add_option("--out", args->out,
+                  "with --sweep: the sweep's output folder (default: a temporary folder, removed)");
+  cmd->callback([args, threads] {
+    args->threads_given = threads->count() > 0;
+    if (!args->sweep.empty()) {
+      RunSweepBench(*args);
+    } else {
+      if (!args->out.empty()) throw Error("bench", "--out needs --sweep");
+      RunBench(*args);
+    }
+  });
 }
 
 }  // namespace turbid

@@ -164,6 +164,7 @@ HarnessRunner::~HarnessRunner() = default;
 HarnessRunner::SceneContext& HarnessRunner::Context(int scene_index) const {
   SceneContext& context = *contexts_.at(static_cast<size_t>(scene_index));
   std::call_once(context.once, [&] {
+    const ScopedStage timed(options_.profile, "scene: load, clean scores, thumbnail");
     try {
       const ExperimentScene& spec = experiment_.scenes[static_cast<size_t>(scene_index)];
       context.scene = LoadExperimentScene(spec);
@@ -202,6 +203,7 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
     renderer = context.renderer.get();
     reference_metrics = context.reference_metrics;
   } else {
+    const ScopedStage timed(options_.profile, "scene: load, clean scores, thumbnail");
     fresh = std::make_unique<SceneContext>();
     fresh->scene = LoadExperimentScene(scene_spec);
     fresh->renderer = std::make_unique<Renderer>(fresh->scene);
@@ -231,6 +233,7 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
     return result;
   }
   result.render_ms = MillisecondsSince(start_render);
+  if (options_.profile) options_.profile->Add("render", result.render_ms);
 
   // Ground truth: the clean rho, or the lit J clipped to the metrics' [0, 1] range.
   cv::Mat reference = scene->image;
@@ -244,6 +247,7 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
   }
   result.reference_metrics = reference_metrics;
   if (experiment_.thumbnail_width > 0) {
+    const ScopedStage timed(options_.profile, "I/O: thumbnails");
     WriteThumbnail(thumbs + "/degraded.png", render.image, experiment_.thumbnail_width);
     if (experiment_.ground_truth == "lit") {
       WriteThumbnail(thumbs + "/lit.png", reference, experiment_.thumbnail_width);
@@ -278,6 +282,8 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
         enhanced = Enhance(method.name, method.params, input);
       }
       if (!method.IsExternal()) row.time_ms = MillisecondsSince(start);
+      if (options_.profile && std::isfinite(row.time_ms))
+        options_.profile->Add("method " + method.label, row.time_ms);
       Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
             reference, render.image, &row);
     } catch (const std::exception& error) {
@@ -304,8 +310,15 @@ void HarnessRunner::Score(const std::string& id, const std::string& label, const
   inputs.reference = reference;
   inputs.image = enhanced;
   inputs.original = degraded;
-  row->metrics = ComputeMetrics(metric_names_, inputs);
+  if (options_.profile == nullptr) {
+    row->metrics = ComputeMetrics(metric_names_, inputs);
+  } else {
+    std::map<std::string, double> elapsed;
+    row->metrics = ComputeMetrics(metric_names_, inputs, &elapsed);
+    for (const auto& [name, ms] : elapsed) options_.profile->Add("metric " + name, ms);
+  }
   if (experiment_.thumbnail_width > 0 && !label.empty()) {
+    const ScopedStage timed(options_.profile, "I/O: thumbnails");
     WriteThumbnail(out_dir_ + "/thumbs/" + id + "/" + label + ".png", enhanced,
                    experiment_.thumbnail_width);
   }
@@ -435,6 +448,8 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
         problem = error.what();
       }
       const double share_ms = MillisecondsSince(start) / static_cast<double>(members.size());
+      if (options_.profile)
+        options_.profile->Add("method " + method.label, share_ms * static_cast<double>(members.size()));
       for (size_t m = 0; m < members.size(); ++m) {
         MethodResult& row = row_of(members[m]);
         row.time_ms = share_ms;
@@ -480,6 +495,7 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
       process.log_path = folder + "/" + log_name;
       const ProcessResult ran = RunProcess(process);
       share_ms = ran.wall_ms / static_cast<double>(members.size());
+      if (options_.profile) options_.profile->Add("method " + method.label, ran.wall_ms);
       const std::string failure = ran.Failure();
       if (!failure.empty()) {
         batch_problem = failure + " (log: external/" + method.label + "/" + log_name + ")";

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "tools/experiment.h"
+#include "tools/stage_profile.h"
 #include "tools/sweep.h"
 #include "tools/tables.h"
 
@@ -40,6 +41,8 @@ struct HarnessRunnerOptions {
   // The callables of the experiment's "python" methods, by their key; the runner refuses an
   // experiment whose Python method has none here (the CLI passes none).
   std::map<std::string, InProcessMethod> in_process;
+  // Where the time goes (`turbid bench --sweep`): stage totals over all threads; null = off.
+  StageProfile* profile = nullptr;
   bool Check(std::string* why) const;
 };
 

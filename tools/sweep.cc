@@ -366,7 +366,10 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
     }
     int failures = 0;
     for (const MethodResult& m : result.methods) failures += !m.error.empty();
-    journal.Append(ItemResultToJson(result, true));
+    {
+      const ScopedStage timed(options.profile, "I/O: journal");
+      journal.Append(ItemResultToJson(result, true));
+    }
     failed_rows += failures;
     ++finished;
   };
@@ -449,6 +452,7 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
   if (first_error) std::rethrow_exception(first_error);
 
   // Tables from everything journaled in this folder (the shard, or the whole sweep).
+  const ScopedStage timed(options.profile, "tables");
   done = journal.Load(/*repair=*/false);
   WriteTables(experiment, SortedResults(done), options.out_dir);
   summary.tables_written = true;

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "tools/experiment.h"
+#include "tools/stage_profile.h"
 #include "tools/tables.h"
 
 namespace turbid {
@@ -50,6 +51,8 @@ struct SweepOptions {
   // Run again the method cells that failed (error set) in journaled items; the other cells are
   // kept. Without it a journaled item is never rerun.
   bool retry_failed = false;
+  // Journal appends and the tables are timed into it (`turbid bench --sweep`); null = off.
+  StageProfile* profile = nullptr;
   bool Check(std::string* why) const;
 };
 

@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -76,6 +78,50 @@ TEST(BenchCli, RunsSelectedCasesAndWritesJson) {
   ASSERT_EQ(warm.exit_code, 0) << warm.err;
   EXPECT_NE(warm.out.find("--warm-allocator"), std::string::npos) << warm.out;
   EXPECT_EQ(nlohmann::json::parse(testing::ReadFileText(json_path)).at("warm_allocator"), true);
+}
+
+// --sweep: a small sweep run from scratch and timed by stage. The stages are the ones the sweep
+// runs (render, each method, each metric, I/O, tables), each called as often as it runs.
+TEST(BenchCli, SweepIsTimedByStage) {
+  TempDir dir;
+  dir.Write("exp.json", R"({"name": "tiny", "seed": 1, "scale": 0.1,
+    "scenes": ["builtin:seafloor", "builtin:hull"],
+    "grid": {"water.beta_gray_per_m": [0.3, 0.8], "water.beta_rgb_per_m": [[0.4, 0.3, 0.2]]},
+    "methods": ["clahe", "dcp"], "metrics": ["ssim", "psnr", "hautiere_e"],
+    "ground_truth": "clean", "thumbnails": 32})");
+  const std::string json_path = dir.File("sweep.json");
+  const std::string out = dir.File("out");
+  const auto run = RunTurbid({"bench", "--sweep", dir.File("exp.json"), "--threads", "2", "--out",
+                              out, "--json", json_path});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("| method dcp |"), std::string::npos) << run.out;
+  const nlohmann::json report = nlohmann::json::parse(testing::ReadFileText(json_path));
+  EXPECT_EQ(report.at("experiment"), "tiny");
+  EXPECT_EQ(report.at("items"), 4);
+  EXPECT_EQ(report.at("threads"), 2);
+  std::map<std::string, int64_t> calls;
+  for (const auto& stage : report.at("stages")) {
+    EXPECT_GE(stage.at("ms").get<double>(), 0.0) << stage.dump();
+    calls[stage.at("stage")] = stage.at("calls");
+  }
+  EXPECT_EQ(calls["render"], 4);
+  EXPECT_EQ(calls["method clahe"], 4);
+  EXPECT_EQ(calls["method dcp"], 4);
+  EXPECT_EQ(calls["method oracle"], 4);  // the ceiling every sweep adds
+  EXPECT_EQ(calls["metric ssim"], 16);    // none, clahe, dcp, oracle on each item
+  EXPECT_EQ(calls["metric hautiere_e"], 16);
+  EXPECT_EQ(calls["I/O: journal"], 4);
+  EXPECT_EQ(calls["tables"], 1);
+  EXPECT_EQ(calls["scene: load, clean scores, thumbnail"], 2);
+  EXPECT_GE(calls["I/O: thumbnails"], 4);
+  // --out keeps the sweep's folder (tables included); a second run needs --force.
+  EXPECT_TRUE(std::filesystem::exists(out + "/summary.md"));
+  const auto again = RunTurbid({"bench", "--sweep", dir.File("exp.json"), "--out", out});
+  EXPECT_NE(again.exit_code, 0);
+  EXPECT_NE(again.err.find("--force"), std::string::npos) << again.err;
+  const auto bad = RunTurbid({"bench", "--out", out});
+  EXPECT_NE(bad.exit_code, 0);
+  EXPECT_NE(bad.err.find("--out needs --sweep"), std::string::npos) << bad.err;
 }
 
 TEST(BenchCli, BadOptionsAreOneLineErrors) {
