@@ -9,6 +9,7 @@
 #include <pybind11/stl.h>
 
 #include <nlohmann/json.hpp>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <time.h>
@@ -625,6 +626,11 @@ PYBIND11_MODULE(_turbid, m) {
     WriteImage(path, m, o);
   }, py::arg("path"), py::arg("image"), py::arg("bit_depth"), py::arg("encoding"),
      py::arg("overwrite"));
+  m.def("set_num_threads", [](int n) {
+    if (n < 0) throw Error("set_num_threads: n must be >= 0 (0: all cores)");
+    cv::setNumThreads(n == 0 ? -1 : n);  // OpenCV: a negative count restores its default
+  }, py::arg("n"));
+  m.def("get_num_threads", [] { return cv::getNumThreads(); });
   m.def("generate", [](const py::object& config_obj, const std::string& out, int threads) {
     std::string source;
     const json config = ConfigFrom(config_obj, &source);

@@ -187,6 +187,26 @@ def test_scene_attributes():
     assert np.array_equal(turbid.render(again, p, seed=3).image, turbid.render(s, p, seed=3).image)
 
 
+def test_num_threads_do_not_change_results():
+    scene = turbid.Scene.builtin("seafloor", scale=0.25)
+    default = turbid.get_num_threads()
+    try:
+        turbid.set_num_threads(1)
+        assert turbid.get_num_threads() == 1
+        one = turbid.render(scene, {"water": {"type": "5C"}}, seed=3).image
+        one_enh = turbid.enhance(one, "dcp")
+        turbid.set_num_threads(2)
+        assert turbid.get_num_threads() == 2
+        two = turbid.render(scene, {"water": {"type": "5C"}}, seed=3).image
+        assert np.array_equal(one, two)
+        assert np.array_equal(one_enh, turbid.enhance(two, "dcp"))
+        with pytest.raises(ValueError, match="n must be >= 0"):
+            turbid.set_num_threads(-1)
+    finally:
+        turbid.set_num_threads(0)
+    assert turbid.get_num_threads() == default
+
+
 def test_gil_is_released_while_rendering():
     scene = turbid.Scene.builtin("hull")  # 1360 x 1024: long enough to observe
     params = {"psf": {"forward_scatter": 0.5, "optical_thickness": 1.0}}

@@ -19,7 +19,7 @@ __version__ = _turbid.__version__
 
 __all__ = ["Scene", "RenderResult", "render", "enhance", "methods", "score", "metrics",
            "match_features", "generate", "sweep", "default_params", "resolve_params",
-           "read_image", "write_image", "__version__"]
+           "read_image", "write_image", "set_num_threads", "get_num_threads", "__version__"]
 
 
 class Scene:
@@ -178,6 +178,18 @@ def match_features(a, b, detector="orb"):
     detector "orb", "akaze" or "sift". Returns dict keypoints_a, keypoints_b, correspondences,
     inliers, active."""
     return _json.loads(_turbid.match_features(a, b, str(detector)))
+
+
+def set_num_threads(n):
+    """Threads one call (render, enhance, score) may use inside C++; 0 restores the default (all
+    cores). Results do not depend on it. Set 1 in DataLoader workers or when running several
+    Python threads, so that the processes or threads do not oversubscribe the cores."""
+    _turbid.set_num_threads(int(n))
+
+
+def get_num_threads():
+    """Threads one call may use inside C++ (see :func:`set_num_threads`)."""
+    return _turbid.get_num_threads()
 
 
 def generate(config, out, threads=None):
