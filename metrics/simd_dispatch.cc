@@ -207,6 +207,53 @@ void SsimHorizontalFormulaFast(const float* const* moments, const float* weights
     _mm256_storeu_pd(out + j + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(s, 1)));
   }
 }
+
+// Four thresholds per step, aligned so that each chunk of sums is loaded from the address it was
+// last stored to (store forwarding works); lanes outside [first, last] add +0 (a no-op on sums
+// >= 0). Most intervals fit in two aligned chunks: those (and empty ones) take a fixed,
+// branch-free path, so that interval lengths cost no mispredicted loop exits. Vertical and
+// horizontal pairs alternate, so two independent chains are in flight.
+inline void AddWeberChunk(const double* p, const double* q, int s, __m256d lo, __m256d hi,
+                          double* sums, double* counts) {
+  const __m256d lane = _mm256_set_pd(3.0, 2.0, 1.0, 0.0);
+  const __m256d index = _mm256_add_pd(_mm256_set1_pd(s), lane);
+  const __m256d inside =
+      _mm256_and_pd(_mm256_cmp_pd(index, lo, _CMP_GE_OQ), _mm256_cmp_pd(index, hi, _CMP_LE_OQ));
+  const __m256d term =
+      _mm256_and_pd(_mm256_min_pd(_mm256_loadu_pd(p + s), _mm256_loadu_pd(q + s)), inside);
+  _mm256_store_pd(sums + s, _mm256_add_pd(_mm256_load_pd(sums + s), term));
+  _mm256_store_pd(counts + s,
+                  _mm256_add_pd(_mm256_load_pd(counts + s), _mm256_and_pd(_mm256_set1_pd(1.0), inside)));
+}
+
+inline void AddWeberPair(const double* p, const double* q, int first, int last, double* sums,
+                         double* counts) {
+  const int base = first & ~3;
+  const __m256d lo = _mm256_set1_pd(first);
+  const __m256d hi = _mm256_set1_pd(last);
+  if (last < base + 8) {  // includes empty intervals (last < first): all lanes add 0
+    AddWeberChunk(p, q, base, lo, hi, sums, counts);
+    AddWeberChunk(p, q, base + 4, lo, hi, sums, counts);
+    return;
+  }
+  for (int s = base; s <= last; s += 4) AddWeberChunk(p, q, s, lo, hi, sums, counts);
+}
+
+void WeberWindowSumsFast(const double* table, int table_stride, const uint8_t* value,
+                         const uint8_t* tests, int stride, int size, int s_min, int s_max,
+                         double* sums_v, double* sums_h, double* counts_v, double* counts_h) {
+  for (int i = 0; i < size; ++i) {
+    for (int j = 0; j < size; ++j) {
+      const size_t k = static_cast<size_t>(i) * stride + j;
+      const uint8_t* t = tests + 4 * k;
+      const double* p = table + value[k] * table_stride;
+      AddWeberPair(p, table + value[k - 1] * table_stride, std::max<int>(t[0], s_min),
+                   std::min(t[1] - 1, s_max), sums_v, counts_v);
+      AddWeberPair(p, table + value[k - stride] * table_stride, std::max<int>(t[2], s_min),
+                   std::min(t[3] - 1, s_max), sums_h, counts_h);
+    }
+  }
+}
 }  // namespace avx2
 #if defined(__clang__)
 #pragma clang attribute pop
@@ -283,6 +330,18 @@ uint64_t SquaredDifferenceSumU8(const uint8_t* a, const uint8_t* b, size_t n) {
 
 double SquaredDifferenceSumF32(const float* a, const float* b, size_t n) {
   TURBID_DISPATCH(SquaredDifferenceSumF32(a, b, n));
+}
+
+void WeberWindowSums(const double* table, int table_stride, const uint8_t* value,
+                     const uint8_t* tests, int stride, int size, int s_min, int s_max,
+                     double* sums_v, double* sums_h, double* counts_v, double* counts_h) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2())
+    return avx2::WeberWindowSumsFast(table, table_stride, value, tests, stride, size, s_min, s_max,
+                                     sums_v, sums_h, counts_v, counts_h);
+#endif
+  base::WeberWindowSums(table, table_stride, value, tests, stride, size, s_min, s_max, sums_v,
+                        sums_h, counts_v, counts_h);
 }
 
 }  // namespace turbid::simd
