@@ -1,8 +1,9 @@
 // The optimised visible-edge, UIQM and UCIQE code (issue 18 item 2) against the pre-optimisation
-// implementations of commit 6722196 (tests/metrics/reference_visible_edges.cc): visible-edge
-// masks and values bit for bit, on random and structured images of several sizes (odd, tiny,
-// gray and colour, float and 8-bit input), both variants, several thresholds, and the real
-// images of $TURBID_DATA when present.
+// implementations of commit 6722196 (tests/metrics/reference_visible_edges.cc and
+// reference_uiqm_uciqe.cc): visible-edge masks and values bit for bit, on random and structured
+// images of several sizes (odd, tiny, gray and colour, float and 8-bit input), both variants,
+// several thresholds, and the real images of $TURBID_DATA when present; UCIQE bit for bit, UIQM
+// within the stated rounding tolerance.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,7 +18,7 @@
 #include <vector>
 
 #include "metrics/no_reference.h"
-#include "tests/metrics/reference_visible_edges.h"
+#include "tests/metrics/reference_pre_optimisation.h"
 
 namespace turbid {
 namespace {
@@ -172,6 +173,79 @@ TEST(NoReferenceFastPaths, VisibleEdgesOnRealData) {
                        reference::ReferenceVisibleEdges(o, image, enhanced), file.string());
     }
   }
+}
+
+// UIQM: UICM and UIConM are computed from the same integers with the same operations (equal);
+// UISM takes each tile's log(max/min) as ½·log of the exact integer ratio m²x² instead of the
+// ratio of two rounded edge values, which moves it by rounding only: 1e-13 relative.
+constexpr double kUismTolerance = 1e-13;
+// UCIQE: the same doubles summed in the same order: equal.
+
+std::vector<cv::Mat> UiqmInputs() {
+  std::vector<cv::Mat> out;
+  uint32_t seed = 11;
+  for (const cv::Size size : std::vector<cv::Size>{{10, 10}, {17, 23}, {64, 48}, {123, 37},
+                                                   {203, 151}}) {
+    for (int channels : {1, 3}) {
+      for (int noise : {0, 10, 256}) {
+        out.push_back(Structured(size.height, size.width, channels, seed++, noise));
+      }
+    }
+  }
+  out.push_back(cv::Mat(30, 40, CV_8UC3, cv::Scalar(0, 0, 0)));        // flat black
+  out.push_back(cv::Mat(30, 40, CV_8UC3, cv::Scalar(90, 120, 200)));   // flat colour
+  out.push_back(cv::Mat(30, 40, CV_8UC1, cv::Scalar(255)));            // flat white gray
+  cv::Mat f;
+  out[7].convertTo(f, CV_32F, 1.0 / 255.0);
+  out.push_back(f);  // float input
+  return out;
+}
+
+void ExpectClose(double a, double b, double tolerance, const std::string& what) {
+  if (b == 0.0) {
+    EXPECT_EQ(a, 0.0) << what;
+    return;
+  }
+  EXPECT_LE(std::abs(a - b) / std::abs(b), tolerance) << what << ": " << a << " vs " << b;
+}
+
+TEST(NoReferenceFastPaths, UiqmEqualsPreOptimisationCode) {
+  int index = 0;
+  for (const cv::Mat& image : UiqmInputs()) {
+    for (auto variant : {UiqmVariant::kFunieGanCompat, UiqmVariant::kCorrected}) {
+      for (int block : {10, 4}) {
+        UiqmOptions o;
+        o.variant = variant;
+        o.block_size = block;
+        if (image.rows < block || image.cols < block) continue;
+        const std::string what = "image " + std::to_string(index) + " " + UiqmVariantName(variant) +
+                                 " block " + std::to_string(block);
+        const UiqmResult a = Uiqm(o, image);
+        const UiqmResult b = reference::ReferenceUiqm(o, image);
+        EXPECT_EQ(a.uicm, b.uicm) << what;
+        EXPECT_EQ(a.uiconm, b.uiconm) << what;
+        ExpectClose(a.uism, b.uism, kUismTolerance, what + " uism");
+        ExpectClose(a.uiqm, b.uiqm, kUismTolerance, what + " uiqm");
+      }
+    }
+    ++index;
+  }
+}
+
+TEST(NoReferenceFastPaths, UciqeEqualsPreOptimisationCode) {
+  int index = 0;
+  for (const cv::Mat& image : UiqmInputs()) {
+    const UciqeResult a = Uciqe({}, image);
+    const UciqeResult b = reference::ReferenceUciqe({}, image);
+    const std::string what = "image " + std::to_string(index++);
+    EXPECT_EQ(a.uciqe, b.uciqe) << what;
+    EXPECT_EQ(a.chroma_spread, b.chroma_spread) << what;
+    EXPECT_EQ(a.luminance_contrast, b.luminance_contrast) << what;
+    EXPECT_EQ(a.mean_saturation, b.mean_saturation) << what;
+  }
+  // More than one NumPy chunk (8192 values) and a partial last chunk.
+  const cv::Mat big = Structured(211, 307, 3, 77, 60);
+  EXPECT_EQ(Uciqe({}, big).uciqe, reference::ReferenceUciqe({}, big).uciqe);
 }
 
 }  // namespace

@@ -1,7 +1,7 @@
 // The pre-optimisation visible-edge implementation of commit 6722196 (metrics/visible_edges.cc as
 // it was before issue 18 item 2), kept verbatim apart from the names (Reference...) as the
 // reference the optimised code must reproduce bit for bit (no_reference_fast_paths_test.cc).
-#include "tests/metrics/reference_visible_edges.h"
+#include "tests/metrics/reference_pre_optimisation.h"
 
 #include <algorithm>
 #include <array>
