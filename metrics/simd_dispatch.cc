@@ -266,7 +266,8 @@ void WeberWindowSumsFast(const double* table, int table_stride, const uint8_t* v
 
 // Four pixels per step: the chroma gathered from the table, the two divisions and the square
 // root in 4-lane double (each correctly rounded, as the scalar ones).
-void UciqeSaturationFast(const uint8_t* lab, int n, const double* chroma, double* out) {
+void UciqeSaturationFast(const uint8_t* lab, int n, const double* chroma, double* out,
+                         double* chr_out) {
   const __m256d scale = _mm256_set1_pd(255.0);
   int k = 0;
   for (; k + 4 <= n; k += 4) {
@@ -277,6 +278,7 @@ void UciqeSaturationFast(const uint8_t* lab, int n, const double* chroma, double
     const __m256d l = _mm256_div_pd(_mm256_cvtepi32_pd(l8), scale);
     const __m256d chr = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), chroma, ab,
                                                  _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
+    _mm256_storeu_pd(chr_out + k, chr);
     __m256d chr2 = _mm256_mul_pd(chr, chr);
     __m256d l2 = _mm256_mul_pd(l, l);
     TURBID_NO_CONTRACT(chr2);  // no FMA: the sum is rounded after each product
@@ -284,7 +286,7 @@ void UciqeSaturationFast(const uint8_t* lab, int n, const double* chroma, double
     const __m256d sum = _mm256_add_pd(chr2, l2);
     _mm256_storeu_pd(out + k, _mm256_div_pd(chr, _mm256_sqrt_pd(sum)));
   }
-  UciqeSaturation(lab + 3 * k, n - k, chroma, out + k);
+  UciqeSaturation(lab + 3 * k, n - k, chroma, out + k, chr_out + k);
 }
 
 void UciqeSpreadFast(const uint8_t* lab, int n, const double* chroma, double mean, double* out) {
@@ -395,11 +397,12 @@ void WeberWindowSums(const double* table, int table_stride, const uint8_t* value
                         sums_h, counts_v, counts_h);
 }
 
-void UciqeSaturation(const uint8_t* lab, int n, const double* chroma, double* out) {
+void UciqeSaturation(const uint8_t* lab, int n, const double* chroma, double* saturation,
+                     double* chr) {
 #ifdef TURBID_HAVE_AVX2_COPY
-  if (UseAvx2()) return avx2::UciqeSaturationFast(lab, n, chroma, out);
+  if (UseAvx2()) return avx2::UciqeSaturationFast(lab, n, chroma, saturation, chr);
 #endif
-  base::UciqeSaturation(lab, n, chroma, out);
+  base::UciqeSaturation(lab, n, chroma, saturation, chr);
 }
 
 void UciqeSpread(const uint8_t* lab, int n, const double* chroma, double mean, double* out) {

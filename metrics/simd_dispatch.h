@@ -60,9 +60,10 @@ void WeberWindowSums(const double* table, int table_stride, const uint8_t* value
                      double* sums_v, double* sums_h, double* counts_v, double* counts_h);
 
 // UCIQE's saturation (metrics/uciqe.cc) of n 8-bit Lab pixels (L, a, b interleaved):
-// out[k] = chr / √(chr² + l²), chr = chroma[a · 256 + b], l = L / 255, rounded as written (no
-// FMA contraction), so every copy gives the reference's doubles.
-void UciqeSaturation(const uint8_t* lab, int n, const double* chroma, double* out);
+// saturation[k] = chr / √(chr² + l²) and chr[k] = chr, chr = chroma[a · 256 + b], l = L / 255,
+// rounded as written (no FMA contraction), so every copy gives the reference's doubles.
+void UciqeSaturation(const uint8_t* lab, int n, const double* chroma, double* saturation,
+                     double* chr);
 // UCIQE's chroma spread terms: out[k] = |1 − q²|, q = mean / chroma[a · 256 + b], as written.
 void UciqeSpread(const uint8_t* lab, int n, const double* chroma, double mean, double* out);
 

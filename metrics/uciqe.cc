@@ -132,18 +132,34 @@ UciqeResult Uciqe(const UciqeOptions& options, const cv::Mat& image) {
   if (!lab.isContinuous()) lab = lab.clone();
   const uint8_t* pixels = lab.ptr<uint8_t>(0);
   const double* chroma = ChromaTable().data();
+  // Four interleaved partial histograms: neighbouring pixels often share L, and one table would
+  // serialise their increments.
+  std::array<std::array<int64_t, 256>, 4> partial{};
+  size_t k4 = 0;
+  for (; k4 + 4 <= n; k4 += 4) {
+    for (int t = 0; t < 4; ++t) ++partial[t][pixels[3 * (k4 + t)]];
+  }
+  for (; k4 < n; ++k4) ++partial[0][pixels[3 * k4]];
   std::array<int64_t, 256> l_hist{};
-  for (size_t k = 0; k < n; ++k) ++l_hist[pixels[3 * k]];
+  for (int level = 0; level < 256; ++level) {
+    l_hist[level] = partial[0][level] + partial[1][level] + partial[2][level] + partial[3][level];
+  }
 
   UciqeResult r;
   r.variant = UciqeVariantName(options.variant);
-  r.mean_saturation = NumpyMeanOf(n, [&](size_t begin, size_t count, double* out) {
-    simd::UciqeSaturation(pixels + 3 * begin, static_cast<int>(count), chroma, out);
-  });
-  const double mean_chr = NumpyMeanOf(n, [&](size_t begin, size_t count, double* out) {
-    const uint8_t* p = pixels + 3 * begin;
-    for (size_t k = 0; k < count; ++k, p += 3) out[k] = chroma[p[1] * 256 + p[2]];
-  });
+  // Saturation and chroma in one pass over the pixels, each mean in NumPy's order.
+  constexpr size_t kChunk = 8192;  // NumPy's ufunc buffer (see NumpyPairwiseSum)
+  std::vector<double> saturation_chunk(kChunk), chroma_chunk(kChunk);
+  double saturation_total = 0.0, chroma_total = 0.0;
+  for (size_t i = 0; i < n; i += kChunk) {
+    const int count = static_cast<int>(std::min(kChunk, n - i));
+    simd::UciqeSaturation(pixels + 3 * i, count, chroma, saturation_chunk.data(),
+                          chroma_chunk.data());
+    saturation_total += NumpyPairwiseSum(saturation_chunk.data(), count);
+    chroma_total += NumpyPairwiseSum(chroma_chunk.data(), count);
+  }
+  r.mean_saturation = saturation_total / static_cast<double>(n);
+  const double mean_chr = chroma_total / static_cast<double>(n);
   r.chroma_spread = std::sqrt(NumpyMeanOf(n, [&](size_t begin, size_t count, double* out) {
     simd::UciqeSpread(pixels + 3 * begin, static_cast<int>(count), chroma, mean_chr, out);
   }));
