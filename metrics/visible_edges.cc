@@ -232,49 +232,29 @@ class MirroredGray8 {
   std::vector<uint8_t> data_;
 };
 
-// Which pair tests can reach the visibility threshold τ at all. A pair's term at threshold s is
-// min(W(s, p), W(s, q)) = 1 − max(f(s, lo), f(s, hi)), f(s, v) = min(s, v) / max(s, v), lo ≤ hi
-// its two values: 1 − s/lo for s ≤ lo (decreasing), at most 1 − √(lo/hi) on [lo, hi], and
-// 1 − hi/s for s ≥ hi (increasing). Over the pair's active thresholds [first, last] the term is
-// therefore at most max(g(first) if first < lo, g(last) if last > hi, 1 − √(lo/hi) if [first,
-// last] meets [lo, hi]). A window none of whose pairs can exceed τ has every C(s) <= τ (a mean of
-// such terms, up to a relative rounding of ~1e-14; the tables keep a 1e-9 margin) and is not
-// visible. The tables turn the three conditions into integer comparisons.
+// Which pair tests of the paper variant can reach the visibility threshold τ at all. A pair's
+// term at threshold s is min(W(s, lo), W(s, hi)) for its two values lo < hi, and the paper
+// variant sums it for s in [lo, hi − 1] only, where it is min((s − lo)/s, (hi − s)/hi) <=
+// 1 − √(lo/hi) (the two meet at s = √(lo·hi)). A window none of whose pairs can exceed τ has
+// every C(s) <= τ (a mean of such terms, up to a relative rounding of ~1e-14; the table keeps a
+// 1e-9 margin) and is not visible. (The ifsttar variant sums each pair over an interval set by
+// other pixels, where no such bound prunes enough windows to pay for itself; measured.)
 class WeakPairTest {
  public:
   explicit WeakPairTest(double tau) {
     auto weak = [tau](double bound) { return bound * (1.0 + 1e-9) <= tau; };
-    for (int v = 0; v < 256; ++v) {
-      // Peak: 1 − √(lo/hi) falls as lo rises; smallest lo with a weak peak.
-      int lo = v;
-      while (lo > 0 && weak(1.0 - std::sqrt(static_cast<double>(lo - 1) / v))) --lo;
-      min_lo_[v] = v == 0 ? 0 : lo;
-      // Below lo = v: 1 − s/v falls as s rises; smallest s >= 1 with a weak term.
-      int first = v;
-      while (first > 1 && weak(1.0 - static_cast<double>(first - 1) / v)) --first;
-      min_first_[v] = first;
-      // Above hi = v: 1 − v/s rises with s; largest s <= 256 with a weak term (v = 0: none).
-      int last = v;
-      while (v > 0 && last < kMaxThreshold && weak(1.0 - v / static_cast<double>(last + 1))) ++last;
-      max_last_[v] = v == 0 ? 0 : last;
+    for (int hi = 1; hi < 256; ++hi) {
+      // 1 − √(lo/hi) falls as lo rises: the smallest lo whose bound is weak.
+      int lo = hi;
+      while (lo > 0 && weak(1.0 - std::sqrt(static_cast<double>(lo - 1) / hi))) --lo;
+      min_lo_[hi] = lo;
     }
   }
-  // False when the pair (p, q) active on thresholds [first, end) cannot exceed τ (branch-free:
-  // called for every pixel).
-  bool Strong(int p, int q, int first, int end) const {
-    first = std::max(first, 1);
-    const int last = std::min(end - 1, kMaxThreshold);
-    const int lo = std::min(p, q), hi = std::max(p, q);
-    const bool below = (first < lo) & (first < min_first_[lo]);
-    const bool above = (last > hi) & (last > max_last_[hi]);
-    const bool peak = (first <= hi) & (last >= lo) & (lo < min_lo_[hi]);
-    return (first <= last) & (below | above | peak);
-  }
-  // The paper variant's intervals are [lo, hi − 1] of the pair itself: only the peak matters.
-  bool StrongPaper(int lo, int hi) const { return lo < min_lo_[hi]; }
+  // False when a paper-variant pair test [lo, hi) cannot exceed τ (may be true for empty ones).
+  bool Strong(int lo, int hi) const { return lo < min_lo_[hi]; }
 
  private:
-  std::array<int, 256> min_lo_{}, min_first_{}, max_last_{};
+  std::array<int, 256> min_lo_{};
 };
 
 // VisibleEdgeMask() on CV_8UC1 gray: the same windows, thresholds, sums and decisions. Windows
@@ -297,7 +277,7 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
   constexpr int kPairRows = kWindow - 1;
   // Band buffers in the stride of `at`, column c at index c (columns up to nc + 5 are used).
   std::vector<std::array<uint8_t, 4>> tests(static_cast<size_t>(kPairRows) * stride);
-  std::vector<uint8_t> strong(tests.size());
+  std::vector<uint8_t> strong(ifsttar ? 0 : tests.size());
   std::vector<std::array<uint8_t, 4>> image_row(nc);
 
   cv::Mat mask = cv::Mat::zeros(nl, nc, CV_8UC1);
@@ -326,29 +306,23 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       std::array<uint8_t, 4>* t = &tests[static_cast<size_t>(nn - 1) * stride];
       std::copy(image_row.begin(), image_row.end(), t);
       for (int c = nc; c < nc + kWindow - 1; ++c) t[c] = image_row[Reflect(c, nc)];
-      // Which pixels of the row have a pair that can reach the threshold (values of the padded
-      // maps: p = at(r, c), its left neighbour at(r, c − 1), its upper one at(r − 1, c)).
-      const uint8_t* value = at.Row(r0 + nn);
-      const uint8_t* above = at.Row(r0 + nn - 1);
+      // Which pixels of the row have a pair that can reach the threshold.
+      if (ifsttar) continue;
       uint8_t* st = &strong[static_cast<size_t>(nn - 1) * stride];
       for (int c = 1; c < nc + kWindow - 1; ++c) {
-        const int p = value[c];
-        if (ifsttar) {
-          st[c] = weak.Strong(p, value[c - 1], t[c][0], t[c][1]) |
-                  weak.Strong(p, above[c], t[c][2], t[c][3]);
-        } else {
-          st[c] = weak.StrongPaper(t[c][0], t[c][1]) | weak.StrongPaper(t[c][2], t[c][3]);
-        }
+        st[c] = weak.Strong(t[c][0], t[c][1]) | weak.Strong(t[c][2], t[c][3]);
       }
     }
 
     for (int c0 = 0; c0 < nc; c0 += kStep) {
-      bool any_strong = false;
-      for (int nn = 0; nn < kPairRows; ++nn) {
-        const uint8_t* row = &strong[static_cast<size_t>(nn) * stride + c0 + 1];
-        for (int mm = 0; mm < kPairRows; ++mm) any_strong |= row[mm] != 0;
+      if (!ifsttar) {
+        bool any_strong = false;
+        for (int nn = 0; nn < kPairRows; ++nn) {
+          const uint8_t* row = &strong[static_cast<size_t>(nn) * stride + c0 + 1];
+          for (int mm = 0; mm < kPairRows; ++mm) any_strong |= row[mm] != 0;
+        }
+        if (!any_strong) continue;
       }
-      if (!any_strong) continue;
       int lo_value = 255, hi_value = 0;
       for (int nn = 0; nn < kWindow; ++nn) {
         const uint8_t* row = at.Row(r0 + nn) + c0;
