@@ -1,6 +1,7 @@
 #include "metrics/simd_dispatch.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -264,25 +265,33 @@ void WeberWindowSumsFast(const double* table, int table_stride, const uint8_t* v
   }
 }
 
-// Four pixels per step: the chroma gathered from the table, the two divisions and the square
+// Four pixels per step: the chroma and l² gathered from tables, the division and the square
 // root in 4-lane double (each correctly rounded, as the scalar ones).
 void UciqeSaturationFast(const uint8_t* lab, int n, const double* chroma, double* out,
                          double* chr_out) {
-  const __m256d scale = _mm256_set1_pd(255.0);
+  // l² = (L / 255)² for the 256 values of L, rounded as the scalar code does.
+  static const std::array<double, 256> l_squared = [] {
+    std::array<double, 256> t{};
+    for (int v = 0; v < 256; ++v) {
+      const double l = v / 255.0;
+      double l2 = l * l;
+      TURBID_NO_CONTRACT(l2);
+      t[v] = l2;
+    }
+    return t;
+  }();
+  const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
   int k = 0;
   for (; k + 4 <= n; k += 4) {
     const uint8_t* p = lab + 3 * k;
     const __m128i l8 = _mm_setr_epi32(p[0], p[3], p[6], p[9]);
     const __m128i ab = _mm_setr_epi32(p[1] * 256 + p[2], p[4] * 256 + p[5], p[7] * 256 + p[8],
                                       p[10] * 256 + p[11]);
-    const __m256d l = _mm256_div_pd(_mm256_cvtepi32_pd(l8), scale);
-    const __m256d chr = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), chroma, ab,
-                                                 _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
+    const __m256d l2 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), l_squared.data(), l8, all, 8);
+    const __m256d chr = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), chroma, ab, all, 8);
     _mm256_storeu_pd(chr_out + k, chr);
     __m256d chr2 = _mm256_mul_pd(chr, chr);
-    __m256d l2 = _mm256_mul_pd(l, l);
     TURBID_NO_CONTRACT(chr2);  // no FMA: the sum is rounded after each product
-    TURBID_NO_CONTRACT(l2);
     const __m256d sum = _mm256_add_pd(chr2, l2);
     _mm256_storeu_pd(out + k, _mm256_div_pd(chr, _mm256_sqrt_pd(sum)));
   }

@@ -2,9 +2,11 @@
 // visible-edge pair in both variants, UIQM and UCIQE. None has a fast published peer (the
 // published visible-edge code is an Octave triple loop, UIQM/UCIQE are NumPy scripts), so the
 // goals are absolute; the agreement column prints the values, which the tests pin to the
-// pre-optimisation implementation and to the published references.
+// pre-optimisation implementation and to the published references
+// (tests/metrics/no_reference_fast_paths_test.cc, no_reference_*_test.cc).
 #include <benchmark/benchmark.h>
 
+#include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
 
@@ -46,7 +48,15 @@ void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in) {
   {
     BenchCase c;
     c.name = "metrics/uciqe/color/8bit";
+    // Not a competitor: the OpenCV 8-bit Lab conversion UCIQE must start with (the reference's
+    // own cv2 call), timed alone to show how much of UCIQE it is.
+    c.peer_name = "cv::cvtColor BGR2Lab alone";
     c.ours = [in] { benchmark::DoNotOptimize(Uciqe({}, in().degraded_color8).uciqe); };
+    c.peer = [in] {
+      cv::Mat lab;
+      cv::cvtColor(in().degraded_color8, lab, cv::COLOR_BGR2Lab);
+      benchmark::DoNotOptimize(lab.data);
+    };
     c.agreement = [in] {
       return "UCIQE " + Format("%.9f", Uciqe({}, in().degraded_color8).uciqe) + " (jou-uip-compat)";
     };
