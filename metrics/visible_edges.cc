@@ -249,12 +249,20 @@ class WeakPairTest {
       while (lo > 0 && weak(1.0 - std::sqrt(static_cast<double>(lo - 1) / hi))) --lo;
       min_lo_[hi] = lo;
     }
+    // The same test as one comparison of integers, lo · 256 < hi · k, with the smallest k that
+    // keeps every strong pair (lo <= min_lo − 1) strong; a few weak pairs may count as strong,
+    // which only costs a search. Vectorisable, unlike the table.
+    k_ = 1;
+    for (int hi = 1; hi < 256; ++hi) {
+      if (min_lo_[hi] > 0) k_ = std::max(k_, (min_lo_[hi] - 1) * 256 / hi + 1);
+    }
   }
   // False when a paper-variant pair test [lo, hi) cannot exceed τ (may be true for empty ones).
-  bool Strong(int lo, int hi) const { return lo < min_lo_[hi]; }
+  bool Strong(int lo, int hi) const { return lo * 256 < hi * k_; }
 
  private:
   std::array<int, 256> min_lo_{};
+  int k_ = 256;
 };
 
 // VisibleEdgeMask() on CV_8UC1 gray: the same windows, thresholds, sums and decisions. Windows
@@ -279,6 +287,7 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
   std::vector<std::array<uint8_t, 4>> tests(static_cast<size_t>(kPairRows) * stride);
   std::vector<uint8_t> strong(ifsttar ? 0 : tests.size());
   std::vector<std::array<uint8_t, 4>> image_row(nc);
+  std::vector<uint8_t> column_lo(stride), column_hi(stride);
 
   cv::Mat mask = cv::Mat::zeros(nl, nc, CV_8UC1);
   // Per threshold [0, 256] plus the SIMD overrun, 32-byte aligned.
@@ -309,11 +318,23 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       // Which pixels of the row have a pair that can reach the threshold.
       if (ifsttar) continue;
       uint8_t* st = &strong[static_cast<size_t>(nn - 1) * stride];
+      const uint8_t* tb = t[0].data();
       for (int c = 1; c < nc + kWindow - 1; ++c) {
-        st[c] = weak.Strong(t[c][0], t[c][1]) | weak.Strong(t[c][2], t[c][3]);
+        st[c] = weak.Strong(tb[4 * c], tb[4 * c + 1]) | weak.Strong(tb[4 * c + 2], tb[4 * c + 3]);
       }
     }
 
+    // Extremes of the band's 7 rows per column, for the windows' ranges.
+    for (int c = 0; c < nc + kWindow - 1; ++c) {
+      uint8_t lo = 255, hi = 0;
+      for (int nn = 0; nn < kWindow; ++nn) {
+        const uint8_t v = at.Row(r0 + nn)[c];
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+      }
+      column_lo[c] = lo;
+      column_hi[c] = hi;
+    }
     for (int c0 = 0; c0 < nc; c0 += kStep) {
       if (!ifsttar) {
         bool any_strong = false;
@@ -324,12 +345,9 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
         if (!any_strong) continue;
       }
       int lo_value = 255, hi_value = 0;
-      for (int nn = 0; nn < kWindow; ++nn) {
-        const uint8_t* row = at.Row(r0 + nn) + c0;
-        for (int mm = 0; mm < kWindow; ++mm) {
-          lo_value = std::min<int>(lo_value, row[mm]);
-          hi_value = std::max<int>(hi_value, row[mm]);
-        }
+      for (int mm = 0; mm < kWindow; ++mm) {
+        lo_value = std::min<int>(lo_value, column_lo[c0 + mm]);
+        hi_value = std::max<int>(hi_value, column_hi[c0 + mm]);
       }
       // Every Weber term of the window is at most (hi − lo) / hi, and so is every C(s) up to a
       // relative rounding of ~1e-14: no threshold can be visible when that bound is below it.
