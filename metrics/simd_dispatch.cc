@@ -232,8 +232,8 @@ inline void AddWeberChunk(const double* p, const double* q, int s, __m256d lo, _
   const __m256d term =
       _mm256_and_pd(_mm256_min_pd(_mm256_loadu_pd(p + s), _mm256_loadu_pd(q + s)), inside);
   _mm256_store_pd(sums + s, _mm256_add_pd(_mm256_load_pd(sums + s), term));
-  _mm256_store_pd(counts + s,
-                  _mm256_add_pd(_mm256_load_pd(counts + s), _mm256_and_pd(_mm256_set1_pd(1.0), inside)));
+  _mm256_store_pd(counts + s, _mm256_add_pd(_mm256_load_pd(counts + s),
+                                            _mm256_and_pd(_mm256_set1_pd(1.0), inside)));
 }
 
 inline void AddWeberPair(const double* p, const double* q, int first, int last, double* sums,

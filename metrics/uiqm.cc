@@ -34,9 +34,9 @@ constexpr double kC3 = 3.5753;
 struct RgbPlanes8 {
   int rows = 0;
   int cols = 0;
-  int stride = 0;                               // cols + 2
-  std::array<std::vector<uint8_t>, 3> plane;    // 0 = R, 1 = G, 2 = B; (rows + 2) × stride
-  const uint8_t* Row(int c, int i) const {      // image row i (−1 .. rows), column 0
+  int stride = 0;                             // cols + 2
+  std::array<std::vector<uint8_t>, 3> plane;  // 0 = R, 1 = G, 2 = B; (rows + 2) × stride
+  const uint8_t* Row(int c, int i) const {    // image row i (−1 .. rows), column 0
     return plane[c].data() + static_cast<size_t>(i + 1) * stride + 1;
   }
 };
@@ -52,7 +52,8 @@ RgbPlanes8 ToPlanes(const cv::Mat& image) {
   for (int i = 0; i < p.rows; ++i) {
     const uint8_t* src = eight.ptr<uint8_t>(i);
     std::array<uint8_t*, 3> dst;
-    for (int c = 0; c < 3; ++c) dst[c] = p.plane[c].data() + static_cast<size_t>(i + 1) * p.stride + 1;
+    for (int c = 0; c < 3; ++c)
+      dst[c] = p.plane[c].data() + static_cast<size_t>(i + 1) * p.stride + 1;
     if (ch == 1) {  // gray replicated, UICM = 0
       for (int c = 0; c < 3; ++c) std::copy(src, src + p.cols, dst[c]);
     } else {
@@ -146,7 +147,8 @@ void EdgeEnergyRow(const RgbPlanes8& p, int c, int i, double* q) {
   const uint8_t* down = p.Row(c, i + 1);
   for (int j = 0; j < p.cols; ++j) {
     const int d0 = (down[j - 1] + 2 * down[j] + down[j + 1]) - (up[j - 1] + 2 * up[j] + up[j + 1]);
-    const int d1 = (up[j + 1] + 2 * mid[j + 1] + down[j + 1]) - (up[j - 1] + 2 * mid[j - 1] + down[j - 1]);
+    const int d1 =
+        (up[j + 1] + 2 * mid[j + 1] + down[j + 1]) - (up[j - 1] + 2 * mid[j - 1] + down[j - 1]);
     const int m2 = d0 * d0 + d1 * d1;  // <= 2 · 1020²
     const int x2 = mid[j] * mid[j];
     q[j] = static_cast<double>(m2) * static_cast<double>(x2);  // exact: < 2^37

@@ -175,7 +175,6 @@ void CheckGray255(const cv::Mat& gray255) {
   }
 }
 
-
 // ---- 8-bit fast path -------------------------------------------------------------------------
 
 // Weber(s, v) for v in [0, 255] (rows) and s in [0, kTableStride) (columns; s = 0 and s > 256
@@ -362,8 +361,7 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
         std::fill(a->begin() + (s_min & ~3), a->begin() + s_max + 8, 0.0);
       simd::WeberWindowSums(table, kTableStride, at.Row(r0 + 1) + c0 + 1, tests[c0 + 1].data(),
                             stride, kPairRows, s_min, s_max, sum_vertical.data(),
-                            sum_horizontal.data(), count_vertical.data(),
-                            count_horizontal.data());
+                            sum_horizontal.data(), count_vertical.data(), count_horizontal.data());
 
       double best = 0.0;
       int s0 = s_min;
@@ -431,7 +429,8 @@ int SobelSquared(const MirroredGray8& at, int i, int j) {
   const uint8_t* mid = at.Row(i);
   const uint8_t* down = at.Row(i + 1);
   const int gy = up[j - 1] + 2 * up[j] + up[j + 1] - down[j - 1] - 2 * down[j] - down[j + 1];
-  const int gx = up[j - 1] + 2 * mid[j - 1] + down[j - 1] - up[j + 1] - 2 * mid[j + 1] - down[j + 1];
+  const int gx =
+      up[j - 1] + 2 * mid[j - 1] + down[j - 1] - up[j + 1] - 2 * mid[j + 1] - down[j + 1];
   return gx * gx + gy * gy;
 }
 

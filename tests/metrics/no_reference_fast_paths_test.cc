@@ -79,7 +79,7 @@ std::vector<VisibleEdgeOptions> AllOptions() {
 }
 
 TEST(NoReferenceFastPaths, VisibleEdgesEqualPreOptimisationCode) {
-  const std::vector<cv::Size> sizes = {{1, 1},   {2, 3},  {7, 7},   {8, 5},   {13, 9},
+  const std::vector<cv::Size> sizes = {{1, 1},   {2, 3},   {7, 7},    {8, 5},    {13, 9},
                                        {31, 17}, {64, 48}, {97, 101}, {160, 123}};
   uint32_t seed = 1;
   for (const cv::Size size : sizes) {
@@ -88,11 +88,10 @@ TEST(NoReferenceFastPaths, VisibleEdgesEqualPreOptimisationCode) {
         const cv::Mat original = Structured(size.height, size.width, channels, seed++, noise);
         const cv::Mat restored = Structured(size.height, size.width, channels, seed++, noise);
         for (const VisibleEdgeOptions& o : AllOptions()) {
-          const std::string what = std::to_string(size.width) + "x" +
-                                   std::to_string(size.height) + "x" + std::to_string(channels) +
-                                   " noise " + std::to_string(noise) + " " +
-                                   VisibleEdgeVariantName(o.variant) + " threshold " +
-                                   std::to_string(o.visibility_threshold);
+          const std::string what = std::to_string(size.width) + "x" + std::to_string(size.height) +
+                                   "x" + std::to_string(channels) + " noise " +
+                                   std::to_string(noise) + " " + VisibleEdgeVariantName(o.variant) +
+                                   " threshold " + std::to_string(o.visibility_threshold);
           ExpectSameResult(VisibleEdges(o, original, restored),
                            reference::ReferenceVisibleEdges(o, original, restored), what);
           ExpectSameMasks(o, restored, what);
@@ -140,9 +139,9 @@ TEST(NoReferenceFastPaths, VisibleEdgesFloatInputAndNonIntegerGray) {
   for (int i = 0; i < gray.rows; ++i)
     for (int j = 0; j < gray.cols; ++j) gray.at<double>(i, j) = (rng() % 60000) / 200.0 - 10.0;
   for (const VisibleEdgeOptions& o : AllOptions()) {
-    EXPECT_EQ(cv::countNonZero(VisibleEdgeMask(o, gray) !=
-                               reference::ReferenceVisibleEdgeMask(o, gray)),
-              0);
+    EXPECT_EQ(
+        cv::countNonZero(VisibleEdgeMask(o, gray) != reference::ReferenceVisibleEdgeMask(o, gray)),
+        0);
   }
 }
 
@@ -184,17 +183,17 @@ constexpr double kUismTolerance = 1e-13;
 std::vector<cv::Mat> UiqmInputs() {
   std::vector<cv::Mat> out;
   uint32_t seed = 11;
-  for (const cv::Size size : std::vector<cv::Size>{{10, 10}, {17, 23}, {64, 48}, {123, 37},
-                                                   {203, 151}}) {
+  for (const cv::Size size :
+       std::vector<cv::Size>{{10, 10}, {17, 23}, {64, 48}, {123, 37}, {203, 151}}) {
     for (int channels : {1, 3}) {
       for (int noise : {0, 10, 256}) {
         out.push_back(Structured(size.height, size.width, channels, seed++, noise));
       }
     }
   }
-  out.push_back(cv::Mat(30, 40, CV_8UC3, cv::Scalar(0, 0, 0)));        // flat black
-  out.push_back(cv::Mat(30, 40, CV_8UC3, cv::Scalar(90, 120, 200)));   // flat colour
-  out.push_back(cv::Mat(30, 40, CV_8UC1, cv::Scalar(255)));            // flat white gray
+  out.push_back(cv::Mat(30, 40, CV_8UC3, cv::Scalar(0, 0, 0)));       // flat black
+  out.push_back(cv::Mat(30, 40, CV_8UC3, cv::Scalar(90, 120, 200)));  // flat colour
+  out.push_back(cv::Mat(30, 40, CV_8UC1, cv::Scalar(255)));           // flat white gray
   cv::Mat f;
   out[7].convertTo(f, CV_32F, 1.0 / 255.0);
   out.push_back(f);  // float input

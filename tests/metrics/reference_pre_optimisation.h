@@ -12,8 +12,8 @@ namespace turbid::reference {
 cv::Mat ReferenceOctaveRgbToGray(const cv::Mat& bgr8);
 cv::Mat ReferenceToGray255(const cv::Mat& image, const std::string& what);
 cv::Mat ReferenceVisibleEdgeMask(const VisibleEdgeOptions& options, const cv::Mat& gray255);
-VisibleEdgeResult ReferenceVisibleEdges(const VisibleEdgeOptions& options,
-                                        const cv::Mat& original, const cv::Mat& restored);
+VisibleEdgeResult ReferenceVisibleEdges(const VisibleEdgeOptions& options, const cv::Mat& original,
+                                        const cv::Mat& restored);
 UiqmResult ReferenceUiqm(const UiqmOptions& options, const cv::Mat& image);
 UciqeResult ReferenceUciqe(const UciqeOptions& options, const cv::Mat& image);
 

@@ -215,7 +215,6 @@ UiqmResult ReferenceUiqm(const UiqmOptions& options, const cv::Mat& image) {
   return r;
 }
 
-
 namespace uciqe_old {
 
 constexpr double kC1 = 0.4680;  // Yang & Sowmya 2015 Eq. 4
@@ -334,6 +333,5 @@ UciqeResult ReferenceUciqe(const UciqeOptions& options, const cv::Mat& image) {
   r.uciqe = kC1 * r.chroma_spread + kC2 * r.luminance_contrast + kC3 * r.mean_saturation;
   return r;
 }
-
 
 }  // namespace turbid::reference

@@ -1,8 +1,6 @@
 // The pre-optimisation visible-edge implementation of commit 6722196 (metrics/visible_edges.cc as
 // it was before issue 18 item 2), kept verbatim apart from the names (Reference...) as the
 // reference the optimised code must reproduce bit for bit (no_reference_fast_paths_test.cc).
-#include "tests/metrics/reference_pre_optimisation.h"
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -11,6 +9,7 @@
 #include <vector>
 
 #include "scenes/error.h"
+#include "tests/metrics/reference_pre_optimisation.h"
 
 namespace turbid::reference {
 namespace {
@@ -157,7 +156,6 @@ void CheckGray255(const cv::Mat& gray255) {
   }
 }
 
-
 }  // namespace
 
 cv::Mat ReferenceOctaveRgbToGray(const cv::Mat& bgr8) {
@@ -282,8 +280,8 @@ cv::Mat ReferenceVisibleEdgeMask(const VisibleEdgeOptions& options, const cv::Ma
   return mask;
 }
 
-VisibleEdgeResult ReferenceVisibleEdges(const VisibleEdgeOptions& options,
-                                        const cv::Mat& original, const cv::Mat& restored) {
+VisibleEdgeResult ReferenceVisibleEdges(const VisibleEdgeOptions& options, const cv::Mat& original,
+                                        const cv::Mat& restored) {
   ThrowIfInvalid(options, "visible edges");
   if (original.size() != restored.size()) {
     throw Error("visible edges: original is " + std::to_string(original.cols) + "x" +
@@ -342,6 +340,5 @@ VisibleEdgeResult ReferenceVisibleEdges(const VisibleEdgeOptions& options,
   result.m = static_cast<double>(result.black_pixels) / pixels;
   return result;
 }
-
 
 }  // namespace turbid::reference
