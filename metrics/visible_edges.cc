@@ -14,8 +14,10 @@
 // same arithmetic: Weber contrasts come from a table of |s − v| / max(s, v) (the same division,
 // done once per (s, v)), four thresholds are summed per SIMD step (metrics/simd_dispatch.h; each
 // C(s) still receives the same terms in the same order), 1 / count from a table of the same
-// quotients, and a window whose contrast cannot exceed the threshold at all (every Weber term is
-// at most (max − min) / max of the window) is skipped. Gradients are computed only at mask pixels.
+// quotients, and a window whose contrast cannot exceed the threshold at all is skipped (every
+// Weber term is at most (max − min) / max of the window; in the paper variant also at most
+// 1 − √(lo/hi) of its pair, see WeakPairTest). Windows go in row bands whose pair maps stay in
+// cache. Gradients are computed only at mask pixels.
 // tests/metrics/no_reference_fast_paths_test.cc checks masks and values bit for bit against the
 // pre-optimisation implementation.
 #include "metrics/visible_edges.h"
