@@ -1,6 +1,7 @@
 #include "metrics/simd_dispatch.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #if defined(__x86_64__) && defined(__GNUC__)
@@ -11,6 +12,15 @@
 // (checked once). Results of the two copies differ in the last float bits (FMA contraction), so
 // scores can differ by ~1e-7 between machines; on one machine they are deterministic.
 namespace turbid::simd {
+
+// An optimisation barrier on a double: a product passed through it cannot be contracted with a
+// following addition into an FMA (this file is compiled with -ffp-contract=fast), for kernels
+// that must round exactly as their scalar reference.
+#if defined(__x86_64__) && defined(__GNUC__)
+#define TURBID_NO_CONTRACT(...) __asm__("" : "+x"(__VA_ARGS__))
+#else
+#define TURBID_NO_CONTRACT(...) __asm__("" : "+m"(__VA_ARGS__))
+#endif
 
 namespace base {
 #include "metrics/simd_kernels.inc"
@@ -207,6 +217,105 @@ void SsimHorizontalFormulaFast(const float* const* moments, const float* weights
     _mm256_storeu_pd(out + j + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(s, 1)));
   }
 }
+
+// Four thresholds per step, aligned so that each chunk of sums is loaded from the address it was
+// last stored to (store forwarding works); lanes outside [first, last] add +0 (a no-op on sums
+// >= 0). Most intervals fit in two aligned chunks: those (and empty ones) take a fixed,
+// branch-free path, so that interval lengths cost no mispredicted loop exits. Vertical and
+// horizontal pairs alternate, so two independent chains are in flight.
+inline void AddWeberChunk(const double* p, const double* q, int s, __m256d lo, __m256d hi,
+                          double* sums, double* counts) {
+  const __m256d lane = _mm256_set_pd(3.0, 2.0, 1.0, 0.0);
+  const __m256d index = _mm256_add_pd(_mm256_set1_pd(s), lane);
+  const __m256d inside =
+      _mm256_and_pd(_mm256_cmp_pd(index, lo, _CMP_GE_OQ), _mm256_cmp_pd(index, hi, _CMP_LE_OQ));
+  const __m256d term =
+      _mm256_and_pd(_mm256_min_pd(_mm256_loadu_pd(p + s), _mm256_loadu_pd(q + s)), inside);
+  _mm256_store_pd(sums + s, _mm256_add_pd(_mm256_load_pd(sums + s), term));
+  _mm256_store_pd(counts + s, _mm256_add_pd(_mm256_load_pd(counts + s),
+                                            _mm256_and_pd(_mm256_set1_pd(1.0), inside)));
+}
+
+inline void AddWeberPair(const double* p, const double* q, int first, int last, double* sums,
+                         double* counts) {
+  const int base = first & ~3;
+  const __m256d lo = _mm256_set1_pd(first);
+  const __m256d hi = _mm256_set1_pd(last);
+  if (last < base + 8) {  // includes empty intervals (last < first): all lanes add 0
+    AddWeberChunk(p, q, base, lo, hi, sums, counts);
+    AddWeberChunk(p, q, base + 4, lo, hi, sums, counts);
+    return;
+  }
+  for (int s = base; s <= last; s += 4) AddWeberChunk(p, q, s, lo, hi, sums, counts);
+}
+
+void WeberWindowSumsFast(const double* table, int table_stride, const uint8_t* value,
+                         const uint8_t* tests, int stride, int size, int s_min, int s_max,
+                         double* sums_v, double* sums_h, double* counts_v, double* counts_h) {
+  for (int i = 0; i < size; ++i) {
+    for (int j = 0; j < size; ++j) {
+      const size_t k = static_cast<size_t>(i) * stride + j;
+      const uint8_t* t = tests + 4 * k;
+      const double* p = table + value[k] * table_stride;
+      AddWeberPair(p, table + value[k - 1] * table_stride, std::max<int>(t[0], s_min),
+                   std::min(t[1] - 1, s_max), sums_v, counts_v);
+      AddWeberPair(p, table + value[k - stride] * table_stride, std::max<int>(t[2], s_min),
+                   std::min(t[3] - 1, s_max), sums_h, counts_h);
+    }
+  }
+}
+
+// Four pixels per step: the chroma and l² gathered from tables, the division and the square
+// root in 4-lane double (each correctly rounded, as the scalar ones).
+void UciqeSaturationFast(const uint8_t* lab, int n, const double* chroma, double* out,
+                         double* chr_out) {
+  // l² = (L / 255)² for the 256 values of L, rounded as the scalar code does.
+  static const std::array<double, 256> l_squared = [] {
+    std::array<double, 256> t{};
+    for (int v = 0; v < 256; ++v) {
+      const double l = v / 255.0;
+      double l2 = l * l;
+      TURBID_NO_CONTRACT(l2);
+      t[v] = l2;
+    }
+    return t;
+  }();
+  const __m256d all = _mm256_castsi256_pd(_mm256_set1_epi64x(-1));
+  int k = 0;
+  for (; k + 4 <= n; k += 4) {
+    const uint8_t* p = lab + 3 * k;
+    const __m128i l8 = _mm_setr_epi32(p[0], p[3], p[6], p[9]);
+    const __m128i ab = _mm_setr_epi32(p[1] * 256 + p[2], p[4] * 256 + p[5], p[7] * 256 + p[8],
+                                      p[10] * 256 + p[11]);
+    const __m256d l2 = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), l_squared.data(), l8, all, 8);
+    const __m256d chr = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), chroma, ab, all, 8);
+    _mm256_storeu_pd(chr_out + k, chr);
+    __m256d chr2 = _mm256_mul_pd(chr, chr);
+    TURBID_NO_CONTRACT(chr2);  // no FMA: the sum is rounded after each product
+    const __m256d sum = _mm256_add_pd(chr2, l2);
+    _mm256_storeu_pd(out + k, _mm256_div_pd(chr, _mm256_sqrt_pd(sum)));
+  }
+  UciqeSaturation(lab + 3 * k, n - k, chroma, out + k, chr_out + k);
+}
+
+void UciqeSpreadFast(const uint8_t* lab, int n, const double* chroma, double mean, double* out) {
+  const __m256d m = _mm256_set1_pd(mean);
+  const __m256d one = _mm256_set1_pd(1.0);
+  const __m256d sign = _mm256_set1_pd(-0.0);
+  int k = 0;
+  for (; k + 4 <= n; k += 4) {
+    const uint8_t* p = lab + 3 * k;
+    const __m128i ab = _mm_setr_epi32(p[1] * 256 + p[2], p[4] * 256 + p[5], p[7] * 256 + p[8],
+                                      p[10] * 256 + p[11]);
+    const __m256d chr = _mm256_mask_i32gather_pd(_mm256_setzero_pd(), chroma, ab,
+                                                 _mm256_castsi256_pd(_mm256_set1_epi64x(-1)), 8);
+    const __m256d q = _mm256_div_pd(m, chr);
+    __m256d q2 = _mm256_mul_pd(q, q);
+    TURBID_NO_CONTRACT(q2);  // no FMA: 1 − q² rounded after the product
+    _mm256_storeu_pd(out + k, _mm256_andnot_pd(sign, _mm256_sub_pd(one, q2)));
+  }
+  UciqeSpread(lab + 3 * k, n - k, chroma, mean, out + k);
+}
 }  // namespace avx2
 #if defined(__clang__)
 #pragma clang attribute pop
@@ -283,6 +392,33 @@ uint64_t SquaredDifferenceSumU8(const uint8_t* a, const uint8_t* b, size_t n) {
 
 double SquaredDifferenceSumF32(const float* a, const float* b, size_t n) {
   TURBID_DISPATCH(SquaredDifferenceSumF32(a, b, n));
+}
+
+void WeberWindowSums(const double* table, int table_stride, const uint8_t* value,
+                     const uint8_t* tests, int stride, int size, int s_min, int s_max,
+                     double* sums_v, double* sums_h, double* counts_v, double* counts_h) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2())
+    return avx2::WeberWindowSumsFast(table, table_stride, value, tests, stride, size, s_min, s_max,
+                                     sums_v, sums_h, counts_v, counts_h);
+#endif
+  base::WeberWindowSums(table, table_stride, value, tests, stride, size, s_min, s_max, sums_v,
+                        sums_h, counts_v, counts_h);
+}
+
+void UciqeSaturation(const uint8_t* lab, int n, const double* chroma, double* saturation,
+                     double* chr) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::UciqeSaturationFast(lab, n, chroma, saturation, chr);
+#endif
+  base::UciqeSaturation(lab, n, chroma, saturation, chr);
+}
+
+void UciqeSpread(const uint8_t* lab, int n, const double* chroma, double mean, double* out) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::UciqeSpreadFast(lab, n, chroma, mean, out);
+#endif
+  base::UciqeSpread(lab, n, chroma, mean, out);
 }
 
 }  // namespace turbid::simd

@@ -45,4 +45,26 @@ uint64_t SquaredDifferenceSumU8(const uint8_t* a, const uint8_t* b, size_t n);
 // The same in double for float / 16-bit values, in a fixed 4-lane order.
 double SquaredDifferenceSumF32(const float* a, const float* b, size_t n);
 
+// The contrast sums of one visible-edge window (metrics/visible_edges.cc). `value` points at the
+// window's pixel (1, 1) in a gray image of row stride `stride`; `tests` at the same pixel in an
+// image of the same stride holding 4 bytes per pixel: the vertical pair test (p and its left
+// neighbour) passes for thresholds [tests[0], tests[1]) and the horizontal one (p and its upper
+// neighbour) for [tests[2], tests[3]). For the size × size pixels in row-major order, vertical
+// before horizontal, every threshold s of a pair's interval clipped to [s_min, s_max] adds
+// min(table[p * table_stride + s], table[q * table_stride + s]) to sums_v[s] (sums_h[s]) and 1 to
+// counts_v[s] (counts_h[s]). Each sums[s] receives its terms in pixel order, so the result is bit
+// for bit that of a scalar loop. The four arrays must be 32-byte aligned and zero on
+// [s_min & ~3, s_max + 7]; table rows must be readable from (s_min & ~3) to s_max + 7.
+void WeberWindowSums(const double* table, int table_stride, const uint8_t* value,
+                     const uint8_t* tests, int stride, int size, int s_min, int s_max,
+                     double* sums_v, double* sums_h, double* counts_v, double* counts_h);
+
+// UCIQE's saturation (metrics/uciqe.cc) of n 8-bit Lab pixels (L, a, b interleaved):
+// saturation[k] = chr / √(chr² + l²) and chr[k] = chr, chr = chroma[a · 256 + b], l = L / 255,
+// rounded as written (no FMA contraction), so every copy gives the reference's doubles.
+void UciqeSaturation(const uint8_t* lab, int n, const double* chroma, double* saturation,
+                     double* chr);
+// UCIQE's chroma spread terms: out[k] = |1 − q²|, q = mean / chroma[a · 256 + b], as written.
+void UciqeSpread(const uint8_t* lab, int n, const double* chroma, double mean, double* out);
+
 }  // namespace turbid::simd

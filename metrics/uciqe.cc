@@ -1,4 +1,9 @@
 // UCIQE as computed by JOU-UIP/UCIQE UCIQE.py (see uciqe.h).
+//
+// The per-pixel values are the reference's (same expressions, chroma from a table over the 8-bit
+// (a, b) pairs filled with the same expression) and the means keep NumPy's summation order, but
+// they are summed chunk by chunk as they are computed (NumPy adds chunks of 8192 elements), so no
+// full-size array is allocated.
 #include "metrics/uciqe.h"
 
 #include <algorithm>
@@ -9,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "metrics/simd_dispatch.h"
 #include "metrics/visible_edges.h"
 #include "scenes/error.h"
 
@@ -59,13 +65,35 @@ double NumpyPairwiseSum(const double* a, size_t n) {
   return NumpyPairwiseSum(a, half) + NumpyPairwiseSum(a + half, n - half);
 }
 
-double NumpyMean(const std::vector<double>& v) {
+// np.mean of n values produced chunk by chunk: fill(begin, count, out) writes values
+// [begin, begin + count) to out; the chunks are NumPy's (see NumpyPairwiseSum).
+template <typename Fill>
+double NumpyMeanOf(size_t n, Fill fill) {
   constexpr size_t kChunk = 8192;
+  std::array<double, kChunk> buffer;
   double total = 0.0;
-  for (size_t i = 0; i < v.size(); i += kChunk) {
-    total += NumpyPairwiseSum(v.data() + i, std::min(kChunk, v.size() - i));
+  for (size_t i = 0; i < n; i += kChunk) {
+    const size_t count = std::min(kChunk, n - i);
+    fill(i, count, buffer.data());
+    total += NumpyPairwiseSum(buffer.data(), count);
   }
-  return total / static_cast<double>(v.size());
+  return total / static_cast<double>(n);
+}
+
+// √(a² + b²) of the reference for every 8-bit (a, b) pair, a = A / 255, b = B / 255.
+const std::vector<double>& ChromaTable() {
+  static const std::vector<double> table = [] {
+    std::vector<double> t(256 * 256);
+    for (int ia = 0; ia < 256; ++ia) {
+      for (int ib = 0; ib < 256; ++ib) {
+        const double a = ia / 255.0;
+        const double b = ib / 255.0;
+        t[ia * 256 + ib] = std::sqrt(a * a + b * b);
+      }
+    }
+    return t;
+  }();
+  return table;
 }
 
 }  // namespace
@@ -101,31 +129,40 @@ UciqeResult Uciqe(const UciqeOptions& options, const cv::Mat& image) {
   cv::cvtColor(bgr, lab, cv::COLOR_BGR2Lab);  // OpenCV 8-bit Lab: L·255/100, a+128, b+128
 
   const size_t n = lab.total();
-  std::array<int64_t, 256> l_hist{};
-  std::vector<double> chroma(n), saturation(n);
-  size_t k = 0;
-  for (int i = 0; i < lab.rows; ++i) {
-    const uint8_t* row = lab.ptr<uint8_t>(i);
-    for (int j = 0; j < lab.cols; ++j, ++k) {
-      const double l = row[3 * j] / 255.0;
-      const double a = row[3 * j + 1] / 255.0;
-      const double b = row[3 * j + 2] / 255.0;
-      const double chr = std::sqrt(a * a + b * b);
-      chroma[k] = chr;
-      saturation[k] = chr / std::sqrt(chr * chr + l * l);
-      ++l_hist[row[3 * j]];
-    }
+  if (!lab.isContinuous()) lab = lab.clone();
+  const uint8_t* pixels = lab.ptr<uint8_t>(0);
+  const double* chroma = ChromaTable().data();
+  // Four interleaved partial histograms: neighbouring pixels often share L, and one table would
+  // serialise their increments.
+  std::array<std::array<int64_t, 256>, 4> partial{};
+  size_t k4 = 0;
+  for (; k4 + 4 <= n; k4 += 4) {
+    for (int t = 0; t < 4; ++t) ++partial[t][pixels[3 * (k4 + t)]];
   }
+  for (; k4 < n; ++k4) ++partial[0][pixels[3 * k4]];
+  std::array<int64_t, 256> l_hist{};
+  for (int level = 0; level < 256; ++level) {
+    l_hist[level] = partial[0][level] + partial[1][level] + partial[2][level] + partial[3][level];
+  }
+
   UciqeResult r;
   r.variant = UciqeVariantName(options.variant);
-  r.mean_saturation = NumpyMean(saturation);
-  const double mean_chr = NumpyMean(chroma);
-  std::vector<double>& spread = saturation;  // reuse the buffer
-  for (size_t i = 0; i < n; ++i) {
-    const double q = mean_chr / chroma[i];
-    spread[i] = std::abs(1.0 - q * q);
+  // Saturation and chroma in one pass over the pixels, each mean in NumPy's order.
+  constexpr size_t kChunk = 8192;  // NumPy's ufunc buffer (see NumpyPairwiseSum)
+  std::vector<double> saturation_chunk(kChunk), chroma_chunk(kChunk);
+  double saturation_total = 0.0, chroma_total = 0.0;
+  for (size_t i = 0; i < n; i += kChunk) {
+    const int count = static_cast<int>(std::min(kChunk, n - i));
+    simd::UciqeSaturation(pixels + 3 * i, count, chroma, saturation_chunk.data(),
+                          chroma_chunk.data());
+    saturation_total += NumpyPairwiseSum(saturation_chunk.data(), count);
+    chroma_total += NumpyPairwiseSum(chroma_chunk.data(), count);
   }
-  r.chroma_spread = std::sqrt(NumpyMean(spread));
+  r.mean_saturation = saturation_total / static_cast<double>(n);
+  const double mean_chr = chroma_total / static_cast<double>(n);
+  r.chroma_spread = std::sqrt(NumpyMeanOf(n, [&](size_t begin, size_t count, double* out) {
+    simd::UciqeSpread(pixels + 3 * begin, static_cast<int>(count), chroma, mean_chr, out);
+  }));
 
   // con_l: first bins where the cdf of a 65536-bin histogram over [min L', max L'] exceeds 1 % and
   // reaches 99 %, transcribed from MATLAB's stretchlim with its 1-based "−1" kept.

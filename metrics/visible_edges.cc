@@ -9,6 +9,17 @@
 // order, vertical and horizontal sums kept apart), as in the published loops, so C(s), its first
 // argmax and the visibility decision are bit-identical; the cost is the summed interval length
 // instead of range × 72 tests.
+//
+// Gray images with 8-bit values (all that VisibleEdges() produces) take a faster path with the
+// same arithmetic: Weber contrasts come from a table of |s − v| / max(s, v) (the same division,
+// done once per (s, v)), four thresholds are summed per SIMD step (metrics/simd_dispatch.h; each
+// C(s) still receives the same terms in the same order), 1 / count from a table of the same
+// quotients, and a window whose contrast cannot exceed the threshold at all is skipped (every
+// Weber term is at most (max − min) / max of the window; in the paper variant also at most
+// 1 − √(lo/hi) of its pair, see WeakPairTest). Windows go in row bands whose pair maps stay in
+// cache. Gradients are computed only at mask pixels.
+// tests/metrics/no_reference_fast_paths_test.cc checks masks and values bit for bit against the
+// pre-optimisation implementation.
 #include "metrics/visible_edges.h"
 
 #include <algorithm>
@@ -18,6 +29,7 @@
 #include <limits>
 #include <vector>
 
+#include "metrics/simd_dispatch.h"
 #include "scenes/error.h"
 
 namespace turbid {
@@ -154,24 +166,6 @@ PaddedMaps BuildMaps(VisibleEdgeVariant variant, const cv::Mat& gray) {
 
 double Weber(double s, double v) { return std::abs(s - v) / std::max(s, v); }
 
-// Sobel magnitude with MATLAB imfilter(..., 'symmetric') borders (exact on integer data).
-std::vector<double> SobelMagnitude(const cv::Mat& gray) {
-  const int nl = gray.rows;
-  const int nc = gray.cols;
-  const MirroredGray at(gray, 1);
-  std::vector<double> mag(static_cast<size_t>(nl) * nc);
-  for (int i = 0; i < nl; ++i) {
-    for (int j = 0; j < nc; ++j) {
-      const double gy = at(i - 1, j - 1) + 2 * at(i - 1, j) + at(i - 1, j + 1) - at(i + 1, j - 1) -
-                        2 * at(i + 1, j) - at(i + 1, j + 1);
-      const double gx = at(i - 1, j - 1) + 2 * at(i, j - 1) + at(i + 1, j - 1) - at(i - 1, j + 1) -
-                        2 * at(i, j + 1) - at(i + 1, j + 1);
-      mag[static_cast<size_t>(i) * nc + j] = std::sqrt(gx * gx + gy * gy);
-    }
-  }
-  return mag;
-}
-
 void CheckGray255(const cv::Mat& gray255) {
   if (gray255.empty()) throw Error("visible edges: empty image");
   if (gray255.type() != CV_64FC1) throw Error("visible edges: gray input must be CV_64FC1 0..255");
@@ -181,6 +175,265 @@ void CheckGray255(const cv::Mat& gray255) {
       if (!std::isfinite(row[j])) throw Error("visible edges: non-finite gray value");
     }
   }
+}
+
+// ---- 8-bit fast path -------------------------------------------------------------------------
+
+// Weber(s, v) for v in [0, 255] (rows) and s in [0, kTableStride) (columns; s = 0 and s > 256
+// hold 0, never summed), computed by the same expression as Weber().
+constexpr int kTableStride = kMaxThreshold + 8;
+
+const double* WeberTable() {
+  static const std::vector<double> table = [] {
+    std::vector<double> t(256 * kTableStride, 0.0);
+    for (int v = 0; v < 256; ++v) {
+      for (int s = 1; s <= kMaxThreshold; ++s) t[v * kTableStride + s] = Weber(s, v);
+    }
+    return t;
+  }();
+  return table.data();
+}
+
+// 1.0 / n for the pair counts of a window (at most 72), the same quotients as a division.
+const double* InverseCounts() {
+  static const std::array<double, 2 * 36 + 1> table = [] {
+    std::array<double, 2 * 36 + 1> t{};
+    for (int n = 1; n < static_cast<int>(t.size()); ++n) t[n] = 1.0 / n;
+    return t;
+  }();
+  return table.data();
+}
+
+// The 8-bit image mirrored by `pad` on every side.
+class MirroredGray8 {
+ public:
+  MirroredGray8(const cv::Mat& gray8, int pad)
+      : pad_(pad),
+        cols_(gray8.cols + 2 * pad),
+        data_(static_cast<size_t>(gray8.rows + 2 * pad) * cols_) {
+    for (int r = 0; r < gray8.rows + 2 * pad; ++r) {
+      const uint8_t* src = gray8.ptr<uint8_t>(Reflect(r - pad, gray8.rows));
+      uint8_t* dst = &data_[static_cast<size_t>(r) * cols_];
+      std::copy(src, src + gray8.cols, dst + pad);
+      for (int c = 0; c < pad; ++c) {
+        dst[c] = src[Reflect(c - pad, gray8.cols)];
+        dst[pad + gray8.cols + c] = src[Reflect(gray8.cols + c, gray8.cols)];
+      }
+    }
+  }
+  int operator()(int i, int j) const {
+    return data_[static_cast<size_t>(i + pad_) * cols_ + (j + pad_)];
+  }
+  const uint8_t* Row(int i) const { return &data_[static_cast<size_t>(i + pad_) * cols_ + pad_]; }
+  int cols() const { return cols_; }
+
+ private:
+  int pad_;
+  int cols_;
+  std::vector<uint8_t> data_;
+};
+
+// Which pair tests of the paper variant can reach the visibility threshold τ at all. A pair's
+// term at threshold s is min(W(s, lo), W(s, hi)) for its two values lo < hi, and the paper
+// variant sums it for s in [lo, hi − 1] only, where it is min((s − lo)/s, (hi − s)/hi) <=
+// 1 − √(lo/hi) (the two meet at s = √(lo·hi)). A window none of whose pairs can exceed τ has
+// every C(s) <= τ (a mean of such terms, up to a relative rounding of ~1e-14; the table keeps a
+// 1e-9 margin) and is not visible. (The ifsttar variant sums each pair over an interval set by
+// other pixels, where no such bound prunes enough windows to pay for itself; measured.)
+class WeakPairTest {
+ public:
+  explicit WeakPairTest(double tau) {
+    auto weak = [tau](double bound) { return bound * (1.0 + 1e-9) <= tau; };
+    for (int hi = 1; hi < 256; ++hi) {
+      // 1 − √(lo/hi) falls as lo rises: the smallest lo whose bound is weak.
+      int lo = hi;
+      while (lo > 0 && weak(1.0 - std::sqrt(static_cast<double>(lo - 1) / hi))) --lo;
+      min_lo_[hi] = lo;
+    }
+    // The same test as one comparison of integers, lo · 256 < hi · k, with the smallest k that
+    // keeps every strong pair (lo <= min_lo − 1) strong; a few weak pairs may count as strong,
+    // which only costs a search. Vectorisable, unlike the table.
+    k_ = 1;
+    for (int hi = 1; hi < 256; ++hi) {
+      if (min_lo_[hi] > 0) k_ = std::max(k_, (min_lo_[hi] - 1) * 256 / hi + 1);
+    }
+  }
+  // False when a paper-variant pair test [lo, hi) cannot exceed τ (may be true for empty ones).
+  bool Strong(int lo, int hi) const { return lo * 256 < hi * k_; }
+
+ private:
+  std::array<int, 256> min_lo_{};
+  int k_ = 256;
+};
+
+// VisibleEdgeMask() on CV_8UC1 gray: the same windows, thresholds, sums and decisions. Windows
+// go in bands of rows (step 4): each band computes the pair tests of its 6 pair rows (the maps of
+// BuildMaps(): [ceil(a), ceil(b) − 1] = [a, b − 1] on integers, stored as {vertical first,
+// vertical end, horizontal first, horizontal end} with exclusive ends, the layout
+// simd::WeberWindowSums() reads) and which pixels have a strong pair, so that everything a band
+// touches stays in cache.
+cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8) {
+  const int nl = gray8.rows;
+  const int nc = gray8.cols;
+  const bool ifsttar = options.variant == VisibleEdgeVariant::kIfsttar;
+  const double half_threshold = options.visibility_threshold / 2.0;
+  const WeakPairTest weak(half_threshold);
+  const double* table = WeberTable();
+  const double* inverse = InverseCounts();
+  // Padded values: row r, column c of the maps is at(r, c) (mirrored beyond the image).
+  const MirroredGray8 at(gray8, kWindow);
+  const int stride = at.cols();
+  constexpr int kPairRows = kWindow - 1;
+  // Band buffers in the stride of `at`, column c at index c (columns up to nc + 5 are used).
+  std::vector<std::array<uint8_t, 4>> tests(static_cast<size_t>(kPairRows) * stride);
+  std::vector<uint8_t> strong(ifsttar ? 0 : tests.size());
+  std::vector<std::array<uint8_t, 4>> image_row(nc);
+  std::vector<uint8_t> column_lo(stride), column_hi(stride);
+
+  cv::Mat mask = cv::Mat::zeros(nl, nc, CV_8UC1);
+  // Per threshold [0, 256] plus the SIMD overrun, 32-byte aligned.
+  alignas(32) std::array<double, kTableStride> sum_vertical{};
+  alignas(32) std::array<double, kTableStride> sum_horizontal{};
+  alignas(32) std::array<double, kTableStride> count_vertical{};
+  alignas(32) std::array<double, kTableStride> count_horizontal{};
+
+  for (int r0 = 0; r0 < nl; r0 += kStep) {
+    // Pair tests of padded rows r0 + 1 .. r0 + 6 (image row Reflect(r)), mirrored columns.
+    for (int nn = 1; nn < kWindow; ++nn) {
+      const int i = Reflect(r0 + nn, nl);
+      const uint8_t* up2 = at.Row(i - 2);
+      const uint8_t* up = at.Row(i - 1);
+      const uint8_t* row = at.Row(i);
+      for (int j = 0; j < nc; ++j) {
+        if (ifsttar) {  // see BuildMaps()
+          image_row[j] = {std::min(up[j - 2], up[j - 1]), std::max(up[j - 1], up[j]),
+                          std::min(up2[j - 1], up[j - 1]), std::max(up[j - 1], row[j - 1])};
+        } else {
+          image_row[j] = {std::min(row[j], row[j - 1]), std::max(row[j], row[j - 1]),
+                          std::min(row[j], up[j]), std::max(row[j], up[j])};
+        }
+      }
+      std::array<uint8_t, 4>* t = &tests[static_cast<size_t>(nn - 1) * stride];
+      std::copy(image_row.begin(), image_row.end(), t);
+      for (int c = nc; c < nc + kWindow - 1; ++c) t[c] = image_row[Reflect(c, nc)];
+      // Which pixels of the row have a pair that can reach the threshold.
+      if (ifsttar) continue;
+      uint8_t* st = &strong[static_cast<size_t>(nn - 1) * stride];
+      const uint8_t* tb = t[0].data();
+      for (int c = 1; c < nc + kWindow - 1; ++c) {
+        st[c] = weak.Strong(tb[4 * c], tb[4 * c + 1]) | weak.Strong(tb[4 * c + 2], tb[4 * c + 3]);
+      }
+    }
+
+    // Extremes of the band's 7 rows per column, for the windows' ranges.
+    for (int c = 0; c < nc + kWindow - 1; ++c) {
+      uint8_t lo = 255, hi = 0;
+      for (int nn = 0; nn < kWindow; ++nn) {
+        const uint8_t v = at.Row(r0 + nn)[c];
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+      }
+      column_lo[c] = lo;
+      column_hi[c] = hi;
+    }
+    for (int c0 = 0; c0 < nc; c0 += kStep) {
+      if (!ifsttar) {
+        bool any_strong = false;
+        for (int nn = 0; nn < kPairRows; ++nn) {
+          const uint8_t* row = &strong[static_cast<size_t>(nn) * stride + c0 + 1];
+          for (int mm = 0; mm < kPairRows; ++mm) any_strong |= row[mm] != 0;
+        }
+        if (!any_strong) continue;
+      }
+      int lo_value = 255, hi_value = 0;
+      for (int mm = 0; mm < kWindow; ++mm) {
+        lo_value = std::min<int>(lo_value, column_lo[c0 + mm]);
+        hi_value = std::max<int>(hi_value, column_hi[c0 + mm]);
+      }
+      // Every Weber term of the window is at most (hi − lo) / hi, and so is every C(s) up to a
+      // relative rounding of ~1e-14: no threshold can be visible when that bound is below it.
+      // An all-black window has no separated pair at all.
+      if (hi_value == 0) continue;
+      const double bound = static_cast<double>(hi_value - lo_value) / hi_value;
+      if (bound * (1.0 + 1e-9) <= half_threshold) continue;
+
+      const int s_min = std::max(lo_value, 1);
+      const int s_max = hi_value;
+      for (auto* a : {&sum_vertical, &sum_horizontal, &count_vertical, &count_horizontal})
+        std::fill(a->begin() + (s_min & ~3), a->begin() + s_max + 8, 0.0);
+      simd::WeberWindowSums(table, kTableStride, at.Row(r0 + 1) + c0 + 1, tests[c0 + 1].data(),
+                            stride, kPairRows, s_min, s_max, sum_vertical.data(),
+                            sum_horizontal.data(), count_vertical.data(), count_horizontal.data());
+
+      double best = 0.0;
+      int s0 = s_min;
+      for (int s = s_min; s <= s_max; ++s) {
+        const int count = static_cast<int>(count_vertical[s] + count_horizontal[s]);
+        if (count == 0) continue;
+        const double contrast = inverse[count] * (sum_vertical[s] + sum_horizontal[s]);
+        if (contrast > best) {
+          best = contrast;
+          s0 = s;
+        }
+      }
+      if (!(best > half_threshold)) continue;
+
+      auto mark = [&](int r, int c) {
+        if (r < nl && c < nc) mask.at<uint8_t>(r, c) = 255;
+      };
+      for (int nn = 1; nn < kWindow; ++nn) {
+        const int r = r0 + nn;
+        for (int mm = 1; mm < kWindow; ++mm) {
+          const int c = c0 + mm;
+          const std::array<uint8_t, 4>& t = tests[static_cast<size_t>(nn - 1) * stride + c];
+          if (t[0] <= s0 && s0 < t[1]) {
+            mark(r, c);
+            mark(r, c - 1);
+          }
+          if (t[2] <= s0 && s0 < t[3]) {
+            mark(r, c);
+            mark(r - 1, c);
+          }
+        }
+      }
+    }
+  }
+  return mask;
+}
+
+// The CV_8UC1 copy of a CV_64FC1 gray image when every value is an integer in [0, 255].
+bool AsGray8(const cv::Mat& gray255, cv::Mat* gray8) {
+  gray8->create(gray255.size(), CV_8UC1);
+  for (int i = 0; i < gray255.rows; ++i) {
+    const double* src = gray255.ptr<double>(i);
+    uint8_t* dst = gray8->ptr<uint8_t>(i);
+    for (int j = 0; j < gray255.cols; ++j) {
+      const double v = src[j];
+      if (!(v >= 0.0 && v <= 255.0)) return false;
+      const int k = static_cast<int>(v);
+      if (k != v) return false;
+      dst[j] = static_cast<uint8_t>(k);
+    }
+  }
+  return true;
+}
+
+// Gray (CV_8UC1) of any accepted input, as ToGray255() but without the double image.
+cv::Mat ToGray8(const cv::Mat& image, const std::string& what) {
+  cv::Mat eight = ToEightBit(image, what);
+  return eight.channels() == 3 ? OctaveRgbToGray(eight) : eight;
+}
+
+// Sobel squared magnitude gx² + gy² at (i, j) of the image mirrored by 1 pixel: MATLAB
+// imfilter(I, [1 2 1; 0 0 0; −1 −2 −1] and its transpose, 'symmetric'); integers, so exact.
+int SobelSquared(const MirroredGray8& at, int i, int j) {
+  const uint8_t* up = at.Row(i - 1);
+  const uint8_t* mid = at.Row(i);
+  const uint8_t* down = at.Row(i + 1);
+  const int gy = up[j - 1] + 2 * up[j] + up[j + 1] - down[j - 1] - 2 * down[j] - down[j + 1];
+  const int gx =
+      up[j - 1] + 2 * mid[j - 1] + down[j - 1] - up[j + 1] - 2 * mid[j + 1] - down[j + 1];
+  return gx * gx + gy * gy;
 }
 
 }  // namespace
@@ -245,19 +498,33 @@ cv::Mat OctaveRgbToGray(const cv::Mat& bgr8) {
     throw Error("OctaveRgbToGray: expected a non-empty 8-bit 3-channel BGR image");
   }
   // Octave's rgb2gray: im2double, then [R G B]·[0.298936; 0.587043; 0.114021], ×255 and the
-  // uint8 cast (round half away from zero, saturating).
-  std::array<double, 256> unit{};
-  for (int k = 0; k < 256; ++k) unit[k] = k / 255.0;
+  // uint8 cast (round half away from zero, saturating). The three products are tabulated (the
+  // same doubles), then added in the same order.
+  struct Products {
+    std::array<double, 256> r, g, b;
+  };
+  static const Products products = [] {
+    Products p;
+    for (int k = 0; k < 256; ++k) {
+      const double unit = k / 255.0;
+      p.r[k] = unit * 0.298936;
+      p.g[k] = unit * 0.587043;
+      p.b[k] = unit * 0.114021;
+    }
+    return p;
+  }();
   cv::Mat gray(bgr8.size(), CV_8UC1);
   for (int i = 0; i < bgr8.rows; ++i) {
     const uint8_t* src = bgr8.ptr<uint8_t>(i);
     uint8_t* dst = gray.ptr<uint8_t>(i);
     for (int j = 0; j < bgr8.cols; ++j) {
-      const double b = unit[src[3 * j]];
-      const double g = unit[src[3 * j + 1]];
-      const double r = unit[src[3 * j + 2]];
-      const double y = (r * 0.298936 + g * 0.587043 + b * 0.114021) * 255.0;
-      dst[j] = static_cast<uint8_t>(std::clamp(std::round(y), 0.0, 255.0));
+      const double y =
+          (products.r[src[3 * j + 2]] + products.g[src[3 * j + 1]] + products.b[src[3 * j]]) *
+          255.0;
+      // round half away from zero for y >= 0: y − trunc(y) is exact.
+      int rounded = static_cast<int>(y);
+      rounded += (y - rounded >= 0.5);
+      dst[j] = static_cast<uint8_t>(std::min(rounded, 255));
     }
   }
   return gray;
@@ -274,6 +541,7 @@ cv::Mat ToGray255(const cv::Mat& image, const std::string& what) {
 cv::Mat VisibleEdgeMask(const VisibleEdgeOptions& options, const cv::Mat& gray255) {
   ThrowIfInvalid(options, "visible edges");
   CheckGray255(gray255);
+  if (cv::Mat gray8; AsGray8(gray255, &gray8)) return VisibleEdgeMask8(options, gray8);
   const int nl = gray255.rows;
   const int nc = gray255.cols;
   const PaddedMaps maps = BuildMaps(options.variant, gray255);
@@ -372,10 +640,10 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options, const cv::Mat&
                 std::to_string(original.rows) + " but restored is " +
                 std::to_string(restored.cols) + "x" + std::to_string(restored.rows));
   }
-  const cv::Mat gray_o = ToGray255(original, "visible edges: original");
-  const cv::Mat gray_r = ToGray255(restored, "visible edges: restored");
-  const cv::Mat mask_o = VisibleEdgeMask(options, gray_o);
-  const cv::Mat mask_r = VisibleEdgeMask(options, gray_r);
+  const cv::Mat gray_o = ToGray8(original, "visible edges: original");
+  const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
+  const cv::Mat mask_o = VisibleEdgeMask8(options, gray_o);
+  const cv::Mat mask_r = VisibleEdgeMask8(options, gray_r);
   const int nl = gray_r.rows;
   const int nc = gray_r.cols;
 
@@ -390,18 +658,31 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options, const cv::Mat&
 
   // r̄: log ratios summed in MATLAB's column-major order; non-finite terms (a zero gradient on
   // either side) are dropped from the sum but the mean still divides by n_r, as the code does.
-  const std::vector<double> grad_o = SobelMagnitude(gray_o);
-  const std::vector<double> grad_r = SobelMagnitude(gray_r);
+  // The terms are computed in row order at the mask pixels only and bucketed by column (row
+  // order kept within a column), then summed bucket after bucket: column-major order.
+  const MirroredGray8 at_o(gray_o, 1), at_r(gray_r, 1);
+  std::vector<int> column_start(nc + 1, 0);
+  for (int i = 0; i < nl; ++i) {
+    const uint8_t* m = mask_r.ptr<uint8_t>(i);
+    for (int j = 0; j < nc; ++j) column_start[j + 1] += m[j] != 0;
+  }
+  for (int j = 0; j < nc; ++j) column_start[j + 1] += column_start[j];
+  std::vector<double> terms(static_cast<size_t>(column_start[nc]));
+  std::vector<int> next(column_start.begin(), column_start.end() - 1);
+  for (int i = 0; i < nl; ++i) {
+    const uint8_t* m = mask_r.ptr<uint8_t>(i);
+    for (int j = 0; j < nc; ++j) {
+      if (m[j] == 0) continue;
+      const double grad_r = std::sqrt(static_cast<double>(SobelSquared(at_r, i, j)));
+      const double grad_o = std::sqrt(static_cast<double>(SobelSquared(at_o, i, j)));
+      terms[next[j]++] = std::log(grad_r / grad_o);
+    }
+  }
   double log_sum = 0.0;
-  for (int j = 0; j < nc; ++j) {
-    for (int i = 0; i < nl; ++i) {
-      if (mask_r.at<uint8_t>(i, j) == 0) continue;
-      const size_t k = static_cast<size_t>(i) * nc + j;
-      const double term = std::log(grad_r[k] / grad_o[k]);
-      if (std::isfinite(term)) {
-        log_sum += term;
-        ++result.finite_log_ratios;
-      }
+  for (const double term : terms) {
+    if (std::isfinite(term)) {
+      log_sum += term;
+      ++result.finite_log_ratios;
     }
   }
   result.r_mean = result.visible_restored > 0
@@ -409,10 +690,10 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options, const cv::Mat&
                       : std::numeric_limits<double>::quiet_NaN();
 
   for (int i = 0; i < nl; ++i) {
-    const double* row = gray_r.ptr<double>(i);
+    const uint8_t* row = gray_r.ptr<uint8_t>(i);
     for (int j = 0; j < nc; ++j) {
-      result.black_pixels += row[j] == 0.0;
-      result.white_pixels += row[j] == 255.0;
+      result.black_pixels += row[j] == 0;
+      result.white_pixels += row[j] == 255;
     }
   }
   const double pixels = static_cast<double>(result.pixels);

@@ -48,6 +48,9 @@ struct Inputs {
 
 using InputsFn = std::function<const Inputs&()>;
 
+// The cases of tools/bench_cases_metrics.cc (issue 18 item 2: visible edges, UIQM, UCIQE).
+void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);
+
 // printf-style formatting of one number.
 std::string Format(const char* format, double value);
 
