@@ -48,9 +48,6 @@ struct Inputs {
 
 using InputsFn = std::function<const Inputs&()>;
 
-// The cases of tools/bench_cases_metrics.cc (issue 18 item 2: visible edges, UIQM, UCIQE).
-void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);
-
 // printf-style formatting of one number.
 std::string Format(const char* format, double value);
 
@@ -58,6 +55,7 @@ std::string Format(const char* format, double value);
 double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int border);
 
 // The groups of cases, one file each (tools/bench_cases_*.cc).
+void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);  // issue 18 item 2
 void AddMachineCases(std::vector<BenchCase>& cases, const InputsFn& in);  // bandwidth, peak flops
 
 }  // namespace turbid::bench
