@@ -54,6 +54,9 @@ std::string Format(const char* format, double value);
 // max |a - b| at least `border` pixels from the image edge (over the whole image when too small).
 double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int border);
 
+// Groups of cases, one file each (tools/bench_cases_*.cc).
+void AddColorCases(std::vector<BenchCase>& cases, const InputsFn& in);  // issue 18 item 1
+
 }  // namespace turbid::bench
 
 #endif  // TURBID_TOOLS_BENCH_CASES_H_
