@@ -131,6 +131,67 @@ double PercentileOf(std::vector<float>& values, double percentile) {
   return values[k];
 }
 
+// I_g (1 - alpha) + I_f alpha as cv::addWeighted computes it for float images: in double, with
+// a fused multiply-add where the CPU has one (OpenCV's dispatched kernels use FMA then; its
+// baseline ones do not), rounded to float once.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target("avx2,fma"))) void AddWeightedRowFma(const float* i_g, const float* i_f,
+                                                           double beta, double alpha, float* dst,
+                                                           int n) {
+  for (int i = 0; i < n; ++i) {
+    dst[i] = static_cast<float>(std::fma(static_cast<double>(i_g[i]), beta,
+                                         static_cast<double>(i_f[i]) * alpha));
+  }
+}
+bool CpuHasFma() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("fma") && __builtin_cpu_supports("avx2");
+}
+#else
+void AddWeightedRowFma(const float*, const float*, double, double, float*, int) {}
+bool CpuHasFma() { return false; }
+#endif
+
+void AddWeightedRow(const float* i_g, const float* i_f, double beta, double alpha, float* dst,
+                    int n) {
+  static const bool fma = CpuHasFma();
+  if (fma) {
+    AddWeightedRowFma(i_g, i_f, beta, alpha, dst, n);
+    return;
+  }
+  for (int i = 0; i < n; ++i) {
+    dst[i] = static_cast<float>(static_cast<double>(i_g[i]) * beta +
+                                static_cast<double>(i_f[i]) * alpha);
+  }
+}
+
+// ClampUnit on one row: NaN to 0 (cv::patchNaNs), then [0, 1].
+TURBID_ROW_KERNEL void ClampUnitRow(float* __restrict v, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float x = v[i] != v[i] ? 0.0f : v[i];
+    v[i] = std::max(std::min(x, 1.0f), 0.0f);
+  }
+}
+
+// J + k D as cv::scaleAdd computes it for float images: a fused multiply-add where the CPU has
+// one (as above), else a product and a sum.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target("avx2,fma"))) void ScaleAddRowFma(const float* d, float k, float* j, int n) {
+  for (int i = 0; i < n; ++i) j[i] = std::fma(d[i], k, j[i]);
+}
+#else
+void ScaleAddRowFma(const float*, float, float*, int) {}
+#endif
+
+void ScaleAddRow(const float* d, float k, float* j, int n) {
+  static const bool fma = CpuHasFma();
+  if (fma) {
+    ScaleAddRowFma(d, k, j, n);
+    return;
+  }
+  for (int i = 0; i < n; ++i) j[i] = d[i] * k + j[i];
+}
+
 // %g-style number for the step log (0.7, not 0.700000).
 std::string FormatNumber(double v) {
   char buf[32];
@@ -201,11 +262,12 @@ bool FullOptions::Check(std::string* why) const {
   return true;
 }
 
-cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& plane,
-                                const CameraIntrinsics& camera,
-                                const std::vector<double>& beta_per_m, const cv::Mat& reference,
-                                bool range_scaling, int subsample, double max_range_m) {
-  const int channels = reference.channels();
+namespace {
+
+// The light model's E_L on the plane at 1/subsample, upsampled to `size`: one channel per beta.
+cv::Mat LightModelMap(const IrradianceOptions& lights, const Plane& plane,
+                      const CameraIntrinsics& camera, const std::vector<double>& beta_per_m,
+                      cv::Size size, int channels, int subsample, double max_range_m) {
   if (beta_per_m.size() != 1 && static_cast<int>(beta_per_m.size()) != channels) {
     throw Error("full: " + std::to_string(beta_per_m.size()) + " attenuation values for a " +
                 std::to_string(channels) + "-channel image");
@@ -215,9 +277,20 @@ cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& pl
   const cv::Vec3f n(static_cast<float>(plane.normal[0]), static_cast<float>(plane.normal[1]),
                     static_cast<float>(plane.normal[2]));
   const cv::Mat normals(depth.size(), CV_32FC3, cv::Scalar(n[0], n[1], n[2]));
-  const cv::Mat e_small = IrradianceMap(lights, small, depth, normals, beta_per_m);
+  return Upsample(IrradianceMap(lights, small, depth, normals, beta_per_m), size);
+}
+
+}  // namespace
+
+cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& plane,
+                                const CameraIntrinsics& camera,
+                                const std::vector<double>& beta_per_m, const cv::Mat& reference,
+                                bool range_scaling, int subsample, double max_range_m) {
+  const int channels = reference.channels();
   std::vector<cv::Mat> e_planes;
-  cv::split(Upsample(e_small, reference.size()), e_planes);
+  cv::split(LightModelMap(lights, plane, camera, beta_per_m, reference.size(), channels,
+                          subsample, max_range_m),
+            e_planes);
   // One beta: the same E_L for every channel.
   if (e_planes.size() == 1) e_planes.assign(channels, e_planes[0]);
   if (!range_scaling) {
@@ -450,9 +523,16 @@ void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,
 }
 
 // Step 2 (eq. 5): E_L on the plane, scaled into image units blind, by the range fit, or as is.
-cv::Mat LightStep(const FullOptions& o, const IrradianceOptions& lights,
-                  const CameraIntrinsics& camera, const std::vector<double>& beta,
-                  const cv::Mat& denoised, FullResult* r) {
+// Returned as `map` times `scale` per channel (scale empty: the map as is); the map has one
+// channel per distinct beta except with range scaling (image channels, scaled).
+struct LightEstimate {
+  cv::Mat map;
+  std::vector<double> scale;
+};
+
+LightEstimate LightStepUnscaled(const FullOptions& o, const IrradianceOptions& lights,
+                                const CameraIntrinsics& camera, const std::vector<double>& beta,
+                                const cv::Mat& denoised, FullResult* r) {
   if (!o.light) {
     r->steps.push_back("light: skipped (off)");
     return {};
@@ -461,9 +541,13 @@ cv::Mat LightStep(const FullOptions& o, const IrradianceOptions& lights,
     r->steps.push_back("light: skipped (no lights)");
     return {};
   }
-  cv::Mat e_l = EstimateArtificialLight(lights, *r->plane, camera, beta, denoised,
-                                        o.light_scaling == "range", o.light_subsample,
-                                        o.max_range_m);
+  LightEstimate e;
+  e.map = o.light_scaling == "range"
+              ? EstimateArtificialLight(lights, *r->plane, camera, beta, denoised, true,
+                                        o.light_subsample, o.max_range_m)
+              : LightModelMap(lights, *r->plane, camera, beta, denoised.size(),
+                              denoised.channels(), o.light_subsample, o.max_range_m);
+  const cv::Mat& e_l = e.map;
   std::string detail = o.light_scaling + " scaling";
   if (o.light_scaling == "physical") {
     r->light_scale.assign(denoised.channels(), 1.0);
@@ -474,17 +558,33 @@ cv::Mat LightStep(const FullOptions& o, const IrradianceOptions& lights,
     } else {
       const std::vector<LightScaleEstimate> est = EstimateLightScale(
           denoised, e_l, r->transmission, o.light_scale_percentile, o.light_scale_support);
-      for (const LightScaleEstimate& e : est) {
-        r->light_scale.push_back(e.scale);
-        detail += "; scale " + FormatNumber(e.scale) + " (" + e.source + "; fit " +
-                  FormatNumber(e.fit) + ", bound " + FormatNumber(e.bound) + ")";
+      for (const LightScaleEstimate& est_c : est) {
+        r->light_scale.push_back(est_c.scale);
+        detail += "; scale " + FormatNumber(est_c.scale) + " (" + est_c.source + "; fit " +
+                  FormatNumber(est_c.fit) + ", bound " + FormatNumber(est_c.bound) + ")";
       }
     }
-    cv::Scalar a;
-    for (int c = 0; c < denoised.channels(); ++c) a[c] = r->light_scale[c];
-    cv::multiply(e_l, a, e_l);
+    e.scale = r->light_scale;
   }
   r->steps.push_back("light: " + std::to_string(lights.lights.size()) + " light(s), " + detail);
+  return e;
+}
+
+// LightStepUnscaled's E_L as one image with the image's channels.
+cv::Mat LightStep(const FullOptions& o, const IrradianceOptions& lights,
+                  const CameraIntrinsics& camera, const std::vector<double>& beta,
+                  const cv::Mat& denoised, FullResult* r) {
+  LightEstimate e = LightStepUnscaled(o, lights, camera, beta, denoised, r);
+  if (e.map.empty()) return {};
+  cv::Mat e_l = e.map;
+  if (e_l.channels() != denoised.channels()) {  // one beta: the same E_L for every channel
+    cv::merge(std::vector<cv::Mat>(denoised.channels(), e_l), e_l);
+  }
+  if (!e.scale.empty()) {
+    cv::Scalar a;
+    for (int c = 0; c < denoised.channels(); ++c) a[c] = e.scale[c];
+    cv::multiply(e_l, a, e_l);
+  }
   return e_l;
 }
 
@@ -614,6 +714,223 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
   return out;
 }
 
+// ---- `full` on colour images, streamed (FullEnhance only; FullEnhanceDetailed keeps every
+// intermediate). The whole-image steps become row producers with the same arithmetic: J_plane
+// (eq. 6), its exposure scale and the detail layer are computed per row as the deblur asks for
+// them, the deblurred rows are clamped and binned for CLAHE as they come, and the output reuses
+// the denoised image's buffer. Full-size buffers: the denoised image (then the output), the
+// upsampled t and E_L maps (one channel each when one beta), CLAHE's bins.
+
+// Row y of the image entering the deblur (J_plane, exposure-scaled, plus the detail layer), from
+// the input, the denoised image, E_L (map x scale) and t.
+class ColorRowSource {
+ public:
+  ColorRowSource(const FullOptions& o, const cv::Mat& image, const cv::Mat& denoised,
+                 LightEstimate light, const cv::Mat& transmission, bool dehaze)
+      : image_(image),
+        denoised_(denoised),
+        light_(std::move(light)),
+        t_(transmission),
+        dehaze_(dehaze),
+        detail_(o.keep_detail > 0 && o.denoise),
+        keep_(static_cast<float>(o.keep_detail)),
+        n_(image.cols * 3),
+        e_row_(light_.map.empty() ? 0 : n_),
+        t_row_(n_) {}
+
+  // J_plane of row y (eq. 6), or the denoised row without dehazing; `dst` holds n floats.
+  void Dehazed(int y, float* dst) {
+    const float* in = denoised_.ptr<float>(y);
+    if (!dehaze_) {
+      std::copy_n(in, n_, dst);
+      return;
+    }
+    const float* t = Expand(t_, y, nullptr, t_row_.data());
+    if (light_.map.empty()) {
+      DehazeRowNoLight(in, t, dst, n_);
+    } else {
+      const float* e = Expand(light_.map, y, &light_.scale, e_row_.data());
+      DehazeRowLight(in, e, t, dst, n_);
+    }
+  }
+
+  // The deblur's input row: J_plane / exposure, plus keep_detail (I - I_de).
+  void Row(int y, float* dst) {
+    Dehazed(y, dst);
+    if (exposure_ != 1.0f) ScaleRow(dst, exposure_, n_);
+    if (detail_) {
+      SubtractRow(image_.ptr<float>(y), denoised_.ptr<float>(y), t_row_.data(), n_);
+      ScaleAddRow(t_row_.data(), keep_, dst, n_);
+    }
+  }
+
+  int values() const { return n_; }
+  // J_plane is divided by `level` (cv::Mat::convertTo's float product by 1 / level).
+  void SetExposure(double level) { exposure_ = static_cast<float>(1.0 / level); }
+
+ private:
+  // Row y of a one- or three-channel map as three values per pixel, times scale[c] in double
+  // (cv::multiply by a Scalar) when a scale is given.
+  const float* Expand(const cv::Mat& m, int y, const std::vector<double>* scale, float* buf) {
+    const float* p = m.ptr<float>(y);
+    const bool scaled = scale != nullptr && !scale->empty();
+    if (m.channels() == 3 && !scaled) return p;
+    const int step = m.channels() == 3 ? 1 : 0;
+    for (int x = 0, i = 0; x < image_.cols; ++x) {
+      for (int c = 0; c < 3; ++c, ++i) {
+        const float v = p[step != 0 ? i : x];
+        buf[i] = scaled ? static_cast<float>(static_cast<double>(v) * (*scale)[c]) : v;
+      }
+    }
+    return buf;
+  }
+
+  static TURBID_ROW_KERNEL void DehazeRowLight(const float* __restrict in,
+                                               const float* __restrict e,
+                                               const float* __restrict t, float* __restrict d,
+                                               int n) {
+    for (int i = 0; i < n; ++i) d[i] = (in[i] - e[i]) / t[i] + e[i];
+  }
+  static TURBID_ROW_KERNEL void DehazeRowNoLight(const float* __restrict in,
+                                                 const float* __restrict t, float* __restrict d,
+                                                 int n) {
+    for (int i = 0; i < n; ++i) d[i] = in[i] / t[i];
+  }
+  static TURBID_ROW_KERNEL void ScaleRow(float* __restrict v, float k, int n) {
+    for (int i = 0; i < n; ++i) v[i] *= k;
+  }
+  static TURBID_ROW_KERNEL void SubtractRow(const float* __restrict a, const float* __restrict b,
+                                            float* __restrict d, int n) {
+    for (int i = 0; i < n; ++i) d[i] = a[i] - b[i];
+  }
+
+  const cv::Mat& image_;
+  const cv::Mat& denoised_;
+  const LightEstimate light_;
+  const cv::Mat& t_;
+  const bool dehaze_, detail_;
+  const float keep_;
+  const int n_;
+  float exposure_ = 1.0f;
+  std::vector<float> e_row_, t_row_;
+};
+
+// ExposureStep on the rows of J_plane (the same sample: every second value of every second row).
+void ExposureStepRows(const FullOptions& o, ColorRowSource& src, int rows, FullResult* r) {
+  if (o.exposure_percentile <= 0) return;
+  const int n = src.values();
+  std::vector<float> row(n), sample;
+  sample.reserve(static_cast<size_t>(rows) * n / 4 + 16);
+  for (int y = 0; y < rows; y += 2) {
+    src.Dehazed(y, row.data());
+    for (int i = 0; i < n; i += 2) {
+      if (std::isfinite(row[i])) sample.push_back(row[i]);
+    }
+  }
+  if (sample.empty()) return;
+  const double level = PercentileOf(sample, o.exposure_percentile);
+  if (level > 1.0) {
+    r->exposure_scale = level;
+    src.SetExposure(level);
+    r->steps.push_back("exposure: J_plane divided by its " + FormatNumber(o.exposure_percentile) +
+                       "th percentile " + FormatNumber(level));
+  }
+}
+
+// The contrast step's log line (DeblurAndContrast's).
+void ContrastStepLog(const FullOptions& o, const ClaheOptions& clahe, const ClaheStats& stats,
+                     FullResult* r) {
+  if (!o.contrast) {
+    r->steps.push_back("contrast: skipped (off)");
+    return;
+  }
+  r->clahe_alpha = stats.alpha;
+  std::string what = "contrast: CLAHE " + ClaheDistributionName(clahe.distribution);
+  if (clahe.distribution != ClaheDistribution::kUniform) {
+    what += ", alpha " + FormatNumber(stats.alpha);
+    if (clahe.keep_mean) {
+      what += " (chosen for the mean " + FormatNumber(stats.target_mean) + "; mean in " +
+              FormatNumber(stats.input_mean) + ")";
+    }
+  }
+  r->steps.push_back(what);
+}
+
+// Steps 4 and 5 over the row source when the deblur is the spatial Wiener filter: rows produced
+// into a ring of 2k + 1 (k the inverse filter's radius), deblurred, clamped (ClampUnit) and
+// binned into `out`. Returns false (nothing done) when another deblur path applies.
+bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& out,
+                           FullResult* r) {
+  if (!o.deblur) return false;
+  PsfOptions p;
+  p.optical_thickness = o.psf_optical_thickness;
+  p.forward_scatter = o.psf_forward_scatter;
+  const Psf psf = PsfKernel(p);
+  if (psf.is_delta || o.deconvolution.method != DeconvolutionMethod::kWiener ||
+      o.deconvolution.spatial_max_radius <= 0) {
+    return false;
+  }
+  const int k = WienerInverseKernel(psf.kernel, o.deconvolution.nsr).rows / 2;
+  if (k > o.deconvolution.spatial_max_radius) return false;
+  ClaheOptions clahe = o.clahe;
+  clahe.keep_mean = o.clahe_target_mean;
+  clahe.min_mean = o.clahe_min_mean;
+  const int n = src.values(), ring = std::min(2 * k + 1, out.rows);
+  cv::Mat rows(ring, n, CV_32F), bins;
+  if (o.contrast) bins = ClaheNewBins(clahe, out.size());
+  std::vector<float> lum(out.cols);
+  int next = 0;  // rows [next - ring, next) are in the ring
+  const bool streamed = DeconvolveRowsFrom(
+      o.deconvolution, out.size(), 3,
+      [&](int y) {
+        for (; next <= y; ++next) src.Row(next, rows.ptr<float>(next % ring));
+        return rows.ptr<float>(y % ring);
+      },
+      psf.kernel,
+      [&](int y, const float* row) {
+        float* dst = out.ptr<float>(y);  // its denoised values were read for ring row y
+        std::copy_n(row, n, dst);
+        ClampUnitRow(dst, n);
+        if (o.contrast) ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
+      });
+  CV_Assert(streamed);
+  r->steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
+                     ", PSF radius " + std::to_string(psf.radius_px));
+  ClaheStats stats;
+  if (o.contrast) ClaheColorFromBins(clahe, bins, out, &stats);  // in [0, 1]
+  ContrastStepLog(o, clahe, stats, r);
+  return true;
+}
+
+// Steps 1-5 of `full` for a three-channel image after the geometry (FullEnhanceImpl's).
+cv::Mat FullColorStreamed(const FullOptions& o, const cv::Mat& image,
+                          const IrradianceOptions& lights, const CameraIntrinsics& camera,
+                          const std::vector<double>& beta, bool any_beta, FullResult* r) {
+  const cv::Mat denoised = DenoiseStep(o, image, r);
+  LightEstimate light = LightStepUnscaled(o, lights, camera, beta, denoised, r);
+  const bool dehaze = o.dehaze && any_beta;
+  ColorRowSource src(o, image, denoised, std::move(light), r->transmission, dehaze);
+  if (dehaze) {
+    std::string values;
+    for (double b : r->beta_per_m) values += (values.empty() ? "" : "/") + FormatNumber(b);
+    r->steps.push_back("dehaze: beta " + values + " 1/m (" + r->beta_source +
+                       "), t >= " + FormatNumber(o.t_min));
+    ExposureStepRows(o, src, image.rows, r);
+  } else {
+    r->steps.push_back(o.dehaze ? "dehaze: skipped (beta 0)" : "dehaze: skipped (off)");
+  }
+  if (o.keep_detail > 0 && o.denoise) {
+    r->steps.push_back("detail: the denoising residual added back x" + FormatNumber(o.keep_detail));
+  }
+  // The output overwrites the denoised image row by row when that is our own buffer.
+  cv::Mat out = o.denoise ? denoised : cv::Mat(image.size(), CV_32FC3);
+  if (DeblurAndContrastRows(o, src, out, r)) return out;
+  // Other deblur paths: the whole deblur input, then the general steps 4-5.
+  cv::Mat current(image.size(), CV_32FC3);
+  for (int y = 0; y < image.rows; ++y) src.Row(y, current.ptr<float>(y));
+  return DeblurAndContrast(o, current, false, r);
+}
+
 // The full pipeline. `keep_steps`: fill every inspection-only field of FullResult (range_m);
 // FullEnhance passes false and saves the full-size work they cost.
 FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Scene* scene,
@@ -637,6 +954,10 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
     r.plane_source = source;
     r.steps.push_back("plane: from " + source);
     if (any_beta) TransmissionStep(o, camera, beta, image.size(), keep_steps, &r);
+  }
+  if (!keep_steps && channels == 3) {
+    r.image = FullColorStreamed(o, image, lights, camera, beta, any_beta, &r);
+    return r;
   }
   cv::Mat current = DenoiseStep(o, image, &r);
   r.denoised = current;
@@ -753,6 +1074,31 @@ cv::Mat SimplifiedGray(const SimplifiedOptions& o, const GuidedFilterOptions& fi
   return o.contrast ? ClaheFromBins(o.clahe, bins) : out;
 }
 
+// Three-channel `simplified`, streamed as the gray path is: both guided filters interleaved by
+// rows, the boost, the clamp and CLAHE's luminance binning per row into the output buffer, then
+// the colour CLAHE in place. The input is scanned for non-finite values only when a boosted row
+// is not finite (the up-front check's error then; a finite input that overflows is clamped).
+cv::Mat SimplifiedColor(const SimplifiedOptions& o, const GuidedFilterOptions& fine,
+                        const GuidedFilterOptions& coarse, const cv::Mat& image) {
+  const int n = image.cols * 3;
+  cv::Mat out(image.size(), CV_32FC3), bins;
+  std::vector<float> lum(image.cols);
+  if (o.contrast) bins = ClaheNewBins(o.clahe, image.size());
+  bool validated = false;
+  GuidedFilterSelfRows({fine, coarse}, image, [&](int y, const std::vector<const float*>& q) {
+    float* dst = out.ptr<float>(y);
+    AddWeightedRow(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n);
+    if (!validated && !RowIsFinite(dst, static_cast<size_t>(n))) {
+      ValidateEnhanceImage(image, "simplified");
+      validated = true;
+    }
+    ClampUnitRow(dst, n);
+    if (o.contrast) ClaheBinColorRow(o.clahe, dst, lum.data(), bins, y);
+  });
+  if (o.contrast) ClaheColorFromBins(o.clahe, bins, out);  // in [0, 1]
+  return out;
+}
+
 }  // namespace
 
 cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
@@ -772,6 +1118,7 @@ cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
       throw;
     }
   }
+  if (image.channels() == 3) return SimplifiedColor(o, fine, coarse, image);
   ValidateEnhanceImage(image, "simplified");
   const cv::Mat i_f = GuidedFilterSelf(fine, image);
   const cv::Mat i_g = GuidedFilterSelf(coarse, image);
