@@ -8,6 +8,7 @@
 #include "enhancer/guided_filter.h"
 #include "enhancer/method.h"
 #include "enhancer/plane_fit.h"
+#include "enhancer/select.h"
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
 #include "simulator/noise.h"
@@ -124,11 +125,10 @@ cv::Mat Upsample(const cv::Mat& small, cv::Size size) {
   return out;
 }
 
-// The value at `percentile` (%) of `values` (reordered), by rank floor(p/100 (n - 1)).
+// The value at `percentile` (%) of `values` (no NaN), by rank floor(p/100 (n - 1)).
 double PercentileOf(std::vector<float>& values, double percentile) {
   const size_t k = static_cast<size_t>(std::floor(percentile / 100.0 * (values.size() - 1)));
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
-  return values[k];
+  return enhancer_internal::SelectKth<float, uint32_t>(values, k);
 }
 
 // I_g (1 - alpha) + I_f alpha as cv::addWeighted computes it for float images: in double, with
@@ -321,19 +321,33 @@ namespace {
 
 // Least squares of I = c0 t + c1 (1 - t) L + c2 t L over the samples (normal equations in
 // double), twice: the second pass drops the 20% largest absolute residuals of the first. Returns
-// false when the system is singular or the samples are too few.
-bool FitVeilModel(const std::vector<cv::Vec4d>& samples, cv::Vec3d* c) {
+// false when the system is singular or the samples are too few. The normal equations are summed
+// sample by sample in order (A^T A is symmetric: its six distinct sums are mirrored).
+// One fit sample: t, L and I_de at a grid pixel (the regressors t, (1 - t) L, t L and the
+// target are formed from them in double, as VeilRow does).
+struct VeilSample {
+  float t, l, v;
+};
+inline cv::Vec4d VeilRow(const VeilSample& s) {
+  const double ti = s.t, li = s.l;
+  return cv::Vec4d(ti, (1.0 - ti) * li, ti * li, s.v);
+}
+
+bool FitVeilModel(const std::vector<VeilSample>& samples, cv::Vec3d* c) {
   if (samples.size() < 16) return false;
   std::vector<char> use(samples.size(), 1);
+  std::vector<double> residuals(samples.size());
   for (int pass = 0; pass < 2; ++pass) {
-    cv::Matx33d ata = cv::Matx33d::zeros();
-    cv::Vec3d atb(0, 0, 0);
+    double s00 = 0, s01 = 0, s02 = 0, s11 = 0, s12 = 0, s22 = 0, b0 = 0, b1 = 0, b2 = 0;
     for (size_t i = 0; i < samples.size(); ++i) {
       if (!use[i]) continue;
-      const cv::Vec3d x(samples[i][0], samples[i][1], samples[i][2]);
-      ata += x * x.t();
-      atb += x * samples[i][3];
+      const cv::Vec4d x = VeilRow(samples[i]);
+      s00 += x[0] * x[0], s01 += x[0] * x[1], s02 += x[0] * x[2];
+      s11 += x[1] * x[1], s12 += x[1] * x[2], s22 += x[2] * x[2];
+      b0 += x[0] * x[3], b1 += x[1] * x[3], b2 += x[2] * x[3];
     }
+    const cv::Matx33d ata(s00, s01, s02, s01, s11, s12, s02, s12, s22);
+    const cv::Vec3d atb(b0, b1, b2);
     cv::Vec3d solution;
     if (!cv::solve(ata, atb, solution, cv::DECOMP_CHOLESKY)) return false;
     // Condition: reject near-collinear regressors (constant light or transmission).
@@ -342,15 +356,14 @@ bool FitVeilModel(const std::vector<cv::Vec4d>& samples, cv::Vec3d* c) {
     if (!(eig[2] > 1e-9 * eig[0])) return false;
     *c = solution;
     if (pass == 1) break;
-    std::vector<double> residuals(samples.size());
     for (size_t i = 0; i < samples.size(); ++i) {
-      residuals[i] = std::abs(solution[0] * samples[i][0] + solution[1] * samples[i][1] +
-                              solution[2] * samples[i][2] - samples[i][3]);
+      const cv::Vec4d x = VeilRow(samples[i]);
+      residuals[i] =
+          std::abs(solution[0] * x[0] + solution[1] * x[1] + solution[2] * x[2] - x[3]);
     }
-    std::vector<double> sorted = residuals;
-    const size_t k = sorted.size() * 8 / 10;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
-    for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= sorted[k];
+    std::vector<double> keys = residuals;
+    const double cut = enhancer_internal::SelectKth<double, uint64_t>(keys, keys.size() * 8 / 10);
+    for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= cut;
   }
   return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
 }
@@ -367,45 +380,65 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
   }
   CV_Assert(denoised.size() == light.size() && denoised.size() == transmission.size());
   const int ch = denoised.channels(), lc = light.channels(), tc = transmission.channels();
+  CV_Assert(ch <= 4 && (lc == 1 || lc == ch) && (tc == 1 || tc == ch));
   std::vector<LightScaleEstimate> out(ch);
-  std::vector<float> ratios;
-  std::vector<cv::Vec4d> samples;
+  // Per channel: the largest veil weight w = (1 - t) L on the grid (one pass for every channel
+  // when t and L have one channel each).
+  std::vector<float> w_max(ch, 0.0f);
   for (int c = 0; c < ch; ++c) {
+    if (c > 0 && lc == 1 && tc == 1) {
+      w_max[c] = w_max[0];
+      continue;
+    }
     const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
-    float w_max = 0.0f;
     for (int y = 0; y < denoised.rows; y += stride) {
       const float* t = transmission.ptr<float>(y);
       const float* l = light.ptr<float>(y);
       for (int x = 0; x < denoised.cols; x += stride) {
-        w_max = std::max(w_max, (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
+        w_max[c] = std::max(w_max[c], (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
       }
     }
-    if (!(w_max > 0.0f) || !std::isfinite(w_max)) continue;
-    const float w_min = static_cast<float>(support) * w_max;
-    ratios.clear();
-    samples.clear();
-    const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
-                            static_cast<size_t>((denoised.cols + stride - 1) / stride);
-    samples.reserve(expected);
-    ratios.reserve(expected);
-    for (int y = 0; y < denoised.rows; y += stride) {
-      const float* in = denoised.ptr<float>(y);
-      const float* t = transmission.ptr<float>(y);
-      const float* l = light.ptr<float>(y);
-      for (int x = 0; x < denoised.cols; x += stride) {
-        const double ti = t[x * tc + t_at], li = l[x * lc + l_at], v = in[x * ch + c];
+  }
+  std::vector<bool> active(ch);
+  std::vector<float> w_min(ch);
+  for (int c = 0; c < ch; ++c) {
+    active[c] = w_max[c] > 0.0f && std::isfinite(w_max[c]);
+    w_min[c] = static_cast<float>(support) * w_max[c];
+  }
+  // One pass over the grid collects every channel's ratios and fit samples, each in grid order.
+  std::vector<std::vector<float>> ratios(ch);
+  std::vector<std::vector<VeilSample>> samples(ch);
+  const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
+                          static_cast<size_t>((denoised.cols + stride - 1) / stride);
+  for (int c = 0; c < ch; ++c) {
+    if (!active[c]) continue;
+    samples[c].reserve(expected);
+    ratios[c].reserve(expected);
+  }
+  for (int y = 0; y < denoised.rows; y += stride) {
+    const float* in = denoised.ptr<float>(y);
+    const float* t = transmission.ptr<float>(y);
+    const float* l = light.ptr<float>(y);
+    for (int x = 0; x < denoised.cols; x += stride) {
+      for (int c = 0; c < ch; ++c) {
+        if (!active[c]) continue;
+        const VeilSample sample{t[x * tc + (tc == 1 ? 0 : c)], l[x * lc + (lc == 1 ? 0 : c)],
+                                in[x * ch + c]};
+        const double ti = sample.t, li = sample.l, v = sample.v;
         const float w = static_cast<float>((1.0 - ti) * li);
         if (!std::isfinite(v) || !std::isfinite(li)) continue;
-        if (w >= w_min) ratios.push_back(static_cast<float>(std::max(v, 0.0) / w));
-        samples.push_back(cv::Vec4d(ti, (1.0 - ti) * li, ti * li, v));
+        if (w >= w_min[c]) ratios[c].push_back(static_cast<float>(std::max(v, 0.0) / w));
+        samples[c].push_back(sample);
       }
     }
-    if (ratios.empty()) continue;
+  }
+  for (int c = 0; c < ch; ++c) {
+    if (ratios[c].empty()) continue;
     LightScaleEstimate& e = out[c];
-    e.bound = std::max(0.0, PercentileOf(ratios, percentile));
+    e.bound = std::max(0.0, PercentileOf(ratios[c], percentile));
     cv::Vec3d fit;
     // The fit is usable when it is physical: a > 0 and 0 <= mean reflectance (c2 / c1) <= 1.
-    if (FitVeilModel(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
+    if (FitVeilModel(samples[c], &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
       e.fit = fit[1];
       e.scale = std::min(e.fit, e.bound);
       e.source = e.fit <= e.bound ? "fit" : "bound";
@@ -422,22 +455,46 @@ namespace {
 // Noise standard deviation of a float image (all channels), J. Immerkaer, "Fast noise variance
 // estimation", CVIU 64(2) 1996, eq. 2: sqrt(pi/2) / (6 (W-2)(H-2)) sum |I * N| with the 3x3
 // Laplacian-difference mask N = [1 -2 1; -2 4 -2; 1 -2 1], over interior pixels.
+// |I * N| along one row (the mask's 3x3 sum), for the n values from i = ch on.
+TURBID_ROW_KERNEL void LaplacianAbsRow(const float* __restrict a, const float* __restrict b,
+                                       const float* __restrict c, int ch, float* __restrict out,
+                                       int n) {
+  for (int j = 0; j < n; ++j) {
+    const int i = j + ch;
+    const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
+                    2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
+    out[j] = std::abs(v);
+  }
+}
+
 double EstimateNoiseSigma(const cv::Mat& image) {
   if (image.rows < 3 || image.cols < 3) return 0.0;
   CV_Assert(image.depth() == CV_32F);
   const int ch = image.channels(), n = (image.cols - 2) * ch;
+  // Each row's sum is one float accumulation in order (accumulated in double over the rows, in
+  // order); kRows rows are summed side by side so their dependent additions overlap.
+  constexpr int kRows = 8;
+  std::vector<float> v(static_cast<size_t>(kRows) * n);
   double total = 0.0;
-  for (int y = 1; y + 1 < image.rows; ++y) {
-    const float* a = image.ptr<float>(y - 1);
-    const float* b = image.ptr<float>(y);
-    const float* c = image.ptr<float>(y + 1);
-    float row = 0.0f;  // one row's sum in float (vectorises), accumulated in double
-    for (int i = ch; i < n + ch; ++i) {
-      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
-                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
-      row += std::abs(v);
+  for (int y0 = 1; y0 + 1 < image.rows; y0 += kRows) {
+    const int m = std::min(kRows, image.rows - 1 - y0);
+    for (int k = 0; k < m; ++k) {
+      const int y = y0 + k;
+      LaplacianAbsRow(image.ptr<float>(y - 1), image.ptr<float>(y), image.ptr<float>(y + 1), ch,
+                      v.data() + static_cast<size_t>(k) * n, n);
     }
-    total += row;
+    float row[kRows] = {};
+    if (m == kRows) {
+      const float* p = v.data();
+      for (int i = 0; i < n; ++i) {
+        for (int k = 0; k < kRows; ++k) row[k] += p[static_cast<size_t>(k) * n + i];
+      }
+    } else {
+      for (int k = 0; k < m; ++k) {
+        for (int i = 0; i < n; ++i) row[k] += v[static_cast<size_t>(k) * n + i];
+      }
+    }
+    for (int k = 0; k < m; ++k) total += row[k];
   }
   const double count = 6.0 * (image.cols - 2) * (image.rows - 2) * ch;
   return std::sqrt(CV_PI / 2.0) * total / count;

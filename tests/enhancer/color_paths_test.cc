@@ -5,6 +5,7 @@
 // filtered alone, merged back, with whole-image steps in between.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <limits>
 #include <opencv2/imgproc.hpp>
@@ -16,6 +17,7 @@
 #include "enhancer/guided_filter.h"
 #include "enhancer/method.h"
 #include "enhancer/paper_methods.h"
+#include "enhancer/select.h"
 #include "enhancer/simd_switch.h"
 #include "scenes/builtin.h"
 #include "scenes/error.h"
@@ -99,6 +101,119 @@ cv::Mat ReferenceSimplified(const SimplifiedOptions& o, const cv::Mat& image) {
   if (o.contrast) out = ReferenceClahe(o.clahe, out);
   ReferenceClampUnit(out);
   return out;
+}
+
+// EstimateLightScale (public) and the Immerkaer noise estimate behind adaptive denoising, as they
+// were: every channel in its own pass, the normal equations as cv::Matx sums, one float chain per
+// row.
+bool ReferenceFitVeilModel(const std::vector<cv::Vec4d>& samples, cv::Vec3d* c) {
+  if (samples.size() < 16) return false;
+  std::vector<char> use(samples.size(), 1);
+  for (int pass = 0; pass < 2; ++pass) {
+    cv::Matx33d ata = cv::Matx33d::zeros();
+    cv::Vec3d atb(0, 0, 0);
+    for (size_t i = 0; i < samples.size(); ++i) {
+      if (!use[i]) continue;
+      const cv::Vec3d x(samples[i][0], samples[i][1], samples[i][2]);
+      ata += x * x.t();
+      atb += x * samples[i][3];
+    }
+    cv::Vec3d solution;
+    if (!cv::solve(ata, atb, solution, cv::DECOMP_CHOLESKY)) return false;
+    cv::Vec3d eig;
+    cv::eigen(ata, eig);
+    if (!(eig[2] > 1e-9 * eig[0])) return false;
+    *c = solution;
+    if (pass == 1) break;
+    std::vector<double> residuals(samples.size());
+    for (size_t i = 0; i < samples.size(); ++i) {
+      residuals[i] = std::abs(solution[0] * samples[i][0] + solution[1] * samples[i][1] +
+                              solution[2] * samples[i][2] - samples[i][3]);
+    }
+    std::vector<double> sorted = residuals;
+    const size_t k = sorted.size() * 8 / 10;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
+    for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= sorted[k];
+  }
+  return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
+}
+
+double ReferencePercentile(std::vector<float>& values, double percentile) {
+  const size_t k = static_cast<size_t>(std::floor(percentile / 100.0 * (values.size() - 1)));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+std::vector<LightScaleEstimate> ReferenceEstimateLightScale(const cv::Mat& denoised,
+                                                            const cv::Mat& light,
+                                                            const cv::Mat& transmission,
+                                                            double percentile, double support) {
+  const int stride =
+      std::max(1, static_cast<int>(std::floor(std::sqrt(denoised.total() / 65536.0))));
+  const int ch = denoised.channels(), lc = light.channels(), tc = transmission.channels();
+  std::vector<LightScaleEstimate> out(ch);
+  std::vector<float> ratios;
+  std::vector<cv::Vec4d> samples;
+  for (int c = 0; c < ch; ++c) {
+    const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
+    float w_max = 0.0f;
+    for (int y = 0; y < denoised.rows; y += stride) {
+      const float* t = transmission.ptr<float>(y);
+      const float* l = light.ptr<float>(y);
+      for (int x = 0; x < denoised.cols; x += stride) {
+        w_max = std::max(w_max, (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
+      }
+    }
+    if (!(w_max > 0.0f) || !std::isfinite(w_max)) continue;
+    const float w_min = static_cast<float>(support) * w_max;
+    ratios.clear();
+    samples.clear();
+    for (int y = 0; y < denoised.rows; y += stride) {
+      const float* in = denoised.ptr<float>(y);
+      const float* t = transmission.ptr<float>(y);
+      const float* l = light.ptr<float>(y);
+      for (int x = 0; x < denoised.cols; x += stride) {
+        const double ti = t[x * tc + t_at], li = l[x * lc + l_at], v = in[x * ch + c];
+        const float w = static_cast<float>((1.0 - ti) * li);
+        if (!std::isfinite(v) || !std::isfinite(li)) continue;
+        if (w >= w_min) ratios.push_back(static_cast<float>(std::max(v, 0.0) / w));
+        samples.push_back(cv::Vec4d(ti, (1.0 - ti) * li, ti * li, v));
+      }
+    }
+    if (ratios.empty()) continue;
+    LightScaleEstimate& e = out[c];
+    e.bound = std::max(0.0, ReferencePercentile(ratios, percentile));
+    cv::Vec3d fit;
+    if (ReferenceFitVeilModel(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
+      e.fit = fit[1];
+      e.scale = std::min(e.fit, e.bound);
+      e.source = e.fit <= e.bound ? "fit" : "bound";
+    } else {
+      e.scale = e.bound;
+      e.source = "bound (no usable fit)";
+    }
+  }
+  return out;
+}
+
+double ReferenceNoiseSigma(const cv::Mat& image) {
+  if (image.rows < 3 || image.cols < 3) return 0.0;
+  const int ch = image.channels(), n = (image.cols - 2) * ch;
+  double total = 0.0;
+  for (int y = 1; y + 1 < image.rows; ++y) {
+    const float* a = image.ptr<float>(y - 1);
+    const float* b = image.ptr<float>(y);
+    const float* c = image.ptr<float>(y + 1);
+    float row = 0.0f;
+    for (int i = ch; i < n + ch; ++i) {
+      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
+                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
+      row += std::abs(v);
+    }
+    total += row;
+  }
+  const double count = 6.0 * (image.cols - 2) * (image.rows - 2) * ch;
+  return std::sqrt(CV_PI / 2.0) * total / count;
 }
 
 // ---- Inputs.
@@ -191,6 +306,35 @@ std::vector<std::pair<std::string, cv::Mat>> RealFrames() {
 
 // ---- Building blocks.
 
+TEST(ColorPaths, SelectKthEqualsNthElement) {
+  // The percentiles of `full` (t_med, exposure, light-scale bound, the fit's trim) use it.
+  cv::RNG rng(17);
+  for (size_t n : {1, 2, 3, 17, 64, 65, 1000, 40000}) {
+    for (int kind = 0; kind < 4; ++kind) {
+      std::vector<float> f(n);
+      std::vector<double> d(n);
+      for (size_t i = 0; i < n; ++i) {
+        double v = rng.uniform(-2.0, 2.0);
+        if (kind == 1) v = std::round(v * 3) / 3;           // many ties, -0 and +0
+        if (kind == 2) v = 0.5 + 1e-7 * rng.uniform(0, 8);  // values a few ulps apart
+        if (kind == 3 && i % 7 == 0) v = (i % 14 == 0 ? 1 : -1) * HUGE_VAL;
+        f[i] = static_cast<float>(v);
+        d[i] = v;
+      }
+      for (size_t k : {size_t{0}, n / 3, n / 2, n * 8 / 10, n - 1}) {
+        std::vector<float> fs = f, f_scratch = f;  // SelectKth uses its input as scratch
+        std::nth_element(fs.begin(), fs.begin() + static_cast<std::ptrdiff_t>(k), fs.end());
+        EXPECT_EQ((enhancer_internal::SelectKth<float, uint32_t>(f_scratch, k)), fs[k])
+            << n << " " << k;
+        std::vector<double> ds = d, d_scratch = d;
+        std::nth_element(ds.begin(), ds.begin() + static_cast<std::ptrdiff_t>(k), ds.end());
+        EXPECT_EQ((enhancer_internal::SelectKth<double, uint64_t>(d_scratch, k)), ds[k])
+            << n << " " << k;
+      }
+    }
+  }
+}
+
 TEST(ColorPaths, GuidedFilterInterleavedEqualsPlaneByPlane) {
   for (const cv::Size& size : OddSizes()) {
     const cv::Mat img = SmoothNoise(size.height, size.width, size.area());
@@ -243,6 +387,49 @@ TEST(ColorPaths, ClaheFromColorBinsEqualsWholeImage) {
       ClaheColorFromBins(o, bins, out);
       EXPECT_TRUE(SameBits(out, expect)) << size << " keep_mean " << keep_mean;
       EXPECT_TRUE(SameBits(Clahe(o, img), expect)) << size;
+    }
+  }
+}
+
+TEST(ColorPaths, LightScaleAndNoiseEstimatesEqualReference) {
+  // Both feed `full` (blind light scale, adaptive denoising epsilon): equal to the old code on
+  // renders (through FullEnhanceDetailed's intermediates) and on random maps, gray and colour.
+  for (const ColorRender& r : Renders()) {
+    const FullResult d =
+        FullEnhanceDetailed(FullOptions{}, r.render.image, &r.scene, &r.render.sidecar);
+    EXPECT_EQ(d.noise_sigma, ReferenceNoiseSigma(r.render.image)) << r.name;
+    ASSERT_FALSE(d.light.empty());
+    // d.light is scaled; the estimate is scale-invariant in the ratio's sense only, so compare on
+    // the unscaled-equivalent map: any positive map does.
+    for (int lc : {1, 3}) {
+      cv::Mat light = d.light;
+      if (lc == 1) cv::extractChannel(d.light, light, 1);
+      const auto got = EstimateLightScale(d.denoised, light, d.transmission, 1.0, 0.25);
+      const auto want = ReferenceEstimateLightScale(d.denoised, light, d.transmission, 1.0, 0.25);
+      ASSERT_EQ(got.size(), want.size());
+      for (size_t c = 0; c < got.size(); ++c) {
+        EXPECT_EQ(got[c].scale, want[c].scale) << r.name << " c " << c;
+        EXPECT_EQ(got[c].fit, want[c].fit) << r.name << " c " << c;
+        EXPECT_EQ(got[c].bound, want[c].bound) << r.name << " c " << c;
+        EXPECT_EQ(got[c].source, want[c].source) << r.name << " c " << c;
+      }
+    }
+  }
+  for (const cv::Size& size : OddSizes()) {
+    for (int ch : {1, 3}) {
+      cv::Mat img(size, CV_32FC(ch)), t(size, CV_32FC(ch)), l(size, CV_32F);
+      cv::RNG rng(size.area() + ch);
+      rng.fill(img, cv::RNG::UNIFORM, 0.0, 1.0);
+      rng.fill(t, cv::RNG::UNIFORM, 0.1, 1.0);
+      rng.fill(l, cv::RNG::UNIFORM, 0.0, 2.0);
+      const auto got = EstimateLightScale(img, l, t, 5.0, 0.25);
+      const auto want = ReferenceEstimateLightScale(img, l, t, 5.0, 0.25);
+      for (size_t c = 0; c < got.size(); ++c) {
+        EXPECT_EQ(got[c].scale, want[c].scale) << size << " ch " << ch;
+        EXPECT_EQ(got[c].fit, want[c].fit) << size << " ch " << ch;
+      }
+      const FullResult d = FullEnhanceDetailed(FullOptions{}, img, nullptr, nullptr);
+      EXPECT_EQ(d.noise_sigma, ReferenceNoiseSigma(img)) << size << " ch " << ch;
     }
   }
 }
