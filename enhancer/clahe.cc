@@ -477,15 +477,14 @@ TURBID_ROW_KERNEL void LuminanceRow(const float* __restrict bgr, float* __restri
 // bgr itself. Where the luminance is ~0, gray at the equalised value.
 TURBID_ROW_KERNEL void LuminanceRatioRow(const float* bgr, const float* __restrict lum,
                                          const float* __restrict eq, float* dst, int w) {
+  // Branch-free (the ratio is formed everywhere and dropped where l is ~0), so it vectorises.
   for (int x = 0; x < w; ++x) {
     const float l = lum[x], e = eq[x];
-    if (l <= 1e-6f) {
-      dst[3 * x] = dst[3 * x + 1] = dst[3 * x + 2] = e;
-      continue;
-    }
     const float g = e / l;
+    const bool dark = l <= 1e-6f;
     for (int c = 0; c < 3; ++c) {
-      dst[3 * x + c] = std::min(std::max(bgr[3 * x + c] * g, 0.0f), 1.0f);
+      const float v = std::min(std::max(bgr[3 * x + c] * g, 0.0f), 1.0f);
+      dst[3 * x + c] = dark ? e : v;
     }
   }
 }

@@ -173,23 +173,28 @@ TURBID_ROW_KERNEL void ClampUnitRow(float* __restrict v, int n) {
   }
 }
 
-// J + k D as cv::scaleAdd computes it for float images: a fused multiply-add where the CPU has
-// one (as above), else a product and a sum.
+// `full`'s exposure and detail steps on one row: j = j * inv_level (convertTo's float product),
+// then j + k (I - I_de) as cv::scaleAdd computes it for float images: a fused multiply-add where
+// the CPU has one (as above), else a product and a sum.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-__attribute__((target("avx2,fma"))) void ScaleAddRowFma(const float* d, float k, float* j, int n) {
-  for (int i = 0; i < n; ++i) j[i] = std::fma(d[i], k, j[i]);
+__attribute__((target("avx2,fma"))) void ExposureDetailRowFma(const float* image,
+                                                              const float* denoised,
+                                                              float inv_level, float k, float* j,
+                                                              int n) {
+  for (int i = 0; i < n; ++i) j[i] = std::fma(image[i] - denoised[i], k, j[i] * inv_level);
 }
 #else
-void ScaleAddRowFma(const float*, float, float*, int) {}
+void ExposureDetailRowFma(const float*, const float*, float, float, float*, int) {}
 #endif
 
-void ScaleAddRow(const float* d, float k, float* j, int n) {
+void ExposureDetailRow(const float* image, const float* denoised, float inv_level, float k,
+                       float* j, int n) {
   static const bool fma = CpuHasFma();
   if (fma) {
-    ScaleAddRowFma(d, k, j, n);
+    ExposureDetailRowFma(image, denoised, inv_level, k, j, n);
     return;
   }
-  for (int i = 0; i < n; ++i) j[i] = d[i] * k + j[i];
+  for (int i = 0; i < n; ++i) j[i] = (image[i] - denoised[i]) * k + j[i] * inv_level;
 }
 
 // %g-style number for the step log (0.7, not 0.700000).
@@ -814,10 +819,10 @@ class ColorRowSource {
   // The deblur's input row: J_plane / exposure, plus keep_detail (I - I_de).
   void Row(int y, float* dst) {
     Dehazed(y, dst);
-    if (exposure_ != 1.0f) ScaleRow(dst, exposure_, n_);
     if (detail_) {
-      SubtractRow(image_.ptr<float>(y), denoised_.ptr<float>(y), t_row_.data(), n_);
-      ScaleAddRow(t_row_.data(), keep_, dst, n_);
+      ExposureDetailRow(image_.ptr<float>(y), denoised_.ptr<float>(y), exposure_, keep_, dst, n_);
+    } else if (exposure_ != 1.0f) {
+      ScaleRow(dst, exposure_, n_);
     }
   }
 
@@ -830,16 +835,37 @@ class ColorRowSource {
   // (cv::multiply by a Scalar) when a scale is given.
   const float* Expand(const cv::Mat& m, int y, const std::vector<double>* scale, float* buf) {
     const float* p = m.ptr<float>(y);
-    const bool scaled = scale != nullptr && !scale->empty();
-    if (m.channels() == 3 && !scaled) return p;
-    const int step = m.channels() == 3 ? 1 : 0;
-    for (int x = 0, i = 0; x < image_.cols; ++x) {
-      for (int c = 0; c < 3; ++c, ++i) {
-        const float v = p[step != 0 ? i : x];
-        buf[i] = scaled ? static_cast<float>(static_cast<double>(v) * (*scale)[c]) : v;
-      }
+    const int w = image_.cols;
+    if (scale == nullptr || scale->empty()) {
+      if (m.channels() == 3) return p;
+      SpreadRow(p, buf, w);
+    } else if (m.channels() == 1) {
+      SpreadScaledRow(p, (*scale)[0], (*scale)[1], (*scale)[2], buf, w);
+    } else {
+      ScaledRow3(p, (*scale)[0], (*scale)[1], (*scale)[2], buf, w);
     }
     return buf;
+  }
+
+  static TURBID_ROW_KERNEL void SpreadRow(const float* __restrict p, float* __restrict b, int w) {
+    for (int x = 0; x < w; ++x) b[3 * x] = b[3 * x + 1] = b[3 * x + 2] = p[x];
+  }
+  static TURBID_ROW_KERNEL void SpreadScaledRow(const float* __restrict p, double s0, double s1,
+                                                double s2, float* __restrict b, int w) {
+    for (int x = 0; x < w; ++x) {
+      const double v = p[x];
+      b[3 * x] = static_cast<float>(v * s0);
+      b[3 * x + 1] = static_cast<float>(v * s1);
+      b[3 * x + 2] = static_cast<float>(v * s2);
+    }
+  }
+  static TURBID_ROW_KERNEL void ScaledRow3(const float* __restrict p, double s0, double s1,
+                                           double s2, float* __restrict b, int w) {
+    for (int x = 0; x < w; ++x) {
+      b[3 * x] = static_cast<float>(static_cast<double>(p[3 * x]) * s0);
+      b[3 * x + 1] = static_cast<float>(static_cast<double>(p[3 * x + 1]) * s1);
+      b[3 * x + 2] = static_cast<float>(static_cast<double>(p[3 * x + 2]) * s2);
+    }
   }
 
   static TURBID_ROW_KERNEL void DehazeRowLight(const float* __restrict in,
@@ -855,10 +881,6 @@ class ColorRowSource {
   }
   static TURBID_ROW_KERNEL void ScaleRow(float* __restrict v, float k, int n) {
     for (int i = 0; i < n; ++i) v[i] *= k;
-  }
-  static TURBID_ROW_KERNEL void SubtractRow(const float* __restrict a, const float* __restrict b,
-                                            float* __restrict d, int n) {
-    for (int i = 0; i < n; ++i) d[i] = a[i] - b[i];
   }
 
   const cv::Mat& image_;

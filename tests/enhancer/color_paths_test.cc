@@ -293,7 +293,7 @@ std::vector<std::pair<std::string, cv::Mat>> RealFrames() {
   const auto dir = testing::DataDir();
   if (!dir) return frames;
   for (const char* rel : {"uieb_waternet/616.png", "euvp_funiegan/A/1.jpg",
-                          "subvo/images/1.jpg"}) {
+                          "subvo/images/frame_00_00_21.000.jpg"}) {
     try {
       cv::Mat img = ReadImage(*dir + "/" + rel);
       if (img.channels() == 3) frames.emplace_back(rel, img);
