@@ -699,6 +699,25 @@ void ExposureStep(const FullOptions& o, cv::Mat& dehazed, FullResult* r) {
   }
 }
 
+// The contrast step's log line.
+void ContrastStepLog(const FullOptions& o, const ClaheOptions& clahe, const ClaheStats& stats,
+                     FullResult* r) {
+  if (!o.contrast) {
+    r->steps.push_back("contrast: skipped (off)");
+    return;
+  }
+  r->clahe_alpha = stats.alpha;
+  std::string what = "contrast: CLAHE " + ClaheDistributionName(clahe.distribution);
+  if (clahe.distribution != ClaheDistribution::kUniform) {
+    what += ", alpha " + FormatNumber(stats.alpha);
+    if (clahe.keep_mean) {
+      what += " (chosen for the mean " + FormatNumber(stats.target_mean) + "; mean in " +
+              FormatNumber(stats.input_mean) + ")";
+    }
+  }
+  r->steps.push_back(what);
+}
+
 // Steps 4 (eq. 7) and 5 (CLAHE). Without inspection, a one-channel spatial Wiener deblur streams
 // its rows straight into CLAHE's bin indices: no full-size deblurred image.
 cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps, FullResult* r) {
@@ -759,20 +778,7 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
     if (o.contrast) out = Clahe(clahe, out, &stats);
     ClampUnit(out);
   }
-  if (o.contrast) {
-    r->clahe_alpha = stats.alpha;
-    std::string what = "contrast: CLAHE " + ClaheDistributionName(clahe.distribution);
-    if (clahe.distribution != ClaheDistribution::kUniform) {
-      what += ", alpha " + FormatNumber(stats.alpha);
-      if (clahe.keep_mean) {
-        what += " (chosen for the mean " + FormatNumber(stats.target_mean) + "; mean in " +
-                FormatNumber(stats.input_mean) + ")";
-      }
-    }
-    r->steps.push_back(what);
-  } else {
-    r->steps.push_back("contrast: skipped (off)");
-  }
+  ContrastStepLog(o, clahe, stats, r);
   return out;
 }
 
@@ -914,25 +920,6 @@ void ExposureStepRows(const FullOptions& o, ColorRowSource& src, int rows, FullR
     r->steps.push_back("exposure: J_plane divided by its " + FormatNumber(o.exposure_percentile) +
                        "th percentile " + FormatNumber(level));
   }
-}
-
-// The contrast step's log line (DeblurAndContrast's).
-void ContrastStepLog(const FullOptions& o, const ClaheOptions& clahe, const ClaheStats& stats,
-                     FullResult* r) {
-  if (!o.contrast) {
-    r->steps.push_back("contrast: skipped (off)");
-    return;
-  }
-  r->clahe_alpha = stats.alpha;
-  std::string what = "contrast: CLAHE " + ClaheDistributionName(clahe.distribution);
-  if (clahe.distribution != ClaheDistribution::kUniform) {
-    what += ", alpha " + FormatNumber(stats.alpha);
-    if (clahe.keep_mean) {
-      what += " (chosen for the mean " + FormatNumber(stats.target_mean) + "; mean in " +
-              FormatNumber(stats.input_mean) + ")";
-    }
-  }
-  r->steps.push_back(what);
 }
 
 // Steps 4 and 5 over the row source when the deblur is the spatial Wiener filter: rows produced
