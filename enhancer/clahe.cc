@@ -458,8 +458,7 @@ void ClaheRowsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, Cla
 }
 
 template <typename Index>
-cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p,
-                   ClaheStats* stats) {
+cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, ClaheStats* stats) {
   cv::Mat out(idx.size(), CV_32F);
   ClaheRowsT<Index>(
       o, idx, p, stats, [&out](int y) { return out.ptr<float>(y); }, [](int, const float*) {});

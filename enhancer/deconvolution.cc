@@ -261,8 +261,8 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
 void ApplySeparableRows(const cv::Mat& image, const cv::Mat& kernel,
                         const std::function<void(int, const float*)>& emit) {
   ApplySeparableRowsFrom(
-      image.rows, image.cols, image.channels(),
-      [&image](int y) { return image.ptr<float>(y); }, kernel, emit);
+      image.rows, image.cols, image.channels(), [&image](int y) { return image.ptr<float>(y); },
+      kernel, emit);
 }
 
 cv::Mat ApplySeparable(const cv::Mat& image, const cv::Mat& kernel) {

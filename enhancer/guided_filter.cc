@@ -321,8 +321,7 @@ TURBID_ROW_KERNEL void SelfCoefficientsFused(
     float* __restrict a, float* __restrict b, int w) {
   for (int x = 0; x < w; ++x) {
     SelfCoefficient(WindowSumAt<W, S>(e_i, q_i, x), WindowSumAt<W, S>(e_ii, q_ii, x),
-                    inv_cx[x] * inv_cy,
-                    eps, a + x, b + x);
+                    inv_cx[x] * inv_cy, eps, a + x, b + x);
   }
 }
 
@@ -354,8 +353,8 @@ TURBID_ROW_KERNEL void ApplyCoefficientsFused(
     const float* __restrict q_b, const float* __restrict guide, const float* __restrict inv_cx,
     float inv_cy, float* __restrict q, int w) {
   for (int x = 0; x < w; ++x) {
-    q[x] = ApplyCoefficient(WindowSumAt<W, S>(e_a, q_a, x), WindowSumAt<W, S>(e_b, q_b, x), guide[x],
-                            inv_cx[x] * inv_cy);
+    q[x] = ApplyCoefficient(WindowSumAt<W, S>(e_a, q_a, x), WindowSumAt<W, S>(e_b, q_b, x),
+                            guide[x], inv_cx[x] * inv_cy);
   }
 }
 

@@ -144,8 +144,8 @@ __attribute__((target("avx2,fma"))) void AddWeightedRowFma(const float* i_g, con
                                                            double beta, double alpha, float* dst,
                                                            int n) {
   for (int i = 0; i < n; ++i) {
-    dst[i] = static_cast<float>(std::fma(static_cast<double>(i_g[i]), beta,
-                                         static_cast<double>(i_f[i]) * alpha));
+    dst[i] = static_cast<float>(
+        std::fma(static_cast<double>(i_g[i]), beta, static_cast<double>(i_f[i]) * alpha));
   }
 }
 bool CpuHasFma() {
@@ -298,8 +298,8 @@ cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& pl
                                 bool range_scaling, int subsample, double max_range_m) {
   const int channels = reference.channels();
   std::vector<cv::Mat> e_planes;
-  cv::split(LightModelMap(lights, plane, camera, beta_per_m, reference.size(), channels,
-                          subsample, max_range_m),
+  cv::split(LightModelMap(lights, plane, camera, beta_per_m, reference.size(), channels, subsample,
+                          max_range_m),
             e_planes);
   // One beta: the same E_L for every channel.
   if (e_planes.size() == 1) e_planes.assign(channels, e_planes[0]);
@@ -368,8 +368,7 @@ bool FitVeilModel(const std::vector<VeilSample>& samples, cv::Vec3d* c) {
     if (pass == 1) break;
     for (size_t i = 0; i < samples.size(); ++i) {
       const cv::Vec4d x = VeilRow(samples[i]);
-      residuals[i] =
-          std::abs(solution[0] * x[0] + solution[1] * x[1] + solution[2] * x[2] - x[3]);
+      residuals[i] = std::abs(solution[0] * x[0] + solution[1] * x[1] + solution[2] * x[2] - x[3]);
     }
     std::vector<double> keys = residuals;
     const double cut = enhancer_internal::SelectKth<double, uint64_t>(keys, keys.size() * 8 / 10);
@@ -612,8 +611,8 @@ LightEstimate LightStepUnscaled(const FullOptions& o, const IrradianceOptions& l
   e.map = o.light_scaling == "range"
               ? EstimateArtificialLight(lights, *r->plane, camera, beta, denoised, true,
                                         o.light_subsample, o.max_range_m)
-              : LightModelMap(lights, *r->plane, camera, beta, denoised.size(),
-                              denoised.channels(), o.light_subsample, o.max_range_m);
+              : LightModelMap(lights, *r->plane, camera, beta, denoised.size(), denoised.channels(),
+                              o.light_subsample, o.max_range_m);
   const cv::Mat& e_l = e.map;
   std::string detail = o.light_scaling + " scaling";
   if (o.light_scaling == "physical") {
@@ -801,8 +800,8 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
 // then (I - E) / t + E, or I / t without light (e null). The scalar arithmetic of
 // ColorRowSource's portable path, lane by lane (no FMA): the same bits.
 __attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const float* e,
-                                                      const double* scale, const float* t,
-                                                      float* d, int w) {
+                                                      const double* scale, const float* t, float* d,
+                                                      int w) {
   // Pixel (within the 8) and channel of each lane of the three vectors.
   static const int kPixel[3][8] = {
       {0, 0, 0, 1, 1, 1, 2, 2}, {2, 3, 3, 3, 4, 4, 4, 5}, {5, 5, 6, 6, 6, 7, 7, 7}};
@@ -829,10 +828,10 @@ __attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const flo
         continue;
       }
       const __m256 ev = _mm256_permutevar8x32_ps(e8, spread[k]);
-      const __m128 lo = _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(ev)),
-                                                      s_lo[k]));
-      const __m128 hi = _mm256_cvtpd_ps(
-          _mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(ev, 1)), s_hi[k]));
+      const __m128 lo =
+          _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(ev)), s_lo[k]));
+      const __m128 hi =
+          _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(ev, 1)), s_hi[k]));
       const __m256 ee = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
       _mm256_storeu_ps(d + i, _mm256_add_ps(_mm256_div_ps(_mm256_sub_ps(v, ee), tv), ee));
     }
@@ -950,9 +949,8 @@ class ColorRowSource {
   }
 
   static TURBID_ROW_KERNEL void DehazeRowLight(const float* __restrict in,
-                                               const float* __restrict e,
-                                               const float* __restrict t, float* __restrict d,
-                                               int n) {
+                                               const float* __restrict e, const float* __restrict t,
+                                               float* __restrict d, int n) {
     for (int i = 0; i < n; ++i) d[i] = (in[i] - e[i]) / t[i] + e[i];
   }
   static TURBID_ROW_KERNEL void DehazeRowNoLight(const float* __restrict in,
@@ -1000,8 +998,7 @@ void ExposureStepRows(const FullOptions& o, ColorRowSource& src, int rows, FullR
 // Steps 4 and 5 over the row source when the deblur is the spatial Wiener filter: rows produced
 // into a ring of 2k + 1 (k the inverse filter's radius), deblurred, clamped (ClampUnit) and
 // binned into `out`. Returns false (nothing done) when another deblur path applies.
-bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& out,
-                           FullResult* r) {
+bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& out, FullResult* r) {
   if (!o.deblur) return false;
   PsfOptions p;
   p.optical_thickness = o.psf_optical_thickness;

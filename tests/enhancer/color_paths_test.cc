@@ -229,9 +229,9 @@ double ReferenceNoiseSigma(const cv::Mat& image) {
     const float* q = b.ptr<float>(y);
     for (size_t i = 0; i < n; ++i) {
       if (std::memcmp(p + i, q + i, sizeof(float)) != 0 && !(p[i] == 0.0f && q[i] == 0.0f)) {
-        return ::testing::AssertionFailure() << "row " << y << " value " << i << ": " << p[i]
-                                             << " vs " << q[i] << " (max |diff| "
-                                             << cv::norm(a, b, cv::NORM_INF) << ")";
+        return ::testing::AssertionFailure()
+               << "row " << y << " value " << i << ": " << p[i] << " vs " << q[i] << " (max |diff| "
+               << cv::norm(a, b, cv::NORM_INF) << ")";
       }
     }
   }
@@ -292,8 +292,8 @@ std::vector<std::pair<std::string, cv::Mat>> RealFrames() {
   std::vector<std::pair<std::string, cv::Mat>> frames;
   const auto dir = testing::DataDir();
   if (!dir) return frames;
-  for (const char* rel : {"uieb_waternet/616.png", "euvp_funiegan/A/1.jpg",
-                          "subvo/images/frame_00_00_21.000.jpg"}) {
+  for (const char* rel :
+       {"uieb_waternet/616.png", "euvp_funiegan/A/1.jpg", "subvo/images/frame_00_00_21.000.jpg"}) {
     try {
       cv::Mat img = ReadImage(*dir + "/" + rel);
       if (img.channels() == 3) frames.emplace_back(rel, img);
@@ -382,7 +382,8 @@ TEST(ColorPaths, ClaheFromColorBinsEqualsWholeImage) {
       const cv::Mat expect = ReferenceClahe(o, img);
       cv::Mat bins = ClaheNewBins(o, img.size());
       std::vector<float> lum(img.cols);
-      for (int y = 0; y < img.rows; ++y) ClaheBinColorRow(o, img.ptr<float>(y), lum.data(), bins, y);
+      for (int y = 0; y < img.rows; ++y)
+        ClaheBinColorRow(o, img.ptr<float>(y), lum.data(), bins, y);
       cv::Mat out = img.clone();
       ClaheColorFromBins(o, bins, out);
       EXPECT_TRUE(SameBits(out, expect)) << size << " keep_mean " << keep_mean;
@@ -448,8 +449,8 @@ TEST(ColorPaths, SimplifiedEqualsReference) {
     for (int variant = 0; variant < 4; ++variant) {
       SimplifiedOptions o;
       o.contrast = variant != 1;
-      if (variant == 2) o.alpha = 0.37, o.coarse_subsample = 2;  // fast filter: not streamed
-      if (variant == 3) o.fine_radius = 1, o.coarse_radius = 14;   // unfused radius
+      if (variant == 2) o.alpha = 0.37, o.coarse_subsample = 2;   // fast filter: not streamed
+      if (variant == 3) o.fine_radius = 1, o.coarse_radius = 14;  // unfused radius
       EXPECT_TRUE(SameBits(SimplifiedEnhance(o, img), ReferenceSimplified(o, img)))
           << name << " variant " << variant;
     }
