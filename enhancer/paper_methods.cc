@@ -1031,7 +1031,7 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
         ClampUnitRow(dst, n);
         if (o.contrast) ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
       });
-  CV_Assert(streamed);
+  if (!streamed) return false;  // another deblur path after all: nothing was read or written
   r->steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
                      ", PSF radius " + std::to_string(psf.radius_px));
   ClaheStats stats;
