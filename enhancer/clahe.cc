@@ -472,18 +472,19 @@ TURBID_ROW_KERNEL void LuminanceRow(const float* __restrict bgr, float* __restri
   }
 }
 
-// The channels scaled by the luminance ratio (hue kept): bgr (input values) to dst, which may be
-// bgr itself. Where the luminance is ~0, gray at the equalised value.
-TURBID_ROW_KERNEL void LuminanceRatioRow(const float* bgr, const float* __restrict lum,
-                                         const float* __restrict eq, float* dst, int w) {
-  // Branch-free (the ratio is formed everywhere and dropped where l is ~0), so it vectorises.
+// The channels scaled by the luminance ratio (hue kept), in place over `bgr` (each value read
+// and then written at the same index; one pointer, so the loop vectorises without an aliasing
+// check). Where the luminance is ~0, gray at the equalised value. Branch-free (the ratio is
+// formed everywhere and dropped where l is ~0).
+TURBID_ROW_KERNEL void LuminanceRatioRow(float* __restrict bgr, const float* __restrict lum,
+                                         const float* __restrict eq, int w) {
   for (int x = 0; x < w; ++x) {
     const float l = lum[x], e = eq[x];
     const float g = e / l;
     const bool dark = l <= 1e-6f;
     for (int c = 0; c < 3; ++c) {
       const float v = std::min(std::max(bgr[3 * x + c] * g, 0.0f), 1.0f);
-      dst[3 * x + c] = dark ? e : v;
+      bgr[3 * x + c] = dark ? e : v;
     }
   }
 }
@@ -500,7 +501,7 @@ void ClaheColorInPlaceT(const ClaheOptions& o, const cv::Mat& idx, cv::Mat& imag
       [&](int y, const float* e) {
         float* row = image.ptr<float>(y);
         LuminanceRow(row, lum.data(), idx.cols);
-        LuminanceRatioRow(row, lum.data(), e, row, idx.cols);
+        LuminanceRatioRow(row, lum.data(), e, idx.cols);
       });
 }
 
