@@ -424,9 +424,10 @@ void Interpolate(const float* pairs, const uint16_t* b, const int* lo, const flo
   InterpolateRow(pairs, b, lo, wx, dst, n);
 }
 
-template <typename Index>
-cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p,
-                   ClaheStats* stats) {
+// The equalised rows: row(y) gives where row y goes (idx.cols floats), then done(y, dst) runs.
+template <typename Index, typename RowFn, typename DoneFn>
+void ClaheRowsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, ClaheStats* stats,
+                RowFn&& row, DoneFn&& done) {
   const cv::Mat maps = Mappings(o, idx, p, stats);
   const Interp iy = Interpolation(idx.rows, p.pre_y, p.tile_h, o.tiles_y);
   const Interp ix = Interpolation(idx.cols, p.pre_x, p.tile_w, o.tiles_x);
@@ -439,7 +440,6 @@ cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p,
     wx[x] = ix.w[x];
   }
   std::vector<float> blend(row_len), pairs(2 * static_cast<size_t>(row_len));
-  cv::Mat out(idx.size(), CV_32F);
   const float* m = maps.ptr<float>(0);
   int lut_lo = -1, lut_hi = -1;
   float lut_w = -1.0f;
@@ -451,9 +451,69 @@ cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p,
                 m + static_cast<size_t>(lut_hi) * row_len, lut_w, blend.data(), row_len);
       PairRows(blend.data(), row_len, bins, pairs.data());
     }
-    Interpolate(pairs.data(), idx.ptr<Index>(y), lo.data(), wx.data(), out.ptr<float>(y), idx.cols);
+    float* dst = row(y);
+    Interpolate(pairs.data(), idx.ptr<Index>(y), lo.data(), wx.data(), dst, idx.cols);
+    done(y, dst);
   }
+}
+
+template <typename Index>
+cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, ClaheStats* stats) {
+  cv::Mat out(idx.size(), CV_32F);
+  ClaheRowsT<Index>(
+      o, idx, p, stats, [&out](int y) { return out.ptr<float>(y); }, [](int, const float*) {});
   return out;
+}
+
+// Rec. 709 luminance of an interleaved B, G, R row (kRgb: R, G, B; the same sum in the same
+// order either way, so the same values).
+template <bool kRgb>
+TURBID_ROW_KERNEL void LuminanceRowT(const float* __restrict px, float* __restrict lum, int w) {
+  constexpr int b = kRgb ? 2 : 0, r = kRgb ? 0 : 2;
+  for (int x = 0; x < w; ++x) {
+    lum[x] = 0.0722f * px[3 * x + b] + 0.7152f * px[3 * x + 1] + 0.2126f * px[3 * x + r];
+  }
+}
+
+void LuminanceRow(const float* px, float* lum, int w, bool rgb) {
+  if (rgb) {
+    LuminanceRowT<true>(px, lum, w);
+  } else {
+    LuminanceRowT<false>(px, lum, w);
+  }
+}
+
+// The channels scaled by the luminance ratio (hue kept), in place over `bgr` (each value read
+// and then written at the same index; one pointer, so the loop vectorises without an aliasing
+// check). Where the luminance is ~0, gray at the equalised value. Branch-free (the ratio is
+// formed everywhere and dropped where l is ~0).
+TURBID_ROW_KERNEL void LuminanceRatioRow(float* __restrict bgr, const float* __restrict lum,
+                                         const float* __restrict eq, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float l = lum[x], e = eq[x];
+    const float g = e / l;
+    const bool dark = l <= 1e-6f;
+    for (int c = 0; c < 3; ++c) {
+      const float v = std::min(std::max(bgr[3 * x + c] * g, 0.0f), 1.0f);
+      bgr[3 * x + c] = dark ? e : v;
+    }
+  }
+}
+
+// Colour CLAHE from the luminance bins, in place over `image` (the values the luminance came
+// from): each row's equalised luminance, then the ratio.
+template <typename Index>
+void ClaheColorInPlaceT(const ClaheOptions& o, const cv::Mat& idx, cv::Mat& image,
+                        ClaheStats* stats) {
+  const Padding p = ComputePadding(o, idx.rows, idx.cols);
+  std::vector<float> eq(idx.cols), lum(idx.cols);
+  ClaheRowsT<Index>(
+      o, idx, p, stats, [&eq](int) { return eq.data(); },
+      [&](int y, const float* e) {
+        float* row = image.ptr<float>(y);
+        LuminanceRow(row, lum.data(), idx.cols, o.rgb);
+        LuminanceRatioRow(row, lum.data(), e, idx.cols);
+      });
 }
 
 cv::Mat ClaheFromIndices(const ClaheOptions& o, const cv::Mat& idx, ClaheStats* stats) {
@@ -576,6 +636,29 @@ void ClaheBinRow(const ClaheOptions& options, const float* row, cv::Mat& bins, i
   const bool ok = bins.depth() == CV_8U ? BinRow(row, bins.ptr<uint8_t>(y), bins.cols, scale)
                                         : BinRow(row, bins.ptr<uint16_t>(y), bins.cols, scale);
   if (!ok) throw Error("clahe: image has non-finite values");
+}
+
+void ClaheBinColorRow(const ClaheOptions& options, const float* bgr, float* lum, cv::Mat& bins,
+                      int y) {
+  LuminanceRow(bgr, lum, bins.cols, options.rgb);
+  ClaheBinRow(options, lum, bins, y);
+}
+
+void ClaheColorFromBins(const ClaheOptions& options, const cv::Mat& bins, cv::Mat& image,
+                        ClaheStats* stats) {
+  ThrowIfInvalid(options, "clahe");
+  const int want = options.bins <= 256 ? CV_8UC1 : CV_16UC1;
+  if (bins.empty() || bins.type() != want) {
+    throw Error("clahe: bin image must come from ClaheNewBins with the same options");
+  }
+  if (image.type() != CV_32FC3 || image.size() != bins.size()) {
+    throw Error("clahe: colour image must be float32 BGR of the bins' size");
+  }
+  if (bins.depth() == CV_8U) {
+    ClaheColorInPlaceT<uint8_t>(options, bins, image, stats);
+  } else {
+    ClaheColorInPlaceT<uint16_t>(options, bins, image, stats);
+  }
 }
 
 cv::Mat ClaheFromBins(const ClaheOptions& options, const cv::Mat& bins, ClaheStats* stats) {

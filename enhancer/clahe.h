@@ -86,6 +86,14 @@ cv::Mat ClaheNewBins(const ClaheOptions& options, cv::Size size);
 void ClaheBinRow(const ClaheOptions& options, const float* row, cv::Mat& bins, int y);
 cv::Mat ClaheFromBins(const ClaheOptions& options, const cv::Mat& bins,
                       ClaheStats* stats = nullptr);
+// The same for colour: ClaheBinColorRow bins row y's Rec. 709 luminance (written to `lum`,
+// bins.cols floats) from `width` BGR pixels in [0, 1] (R, G, B when options.rgb);
+// ClaheColorFromBins equalises and rescales `image` (CV_32FC3, those rows) in place. The result
+// equals Clahe(options, image).
+void ClaheBinColorRow(const ClaheOptions& options, const float* bgr, float* lum, cv::Mat& bins,
+                      int y);
+void ClaheColorFromBins(const ClaheOptions& options, const cv::Mat& bins, cv::Mat& image,
+                        ClaheStats* stats = nullptr);
 
 // The per-tile mapping tables (tiles_y*tiles_x rows, `bins` columns, output values in [0,1]) of
 // a one-channel image after padding: exposed so tests can pin known histograms.

@@ -147,13 +147,15 @@ TURBID_ROW_KERNEL void VerticalTaps(const float* const* rows, const float* c, fl
   }
 }
 
-// Horizontal pass of one term, accumulated: acc[x] += sum_i r[i] ext[x + i], K taps.
-template <int K>
+// Horizontal pass of one term, accumulated: acc[x] += sum_i r[i] ext[x + S i], K taps, over w
+// values; S is the distance between neighbouring pixels' values of one channel (the channel count
+// of an interleaved row).
+template <int K, int S = 1>
 TURBID_ROW_KERNEL void HorizontalTaps(const float* __restrict ext, const float* r,
                                       float* __restrict acc, int w) {
   for (int x = 0; x < w; ++x) {
     float s = r[0] * ext[x];
-    for (int i = 1; i < K; ++i) s += r[i] * ext[x + i];
+    for (int i = 1; i < K; ++i) s += r[i] * ext[x + S * i];
     acc[x] += s;
   }
 }
@@ -165,9 +167,9 @@ void VerticalTapsAny(const float* const* rows, const float* c, float* out, int w
     for (int x = 0; x < w; ++x) out[x] += c[j] * rows[j][x];
   }
 }
-void HorizontalTapsAny(const float* ext, const float* r, float* acc, int w, int k) {
+void HorizontalTapsAny(const float* ext, const float* r, float* acc, int w, int k, int stride) {
   for (int i = 0; i < k; ++i) {
-    for (int x = 0; x < w; ++x) acc[x] += r[i] * ext[x + i];
+    for (int x = 0; x < w; ++x) acc[x] += r[i] * ext[x + stride * i];
   }
 }
 
@@ -181,12 +183,16 @@ bool TapsUpTo(int k, const float* const* rows, const float* c, float* tmp, int w
   return false;
 }
 template <int K>
-bool HTapsUpTo(int k, const float* ext, const float* r, float* acc, int w) {
+bool HTapsUpTo(int k, int stride, const float* ext, const float* r, float* acc, int w) {
   if (k == K) {
-    HorizontalTaps<K>(ext, r, acc, w);
+    if (stride == 3) {
+      HorizontalTaps<K, 3>(ext, r, acc, w);
+    } else {
+      HorizontalTaps<K>(ext, r, acc, w);
+    }
     return true;
   }
-  if constexpr (K > 3) return HTapsUpTo<K - 2>(k, ext, r, acc, w);
+  if constexpr (K > 3) return HTapsUpTo<K - 2>(k, stride, ext, r, acc, w);
   return false;
 }
 
@@ -203,9 +209,11 @@ int Reflect101(int i, int n) {
 // reaches 1 - 1e-7), mirrored borders (BORDER_REFLECT_101), streamed by rows: per output row and
 // term, a vertical pass over the kernel's rows into a mirrored row buffer, then a horizontal pass
 // accumulated into the row. emit(y, row) receives each output row in order; no full-size
-// temporaries.
-void ApplySeparableRows(const cv::Mat& plane, const cv::Mat& kernel,
-                        const std::function<void(int, const float*)>& emit) {
+// temporaries. The input (h rows of w pixels, `channels` interleaved, each channel alone) comes
+// from source(y), asked for rows within [y - ry, y + ry] for output row y (ry = kernel.rows / 2).
+void ApplySeparableRowsFrom(int h, int w, int channels,
+                            const std::function<const float*(int)>& source, const cv::Mat& kernel,
+                            const std::function<void(int, const float*)>& emit) {
   cv::Mat k64;
   kernel.convertTo(k64, CV_64F);
   cv::SVD svd(k64, cv::SVD::FULL_UV);
@@ -225,34 +233,43 @@ void ApplySeparableRows(const cv::Mat& plane, const cv::Mat& kernel,
     rows.push_back(std::move(r));
     if (captured >= (1.0 - 1e-7) * total) break;
   }
-  const int h = plane.rows, w = plane.cols;
-  std::vector<float> ext(static_cast<size_t>(w + 2 * rx)), acc(w);
+  const int c = channels, n = w * c;  // values per row
+  std::vector<float> ext(static_cast<size_t>(w + 2 * rx) * c), acc(n);
   std::vector<int> col_src(w + 2 * rx);
   for (int x = 0; x < w + 2 * rx; ++x) col_src[x] = Reflect101(x - rx, w);
   std::vector<const float*> in_rows(kr);
   for (int y = 0; y < h; ++y) {
-    for (int j = 0; j < kr; ++j) in_rows[j] = plane.ptr<float>(Reflect101(y + j - ry, h));
+    for (int j = 0; j < kr; ++j) in_rows[j] = source(Reflect101(y + j - ry, h));
     std::fill(acc.begin(), acc.end(), 0.0f);
     for (size_t t = 0; t < cols.size(); ++t) {
-      float* mid = ext.data() + rx;
-      if (!TapsUpTo<25>(kr, in_rows.data(), cols[t].data(), mid, w)) {
-        VerticalTapsAny(in_rows.data(), cols[t].data(), mid, w, kr);
+      float* mid = ext.data() + static_cast<size_t>(rx) * c;
+      if (!TapsUpTo<25>(kr, in_rows.data(), cols[t].data(), mid, n)) {
+        VerticalTapsAny(in_rows.data(), cols[t].data(), mid, n, kr);
       }
-      for (int x = 0; x < rx; ++x) ext[x] = mid[col_src[x]];
-      for (int x = w + rx; x < w + 2 * rx; ++x) ext[x] = mid[col_src[x]];
-      if (!HTapsUpTo<25>(kc, ext.data(), rows[t].data(), acc.data(), w)) {
-        HorizontalTapsAny(ext.data(), rows[t].data(), acc.data(), w, kc);
+      for (int x = 0; x < rx; ++x) std::copy_n(mid + col_src[x] * c, c, ext.data() + x * c);
+      for (int x = w + rx; x < w + 2 * rx; ++x) {
+        std::copy_n(mid + col_src[x] * c, c, ext.data() + static_cast<size_t>(x) * c);
+      }
+      if (!HTapsUpTo<25>(kc, c, ext.data(), rows[t].data(), acc.data(), n)) {
+        HorizontalTapsAny(ext.data(), rows[t].data(), acc.data(), n, kc, c);
       }
     }
     emit(y, acc.data());
   }
 }
 
-cv::Mat ApplySeparable(const cv::Mat& plane, const cv::Mat& kernel) {
-  cv::Mat out(plane.size(), CV_32F);
-  ApplySeparableRows(plane, kernel, [&](int y, const float* row) {
-    std::copy(row, row + plane.cols, out.ptr<float>(y));
-  });
+void ApplySeparableRows(const cv::Mat& image, const cv::Mat& kernel,
+                        const std::function<void(int, const float*)>& emit) {
+  ApplySeparableRowsFrom(
+      image.rows, image.cols, image.channels(), [&image](int y) { return image.ptr<float>(y); },
+      kernel, emit);
+}
+
+cv::Mat ApplySeparable(const cv::Mat& image, const cv::Mat& kernel) {
+  cv::Mat out(image.size(), image.type());
+  const size_t n = static_cast<size_t>(image.cols) * image.channels();
+  ApplySeparableRows(image, kernel,
+                     [&](int y, const float* row) { std::copy_n(row, n, out.ptr<float>(y)); });
   return out;
 }
 
@@ -351,13 +368,15 @@ cv::Mat ConvolveMirrored(const cv::Mat& image, const cv::Mat& psf) {
 cv::Mat Deconvolve(const DeconvolutionOptions& options, const cv::Mat& image, const cv::Mat& psf) {
   CheckDeconvolveInputs(options, image, psf);
   if (psf.rows == 1 && psf.cols == 1) return image.clone();
+  const cv::Mat inverse = SpatialInverse(options, psf);
+  // Spatial Wiener: every channel at once, interleaved (each channel's arithmetic as alone).
+  if (!inverse.empty() && image.channels() <= 3) return ApplySeparable(image, inverse);
   std::vector<cv::Mat> planes;
   if (image.channels() == 1) {
     planes = {image};  // cv::split would copy a one-channel image
   } else {
     cv::split(image, planes);
   }
-  const cv::Mat inverse = SpatialInverse(options, psf);
   for (cv::Mat& p : planes) {
     if (!inverse.empty()) {
       p = ApplySeparable(p, inverse);
@@ -376,11 +395,24 @@ cv::Mat Deconvolve(const DeconvolutionOptions& options, const cv::Mat& image, co
 bool DeconvolveRows(const DeconvolutionOptions& options, const cv::Mat& image, const cv::Mat& psf,
                     const std::function<void(int, const float*)>& emit) {
   CheckDeconvolveInputs(options, image, psf);
-  if (image.channels() != 1) throw Error("deconvolution rows: expected a one-channel image");
+  return DeconvolveRowsFrom(
+      options, image.size(), image.channels(), [&image](int y) { return image.ptr<float>(y); }, psf,
+      emit);
+}
+
+bool DeconvolveRowsFrom(const DeconvolutionOptions& options, cv::Size size, int channels,
+                        const std::function<const float*(int)>& source, const cv::Mat& psf,
+                        const std::function<void(int, const float*)>& emit) {
+  ThrowIfInvalid(options, "deconvolution");
+  CheckPsf(psf);
+  if (size.width <= 0 || size.height <= 0) throw Error("deconvolution: empty image");
+  if (channels != 1 && channels != 3) {
+    throw Error("deconvolution rows: expected a one- or three-channel image");
+  }
   if (psf.rows == 1 && psf.cols == 1) return false;
   const cv::Mat inverse = SpatialInverse(options, psf);
   if (inverse.empty()) return false;
-  ApplySeparableRows(image, inverse, emit);
+  ApplySeparableRowsFrom(size.height, size.width, channels, source, inverse, emit);
   return true;
 }
 

@@ -44,13 +44,20 @@ struct DeconvolutionOptions {
 // returns a copy. Throws Error for empty or mismatched inputs or options failing Check.
 cv::Mat Deconvolve(const DeconvolutionOptions& options, const cv::Mat& image, const cv::Mat& psf);
 
-// Deconvolve for one-channel images on the spatial Wiener path, streamed: emit(y, row) receives
-// output row y (`image.cols` floats, valid during the call) in order, with no full-size output.
-// Returns false without emitting when the options and PSF select another path (FFT Wiener,
-// Richardson-Lucy, a 1x1 PSF): use Deconvolve then. Throws Error as Deconvolve does, and for
-// images with more than one channel.
+// Deconvolve on the spatial Wiener path, streamed: emit(y, row) receives output row y
+// (`image.cols * channels` floats, interleaved, valid during the call) in order, with no full-size
+// output. Returns false without emitting when the options and PSF select another path (FFT
+// Wiener, Richardson-Lucy, a 1x1 PSF): use Deconvolve then. Throws Error as Deconvolve does, and
+// for images with other than 1 or 3 channels.
 bool DeconvolveRows(const DeconvolutionOptions& options, const cv::Mat& image, const cv::Mat& psf,
                     const std::function<void(int, const float*)>& emit);
+
+// DeconvolveRows over an image given row by row: source(y) returns input row y (size.width *
+// channels floats). For output row y it is asked for rows in [y - k, y + k] only (k: the inverse
+// filter's radius, at most spatial_max_radius), so a producer can keep the last 2k + 1 rows.
+bool DeconvolveRowsFrom(const DeconvolutionOptions& options, cv::Size size, int channels,
+                        const std::function<const float*(int)>& source, const cv::Mat& psf,
+                        const std::function<void(int, const float*)>& emit);
 
 // The spatial Wiener inverse filter (odd square CV_32FC1) for `psf` at `nsr`, truncated where
 // |w| < 1e-4 max|w| (exposed for tests).

@@ -284,41 +284,44 @@ TURBID_ROW_KERNEL void ApplyCoefficients(const float* __restrict s_a, const floa
 // padded column sums. Each window sum adds the same values in the same order as
 // DirectWindowSums / BlockedWindowSums, so the results are bit-identical to the unfused passes.
 
-// Sum of W consecutive values from ext[x]; for W >= 9 from the sums of 4 in `quads`.
-template <int W>
+// S is the distance between horizontally neighbouring values of one channel: 1 for one-channel
+// rows, the channel count for interleaved rows (each channel is summed alone, in the same order).
+
+// Sum of W consecutive values (S apart) from ext[x]; for W >= 9 from the sums of 4 in `quads`.
+template <int W, int S = 1>
 inline float WindowSumAt(const float* __restrict ext, const float* __restrict quads, int x) {
   if constexpr (W >= 9) {
     constexpr int kQuads = W / 4;
     float s = quads[x];
-    for (int q = 1; q < kQuads; ++q) s += quads[x + 4 * q];
-    for (int k = 4 * kQuads; k < W; ++k) s += ext[x + k];
+    for (int q = 1; q < kQuads; ++q) s += quads[x + 4 * S * q];
+    for (int k = 4 * kQuads; k < W; ++k) s += ext[x + S * k];
     return s;
   } else {
     float s = ext[x];
-    for (int k = 1; k < W; ++k) s += ext[x + k];
+    for (int k = 1; k < W; ++k) s += ext[x + S * k];
     return s;
   }
 }
 
 // Sums of 4 consecutive values of two padded rows (the first pass of BlockedWindowSums).
-template <int W>
+template <int W, int S = 1>
 TURBID_ROW_KERNEL void QuadSumsPair(const float* __restrict e0, const float* __restrict e1,
                                     float* __restrict q0, float* __restrict q1, int w) {
-  const int n = w + 4 * (W / 4 - 1);
+  const int n = w + 4 * S * (W / 4 - 1);
   for (int x = 0; x < n; ++x) {
-    q0[x] = e0[x] + e0[x + 1] + e0[x + 2] + e0[x + 3];
-    q1[x] = e1[x] + e1[x + 1] + e1[x + 2] + e1[x + 3];
+    q0[x] = e0[x] + e0[x + S] + e0[x + 2 * S] + e0[x + 3 * S];
+    q1[x] = e1[x] + e1[x + S] + e1[x + 2 * S] + e1[x + 3 * S];
   }
 }
 
-template <int W>
+template <int W, int S = 1>
 TURBID_ROW_KERNEL void SelfCoefficientsFused(
     const float* __restrict e_i, const float* __restrict e_ii, const float* __restrict q_i,
     const float* __restrict q_ii, const float* __restrict inv_cx, float inv_cy, float eps,
     float* __restrict a, float* __restrict b, int w) {
   for (int x = 0; x < w; ++x) {
-    SelfCoefficient(WindowSumAt<W>(e_i, q_i, x), WindowSumAt<W>(e_ii, q_ii, x), inv_cx[x] * inv_cy,
-                    eps, a + x, b + x);
+    SelfCoefficient(WindowSumAt<W, S>(e_i, q_i, x), WindowSumAt<W, S>(e_ii, q_ii, x),
+                    inv_cx[x] * inv_cy, eps, a + x, b + x);
   }
 }
 
@@ -344,14 +347,14 @@ TURBID_ROW_KERNEL void GuidedCoefficientsFused(const float* const* __restrict e,
   }
 }
 
-template <int W>
+template <int W, int S = 1>
 TURBID_ROW_KERNEL void ApplyCoefficientsFused(
     const float* __restrict e_a, const float* __restrict e_b, const float* __restrict q_a,
     const float* __restrict q_b, const float* __restrict guide, const float* __restrict inv_cx,
     float inv_cy, float* __restrict q, int w) {
   for (int x = 0; x < w; ++x) {
-    q[x] = ApplyCoefficient(WindowSumAt<W>(e_a, q_a, x), WindowSumAt<W>(e_b, q_b, x), guide[x],
-                            inv_cx[x] * inv_cy);
+    q[x] = ApplyCoefficient(WindowSumAt<W, S>(e_a, q_a, x), WindowSumAt<W, S>(e_b, q_b, x),
+                            guide[x], inv_cx[x] * inv_cy);
   }
 }
 
@@ -514,17 +517,19 @@ struct FusedKernels {
 
 constexpr int kMaxFusedRadius = 12;
 
-template <int R>
+// S > 1 (interleaved channels, each self-guided): no guided kernel and no rolling AVX2 kernels
+// (their 4-sums advance by 8 values, which is not a whole number of pixels).
+template <int R, int S = 1>
 FusedKernels MakeFusedKernels([[maybe_unused]] bool avx2) {
   constexpr int W = 2 * R + 1;
   FusedKernels k;
-  k.self_coefficients = &SelfCoefficientsFused<W>;
-  k.guided_coefficients = &GuidedCoefficientsFused<W>;
-  k.apply = &ApplyCoefficientsFused<W>;
+  k.self_coefficients = &SelfCoefficientsFused<W, S>;
+  if constexpr (S == 1) k.guided_coefficients = &GuidedCoefficientsFused<W>;
+  k.apply = &ApplyCoefficientsFused<W, S>;
   if constexpr (W >= 9) {
-    k.quads = &QuadSumsPair<W>;
+    k.quads = &QuadSumsPair<W, S>;
 #ifdef TURBID_HAVE_ROLLING_QUADS
-    if (avx2) {
+    if (avx2 && S == 1) {
       k.quads = nullptr;
       k.self_coefficients = &SelfCoefficientsRolling<W>;
       k.guided_coefficients = &GuidedCoefficientsRolling<W>;
@@ -535,10 +540,13 @@ FusedKernels MakeFusedKernels([[maybe_unused]] bool avx2) {
   return k;
 }
 
+// Kernels for radius r and `channels` interleaved channels (1 or 3).
 template <int... R>
-FusedKernels FusedKernelsFor(int r, std::integer_sequence<int, R...>) {
+FusedKernels FusedKernelsFor(int r, int channels, std::integer_sequence<int, R...>) {
   static const FusedKernels portable[] = {MakeFusedKernels<R + 1>(false)...};
   static const FusedKernels avx2[] = {MakeFusedKernels<R + 1>(true)...};
+  static const FusedKernels interleaved3[] = {MakeFusedKernels<R + 1, 3>(false)...};
+  if (channels == 3) return interleaved3[r - 1];
   return enhancer_internal::UseHandWrittenAvx2() ? avx2[r - 1] : portable[r - 1];
 }
 
@@ -597,27 +605,35 @@ int InvCount(int t, int r, int n) { return std::min(t + r, n - 1) - std::max(t -
 // computes a, b for row y from the box sums of I, I^2 (and p, I p unless self-guided); the second
 // stage, r rows behind, box-sums a and b and writes q. a and b live in a ring of 2r+2 rows, so
 // there are no full-size temporaries besides the output. Rows are pulled in order 0..h-1.
+// `channels` 3: a self-guided interleaved image, each channel its own guide, every step the
+// one-channel filter's arithmetic on each channel (the values of a row are processed together,
+// the horizontal sums taking every third value); radius 1..kMaxFusedRadius only.
 class GrayStream {
  public:
-  GrayStream(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self)
+  GrayStream(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self,
+             int channels = 1)
       : guide_(guide),
         src_(src),
         r_(r),
         eps_(eps),
         self_(self),
         h_(guide.rows),
-        w_(guide.cols),
+        w_(guide.cols * channels),
+        pad_(r * channels),
         window_(2 * r + 1),
-        ext_len_(w_ + 2 * r),
+        ext_len_(w_ + 2 * pad_),
         planes_a_(self ? 2 : 4),  // I, I^2 [, p, I p]
         ring_(std::min(window_ + 1, h_)),
         ext_(static_cast<size_t>(planes_a_ + 2) * ext_len_, 0.0f),
         inv_cx_(w_),
         a_ring_(ring_, w_, CV_32F),
         b_ring_(ring_, w_, CV_32F) {
-    for (int x = 0; x < w_; ++x) inv_cx_[x] = 1.0f / static_cast<float>(InvCount(x, r_, w_));
+    CV_Assert(channels == 1 || (channels == 3 && self && r >= 1 && r <= kMaxFusedRadius));
+    for (int x = 0; x < w_; ++x) {
+      inv_cx_[x] = 1.0f / static_cast<float>(InvCount(x / channels, r_, guide.cols));
+    }
     if (r_ >= 1 && r_ <= kMaxFusedRadius) {
-      fused_ = FusedKernelsFor(r_, std::make_integer_sequence<int, kMaxFusedRadius>{});
+      fused_ = FusedKernelsFor(r_, channels, std::make_integer_sequence<int, kMaxFusedRadius>{});
     }
     // Buffers of the path in use: sums of 4 for the portable fused kernels (W >= 9); window sums
     // and doubling scratch for the unfused one.
@@ -640,7 +656,7 @@ class GrayStream {
     } else {
       const int add = t + r_ < h_ ? (t + r_) % ring_ : -1;
       const int sub = t - r_ - 1 >= 0 ? (t - r_ - 1) % ring_ : -1;
-      ColumnStepPair(Ext(ka) + r_, Ext(kb) + r_, RingRow(a_ring_, add), RingRow(a_ring_, sub),
+      ColumnStepPair(Ext(ka) + pad_, Ext(kb) + pad_, RingRow(a_ring_, add), RingRow(a_ring_, sub),
                      RingRow(b_ring_, add), RingRow(b_ring_, sub), w_);
     }
     const float inv_cy = 1.0f / static_cast<float>(InvCount(t, r_, h_));
@@ -672,7 +688,7 @@ class GrayStream {
     auto at = [&](const cv::Mat& m, int y) -> const float* {
       return m.ptr<float>(in_ring ? y % ring_ : y);
     };
-    float* c = Ext(k) + r_;  // the column sums are the middle of the padded row
+    float* c = Ext(k) + pad_;  // the column sums are the middle of the padded row
     if (t % kAnchorRows == 0) {
       std::fill(c, c + w_, 0.0f);
       for (int y = std::max(t - r_, 0); y <= std::min(t + r_, h_ - 1); ++y) {
@@ -701,7 +717,7 @@ class GrayStream {
     if (self_ && y % kAnchorRows != 0) {
       const float* add = y + r_ < h_ ? guide_.ptr<float>(y + r_) : nullptr;
       const float* sub = y - r_ - 1 >= 0 ? guide_.ptr<float>(y - r_ - 1) : nullptr;
-      ColumnStepSelf(Ext(0) + r_, Ext(1) + r_, add, sub, w_);
+      ColumnStepSelf(Ext(0) + pad_, Ext(1) + pad_, add, sub, w_);
     } else {
       Vertical(0, y, guide_, nullptr, false);
       Vertical(1, y, guide_, &guide_, false);
@@ -743,7 +759,7 @@ class GrayStream {
   const int r_;
   const float eps_;
   const bool self_;
-  const int h_, w_, window_, ext_len_, planes_a_, ring_;
+  const int h_, w_, pad_, window_, ext_len_, planes_a_, ring_;  // w_, pad_: values, not pixels
   // Per-plane buffers: column sums with r zeros each side (the clipped window); window sums.
   std::vector<float> ext_, quads_, sums_, t0_, t1_, inv_cx_;
   cv::Mat a_ring_, b_ring_;
@@ -932,6 +948,15 @@ cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide_in
 cv::Mat GuidedFilterSelf(const GuidedFilterOptions& options, const cv::Mat& image) {
   if (image.channels() == 1) return GuidedFilter(options, image, image);
   CheckInputs(options, image, image);
+  if (image.channels() == 3 && options.subsample == 1 && options.radius >= 1 &&
+      options.radius <= kMaxFusedRadius) {
+    // Interleaved, streamed: no per-channel planes.
+    const cv::Mat src = Continuous(image);
+    GrayStream stream(src, src, options.radius, static_cast<float>(options.eps), true, 3);
+    cv::Mat q(src.size(), CV_32FC3);
+    for (int t = 0; t < src.rows; ++t) stream.Row(t, q.ptr<float>(t));
+    return q;
+  }
   std::vector<cv::Mat> planes;
   cv::split(image, planes);
   for (cv::Mat& p : planes) p = GuidedFilter(options, p, p);
@@ -940,26 +965,33 @@ cv::Mat GuidedFilterSelf(const GuidedFilterOptions& options, const cv::Mat& imag
   return out;
 }
 
-void GuidedFilterSelfRows(const std::vector<GuidedFilterOptions>& options, const cv::Mat& image,
+void GuidedFilterSelfRows(const std::vector<GuidedFilterOptions>& options, const cv::Mat& image_in,
                           const std::function<void(int, const std::vector<const float*>&)>& emit) {
-  if (image.channels() != 1) throw Error("guided filter rows: expected a one-channel image");
+  const int channels = image_in.channels();
+  if (channels != 1 && channels != 3) {
+    throw Error("guided filter rows: expected a one- or three-channel image");
+  }
+  const cv::Mat image = Continuous(image_in);
   std::vector<std::unique_ptr<GrayStream>> streams(options.size());
-  std::vector<cv::Mat> whole(options.size());  // subsampled variants: filtered in one go
+  std::vector<cv::Mat> whole(options.size());  // variants not streamed: filtered in one go
   for (size_t k = 0; k < options.size(); ++k) {
     CheckInputs(options[k], image, image);
-    if (options[k].radius == 0 || options[k].subsample > 1) {
-      whole[k] = GuidedFilter(options[k], image, image);
+    const bool stream = options[k].radius >= 1 && options[k].subsample == 1 &&
+                        (channels == 1 || options[k].radius <= kMaxFusedRadius);
+    if (!stream) {
+      whole[k] = GuidedFilterSelf(options[k], image);
     } else {
       streams[k] = std::make_unique<GrayStream>(image, image, options[k].radius,
-                                                static_cast<float>(options[k].eps), true);
+                                                static_cast<float>(options[k].eps), true, channels);
     }
   }
-  std::vector<float> rows(options.size() * static_cast<size_t>(image.cols));
+  const size_t n = static_cast<size_t>(image.cols) * channels;
+  std::vector<float> rows(options.size() * n);
   std::vector<const float*> ptrs(options.size());
   for (int y = 0; y < image.rows; ++y) {
     for (size_t k = 0; k < options.size(); ++k) {
       if (streams[k]) {
-        float* dst = rows.data() + k * image.cols;
+        float* dst = rows.data() + k * n;
         streams[k]->Row(y, dst);
         ptrs[k] = dst;
       } else {

@@ -42,13 +42,16 @@ struct GuidedFilterOptions {
 cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide, const cv::Mat& src);
 
 // Self-guided shorthand: GuidedFilter(options, image, image) for one-channel images; for
-// three-channel images each channel guides itself (the edge-preserving smoother the paper uses).
+// three-channel images each channel guides itself (the edge-preserving smoother the paper uses),
+// filtered interleaved (radius 1..12, subsample 1; else channel by channel), with the same
+// result bit for bit as filtering each channel alone.
 cv::Mat GuidedFilterSelf(const GuidedFilterOptions& options, const cv::Mat& image);
 
-// Self-guided filters of one one-channel image at several settings, streamed by rows without
-// full-size intermediates: emit(y, rows) receives row y of each filter's output (rows[k] for
-// options[k], `image.cols` floats, valid during the call), for y = 0, 1, ..., rows-1. Equal to
-// GuidedFilter(options[k], image, image) row by row. Throws Error as GuidedFilter does.
+// Self-guided filters of one image (1 or 3 channels) at several settings, streamed by rows
+// without full-size intermediates: emit(y, rows) receives row y of each filter's output (rows[k]
+// for options[k], `image.cols * channels` floats, interleaved, valid during the call), for
+// y = 0, 1, ..., rows-1. Equal to GuidedFilterSelf(options[k], image) row by row. Throws Error as
+// GuidedFilter does.
 void GuidedFilterSelfRows(const std::vector<GuidedFilterOptions>& options, const cv::Mat& image,
                           const std::function<void(int, const std::vector<const float*>&)>& emit);
 

@@ -8,12 +8,18 @@
 #include "enhancer/guided_filter.h"
 #include "enhancer/method.h"
 #include "enhancer/plane_fit.h"
+#include "enhancer/select.h"
+#include "enhancer/simd_switch.h"
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
 #include "simulator/water.h"
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 namespace turbid {
 namespace {
@@ -124,11 +130,76 @@ cv::Mat Upsample(const cv::Mat& small, cv::Size size) {
   return out;
 }
 
-// The value at `percentile` (%) of `values` (reordered), by rank floor(p/100 (n - 1)).
+// The value at `percentile` (%) of `values` (no NaN), by rank floor(p/100 (n - 1)).
 double PercentileOf(std::vector<float>& values, double percentile) {
   const size_t k = static_cast<size_t>(std::floor(percentile / 100.0 * (values.size() - 1)));
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
-  return values[k];
+  return enhancer_internal::SelectKth<float, uint32_t>(values, k);
+}
+
+// I_g (1 - alpha) + I_f alpha as cv::addWeighted computes it for float images: in double, with
+// a fused multiply-add where the CPU has one (OpenCV's dispatched kernels use FMA then; its
+// baseline ones do not), rounded to float once.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target("avx2,fma"))) void AddWeightedRowFma(const float* i_g, const float* i_f,
+                                                           double beta, double alpha, float* dst,
+                                                           int n) {
+  for (int i = 0; i < n; ++i) {
+    dst[i] = static_cast<float>(
+        std::fma(static_cast<double>(i_g[i]), beta, static_cast<double>(i_f[i]) * alpha));
+  }
+}
+bool CpuHasFma() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("fma") && __builtin_cpu_supports("avx2");
+}
+#else
+void AddWeightedRowFma(const float*, const float*, double, double, float*, int) {}
+bool CpuHasFma() { return false; }
+#endif
+
+void AddWeightedRow(const float* i_g, const float* i_f, double beta, double alpha, float* dst,
+                    int n) {
+  static const bool fma = CpuHasFma();
+  if (fma) {
+    AddWeightedRowFma(i_g, i_f, beta, alpha, dst, n);
+    return;
+  }
+  for (int i = 0; i < n; ++i) {
+    dst[i] = static_cast<float>(static_cast<double>(i_g[i]) * beta +
+                                static_cast<double>(i_f[i]) * alpha);
+  }
+}
+
+// ClampUnit on one row: NaN to 0 (cv::patchNaNs), then [0, 1].
+TURBID_ROW_KERNEL void ClampUnitRow(float* __restrict v, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float x = v[i] != v[i] ? 0.0f : v[i];
+    v[i] = std::max(std::min(x, 1.0f), 0.0f);
+  }
+}
+
+// `full`'s exposure and detail steps on one row: j = j * inv_level (convertTo's float product),
+// then j + k (I - I_de) as cv::scaleAdd computes it for float images: a fused multiply-add where
+// the CPU has one (as above), else a product and a sum.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+__attribute__((target("avx2,fma"))) void ExposureDetailRowFma(const float* image,
+                                                              const float* denoised,
+                                                              float inv_level, float k, float* j,
+                                                              int n) {
+  for (int i = 0; i < n; ++i) j[i] = std::fma(image[i] - denoised[i], k, j[i] * inv_level);
+}
+#else
+void ExposureDetailRowFma(const float*, const float*, float, float, float*, int) {}
+#endif
+
+void ExposureDetailRow(const float* image, const float* denoised, float inv_level, float k,
+                       float* j, int n) {
+  static const bool fma = CpuHasFma();
+  if (fma) {
+    ExposureDetailRowFma(image, denoised, inv_level, k, j, n);
+    return;
+  }
+  for (int i = 0; i < n; ++i) j[i] = (image[i] - denoised[i]) * k + j[i] * inv_level;
 }
 
 // %g-style number for the step log (0.7, not 0.700000).
@@ -201,11 +272,12 @@ bool FullOptions::Check(std::string* why) const {
   return true;
 }
 
-cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& plane,
-                                const CameraIntrinsics& camera,
-                                const std::vector<double>& beta_per_m, const cv::Mat& reference,
-                                bool range_scaling, int subsample, double max_range_m) {
-  const int channels = reference.channels();
+namespace {
+
+// The light model's E_L on the plane at 1/subsample, upsampled to `size`: one channel per beta.
+cv::Mat LightModelMap(const IrradianceOptions& lights, const Plane& plane,
+                      const CameraIntrinsics& camera, const std::vector<double>& beta_per_m,
+                      cv::Size size, int channels, int subsample, double max_range_m) {
   if (beta_per_m.size() != 1 && static_cast<int>(beta_per_m.size()) != channels) {
     throw Error("full: " + std::to_string(beta_per_m.size()) + " attenuation values for a " +
                 std::to_string(channels) + "-channel image");
@@ -215,9 +287,20 @@ cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& pl
   const cv::Vec3f n(static_cast<float>(plane.normal[0]), static_cast<float>(plane.normal[1]),
                     static_cast<float>(plane.normal[2]));
   const cv::Mat normals(depth.size(), CV_32FC3, cv::Scalar(n[0], n[1], n[2]));
-  const cv::Mat e_small = IrradianceMap(lights, small, depth, normals, beta_per_m);
+  return Upsample(IrradianceMap(lights, small, depth, normals, beta_per_m), size);
+}
+
+}  // namespace
+
+cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& plane,
+                                const CameraIntrinsics& camera,
+                                const std::vector<double>& beta_per_m, const cv::Mat& reference,
+                                bool range_scaling, int subsample, double max_range_m) {
+  const int channels = reference.channels();
   std::vector<cv::Mat> e_planes;
-  cv::split(Upsample(e_small, reference.size()), e_planes);
+  cv::split(LightModelMap(lights, plane, camera, beta_per_m, reference.size(), channels, subsample,
+                          max_range_m),
+            e_planes);
   // One beta: the same E_L for every channel.
   if (e_planes.size() == 1) e_planes.assign(channels, e_planes[0]);
   if (!range_scaling) {
@@ -248,19 +331,33 @@ namespace {
 
 // Least squares of I = c0 t + c1 (1 - t) L + c2 t L over the samples (normal equations in
 // double), twice: the second pass drops the 20% largest absolute residuals of the first. Returns
-// false when the system is singular or the samples are too few.
-bool FitVeilModel(const std::vector<cv::Vec4d>& samples, cv::Vec3d* c) {
+// false when the system is singular or the samples are too few. The normal equations are summed
+// sample by sample in order (A^T A is symmetric: its six distinct sums are mirrored).
+// One fit sample: t, L and I_de at a grid pixel (the regressors t, (1 - t) L, t L and the
+// target are formed from them in double, as VeilRow does).
+struct VeilSample {
+  float t, l, v;
+};
+inline cv::Vec4d VeilRow(const VeilSample& s) {
+  const double ti = s.t, li = s.l;
+  return cv::Vec4d(ti, (1.0 - ti) * li, ti * li, s.v);
+}
+
+bool FitVeilModel(const std::vector<VeilSample>& samples, cv::Vec3d* c) {
   if (samples.size() < 16) return false;
   std::vector<char> use(samples.size(), 1);
+  std::vector<double> residuals(samples.size());
   for (int pass = 0; pass < 2; ++pass) {
-    cv::Matx33d ata = cv::Matx33d::zeros();
-    cv::Vec3d atb(0, 0, 0);
+    double s00 = 0, s01 = 0, s02 = 0, s11 = 0, s12 = 0, s22 = 0, b0 = 0, b1 = 0, b2 = 0;
     for (size_t i = 0; i < samples.size(); ++i) {
       if (!use[i]) continue;
-      const cv::Vec3d x(samples[i][0], samples[i][1], samples[i][2]);
-      ata += x * x.t();
-      atb += x * samples[i][3];
+      const cv::Vec4d x = VeilRow(samples[i]);
+      s00 += x[0] * x[0], s01 += x[0] * x[1], s02 += x[0] * x[2];
+      s11 += x[1] * x[1], s12 += x[1] * x[2], s22 += x[2] * x[2];
+      b0 += x[0] * x[3], b1 += x[1] * x[3], b2 += x[2] * x[3];
     }
+    const cv::Matx33d ata(s00, s01, s02, s01, s11, s12, s02, s12, s22);
+    const cv::Vec3d atb(b0, b1, b2);
     cv::Vec3d solution;
     if (!cv::solve(ata, atb, solution, cv::DECOMP_CHOLESKY)) return false;
     // Condition: reject near-collinear regressors (constant light or transmission).
@@ -269,15 +366,13 @@ bool FitVeilModel(const std::vector<cv::Vec4d>& samples, cv::Vec3d* c) {
     if (!(eig[2] > 1e-9 * eig[0])) return false;
     *c = solution;
     if (pass == 1) break;
-    std::vector<double> residuals(samples.size());
     for (size_t i = 0; i < samples.size(); ++i) {
-      residuals[i] = std::abs(solution[0] * samples[i][0] + solution[1] * samples[i][1] +
-                              solution[2] * samples[i][2] - samples[i][3]);
+      const cv::Vec4d x = VeilRow(samples[i]);
+      residuals[i] = std::abs(solution[0] * x[0] + solution[1] * x[1] + solution[2] * x[2] - x[3]);
     }
-    std::vector<double> sorted = residuals;
-    const size_t k = sorted.size() * 8 / 10;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
-    for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= sorted[k];
+    std::vector<double> keys = residuals;
+    const double cut = enhancer_internal::SelectKth<double, uint64_t>(keys, keys.size() * 8 / 10);
+    for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= cut;
   }
   return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
 }
@@ -294,45 +389,65 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
   }
   CV_Assert(denoised.size() == light.size() && denoised.size() == transmission.size());
   const int ch = denoised.channels(), lc = light.channels(), tc = transmission.channels();
+  CV_Assert(ch <= 4 && (lc == 1 || lc == ch) && (tc == 1 || tc == ch));
   std::vector<LightScaleEstimate> out(ch);
-  std::vector<float> ratios;
-  std::vector<cv::Vec4d> samples;
+  // Per channel: the largest veil weight w = (1 - t) L on the grid (one pass for every channel
+  // when t and L have one channel each).
+  std::vector<float> w_max(ch, 0.0f);
   for (int c = 0; c < ch; ++c) {
+    if (c > 0 && lc == 1 && tc == 1) {
+      w_max[c] = w_max[0];
+      continue;
+    }
     const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
-    float w_max = 0.0f;
     for (int y = 0; y < denoised.rows; y += stride) {
       const float* t = transmission.ptr<float>(y);
       const float* l = light.ptr<float>(y);
       for (int x = 0; x < denoised.cols; x += stride) {
-        w_max = std::max(w_max, (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
+        w_max[c] = std::max(w_max[c], (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
       }
     }
-    if (!(w_max > 0.0f) || !std::isfinite(w_max)) continue;
-    const float w_min = static_cast<float>(support) * w_max;
-    ratios.clear();
-    samples.clear();
-    const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
-                            static_cast<size_t>((denoised.cols + stride - 1) / stride);
-    samples.reserve(expected);
-    ratios.reserve(expected);
-    for (int y = 0; y < denoised.rows; y += stride) {
-      const float* in = denoised.ptr<float>(y);
-      const float* t = transmission.ptr<float>(y);
-      const float* l = light.ptr<float>(y);
-      for (int x = 0; x < denoised.cols; x += stride) {
-        const double ti = t[x * tc + t_at], li = l[x * lc + l_at], v = in[x * ch + c];
+  }
+  std::vector<bool> active(ch);
+  std::vector<float> w_min(ch);
+  for (int c = 0; c < ch; ++c) {
+    active[c] = w_max[c] > 0.0f && std::isfinite(w_max[c]);
+    w_min[c] = static_cast<float>(support) * w_max[c];
+  }
+  // One pass over the grid collects every channel's ratios and fit samples, each in grid order.
+  std::vector<std::vector<float>> ratios(ch);
+  std::vector<std::vector<VeilSample>> samples(ch);
+  const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
+                          static_cast<size_t>((denoised.cols + stride - 1) / stride);
+  for (int c = 0; c < ch; ++c) {
+    if (!active[c]) continue;
+    samples[c].reserve(expected);
+    ratios[c].reserve(expected);
+  }
+  for (int y = 0; y < denoised.rows; y += stride) {
+    const float* in = denoised.ptr<float>(y);
+    const float* t = transmission.ptr<float>(y);
+    const float* l = light.ptr<float>(y);
+    for (int x = 0; x < denoised.cols; x += stride) {
+      for (int c = 0; c < ch; ++c) {
+        if (!active[c]) continue;
+        const VeilSample sample{t[x * tc + (tc == 1 ? 0 : c)], l[x * lc + (lc == 1 ? 0 : c)],
+                                in[x * ch + c]};
+        const double ti = sample.t, li = sample.l, v = sample.v;
         const float w = static_cast<float>((1.0 - ti) * li);
         if (!std::isfinite(v) || !std::isfinite(li)) continue;
-        if (w >= w_min) ratios.push_back(static_cast<float>(std::max(v, 0.0) / w));
-        samples.push_back(cv::Vec4d(ti, (1.0 - ti) * li, ti * li, v));
+        if (w >= w_min[c]) ratios[c].push_back(static_cast<float>(std::max(v, 0.0) / w));
+        samples[c].push_back(sample);
       }
     }
-    if (ratios.empty()) continue;
+  }
+  for (int c = 0; c < ch; ++c) {
+    if (ratios[c].empty()) continue;
     LightScaleEstimate& e = out[c];
-    e.bound = std::max(0.0, PercentileOf(ratios, percentile));
+    e.bound = std::max(0.0, PercentileOf(ratios[c], percentile));
     cv::Vec3d fit;
     // The fit is usable when it is physical: a > 0 and 0 <= mean reflectance (c2 / c1) <= 1.
-    if (FitVeilModel(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
+    if (FitVeilModel(samples[c], &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
       e.fit = fit[1];
       e.scale = std::min(e.fit, e.bound);
       e.source = e.fit <= e.bound ? "fit" : "bound";
@@ -349,22 +464,46 @@ namespace {
 // Noise standard deviation of a float image (all channels), J. Immerkaer, "Fast noise variance
 // estimation", CVIU 64(2) 1996, eq. 2: sqrt(pi/2) / (6 (W-2)(H-2)) sum |I * N| with the 3x3
 // Laplacian-difference mask N = [1 -2 1; -2 4 -2; 1 -2 1], over interior pixels.
+// |I * N| along one row (the mask's 3x3 sum), for the n values from i = ch on.
+TURBID_ROW_KERNEL void LaplacianAbsRow(const float* __restrict a, const float* __restrict b,
+                                       const float* __restrict c, int ch, float* __restrict out,
+                                       int n) {
+  for (int j = 0; j < n; ++j) {
+    const int i = j + ch;
+    const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
+                    2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
+    out[j] = std::abs(v);
+  }
+}
+
 double EstimateNoiseSigma(const cv::Mat& image) {
   if (image.rows < 3 || image.cols < 3) return 0.0;
   CV_Assert(image.depth() == CV_32F);
   const int ch = image.channels(), n = (image.cols - 2) * ch;
+  // Each row's sum is one float accumulation in order (accumulated in double over the rows, in
+  // order); kRows rows are summed side by side so their dependent additions overlap.
+  constexpr int kRows = 8;
+  std::vector<float> v(static_cast<size_t>(kRows) * n);
   double total = 0.0;
-  for (int y = 1; y + 1 < image.rows; ++y) {
-    const float* a = image.ptr<float>(y - 1);
-    const float* b = image.ptr<float>(y);
-    const float* c = image.ptr<float>(y + 1);
-    float row = 0.0f;  // one row's sum in float (vectorises), accumulated in double
-    for (int i = ch; i < n + ch; ++i) {
-      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
-                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
-      row += std::abs(v);
+  for (int y0 = 1; y0 + 1 < image.rows; y0 += kRows) {
+    const int m = std::min(kRows, image.rows - 1 - y0);
+    for (int k = 0; k < m; ++k) {
+      const int y = y0 + k;
+      LaplacianAbsRow(image.ptr<float>(y - 1), image.ptr<float>(y), image.ptr<float>(y + 1), ch,
+                      v.data() + static_cast<size_t>(k) * n, n);
     }
-    total += row;
+    float row[kRows] = {};
+    if (m == kRows) {
+      const float* p = v.data();
+      for (int i = 0; i < n; ++i) {
+        for (int k = 0; k < kRows; ++k) row[k] += p[static_cast<size_t>(k) * n + i];
+      }
+    } else {
+      for (int k = 0; k < m; ++k) {
+        for (int i = 0; i < n; ++i) row[k] += v[static_cast<size_t>(k) * n + i];
+      }
+    }
+    for (int k = 0; k < m; ++k) total += row[k];
   }
   const double count = 6.0 * (image.cols - 2) * (image.rows - 2) * ch;
   return std::sqrt(CV_PI / 2.0) * total / count;
@@ -450,9 +589,16 @@ void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,
 }
 
 // Step 2 (eq. 5): E_L on the plane, scaled into image units blind, by the range fit, or as is.
-cv::Mat LightStep(const FullOptions& o, const IrradianceOptions& lights,
-                  const CameraIntrinsics& camera, const std::vector<double>& beta,
-                  const cv::Mat& denoised, FullResult* r) {
+// Returned as `map` times `scale` per channel (scale empty: the map as is); the map has one
+// channel per distinct beta except with range scaling (image channels, scaled).
+struct LightEstimate {
+  cv::Mat map;
+  std::vector<double> scale;
+};
+
+LightEstimate LightStepUnscaled(const FullOptions& o, const IrradianceOptions& lights,
+                                const CameraIntrinsics& camera, const std::vector<double>& beta,
+                                const cv::Mat& denoised, FullResult* r) {
   if (!o.light) {
     r->steps.push_back("light: skipped (off)");
     return {};
@@ -461,9 +607,13 @@ cv::Mat LightStep(const FullOptions& o, const IrradianceOptions& lights,
     r->steps.push_back("light: skipped (no lights)");
     return {};
   }
-  cv::Mat e_l = EstimateArtificialLight(lights, *r->plane, camera, beta, denoised,
-                                        o.light_scaling == "range", o.light_subsample,
-                                        o.max_range_m);
+  LightEstimate e;
+  e.map = o.light_scaling == "range"
+              ? EstimateArtificialLight(lights, *r->plane, camera, beta, denoised, true,
+                                        o.light_subsample, o.max_range_m)
+              : LightModelMap(lights, *r->plane, camera, beta, denoised.size(), denoised.channels(),
+                              o.light_subsample, o.max_range_m);
+  const cv::Mat& e_l = e.map;
   std::string detail = o.light_scaling + " scaling";
   if (o.light_scaling == "physical") {
     r->light_scale.assign(denoised.channels(), 1.0);
@@ -474,17 +624,33 @@ cv::Mat LightStep(const FullOptions& o, const IrradianceOptions& lights,
     } else {
       const std::vector<LightScaleEstimate> est = EstimateLightScale(
           denoised, e_l, r->transmission, o.light_scale_percentile, o.light_scale_support);
-      for (const LightScaleEstimate& e : est) {
-        r->light_scale.push_back(e.scale);
-        detail += "; scale " + FormatNumber(e.scale) + " (" + e.source + "; fit " +
-                  FormatNumber(e.fit) + ", bound " + FormatNumber(e.bound) + ")";
+      for (const LightScaleEstimate& est_c : est) {
+        r->light_scale.push_back(est_c.scale);
+        detail += "; scale " + FormatNumber(est_c.scale) + " (" + est_c.source + "; fit " +
+                  FormatNumber(est_c.fit) + ", bound " + FormatNumber(est_c.bound) + ")";
       }
     }
-    cv::Scalar a;
-    for (int c = 0; c < denoised.channels(); ++c) a[c] = r->light_scale[c];
-    cv::multiply(e_l, a, e_l);
+    e.scale = r->light_scale;
   }
   r->steps.push_back("light: " + std::to_string(lights.lights.size()) + " light(s), " + detail);
+  return e;
+}
+
+// LightStepUnscaled's E_L as one image with the image's channels.
+cv::Mat LightStep(const FullOptions& o, const IrradianceOptions& lights,
+                  const CameraIntrinsics& camera, const std::vector<double>& beta,
+                  const cv::Mat& denoised, FullResult* r) {
+  LightEstimate e = LightStepUnscaled(o, lights, camera, beta, denoised, r);
+  if (e.map.empty()) return {};
+  cv::Mat e_l = e.map;
+  if (e_l.channels() != denoised.channels()) {  // one beta: the same E_L for every channel
+    cv::merge(std::vector<cv::Mat>(denoised.channels(), e_l), e_l);
+  }
+  if (!e.scale.empty()) {
+    cv::Scalar a;
+    for (int c = 0; c < denoised.channels(); ++c) a[c] = e.scale[c];
+    cv::multiply(e_l, a, e_l);
+  }
   return e_l;
 }
 
@@ -535,6 +701,25 @@ void ExposureStep(const FullOptions& o, cv::Mat& dehazed, FullResult* r) {
     r->steps.push_back("exposure: J_plane divided by its " + FormatNumber(o.exposure_percentile) +
                        "th percentile " + FormatNumber(level));
   }
+}
+
+// The contrast step's log line.
+void ContrastStepLog(const FullOptions& o, const ClaheOptions& clahe, const ClaheStats& stats,
+                     FullResult* r) {
+  if (!o.contrast) {
+    r->steps.push_back("contrast: skipped (off)");
+    return;
+  }
+  r->clahe_alpha = stats.alpha;
+  std::string what = "contrast: CLAHE " + ClaheDistributionName(clahe.distribution);
+  if (clahe.distribution != ClaheDistribution::kUniform) {
+    what += ", alpha " + FormatNumber(stats.alpha);
+    if (clahe.keep_mean) {
+      what += " (chosen for the mean " + FormatNumber(stats.target_mean) + "; mean in " +
+              FormatNumber(stats.input_mean) + ")";
+    }
+  }
+  r->steps.push_back(what);
 }
 
 // Steps 4 (eq. 7) and 5 (CLAHE). Without inspection, a one-channel spatial Wiener deblur streams
@@ -597,21 +782,291 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
     if (o.contrast) out = Clahe(clahe, out, &stats);
     ClampUnit(out);
   }
-  if (o.contrast) {
-    r->clahe_alpha = stats.alpha;
-    std::string what = "contrast: CLAHE " + ClaheDistributionName(clahe.distribution);
-    if (clahe.distribution != ClaheDistribution::kUniform) {
-      what += ", alpha " + FormatNumber(stats.alpha);
-      if (clahe.keep_mean) {
-        what += " (chosen for the mean " + FormatNumber(stats.target_mean) + "; mean in " +
-                FormatNumber(stats.input_mean) + ")";
+  ContrastStepLog(o, clahe, stats, r);
+  return out;
+}
+
+// ---- `full` on colour images, streamed (FullEnhance only; FullEnhanceDetailed keeps every
+// intermediate). The whole-image steps become row producers with the same arithmetic: J_plane
+// (eq. 6), its exposure scale and the detail layer are computed per row as the deblur asks for
+// them, the deblurred rows are clamped and binned for CLAHE as they come, and the output reuses
+// the denoised image's buffer. Full-size buffers: the denoised image (then the output), the
+// upsampled t and E_L maps (one channel each when one beta), CLAHE's bins.
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// Eq. 6 on an interleaved BGR row from one-channel t and E_L rows (w pixels): per 8 pixels (24
+// values, three vectors) t and E_L are spread to the values' pixels by one permute each, E_L is
+// scaled per channel in double (the lanes' channels repeat with period 3) and rounded to float,
+// then (I - E) / t + E, or I / t without light (e null). The scalar arithmetic of
+// ColorRowSource's portable path, lane by lane (no FMA): the same bits.
+__attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const float* e,
+                                                      const double* scale, const float* t, float* d,
+                                                      int w) {
+  // Pixel (within the 8) and channel of each lane of the three vectors.
+  static const int kPixel[3][8] = {
+      {0, 0, 0, 1, 1, 1, 2, 2}, {2, 3, 3, 3, 4, 4, 4, 5}, {5, 5, 6, 6, 6, 7, 7, 7}};
+  static const int kChannel[3][8] = {
+      {0, 1, 2, 0, 1, 2, 0, 1}, {2, 0, 1, 2, 0, 1, 2, 0}, {1, 2, 0, 1, 2, 0, 1, 2}};
+  __m256i spread[3];
+  __m256d s_lo[3], s_hi[3];
+  for (int k = 0; k < 3; ++k) {
+    spread[k] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(kPixel[k]));
+    const int* c = kChannel[k];
+    s_lo[k] = _mm256_setr_pd(scale[c[0]], scale[c[1]], scale[c[2]], scale[c[3]]);
+    s_hi[k] = _mm256_setr_pd(scale[c[4]], scale[c[5]], scale[c[6]], scale[c[7]]);
+  }
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    const __m256 t8 = _mm256_loadu_ps(t + x);
+    const __m256 e8 = e != nullptr ? _mm256_loadu_ps(e + x) : _mm256_setzero_ps();
+    for (int k = 0; k < 3; ++k) {
+      const int i = 3 * x + 8 * k;
+      const __m256 tv = _mm256_permutevar8x32_ps(t8, spread[k]);
+      const __m256 v = _mm256_loadu_ps(in + i);
+      if (e == nullptr) {
+        _mm256_storeu_ps(d + i, _mm256_div_ps(v, tv));
+        continue;
+      }
+      const __m256 ev = _mm256_permutevar8x32_ps(e8, spread[k]);
+      const __m128 lo =
+          _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(ev)), s_lo[k]));
+      const __m128 hi =
+          _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(ev, 1)), s_hi[k]));
+      const __m256 ee = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
+      _mm256_storeu_ps(d + i, _mm256_add_ps(_mm256_div_ps(_mm256_sub_ps(v, ee), tv), ee));
+    }
+  }
+  for (; x < w; ++x) {
+    for (int c = 0; c < 3; ++c) {
+      const int i = 3 * x + c;
+      if (e == nullptr) {
+        d[i] = in[i] / t[x];
+      } else {
+        const float ee = static_cast<float>(static_cast<double>(e[x]) * scale[c]);
+        d[i] = (in[i] - ee) / t[x] + ee;
       }
     }
-    r->steps.push_back(what);
-  } else {
-    r->steps.push_back("contrast: skipped (off)");
   }
-  return out;
+}
+#define TURBID_HAVE_DEHAZE_AVX2 1
+#endif
+
+// Row y of the image entering the deblur (J_plane, exposure-scaled, plus the detail layer), from
+// the input, the denoised image, E_L (map x scale) and t.
+class ColorRowSource {
+ public:
+  ColorRowSource(const FullOptions& o, const cv::Mat& image, const cv::Mat& denoised,
+                 LightEstimate light, const cv::Mat& transmission, bool dehaze)
+      : image_(image),
+        denoised_(denoised),
+        light_(std::move(light)),
+        t_(transmission),
+        dehaze_(dehaze),
+        detail_(o.keep_detail > 0 && o.denoise),
+        keep_(static_cast<float>(o.keep_detail)),
+        n_(image.cols * 3),
+        e_row_(light_.map.empty() ? 0 : n_),
+        t_row_(n_) {}
+
+  // J_plane of row y (eq. 6), or the denoised row without dehazing; `dst` holds n floats.
+  void Dehazed(int y, float* dst) {
+    const float* in = denoised_.ptr<float>(y);
+    if (!dehaze_) {
+      std::copy_n(in, n_, dst);
+      return;
+    }
+#ifdef TURBID_HAVE_DEHAZE_AVX2
+    // One t and one E_L map for every channel (one beta): spread and scaled in registers.
+    if (t_.channels() == 1 && (light_.map.empty() || light_.map.channels() == 1) &&
+        enhancer_internal::UseHandWrittenAvx2()) {
+      const bool light = !light_.map.empty(), scaled = light && !light_.scale.empty();
+      const double s[3] = {scaled ? light_.scale[0] : 1.0, scaled ? light_.scale[1] : 1.0,
+                           scaled ? light_.scale[2] : 1.0};
+      DehazeSpreadAvx2(in, light ? light_.map.ptr<float>(y) : nullptr, s, t_.ptr<float>(y), dst,
+                       image_.cols);
+      return;
+    }
+#endif
+    const float* t = Expand(t_, y, nullptr, t_row_.data());
+    if (light_.map.empty()) {
+      DehazeRowNoLight(in, t, dst, n_);
+    } else {
+      const float* e = Expand(light_.map, y, &light_.scale, e_row_.data());
+      DehazeRowLight(in, e, t, dst, n_);
+    }
+  }
+
+  // The deblur's input row: J_plane / exposure, plus keep_detail (I - I_de).
+  void Row(int y, float* dst) {
+    Dehazed(y, dst);
+    if (detail_) {
+      ExposureDetailRow(image_.ptr<float>(y), denoised_.ptr<float>(y), exposure_, keep_, dst, n_);
+    } else if (exposure_ != 1.0f) {
+      ScaleRow(dst, exposure_, n_);
+    }
+  }
+
+  int values() const { return n_; }
+  // J_plane is divided by `level` (cv::Mat::convertTo's float product by 1 / level).
+  void SetExposure(double level) { exposure_ = static_cast<float>(1.0 / level); }
+
+ private:
+  // Row y of a one- or three-channel map as three values per pixel, times scale[c] in double
+  // (cv::multiply by a Scalar) when a scale is given.
+  const float* Expand(const cv::Mat& m, int y, const std::vector<double>* scale, float* buf) {
+    const float* p = m.ptr<float>(y);
+    const int w = image_.cols;
+    if (scale == nullptr || scale->empty()) {
+      if (m.channels() == 3) return p;
+      SpreadRow(p, buf, w);
+    } else if (m.channels() == 1) {
+      SpreadScaledRow(p, (*scale)[0], (*scale)[1], (*scale)[2], buf, w);
+    } else {
+      ScaledRow3(p, (*scale)[0], (*scale)[1], (*scale)[2], buf, w);
+    }
+    return buf;
+  }
+
+  static TURBID_ROW_KERNEL void SpreadRow(const float* __restrict p, float* __restrict b, int w) {
+    for (int x = 0; x < w; ++x) b[3 * x] = b[3 * x + 1] = b[3 * x + 2] = p[x];
+  }
+  static TURBID_ROW_KERNEL void SpreadScaledRow(const float* __restrict p, double s0, double s1,
+                                                double s2, float* __restrict b, int w) {
+    for (int x = 0; x < w; ++x) {
+      const double v = p[x];
+      b[3 * x] = static_cast<float>(v * s0);
+      b[3 * x + 1] = static_cast<float>(v * s1);
+      b[3 * x + 2] = static_cast<float>(v * s2);
+    }
+  }
+  static TURBID_ROW_KERNEL void ScaledRow3(const float* __restrict p, double s0, double s1,
+                                           double s2, float* __restrict b, int w) {
+    for (int x = 0; x < w; ++x) {
+      b[3 * x] = static_cast<float>(static_cast<double>(p[3 * x]) * s0);
+      b[3 * x + 1] = static_cast<float>(static_cast<double>(p[3 * x + 1]) * s1);
+      b[3 * x + 2] = static_cast<float>(static_cast<double>(p[3 * x + 2]) * s2);
+    }
+  }
+
+  static TURBID_ROW_KERNEL void DehazeRowLight(const float* __restrict in,
+                                               const float* __restrict e, const float* __restrict t,
+                                               float* __restrict d, int n) {
+    for (int i = 0; i < n; ++i) d[i] = (in[i] - e[i]) / t[i] + e[i];
+  }
+  static TURBID_ROW_KERNEL void DehazeRowNoLight(const float* __restrict in,
+                                                 const float* __restrict t, float* __restrict d,
+                                                 int n) {
+    for (int i = 0; i < n; ++i) d[i] = in[i] / t[i];
+  }
+  static TURBID_ROW_KERNEL void ScaleRow(float* __restrict v, float k, int n) {
+    for (int i = 0; i < n; ++i) v[i] *= k;
+  }
+
+  const cv::Mat& image_;
+  const cv::Mat& denoised_;
+  const LightEstimate light_;
+  const cv::Mat& t_;
+  const bool dehaze_, detail_;
+  const float keep_;
+  const int n_;
+  float exposure_ = 1.0f;
+  std::vector<float> e_row_, t_row_;
+};
+
+// ExposureStep on the rows of J_plane (the same sample: every second value of every second row).
+void ExposureStepRows(const FullOptions& o, ColorRowSource& src, int rows, FullResult* r) {
+  if (o.exposure_percentile <= 0) return;
+  const int n = src.values();
+  std::vector<float> row(n), sample;
+  sample.reserve(static_cast<size_t>(rows) * n / 4 + 16);
+  for (int y = 0; y < rows; y += 2) {
+    src.Dehazed(y, row.data());
+    for (int i = 0; i < n; i += 2) {
+      if (std::isfinite(row[i])) sample.push_back(row[i]);
+    }
+  }
+  if (sample.empty()) return;
+  const double level = PercentileOf(sample, o.exposure_percentile);
+  if (level > 1.0) {
+    r->exposure_scale = level;
+    src.SetExposure(level);
+    r->steps.push_back("exposure: J_plane divided by its " + FormatNumber(o.exposure_percentile) +
+                       "th percentile " + FormatNumber(level));
+  }
+}
+
+// Steps 4 and 5 over the row source when the deblur is the spatial Wiener filter: rows produced
+// into a ring of 2k + 1 (k the inverse filter's radius), deblurred, clamped (ClampUnit) and
+// binned into `out`. Returns false (nothing done) when another deblur path applies.
+bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& out, FullResult* r) {
+  if (!o.deblur) return false;
+  PsfOptions p;
+  p.optical_thickness = o.psf_optical_thickness;
+  p.forward_scatter = o.psf_forward_scatter;
+  const Psf psf = PsfKernel(p);
+  if (psf.is_delta || o.deconvolution.method != DeconvolutionMethod::kWiener ||
+      o.deconvolution.spatial_max_radius <= 0) {
+    return false;
+  }
+  const int k = WienerInverseKernel(psf.kernel, o.deconvolution.nsr).rows / 2;
+  if (k > o.deconvolution.spatial_max_radius) return false;
+  ClaheOptions clahe = o.clahe;
+  clahe.keep_mean = o.clahe_target_mean;
+  clahe.min_mean = o.clahe_min_mean;
+  const int n = src.values(), ring = std::min(2 * k + 1, out.rows);
+  cv::Mat rows(ring, n, CV_32F), bins;
+  if (o.contrast) bins = ClaheNewBins(clahe, out.size());
+  std::vector<float> lum(out.cols);
+  int next = 0;  // rows [next - ring, next) are in the ring
+  const bool streamed = DeconvolveRowsFrom(
+      o.deconvolution, out.size(), 3,
+      [&](int y) {
+        for (; next <= y; ++next) src.Row(next, rows.ptr<float>(next % ring));
+        return rows.ptr<float>(y % ring);
+      },
+      psf.kernel,
+      [&](int y, const float* row) {
+        float* dst = out.ptr<float>(y);  // its denoised values were read for ring row y
+        std::copy_n(row, n, dst);
+        ClampUnitRow(dst, n);
+        if (o.contrast) ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
+      });
+  if (!streamed) return false;  // another deblur path after all: nothing was read or written
+  r->steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
+                     ", PSF radius " + std::to_string(psf.radius_px));
+  ClaheStats stats;
+  if (o.contrast) ClaheColorFromBins(clahe, bins, out, &stats);  // in [0, 1]
+  ContrastStepLog(o, clahe, stats, r);
+  return true;
+}
+
+// Steps 1-5 of `full` for a three-channel image after the geometry (FullEnhanceImpl's).
+cv::Mat FullColorStreamed(const FullOptions& o, const cv::Mat& image,
+                          const IrradianceOptions& lights, const CameraIntrinsics& camera,
+                          const std::vector<double>& beta, bool any_beta, FullResult* r) {
+  const cv::Mat denoised = DenoiseStep(o, image, r);
+  LightEstimate light = LightStepUnscaled(o, lights, camera, beta, denoised, r);
+  const bool dehaze = o.dehaze && any_beta;
+  ColorRowSource src(o, image, denoised, std::move(light), r->transmission, dehaze);
+  if (dehaze) {
+    std::string values;
+    for (double b : r->beta_per_m) values += (values.empty() ? "" : "/") + FormatNumber(b);
+    r->steps.push_back("dehaze: beta " + values + " 1/m (" + r->beta_source +
+                       "), t >= " + FormatNumber(o.t_min));
+    ExposureStepRows(o, src, image.rows, r);
+  } else {
+    r->steps.push_back(o.dehaze ? "dehaze: skipped (beta 0)" : "dehaze: skipped (off)");
+  }
+  if (o.keep_detail > 0 && o.denoise) {
+    r->steps.push_back("detail: the denoising residual added back x" + FormatNumber(o.keep_detail));
+  }
+  // The output overwrites the denoised image row by row when that is our own buffer.
+  cv::Mat out = o.denoise ? denoised : cv::Mat(image.size(), CV_32FC3);
+  if (DeblurAndContrastRows(o, src, out, r)) return out;
+  // Other deblur paths: the whole deblur input, then the general steps 4-5.
+  cv::Mat current(image.size(), CV_32FC3);
+  for (int y = 0; y < image.rows; ++y) src.Row(y, current.ptr<float>(y));
+  return DeblurAndContrast(o, current, false, r);
 }
 
 // The full pipeline. `keep_steps`: fill every inspection-only field of FullResult (range_m);
@@ -637,6 +1092,10 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
     r.plane_source = source;
     r.steps.push_back("plane: from " + source);
     if (any_beta) TransmissionStep(o, camera, beta, image.size(), keep_steps, &r);
+  }
+  if (!keep_steps && channels == 3) {
+    r.image = FullColorStreamed(o, image, lights, camera, beta, any_beta, &r);
+    return r;
   }
   cv::Mat current = DenoiseStep(o, image, &r);
   r.denoised = current;
@@ -753,6 +1212,31 @@ cv::Mat SimplifiedGray(const SimplifiedOptions& o, const GuidedFilterOptions& fi
   return o.contrast ? ClaheFromBins(o.clahe, bins) : out;
 }
 
+// Three-channel `simplified`, streamed as the gray path is: both guided filters interleaved by
+// rows, the boost, the clamp and CLAHE's luminance binning per row into the output buffer, then
+// the colour CLAHE in place. The input is scanned for non-finite values only when a boosted row
+// is not finite (the up-front check's error then; a finite input that overflows is clamped).
+cv::Mat SimplifiedColor(const SimplifiedOptions& o, const GuidedFilterOptions& fine,
+                        const GuidedFilterOptions& coarse, const cv::Mat& image) {
+  const int n = image.cols * 3;
+  cv::Mat out(image.size(), CV_32FC3), bins;
+  std::vector<float> lum(image.cols);
+  if (o.contrast) bins = ClaheNewBins(o.clahe, image.size());
+  bool validated = false;
+  GuidedFilterSelfRows({fine, coarse}, image, [&](int y, const std::vector<const float*>& q) {
+    float* dst = out.ptr<float>(y);
+    AddWeightedRow(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n);
+    if (!validated && !RowIsFinite(dst, static_cast<size_t>(n))) {
+      ValidateEnhanceImage(image, "simplified");
+      validated = true;
+    }
+    ClampUnitRow(dst, n);
+    if (o.contrast) ClaheBinColorRow(o.clahe, dst, lum.data(), bins, y);
+  });
+  if (o.contrast) ClaheColorFromBins(o.clahe, bins, out);  // in [0, 1]
+  return out;
+}
+
 }  // namespace
 
 cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
@@ -772,6 +1256,7 @@ cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
       throw;
     }
   }
+  if (image.channels() == 3) return SimplifiedColor(o, fine, coarse, image);
   ValidateEnhanceImage(image, "simplified");
   const cv::Mat i_f = GuidedFilterSelf(fine, image);
   const cv::Mat i_g = GuidedFilterSelf(coarse, image);

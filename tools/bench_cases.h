@@ -55,6 +55,7 @@ std::string Format(const char* format, double value);
 double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int border);
 
 // The groups of cases, one file each (tools/bench_cases_*.cc).
+void AddColorCases(std::vector<BenchCase>& cases, const InputsFn& in);    // issue 18 item 1
 void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);  // issue 18 item 2
 void AddMachineCases(std::vector<BenchCase>& cases, const InputsFn& in);  // bandwidth, peak flops
 

@@ -45,7 +45,7 @@ TEST(StreamedPaths, DeconvolveRowsEqualsDeconvolveAndDirectFilter) {
   o.spatial_max_radius = 0;
   EXPECT_FALSE(DeconvolveRows(o, img, psf, [](int, const float*) { ADD_FAILURE(); }));
   EXPECT_THROW(
-      DeconvolveRows(o, cv::Mat(4, 4, CV_32FC3, cv::Scalar::all(0)), psf, [](int, const float*) {}),
+      DeconvolveRows(o, cv::Mat(4, 4, CV_32FC2, cv::Scalar::all(0)), psf, [](int, const float*) {}),
       Error);
 }
 

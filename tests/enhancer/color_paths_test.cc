@@ -1,0 +1,572 @@
+// The colour paths of `full` and `simplified` are streamed (issue 18 item 1): interleaved guided
+// filter and deconvolution rows, fused per-row steps, CLAHE binned as rows come. Each must give
+// what the pre-optimisation implementation (commit 6722196) gives, bit for bit. The Reference*
+// functions below are that implementation's colour code: every channel split into its own plane,
+// filtered alone, merged back, with whole-image steps in between.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "enhancer/clahe.h"
+#include "enhancer/deconvolution.h"
+#include "enhancer/guided_filter.h"
+#include "enhancer/method.h"
+#include "enhancer/paper_methods.h"
+#include "enhancer/select.h"
+#include "enhancer/simd_switch.h"
+#include "scenes/builtin.h"
+#include "scenes/error.h"
+#include "scenes/image_io.h"
+#include "simulator/psf.h"
+#include "simulator/render.h"
+#include "tests/support/test_support.h"
+
+namespace turbid {
+namespace {
+
+// ---- The pre-optimisation implementation (commit 6722196), colour parts.
+
+void ReferenceClampUnit(cv::Mat& m) {
+  cv::patchNaNs(m, 0.0);
+  cv::min(m, 1.0, m);
+  cv::max(m, 0.0, m);
+}
+
+cv::Mat ReferenceGuidedFilterSelf(const GuidedFilterOptions& o, const cv::Mat& image) {
+  std::vector<cv::Mat> planes;
+  cv::split(image, planes);
+  for (cv::Mat& p : planes) p = GuidedFilter(o, p, p);
+  cv::Mat out;
+  cv::merge(planes, out);
+  return out;
+}
+
+cv::Mat ReferenceDeconvolve(const DeconvolutionOptions& o, const cv::Mat& image,
+                            const cv::Mat& psf) {
+  std::vector<cv::Mat> planes;
+  cv::split(image, planes);
+  for (cv::Mat& p : planes) p = Deconvolve(o, p, psf);
+  cv::Mat out;
+  cv::merge(planes, out);
+  return out;
+}
+
+// Clahe's colour branch: Rec. 709 luminance equalised, channels scaled by the ratio.
+cv::Mat ReferenceClahe(const ClaheOptions& options, const cv::Mat& image) {
+  cv::Mat lum(image.size(), CV_32F);
+  for (int y = 0; y < image.rows; ++y) {
+    const cv::Vec3f* s = image.ptr<cv::Vec3f>(y);
+    float* l = lum.ptr<float>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      l[x] = 0.0722f * s[x][0] + 0.7152f * s[x][1] + 0.2126f * s[x][2];
+    }
+  }
+  const cv::Mat eq = Clahe(options, lum);
+  cv::Mat out(image.size(), CV_32FC3);
+  for (int y = 0; y < image.rows; ++y) {
+    const cv::Vec3f* s = image.ptr<cv::Vec3f>(y);
+    const float* l = lum.ptr<float>(y);
+    const float* e = eq.ptr<float>(y);
+    cv::Vec3f* d = out.ptr<cv::Vec3f>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      if (l[x] <= 1e-6f) {
+        d[x] = cv::Vec3f(e[x], e[x], e[x]);
+        continue;
+      }
+      const float g = e[x] / l[x];
+      for (int c = 0; c < 3; ++c) d[x][c] = std::min(std::max(s[x][c] * g, 0.0f), 1.0f);
+    }
+  }
+  return out;
+}
+
+cv::Mat ReferenceSimplified(const SimplifiedOptions& o, const cv::Mat& image) {
+  ValidateEnhanceImage(image, "simplified");
+  GuidedFilterOptions fine, coarse;
+  fine.radius = o.fine_radius;
+  fine.eps = o.fine_eps;
+  coarse.radius = o.coarse_radius;
+  coarse.eps = o.coarse_eps;
+  coarse.subsample = o.coarse_subsample;
+  const cv::Mat i_f = ReferenceGuidedFilterSelf(fine, image);
+  const cv::Mat i_g = ReferenceGuidedFilterSelf(coarse, image);
+  cv::Mat out;
+  cv::addWeighted(i_g, 1.0 - o.alpha, i_f, o.alpha, 0.0, out);
+  ReferenceClampUnit(out);
+  if (o.contrast) out = ReferenceClahe(o.clahe, out);
+  ReferenceClampUnit(out);
+  return out;
+}
+
+// EstimateLightScale (public) and the Immerkaer noise estimate behind adaptive denoising, as they
+// were: every channel in its own pass, the normal equations as cv::Matx sums, one float chain per
+// row.
+bool ReferenceFitVeilModel(const std::vector<cv::Vec4d>& samples, cv::Vec3d* c) {
+  if (samples.size() < 16) return false;
+  std::vector<char> use(samples.size(), 1);
+  for (int pass = 0; pass < 2; ++pass) {
+    cv::Matx33d ata = cv::Matx33d::zeros();
+    cv::Vec3d atb(0, 0, 0);
+    for (size_t i = 0; i < samples.size(); ++i) {
+      if (!use[i]) continue;
+      const cv::Vec3d x(samples[i][0], samples[i][1], samples[i][2]);
+      ata += x * x.t();
+      atb += x * samples[i][3];
+    }
+    cv::Vec3d solution;
+    if (!cv::solve(ata, atb, solution, cv::DECOMP_CHOLESKY)) return false;
+    cv::Vec3d eig;
+    cv::eigen(ata, eig);
+    if (!(eig[2] > 1e-9 * eig[0])) return false;
+    *c = solution;
+    if (pass == 1) break;
+    std::vector<double> residuals(samples.size());
+    for (size_t i = 0; i < samples.size(); ++i) {
+      residuals[i] = std::abs(solution[0] * samples[i][0] + solution[1] * samples[i][1] +
+                              solution[2] * samples[i][2] - samples[i][3]);
+    }
+    std::vector<double> sorted = residuals;
+    const size_t k = sorted.size() * 8 / 10;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
+    for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= sorted[k];
+  }
+  return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
+}
+
+double ReferencePercentile(std::vector<float>& values, double percentile) {
+  const size_t k = static_cast<size_t>(std::floor(percentile / 100.0 * (values.size() - 1)));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+std::vector<LightScaleEstimate> ReferenceEstimateLightScale(const cv::Mat& denoised,
+                                                            const cv::Mat& light,
+                                                            const cv::Mat& transmission,
+                                                            double percentile, double support) {
+  const int stride =
+      std::max(1, static_cast<int>(std::floor(std::sqrt(denoised.total() / 65536.0))));
+  const int ch = denoised.channels(), lc = light.channels(), tc = transmission.channels();
+  std::vector<LightScaleEstimate> out(ch);
+  std::vector<float> ratios;
+  std::vector<cv::Vec4d> samples;
+  for (int c = 0; c < ch; ++c) {
+    const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
+    float w_max = 0.0f;
+    for (int y = 0; y < denoised.rows; y += stride) {
+      const float* t = transmission.ptr<float>(y);
+      const float* l = light.ptr<float>(y);
+      for (int x = 0; x < denoised.cols; x += stride) {
+        w_max = std::max(w_max, (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
+      }
+    }
+    if (!(w_max > 0.0f) || !std::isfinite(w_max)) continue;
+    const float w_min = static_cast<float>(support) * w_max;
+    ratios.clear();
+    samples.clear();
+    for (int y = 0; y < denoised.rows; y += stride) {
+      const float* in = denoised.ptr<float>(y);
+      const float* t = transmission.ptr<float>(y);
+      const float* l = light.ptr<float>(y);
+      for (int x = 0; x < denoised.cols; x += stride) {
+        const double ti = t[x * tc + t_at], li = l[x * lc + l_at], v = in[x * ch + c];
+        const float w = static_cast<float>((1.0 - ti) * li);
+        if (!std::isfinite(v) || !std::isfinite(li)) continue;
+        if (w >= w_min) ratios.push_back(static_cast<float>(std::max(v, 0.0) / w));
+        samples.push_back(cv::Vec4d(ti, (1.0 - ti) * li, ti * li, v));
+      }
+    }
+    if (ratios.empty()) continue;
+    LightScaleEstimate& e = out[c];
+    e.bound = std::max(0.0, ReferencePercentile(ratios, percentile));
+    cv::Vec3d fit;
+    if (ReferenceFitVeilModel(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
+      e.fit = fit[1];
+      e.scale = std::min(e.fit, e.bound);
+      e.source = e.fit <= e.bound ? "fit" : "bound";
+    } else {
+      e.scale = e.bound;
+      e.source = "bound (no usable fit)";
+    }
+  }
+  return out;
+}
+
+double ReferenceNoiseSigma(const cv::Mat& image) {
+  if (image.rows < 3 || image.cols < 3) return 0.0;
+  const int ch = image.channels(), n = (image.cols - 2) * ch;
+  double total = 0.0;
+  for (int y = 1; y + 1 < image.rows; ++y) {
+    const float* a = image.ptr<float>(y - 1);
+    const float* b = image.ptr<float>(y);
+    const float* c = image.ptr<float>(y + 1);
+    float row = 0.0f;
+    for (int i = ch; i < n + ch; ++i) {
+      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
+                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
+      row += std::abs(v);
+    }
+    total += row;
+  }
+  const double count = 6.0 * (image.cols - 2) * (image.rows - 2) * ch;
+  return std::sqrt(CV_PI / 2.0) * total / count;
+}
+
+// ---- Inputs.
+
+// Bitwise equality (NaN-safe); the message names the first differing value.
+::testing::AssertionResult SameBits(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) {
+    return ::testing::AssertionFailure() << "size or type differ";
+  }
+  const size_t n = static_cast<size_t>(a.cols) * a.channels();
+  for (int y = 0; y < a.rows; ++y) {
+    const float* p = a.ptr<float>(y);
+    const float* q = b.ptr<float>(y);
+    for (size_t i = 0; i < n; ++i) {
+      if (std::memcmp(p + i, q + i, sizeof(float)) != 0 && !(p[i] == 0.0f && q[i] == 0.0f)) {
+        return ::testing::AssertionFailure()
+               << "row " << y << " value " << i << ": " << p[i] << " vs " << q[i] << " (max |diff| "
+               << cv::norm(a, b, cv::NORM_INF) << ")";
+      }
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+cv::Mat SmoothNoise(int rows, int cols, int seed) {
+  cv::Mat img(rows, cols, CV_32FC3);
+  cv::RNG(seed).fill(img, cv::RNG::UNIFORM, 0.02, 0.95);
+  if (rows > 2 && cols > 2) cv::GaussianBlur(img, img, cv::Size(0, 0), 1.3);
+  return img;
+}
+
+const std::vector<cv::Size>& OddSizes() {
+  static const std::vector<cv::Size> sizes = {{1, 1},  {2, 3},   {7, 5},    {5, 33},
+                                              {31, 2}, {83, 61}, {101, 77}, {257, 129}};
+  return sizes;
+}
+
+struct ColorRender {
+  std::string name;
+  Scene scene;
+  RenderResult render;
+};
+
+// The colour hull (gray texture tinted per channel, as the bench's) and the seafloor, rendered
+// (Jerlov 3C, seed 1, linear) at test scales.
+const std::vector<ColorRender>& Renders() {
+  static const std::vector<ColorRender> renders = [] {
+    std::vector<ColorRender> out;
+    for (const char* name : {"hull", "seafloor"}) {
+      for (double scale : {0.1, 0.27}) {
+        BuiltinSceneOptions so;
+        so.scale = scale;
+        ColorRender c;
+        c.scene = MakeBuiltinScene(name, so);
+        if (c.scene.image.channels() == 1) {
+          const cv::Mat g = c.scene.image;
+          cv::merge(std::vector<cv::Mat>{g * 0.8, g * 0.95, g}, c.scene.image);
+        }
+        RenderOptions o;
+        o.water.type = "3C";
+        o.seed = 1;
+        o.camera.encoding = CameraEncoding::kLinear;
+        c.render = Render(o, c.scene);
+        c.name = std::string(name) + "@" + std::to_string(c.render.image.cols) + "x" +
+                 std::to_string(c.render.image.rows);
+        out.push_back(std::move(c));
+      }
+    }
+    return out;
+  }();
+  return renders;
+}
+
+// Real colour photographs from $TURBID_DATA (linear [0, 1] BGR), empty when it is not set.
+std::vector<std::pair<std::string, cv::Mat>> RealFrames() {
+  std::vector<std::pair<std::string, cv::Mat>> frames;
+  const auto dir = testing::DataDir();
+  if (!dir) return frames;
+  for (const char* rel :
+       {"uieb_waternet/616.png", "euvp_funiegan/A/1.jpg", "subvo/images/frame_00_00_21.000.jpg"}) {
+    try {
+      cv::Mat img = ReadImage(*dir + "/" + rel);
+      if (img.channels() == 3) frames.emplace_back(rel, img);
+    } catch (const Error&) {
+      // A frame the data folder does not have: the others still run.
+    }
+  }
+  return frames;
+}
+
+// ---- Building blocks.
+
+TEST(ColorPaths, SelectKthEqualsNthElement) {
+  // The percentiles of `full` (t_med, exposure, light-scale bound, the fit's trim) use it.
+  cv::RNG rng(17);
+  for (size_t n : {1, 2, 3, 17, 64, 65, 1000, 40000}) {
+    for (int kind = 0; kind < 4; ++kind) {
+      std::vector<float> f(n);
+      std::vector<double> d(n);
+      for (size_t i = 0; i < n; ++i) {
+        double v = rng.uniform(-2.0, 2.0);
+        if (kind == 1) v = std::round(v * 3) / 3;           // many ties, -0 and +0
+        if (kind == 2) v = 0.5 + 1e-7 * rng.uniform(0, 8);  // values a few ulps apart
+        if (kind == 3 && i % 7 == 0) v = (i % 14 == 0 ? 1 : -1) * HUGE_VAL;
+        f[i] = static_cast<float>(v);
+        d[i] = v;
+      }
+      for (size_t k : {size_t{0}, n / 3, n / 2, n * 8 / 10, n - 1}) {
+        std::vector<float> fs = f, f_scratch = f;  // SelectKth uses its input as scratch
+        std::nth_element(fs.begin(), fs.begin() + static_cast<std::ptrdiff_t>(k), fs.end());
+        EXPECT_EQ((enhancer_internal::SelectKth<float, uint32_t>(f_scratch, k)), fs[k])
+            << n << " " << k;
+        std::vector<double> ds = d, d_scratch = d;
+        std::nth_element(ds.begin(), ds.begin() + static_cast<std::ptrdiff_t>(k), ds.end());
+        EXPECT_EQ((enhancer_internal::SelectKth<double, uint64_t>(d_scratch, k)), ds[k])
+            << n << " " << k;
+      }
+    }
+  }
+}
+
+TEST(ColorPaths, GuidedFilterInterleavedEqualsPlaneByPlane) {
+  for (const cv::Size& size : OddSizes()) {
+    const cv::Mat img = SmoothNoise(size.height, size.width, size.area());
+    for (int r : {1, 2, 4, 8, 12, 13}) {
+      GuidedFilterOptions o;
+      o.radius = r;
+      o.eps = r == 8 ? 0.16 : 0.003;
+      const cv::Mat expect = ReferenceGuidedFilterSelf(o, img);
+      EXPECT_TRUE(SameBits(GuidedFilterSelf(o, img), expect)) << size << " r " << r;
+      cv::Mat rows(img.size(), CV_32FC3);
+      GuidedFilterSelfRows({o}, img, [&](int y, const std::vector<const float*>& q) {
+        std::memcpy(rows.ptr<float>(y), q[0], sizeof(float) * 3 * img.cols);
+      });
+      EXPECT_TRUE(SameBits(rows, expect)) << size << " r " << r << " (rows)";
+    }
+  }
+}
+
+TEST(ColorPaths, DeconvolveInterleavedEqualsPlaneByPlane) {
+  const cv::Mat psf = PsfKernel(PsfOptions{}).kernel;
+  for (const cv::Size& size : OddSizes()) {
+    const cv::Mat img = SmoothNoise(size.height, size.width, 7 + size.area());
+    const cv::Mat expect = ReferenceDeconvolve(DeconvolutionOptions{}, img, psf);
+    EXPECT_TRUE(SameBits(Deconvolve(DeconvolutionOptions{}, img, psf), expect)) << size;
+    cv::Mat rows(img.size(), CV_32FC3);
+    ASSERT_TRUE(DeconvolveRows(DeconvolutionOptions{}, img, psf, [&](int y, const float* row) {
+      std::memcpy(rows.ptr<float>(y), row, sizeof(float) * 3 * img.cols);
+    }));
+    EXPECT_TRUE(SameBits(rows, expect)) << size << " (rows)";
+  }
+  // Two channels are neither streamed nor interleaved.
+  EXPECT_THROW(DeconvolveRows(DeconvolutionOptions{}, cv::Mat(4, 4, CV_32FC2, cv::Scalar::all(0)),
+                              psf, [](int, const float*) {}),
+               Error);
+}
+
+TEST(ColorPaths, ClaheFromColorBinsEqualsWholeImage) {
+  for (const cv::Size& size : OddSizes()) {
+    cv::Mat img = SmoothNoise(size.height, size.width, 3 + size.area());
+    img.at<cv::Vec3f>(0, 0) = cv::Vec3f(0, 0, 0);  // luminance 0: the gray branch
+    for (bool keep_mean : {false, true}) {
+      ClaheOptions o;
+      o.keep_mean = keep_mean;
+      o.min_mean = 0.18;
+      const cv::Mat expect = ReferenceClahe(o, img);
+      cv::Mat bins = ClaheNewBins(o, img.size());
+      std::vector<float> lum(img.cols);
+      for (int y = 0; y < img.rows; ++y)
+        ClaheBinColorRow(o, img.ptr<float>(y), lum.data(), bins, y);
+      cv::Mat out = img.clone();
+      ClaheColorFromBins(o, bins, out);
+      EXPECT_TRUE(SameBits(out, expect)) << size << " keep_mean " << keep_mean;
+      EXPECT_TRUE(SameBits(Clahe(o, img), expect)) << size;
+    }
+  }
+}
+
+TEST(ColorPaths, LightScaleAndNoiseEstimatesEqualReference) {
+  // Both feed `full` (blind light scale, adaptive denoising epsilon): equal to the old code on
+  // renders (through FullEnhanceDetailed's intermediates) and on random maps, gray and colour.
+  for (const ColorRender& r : Renders()) {
+    const FullResult d =
+        FullEnhanceDetailed(FullOptions{}, r.render.image, &r.scene, &r.render.sidecar);
+    EXPECT_EQ(d.noise_sigma, ReferenceNoiseSigma(r.render.image)) << r.name;
+    ASSERT_FALSE(d.light.empty());
+    // d.light is scaled; the estimate is scale-invariant in the ratio's sense only, so compare on
+    // the unscaled-equivalent map: any positive map does.
+    for (int lc : {1, 3}) {
+      cv::Mat light = d.light;
+      if (lc == 1) cv::extractChannel(d.light, light, 1);
+      const auto got = EstimateLightScale(d.denoised, light, d.transmission, 1.0, 0.25);
+      const auto want = ReferenceEstimateLightScale(d.denoised, light, d.transmission, 1.0, 0.25);
+      ASSERT_EQ(got.size(), want.size());
+      for (size_t c = 0; c < got.size(); ++c) {
+        EXPECT_EQ(got[c].scale, want[c].scale) << r.name << " c " << c;
+        EXPECT_EQ(got[c].fit, want[c].fit) << r.name << " c " << c;
+        EXPECT_EQ(got[c].bound, want[c].bound) << r.name << " c " << c;
+        EXPECT_EQ(got[c].source, want[c].source) << r.name << " c " << c;
+      }
+    }
+  }
+  for (const cv::Size& size : OddSizes()) {
+    for (int ch : {1, 3}) {
+      cv::Mat img(size, CV_32FC(ch)), t(size, CV_32FC(ch)), l(size, CV_32F);
+      cv::RNG rng(size.area() + ch);
+      rng.fill(img, cv::RNG::UNIFORM, 0.0, 1.0);
+      rng.fill(t, cv::RNG::UNIFORM, 0.1, 1.0);
+      rng.fill(l, cv::RNG::UNIFORM, 0.0, 2.0);
+      const auto got = EstimateLightScale(img, l, t, 5.0, 0.25);
+      const auto want = ReferenceEstimateLightScale(img, l, t, 5.0, 0.25);
+      for (size_t c = 0; c < got.size(); ++c) {
+        EXPECT_EQ(got[c].scale, want[c].scale) << size << " ch " << ch;
+        EXPECT_EQ(got[c].fit, want[c].fit) << size << " ch " << ch;
+      }
+      const FullResult d = FullEnhanceDetailed(FullOptions{}, img, nullptr, nullptr);
+      EXPECT_EQ(d.noise_sigma, ReferenceNoiseSigma(img)) << size << " ch " << ch;
+    }
+  }
+}
+
+// ---- simplified.
+
+TEST(ColorPaths, SimplifiedEqualsReference) {
+  std::vector<std::pair<std::string, cv::Mat>> inputs;
+  for (const cv::Size& size : OddSizes()) {
+    inputs.emplace_back("noise " + std::to_string(size.width) + "x" + std::to_string(size.height),
+                        SmoothNoise(size.height, size.width, 11 + size.area()));
+  }
+  for (const ColorRender& r : Renders()) inputs.emplace_back(r.name, r.render.image);
+  for (auto& f : RealFrames()) inputs.push_back(f);
+  for (const auto& [name, img] : inputs) {
+    for (int variant = 0; variant < 4; ++variant) {
+      SimplifiedOptions o;
+      o.contrast = variant != 1;
+      if (variant == 2) o.alpha = 0.37, o.coarse_subsample = 2;   // fast filter: not streamed
+      if (variant == 3) o.fine_radius = 1, o.coarse_radius = 14;  // unfused radius
+      EXPECT_TRUE(SameBits(SimplifiedEnhance(o, img), ReferenceSimplified(o, img)))
+          << name << " variant " << variant;
+    }
+  }
+}
+
+TEST(ColorPaths, SimplifiedNamesTheRowOfANonFiniteInput) {
+  const float bad[] = {std::numeric_limits<float>::quiet_NaN(),
+                       std::numeric_limits<float>::infinity(),
+                       -std::numeric_limits<float>::infinity()};
+  for (float value : bad)
+    for (cv::Point at : {cv::Point(0, 0), cv::Point(48, 39), cv::Point(20, 17)})
+      for (int channel = 0; channel < 3; ++channel) {
+        cv::Mat img(40, 49, CV_32FC3, cv::Scalar::all(0.4));
+        img.at<cv::Vec3f>(at)[channel] = value;
+        try {
+          SimplifiedEnhance(SimplifiedOptions{}, img);
+          ADD_FAILURE() << value << " at " << at << " passed";
+        } catch (const Error& e) {
+          EXPECT_EQ(std::string(e.what()), "simplified: input image has non-finite values (row " +
+                                               std::to_string(at.y) + ")");
+        }
+      }
+  // Finite values that overflow the filters are clamped, as before.
+  cv::Mat huge(40, 49, CV_32FC3, cv::Scalar::all(0.4));
+  huge.at<cv::Vec3f>(10, 10)[1] = 3e38f;
+  EXPECT_TRUE(SameBits(SimplifiedEnhance(SimplifiedOptions{}, huge),
+                       ReferenceSimplified(SimplifiedOptions{}, huge)));
+}
+
+// ---- full: FullEnhance streams colour; FullEnhanceDetailed keeps the whole-image steps (with
+// the building blocks checked above against the plane-by-plane ones).
+
+std::vector<std::pair<std::string, FullOptions>> FullVariants() {
+  std::vector<std::pair<std::string, FullOptions>> v;
+  for (const char* name : {"full", "full_literal", "full_matched", "full_physical"}) {
+    v.emplace_back(name, FullVariantDefaults(name));
+  }
+  FullOptions o;
+  o.contrast = false;
+  v.emplace_back("no contrast", o);
+  o = FullOptions{};
+  o.clahe_target_mean = true;
+  v.emplace_back("clahe_target_mean", o);
+  o = FullOptions{};
+  o.denoise = false;
+  v.emplace_back("no denoise", o);
+  o = FullOptions{};
+  o.light = false;
+  o.keep_detail = 0;
+  v.emplace_back("no light, no detail", o);
+  o = FullOptions{};
+  o.deblur = false;
+  v.emplace_back("no deblur", o);
+  o = FullOptions{};
+  o.deconvolution.method = DeconvolutionMethod::kRichardsonLucy;
+  o.deconvolution.iterations = 2;
+  v.emplace_back("richardson_lucy", o);
+  o = FullOptions{};
+  o.dehaze = false;
+  v.emplace_back("no dehaze", o);
+  o = FullOptions{};
+  o.beta_per_m = 0;
+  v.emplace_back("beta 0", o);
+  return v;
+}
+
+TEST(ColorPaths, FullEqualsWholeImagePipelineOnRenders) {
+  for (const ColorRender& r : Renders()) {
+    for (const auto& [name, o] : FullVariants()) {
+      const cv::Mat fast = FullEnhance(o, r.render.image, &r.scene, &r.render.sidecar);
+      const FullResult slow = FullEnhanceDetailed(o, r.render.image, &r.scene, &r.render.sidecar);
+      EXPECT_TRUE(SameBits(fast, slow.image)) << r.name << " " << name;
+    }
+  }
+}
+
+TEST(ColorPaths, FullEqualsWholeImagePipelineWithoutGeometry) {
+  // No scene and no sidecar: the frontal plane, the default LED; every size, tiny ones included.
+  for (const cv::Size& size : OddSizes()) {
+    const cv::Mat img = SmoothNoise(size.height, size.width, 5 + size.area());
+    for (const auto& [name, o] : FullVariants()) {
+      EXPECT_TRUE(SameBits(FullEnhance(o, img, nullptr, nullptr),
+                           FullEnhanceDetailed(o, img, nullptr, nullptr).image))
+          << size << " " << name;
+    }
+  }
+}
+
+TEST(ColorPaths, FullAndSimplifiedEqualReferenceOnRealFrames) {
+  TURBID_REQUIRE_DATA(data);
+  const auto frames = RealFrames();
+  ASSERT_FALSE(frames.empty()) << "no colour frame found under " << data;
+  for (const auto& [name, img] : frames) {
+    const FullOptions o;
+    EXPECT_TRUE(SameBits(FullEnhance(o, img, nullptr, nullptr),
+                         FullEnhanceDetailed(o, img, nullptr, nullptr).image))
+        << name;
+    EXPECT_TRUE(SameBits(SimplifiedEnhance(SimplifiedOptions{}, img),
+                         ReferenceSimplified(SimplifiedOptions{}, img)))
+        << name;
+  }
+}
+
+TEST(ColorPaths, PortableKernelsGiveTheSameOutput) {
+  // With the hand-written AVX2 kernels off (the gray building blocks' portable twins), the colour
+  // paths still equal the reference.
+  const ColorRender& r = Renders()[0];
+  enhancer_internal::SetHandWrittenAvx2(false);
+  const cv::Mat full = FullEnhance(FullOptions{}, r.render.image, &r.scene, &r.render.sidecar);
+  const cv::Mat simplified = SimplifiedEnhance(SimplifiedOptions{}, r.render.image);
+  enhancer_internal::SetHandWrittenAvx2(true);
+  EXPECT_TRUE(SameBits(
+      full, FullEnhanceDetailed(FullOptions{}, r.render.image, &r.scene, &r.render.sidecar).image));
+  EXPECT_TRUE(SameBits(simplified, ReferenceSimplified(SimplifiedOptions{}, r.render.image)));
+}
+
+}  // namespace
+}  // namespace turbid
