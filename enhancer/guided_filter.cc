@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <opencv2/imgproc.hpp>
@@ -496,6 +497,100 @@ TURBID_AVX2 void ApplyCoefficientsRolling(const float* e_a, const float* e_b, co
                             guide[x], inv_cx[x] * inv_cy);
   }
 }
+
+// Window sums of W > 25 values (the binary-doubling tree of WindowSums) in fewer passes: with
+// D_1 = ext and D_2L(i) = D_L(i) + D_L(i + L), WindowSums returns the sum, in increasing L, of
+// D_L(x + o_L) over the set bits L of W (o_L: the sum of the lower set bits). One pass forms D_8
+// (and the terms of bits 1, 2 and 4) straight from ext; each further level is one pass over
+// aligned vectors on the grid of positions = W mod 8 (mod 8), where every level >= 8 is read; the
+// last pass adds the terms. The same additions in the same order as WindowSums, so the sums are
+// bit-identical. `scratch`: DoublingScratchFloats(w, W) floats.
+int DoublingLevels(int window) {
+  int top = 0;
+  while ((2 << top) <= window) ++top;
+  return top;  // 2^top <= window < 2^(top+1)
+}
+size_t DoublingScratchFloats(int w, int window) {
+  return static_cast<size_t>(DoublingLevels(window) - 2) * (w + window + 16) + 8;
+}
+
+// Scalar D_len(i), the tree of the doubling passes (tails of rows).
+inline float TreeSum(const float* e, int i, int len) {
+  if (len == 1) return e[i];
+  return TreeSum(e, i, len / 2) + TreeSum(e, i + len / 2, len / 2);
+}
+inline float WindowTreeSum(const float* e, int x, int window) {
+  float s = 0.0f;
+  bool first = true;
+  int offset = 0;
+  for (int len = 1; len <= window; len *= 2) {
+    if ((window & len) == 0) continue;
+    const float t = TreeSum(e, x + offset, len);
+    s = first ? t : s + t;
+    first = false;
+    offset += len;
+  }
+  return s;
+}
+
+TURBID_AVX2 inline __m256 Pair(const float* e) {
+  return _mm256_add_ps(_mm256_loadu_ps(e), _mm256_loadu_ps(e + 1));
+}
+TURBID_AVX2 inline __m256 Quad(const float* e) { return _mm256_add_ps(Pair(e), Pair(e + 2)); }
+
+TURBID_AVX2 void DoublingWindowSumsAvx2(const float* ext, int w, int window, float* out,
+                                        float* scratch) {
+  const int n = w + window - 1;
+  const int top = DoublingLevels(window);
+  const int c = window & 7;
+  const int o1 = window & 1, o2 = window & 3, o3 = window & 7;  // offsets of bits 2, 4, 8
+  const int blocks = w / 8;
+  const size_t stride = static_cast<size_t>(w + window + 16) & ~static_cast<size_t>(7);
+  float* base = scratch + ((8 - (reinterpret_cast<uintptr_t>(scratch) / 4) % 8) % 8);
+  // Level j (2^j values, j >= 3) at grid index m: positions c + 8m .. c + 8m + 7.
+  auto level = [&](int j) { return base + static_cast<size_t>(j - 3) * stride; };
+  auto count = [&](int j) {
+    const int room = n - (1 << j) - 7 - c;
+    return room < 0 ? 0 : room / 8 + 1;
+  };
+  {
+    float* g = level(3);
+    const int m_end = count(3);
+    for (int m = 0; m < m_end; ++m) {
+      const float* e = ext + c + 8 * m;
+      _mm256_store_ps(g + 8 * m, _mm256_add_ps(Quad(e), Quad(e + 4)));
+    }
+  }
+  for (int j = 4; j <= top; ++j) {
+    const float* lo = level(j - 1);
+    float* g = level(j);
+    const int gap = 8 << (j - 4);  // 2^(j-1) floats
+    const int m_end = count(j);
+    for (int m = 0; m < m_end; ++m) {
+      _mm256_store_ps(g + 8 * m,
+                      _mm256_add_ps(_mm256_load_ps(lo + 8 * m), _mm256_load_ps(lo + 8 * m + gap)));
+    }
+  }
+  // The terms of the levels >= 8, in increasing order: level j read at x + offset - c.
+  const float* terms[32];
+  int term_count = 0;
+  for (int j = 3, offset = o3; j <= top; ++j) {
+    if ((window >> j) & 1) {
+      terms[term_count++] = level(j) + (offset - c);
+      offset += 1 << j;
+    }
+  }
+  const bool bit2 = (window & 2) != 0, bit4 = (window & 4) != 0;
+  for (int b = 0; b < blocks; ++b) {
+    const int x = 8 * b;
+    __m256 s = _mm256_loadu_ps(ext + x);  // bit 1 (W is odd)
+    if (bit2) s = _mm256_add_ps(s, Pair(ext + x + o1));
+    if (bit4) s = _mm256_add_ps(s, Quad(ext + x + o2));
+    for (int t = 0; t < term_count; ++t) s = _mm256_add_ps(s, _mm256_load_ps(terms[t] + x));
+    _mm256_storeu_ps(out + x, s);
+  }
+  for (int x = 8 * blocks; x < w; ++x) out[x] = WindowTreeSum(ext, x, window);
+}
 #undef TURBID_AVX2
 #define TURBID_HAVE_ROLLING_QUADS 1
 #endif
@@ -588,6 +683,85 @@ TURBID_ROW_KERNEL void ColumnStepPair(float* __restrict c0, float* __restrict c1
   }
 }
 
+// Non-self stage A: the column sums of I, I^2, p and I p in one pass (the arithmetic of
+// ColumnStep / ColumnProductStep per plane).
+TURBID_ROW_KERNEL void ColumnStepGuided(float* __restrict c_i, float* __restrict c_ii,
+                                        float* __restrict c_p, float* __restrict c_ip,
+                                        const float* __restrict add_i, const float* __restrict sub_i,
+                                        const float* __restrict add_p, const float* __restrict sub_p,
+                                        int w) {
+  if (add_i != nullptr && sub_i != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c_i[x] += add_i[x] - sub_i[x];
+      c_ii[x] += add_i[x] * add_i[x] - sub_i[x] * sub_i[x];
+      c_p[x] += add_p[x] - sub_p[x];
+      c_ip[x] += add_i[x] * add_p[x] - sub_i[x] * sub_p[x];
+    }
+  } else if (add_i != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c_i[x] += add_i[x];
+      c_ii[x] += add_i[x] * add_i[x];
+      c_p[x] += add_p[x];
+      c_ip[x] += add_i[x] * add_p[x];
+    }
+  } else if (sub_i != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c_i[x] -= sub_i[x];
+      c_ii[x] -= sub_i[x] * sub_i[x];
+      c_p[x] -= sub_p[x];
+      c_ip[x] -= sub_i[x] * sub_p[x];
+    }
+  }
+}
+
+// Re-anchoring (every kAnchorRows rows): the column sums over the window's rows from zero, the
+// rows added in order as the running steps add them (so the same roundings), but 16 columns at a
+// time in registers instead of one pass over the whole row per window row. Sums of u (into
+// c_u), and as selected of u^2 (c_uu), of v (c_v) and of u v (c_uv).
+constexpr int kAnchorBlock = 16;
+
+template <bool kSquare, bool kSecond, bool kProduct>
+TURBID_ROW_KERNEL void AnchorSums(const float* const* u, const float* const* v, int count, int w,
+                                  float* __restrict c_u, float* __restrict c_uu,
+                                  float* __restrict c_v, float* __restrict c_uv) {
+  int x0 = 0;
+  for (; x0 + kAnchorBlock <= w; x0 += kAnchorBlock) {
+    float su[kAnchorBlock] = {}, suu[kAnchorBlock] = {}, sv[kAnchorBlock] = {},
+          suv[kAnchorBlock] = {};
+    for (int k = 0; k < count; ++k) {
+      const float* __restrict a = u[k] + x0;
+      const float* __restrict b = kSecond ? v[k] + x0 : a;
+      for (int i = 0; i < kAnchorBlock; ++i) {
+        su[i] += a[i];
+        if (kSquare) suu[i] += a[i] * a[i];
+        if (kSecond) sv[i] += b[i];
+        if (kProduct) suv[i] += a[i] * b[i];
+      }
+    }
+    for (int i = 0; i < kAnchorBlock; ++i) {
+      c_u[x0 + i] = su[i];
+      if (kSquare) c_uu[x0 + i] = suu[i];
+      if (kSecond) c_v[x0 + i] = sv[i];
+      if (kProduct) c_uv[x0 + i] = suv[i];
+    }
+  }
+  for (; x0 < w; ++x0) {  // the last < 16 columns: the same additions one column at a time
+    float su = 0.0f, suu = 0.0f, sv = 0.0f, suv = 0.0f;
+    for (int k = 0; k < count; ++k) {
+      const float a = u[k][x0];
+      const float b = kSecond ? v[k][x0] : a;
+      su += a;
+      if (kSquare) suu += a * a;
+      if (kSecond) sv += b;
+      if (kProduct) suv += a * b;
+    }
+    c_u[x0] = su;
+    if (kSquare) c_uu[x0] = suu;
+    if (kSecond) c_v[x0] = sv;
+    if (kProduct) c_uv[x0] = suv;
+  }
+}
+
 // Vertical window bookkeeping for output row t of a clipped (2r+1)-row window over h rows: the
 // rows entering and leaving (-1: none). Row t's window is [max(t-r, 0), min(t+r, h-1)]; the
 // first row primes the sums with the whole window.
@@ -626,6 +800,11 @@ class GrayStream {
       sums_.assign(static_cast<size_t>(planes_a_ + 2) * w_, 0.0f);
       t0_.resize(ext_len_);
       t1_.resize(ext_len_);
+#ifdef TURBID_HAVE_ROLLING_QUADS
+      if (enhancer_internal::UseHandWrittenAvx2()) {
+        doubling_.resize(DoublingScratchFloats(w_, window_));
+      }
+#endif
     }
   }
 
@@ -635,8 +814,11 @@ class GrayStream {
     while (next_a_ <= need) StageA(next_a_++);
     const int ka = planes_a_, kb = planes_a_ + 1;
     if (t % kAnchorRows == 0) {
-      Vertical(ka, t, a_ring_, nullptr, true);
-      Vertical(kb, t, b_ring_, nullptr, true);
+      WindowRows(t, a_ring_, &rows_u_, true);
+      WindowRows(t, b_ring_, &rows_v_, true);
+      AnchorSums<false, true, false>(rows_u_.data(), rows_v_.data(),
+                                     static_cast<int>(rows_u_.size()), w_, Ext(ka) + r_, nullptr,
+                                     Ext(kb) + r_, nullptr);
     } else {
       const int add = t + r_ < h_ ? (t + r_) % ring_ : -1;
       const int sub = t - r_ - 1 >= 0 ? (t - r_ - 1) % ring_ : -1;
@@ -650,8 +832,8 @@ class GrayStream {
       fused_.apply(Ext(ka), Ext(kb), Quad(ka), Quad(kb), guide, inv_cx_.data(), inv_cy, dst, w_);
       return;
     }
-    WindowSums(Ext(ka), w_, window_, Sum(ka), t0_.data(), t1_.data());
-    WindowSums(Ext(kb), w_, window_, Sum(kb), t0_.data(), t1_.data());
+    WindowSumsOf(ka);
+    WindowSumsOf(kb);
     ApplyCoefficients(Sum(ka), Sum(kb), guide, inv_cx_.data(), inv_cy, dst, w_);
   }
 
@@ -662,8 +844,26 @@ class GrayStream {
     return quads_.empty() ? nullptr : quads_.data() + static_cast<size_t>(k) * ext_len_;
   }
   float* Sum(int k) { return sums_.data() + static_cast<size_t>(k) * w_; }
+  // Window sums of plane k's padded column sums into Sum(k) (radii beyond kMaxFusedRadius).
+  void WindowSumsOf(int k) {
+#ifdef TURBID_HAVE_ROLLING_QUADS
+    if (!doubling_.empty()) {
+      DoublingWindowSumsAvx2(Ext(k), w_, window_, Sum(k), doubling_.data());
+      return;
+    }
+#endif
+    WindowSums(Ext(k), w_, window_, Sum(k), t0_.data(), t1_.data());
+  }
   static const float* RingRow(const cv::Mat& ring, int slot) {
     return slot >= 0 ? ring.ptr<float>(slot) : nullptr;
+  }
+
+  // The rows of the clipped vertical window of row t, top to bottom (from the ring of a or b
+  // rows when in_ring).
+  void WindowRows(int t, const cv::Mat& m, std::vector<const float*>* rows, bool in_ring = false) {
+    rows->clear();
+    for (int y = std::max(t - r_, 0); y <= std::min(t + r_, h_ - 1); ++y)
+      rows->push_back(m.ptr<float>(in_ring ? y % ring_ : y));
   }
 
   // Vertical step of plane k for output row t: plane u, or the product u*v when v is given.
@@ -698,17 +898,24 @@ class GrayStream {
   }
 
   void StageA(int y) {
-    if (self_ && y % kAnchorRows != 0) {
-      const float* add = y + r_ < h_ ? guide_.ptr<float>(y + r_) : nullptr;
-      const float* sub = y - r_ - 1 >= 0 ? guide_.ptr<float>(y - r_ - 1) : nullptr;
+    const float* add = y + r_ < h_ ? guide_.ptr<float>(y + r_) : nullptr;
+    const float* sub = y - r_ - 1 >= 0 ? guide_.ptr<float>(y - r_ - 1) : nullptr;
+    if (y % kAnchorRows == 0) {
+      WindowRows(y, guide_, &rows_u_);
+      if (self_) {
+        AnchorSums<true, false, false>(rows_u_.data(), nullptr, static_cast<int>(rows_u_.size()), w_,
+                                Ext(0) + r_, Ext(1) + r_, nullptr, nullptr);
+      } else {
+        WindowRows(y, src_, &rows_v_);
+        AnchorSums<true, true, true>(rows_u_.data(), rows_v_.data(), static_cast<int>(rows_u_.size()),
+                               w_, Ext(0) + r_, Ext(1) + r_, Ext(2) + r_, Ext(3) + r_);
+      }
+    } else if (self_) {
       ColumnStepSelf(Ext(0) + r_, Ext(1) + r_, add, sub, w_);
     } else {
-      Vertical(0, y, guide_, nullptr, false);
-      Vertical(1, y, guide_, &guide_, false);
-      if (!self_) {
-        Vertical(2, y, src_, nullptr, false);
-        Vertical(3, y, guide_, &src_, false);
-      }
+      ColumnStepGuided(Ext(0) + r_, Ext(1) + r_, Ext(2) + r_, Ext(3) + r_, add, sub,
+                       add != nullptr ? src_.ptr<float>(y + r_) : nullptr,
+                       sub != nullptr ? src_.ptr<float>(y - r_ - 1) : nullptr, w_);
     }
     const float inv_cy = 1.0f / static_cast<float>(InvCount(y, r_, h_));
     float* ar = a_ring_.ptr<float>(y % ring_);
@@ -729,9 +936,7 @@ class GrayStream {
       }
       return;
     }
-    for (int k = 0; k < planes_a_; ++k) {
-      WindowSums(Ext(k), w_, window_, Sum(k), t0_.data(), t1_.data());
-    }
+    for (int k = 0; k < planes_a_; ++k) WindowSumsOf(k);
     if (self_) {
       SelfCoefficients(Sum(0), Sum(1), inv_cx_.data(), inv_cy, eps_, ar, br, w_);
     } else {
@@ -746,6 +951,8 @@ class GrayStream {
   const int h_, w_, window_, ext_len_, planes_a_, ring_;
   // Per-plane buffers: column sums with r zeros each side (the clipped window); window sums.
   std::vector<float> ext_, quads_, sums_, t0_, t1_, inv_cx_;
+  std::vector<float> doubling_;  // DoublingWindowSumsAvx2's levels (AVX2, radii > 12)
+  std::vector<const float*> rows_u_, rows_v_;  // window rows when re-anchoring
   cv::Mat a_ring_, b_ring_;
   FusedKernels fused_;  // empty beyond kMaxFusedRadius (window sums by binary doubling)
   int next_a_ = 0;

@@ -48,6 +48,9 @@ struct Inputs {
 
 using InputsFn = std::function<const Inputs&()>;
 
+// Issue 18 item 3: dcp, udcp, cap and the oracle (tools/bench_cases_dcp.cc).
+void AddDcpCases(std::vector<BenchCase>& cases, const InputsFn& in);
+
 // printf-style formatting of one number.
 std::string Format(const char* format, double value);
 

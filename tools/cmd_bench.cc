@@ -267,6 +267,7 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
     c.goal = {0.0, 10.0, "issue 5 item 8 (at 1360x1024 gray, one core)"};
     cases.push_back(c);
   }
+  bench::AddDcpCases(cases, in);
   return cases;
 }
 
