@@ -40,19 +40,42 @@ void HorizontalPass(const float* col, float* out, int w, int r, const float* inv
   }
 }
 
+// The rows of K planes for BoxMeansRows: row(k, y, scratch) returns row y of plane k (w floats),
+// either a pointer into an image or `scratch` filled with the row (a product plane formed on the
+// fly: the same float products as a stored plane, without the full-size image).
+using PlaneRows = std::function<const float*(int, int, float*)>;
+
+PlaneRows StoredPlanes(const std::vector<cv::Mat>& planes) {
+  return [&planes](int k, int y, float*) { return planes[k].ptr<float>(y); };
+}
+
+TURBID_ROW_KERNEL void MultiplyRows(const float* __restrict u, const float* __restrict v,
+                                    float* __restrict out, int w) {
+  for (int x = 0; x < w; ++x) out[x] = u[x] * v[x];
+}
+
+TURBID_ROW_KERNEL void ColumnUpdate(float* __restrict c, const float* __restrict a,
+                                    const float* __restrict s, int w) {
+  if (a != nullptr && s != nullptr) {
+    for (int x = 0; x < w; ++x) c[x] += a[x] - s[x];
+  } else if (a != nullptr) {
+    for (int x = 0; x < w; ++x) c[x] += a[x];
+  } else if (s != nullptr) {
+    for (int x = 0; x < w; ++x) c[x] -= s[x];
+  }
+}
+
 // Box means of K planar one-channel float images of the same size over the clipped
 // (2r+1)x(2r+1) window, one output row at a time. Vertical sums are running column sums (one add
 // and one subtract per pixel, vectorised across the row); horizontal sums run along the row on
 // the differences (one dependent add per pixel, K chains interleaved). `emit(y, means)` receives
 // K row pointers of width W. Float rounding drift of the running sums stays below ~1e-6 of the
 // mean for 1360-pixel rows (checked against OpenCV in the tests).
-void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
+void BoxMeansRows(int k_count, int h, int w, int r, const PlaneRows& plane_row,
                   const std::function<void(int, const std::vector<const float*>&)>& emit) {
-  const int k_count = static_cast<int>(planes.size());
-  const int h = planes[0].rows;
-  const int w = planes[0].cols;
   std::vector<float> col(static_cast<size_t>(k_count) * w, 0.0f);
   std::vector<float> out(static_cast<size_t>(k_count) * w, 0.0f);
+  std::vector<float> scratch_a(w), scratch_s(w);
   std::vector<float> inv_cx(w);
   for (int x = 0; x < w; ++x) {
     const int c = std::min(x + r, w - 1) - std::max(x - r, 0) + 1;
@@ -62,27 +85,17 @@ void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
   // Prime the column sums with rows [0, r-1] (row y+r is added at the top of each step).
   for (int yy = 0; yy < std::min(r, h); ++yy) {
     for (int k = 0; k < k_count; ++k) {
-      const float* src = planes[k].ptr<float>(yy);
-      float* c = col.data() + static_cast<size_t>(k) * w;
-      for (int x = 0; x < w; ++x) c[x] += src[x];
+      ColumnUpdate(col.data() + static_cast<size_t>(k) * w, plane_row(k, yy, scratch_a.data()),
+                   nullptr, w);
     }
   }
   for (int y = 0; y < h; ++y) {
     const int add = y + r;
     const int sub = y - r - 1;
     for (int k = 0; k < k_count; ++k) {
-      float* c = col.data() + static_cast<size_t>(k) * w;
-      if (add < h && sub >= 0) {
-        const float* a = planes[k].ptr<float>(add);
-        const float* s = planes[k].ptr<float>(sub);
-        for (int x = 0; x < w; ++x) c[x] += a[x] - s[x];
-      } else if (add < h) {
-        const float* a = planes[k].ptr<float>(add);
-        for (int x = 0; x < w; ++x) c[x] += a[x];
-      } else if (sub >= 0) {
-        const float* s = planes[k].ptr<float>(sub);
-        for (int x = 0; x < w; ++x) c[x] -= s[x];
-      }
+      ColumnUpdate(col.data() + static_cast<size_t>(k) * w,
+                   add < h ? plane_row(k, add, scratch_a.data()) : nullptr,
+                   sub >= 0 ? plane_row(k, sub, scratch_s.data()) : nullptr, w);
     }
     const int cy = std::min(y + r, h - 1) - std::max(y - r, 0) + 1;
     const float inv_cy = 1.0f / static_cast<float>(cy);
@@ -90,6 +103,8 @@ void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
       HorizontalPass<2>(col.data(), out.data(), w, r, inv_cx.data(), inv_cy);
     } else if (k_count == 4) {
       HorizontalPass<4>(col.data(), out.data(), w, r, inv_cx.data(), inv_cy);
+    } else if (k_count == 13) {
+      HorizontalPass<13>(col.data(), out.data(), w, r, inv_cx.data(), inv_cy);
     } else {
       for (int k = 0; k < k_count; ++k) {
         HorizontalPass<1>(col.data() + static_cast<size_t>(k) * w,
@@ -99,6 +114,12 @@ void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
     for (int k = 0; k < k_count; ++k) rows[k] = out.data() + static_cast<size_t>(k) * w;
     emit(y, rows);
   }
+}
+
+void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
+                  const std::function<void(int, const std::vector<const float*>&)>& emit) {
+  BoxMeansRows(static_cast<int>(planes.size()), planes[0].rows, planes[0].cols, r,
+               StoredPlanes(planes), emit);
 }
 
 void CheckInputs(const GuidedFilterOptions& options, const cv::Mat& guide, const cv::Mat& src) {
@@ -992,50 +1013,94 @@ std::pair<cv::Mat, cv::Mat> GrayCoefficients(const cv::Mat& guide, const cv::Mat
   return {ma, mb};
 }
 
+// The colour-guide coefficients of one pixel (He 2013 eqs. 19-21) from the 13 box means.
+TURBID_ROW_KERNEL void ColorCoefficientRow(const float* const* __restrict m, double eps,
+                                           float* __restrict a0, float* __restrict a1,
+                                           float* __restrict a2, float* __restrict bb, int w) {
+  const float* __restrict m0 = m[0];
+  const float* __restrict m1 = m[1];
+  const float* __restrict m2 = m[2];
+  const float* __restrict m3 = m[3];
+  const float* __restrict m4 = m[4];
+  const float* __restrict m5 = m[5];
+  const float* __restrict m6 = m[6];
+  const float* __restrict m7 = m[7];
+  const float* __restrict m8 = m[8];
+  const float* __restrict m9 = m[9];
+  const float* __restrict m10 = m[10];
+  const float* __restrict m11 = m[11];
+  const float* __restrict m12 = m[12];
+  for (int x = 0; x < w; ++x) {
+    const double mu0 = m0[x], mu1 = m1[x], mu2 = m2[x], mp = m3[x];
+    const double s00 = m4[x] - mu0 * mu0 + eps, s01 = m5[x] - mu0 * mu1,
+                 s02 = m6[x] - mu0 * mu2, s11 = m7[x] - mu1 * mu1 + eps,
+                 s12 = m8[x] - mu1 * mu2, s22 = m9[x] - mu2 * mu2 + eps;
+    const double c0 = m10[x] - mu0 * mp, c1 = m11[x] - mu1 * mp, c2 = m12[x] - mu2 * mp;
+    // Symmetric 3x3 inverse by cofactors; Sigma + eps I is positive definite for eps > 0.
+    const double i00 = s11 * s22 - s12 * s12, i01 = s02 * s12 - s01 * s22,
+                 i02 = s01 * s12 - s02 * s11, i11 = s00 * s22 - s02 * s02,
+                 i12 = s01 * s02 - s00 * s12, i22 = s00 * s11 - s01 * s01;
+    const double det = s00 * i00 + s01 * i01 + s02 * i02;
+    const double inv = 1.0 / det;
+    const double v0 = (i00 * c0 + i01 * c1 + i02 * c2) * inv;
+    const double v1 = (i01 * c0 + i11 * c1 + i12 * c2) * inv;
+    const double v2 = (i02 * c0 + i12 * c1 + i22 * c2) * inv;
+    a0[x] = static_cast<float>(v0);
+    a1[x] = static_cast<float>(v1);
+    a2[x] = static_cast<float>(v2);
+    bb[x] = static_cast<float>(mp - v0 * mu0 - v1 * mu1 - v2 * mu2);
+  }
+}
+
+// q = mean a . I + mean b, in the order (and float roundings) of
+// m0.mul(g0) + m1.mul(g1) + m2.mul(g2) + m3.
+TURBID_ROW_KERNEL void ColorApplyRow(const float* __restrict m0, const float* __restrict m1,
+                                     const float* __restrict m2, const float* __restrict m3,
+                                     const float* __restrict g0, const float* __restrict g1,
+                                     const float* __restrict g2, float* __restrict q, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float p0 = m0[x] * g0[x], p1 = m1[x] * g1[x], p2 = m2[x] * g2[x];
+    q[x] = ((p0 + p1) + p2) + m3[x];
+  }
+}
+
 // Colour guide (He 2013 eqs. 19-21): a = (Sigma + eps U)^-1 cov(I, p), b = mean p - a . mean I.
-// Returns the box means of (a_0, a_1, a_2, b) as four planes.
+// The 13 planes (I, p, the 6 products I_i I_j and the 3 products I_i p) are box-averaged with the
+// products formed row by row; the coefficients go to four full-size planes (the second box
+// filter reads them).
 std::vector<cv::Mat> ColorCoefficients(const std::vector<cv::Mat>& g, const cv::Mat& src, int r,
                                        double eps) {
   const int h = src.rows;
   const int w = src.cols;
-  std::vector<cv::Mat> planes = {g[0],           g[1],           g[2],           src,
-                                 g[0].mul(g[0]), g[0].mul(g[1]), g[0].mul(g[2]), g[1].mul(g[1]),
-                                 g[1].mul(g[2]), g[2].mul(g[2]), g[0].mul(src),  g[1].mul(src),
-                                 g[2].mul(src)};
+  // Planes 0-3: g0, g1, g2, src; 4-9: g0g0 g0g1 g0g2 g1g1 g1g2 g2g2; 10-12: g0 src, g1 src, g2 src.
+  static constexpr int kFactors[13][2] = {{0, -1}, {1, -1}, {2, -1}, {3, -1}, {0, 0},
+                                          {0, 1},  {0, 2},  {1, 1},  {1, 2},  {2, 2},
+                                          {0, 3},  {1, 3},  {2, 3}};
+  const cv::Mat* base[4] = {&g[0], &g[1], &g[2], &src};
+  const PlaneRows rows = [&](int k, int y, float* scratch) -> const float* {
+    const float* u = base[kFactors[k][0]]->ptr<float>(y);
+    if (kFactors[k][1] < 0) return u;
+    MultiplyRows(u, base[kFactors[k][1]]->ptr<float>(y), scratch, w);
+    return scratch;
+  };
   std::vector<cv::Mat> coef(4);
   for (cv::Mat& c : coef) c.create(h, w, CV_32F);
-  BoxMeansRows(planes, r, [&](int y, const std::vector<const float*>& m) {
-    float* a0 = coef[0].ptr<float>(y);
-    float* a1 = coef[1].ptr<float>(y);
-    float* a2 = coef[2].ptr<float>(y);
-    float* bb = coef[3].ptr<float>(y);
-    for (int x = 0; x < w; ++x) {
-      const double mu0 = m[0][x], mu1 = m[1][x], mu2 = m[2][x], mp = m[3][x];
-      const double s00 = m[4][x] - mu0 * mu0 + eps, s01 = m[5][x] - mu0 * mu1,
-                   s02 = m[6][x] - mu0 * mu2, s11 = m[7][x] - mu1 * mu1 + eps,
-                   s12 = m[8][x] - mu1 * mu2, s22 = m[9][x] - mu2 * mu2 + eps;
-      const double c0 = m[10][x] - mu0 * mp, c1 = m[11][x] - mu1 * mp, c2 = m[12][x] - mu2 * mp;
-      // Symmetric 3x3 inverse by cofactors; Sigma + eps I is positive definite for eps > 0.
-      const double i00 = s11 * s22 - s12 * s12, i01 = s02 * s12 - s01 * s22,
-                   i02 = s01 * s12 - s02 * s11, i11 = s00 * s22 - s02 * s02,
-                   i12 = s01 * s02 - s00 * s12, i22 = s00 * s11 - s01 * s01;
-      const double det = s00 * i00 + s01 * i01 + s02 * i02;
-      const double inv = 1.0 / det;
-      const double v0 = (i00 * c0 + i01 * c1 + i02 * c2) * inv;
-      const double v1 = (i01 * c0 + i11 * c1 + i12 * c2) * inv;
-      const double v2 = (i02 * c0 + i12 * c1 + i22 * c2) * inv;
-      a0[x] = static_cast<float>(v0);
-      a1[x] = static_cast<float>(v1);
-      a2[x] = static_cast<float>(v2);
-      bb[x] = static_cast<float>(mp - v0 * mu0 - v1 * mu1 - v2 * mu2);
-    }
+  BoxMeansRows(13, h, w, r, rows, [&](int y, const std::vector<const float*>& m) {
+    ColorCoefficientRow(m.data(), eps, coef[0].ptr<float>(y), coef[1].ptr<float>(y),
+                        coef[2].ptr<float>(y), coef[3].ptr<float>(y), w);
   });
-  std::vector<cv::Mat> means(4);
-  for (cv::Mat& c : means) c.create(h, w, CV_32F);
+  return coef;
+}
+
+// The colour-guided output from the coefficients (their box means, then a . I + b).
+cv::Mat ColorApply(const std::vector<cv::Mat>& coef, const std::vector<cv::Mat>& g, int r) {
+  const int h = g[0].rows, w = g[0].cols;
+  cv::Mat q(h, w, CV_32F);
   BoxMeansRows(coef, r, [&](int y, const std::vector<const float*>& m) {
-    for (int k = 0; k < 4; ++k) std::copy(m[k], m[k] + w, means[k].ptr<float>(y));
+    ColorApplyRow(m[0], m[1], m[2], m[3], g[0].ptr<float>(y), g[1].ptr<float>(y),
+                  g[2].ptr<float>(y), q.ptr<float>(y), w);
   });
-  return means;
+  return q;
 }
 
 cv::Mat Continuous(const cv::Mat& m) { return m.isContinuous() ? m : m.clone(); }
@@ -1099,8 +1164,8 @@ cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide_in
       std::vector<cv::Mat> g;
       cv::split(guide, g);
       for (const cv::Mat& p : src_planes) {
-        std::vector<cv::Mat> m = ColorCoefficients(g, p, options.radius, options.eps);
-        out_planes.push_back(m[0].mul(g[0]) + m[1].mul(g[1]) + m[2].mul(g[2]) + m[3]);
+        out_planes.push_back(ColorApply(ColorCoefficients(g, p, options.radius, options.eps), g,
+                                        options.radius));
       }
     }
   } else {
@@ -1123,6 +1188,12 @@ cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide_in
         coef = {ma, mb};
       } else {
         coef = ColorCoefficients(g_small, p_small, rs, options.eps);
+        std::vector<cv::Mat> means(4);
+        for (cv::Mat& c : means) c.create(coef[0].size(), CV_32F);
+        BoxMeansRows(coef, rs, [&](int y, const std::vector<const float*>& m) {
+          for (int k = 0; k < 4; ++k) std::copy(m[k], m[k] + coef[0].cols, means[k].ptr<float>(y));
+        });
+        coef = means;
       }
       for (cv::Mat& c : coef) cv::resize(c, c, guide.size(), 0, 0, cv::INTER_LINEAR);
       cv::Mat q = coef.back().clone();
