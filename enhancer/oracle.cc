@@ -11,6 +11,7 @@
 #include "enhancer/deconvolution.h"
 #include "enhancer/method.h"
 #include "scenes/error.h"
+#include "simulator/image_pool.h"
 #include "simulator/light.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
@@ -245,8 +246,12 @@ cv::Mat MaskBelow(const cv::Mat& t, double floor) {
   return mask;
 }
 
+// Full-size buffers come from the renderer's recycling pool (simulator/image_pool.h): the
+// oracle needs a few dozen per call, and fresh pages for each cost more than its arithmetic.
+cv::Mat NewLike(const cv::Mat& m) { return internal::PooledMat(m.size(), m.type()); }
+
 cv::Mat BoxSum(const cv::Mat& m, int radius) {
-  cv::Mat out;
+  cv::Mat out = NewLike(m);
   cv::boxFilter(m, out, -1, cv::Size(2 * radius + 1, 2 * radius + 1), cv::Point(-1, -1), false,
                 cv::BORDER_REFLECT);
   return out;
@@ -266,7 +271,7 @@ void ForRows(const cv::Mat& shape, Fn fn, Mats&... mats) {
 // 0: no data): max(sum a (z - p)^2 - sum [a > 0], 0) / sum a over a window of `radius` (0: the
 // whole image). Unbiased for independent samples (E a (z - p)^2 = a S + 1).
 cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius) {
-  cv::Mat num(z.size(), z.type()), has(z.size(), z.type());
+  cv::Mat num = NewLike(z), has = NewLike(z);
   bool all_data = true;
   ForRows(
       z,
@@ -284,7 +289,9 @@ cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p
     cv::Scalar s;
     for (int c = 0; c < z.channels(); ++c)
       s[c] = sa[c] > 0 ? std::max(sn[c] - sh[c], 0.0) / sa[c] : 0.0;
-    return cv::Mat(z.size(), z.type(), s);
+    cv::Mat out = NewLike(z);
+    out.setTo(s);
+    return out;
   }
   const cv::Mat sa = BoxSum(a, radius);
   cv::Mat out = BoxSum(num, radius);
@@ -311,7 +318,7 @@ cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p
 cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a, cv::Mat* prior,
                          cv::Mat* posterior) {
   const int ch = u.channels();
-  cv::Mat au(u.size(), u.type());
+  cv::Mat au = NewLike(u);
   ForRows(
       u,
       [](int n, const float* aa, const float* uu, float* out) {
@@ -322,7 +329,8 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
   cv::Scalar m0;
   for (int c = 0; c < ch; ++c) m0[c] = sa[c] > 0 ? sau[c] / sa[c] : 0.5;
-  cv::Mat p(u.size(), u.type(), m0);
+  cv::Mat p = NewLike(u);
+  p.setTo(m0);
   int prev_radius = 0;  // 0: global
   for (const int radius : {o.coarse_radius, o.middle_radius}) {
     const cv::Mat w = BoxSum(a, radius);
@@ -350,7 +358,7 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   cv::Mat s = LocalSignalVariance(u, a, p, o.pixel_radius);
   // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
   // S v / (S + v) = S / (S a + 1), S where masked. `s` becomes the posterior, `est` the estimate.
-  cv::Mat est(u.size(), u.type());
+  cv::Mat est = NewLike(u);
   ForRows(
       u,
       [](int n, const float* aa, const float* uu, const float* pp, float* ss, float* ee) {
@@ -376,7 +384,7 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
                             double floor_var, double clip_level_d) {
-  cv::Mat variance;
+  cv::Mat variance = NewLike(image);
   cv::boxFilter(image, variance, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
   ForRows(
@@ -396,7 +404,7 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
   const cv::Mat& masked = r.masked;
   const float clip_level = static_cast<float>(clip_level_d);
   const int ch = image.channels();
-  cv::Mat u(image.size(), image.type()), a(image.size(), image.type());
+  cv::Mat u = NewLike(image), a = NewLike(image);
   int censored = 0;
   for (int y = 0; y < image.rows; ++y) {
     const float* in = image.ptr<float>(y);
