@@ -149,6 +149,26 @@ BlurModel MakeBlurModel(const PsfOptions& options, const cv::Mat& range_m,
   return m;
 }
 
+// Full-size buffers come from the renderer's recycling pool (simulator/image_pool.h): the
+// oracle needs a few dozen per call, and fresh pages for each cost more than its arithmetic.
+cv::Mat NewLike(const cv::Mat& m) { return internal::PooledMat(m.size(), m.type()); }
+
+// out = m + s per channel (cv::add of a Mat and a Scalar: the scalar in float).
+void AddScalar(const cv::Mat& m, const cv::Scalar& s, const cv::Mat& out) {
+  cv::Mat dst = out;
+  cv::add(m, s, dst);
+}
+
+// Element-wise passes over images of the same size and type (any channel count, rows possibly
+// strided): fn(i, pointers...) for every value i of a row. Every formula below is written as the
+// OpenCV expressions it replaced evaluate it (one float rounding per operation, no FMA), so the
+// values are the same; the passes fuse what were separate full-size temporaries.
+template <typename Fn, typename... Mats>
+void ForRows(const cv::Mat& shape, Fn fn, Mats&... mats) {
+  const int n = shape.cols * shape.channels();
+  for (int y = 0; y < shape.rows; ++y) fn(n, mats.template ptr<float>(y)...);
+}
+
 // Every true parameter of a render, as image-sized maps in the image's channel order.
 struct Truth {
   RenderOptions render;
@@ -190,7 +210,8 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
         scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
     e_l = IrradianceMap(ro.light, scene.camera, scene.depth_m, normals, beta);
   }
-  truth.irradiance = e_l + ToScalar(ambient);
+  truth.irradiance = NewLike(image);
+  AddScalar(e_l, ToScalar(ambient), truth.irradiance);
   if (zero_beta) {
     // The renderer's beta = 0 path: t = 1 where depth is valid, 0 (open water) where it is NaN.
     cv::Mat valid = truth.range_m == truth.range_m;  // 255 where not NaN
@@ -201,16 +222,25 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   } else {
     truth.transmission = TransmissionMap(truth.range_m, beta);
   }
-  cv::Mat source = e_l.clone();
+  // veil = (1 - t) (E_L [+ B_inf]), as (one - t).mul(E_L + B_inf) evaluates it.
+  cv::Scalar backscatter = cv::Scalar::all(0);
   if (water.backscatter) {
-    source += ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
+    backscatter = ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
     truth.steps.push_back("veil: (1 - t)(E_L + B_inf)");
   } else {
     truth.steps.push_back("veil: (1 - t) E_L");
   }
-  const cv::Mat one(image.size(), image.type(), cv::Scalar::all(1));
-  truth.veil = (one - truth.transmission).mul(source);
-  truth.snow = cv::Mat(image.size(), image.type(), cv::Scalar::all(0));
+  truth.veil = NewLike(image);
+  const cv::Mat source = water.backscatter ? NewLike(image) : e_l;
+  if (water.backscatter) AddScalar(e_l, backscatter, source);
+  ForRows(
+      image,
+      [](int n, const float* t, const float* src, float* v) {
+        for (int i = 0; i < n; ++i) v[i] = (1.0f - t[i]) * src[i];
+      },
+      truth.transmission, source, truth.veil);
+  truth.snow = NewLike(image);
+  truth.snow.setTo(cv::Scalar::all(0));
   if (remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
     const MarineSnow snow =
         RenderMarineSnow(ro.snow, ro.light, scene.camera, truth.range_m, beta, ambient, ro.seed);
@@ -246,25 +276,11 @@ cv::Mat MaskBelow(const cv::Mat& t, double floor) {
   return mask;
 }
 
-// Full-size buffers come from the renderer's recycling pool (simulator/image_pool.h): the
-// oracle needs a few dozen per call, and fresh pages for each cost more than its arithmetic.
-cv::Mat NewLike(const cv::Mat& m) { return internal::PooledMat(m.size(), m.type()); }
-
 cv::Mat BoxSum(const cv::Mat& m, int radius) {
   cv::Mat out = NewLike(m);
   cv::boxFilter(m, out, -1, cv::Size(2 * radius + 1, 2 * radius + 1), cv::Point(-1, -1), false,
                 cv::BORDER_REFLECT);
   return out;
-}
-
-// Element-wise passes over images of the same size and type (any channel count, rows possibly
-// strided): fn(i, pointers...) for every value i of a row. Every formula below is written as the
-// OpenCV expressions it replaced evaluate it (one float rounding per operation, no FMA), so the
-// values are the same; the passes fuse what were separate full-size temporaries.
-template <typename Fn, typename... Mats>
-void ForRows(const cv::Mat& shape, Fn fn, Mats&... mats) {
-  const int n = shape.cols * shape.channels();
-  for (int y = 0; y < shape.rows; ++y) fn(n, mats.template ptr<float>(y)...);
 }
 
 // Local signal variance around the prior mean p of values z whose noise variances are 1 / a (a =
