@@ -11,6 +11,7 @@
 #include "enhancer/deconvolution.h"
 #include "enhancer/method.h"
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
 #include "simulator/image_pool.h"
 #include "simulator/light.h"
 #include "simulator/noise.h"
@@ -283,6 +284,48 @@ cv::Mat BoxSum(const cv::Mat& m, int radius) {
   return out;
 }
 
+// One row of the data term: u = ((I - S) - veil) / sc and a = sc^2 / variance with
+// sc = max(t E, 1e-12), both 0 where masked; a also 0 where I > clip_level (censored).
+template <int kChannels>
+TURBID_ROW_KERNEL void DataTermRowN(const float* __restrict in, const float* __restrict t,
+                                    const float* __restrict e, const float* __restrict sn,
+                                    const float* __restrict ve, const float* __restrict var,
+                                    const uchar* __restrict mk, float clip_level, int cols,
+                                    float* __restrict uu, float* __restrict aa) {
+  for (int x = 0; x < cols; ++x) {
+    for (int c = 0; c < kChannels; ++c) {
+      const int i = x * kChannels + c;
+      const float sc = std::max(t[i] * e[i], 1e-12f);
+      const float ui = ((in[i] - sn[i]) - ve[i]) / sc;
+      const float ai = (sc * sc) / var[i];
+      const float high = in[i] > clip_level ? 1.0f : 0.0f;
+      uu[i] = mk[x] != 0 ? 0.0f : ui;
+      aa[i] = (mk[x] != 0 ? 0.0f : ai) * (1.0f - high);
+    }
+  }
+}
+
+void DataTermRow(const float* in, const float* t, const float* e, const float* sn, const float* ve,
+                 const float* var, const uchar* mk, float clip_level, int ch, int cols, float* uu,
+                 float* aa) {
+  if (ch == 1) {
+    DataTermRowN<1>(in, t, e, sn, ve, var, mk, clip_level, cols, uu, aa);
+  } else {
+    DataTermRowN<3>(in, t, e, sn, ve, var, mk, clip_level, cols, uu, aa);
+  }
+}
+
+// Pixels of a row with some channel above clip_level.
+int CountClipped(const float* in, float clip_level, int ch, int cols) {
+  int count = 0;
+  for (int x = 0; x < cols; ++x) {
+    bool clipped = false;
+    for (int c = 0; c < ch; ++c) clipped = clipped || in[x * ch + c] > clip_level;
+    count += clipped ? 1 : 0;
+  }
+  return count;
+}
+
 // Local signal variance around the prior mean p of values z whose noise variances are 1 / a (a =
 // 0: no data): max(sum a (z - p)^2 - sum [a > 0], 0) / sum a over a window of `radius` (0: the
 // whole image). Unbiased for independent samples (E a (z - p)^2 = a S + 1).
@@ -423,30 +466,10 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
   cv::Mat u = NewLike(image), a = NewLike(image);
   int censored = 0;
   for (int y = 0; y < image.rows; ++y) {
-    const float* in = image.ptr<float>(y);
-    const float* t = transmission.ptr<float>(y);
-    const float* e = irradiance.ptr<float>(y);
-    const float* sn = snow.ptr<float>(y);
-    const float* ve = veil.ptr<float>(y);
-    const float* var = variance.ptr<float>(y);
-    const uchar* mk = masked.ptr<uchar>(y);
-    float* uu = u.ptr<float>(y);
-    float* aa = a.ptr<float>(y);
-    for (int x = 0; x < image.cols; ++x) {
-      bool clipped = false;
-      for (int c = 0; c < ch; ++c) {
-        const int i = x * ch + c;
-        const float sc = std::max(t[i] * e[i], 1e-12f);
-        float ui = ((in[i] - sn[i]) - ve[i]) / sc;
-        float ai = (sc * sc) / var[i];
-        if (mk[x] != 0) ui = 0.0f, ai = 0.0f;
-        const float high = in[i] > clip_level ? 1.0f : 0.0f;
-        clipped = clipped || high > 0.0f;
-        uu[i] = ui;
-        aa[i] = ai * (1.0f - high);
-      }
-      censored += clipped ? 1 : 0;
-    }
+    DataTermRow(image.ptr<float>(y), transmission.ptr<float>(y), irradiance.ptr<float>(y),
+                snow.ptr<float>(y), veil.ptr<float>(y), variance.ptr<float>(y),
+                masked.ptr<uchar>(y), clip_level, ch, image.cols, u.ptr<float>(y), a.ptr<float>(y));
+    censored += CountClipped(image.ptr<float>(y), clip_level, ch, image.cols);
   }
   r.censored_pixels = censored;
   r.estimate = HierarchicalMmse(o, u, a, &r.prior, &r.posterior);
@@ -464,11 +487,16 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
       float* es = est.ptr<float>(y);
       float* pr = prior.ptr<float>(y);
       for (int i = 0; i < image.cols * ch; ++i) {
-        const float sc = std::max(t[i] * e[i], 1e-12f);
-        const float bound = (((in[i] - 2.0f * std::sqrt(var[i])) - sn[i]) - ve[i]) / sc;
-        const float high = in[i] > clip_level ? 1.0f : 0.0f;
-        es[i] = es[i] + (std::max(es[i], bound) - es[i]) * high;
-        pr[i] = pr[i] + (std::max(pr[i], bound) - pr[i]) * high;
+        if (in[i] > clip_level) {
+          const float sc = std::max(t[i] * e[i], 1e-12f);
+          const float bound = (((in[i] - 2.0f * std::sqrt(var[i])) - sn[i]) - ve[i]) / sc;
+          es[i] = es[i] + (std::max(es[i], bound) - es[i]);
+          pr[i] = pr[i] + (std::max(pr[i], bound) - pr[i]);
+        } else {
+          // The same with the factor 0: x + 0 for finite x (the bound is finite), NaN otherwise.
+          es[i] = std::isfinite(es[i]) ? es[i] + 0.0f : std::numeric_limits<float>::quiet_NaN();
+          pr[i] = std::isfinite(pr[i]) ? pr[i] + 0.0f : std::numeric_limits<float>::quiet_NaN();
+        }
       }
     }
   }
