@@ -7,6 +7,7 @@
 #include "enhancer/baselines_common.h"
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
+#include "simulator/image_pool.h"
 
 namespace turbid {
 namespace {
@@ -39,7 +40,7 @@ TURBID_ROW_KERNEL void RawDepthRow3(const float* __restrict in, double t0, doubl
 }
 
 cv::Mat RawDepth(const CapOptions& options, const cv::Mat& image) {
-  cv::Mat depth(image.size(), CV_32FC1);
+  cv::Mat depth = internal::PooledMat(image.size(), CV_32FC1);
   for (int y = 0; y < image.rows; ++y) {
     if (image.channels() == 1) {
       RawDepthRow1(image.ptr<float>(y), options.theta0, options.theta1, options.theta2,
@@ -89,6 +90,7 @@ CapResult ColorAttenuationPriorDetailed(const CapOptions& options, const cv::Mat
   result.depth = options.refine ? baselines_internal::GuidedSmooth(
                                       image, min_depth, options.guided_radius, options.guided_eps)
                                 : min_depth;
+  result.transmission = internal::PooledMat(image.size(), CV_32FC1);
   cv::exp(-options.beta * result.depth, result.transmission);
   baselines_internal::ClampRange(result.transmission, static_cast<float>(options.t_min),
                                  static_cast<float>(options.t_max));

@@ -10,6 +10,7 @@
 #include "enhancer/method.h"
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
+#include "simulator/image_pool.h"
 
 namespace turbid::baselines_internal {
 
@@ -74,7 +75,7 @@ cv::Mat MinFilter(const cv::Mat& gray, int size) {
   CV_Assert(gray.type() == CV_32FC1);
   if (size <= 1) return gray.clone();
   const int h = gray.rows, w = gray.cols, r = size / 2;
-  cv::Mat out(h, w, CV_32FC1);
+  cv::Mat out = internal::PooledMat(gray.size(), CV_32FC1);
   std::vector<float> suffix(static_cast<size_t>(size) * w), prefix(static_cast<size_t>(size) * w);
   std::vector<float> column(w), ext(static_cast<size_t>(w) + size - 1), tmp(ext.size());
   auto row = [&](int padded) { return gray.ptr<float>(std::clamp(padded, 0, h - 1)); };
@@ -131,7 +132,7 @@ cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission,
                         const cv::Vec3f& airlight, double t_min) {
   const int channels = image.channels();
   CV_Assert(channels == 1 || channels == 3);
-  cv::Mat out(image.size(), image.type());
+  cv::Mat out = internal::PooledMat(image.size(), image.type());
   const float floor = static_cast<float>(t_min);
   for (int y = 0; y < image.rows; ++y) {
     const float* in = image.ptr<float>(y);

@@ -12,6 +12,8 @@ void ValidateImage(const cv::Mat& image, const std::string& method);
 
 // Minimum over a size x size square (size odd); border: replicate, so tiny images work. Equal to
 // cv::erode with a size x size rectangle and BORDER_REPLICATE (O(1) comparisons per pixel).
+// Full-size results here and in the dcp / cap pipelines come from the recycling pool of
+// simulator/image_pool.h (fresh pages for every temporary cost more than the arithmetic).
 cv::Mat MinFilter(const cv::Mat& gray, int size);
 
 // Guided-filter smoothing of the one-channel `src` with `guide` (1 or 3 channels), radius and ε on

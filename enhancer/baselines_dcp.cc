@@ -12,6 +12,7 @@
 #include "enhancer/baselines_common.h"
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
+#include "simulator/image_pool.h"
 
 namespace turbid {
 namespace {
@@ -60,7 +61,7 @@ TURBID_ROW_KERNEL void ChannelMinRow(const float* __restrict in, bool skip_red,
 // divided by A, value for value: no second minimum filter.
 cv::Mat NormalisedDarkChannel(const cv::Mat& image, const cv::Mat& dark, const cv::Vec3f& airlight,
                               bool skip_red, int patch_size) {
-  cv::Mat out(image.size(), CV_32FC1);
+  cv::Mat out = internal::PooledMat(image.size(), CV_32FC1);
   const float a0 = std::max(airlight[0], kMinAirlight);
   if (image.channels() == 1) {
     for (int y = 0; y < image.rows; ++y) DivideRow(dark.ptr<float>(y), a0, out.ptr<float>(y), image.cols);
@@ -84,6 +85,7 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
   // He 2011 eq. 12: t = 1 - ω min_Ω min_c I^c / A^c. Clamped to [0,1]: where a pixel is brighter
   // than A the estimate goes negative, which no transmission can be. (OpenCV evaluates 1 - ω m,
   // with an FMA where the CPU has one: kept as it was, so the values stay the same.)
+  result.raw_transmission = internal::PooledMat(image.size(), CV_32FC1);
   result.raw_transmission = 1.0 - options.omega * NormalisedDarkChannel(image, result.dark_channel,
                                                                          result.airlight, underwater,
                                                                          options.patch_size);
@@ -120,7 +122,7 @@ bool DcpOptions::Check(std::string* why) const {
 cv::Mat DarkChannel(const cv::Mat& image, int patch_size, bool skip_red) {
   CV_Assert(image.depth() == CV_32F && (image.channels() == 1 || image.channels() == 3));
   if (image.channels() == 1) return MinFilter(image, patch_size);
-  cv::Mat channel_min(image.size(), CV_32FC1);
+  cv::Mat channel_min = internal::PooledMat(image.size(), CV_32FC1);
   for (int y = 0; y < image.rows; ++y) {
     ChannelMinRow(image.ptr<float>(y), skip_red, channel_min.ptr<float>(y), image.cols);
   }

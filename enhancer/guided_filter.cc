@@ -12,6 +12,7 @@
 #include "enhancer/simd_switch.h"
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
+#include "simulator/image_pool.h"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -981,7 +982,8 @@ class GrayStream {
 
 cv::Mat GuidedGray(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self) {
   GrayStream stream(guide, src, r, eps, self);
-  cv::Mat q(guide.rows, guide.cols, CV_32F);
+  // The output from the recycling pool (simulator/image_pool.h): no fresh pages per call.
+  cv::Mat q = internal::PooledMat(guide.size(), CV_32F);
   for (int t = 0; t < guide.rows; ++t) stream.Row(t, q.ptr<float>(t));
   return q;
 }
@@ -1095,7 +1097,7 @@ std::vector<cv::Mat> ColorCoefficients(const std::vector<cv::Mat>& g, const cv::
 // The colour-guided output from the coefficients (their box means, then a . I + b).
 cv::Mat ColorApply(const std::vector<cv::Mat>& coef, const std::vector<cv::Mat>& g, int r) {
   const int h = g[0].rows, w = g[0].cols;
-  cv::Mat q(h, w, CV_32F);
+  cv::Mat q = internal::PooledMat(g[0].size(), CV_32F);
   BoxMeansRows(coef, r, [&](int y, const std::vector<const float*>& m) {
     ColorApplyRow(m[0], m[1], m[2], m[3], g[0].ptr<float>(y), g[1].ptr<float>(y),
                   g[2].ptr<float>(y), q.ptr<float>(y), w);
