@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <vector>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "enhancer/clahe.h"
 #include "enhancer/guided_filter.h"

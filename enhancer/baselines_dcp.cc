@@ -33,7 +33,8 @@ TURBID_ROW_KERNEL void NormalisedMinRow3(const float* __restrict in, float a0, f
                                          bool skip_red, float* __restrict out, int w) {
   constexpr float kMax = std::numeric_limits<float>::max();
   if (skip_red) {
-    for (int x = 0; x < w; ++x) out[x] = std::min(std::min(kMax, in[3 * x] / a0), in[3 * x + 1] / a1);
+    for (int x = 0; x < w; ++x)
+      out[x] = std::min(std::min(kMax, in[3 * x] / a0), in[3 * x + 1] / a1);
   } else {
     for (int x = 0; x < w; ++x) {
       out[x] = std::min(std::min(std::min(kMax, in[3 * x] / a0), in[3 * x + 1] / a1),
@@ -42,7 +43,8 @@ TURBID_ROW_KERNEL void NormalisedMinRow3(const float* __restrict in, float a0, f
   }
 }
 
-TURBID_ROW_KERNEL void DivideRow(const float* __restrict in, float a, float* __restrict out, int w) {
+TURBID_ROW_KERNEL void DivideRow(const float* __restrict in, float a, float* __restrict out,
+                                 int w) {
   constexpr float kMax = std::numeric_limits<float>::max();
   for (int x = 0; x < w; ++x) out[x] = std::min(kMax, in[x] / a);
 }
@@ -52,7 +54,8 @@ TURBID_ROW_KERNEL void ChannelMinRow(const float* __restrict in, bool skip_red,
   if (skip_red) {
     for (int x = 0; x < w; ++x) out[x] = std::min(in[3 * x], in[3 * x + 1]);
   } else {
-    for (int x = 0; x < w; ++x) out[x] = std::min(std::min(in[3 * x], in[3 * x + 1]), in[3 * x + 2]);
+    for (int x = 0; x < w; ++x)
+      out[x] = std::min(std::min(in[3 * x], in[3 * x + 1]), in[3 * x + 2]);
   }
 }
 
@@ -64,7 +67,8 @@ cv::Mat NormalisedDarkChannel(const cv::Mat& image, const cv::Mat& dark, const c
   cv::Mat out = internal::PooledMat(image.size(), CV_32FC1);
   const float a0 = std::max(airlight[0], kMinAirlight);
   if (image.channels() == 1) {
-    for (int y = 0; y < image.rows; ++y) DivideRow(dark.ptr<float>(y), a0, out.ptr<float>(y), image.cols);
+    for (int y = 0; y < image.rows; ++y)
+      DivideRow(dark.ptr<float>(y), a0, out.ptr<float>(y), image.cols);
     return out;
   }
   const float a1 = std::max(airlight[1], kMinAirlight), a2 = std::max(airlight[2], kMinAirlight);
@@ -86,9 +90,9 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
   // than A the estimate goes negative, which no transmission can be. (OpenCV evaluates 1 - ω m,
   // with an FMA where the CPU has one: kept as it was, so the values stay the same.)
   result.raw_transmission = internal::PooledMat(image.size(), CV_32FC1);
-  result.raw_transmission = 1.0 - options.omega * NormalisedDarkChannel(image, result.dark_channel,
-                                                                         result.airlight, underwater,
-                                                                         options.patch_size);
+  result.raw_transmission =
+      1.0 - options.omega * NormalisedDarkChannel(image, result.dark_channel, result.airlight,
+                                                  underwater, options.patch_size);
   baselines_internal::ClampRange(result.raw_transmission, 0.0f, 1.0f);
   if (options.refine) {
     result.transmission =

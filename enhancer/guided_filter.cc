@@ -709,9 +709,10 @@ TURBID_ROW_KERNEL void ColumnStepPair(float* __restrict c0, float* __restrict c1
 // ColumnStep / ColumnProductStep per plane).
 TURBID_ROW_KERNEL void ColumnStepGuided(float* __restrict c_i, float* __restrict c_ii,
                                         float* __restrict c_p, float* __restrict c_ip,
-                                        const float* __restrict add_i, const float* __restrict sub_i,
-                                        const float* __restrict add_p, const float* __restrict sub_p,
-                                        int w) {
+                                        const float* __restrict add_i,
+                                        const float* __restrict sub_i,
+                                        const float* __restrict add_p,
+                                        const float* __restrict sub_p, int w) {
   if (add_i != nullptr && sub_i != nullptr) {
     for (int x = 0; x < w; ++x) {
       c_i[x] += add_i[x] - sub_i[x];
@@ -925,12 +926,13 @@ class GrayStream {
     if (y % kAnchorRows == 0) {
       WindowRows(y, guide_, &rows_u_);
       if (self_) {
-        AnchorSums<true, false, false>(rows_u_.data(), nullptr, static_cast<int>(rows_u_.size()), w_,
-                                Ext(0) + r_, Ext(1) + r_, nullptr, nullptr);
+        AnchorSums<true, false, false>(rows_u_.data(), nullptr, static_cast<int>(rows_u_.size()),
+                                       w_, Ext(0) + r_, Ext(1) + r_, nullptr, nullptr);
       } else {
         WindowRows(y, src_, &rows_v_);
-        AnchorSums<true, true, true>(rows_u_.data(), rows_v_.data(), static_cast<int>(rows_u_.size()),
-                               w_, Ext(0) + r_, Ext(1) + r_, Ext(2) + r_, Ext(3) + r_);
+        AnchorSums<true, true, true>(rows_u_.data(), rows_v_.data(),
+                                     static_cast<int>(rows_u_.size()), w_, Ext(0) + r_, Ext(1) + r_,
+                                     Ext(2) + r_, Ext(3) + r_);
       }
     } else if (self_) {
       ColumnStepSelf(Ext(0) + r_, Ext(1) + r_, add, sub, w_);
@@ -973,7 +975,7 @@ class GrayStream {
   const int h_, w_, window_, ext_len_, planes_a_, ring_;
   // Per-plane buffers: column sums with r zeros each side (the clipped window); window sums.
   std::vector<float> ext_, quads_, sums_, t0_, t1_, inv_cx_;
-  std::vector<float> doubling_;  // DoublingWindowSumsAvx2's levels (AVX2, radii > 12)
+  std::vector<float> doubling_;                // DoublingWindowSumsAvx2's levels (AVX2, radii > 12)
   std::vector<const float*> rows_u_, rows_v_;  // window rows when re-anchoring
   cv::Mat a_ring_, b_ring_;
   FusedKernels fused_;  // empty beyond kMaxFusedRadius (window sums by binary doubling)
@@ -1034,9 +1036,9 @@ TURBID_ROW_KERNEL void ColorCoefficientRow(const float* const* __restrict m, dou
   const float* __restrict m12 = m[12];
   for (int x = 0; x < w; ++x) {
     const double mu0 = m0[x], mu1 = m1[x], mu2 = m2[x], mp = m3[x];
-    const double s00 = m4[x] - mu0 * mu0 + eps, s01 = m5[x] - mu0 * mu1,
-                 s02 = m6[x] - mu0 * mu2, s11 = m7[x] - mu1 * mu1 + eps,
-                 s12 = m8[x] - mu1 * mu2, s22 = m9[x] - mu2 * mu2 + eps;
+    const double s00 = m4[x] - mu0 * mu0 + eps, s01 = m5[x] - mu0 * mu1, s02 = m6[x] - mu0 * mu2,
+                 s11 = m7[x] - mu1 * mu1 + eps, s12 = m8[x] - mu1 * mu2,
+                 s22 = m9[x] - mu2 * mu2 + eps;
     const double c0 = m10[x] - mu0 * mp, c1 = m11[x] - mu1 * mp, c2 = m12[x] - mu2 * mp;
     // Symmetric 3x3 inverse by cofactors; Sigma + eps I is positive definite for eps > 0.
     const double i00 = s11 * s22 - s12 * s12, i01 = s02 * s12 - s01 * s22,
@@ -1096,7 +1098,7 @@ std::vector<cv::Mat> ColorCoefficients(const std::vector<cv::Mat>& g, const cv::
 
 // The colour-guided output from the coefficients (their box means, then a . I + b).
 cv::Mat ColorApply(const std::vector<cv::Mat>& coef, const std::vector<cv::Mat>& g, int r) {
-  const int h = g[0].rows, w = g[0].cols;
+  const int w = g[0].cols;
   cv::Mat q = internal::PooledMat(g[0].size(), CV_32F);
   BoxMeansRows(coef, r, [&](int y, const std::vector<const float*>& m) {
     ColorApplyRow(m[0], m[1], m[2], m[3], g[0].ptr<float>(y), g[1].ptr<float>(y),
@@ -1166,8 +1168,8 @@ cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide_in
       std::vector<cv::Mat> g;
       cv::split(guide, g);
       for (const cv::Mat& p : src_planes) {
-        out_planes.push_back(ColorApply(ColorCoefficients(g, p, options.radius, options.eps), g,
-                                        options.radius));
+        out_planes.push_back(
+            ColorApply(ColorCoefficients(g, p, options.radius, options.eps), g, options.radius));
       }
     }
   } else {

@@ -1,15 +1,14 @@
 #include "enhancer/oracle.h"
 
-#include "enhancer/oracle_internal.h"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "enhancer/deconvolution.h"
 #include "enhancer/method.h"
+#include "enhancer/oracle_internal.h"
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
 #include "simulator/image_pool.h"
@@ -266,7 +265,6 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   }
   return truth;
 }
-
 
 // Pixels where any channel of t is below `floor` (NaN depth has t = 0): CV_8UC1, 255 = masked.
 cv::Mat MaskBelow(const cv::Mat& t, double floor) {
@@ -644,9 +642,9 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   // variance read from the noisy value weights the darker draws more and biases every weighted
   // mean low.
   const double half_step = bits == 32 ? 0.0 : 0.5 * step;
-  oracle_internal::OracleMmseResult mmse = oracle_internal::OracleMmse(
-      o, image, truth.transmission, truth.irradiance, truth.snow, truth.veil, gain, floor_var,
-      1.0 - half_step - 1e-7);
+  oracle_internal::OracleMmseResult mmse =
+      oracle_internal::OracleMmse(o, image, truth.transmission, truth.irradiance, truth.snow,
+                                  truth.veil, gain, floor_var, 1.0 - half_step - 1e-7);
   result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
                          " + read^2 + step^2 / 12" + (sensor ? "" : " (sensor off)"));
   result.masked_pixels = mmse.masked_pixels;

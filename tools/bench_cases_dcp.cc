@@ -112,8 +112,8 @@ void AddDcpCases(std::vector<BenchCase>& cases, const InputsFn& in) {
       c.peer = [in, color, erode] { benchmark::DoNotOptimize(erode(Picked(in(), color)).data); };
       c.agreement = [in, color, erode] {
         const cv::Mat& img = Picked(in(), color);
-        return "max |diff| " + Format("%.2g", cv::norm(DarkChannel(img, 15), erode(img),
-                                                       cv::NORM_INF));
+        return "max |diff| " +
+               Format("%.2g", cv::norm(DarkChannel(img, 15), erode(img), cv::NORM_INF));
       };
       c.goal = {1.0, 0.0, "issue 18 item 3 (the dark channel's min filter, at least cv::erode)"};
       cases.push_back(c);

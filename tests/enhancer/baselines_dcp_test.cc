@@ -1,8 +1,7 @@
 #include <gtest/gtest.h>
 
-#include <opencv2/imgproc.hpp>
-
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "enhancer/baselines.h"
 #include "enhancer/guided_filter.h"
@@ -182,8 +181,7 @@ DcpResult ReferenceDarkChannelPrior(const DcpOptions& options, const cv::Mat& im
       o[x] = m;
     }
   }
-  result.raw_transmission =
-      1.0 - options.omega * ref::MinFilter(normalised, options.patch_size);
+  result.raw_transmission = 1.0 - options.omega * ref::MinFilter(normalised, options.patch_size);
   ref::ClampUnit(result.raw_transmission);
   if (options.refine) {
     GuidedFilterOptions g;
@@ -221,8 +219,8 @@ TEST(BaselinesDcp, SameResultsAsThePreOptimisationImplementation) {
       if (variant == 2) o.patch_size = 3, o.guided_radius = 8, o.omega = 0.7;
       if (variant == 3) o.patch_size = 1, o.airlight_fraction = 0.2;
       const std::string what = name + " variant " + std::to_string(variant);
-      ExpectSameDcp(DarkChannelPriorDetailed(o, image),
-                    ReferenceDarkChannelPrior(o, image, false), "dcp " + what);
+      ExpectSameDcp(DarkChannelPriorDetailed(o, image), ReferenceDarkChannelPrior(o, image, false),
+                    "dcp " + what);
       UdcpOptions u;
       static_cast<DcpOptions&>(u) = o;
       ExpectSameDcp(UnderwaterDarkChannelPriorDetailed(u, image),
@@ -237,10 +235,10 @@ TEST(BaselinesDcp, DarkChannelEqualsErodeForEverySize) {
   for (const auto& [name, image] : baselines_reference::EquivalenceInputs()) {
     for (int size : {1, 3, 5, 7, 9, 15, 17, 31, 33, 65}) {
       for (bool skip_red : {false, true}) {
-        EXPECT_EQ(baselines_reference::MaxDiff(
-                      DarkChannel(image, size, skip_red),
-                      baselines_reference::DarkChannel(image, size, skip_red)),
-                  0.0)
+        EXPECT_EQ(
+            baselines_reference::MaxDiff(DarkChannel(image, size, skip_red),
+                                         baselines_reference::DarkChannel(image, size, skip_red)),
+            0.0)
             << name << " size " << size;
       }
     }

@@ -120,7 +120,8 @@ inline std::vector<NamedImage> EquivalenceInputs() {
     const std::string tag = std::to_string(rows) + "x" + std::to_string(cols);
     out.push_back({"texture colour " + tag, colour});
     out.push_back({"texture gray " + tag, gray});
-    out.push_back({"constant colour " + tag, cv::Mat(rows, cols, CV_32FC3, cv::Scalar(0.2, 0.5, 0.7))});
+    out.push_back(
+        {"constant colour " + tag, cv::Mat(rows, cols, CV_32FC3, cv::Scalar(0.2, 0.5, 0.7))});
     out.push_back({"constant gray " + tag, cv::Mat(rows, cols, CV_32FC1, cv::Scalar(0.4))});
   }
   // Haze over a dark-prior texture, with saturated and black pixels.

@@ -184,8 +184,7 @@ std::vector<cv::Mat> ReferenceBoxMeans(const std::vector<cv::Mat>& planes, int r
         }
       }
     }
-    const float inv_cy =
-        1.0f / static_cast<float>(std::min(y + r, h - 1) - std::max(y - r, 0) + 1);
+    const float inv_cy = 1.0f / static_cast<float>(std::min(y + r, h - 1) - std::max(y - r, 0) + 1);
     for (int k = 0; k < k_count; ++k) {
       float s = 0.0f;
       for (int x = 0; x <= std::min(r, w - 1); ++x) s += col[k][x];
@@ -204,9 +203,10 @@ cv::Mat ReferenceGuidedColor(const cv::Mat& guide, const cv::Mat& src, int r, do
   std::vector<cv::Mat> g;
   cv::split(guide, g);
   const std::vector<cv::Mat> planes = {
-      g[0],           g[1],           g[2],           src,           g[0].mul(g[0]),
-      g[0].mul(g[1]), g[0].mul(g[2]), g[1].mul(g[1]), g[1].mul(g[2]), g[2].mul(g[2]),
-      g[0].mul(src),  g[1].mul(src),  g[2].mul(src)};
+      g[0],           g[1],           g[2],           src,
+      g[0].mul(g[0]), g[0].mul(g[1]), g[0].mul(g[2]), g[1].mul(g[1]),
+      g[1].mul(g[2]), g[2].mul(g[2]), g[0].mul(src),  g[1].mul(src),
+      g[2].mul(src)};
   const std::vector<cv::Mat> mean = ReferenceBoxMeans(planes, r);
   std::vector<cv::Mat> coef(4);
   for (cv::Mat& c : coef) c.create(src.size(), CV_32F);
@@ -214,9 +214,9 @@ cv::Mat ReferenceGuidedColor(const cv::Mat& guide, const cv::Mat& src, int r, do
     for (int x = 0; x < src.cols; ++x) {
       auto m = [&](int k) { return static_cast<double>(mean[k].at<float>(y, x)); };
       const double mu0 = m(0), mu1 = m(1), mu2 = m(2), mp = m(3);
-      const double s00 = m(4) - mu0 * mu0 + eps, s01 = m(5) - mu0 * mu1,
-                   s02 = m(6) - mu0 * mu2, s11 = m(7) - mu1 * mu1 + eps,
-                   s12 = m(8) - mu1 * mu2, s22 = m(9) - mu2 * mu2 + eps;
+      const double s00 = m(4) - mu0 * mu0 + eps, s01 = m(5) - mu0 * mu1, s02 = m(6) - mu0 * mu2,
+                   s11 = m(7) - mu1 * mu1 + eps, s12 = m(8) - mu1 * mu2,
+                   s22 = m(9) - mu2 * mu2 + eps;
       const double c0 = m(10) - mu0 * mp, c1 = m(11) - mu1 * mp, c2 = m(12) - mu2 * mp;
       const double i00 = s11 * s22 - s12 * s12, i01 = s02 * s12 - s01 * s22,
                    i02 = s01 * s12 - s02 * s11, i11 = s00 * s22 - s02 * s02,
@@ -266,7 +266,8 @@ TEST(GuidedFilter, ColorGuideEqualsPreOptimisationFilter) {
 // pre-optimisation filter, with the hand-written AVX2 kernels and without, on shapes with every
 // row remainder, several anchor blocks and windows wider than the image.
 TEST(GuidedFilter, LargeRadiusGrayGuideEqualsPreOptimisationFilter) {
-  for (const cv::Size size : {cv::Size(1, 1), cv::Size(13, 3), cv::Size(203, 150), cv::Size(97, 71)}) {
+  for (const cv::Size size :
+       {cv::Size(1, 1), cv::Size(13, 3), cv::Size(203, 150), cv::Size(97, 71)}) {
     const cv::Mat guide = RandomImage(size.height, size.width, 1, 21);
     const cv::Mat src = RandomImage(size.height, size.width, 1, 22);
     for (int r : {13, 30, 60}) {

@@ -128,14 +128,12 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
 }
 
 oracle_internal::OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
-                                             const cv::Mat& transmission,
-                                             const cv::Mat& irradiance, const cv::Mat& snow,
-                                             const cv::Mat& veil, double gain, double floor_var,
-                                             double clip_level) {
+                                             const cv::Mat& transmission, const cv::Mat& irradiance,
+                                             const cv::Mat& snow, const cv::Mat& veil, double gain,
+                                             double floor_var, double clip_level) {
   oracle_internal::OracleMmseResult r;
   cv::Mat local_mean;
-  cv::boxFilter(image, local_mean, -1, cv::Size(7, 7), cv::Point(-1, -1), true,
-                cv::BORDER_REFLECT);
+  cv::boxFilter(image, local_mean, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
   cv::Mat variance = PlusAll(MaxAll(local_mean, 0.0) * gain, floor_var);
   r.masked = MaskBelow(transmission, o.mask_transmission);
   r.masked_pixels = cv::countNonZero(r.masked);
@@ -244,8 +242,8 @@ TEST(Oracle, EqualsPreOptimisationOracleOnRenders) {
       }
       const RenderResult r = Render(o, scene);
       for (const char* target : {"clean", "lit"}) {
-        const std::string what = std::string(name) + " variant " + std::to_string(variant) + " " +
-                                 target;
+        const std::string what =
+            std::string(name) + " variant " + std::to_string(variant) + " " + target;
         OracleOptions mmse;
         mmse.target = target;
         const OracleResult a = OracleEnhance(mmse, r.image, scene, r.sidecar);
@@ -257,7 +255,8 @@ TEST(Oracle, EqualsPreOptimisationOracleOnRenders) {
         OracleExactOptions exact;
         exact.target = target;
         const OracleResult c = OracleExactEnhance(exact, r.image, scene, r.sidecar);
-        const OracleResult d = oracle_reference::OracleExactEnhance(exact, r.image, scene, r.sidecar);
+        const OracleResult d =
+            oracle_reference::OracleExactEnhance(exact, r.image, scene, r.sidecar);
         EXPECT_EQ(MaxAbsDiff(c.image, d.image), 0.0) << what << " exact";
         EXPECT_EQ(c.steps, d.steps) << what << " exact";
       }
