@@ -559,6 +559,12 @@ TURBID_AVX2 inline __m256 Pair(const float* e) {
   return _mm256_add_ps(_mm256_loadu_ps(e), _mm256_loadu_ps(e + 1));
 }
 TURBID_AVX2 inline __m256 Quad(const float* e) { return _mm256_add_ps(Pair(e), Pair(e + 2)); }
+// Lanes 4..11 / 2..9 of the 16 values a, b (a in lanes 0..7).
+TURBID_AVX2 inline __m256 Shift4(__m256 a, __m256 b) { return _mm256_permute2f128_ps(a, b, 0x21); }
+TURBID_AVX2 inline __m256 Shift2(__m256 a, __m256 b) {
+  const __m256i t = _mm256_castps_si256(_mm256_permute2f128_ps(a, b, 0x21));
+  return _mm256_castsi256_ps(_mm256_alignr_epi8(t, _mm256_castps_si256(a), 8));
+}
 
 TURBID_AVX2 void DoublingWindowSumsAvx2(const float* ext, int w, int window, float* out,
                                         float* scratch) {
@@ -576,9 +582,29 @@ TURBID_AVX2 void DoublingWindowSumsAvx2(const float* ext, int w, int window, flo
     return room < 0 ? 0 : room / 8 + 1;
   };
   {
+    // D_8 = D_4(i) + D_4(i + 4), D_4 = D_2(i) + D_2(i + 2), D_2 = ext(i) + ext(i + 1): the shifted
+    // operands come from the next vectors by lane shuffles (exact), so each vector costs three
+    // adds; the last vectors (whose look-ahead would leave ext) load their operands directly.
     float* g = level(3);
     const int m_end = count(3);
-    for (int m = 0; m < m_end; ++m) {
+    int m = 0;
+    const int m_shuffled = std::max(0, (n - 25 - c) / 8 + 1);  // ext(i0 + 24) must exist
+    if (std::min(m_end, m_shuffled) >= 1 && n - 25 - c >= 0) {
+      const float* e = ext + c;
+      __m256 p0 = Pair(e), p1 = Pair(e + 8), p2 = Pair(e + 16);
+      __m256 d0 = _mm256_add_ps(p0, Shift2(p0, p1));
+      __m256 d1 = _mm256_add_ps(p1, Shift2(p1, p2));
+      for (; m < std::min(m_end, m_shuffled); ++m) {
+        _mm256_store_ps(g + 8 * m, _mm256_add_ps(d0, Shift4(d0, d1)));
+        if (m + 1 >= std::min(m_end, m_shuffled)) break;
+        p1 = p2;
+        p2 = Pair(e + 8 * (m + 3));
+        d0 = d1;
+        d1 = _mm256_add_ps(p1, Shift2(p1, p2));
+      }
+      ++m;
+    }
+    for (; m < m_end; ++m) {
       const float* e = ext + c + 8 * m;
       _mm256_store_ps(g + 8 * m, _mm256_add_ps(Quad(e), Quad(e + 4)));
     }
