@@ -141,34 +141,9 @@ void CheckInputs(const GuidedFilterOptions& options, const cv::Mat& guide, const
 // Row kernels of the one-channel filter (TURBID_ROW_KERNEL). Each processes a whole row of
 // contiguous floats, so the loops vectorise.
 
-// Vertical running sums, in place on the row of column sums: col += add - sub (either may be
-// null), or for a product plane col += add_u*add_v - sub_u*sub_v. Float, 8 lanes per AVX2
-// vector; the caller re-anchors the sums by direct summation every kAnchorRows rows, so rounding
-// drift spans at most that many steps (the variance mean(I^2) - mean(I)^2 cancels, so a drift
-// over a thousand rows would show in a = var / (var + eps)).
-TURBID_ROW_KERNEL void ColumnStep(float* __restrict col, const float* __restrict add,
-                                  const float* __restrict sub, int w) {
-  if (add != nullptr && sub != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] += add[x] - sub[x];
-  } else if (add != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] += add[x];
-  } else if (sub != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] -= sub[x];
-  }
-}
-
-TURBID_ROW_KERNEL void ColumnProductStep(float* __restrict col, const float* add_u,
-                                         const float* add_v, const float* sub_u, const float* sub_v,
-                                         int w) {
-  if (add_u != nullptr && sub_u != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] += add_u[x] * add_v[x] - sub_u[x] * sub_v[x];
-  } else if (add_u != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] += add_u[x] * add_v[x];
-  } else if (sub_u != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] -= sub_u[x] * sub_v[x];
-  }
-}
-
+// Vertical running sums are float and re-anchored by direct summation every kAnchorRows rows, so
+// rounding drift spans at most that many steps (the variance mean(I^2) - mean(I)^2 cancels, so a
+// drift over a thousand rows would show in a = var / (var + eps)).
 constexpr int kAnchorRows = 64;
 
 TURBID_ROW_KERNEL void AddRows(float* __restrict dst, const float* __restrict a,
@@ -913,37 +888,6 @@ class GrayStream {
     rows->clear();
     for (int y = std::max(t - r_, 0); y <= std::min(t + r_, h_ - 1); ++y)
       rows->push_back(m.ptr<float>(in_ring ? y % ring_ : y));
-  }
-
-  // Vertical step of plane k for output row t: plane u, or the product u*v when v is given.
-  // `in_ring`: u is a ring of rows (a or b), row y in slot y % ring.
-  void Vertical(int k, int t, const cv::Mat& u, const cv::Mat* v, bool in_ring) {
-    auto at = [&](const cv::Mat& m, int y) -> const float* {
-      return m.ptr<float>(in_ring ? y % ring_ : y);
-    };
-    float* c = Ext(k) + r_;  // the column sums are the middle of the padded row
-    if (t % kAnchorRows == 0) {
-      std::fill(c, c + w_, 0.0f);
-      for (int y = std::max(t - r_, 0); y <= std::min(t + r_, h_ - 1); ++y) {
-        if (v == nullptr) {
-          ColumnStep(c, at(u, y), nullptr, w_);
-        } else {
-          ColumnProductStep(c, at(u, y), at(*v, y), nullptr, nullptr, w_);
-        }
-      }
-      return;
-    }
-    const int add = t + r_ < h_ ? t + r_ : -1;
-    const int sub = t - r_ - 1 >= 0 ? t - r_ - 1 : -1;
-    const float* au = add >= 0 ? at(u, add) : nullptr;
-    const float* su = sub >= 0 ? at(u, sub) : nullptr;
-    if (v == nullptr) {
-      ColumnStep(c, au, su, w_);
-    } else {
-      const float* av = add >= 0 ? at(*v, add) : nullptr;
-      const float* sv = sub >= 0 ? at(*v, sub) : nullptr;
-      ColumnProductStep(c, au, av, su, sv, w_);
-    }
   }
 
   void StageA(int y) {
