@@ -6,6 +6,8 @@
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
+#include "simulator/image_pool.h"
 
 namespace turbid {
 namespace {
@@ -14,23 +16,38 @@ using baselines_internal::IsOddPositive;
 
 // Zhu 2015 eq. 8 without ε: d = θ0 + θ1 v + θ2 s, with HSV value v = max_c I^c and saturation
 // s = (max - min) / max (0 where max is 0). Gray input has s = 0: depth follows brightness only.
+// Row kernels per channel count (the same double arithmetic, vectorised).
+TURBID_ROW_KERNEL void RawDepthRow1(const float* __restrict in, double t0, double t1, double t2,
+                                    float* __restrict d, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float hi = in[x];
+    const double v = hi;
+    const double s = hi > 0.0f ? (hi - hi) / hi : 0.0;
+    d[x] = static_cast<float>(t0 + t1 * v + t2 * s);
+  }
+}
+
+TURBID_ROW_KERNEL void RawDepthRow3(const float* __restrict in, double t0, double t1, double t2,
+                                    float* __restrict d, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float* px = in + 3 * x;
+    const float hi = std::max(std::max(px[0], px[1]), px[2]);
+    const float lo = std::min(std::min(px[0], px[1]), px[2]);
+    const double v = hi;
+    const double s = hi > 0.0f ? (hi - lo) / hi : 0.0;
+    d[x] = static_cast<float>(t0 + t1 * v + t2 * s);
+  }
+}
+
 cv::Mat RawDepth(const CapOptions& options, const cv::Mat& image) {
-  const int channels = image.channels();
-  cv::Mat depth(image.size(), CV_32FC1);
+  cv::Mat depth = internal::PooledMat(image.size(), CV_32FC1);
   for (int y = 0; y < image.rows; ++y) {
-    const float* in = image.ptr<float>(y);
-    float* d = depth.ptr<float>(y);
-    for (int x = 0; x < image.cols; ++x) {
-      const float* px = in + x * channels;
-      float hi = px[0];
-      float lo = px[0];
-      for (int c = 1; c < channels; ++c) {
-        hi = std::max(hi, px[c]);
-        lo = std::min(lo, px[c]);
-      }
-      const double v = hi;
-      const double s = hi > 0.0f ? (hi - lo) / hi : 0.0;
-      d[x] = static_cast<float>(options.theta0 + options.theta1 * v + options.theta2 * s);
+    if (image.channels() == 1) {
+      RawDepthRow1(image.ptr<float>(y), options.theta0, options.theta1, options.theta2,
+                   depth.ptr<float>(y), image.cols);
+    } else {
+      RawDepthRow3(image.ptr<float>(y), options.theta0, options.theta1, options.theta2,
+                   depth.ptr<float>(y), image.cols);
     }
   }
   return depth;
@@ -73,9 +90,10 @@ CapResult ColorAttenuationPriorDetailed(const CapOptions& options, const cv::Mat
   result.depth = options.refine ? baselines_internal::GuidedSmooth(
                                       image, min_depth, options.guided_radius, options.guided_eps)
                                 : min_depth;
-  cv::Mat t;
-  cv::exp(-options.beta * result.depth, t);
-  result.transmission = cv::max(cv::min(t, options.t_max), options.t_min);
+  result.transmission = internal::PooledMat(image.size(), CV_32FC1);
+  cv::exp(-options.beta * result.depth, result.transmission);
+  baselines_internal::ClampRange(result.transmission, static_cast<float>(options.t_min),
+                                 static_cast<float>(options.t_max));
   result.image = baselines_internal::RecoverRadiance(image, result.transmission, result.airlight,
                                                      options.t_min);
   return result;

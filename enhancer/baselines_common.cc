@@ -3,11 +3,14 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "enhancer/clahe.h"
 #include "enhancer/guided_filter.h"
 #include "enhancer/method.h"
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
+#include "simulator/image_pool.h"
 
 namespace turbid::baselines_internal {
 
@@ -15,11 +18,96 @@ void ValidateImage(const cv::Mat& image, const std::string& method) {
   ValidateEnhanceImage(image, method);
 }
 
+namespace {
+
+// Row kernels of the minimum filter and the radiance recovery (plain loops the compiler
+// vectorises; TURBID_ROW_KERNEL adds an AVX2 clone). A minimum is exact, so any order of
+// comparisons gives the same values as cv::erode.
+TURBID_ROW_KERNEL void MinRows(float* __restrict dst, const float* __restrict a,
+                               const float* __restrict b, int n) {
+  for (int i = 0; i < n; ++i) dst[i] = std::min(a[i], b[i]);
+}
+
+// Minimum over `size` consecutive values of the row `ext` (w + size - 1 values): windows of 2, 4,
+// ..., 2^p <= size by doubling (ping-pong between ext and tmp, both destroyed), then two
+// overlapping 2^p windows.
+void RowWindowMin(float* ext, float* tmp, int w, int size, float* out) {
+  int len = 1;
+  float* src = ext;
+  float* dst = tmp;
+  for (; 2 * len <= size; len *= 2) {
+    MinRows(dst, src, src + len, w + size - 1 - len);
+    std::swap(src, dst);
+  }
+  MinRows(out, src, src + (size - len), w);
+}
+
+TURBID_ROW_KERNEL void RecoverRow1(const float* __restrict in, const float* __restrict t, float a,
+                                   float t_min, float* __restrict out, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float tt = std::max(t[x], t_min);
+    out[x] = std::clamp((in[x] - a) / tt + a, 0.0f, 1.0f);
+  }
+}
+
+TURBID_ROW_KERNEL void RecoverRow3(const float* __restrict in, const float* __restrict t, float a0,
+                                   float a1, float a2, float t_min, float* __restrict out, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float tt = std::max(t[x], t_min);
+    out[3 * x] = std::clamp((in[3 * x] - a0) / tt + a0, 0.0f, 1.0f);
+    out[3 * x + 1] = std::clamp((in[3 * x + 1] - a1) / tt + a1, 0.0f, 1.0f);
+    out[3 * x + 2] = std::clamp((in[3 * x + 2] - a2) / tt + a2, 0.0f, 1.0f);
+  }
+}
+
+TURBID_ROW_KERNEL void ClampRow(float* __restrict v, float lo, float hi, int w) {
+  for (int x = 0; x < w; ++x) v[x] = std::min(std::max(v[x], lo), hi);
+}
+
+}  // namespace
+
+// Vertical pass: van Herk / Gil-Werman over blocks of `size` rows of the replicate-padded
+// column (rows -r .. h-1+r, block b = padded rows [b size - r, (b+1) size - r)): output row y's
+// window is the tail of block y / size (suffix minima) and the head of the next (prefix minima),
+// about three comparisons per pixel whatever the size. Then each row's horizontal minimum by
+// doubling (RowWindowMin).
 cv::Mat MinFilter(const cv::Mat& gray, int size) {
-  cv::Mat out;
+  CV_Assert(gray.type() == CV_32FC1);
   if (size <= 1) return gray.clone();
-  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(size, size));
-  cv::erode(gray, out, kernel, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  const int h = gray.rows, w = gray.cols, r = size / 2;
+  cv::Mat out = internal::PooledMat(gray.size(), CV_32FC1);
+  std::vector<float> suffix(static_cast<size_t>(size) * w), prefix(static_cast<size_t>(size) * w);
+  std::vector<float> column(w), ext(static_cast<size_t>(w) + size - 1), tmp(ext.size());
+  auto row = [&](int padded) { return gray.ptr<float>(std::clamp(padded, 0, h - 1)); };
+  for (int y0 = 0; y0 < h; y0 += size) {
+    // Block y0 / size holds padded rows y0 - r .. y0 - r + size - 1; the next block follows.
+    const int top = y0 - r;
+    float* s = suffix.data();
+    std::copy(row(top + size - 1), row(top + size - 1) + w, s + static_cast<size_t>(size - 1) * w);
+    for (int i = size - 2; i >= 0; --i) {
+      MinRows(s + static_cast<size_t>(i) * w, s + static_cast<size_t>(i + 1) * w, row(top + i), w);
+    }
+    const int rows_here = std::min(size, h - y0);
+    float* p = prefix.data();
+    if (rows_here > 1) {
+      std::copy(row(top + size), row(top + size) + w, p);
+      for (int i = 1; i + 1 < rows_here; ++i) {
+        MinRows(p + static_cast<size_t>(i) * w, p + static_cast<size_t>(i - 1) * w,
+                row(top + size + i), w);
+      }
+    }
+    for (int i = 0; i < rows_here; ++i) {
+      const float* col = s + static_cast<size_t>(i) * w;
+      if (i > 0) {
+        MinRows(column.data(), col, p + static_cast<size_t>(i - 1) * w, w);
+        col = column.data();
+      }
+      std::fill(ext.begin(), ext.begin() + r, col[0]);
+      std::copy(col, col + w, ext.begin() + r);
+      std::fill(ext.begin() + r + w, ext.end(), col[w - 1]);
+      RowWindowMin(ext.data(), tmp.data(), w, size, out.ptr<float>(y0 + i));
+    }
+  }
   return out;
 }
 
@@ -43,21 +131,26 @@ cv::Mat ClaheGray(const cv::Mat& gray, int tiles_x, int tiles_y, double clip_lim
 cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission,
                         const cv::Vec3f& airlight, double t_min) {
   const int channels = image.channels();
-  cv::Mat out(image.size(), image.type());
+  CV_Assert(channels == 1 || channels == 3);
+  cv::Mat out = internal::PooledMat(image.size(), image.type());
+  const float floor = static_cast<float>(t_min);
   for (int y = 0; y < image.rows; ++y) {
     const float* in = image.ptr<float>(y);
     const float* t = transmission.ptr<float>(y);
     float* o = out.ptr<float>(y);
-    for (int x = 0; x < image.cols; ++x) {
-      const float tt = std::max(t[x], static_cast<float>(t_min));
-      for (int c = 0; c < channels; ++c) {
-        const float a = airlight[c];
-        const float j = (in[x * channels + c] - a) / tt + a;
-        o[x * channels + c] = std::clamp(j, 0.0f, 1.0f);
-      }
+    if (channels == 1) {
+      RecoverRow1(in, t, airlight[0], floor, o, image.cols);
+    } else {
+      RecoverRow3(in, t, airlight[0], airlight[1], airlight[2], floor, o, image.cols);
     }
   }
   return out;
+}
+
+void ClampRange(cv::Mat& image, float lo, float hi) {
+  CV_Assert(image.depth() == CV_32F);
+  const int n = image.cols * image.channels();
+  for (int y = 0; y < image.rows; ++y) ClampRow(image.ptr<float>(y), lo, hi, n);
 }
 
 void ClampUnit(cv::Mat& image) {

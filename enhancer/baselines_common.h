@@ -10,7 +10,10 @@ namespace turbid::baselines_internal {
 // value is finite.
 void ValidateImage(const cv::Mat& image, const std::string& method);
 
-// Minimum over a size x size square (size odd); border: replicate, so tiny images work.
+// Minimum over a size x size square (size odd); border: replicate, so tiny images work. Equal to
+// cv::erode with a size x size rectangle and BORDER_REPLICATE (O(1) comparisons per pixel).
+// Full-size results here and in the dcp / cap pipelines come from the recycling pool of
+// simulator/image_pool.h (fresh pages for every temporary cost more than the arithmetic).
 cv::Mat MinFilter(const cv::Mat& gray, int size);
 
 // Guided-filter smoothing of the one-channel `src` with `guide` (1 or 3 channels), radius and ε on
@@ -23,6 +26,9 @@ cv::Mat ClaheGray(const cv::Mat& gray, int tiles_x, int tiles_y, double clip_lim
 // J = (I - A) / max(t, t_min) + A per channel (He 2011 eq. 22), clamped to [0,1].
 cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission,
                         const cv::Vec3f& airlight, double t_min);
+
+// Clamps a CV_32F image to [lo, hi] in place, one pass: min(max(v, lo), hi).
+void ClampRange(cv::Mat& image, float lo, float hi);
 
 // Clamps to [0,1] in place (NaN never reaches here: inputs are validated and every division is
 // guarded).

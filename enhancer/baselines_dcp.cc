@@ -2,6 +2,7 @@
 // (Drews et al., ICCV Workshops 2013). See enhancer/baselines.h.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
@@ -10,6 +11,8 @@
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
+#include "simulator/image_pool.h"
 
 namespace turbid {
 namespace {
@@ -24,23 +27,55 @@ using baselines_internal::ValidateImage;
 // input.
 constexpr float kMinAirlight = 1e-6f;
 
-// Per-pixel minimum of I^c / A^c over the selected channels (He 2011 eq. 11, before the patch min).
-cv::Mat NormalisedChannelMin(const cv::Mat& image, const cv::Vec3f& airlight, bool skip_red) {
-  const int channels = image.channels();
-  cv::Mat out(image.size(), CV_32FC1);
-  const int last = (channels == 3 && skip_red) ? 2 : channels;
-  for (int y = 0; y < image.rows; ++y) {
-    const float* in = image.ptr<float>(y);
-    float* o = out.ptr<float>(y);
-    for (int x = 0; x < image.cols; ++x) {
-      float m = std::numeric_limits<float>::max();
-      for (int c = 0; c < last; ++c) {
-        m = std::min(m, in[x * channels + c] / std::max(airlight[c], kMinAirlight));
-      }
-      o[x] = m;
+// Per-pixel minimum of I^c / A^c over B, G (and R unless skip_red), He 2011 eq. 11 before the
+// patch minimum; min with FLT_MAX first, as the definition's running minimum starts there.
+TURBID_ROW_KERNEL void NormalisedMinRow3(const float* __restrict in, float a0, float a1, float a2,
+                                         bool skip_red, float* __restrict out, int w) {
+  constexpr float kMax = std::numeric_limits<float>::max();
+  if (skip_red) {
+    for (int x = 0; x < w; ++x)
+      out[x] = std::min(std::min(kMax, in[3 * x] / a0), in[3 * x + 1] / a1);
+  } else {
+    for (int x = 0; x < w; ++x) {
+      out[x] = std::min(std::min(std::min(kMax, in[3 * x] / a0), in[3 * x + 1] / a1),
+                        in[3 * x + 2] / a2);
     }
   }
-  return out;
+}
+
+TURBID_ROW_KERNEL void DivideRow(const float* __restrict in, float a, float* __restrict out,
+                                 int w) {
+  constexpr float kMax = std::numeric_limits<float>::max();
+  for (int x = 0; x < w; ++x) out[x] = std::min(kMax, in[x] / a);
+}
+
+TURBID_ROW_KERNEL void ChannelMinRow(const float* __restrict in, bool skip_red,
+                                     float* __restrict out, int w) {
+  if (skip_red) {
+    for (int x = 0; x < w; ++x) out[x] = std::min(in[3 * x], in[3 * x + 1]);
+  } else {
+    for (int x = 0; x < w; ++x)
+      out[x] = std::min(std::min(in[3 * x], in[3 * x + 1]), in[3 * x + 2]);
+  }
+}
+
+// min over the patch of min_c I^c / A^c (He 2011 eq. 12's double minimum). Gray: division by a
+// positive constant is monotone in float too, so the patch minimum of I / A is the dark channel
+// divided by A, value for value: no second minimum filter.
+cv::Mat NormalisedDarkChannel(const cv::Mat& image, const cv::Mat& dark, const cv::Vec3f& airlight,
+                              bool skip_red, int patch_size) {
+  cv::Mat out = internal::PooledMat(image.size(), CV_32FC1);
+  const float a0 = std::max(airlight[0], kMinAirlight);
+  if (image.channels() == 1) {
+    for (int y = 0; y < image.rows; ++y)
+      DivideRow(dark.ptr<float>(y), a0, out.ptr<float>(y), image.cols);
+    return out;
+  }
+  const float a1 = std::max(airlight[1], kMinAirlight), a2 = std::max(airlight[2], kMinAirlight);
+  for (int y = 0; y < image.rows; ++y) {
+    NormalisedMinRow3(image.ptr<float>(y), a0, a1, a2, skip_red, out.ptr<float>(y), image.cols);
+  }
+  return MinFilter(out, patch_size);
 }
 
 DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, bool underwater,
@@ -52,15 +87,17 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
   result.airlight_pixel =
       EstimateAirlight(image, result.dark_channel, options.airlight_fraction, &result.airlight);
   // He 2011 eq. 12: t = 1 - ω min_Ω min_c I^c / A^c. Clamped to [0,1]: where a pixel is brighter
-  // than A the estimate goes negative, which no transmission can be.
-  cv::Mat normalised_dark =
-      MinFilter(NormalisedChannelMin(image, result.airlight, underwater), options.patch_size);
-  result.raw_transmission = 1.0 - options.omega * normalised_dark;
-  baselines_internal::ClampUnit(result.raw_transmission);
+  // than A the estimate goes negative, which no transmission can be. (OpenCV evaluates 1 - ω m,
+  // with an FMA where the CPU has one: kept as it was, so the values stay the same.)
+  result.raw_transmission = internal::PooledMat(image.size(), CV_32FC1);
+  result.raw_transmission =
+      1.0 - options.omega * NormalisedDarkChannel(image, result.dark_channel, result.airlight,
+                                                  underwater, options.patch_size);
+  baselines_internal::ClampRange(result.raw_transmission, 0.0f, 1.0f);
   if (options.refine) {
     result.transmission =
         GuidedSmooth(image, result.raw_transmission, options.guided_radius, options.guided_eps);
-    baselines_internal::ClampUnit(result.transmission);
+    baselines_internal::ClampRange(result.transmission, 0.0f, 1.0f);
   } else {
     result.transmission = result.raw_transmission.clone();
   }
@@ -88,14 +125,10 @@ bool DcpOptions::Check(std::string* why) const {
 
 cv::Mat DarkChannel(const cv::Mat& image, int patch_size, bool skip_red) {
   CV_Assert(image.depth() == CV_32F && (image.channels() == 1 || image.channels() == 3));
-  cv::Mat channel_min;
-  if (image.channels() == 1) {
-    channel_min = image.clone();
-  } else {
-    std::vector<cv::Mat> planes;
-    cv::split(image, planes);
-    channel_min = cv::min(planes[0], planes[1]);
-    if (!skip_red) channel_min = cv::min(channel_min, planes[2]);
+  if (image.channels() == 1) return MinFilter(image, patch_size);
+  cv::Mat channel_min = internal::PooledMat(image.size(), CV_32FC1);
+  for (int y = 0; y < image.rows; ++y) {
+    ChannelMinRow(image.ptr<float>(y), skip_red, channel_min.ptr<float>(y), image.cols);
   }
   return MinFilter(channel_min, patch_size);
 }
@@ -105,9 +138,29 @@ cv::Point EstimateAirlight(const cv::Mat& image, const cv::Mat& prior, double fr
   CV_Assert(prior.type() == CV_32FC1 && prior.size() == image.size() && prior.isContinuous());
   const int total = static_cast<int>(prior.total());
   const int count = std::clamp(static_cast<int>(std::ceil(fraction * total)), 1, total);
-  std::vector<int> order(total);
-  std::iota(order.begin(), order.end(), 0);
   const float* p = prior.ptr<float>();
+  // The `count` brightest pixels (ties: the lower index first) are a fixed set; only it is
+  // searched. It lies among the pixels at or above any value g that at least `count` pixels
+  // reach, so a g read from every 16th pixel (at the rank that leaves about twice `count` above)
+  // narrows the sort to those; when too few reach g, all pixels are sorted.
+  std::vector<int> order;
+  constexpr int kStride = 16;
+  if (total >= 64 * kStride && count <= total / (4 * kStride)) {
+    std::vector<float> sample;
+    sample.reserve(total / kStride + 1);
+    for (int i = 0; i < total; i += kStride) sample.push_back(p[i]);
+    const size_t rank = std::min(sample.size() - 1, static_cast<size_t>(2 * count / kStride + 1));
+    std::nth_element(sample.begin(), sample.begin() + rank, sample.end(), std::greater<float>());
+    const float g = sample[rank];
+    for (int i = 0; i < total; ++i) {
+      if (p[i] >= g) order.push_back(i);
+    }
+    if (static_cast<int>(order.size()) < count) order.clear();
+  }
+  if (order.empty()) {
+    order.resize(total);
+    std::iota(order.begin(), order.end(), 0);
+  }
   auto brighter = [p](int a, int b) { return p[a] > p[b] || (p[a] == p[b] && a < b); };
   std::nth_element(order.begin(), order.begin() + (count - 1), order.end(), brighter);
   const int channels = image.channels();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <opencv2/imgproc.hpp>
@@ -11,6 +12,7 @@
 #include "enhancer/simd_switch.h"
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
+#include "simulator/image_pool.h"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -39,19 +41,42 @@ void HorizontalPass(const float* col, float* out, int w, int r, const float* inv
   }
 }
 
+// The rows of K planes for BoxMeansRows: row(k, y, scratch) returns row y of plane k (w floats),
+// either a pointer into an image or `scratch` filled with the row (a product plane formed on the
+// fly: the same float products as a stored plane, without the full-size image).
+using PlaneRows = std::function<const float*(int, int, float*)>;
+
+PlaneRows StoredPlanes(const std::vector<cv::Mat>& planes) {
+  return [&planes](int k, int y, float*) { return planes[k].ptr<float>(y); };
+}
+
+TURBID_ROW_KERNEL void MultiplyRows(const float* __restrict u, const float* __restrict v,
+                                    float* __restrict out, int w) {
+  for (int x = 0; x < w; ++x) out[x] = u[x] * v[x];
+}
+
+TURBID_ROW_KERNEL void ColumnUpdate(float* __restrict c, const float* __restrict a,
+                                    const float* __restrict s, int w) {
+  if (a != nullptr && s != nullptr) {
+    for (int x = 0; x < w; ++x) c[x] += a[x] - s[x];
+  } else if (a != nullptr) {
+    for (int x = 0; x < w; ++x) c[x] += a[x];
+  } else if (s != nullptr) {
+    for (int x = 0; x < w; ++x) c[x] -= s[x];
+  }
+}
+
 // Box means of K planar one-channel float images of the same size over the clipped
 // (2r+1)x(2r+1) window, one output row at a time. Vertical sums are running column sums (one add
 // and one subtract per pixel, vectorised across the row); horizontal sums run along the row on
 // the differences (one dependent add per pixel, K chains interleaved). `emit(y, means)` receives
 // K row pointers of width W. Float rounding drift of the running sums stays below ~1e-6 of the
 // mean for 1360-pixel rows (checked against OpenCV in the tests).
-void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
+void BoxMeansRows(int k_count, int h, int w, int r, const PlaneRows& plane_row,
                   const std::function<void(int, const std::vector<const float*>&)>& emit) {
-  const int k_count = static_cast<int>(planes.size());
-  const int h = planes[0].rows;
-  const int w = planes[0].cols;
   std::vector<float> col(static_cast<size_t>(k_count) * w, 0.0f);
   std::vector<float> out(static_cast<size_t>(k_count) * w, 0.0f);
+  std::vector<float> scratch_a(w), scratch_s(w);
   std::vector<float> inv_cx(w);
   for (int x = 0; x < w; ++x) {
     const int c = std::min(x + r, w - 1) - std::max(x - r, 0) + 1;
@@ -61,27 +86,17 @@ void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
   // Prime the column sums with rows [0, r-1] (row y+r is added at the top of each step).
   for (int yy = 0; yy < std::min(r, h); ++yy) {
     for (int k = 0; k < k_count; ++k) {
-      const float* src = planes[k].ptr<float>(yy);
-      float* c = col.data() + static_cast<size_t>(k) * w;
-      for (int x = 0; x < w; ++x) c[x] += src[x];
+      ColumnUpdate(col.data() + static_cast<size_t>(k) * w, plane_row(k, yy, scratch_a.data()),
+                   nullptr, w);
     }
   }
   for (int y = 0; y < h; ++y) {
     const int add = y + r;
     const int sub = y - r - 1;
     for (int k = 0; k < k_count; ++k) {
-      float* c = col.data() + static_cast<size_t>(k) * w;
-      if (add < h && sub >= 0) {
-        const float* a = planes[k].ptr<float>(add);
-        const float* s = planes[k].ptr<float>(sub);
-        for (int x = 0; x < w; ++x) c[x] += a[x] - s[x];
-      } else if (add < h) {
-        const float* a = planes[k].ptr<float>(add);
-        for (int x = 0; x < w; ++x) c[x] += a[x];
-      } else if (sub >= 0) {
-        const float* s = planes[k].ptr<float>(sub);
-        for (int x = 0; x < w; ++x) c[x] -= s[x];
-      }
+      ColumnUpdate(col.data() + static_cast<size_t>(k) * w,
+                   add < h ? plane_row(k, add, scratch_a.data()) : nullptr,
+                   sub >= 0 ? plane_row(k, sub, scratch_s.data()) : nullptr, w);
     }
     const int cy = std::min(y + r, h - 1) - std::max(y - r, 0) + 1;
     const float inv_cy = 1.0f / static_cast<float>(cy);
@@ -89,6 +104,8 @@ void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
       HorizontalPass<2>(col.data(), out.data(), w, r, inv_cx.data(), inv_cy);
     } else if (k_count == 4) {
       HorizontalPass<4>(col.data(), out.data(), w, r, inv_cx.data(), inv_cy);
+    } else if (k_count == 13) {
+      HorizontalPass<13>(col.data(), out.data(), w, r, inv_cx.data(), inv_cy);
     } else {
       for (int k = 0; k < k_count; ++k) {
         HorizontalPass<1>(col.data() + static_cast<size_t>(k) * w,
@@ -98,6 +115,12 @@ void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
     for (int k = 0; k < k_count; ++k) rows[k] = out.data() + static_cast<size_t>(k) * w;
     emit(y, rows);
   }
+}
+
+void BoxMeansRows(const std::vector<cv::Mat>& planes, int r,
+                  const std::function<void(int, const std::vector<const float*>&)>& emit) {
+  BoxMeansRows(static_cast<int>(planes.size()), planes[0].rows, planes[0].cols, r,
+               StoredPlanes(planes), emit);
 }
 
 void CheckInputs(const GuidedFilterOptions& options, const cv::Mat& guide, const cv::Mat& src) {
@@ -118,34 +141,9 @@ void CheckInputs(const GuidedFilterOptions& options, const cv::Mat& guide, const
 // Row kernels of the one-channel filter (TURBID_ROW_KERNEL). Each processes a whole row of
 // contiguous floats, so the loops vectorise.
 
-// Vertical running sums, in place on the row of column sums: col += add - sub (either may be
-// null), or for a product plane col += add_u*add_v - sub_u*sub_v. Float, 8 lanes per AVX2
-// vector; the caller re-anchors the sums by direct summation every kAnchorRows rows, so rounding
-// drift spans at most that many steps (the variance mean(I^2) - mean(I)^2 cancels, so a drift
-// over a thousand rows would show in a = var / (var + eps)).
-TURBID_ROW_KERNEL void ColumnStep(float* __restrict col, const float* __restrict add,
-                                  const float* __restrict sub, int w) {
-  if (add != nullptr && sub != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] += add[x] - sub[x];
-  } else if (add != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] += add[x];
-  } else if (sub != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] -= sub[x];
-  }
-}
-
-TURBID_ROW_KERNEL void ColumnProductStep(float* __restrict col, const float* add_u,
-                                         const float* add_v, const float* sub_u, const float* sub_v,
-                                         int w) {
-  if (add_u != nullptr && sub_u != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] += add_u[x] * add_v[x] - sub_u[x] * sub_v[x];
-  } else if (add_u != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] += add_u[x] * add_v[x];
-  } else if (sub_u != nullptr) {
-    for (int x = 0; x < w; ++x) col[x] -= sub_u[x] * sub_v[x];
-  }
-}
-
+// Vertical running sums are float and re-anchored by direct summation every kAnchorRows rows, so
+// rounding drift spans at most that many steps (the variance mean(I^2) - mean(I)^2 cancels, so a
+// drift over a thousand rows would show in a = var / (var + eps)).
 constexpr int kAnchorRows = 64;
 
 TURBID_ROW_KERNEL void AddRows(float* __restrict dst, const float* __restrict a,
@@ -499,6 +497,126 @@ TURBID_AVX2 void ApplyCoefficientsRolling(const float* e_a, const float* e_b, co
                             guide[x], inv_cx[x] * inv_cy);
   }
 }
+
+// Window sums of W > 25 values (the binary-doubling tree of WindowSums) in fewer passes: with
+// D_1 = ext and D_2L(i) = D_L(i) + D_L(i + L), WindowSums returns the sum, in increasing L, of
+// D_L(x + o_L) over the set bits L of W (o_L: the sum of the lower set bits). One pass forms D_8
+// (and the terms of bits 1, 2 and 4) straight from ext; each further level is one pass over
+// aligned vectors on the grid of positions = W mod 8 (mod 8), where every level >= 8 is read; the
+// last pass adds the terms. The same additions in the same order as WindowSums, so the sums are
+// bit-identical. `scratch`: DoublingScratchFloats(w, W) floats.
+int DoublingLevels(int window) {
+  int top = 0;
+  while ((2 << top) <= window) ++top;
+  return top;  // 2^top <= window < 2^(top+1)
+}
+size_t DoublingScratchFloats(int w, int window) {
+  return static_cast<size_t>(DoublingLevels(window) - 2) * (w + window + 16) + 8;
+}
+
+// Scalar D_len(i), the tree of the doubling passes (tails of rows).
+inline float TreeSum(const float* e, int i, int len) {
+  if (len == 1) return e[i];
+  return TreeSum(e, i, len / 2) + TreeSum(e, i + len / 2, len / 2);
+}
+inline float WindowTreeSum(const float* e, int x, int window) {
+  float s = 0.0f;
+  bool first = true;
+  int offset = 0;
+  for (int len = 1; len <= window; len *= 2) {
+    if ((window & len) == 0) continue;
+    const float t = TreeSum(e, x + offset, len);
+    s = first ? t : s + t;
+    first = false;
+    offset += len;
+  }
+  return s;
+}
+
+TURBID_AVX2 inline __m256 Pair(const float* e) {
+  return _mm256_add_ps(_mm256_loadu_ps(e), _mm256_loadu_ps(e + 1));
+}
+TURBID_AVX2 inline __m256 Quad(const float* e) { return _mm256_add_ps(Pair(e), Pair(e + 2)); }
+// Lanes 4..11 / 2..9 of the 16 values a, b (a in lanes 0..7).
+TURBID_AVX2 inline __m256 Shift4(__m256 a, __m256 b) { return _mm256_permute2f128_ps(a, b, 0x21); }
+TURBID_AVX2 inline __m256 Shift2(__m256 a, __m256 b) {
+  const __m256i t = _mm256_castps_si256(_mm256_permute2f128_ps(a, b, 0x21));
+  return _mm256_castsi256_ps(_mm256_alignr_epi8(t, _mm256_castps_si256(a), 8));
+}
+
+TURBID_AVX2 void DoublingWindowSumsAvx2(const float* ext, int w, int window, float* out,
+                                        float* scratch) {
+  const int n = w + window - 1;
+  const int top = DoublingLevels(window);
+  const int c = window & 7;
+  const int o1 = window & 1, o2 = window & 3, o3 = window & 7;  // offsets of bits 2, 4, 8
+  const int blocks = w / 8;
+  const size_t stride = static_cast<size_t>(w + window + 16) & ~static_cast<size_t>(7);
+  float* base = scratch + ((8 - (reinterpret_cast<uintptr_t>(scratch) / 4) % 8) % 8);
+  // Level j (2^j values, j >= 3) at grid index m: positions c + 8m .. c + 8m + 7.
+  auto level = [&](int j) { return base + static_cast<size_t>(j - 3) * stride; };
+  auto count = [&](int j) {
+    const int room = n - (1 << j) - 7 - c;
+    return room < 0 ? 0 : room / 8 + 1;
+  };
+  {
+    // D_8 = D_4(i) + D_4(i + 4), D_4 = D_2(i) + D_2(i + 2), D_2 = ext(i) + ext(i + 1): the shifted
+    // operands come from the next vectors by lane shuffles (exact), so each vector costs three
+    // adds; the last vectors (whose look-ahead would leave ext) load their operands directly.
+    float* g = level(3);
+    const int m_end = count(3);
+    int m = 0;
+    const int m_shuffled = std::max(0, (n - 25 - c) / 8 + 1);  // ext(i0 + 24) must exist
+    if (std::min(m_end, m_shuffled) >= 1 && n - 25 - c >= 0) {
+      const float* e = ext + c;
+      __m256 p0 = Pair(e), p1 = Pair(e + 8), p2 = Pair(e + 16);
+      __m256 d0 = _mm256_add_ps(p0, Shift2(p0, p1));
+      __m256 d1 = _mm256_add_ps(p1, Shift2(p1, p2));
+      for (; m < std::min(m_end, m_shuffled); ++m) {
+        _mm256_store_ps(g + 8 * m, _mm256_add_ps(d0, Shift4(d0, d1)));
+        if (m + 1 >= std::min(m_end, m_shuffled)) break;
+        p1 = p2;
+        p2 = Pair(e + 8 * (m + 3));
+        d0 = d1;
+        d1 = _mm256_add_ps(p1, Shift2(p1, p2));
+      }
+      ++m;
+    }
+    for (; m < m_end; ++m) {
+      const float* e = ext + c + 8 * m;
+      _mm256_store_ps(g + 8 * m, _mm256_add_ps(Quad(e), Quad(e + 4)));
+    }
+  }
+  for (int j = 4; j <= top; ++j) {
+    const float* lo = level(j - 1);
+    float* g = level(j);
+    const int gap = 8 << (j - 4);  // 2^(j-1) floats
+    const int m_end = count(j);
+    for (int m = 0; m < m_end; ++m) {
+      _mm256_store_ps(g + 8 * m,
+                      _mm256_add_ps(_mm256_load_ps(lo + 8 * m), _mm256_load_ps(lo + 8 * m + gap)));
+    }
+  }
+  // The terms of the levels >= 8, in increasing order: level j read at x + offset - c.
+  const float* terms[32];
+  int term_count = 0;
+  for (int j = 3, offset = o3; j <= top; ++j) {
+    if ((window >> j) & 1) {
+      terms[term_count++] = level(j) + (offset - c);
+      offset += 1 << j;
+    }
+  }
+  const bool bit2 = (window & 2) != 0, bit4 = (window & 4) != 0;
+  for (int b = 0; b < blocks; ++b) {
+    const int x = 8 * b;
+    __m256 s = _mm256_loadu_ps(ext + x);  // bit 1 (W is odd)
+    if (bit2) s = _mm256_add_ps(s, Pair(ext + x + o1));
+    if (bit4) s = _mm256_add_ps(s, Quad(ext + x + o2));
+    for (int t = 0; t < term_count; ++t) s = _mm256_add_ps(s, _mm256_load_ps(terms[t] + x));
+    _mm256_storeu_ps(out + x, s);
+  }
+  for (int x = 8 * blocks; x < w; ++x) out[x] = WindowTreeSum(ext, x, window);
+}
 #undef TURBID_AVX2
 #define TURBID_HAVE_ROLLING_QUADS 1
 #endif
@@ -596,6 +714,86 @@ TURBID_ROW_KERNEL void ColumnStepPair(float* __restrict c0, float* __restrict c1
   }
 }
 
+// Non-self stage A: the column sums of I, I^2, p and I p in one pass (the arithmetic of
+// ColumnStep / ColumnProductStep per plane).
+TURBID_ROW_KERNEL void ColumnStepGuided(float* __restrict c_i, float* __restrict c_ii,
+                                        float* __restrict c_p, float* __restrict c_ip,
+                                        const float* __restrict add_i,
+                                        const float* __restrict sub_i,
+                                        const float* __restrict add_p,
+                                        const float* __restrict sub_p, int w) {
+  if (add_i != nullptr && sub_i != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c_i[x] += add_i[x] - sub_i[x];
+      c_ii[x] += add_i[x] * add_i[x] - sub_i[x] * sub_i[x];
+      c_p[x] += add_p[x] - sub_p[x];
+      c_ip[x] += add_i[x] * add_p[x] - sub_i[x] * sub_p[x];
+    }
+  } else if (add_i != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c_i[x] += add_i[x];
+      c_ii[x] += add_i[x] * add_i[x];
+      c_p[x] += add_p[x];
+      c_ip[x] += add_i[x] * add_p[x];
+    }
+  } else if (sub_i != nullptr) {
+    for (int x = 0; x < w; ++x) {
+      c_i[x] -= sub_i[x];
+      c_ii[x] -= sub_i[x] * sub_i[x];
+      c_p[x] -= sub_p[x];
+      c_ip[x] -= sub_i[x] * sub_p[x];
+    }
+  }
+}
+
+// Re-anchoring (every kAnchorRows rows): the column sums over the window's rows from zero, the
+// rows added in order as the running steps add them (so the same roundings), but 16 columns at a
+// time in registers instead of one pass over the whole row per window row. Sums of u (into
+// c_u), and as selected of u^2 (c_uu), of v (c_v) and of u v (c_uv).
+constexpr int kAnchorBlock = 16;
+
+template <bool kSquare, bool kSecond, bool kProduct>
+TURBID_ROW_KERNEL void AnchorSums(const float* const* u, const float* const* v, int count, int w,
+                                  float* __restrict c_u, float* __restrict c_uu,
+                                  float* __restrict c_v, float* __restrict c_uv) {
+  int x0 = 0;
+  for (; x0 + kAnchorBlock <= w; x0 += kAnchorBlock) {
+    float su[kAnchorBlock] = {}, suu[kAnchorBlock] = {}, sv[kAnchorBlock] = {},
+          suv[kAnchorBlock] = {};
+    for (int k = 0; k < count; ++k) {
+      const float* __restrict a = u[k] + x0;
+      const float* __restrict b = kSecond ? v[k] + x0 : a;
+      for (int i = 0; i < kAnchorBlock; ++i) {
+        su[i] += a[i];
+        if (kSquare) suu[i] += a[i] * a[i];
+        if (kSecond) sv[i] += b[i];
+        if (kProduct) suv[i] += a[i] * b[i];
+      }
+    }
+    for (int i = 0; i < kAnchorBlock; ++i) {
+      c_u[x0 + i] = su[i];
+      if (kSquare) c_uu[x0 + i] = suu[i];
+      if (kSecond) c_v[x0 + i] = sv[i];
+      if (kProduct) c_uv[x0 + i] = suv[i];
+    }
+  }
+  for (; x0 < w; ++x0) {  // the last < 16 columns: the same additions one column at a time
+    float su = 0.0f, suu = 0.0f, sv = 0.0f, suv = 0.0f;
+    for (int k = 0; k < count; ++k) {
+      const float a = u[k][x0];
+      const float b = kSecond ? v[k][x0] : a;
+      su += a;
+      if (kSquare) suu += a * a;
+      if (kSecond) sv += b;
+      if (kProduct) suv += a * b;
+    }
+    c_u[x0] = su;
+    if (kSquare) c_uu[x0] = suu;
+    if (kSecond) c_v[x0] = sv;
+    if (kProduct) c_uv[x0] = suv;
+  }
+}
+
 // Vertical window bookkeeping for output row t of a clipped (2r+1)-row window over h rows: the
 // rows entering and leaving (-1: none). Row t's window is [max(t-r, 0), min(t+r, h-1)]; the
 // first row primes the sums with the whole window.
@@ -642,6 +840,11 @@ class GrayStream {
       sums_.assign(static_cast<size_t>(planes_a_ + 2) * w_, 0.0f);
       t0_.resize(ext_len_);
       t1_.resize(ext_len_);
+#ifdef TURBID_HAVE_ROLLING_QUADS
+      if (enhancer_internal::UseHandWrittenAvx2()) {
+        doubling_.resize(DoublingScratchFloats(w_, window_));
+      }
+#endif
     }
   }
 
@@ -651,8 +854,11 @@ class GrayStream {
     while (next_a_ <= need) StageA(next_a_++);
     const int ka = planes_a_, kb = planes_a_ + 1;
     if (t % kAnchorRows == 0) {
-      Vertical(ka, t, a_ring_, nullptr, true);
-      Vertical(kb, t, b_ring_, nullptr, true);
+      WindowRows(t, a_ring_, &rows_u_, true);
+      WindowRows(t, b_ring_, &rows_v_, true);
+      AnchorSums<false, true, false>(rows_u_.data(), rows_v_.data(),
+                                     static_cast<int>(rows_u_.size()), w_, Ext(ka) + pad_, nullptr,
+                                     Ext(kb) + pad_, nullptr);
     } else {
       const int add = t + r_ < h_ ? (t + r_) % ring_ : -1;
       const int sub = t - r_ - 1 >= 0 ? (t - r_ - 1) % ring_ : -1;
@@ -666,8 +872,8 @@ class GrayStream {
       fused_.apply(Ext(ka), Ext(kb), Quad(ka), Quad(kb), guide, inv_cx_.data(), inv_cy, dst, w_);
       return;
     }
-    WindowSums(Ext(ka), w_, window_, Sum(ka), t0_.data(), t1_.data());
-    WindowSums(Ext(kb), w_, window_, Sum(kb), t0_.data(), t1_.data());
+    WindowSumsOf(ka);
+    WindowSumsOf(kb);
     ApplyCoefficients(Sum(ka), Sum(kb), guide, inv_cx_.data(), inv_cy, dst, w_);
   }
 
@@ -678,53 +884,48 @@ class GrayStream {
     return quads_.empty() ? nullptr : quads_.data() + static_cast<size_t>(k) * ext_len_;
   }
   float* Sum(int k) { return sums_.data() + static_cast<size_t>(k) * w_; }
+  // Window sums of plane k's padded column sums into Sum(k) (radii beyond kMaxFusedRadius).
+  void WindowSumsOf(int k) {
+#ifdef TURBID_HAVE_ROLLING_QUADS
+    if (!doubling_.empty()) {
+      DoublingWindowSumsAvx2(Ext(k), w_, window_, Sum(k), doubling_.data());
+      return;
+    }
+#endif
+    WindowSums(Ext(k), w_, window_, Sum(k), t0_.data(), t1_.data());
+  }
   static const float* RingRow(const cv::Mat& ring, int slot) {
     return slot >= 0 ? ring.ptr<float>(slot) : nullptr;
   }
 
-  // Vertical step of plane k for output row t: plane u, or the product u*v when v is given.
-  // `in_ring`: u is a ring of rows (a or b), row y in slot y % ring.
-  void Vertical(int k, int t, const cv::Mat& u, const cv::Mat* v, bool in_ring) {
-    auto at = [&](const cv::Mat& m, int y) -> const float* {
-      return m.ptr<float>(in_ring ? y % ring_ : y);
-    };
-    float* c = Ext(k) + pad_;  // the column sums are the middle of the padded row
-    if (t % kAnchorRows == 0) {
-      std::fill(c, c + w_, 0.0f);
-      for (int y = std::max(t - r_, 0); y <= std::min(t + r_, h_ - 1); ++y) {
-        if (v == nullptr) {
-          ColumnStep(c, at(u, y), nullptr, w_);
-        } else {
-          ColumnProductStep(c, at(u, y), at(*v, y), nullptr, nullptr, w_);
-        }
-      }
-      return;
-    }
-    const int add = t + r_ < h_ ? t + r_ : -1;
-    const int sub = t - r_ - 1 >= 0 ? t - r_ - 1 : -1;
-    const float* au = add >= 0 ? at(u, add) : nullptr;
-    const float* su = sub >= 0 ? at(u, sub) : nullptr;
-    if (v == nullptr) {
-      ColumnStep(c, au, su, w_);
-    } else {
-      const float* av = add >= 0 ? at(*v, add) : nullptr;
-      const float* sv = sub >= 0 ? at(*v, sub) : nullptr;
-      ColumnProductStep(c, au, av, su, sv, w_);
-    }
+  // The rows of the clipped vertical window of row t, top to bottom (from the ring of a or b
+  // rows when in_ring).
+  void WindowRows(int t, const cv::Mat& m, std::vector<const float*>* rows, bool in_ring = false) {
+    rows->clear();
+    for (int y = std::max(t - r_, 0); y <= std::min(t + r_, h_ - 1); ++y)
+      rows->push_back(m.ptr<float>(in_ring ? y % ring_ : y));
   }
 
   void StageA(int y) {
-    if (self_ && y % kAnchorRows != 0) {
-      const float* add = y + r_ < h_ ? guide_.ptr<float>(y + r_) : nullptr;
-      const float* sub = y - r_ - 1 >= 0 ? guide_.ptr<float>(y - r_ - 1) : nullptr;
+    const float* add = y + r_ < h_ ? guide_.ptr<float>(y + r_) : nullptr;
+    const float* sub = y - r_ - 1 >= 0 ? guide_.ptr<float>(y - r_ - 1) : nullptr;
+    if (y % kAnchorRows == 0) {
+      WindowRows(y, guide_, &rows_u_);
+      if (self_) {
+        AnchorSums<true, false, false>(rows_u_.data(), nullptr, static_cast<int>(rows_u_.size()),
+                                       w_, Ext(0) + pad_, Ext(1) + pad_, nullptr, nullptr);
+      } else {
+        WindowRows(y, src_, &rows_v_);
+        AnchorSums<true, true, true>(rows_u_.data(), rows_v_.data(),
+                                     static_cast<int>(rows_u_.size()), w_, Ext(0) + pad_, Ext(1) + pad_,
+                                     Ext(2) + pad_, Ext(3) + pad_);
+      }
+    } else if (self_) {
       ColumnStepSelf(Ext(0) + pad_, Ext(1) + pad_, add, sub, w_);
     } else {
-      Vertical(0, y, guide_, nullptr, false);
-      Vertical(1, y, guide_, &guide_, false);
-      if (!self_) {
-        Vertical(2, y, src_, nullptr, false);
-        Vertical(3, y, guide_, &src_, false);
-      }
+      ColumnStepGuided(Ext(0) + pad_, Ext(1) + pad_, Ext(2) + pad_, Ext(3) + pad_, add, sub,
+                       add != nullptr ? src_.ptr<float>(y + r_) : nullptr,
+                       sub != nullptr ? src_.ptr<float>(y - r_ - 1) : nullptr, w_);
     }
     const float inv_cy = 1.0f / static_cast<float>(InvCount(y, r_, h_));
     float* ar = a_ring_.ptr<float>(y % ring_);
@@ -745,9 +946,7 @@ class GrayStream {
       }
       return;
     }
-    for (int k = 0; k < planes_a_; ++k) {
-      WindowSums(Ext(k), w_, window_, Sum(k), t0_.data(), t1_.data());
-    }
+    for (int k = 0; k < planes_a_; ++k) WindowSumsOf(k);
     if (self_) {
       SelfCoefficients(Sum(0), Sum(1), inv_cx_.data(), inv_cy, eps_, ar, br, w_);
     } else {
@@ -762,6 +961,8 @@ class GrayStream {
   const int h_, w_, pad_, window_, ext_len_, planes_a_, ring_;  // w_, pad_: values, not pixels
   // Per-plane buffers: column sums with r zeros each side (the clipped window); window sums.
   std::vector<float> ext_, quads_, sums_, t0_, t1_, inv_cx_;
+  std::vector<float> doubling_;                // DoublingWindowSumsAvx2's levels (AVX2, radii > 12)
+  std::vector<const float*> rows_u_, rows_v_;  // window rows when re-anchoring
   cv::Mat a_ring_, b_ring_;
   FusedKernels fused_;  // empty beyond kMaxFusedRadius (window sums by binary doubling)
   int next_a_ = 0;
@@ -769,7 +970,8 @@ class GrayStream {
 
 cv::Mat GuidedGray(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self) {
   GrayStream stream(guide, src, r, eps, self);
-  cv::Mat q(guide.rows, guide.cols, CV_32F);
+  // The output from the recycling pool (simulator/image_pool.h): no fresh pages per call.
+  cv::Mat q = internal::PooledMat(guide.size(), CV_32F);
   for (int t = 0; t < guide.rows; ++t) stream.Row(t, q.ptr<float>(t));
   return q;
 }
@@ -801,50 +1003,94 @@ std::pair<cv::Mat, cv::Mat> GrayCoefficients(const cv::Mat& guide, const cv::Mat
   return {ma, mb};
 }
 
+// The colour-guide coefficients of one pixel (He 2013 eqs. 19-21) from the 13 box means.
+TURBID_ROW_KERNEL void ColorCoefficientRow(const float* const* __restrict m, double eps,
+                                           float* __restrict a0, float* __restrict a1,
+                                           float* __restrict a2, float* __restrict bb, int w) {
+  const float* __restrict m0 = m[0];
+  const float* __restrict m1 = m[1];
+  const float* __restrict m2 = m[2];
+  const float* __restrict m3 = m[3];
+  const float* __restrict m4 = m[4];
+  const float* __restrict m5 = m[5];
+  const float* __restrict m6 = m[6];
+  const float* __restrict m7 = m[7];
+  const float* __restrict m8 = m[8];
+  const float* __restrict m9 = m[9];
+  const float* __restrict m10 = m[10];
+  const float* __restrict m11 = m[11];
+  const float* __restrict m12 = m[12];
+  for (int x = 0; x < w; ++x) {
+    const double mu0 = m0[x], mu1 = m1[x], mu2 = m2[x], mp = m3[x];
+    const double s00 = m4[x] - mu0 * mu0 + eps, s01 = m5[x] - mu0 * mu1, s02 = m6[x] - mu0 * mu2,
+                 s11 = m7[x] - mu1 * mu1 + eps, s12 = m8[x] - mu1 * mu2,
+                 s22 = m9[x] - mu2 * mu2 + eps;
+    const double c0 = m10[x] - mu0 * mp, c1 = m11[x] - mu1 * mp, c2 = m12[x] - mu2 * mp;
+    // Symmetric 3x3 inverse by cofactors; Sigma + eps I is positive definite for eps > 0.
+    const double i00 = s11 * s22 - s12 * s12, i01 = s02 * s12 - s01 * s22,
+                 i02 = s01 * s12 - s02 * s11, i11 = s00 * s22 - s02 * s02,
+                 i12 = s01 * s02 - s00 * s12, i22 = s00 * s11 - s01 * s01;
+    const double det = s00 * i00 + s01 * i01 + s02 * i02;
+    const double inv = 1.0 / det;
+    const double v0 = (i00 * c0 + i01 * c1 + i02 * c2) * inv;
+    const double v1 = (i01 * c0 + i11 * c1 + i12 * c2) * inv;
+    const double v2 = (i02 * c0 + i12 * c1 + i22 * c2) * inv;
+    a0[x] = static_cast<float>(v0);
+    a1[x] = static_cast<float>(v1);
+    a2[x] = static_cast<float>(v2);
+    bb[x] = static_cast<float>(mp - v0 * mu0 - v1 * mu1 - v2 * mu2);
+  }
+}
+
+// q = mean a . I + mean b, in the order (and float roundings) of
+// m0.mul(g0) + m1.mul(g1) + m2.mul(g2) + m3.
+TURBID_ROW_KERNEL void ColorApplyRow(const float* __restrict m0, const float* __restrict m1,
+                                     const float* __restrict m2, const float* __restrict m3,
+                                     const float* __restrict g0, const float* __restrict g1,
+                                     const float* __restrict g2, float* __restrict q, int w) {
+  for (int x = 0; x < w; ++x) {
+    const float p0 = m0[x] * g0[x], p1 = m1[x] * g1[x], p2 = m2[x] * g2[x];
+    q[x] = ((p0 + p1) + p2) + m3[x];
+  }
+}
+
 // Colour guide (He 2013 eqs. 19-21): a = (Sigma + eps U)^-1 cov(I, p), b = mean p - a . mean I.
-// Returns the box means of (a_0, a_1, a_2, b) as four planes.
+// The 13 planes (I, p, the 6 products I_i I_j and the 3 products I_i p) are box-averaged with the
+// products formed row by row; the coefficients go to four full-size planes (the second box
+// filter reads them).
 std::vector<cv::Mat> ColorCoefficients(const std::vector<cv::Mat>& g, const cv::Mat& src, int r,
                                        double eps) {
   const int h = src.rows;
   const int w = src.cols;
-  std::vector<cv::Mat> planes = {g[0],           g[1],           g[2],           src,
-                                 g[0].mul(g[0]), g[0].mul(g[1]), g[0].mul(g[2]), g[1].mul(g[1]),
-                                 g[1].mul(g[2]), g[2].mul(g[2]), g[0].mul(src),  g[1].mul(src),
-                                 g[2].mul(src)};
+  // Planes 0-3: g0, g1, g2, src; 4-9: g0g0 g0g1 g0g2 g1g1 g1g2 g2g2; 10-12: g0 src, g1 src, g2 src.
+  static constexpr int kFactors[13][2] = {{0, -1}, {1, -1}, {2, -1}, {3, -1}, {0, 0},
+                                          {0, 1},  {0, 2},  {1, 1},  {1, 2},  {2, 2},
+                                          {0, 3},  {1, 3},  {2, 3}};
+  const cv::Mat* base[4] = {&g[0], &g[1], &g[2], &src};
+  const PlaneRows rows = [&](int k, int y, float* scratch) -> const float* {
+    const float* u = base[kFactors[k][0]]->ptr<float>(y);
+    if (kFactors[k][1] < 0) return u;
+    MultiplyRows(u, base[kFactors[k][1]]->ptr<float>(y), scratch, w);
+    return scratch;
+  };
   std::vector<cv::Mat> coef(4);
   for (cv::Mat& c : coef) c.create(h, w, CV_32F);
-  BoxMeansRows(planes, r, [&](int y, const std::vector<const float*>& m) {
-    float* a0 = coef[0].ptr<float>(y);
-    float* a1 = coef[1].ptr<float>(y);
-    float* a2 = coef[2].ptr<float>(y);
-    float* bb = coef[3].ptr<float>(y);
-    for (int x = 0; x < w; ++x) {
-      const double mu0 = m[0][x], mu1 = m[1][x], mu2 = m[2][x], mp = m[3][x];
-      const double s00 = m[4][x] - mu0 * mu0 + eps, s01 = m[5][x] - mu0 * mu1,
-                   s02 = m[6][x] - mu0 * mu2, s11 = m[7][x] - mu1 * mu1 + eps,
-                   s12 = m[8][x] - mu1 * mu2, s22 = m[9][x] - mu2 * mu2 + eps;
-      const double c0 = m[10][x] - mu0 * mp, c1 = m[11][x] - mu1 * mp, c2 = m[12][x] - mu2 * mp;
-      // Symmetric 3x3 inverse by cofactors; Sigma + eps I is positive definite for eps > 0.
-      const double i00 = s11 * s22 - s12 * s12, i01 = s02 * s12 - s01 * s22,
-                   i02 = s01 * s12 - s02 * s11, i11 = s00 * s22 - s02 * s02,
-                   i12 = s01 * s02 - s00 * s12, i22 = s00 * s11 - s01 * s01;
-      const double det = s00 * i00 + s01 * i01 + s02 * i02;
-      const double inv = 1.0 / det;
-      const double v0 = (i00 * c0 + i01 * c1 + i02 * c2) * inv;
-      const double v1 = (i01 * c0 + i11 * c1 + i12 * c2) * inv;
-      const double v2 = (i02 * c0 + i12 * c1 + i22 * c2) * inv;
-      a0[x] = static_cast<float>(v0);
-      a1[x] = static_cast<float>(v1);
-      a2[x] = static_cast<float>(v2);
-      bb[x] = static_cast<float>(mp - v0 * mu0 - v1 * mu1 - v2 * mu2);
-    }
+  BoxMeansRows(13, h, w, r, rows, [&](int y, const std::vector<const float*>& m) {
+    ColorCoefficientRow(m.data(), eps, coef[0].ptr<float>(y), coef[1].ptr<float>(y),
+                        coef[2].ptr<float>(y), coef[3].ptr<float>(y), w);
   });
-  std::vector<cv::Mat> means(4);
-  for (cv::Mat& c : means) c.create(h, w, CV_32F);
+  return coef;
+}
+
+// The colour-guided output from the coefficients (their box means, then a . I + b).
+cv::Mat ColorApply(const std::vector<cv::Mat>& coef, const std::vector<cv::Mat>& g, int r) {
+  const int w = g[0].cols;
+  cv::Mat q = internal::PooledMat(g[0].size(), CV_32F);
   BoxMeansRows(coef, r, [&](int y, const std::vector<const float*>& m) {
-    for (int k = 0; k < 4; ++k) std::copy(m[k], m[k] + w, means[k].ptr<float>(y));
+    ColorApplyRow(m[0], m[1], m[2], m[3], g[0].ptr<float>(y), g[1].ptr<float>(y),
+                  g[2].ptr<float>(y), q.ptr<float>(y), w);
   });
-  return means;
+  return q;
 }
 
 cv::Mat Continuous(const cv::Mat& m) { return m.isContinuous() ? m : m.clone(); }
@@ -908,8 +1154,8 @@ cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide_in
       std::vector<cv::Mat> g;
       cv::split(guide, g);
       for (const cv::Mat& p : src_planes) {
-        std::vector<cv::Mat> m = ColorCoefficients(g, p, options.radius, options.eps);
-        out_planes.push_back(m[0].mul(g[0]) + m[1].mul(g[1]) + m[2].mul(g[2]) + m[3]);
+        out_planes.push_back(
+            ColorApply(ColorCoefficients(g, p, options.radius, options.eps), g, options.radius));
       }
     }
   } else {
@@ -932,6 +1178,12 @@ cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide_in
         coef = {ma, mb};
       } else {
         coef = ColorCoefficients(g_small, p_small, rs, options.eps);
+        std::vector<cv::Mat> means(4);
+        for (cv::Mat& c : means) c.create(coef[0].size(), CV_32F);
+        BoxMeansRows(coef, rs, [&](int y, const std::vector<const float*>& m) {
+          for (int k = 0; k < 4; ++k) std::copy(m[k], m[k] + coef[0].cols, means[k].ptr<float>(y));
+        });
+        coef = means;
       }
       for (cv::Mat& c : coef) cv::resize(c, c, guide.size(), 0, 0, cv::INTER_LINEAR);
       cv::Mat q = coef.back().clone();

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <optional>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "enhancer/deconvolution.h"
 #include "enhancer/method.h"
+#include "enhancer/oracle_internal.h"
 #include "scenes/error.h"
+#include "scenes/row_kernel.h"
+#include "simulator/image_pool.h"
 #include "simulator/light.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
@@ -23,13 +26,12 @@ bool Fail(std::string* why, const std::string& message) {
   return false;
 }
 
-// Element-wise max(m, v) and m + v on every channel (cv::Mat + double adds to channel 0 only).
+// Element-wise max(m, v) on every channel.
 cv::Mat MaxAll(const cv::Mat& m, double v) {
   cv::Mat out;
   cv::max(m, cv::Scalar::all(v), out);
   return out;
 }
-cv::Mat PlusAll(const cv::Mat& m, double v) { return m + cv::Scalar::all(v); }
 
 cv::Scalar ToScalar(const std::vector<double>& values) {
   cv::Scalar s;
@@ -147,6 +149,26 @@ BlurModel MakeBlurModel(const PsfOptions& options, const cv::Mat& range_m,
   return m;
 }
 
+// Full-size buffers come from the renderer's recycling pool (simulator/image_pool.h): the
+// oracle needs a few dozen per call, and fresh pages for each cost more than its arithmetic.
+cv::Mat NewLike(const cv::Mat& m) { return internal::PooledMat(m.size(), m.type()); }
+
+// out = m + s per channel (cv::add of a Mat and a Scalar: the scalar in float).
+void AddScalar(const cv::Mat& m, const cv::Scalar& s, const cv::Mat& out) {
+  cv::Mat dst = out;
+  cv::add(m, s, dst);
+}
+
+// Element-wise passes over images of the same size and type (any channel count, rows possibly
+// strided): fn(i, pointers...) for every value i of a row. Every formula below is written as the
+// OpenCV expressions it replaced evaluate it (one float rounding per operation, no FMA), so the
+// values are the same; the passes fuse what were separate full-size temporaries.
+template <typename Fn, typename... Mats>
+void ForRows(const cv::Mat& shape, Fn fn, Mats&... mats) {
+  const int n = shape.cols * shape.channels();
+  for (int y = 0; y < shape.rows; ++y) fn(n, mats.template ptr<float>(y)...);
+}
+
 // Every true parameter of a render, as image-sized maps in the image's channel order.
 struct Truth {
   RenderOptions render;
@@ -188,7 +210,8 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
         scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
     e_l = IrradianceMap(ro.light, scene.camera, scene.depth_m, normals, beta);
   }
-  truth.irradiance = e_l + ToScalar(ambient);
+  truth.irradiance = NewLike(image);
+  AddScalar(e_l, ToScalar(ambient), truth.irradiance);
   if (zero_beta) {
     // The renderer's beta = 0 path: t = 1 where depth is valid, 0 (open water) where it is NaN.
     cv::Mat valid = truth.range_m == truth.range_m;  // 255 where not NaN
@@ -199,16 +222,25 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   } else {
     truth.transmission = TransmissionMap(truth.range_m, beta);
   }
-  cv::Mat source = e_l.clone();
+  // veil = (1 - t) (E_L [+ B_inf]), as (one - t).mul(E_L + B_inf) evaluates it.
+  cv::Scalar backscatter = cv::Scalar::all(0);
   if (water.backscatter) {
-    source += ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
+    backscatter = ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
     truth.steps.push_back("veil: (1 - t)(E_L + B_inf)");
   } else {
     truth.steps.push_back("veil: (1 - t) E_L");
   }
-  const cv::Mat one(image.size(), image.type(), cv::Scalar::all(1));
-  truth.veil = (one - truth.transmission).mul(source);
-  truth.snow = cv::Mat(image.size(), image.type(), cv::Scalar::all(0));
+  truth.veil = NewLike(image);
+  const cv::Mat source = water.backscatter ? NewLike(image) : e_l;
+  if (water.backscatter) AddScalar(e_l, backscatter, source);
+  ForRows(
+      image,
+      [](int n, const float* t, const float* src, float* v) {
+        for (int i = 0; i < n; ++i) v[i] = (1.0f - t[i]) * src[i];
+      },
+      truth.transmission, source, truth.veil);
+  truth.snow = NewLike(image);
+  truth.snow.setTo(cv::Scalar::all(0));
   if (remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
     const MarineSnow snow =
         RenderMarineSnow(ro.snow, ro.light, scene.camera, truth.range_m, beta, ambient, ro.seed);
@@ -234,15 +266,6 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   return truth;
 }
 
-// Per-pixel max / min over the channels (CV_32FC1).
-cv::Mat ReduceChannels(const cv::Mat& m, int op) {
-  if (m.channels() == 1) return m;
-  cv::Mat out;
-  cv::reduce(m.reshape(1, static_cast<int>(m.total())), out, 1, op);
-  return out.reshape(1, m.rows);
-}
-cv::Mat MaxOverChannels(const cv::Mat& m) { return ReduceChannels(m, cv::REDUCE_MAX); }
-
 // Pixels where any channel of t is below `floor` (NaN depth has t = 0): CV_8UC1, 255 = masked.
 cv::Mat MaskBelow(const cv::Mat& t, double floor) {
   std::vector<cv::Mat> planes;
@@ -253,32 +276,96 @@ cv::Mat MaskBelow(const cv::Mat& t, double floor) {
 }
 
 cv::Mat BoxSum(const cv::Mat& m, int radius) {
-  cv::Mat out;
+  cv::Mat out = NewLike(m);
   cv::boxFilter(m, out, -1, cv::Size(2 * radius + 1, 2 * radius + 1), cv::Point(-1, -1), false,
                 cv::BORDER_REFLECT);
   return out;
+}
+
+// One row of the data term: u = ((I - S) - veil) / sc and a = sc^2 / variance with
+// sc = max(t E, 1e-12), both 0 where masked; a also 0 where I > clip_level (censored).
+template <int kChannels>
+TURBID_ROW_KERNEL void DataTermRowN(const float* __restrict in, const float* __restrict t,
+                                    const float* __restrict e, const float* __restrict sn,
+                                    const float* __restrict ve, const float* __restrict var,
+                                    const uchar* __restrict mk, float clip_level, int cols,
+                                    float* __restrict uu, float* __restrict aa) {
+  for (int x = 0; x < cols; ++x) {
+    for (int c = 0; c < kChannels; ++c) {
+      const int i = x * kChannels + c;
+      const float sc = std::max(t[i] * e[i], 1e-12f);
+      const float ui = ((in[i] - sn[i]) - ve[i]) / sc;
+      const float ai = (sc * sc) / var[i];
+      const float high = in[i] > clip_level ? 1.0f : 0.0f;
+      uu[i] = mk[x] != 0 ? 0.0f : ui;
+      aa[i] = (mk[x] != 0 ? 0.0f : ai) * (1.0f - high);
+    }
+  }
+}
+
+void DataTermRow(const float* in, const float* t, const float* e, const float* sn, const float* ve,
+                 const float* var, const uchar* mk, float clip_level, int ch, int cols, float* uu,
+                 float* aa) {
+  if (ch == 1) {
+    DataTermRowN<1>(in, t, e, sn, ve, var, mk, clip_level, cols, uu, aa);
+  } else {
+    DataTermRowN<3>(in, t, e, sn, ve, var, mk, clip_level, cols, uu, aa);
+  }
+}
+
+// Pixels of a row with some channel above clip_level.
+int CountClipped(const float* in, float clip_level, int ch, int cols) {
+  int count = 0;
+  for (int x = 0; x < cols; ++x) {
+    bool clipped = false;
+    for (int c = 0; c < ch; ++c) clipped = clipped || in[x * ch + c] > clip_level;
+    count += clipped ? 1 : 0;
+  }
+  return count;
 }
 
 // Local signal variance around the prior mean p of values z whose noise variances are 1 / a (a =
 // 0: no data): max(sum a (z - p)^2 - sum [a > 0], 0) / sum a over a window of `radius` (0: the
 // whole image). Unbiased for independent samples (E a (z - p)^2 = a S + 1).
 cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius) {
-  cv::Mat d = z - p;
-  cv::Mat num = a.mul(d.mul(d));
-  cv::Mat has;
-  cv::threshold(a, has, 0.0, 1.0, cv::THRESH_BINARY);
+  cv::Mat num = NewLike(z), has = NewLike(z);
+  bool all_data = true;
+  ForRows(
+      z,
+      [&all_data](int n, const float* zz, const float* aa, const float* pp, float* nn, float* hh) {
+        for (int i = 0; i < n; ++i) {
+          const float d = zz[i] - pp[i];
+          nn[i] = aa[i] * (d * d);
+          hh[i] = aa[i] > 0.0f ? 1.0f : 0.0f;
+          all_data = all_data && aa[i] > 0.0f;
+        }
+      },
+      z, a, p, num, has);
   if (radius <= 0) {
     const cv::Scalar sa = cv::sum(a), sn = cv::sum(num), sh = cv::sum(has);
     cv::Scalar s;
     for (int c = 0; c < z.channels(); ++c)
       s[c] = sa[c] > 0 ? std::max(sn[c] - sh[c], 0.0) / sa[c] : 0.0;
-    return cv::Mat(z.size(), z.type(), s);
+    cv::Mat out = NewLike(z);
+    out.setTo(s);
+    return out;
   }
-  cv::Mat sa = BoxSum(a, radius);
-  cv::Mat v = BoxSum(num, radius) - BoxSum(has, radius);
-  v = MaxAll(v, 0.0);
-  cv::Mat out;
-  cv::divide(v, MaxAll(sa, 1e-30), out);
+  const cv::Mat sa = BoxSum(a, radius);
+  cv::Mat out = BoxSum(num, radius);
+  // The box count of [a > 0] is a small integer, exact whatever the summation; with data
+  // everywhere it is the full (2r + 1)^2 window (reflected borders).
+  const float full = static_cast<float>((2 * radius + 1) * (2 * radius + 1));
+  const cv::Mat count = all_data ? cv::Mat() : BoxSum(has, radius);
+  for (int y = 0; y < z.rows; ++y) {
+    const int n = z.cols * z.channels();
+    float* o = out.ptr<float>(y);
+    const float* w = sa.ptr<float>(y);
+    const float* h = all_data ? nullptr : count.ptr<float>(y);
+    for (int i = 0; i < n; ++i) {
+      const float v = std::max(o[i] - (h != nullptr ? h[i] : full), 0.0f);
+      o[i] = v / std::max(w[i], 1e-30f);
+    }
+  }
   return out;
 }
 
@@ -288,36 +375,133 @@ cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p
 cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a, cv::Mat* prior,
                          cv::Mat* posterior) {
   const int ch = u.channels();
-  cv::Mat au = a.mul(u);
+  cv::Mat au = NewLike(u);
+  ForRows(
+      u,
+      [](int n, const float* aa, const float* uu, float* out) {
+        for (int i = 0; i < n; ++i) out[i] = aa[i] * uu[i];
+      },
+      a, u, au);
   // Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data).
   const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
   cv::Scalar m0;
   for (int c = 0; c < ch; ++c) m0[c] = sa[c] > 0 ? sau[c] / sa[c] : 0.5;
-  cv::Mat p(u.size(), u.type(), m0);
+  cv::Mat p = NewLike(u);
+  p.setTo(m0);
   int prev_radius = 0;  // 0: global
   for (const int radius : {o.coarse_radius, o.middle_radius}) {
     const cv::Mat w = BoxSum(a, radius);
-    cv::Mat m;
-    cv::divide(BoxSum(au, radius), MaxAll(w, 1e-30), m);  // BLUE of the local mean; noise 1 / w
+    cv::Mat m = BoxSum(au, radius);  // becomes the BLUE of the local mean; noise 1 / w
+    ForRows(
+        u,
+        [](int n, const float* ww, float* mm) {
+          for (int i = 0; i < n; ++i) mm[i] = mm[i] / std::max(ww[i], 1e-30f);
+        },
+        w, m);
     const cv::Mat s = LocalSignalVariance(m, w, p, prev_radius);
     // p += S / (S + 1/w) (m - p) = S w / (S w + 1) (m - p); w = 0 keeps p.
-    cv::Mat sw = s.mul(w);
-    cv::Mat gain;
-    cv::divide(sw, PlusAll(sw, 1.0), gain);
-    p += gain.mul(m - p);
+    ForRows(
+        u,
+        [](int n, const float* ss, const float* ww, const float* mm, float* pp) {
+          for (int i = 0; i < n; ++i) {
+            const float sw = ss[i] * ww[i];
+            const float gain = sw / (sw + 1.0f);
+            pp[i] = pp[i] + gain * (mm[i] - pp[i]);
+          }
+        },
+        s, w, m, p);
     prev_radius = radius;
   }
-  const cv::Mat s = LocalSignalVariance(u, a, p, o.pixel_radius);
-  cv::Mat sa_px = s.mul(a);
-  cv::Mat gain;
-  cv::divide(sa_px, PlusAll(sa_px, 1.0), gain);  // S / (S + v); 0 where masked (a = 0)
+  cv::Mat s = LocalSignalVariance(u, a, p, o.pixel_radius);
+  // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
+  // S v / (S + v) = S / (S a + 1), S where masked. `s` becomes the posterior, `est` the estimate.
+  cv::Mat est = NewLike(u);
+  ForRows(
+      u,
+      [](int n, const float* aa, const float* uu, const float* pp, float* ss, float* ee) {
+        for (int i = 0; i < n; ++i) {
+          const float sa_px = ss[i] * aa[i];
+          const float den = sa_px + 1.0f;
+          const float gain = sa_px / den;
+          ss[i] = ss[i] / den;
+          ee[i] = pp[i] + gain * (uu[i] - pp[i]);
+        }
+      },
+      a, u, p, s, est);
   *prior = p;
-  // Posterior variance S v / (S + v) = S / (S a + 1); S where masked.
-  cv::divide(s, PlusAll(sa_px, 1.0), *posterior);
-  return p + gain.mul(u - p);
+  *posterior = s;
+  return est;
 }
 
 }  // namespace
+
+namespace oracle_internal {
+
+OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
+                            const cv::Mat& transmission, const cv::Mat& irradiance,
+                            const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
+                            double floor_var, double clip_level_d) {
+  cv::Mat variance = NewLike(image);
+  cv::boxFilter(image, variance, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
+  ForRows(
+      variance,
+      [gain_f, floor_f](int n, float* v) {
+        for (int i = 0; i < n; ++i) v[i] = std::max(v[i], 0.0f) * gain_f + floor_f;
+      },
+      variance);
+
+  // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,
+  // 0 where masked. Clipped samples (I at 1 in a channel) are not Gaussian data: they get no
+  // weight. A sample clipped at 1 still bounds rho from below, (1 - 2 sigma - S - veil) / (t E):
+  // the estimate is raised onto that bound where it falls short (docs/methods.md).
+  OracleMmseResult r;
+  r.masked = MaskBelow(transmission, o.mask_transmission);
+  r.masked_pixels = cv::countNonZero(r.masked);
+  const cv::Mat& masked = r.masked;
+  const float clip_level = static_cast<float>(clip_level_d);
+  const int ch = image.channels();
+  cv::Mat u = NewLike(image), a = NewLike(image);
+  int censored = 0;
+  for (int y = 0; y < image.rows; ++y) {
+    DataTermRow(image.ptr<float>(y), transmission.ptr<float>(y), irradiance.ptr<float>(y),
+                snow.ptr<float>(y), veil.ptr<float>(y), variance.ptr<float>(y),
+                masked.ptr<uchar>(y), clip_level, ch, image.cols, u.ptr<float>(y), a.ptr<float>(y));
+    censored += CountClipped(image.ptr<float>(y), clip_level, ch, image.cols);
+  }
+  r.censored_pixels = censored;
+  r.estimate = HierarchicalMmse(o, u, a, &r.prior, &r.posterior);
+  cv::Mat& est = r.estimate;
+  cv::Mat& prior = r.prior;
+  if (censored > 0) {
+    // est += (max(est, bound) - est) [clipped], and the same for the prior.
+    for (int y = 0; y < image.rows; ++y) {
+      const float* in = image.ptr<float>(y);
+      const float* t = transmission.ptr<float>(y);
+      const float* e = irradiance.ptr<float>(y);
+      const float* sn = snow.ptr<float>(y);
+      const float* ve = veil.ptr<float>(y);
+      const float* var = variance.ptr<float>(y);
+      float* es = est.ptr<float>(y);
+      float* pr = prior.ptr<float>(y);
+      for (int i = 0; i < image.cols * ch; ++i) {
+        if (in[i] > clip_level) {
+          const float sc = std::max(t[i] * e[i], 1e-12f);
+          const float bound = (((in[i] - 2.0f * std::sqrt(var[i])) - sn[i]) - ve[i]) / sc;
+          es[i] = es[i] + (std::max(es[i], bound) - es[i]);
+          pr[i] = pr[i] + (std::max(pr[i], bound) - pr[i]);
+        } else {
+          // The same with the factor 0: x + 0 for finite x (the bound is finite), NaN otherwise.
+          es[i] = std::isfinite(es[i]) ? es[i] + 0.0f : std::numeric_limits<float>::quiet_NaN();
+          pr[i] = std::isfinite(pr[i]) ? pr[i] + 0.0f : std::numeric_limits<float>::quiet_NaN();
+        }
+      }
+    }
+  }
+  return r;
+}
+
+}  // namespace oracle_internal
 
 bool OracleExactOptions::Check(std::string* why) const {
   if (target != "clean" && target != "lit") return Fail(why, "target must be 'clean' or 'lit'");
@@ -457,45 +641,17 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   // The signal in the shot-noise term is the local mean of I (7x7 box) rather than I itself: a
   // variance read from the noisy value weights the darker draws more and biases every weighted
   // mean low.
-  cv::Mat local_mean;
-  cv::boxFilter(image, local_mean, -1, cv::Size(7, 7), cv::Point(-1, -1), true,
-                cv::BORDER_REFLECT);
-  cv::Mat variance = PlusAll(MaxAll(local_mean, 0.0) * gain, floor_var);
+  const double half_step = bits == 32 ? 0.0 : 0.5 * step;
+  oracle_internal::OracleMmseResult mmse =
+      oracle_internal::OracleMmse(o, image, truth.transmission, truth.irradiance, truth.snow,
+                                  truth.veil, gain, floor_var, 1.0 - half_step - 1e-7);
   result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
                          " + read^2 + step^2 / 12" + (sensor ? "" : " (sensor off)"));
-
-  // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2.
-  const cv::Mat masked = MaskBelow(truth.transmission, o.mask_transmission);
-  result.masked_pixels = cv::countNonZero(masked);
-  cv::Mat scale = truth.transmission.mul(truth.irradiance);
-  scale = MaxAll(scale, 1e-12);
-  cv::Mat u = (image - truth.snow - truth.veil) / scale;
-  cv::Mat a;  // 1 / v, 0 where masked
-  cv::divide(scale.mul(scale), variance, a);
-  a.setTo(cv::Scalar::all(0), masked);
-  u.setTo(cv::Scalar::all(0), masked);
-  // Clipped samples (I at 0 or 1 in a channel) are not Gaussian data: they get no weight. A
-  // sample clipped at 1 still bounds rho from below, (1 - 2 sigma - S - veil) / (t E): the
-  // estimate is raised onto that bound where it falls short (docs/methods.md).
-  const double half_step = bits == 32 ? 0.0 : 0.5 * step;
-  cv::Mat high, low;  // CV_32FC(ch): 1 where clipped
-  cv::threshold(image, high, 1.0 - half_step - 1e-7, 1.0, cv::THRESH_BINARY);
-  cv::threshold(image, low, half_step + 1e-7, 1.0, cv::THRESH_BINARY_INV);
-  cv::Mat clipped = high;
-  const int censored = cv::countNonZero(MaxOverChannels(clipped) > 0);
-  cv::Mat sigma;
-  cv::sqrt(variance, sigma);
-  const cv::Mat bound = (image - 2.0 * sigma - truth.snow - truth.veil) / scale;
-  a = a.mul(cv::Scalar::all(1.0) - clipped);
-  cv::Mat prior, posterior;
-  cv::Mat est = HierarchicalMmse(o, u, a, &prior, &posterior);
-  if (censored > 0) {
-    cv::Mat raised;
-    cv::max(est, bound, raised);
-    est += (raised - est).mul(high);
-    cv::max(prior, bound, raised);
-    prior += (raised - prior).mul(high);
-    result.steps.push_back("censored: " + std::to_string(censored) +
+  result.masked_pixels = mmse.masked_pixels;
+  const cv::Mat& masked = mmse.masked;
+  cv::Mat est = mmse.estimate, prior = mmse.prior, posterior = mmse.posterior;
+  if (mmse.censored_pixels > 0) {
+    result.steps.push_back("censored: " + std::to_string(mmse.censored_pixels) +
                            " pixels clipped at 0 or 1 in some channel: no weight");
   }
   result.steps.push_back("mmse: hierarchical local Gaussian prior, windows " +

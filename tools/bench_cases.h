@@ -56,6 +56,7 @@ double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int border);
 
 // The groups of cases, one file each (tools/bench_cases_*.cc).
 void AddColorCases(std::vector<BenchCase>& cases, const InputsFn& in);    // issue 18 item 1
+void AddDcpCases(std::vector<BenchCase>& cases, const InputsFn& in);  // 18.3: dcp, udcp, cap, oracle
 void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);  // issue 18 item 2
 void AddMachineCases(std::vector<BenchCase>& cases, const InputsFn& in);  // bandwidth, peak flops
 

@@ -3,7 +3,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/baselines.h"
+#include "enhancer/guided_filter.h"
 #include "scenes/error.h"
+#include "tests/enhancer/baselines_reference.h"
 #include "tests/enhancer/baselines_test_images.h"
 
 namespace turbid {
@@ -105,6 +107,72 @@ TEST(BaselinesCap, InvertsItsOwnModelExactly) {
     }
   }
   EXPECT_GT(checked, 10);
+}
+
+// The pre-optimisation cap of commit 6722196 (enhancer/baselines_cap.cc then): the raw depth
+// per pixel with a channel loop, cv::erode, a full nth_element for the airlight, OpenCV's min and
+// max for the clamp. The guided filter is the library's (tested against its pre-optimisation
+// version in guided_filter_test.cc).
+CapResult ReferenceColorAttenuationPrior(const CapOptions& options, const cv::Mat& image) {
+  namespace ref = baselines_reference;
+  CapResult result;
+  const int channels = image.channels();
+  result.raw_depth.create(image.size(), CV_32FC1);
+  for (int y = 0; y < image.rows; ++y) {
+    const float* in = image.ptr<float>(y);
+    float* d = result.raw_depth.ptr<float>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      const float* px = in + x * channels;
+      float hi = px[0];
+      float lo = px[0];
+      for (int c = 1; c < channels; ++c) {
+        hi = std::max(hi, px[c]);
+        lo = std::min(lo, px[c]);
+      }
+      const double v = hi;
+      const double sat = hi > 0.0f ? (hi - lo) / hi : 0.0;
+      d[x] = static_cast<float>(options.theta0 + options.theta1 * v + options.theta2 * sat);
+    }
+  }
+  const cv::Mat min_depth = ref::MinFilter(result.raw_depth, options.patch_size);
+  result.airlight_pixel =
+      ref::EstimateAirlight(image, min_depth, options.airlight_fraction, &result.airlight);
+  if (options.refine) {
+    GuidedFilterOptions g;
+    g.radius = std::max(1, std::min(options.guided_radius, std::max(image.rows, image.cols)));
+    g.eps = options.guided_eps;
+    result.depth = GuidedFilter(g, image, min_depth);
+  } else {
+    result.depth = min_depth;
+  }
+  cv::Mat t;
+  cv::exp(-options.beta * result.depth, t);
+  result.transmission = cv::max(cv::min(t, options.t_max), options.t_min);
+  result.image = ref::RecoverRadiance(image, result.transmission, result.airlight, options.t_min);
+  return result;
+}
+
+// Today's cap gives the pre-optimisation values bit for bit (the same arithmetic per step).
+TEST(BaselinesCap, SameResultsAsThePreOptimisationImplementation) {
+  using baselines_reference::MaxDiff;
+  std::vector<baselines_reference::NamedImage> inputs = baselines_reference::EquivalenceInputs();
+  for (auto& real : baselines_reference::RealInputs()) inputs.push_back(real);
+  for (const auto& [name, image] : inputs) {
+    for (int variant = 0; variant < 3; ++variant) {
+      CapOptions o;
+      if (variant == 1) o.refine = false, o.patch_size = 1;
+      if (variant == 2) o.patch_size = 5, o.guided_radius = 7, o.beta = 2.5, o.t_max = 0.9;
+      const std::string what = name + " variant " + std::to_string(variant);
+      const CapResult a = ColorAttenuationPriorDetailed(o, image);
+      const CapResult b = ReferenceColorAttenuationPrior(o, image);
+      EXPECT_EQ(MaxDiff(a.raw_depth, b.raw_depth), 0.0) << what;
+      EXPECT_EQ(MaxDiff(a.depth, b.depth), 0.0) << what;
+      EXPECT_EQ(a.airlight_pixel, b.airlight_pixel) << what;
+      EXPECT_EQ(a.airlight, b.airlight) << what;
+      EXPECT_EQ(MaxDiff(a.transmission, b.transmission), 0.0) << what;
+      EXPECT_EQ(MaxDiff(a.image, b.image), 0.0) << what;
+    }
+  }
 }
 
 }  // namespace

@@ -1,9 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/baselines.h"
+#include "enhancer/guided_filter.h"
 #include "scenes/error.h"
+#include "tests/enhancer/baselines_reference.h"
 #include "tests/enhancer/baselines_test_images.h"
 
 namespace turbid {
@@ -150,6 +153,118 @@ TEST(BaselinesDcp, GrayInputUsesTheSingleChannel) {
     const double t_patch = t.at<float>(0, x + half);
     EXPECT_NEAR(result.raw_transmission.at<float>(rows / 2, x),
                 1.0 - options.omega * (1.0 - t_patch), 1e-5);
+  }
+}
+
+// The pre-optimisation dcp / udcp of commit 6722196 (enhancer/baselines_dcp.cc then): cv::erode
+// minimum filters, a full nth_element for the airlight, the normalised dark channel filtered
+// again, OpenCV arithmetic for the clamps. The guided filter is the library's (its own
+// equivalence to the pre-optimisation filter is tested in guided_filter_test.cc).
+DcpResult ReferenceDarkChannelPrior(const DcpOptions& options, const cv::Mat& image,
+                                    bool underwater) {
+  namespace ref = baselines_reference;
+  DcpResult result;
+  result.dark_channel = ref::DarkChannel(image, options.patch_size, underwater);
+  result.airlight_pixel = ref::EstimateAirlight(image, result.dark_channel,
+                                                options.airlight_fraction, &result.airlight);
+  const int channels = image.channels();
+  cv::Mat normalised(image.size(), CV_32FC1);
+  const int last = (channels == 3 && underwater) ? 2 : channels;
+  for (int y = 0; y < image.rows; ++y) {
+    const float* in = image.ptr<float>(y);
+    float* o = normalised.ptr<float>(y);
+    for (int x = 0; x < image.cols; ++x) {
+      float m = std::numeric_limits<float>::max();
+      for (int c = 0; c < last; ++c) {
+        m = std::min(m, in[x * channels + c] / std::max(result.airlight[c], 1e-6f));
+      }
+      o[x] = m;
+    }
+  }
+  result.raw_transmission = 1.0 - options.omega * ref::MinFilter(normalised, options.patch_size);
+  ref::ClampUnit(result.raw_transmission);
+  if (options.refine) {
+    GuidedFilterOptions g;
+    g.radius = std::max(1, std::min(options.guided_radius, std::max(image.rows, image.cols)));
+    g.eps = options.guided_eps;
+    result.transmission = GuidedFilter(g, image, result.raw_transmission);
+    ref::ClampUnit(result.transmission);
+  } else {
+    result.transmission = result.raw_transmission.clone();
+  }
+  result.image = ref::RecoverRadiance(image, result.transmission, result.airlight, options.t0);
+  return result;
+}
+
+void ExpectSameDcp(const DcpResult& a, const DcpResult& b, const std::string& what) {
+  using baselines_reference::MaxDiff;
+  EXPECT_EQ(MaxDiff(a.dark_channel, b.dark_channel), 0.0) << what;
+  EXPECT_EQ(a.airlight_pixel, b.airlight_pixel) << what;
+  EXPECT_EQ(a.airlight, b.airlight) << what;
+  EXPECT_EQ(MaxDiff(a.raw_transmission, b.raw_transmission), 0.0) << what;
+  EXPECT_EQ(MaxDiff(a.transmission, b.transmission), 0.0) << what;
+  EXPECT_EQ(MaxDiff(a.image, b.image), 0.0) << what;
+}
+
+// Today's dcp and udcp give the pre-optimisation values bit for bit: every step is the same
+// arithmetic (minima are exact; the gray normalised dark channel is the dark channel over A, as
+// float division by a positive constant is monotone).
+TEST(BaselinesDcp, SameResultsAsThePreOptimisationImplementation) {
+  std::vector<baselines_reference::NamedImage> inputs = baselines_reference::EquivalenceInputs();
+  for (auto& real : baselines_reference::RealInputs()) inputs.push_back(real);
+  for (const auto& [name, image] : inputs) {
+    for (int variant = 0; variant < 4; ++variant) {
+      DcpOptions o;
+      if (variant == 1) o.refine = false;
+      if (variant == 2) o.patch_size = 3, o.guided_radius = 8, o.omega = 0.7;
+      if (variant == 3) o.patch_size = 1, o.airlight_fraction = 0.2;
+      const std::string what = name + " variant " + std::to_string(variant);
+      ExpectSameDcp(DarkChannelPriorDetailed(o, image), ReferenceDarkChannelPrior(o, image, false),
+                    "dcp " + what);
+      UdcpOptions u;
+      static_cast<DcpOptions&>(u) = o;
+      ExpectSameDcp(UnderwaterDarkChannelPriorDetailed(u, image),
+                    ReferenceDarkChannelPrior(o, image, true), "udcp " + what);
+    }
+  }
+}
+
+// The minimum filter equals cv::erode (replicated border) for every size on odd shapes, including
+// windows larger than the image.
+TEST(BaselinesDcp, DarkChannelEqualsErodeForEverySize) {
+  for (const auto& [name, image] : baselines_reference::EquivalenceInputs()) {
+    for (int size : {1, 3, 5, 7, 9, 15, 17, 31, 33, 65}) {
+      for (bool skip_red : {false, true}) {
+        EXPECT_EQ(
+            baselines_reference::MaxDiff(DarkChannel(image, size, skip_red),
+                                         baselines_reference::DarkChannel(image, size, skip_red)),
+            0.0)
+            << name << " size " << size;
+      }
+    }
+  }
+}
+
+// The airlight search narrows the sort to a sampled threshold; ties and plateaus (many equal
+// brightest values) pick the same pixel as the full sort.
+TEST(BaselinesDcp, AirlightEqualsFullSortWithTiesAndPlateaus) {
+  cv::Mat image(300, 410, CV_32FC3);
+  cv::RNG(5).fill(image, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::Mat prior(image.size(), CV_32FC1);
+  cv::RNG(6).fill(prior, cv::RNG::UNIFORM, 0.0, 1.0);
+  cv::Mat quantised;
+  prior.convertTo(quantised, CV_8U, 255.0);
+  quantised.convertTo(quantised, CV_32F, 1.0 / 255.0);  // many ties
+  cv::Mat plateau = prior.clone();
+  plateau(cv::Rect(0, 0, 410, 120)).setTo(2.0);  // far more than `count` equal maxima
+  for (const cv::Mat* p : {&prior, &quantised, &plateau}) {
+    for (double fraction : {0.0001, 0.001, 0.01, 0.05, 0.5, 1.0}) {
+      cv::Vec3f a, b;
+      const cv::Point pa = EstimateAirlight(image, *p, fraction, &a);
+      const cv::Point pb = baselines_reference::EstimateAirlight(image, *p, fraction, &b);
+      EXPECT_EQ(pa, pb) << fraction;
+      EXPECT_EQ(a, b) << fraction;
+    }
   }
 }
 

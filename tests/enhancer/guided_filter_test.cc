@@ -8,10 +8,133 @@
 #include <string>
 #include <vector>
 
+#include "enhancer/simd_switch.h"
 #include "scenes/error.h"
 
 namespace turbid {
 namespace {
+
+// ---------------------------------------------------------------------------------------------
+// The pre-optimisation guided filter of commit 6722196 (enhancer/guided_filter.cc then), for the
+// paths later rewritten: the one-channel guide at radii > 12 (running column sums re-anchored
+// every 64 rows, window sums by binary doubling) and the colour guide (running sums both ways).
+// Today's filter must give the same values bit for bit.
+
+// Binary-doubling window sums of `window` values of ext (w + window - 1 values).
+std::vector<float> ReferenceWindowSums(const std::vector<float>& ext, int w, int window) {
+  const int n = w + window - 1;
+  std::vector<float> p = ext, q(n), out(w);
+  int len = 1, offset = 0, rest = window;
+  bool first = true;
+  for (;;) {
+    if (rest & 1) {
+      for (int x = 0; x < w; ++x) out[x] = first ? p[offset + x] : out[x] + p[offset + x];
+      first = false;
+      offset += len;
+    }
+    rest >>= 1;
+    if (rest == 0) break;
+    for (int i = 0; i < n - 2 * len + 1; ++i) q[i] = p[i] + p[i + len];
+    std::swap(p, q);
+    len *= 2;
+  }
+  return out;
+}
+
+// Box sums (not means) of rows given by `value(y, x)`, clipped window, as the stream forms them:
+// row y's column sums re-anchored from zero every 64 rows, else updated by the entering and
+// leaving rows; then the window sums across.
+template <typename Value>
+std::vector<std::vector<float>> ReferenceBoxSumsGray(int h, int w, int r, Value value) {
+  std::vector<float> col(w, 0.0f);
+  std::vector<std::vector<float>> out(h);
+  for (int y = 0; y < h; ++y) {
+    if (y % 64 == 0) {
+      std::fill(col.begin(), col.end(), 0.0f);
+      for (int yy = std::max(y - r, 0); yy <= std::min(y + r, h - 1); ++yy)
+        for (int x = 0; x < w; ++x) col[x] += value(yy, x);
+    } else {
+      const int add = y + r, sub = y - r - 1;
+      for (int x = 0; x < w; ++x) {
+        if (add < h && sub >= 0) {
+          col[x] += value(add, x) - value(sub, x);
+        } else if (add < h) {
+          col[x] += value(add, x);
+        } else if (sub >= 0) {
+          col[x] -= value(sub, x);
+        }
+      }
+    }
+    std::vector<float> ext(w + 2 * r, 0.0f);
+    std::copy(col.begin(), col.end(), ext.begin() + r);
+    out[y] = ReferenceWindowSums(ext, w, 2 * r + 1);
+  }
+  return out;
+}
+
+cv::Mat ReferenceGuidedGrayLargeRadius(const cv::Mat& guide, const cv::Mat& src, int r,
+                                       double eps_in) {
+  const int h = guide.rows, w = guide.cols;
+  const float eps = static_cast<float>(eps_in);
+  auto count = [r](int t, int n) { return std::min(t + r, n - 1) - std::max(t - r, 0) + 1; };
+  auto g = [&](int y, int x) { return guide.at<float>(y, x); };
+  auto p = [&](int y, int x) { return src.at<float>(y, x); };
+  const auto s_i = ReferenceBoxSumsGray(h, w, r, g);
+  const auto s_p = ReferenceBoxSumsGray(h, w, r, p);
+  // I^2 and I p: the step adds a*a - s*s in one expression, so they get their own loop.
+  auto product_sums = [&](auto u, auto v) {
+    std::vector<float> col(w, 0.0f);
+    std::vector<std::vector<float>> out(h);
+    for (int y = 0; y < h; ++y) {
+      if (y % 64 == 0) {
+        std::fill(col.begin(), col.end(), 0.0f);
+        for (int yy = std::max(y - r, 0); yy <= std::min(y + r, h - 1); ++yy)
+          for (int x = 0; x < w; ++x) col[x] += u(yy, x) * v(yy, x);
+      } else {
+        const int add = y + r, sub = y - r - 1;
+        for (int x = 0; x < w; ++x) {
+          if (add < h && sub >= 0) {
+            col[x] += u(add, x) * v(add, x) - u(sub, x) * v(sub, x);
+          } else if (add < h) {
+            col[x] += u(add, x) * v(add, x);
+          } else if (sub >= 0) {
+            col[x] -= u(sub, x) * v(sub, x);
+          }
+        }
+      }
+      std::vector<float> ext(w + 2 * r, 0.0f);
+      std::copy(col.begin(), col.end(), ext.begin() + r);
+      out[y] = ReferenceWindowSums(ext, w, 2 * r + 1);
+    }
+    return out;
+  };
+  const auto s_ii = product_sums(g, g);
+  const auto s_ip = product_sums(g, p);
+  cv::Mat a(h, w, CV_32F), b(h, w, CV_32F);
+  for (int y = 0; y < h; ++y) {
+    const float inv_cy = 1.0f / static_cast<float>(count(y, h));
+    for (int x = 0; x < w; ++x) {
+      const float inv = (1.0f / static_cast<float>(count(x, w))) * inv_cy;
+      const float mi = s_i[y][x] * inv, mp = s_p[y][x] * inv;
+      const float var = s_ii[y][x] * inv - mi * mi;
+      const float cov = s_ip[y][x] * inv - mi * mp;
+      const float av = cov / (var + eps);
+      a.at<float>(y, x) = av;
+      b.at<float>(y, x) = mp - av * mi;
+    }
+  }
+  const auto s_a = ReferenceBoxSumsGray(h, w, r, [&](int y, int x) { return a.at<float>(y, x); });
+  const auto s_b = ReferenceBoxSumsGray(h, w, r, [&](int y, int x) { return b.at<float>(y, x); });
+  cv::Mat q(h, w, CV_32F);
+  for (int y = 0; y < h; ++y) {
+    const float inv_cy = 1.0f / static_cast<float>(count(y, h));
+    for (int x = 0; x < w; ++x) {
+      const float inv = (1.0f / static_cast<float>(count(x, w))) * inv_cy;
+      q.at<float>(y, x) = (s_a[y][x] * guide.at<float>(y, x) + s_b[y][x]) * inv;
+    }
+  }
+  return q;
+}
 
 cv::Mat RandomImage(int rows, int cols, int channels, uint64_t seed) {
   cv::RNG rng(seed);
@@ -33,6 +156,136 @@ double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int margin) {
   double mx = 0;
   cv::minMaxLoc(d.reshape(1), nullptr, &mx);
   return mx;
+}
+
+// Box means by running sums both ways (the pre-optimisation BoxMeansRows), of whole planes.
+std::vector<cv::Mat> ReferenceBoxMeans(const std::vector<cv::Mat>& planes, int r) {
+  const int k_count = static_cast<int>(planes.size());
+  const int h = planes[0].rows, w = planes[0].cols;
+  std::vector<cv::Mat> means(k_count);
+  for (cv::Mat& m : means) m.create(h, w, CV_32F);
+  std::vector<std::vector<float>> col(k_count, std::vector<float>(w, 0.0f));
+  std::vector<float> inv_cx(w);
+  for (int x = 0; x < w; ++x)
+    inv_cx[x] = 1.0f / static_cast<float>(std::min(x + r, w - 1) - std::max(x - r, 0) + 1);
+  for (int yy = 0; yy < std::min(r, h); ++yy)
+    for (int k = 0; k < k_count; ++k)
+      for (int x = 0; x < w; ++x) col[k][x] += planes[k].at<float>(yy, x);
+  for (int y = 0; y < h; ++y) {
+    const int add = y + r, sub = y - r - 1;
+    for (int k = 0; k < k_count; ++k) {
+      for (int x = 0; x < w; ++x) {
+        if (add < h && sub >= 0) {
+          col[k][x] += planes[k].at<float>(add, x) - planes[k].at<float>(sub, x);
+        } else if (add < h) {
+          col[k][x] += planes[k].at<float>(add, x);
+        } else if (sub >= 0) {
+          col[k][x] -= planes[k].at<float>(sub, x);
+        }
+      }
+    }
+    const float inv_cy = 1.0f / static_cast<float>(std::min(y + r, h - 1) - std::max(y - r, 0) + 1);
+    for (int k = 0; k < k_count; ++k) {
+      float s = 0.0f;
+      for (int x = 0; x <= std::min(r, w - 1); ++x) s += col[k][x];
+      for (int x = 0; x < w; ++x) {
+        means[k].at<float>(y, x) = s * (inv_cx[x] * inv_cy);
+        const bool enter = x + r + 1 < w, leave = x - r >= 0;
+        s += (enter ? col[k][x + r + 1] : 0.0f) - (leave ? col[k][x - r] : 0.0f);
+      }
+    }
+  }
+  return means;
+}
+
+// The pre-optimisation colour-guided filter (one-channel source).
+cv::Mat ReferenceGuidedColor(const cv::Mat& guide, const cv::Mat& src, int r, double eps) {
+  std::vector<cv::Mat> g;
+  cv::split(guide, g);
+  const std::vector<cv::Mat> planes = {
+      g[0],           g[1],           g[2],           src,
+      g[0].mul(g[0]), g[0].mul(g[1]), g[0].mul(g[2]), g[1].mul(g[1]),
+      g[1].mul(g[2]), g[2].mul(g[2]), g[0].mul(src),  g[1].mul(src),
+      g[2].mul(src)};
+  const std::vector<cv::Mat> mean = ReferenceBoxMeans(planes, r);
+  std::vector<cv::Mat> coef(4);
+  for (cv::Mat& c : coef) c.create(src.size(), CV_32F);
+  for (int y = 0; y < src.rows; ++y) {
+    for (int x = 0; x < src.cols; ++x) {
+      auto m = [&](int k) { return static_cast<double>(mean[k].at<float>(y, x)); };
+      const double mu0 = m(0), mu1 = m(1), mu2 = m(2), mp = m(3);
+      const double s00 = m(4) - mu0 * mu0 + eps, s01 = m(5) - mu0 * mu1, s02 = m(6) - mu0 * mu2,
+                   s11 = m(7) - mu1 * mu1 + eps, s12 = m(8) - mu1 * mu2,
+                   s22 = m(9) - mu2 * mu2 + eps;
+      const double c0 = m(10) - mu0 * mp, c1 = m(11) - mu1 * mp, c2 = m(12) - mu2 * mp;
+      const double i00 = s11 * s22 - s12 * s12, i01 = s02 * s12 - s01 * s22,
+                   i02 = s01 * s12 - s02 * s11, i11 = s00 * s22 - s02 * s02,
+                   i12 = s01 * s02 - s00 * s12, i22 = s00 * s11 - s01 * s01;
+      const double det = s00 * i00 + s01 * i01 + s02 * i02;
+      const double inv = 1.0 / det;
+      const double v0 = (i00 * c0 + i01 * c1 + i02 * c2) * inv;
+      const double v1 = (i01 * c0 + i11 * c1 + i12 * c2) * inv;
+      const double v2 = (i02 * c0 + i12 * c1 + i22 * c2) * inv;
+      coef[0].at<float>(y, x) = static_cast<float>(v0);
+      coef[1].at<float>(y, x) = static_cast<float>(v1);
+      coef[2].at<float>(y, x) = static_cast<float>(v2);
+      coef[3].at<float>(y, x) = static_cast<float>(mp - v0 * mu0 - v1 * mu1 - v2 * mu2);
+    }
+  }
+  const std::vector<cv::Mat> m = ReferenceBoxMeans(coef, r);
+  return m[0].mul(g[0]) + m[1].mul(g[1]) + m[2].mul(g[2]) + m[3];
+}
+
+// The colour guide (dcp and cap on colour input): the same values as the pre-optimisation filter,
+// on odd shapes, small and large radii, one- and three-channel sources.
+TEST(GuidedFilter, ColorGuideEqualsPreOptimisationFilter) {
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(13, 3), cv::Size(131, 77)}) {
+    const cv::Mat guide = RandomImage(size.height, size.width, 3, 31);
+    const cv::Mat src = RandomImage(size.height, size.width, 1, 32);
+    const cv::Mat src3 = RandomImage(size.height, size.width, 3, 33);
+    for (int r : {1, 4, 30, 60}) {
+      GuidedFilterOptions o;
+      o.radius = r;
+      o.eps = 1e-4;
+      EXPECT_EQ(cv::norm(GuidedFilter(o, guide, src), ReferenceGuidedColor(guide, src, r, o.eps),
+                         cv::NORM_INF),
+                0.0)
+          << size << " r " << r;
+      std::vector<cv::Mat> planes;
+      cv::split(src3, planes);
+      for (cv::Mat& p : planes) p = ReferenceGuidedColor(guide, p, r, o.eps);
+      cv::Mat expected;
+      cv::merge(planes, expected);
+      EXPECT_EQ(cv::norm(GuidedFilter(o, guide, src3), expected, cv::NORM_INF), 0.0)
+          << size << " r " << r << " three-channel source";
+    }
+  }
+}
+
+// Radii > 12 with a one-channel guide (dcp r 60, cap r 30): the same values as the
+// pre-optimisation filter, with the hand-written AVX2 kernels and without, on shapes with every
+// row remainder, several anchor blocks and windows wider than the image.
+TEST(GuidedFilter, LargeRadiusGrayGuideEqualsPreOptimisationFilter) {
+  for (const cv::Size size :
+       {cv::Size(1, 1), cv::Size(13, 3), cv::Size(203, 150), cv::Size(97, 71)}) {
+    const cv::Mat guide = RandomImage(size.height, size.width, 1, 21);
+    const cv::Mat src = RandomImage(size.height, size.width, 1, 22);
+    for (int r : {13, 30, 60}) {
+      GuidedFilterOptions o;
+      o.radius = r;
+      o.eps = r == 60 ? 1e-4 : 1e-3;
+      const cv::Mat expected = ReferenceGuidedGrayLargeRadius(guide, src, r, o.eps);
+      const cv::Mat expected_self = ReferenceGuidedGrayLargeRadius(guide, guide, r, o.eps);
+      for (bool avx2 : {true, false}) {
+        enhancer_internal::SetHandWrittenAvx2(avx2);
+        EXPECT_EQ(cv::norm(GuidedFilter(o, guide, src), expected, cv::NORM_INF), 0.0)
+            << size << " r " << r << (avx2 ? " avx2" : " portable");
+        EXPECT_EQ(cv::norm(GuidedFilter(o, guide, guide), expected_self, cv::NORM_INF), 0.0)
+            << size << " r " << r << (avx2 ? " avx2" : " portable") << " self-guided";
+      }
+      enhancer_internal::SetHandWrittenAvx2(true);
+    }
+  }
 }
 
 TEST(GuidedFilter, DefaultsPassCheck) {

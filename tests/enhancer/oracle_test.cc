@@ -10,6 +10,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "enhancer/oracle_internal.h"
 #include "enhancer/registry.h"
 #include "metrics/full_reference.h"
 #include "metrics/ssim.h"
@@ -17,6 +18,7 @@
 #include "scenes/error.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
+#include "tests/enhancer/oracle_reference.h"
 
 namespace turbid {
 namespace {
@@ -40,6 +42,226 @@ Scene Builtin(const std::string& name, double scale) {
   BuiltinSceneOptions so;
   so.scale = scale;
   return MakeBuiltinScene(name, so);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The pre-optimisation data term and MMSE of commit 6722196 (enhancer/oracle.cc then: one OpenCV
+// operation per step, a full-size image each), the reference for oracle_internal::OracleMmse.
+namespace reference {
+
+cv::Mat MaxAll(const cv::Mat& m, double v) {
+  cv::Mat out;
+  cv::max(m, cv::Scalar::all(v), out);
+  return out;
+}
+cv::Mat PlusAll(const cv::Mat& m, double v) { return m + cv::Scalar::all(v); }
+
+cv::Mat MaxOverChannels(const cv::Mat& m) {
+  if (m.channels() == 1) return m;
+  cv::Mat out;
+  cv::reduce(m.reshape(1, static_cast<int>(m.total())), out, 1, cv::REDUCE_MAX);
+  return out.reshape(1, m.rows);
+}
+
+cv::Mat MaskBelow(const cv::Mat& t, double floor) {
+  std::vector<cv::Mat> planes;
+  cv::split(t, planes);
+  cv::Mat mask = planes[0] < floor;
+  for (size_t c = 1; c < planes.size(); ++c) mask |= planes[c] < floor;
+  return mask;
+}
+
+cv::Mat BoxSum(const cv::Mat& m, int radius) {
+  cv::Mat out;
+  cv::boxFilter(m, out, -1, cv::Size(2 * radius + 1, 2 * radius + 1), cv::Point(-1, -1), false,
+                cv::BORDER_REFLECT);
+  return out;
+}
+
+cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius) {
+  cv::Mat d = z - p;
+  cv::Mat num = a.mul(d.mul(d));
+  cv::Mat has;
+  cv::threshold(a, has, 0.0, 1.0, cv::THRESH_BINARY);
+  if (radius <= 0) {
+    const cv::Scalar sa = cv::sum(a), sn = cv::sum(num), sh = cv::sum(has);
+    cv::Scalar s;
+    for (int c = 0; c < z.channels(); ++c)
+      s[c] = sa[c] > 0 ? std::max(sn[c] - sh[c], 0.0) / sa[c] : 0.0;
+    return cv::Mat(z.size(), z.type(), s);
+  }
+  cv::Mat sa = BoxSum(a, radius);
+  cv::Mat v = BoxSum(num, radius) - BoxSum(has, radius);
+  v = MaxAll(v, 0.0);
+  cv::Mat out;
+  cv::divide(v, MaxAll(sa, 1e-30), out);
+  return out;
+}
+
+cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a, cv::Mat* prior,
+                         cv::Mat* posterior) {
+  const int ch = u.channels();
+  cv::Mat au = a.mul(u);
+  const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
+  cv::Scalar m0;
+  for (int c = 0; c < ch; ++c) m0[c] = sa[c] > 0 ? sau[c] / sa[c] : 0.5;
+  cv::Mat p(u.size(), u.type(), m0);
+  int prev_radius = 0;
+  for (const int radius : {o.coarse_radius, o.middle_radius}) {
+    const cv::Mat w = BoxSum(a, radius);
+    cv::Mat m;
+    cv::divide(BoxSum(au, radius), MaxAll(w, 1e-30), m);
+    const cv::Mat s = LocalSignalVariance(m, w, p, prev_radius);
+    cv::Mat sw = s.mul(w);
+    cv::Mat gain;
+    cv::divide(sw, PlusAll(sw, 1.0), gain);
+    p += gain.mul(m - p);
+    prev_radius = radius;
+  }
+  const cv::Mat s = LocalSignalVariance(u, a, p, o.pixel_radius);
+  cv::Mat sa_px = s.mul(a);
+  cv::Mat gain;
+  cv::divide(sa_px, PlusAll(sa_px, 1.0), gain);
+  *prior = p;
+  cv::divide(s, PlusAll(sa_px, 1.0), *posterior);
+  return p + gain.mul(u - p);
+}
+
+oracle_internal::OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
+                                             const cv::Mat& transmission, const cv::Mat& irradiance,
+                                             const cv::Mat& snow, const cv::Mat& veil, double gain,
+                                             double floor_var, double clip_level) {
+  oracle_internal::OracleMmseResult r;
+  cv::Mat local_mean;
+  cv::boxFilter(image, local_mean, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  cv::Mat variance = PlusAll(MaxAll(local_mean, 0.0) * gain, floor_var);
+  r.masked = MaskBelow(transmission, o.mask_transmission);
+  r.masked_pixels = cv::countNonZero(r.masked);
+  cv::Mat scale = transmission.mul(irradiance);
+  scale = MaxAll(scale, 1e-12);
+  cv::Mat u = (image - snow - veil) / scale;
+  cv::Mat a;
+  cv::divide(scale.mul(scale), variance, a);
+  a.setTo(cv::Scalar::all(0), r.masked);
+  u.setTo(cv::Scalar::all(0), r.masked);
+  cv::Mat high;
+  cv::threshold(image, high, clip_level, 1.0, cv::THRESH_BINARY);
+  cv::Mat clipped = high;
+  r.censored_pixels = cv::countNonZero(MaxOverChannels(clipped) > 0);
+  cv::Mat sigma;
+  cv::sqrt(variance, sigma);
+  const cv::Mat bound = (image - 2.0 * sigma - snow - veil) / scale;
+  a = a.mul(cv::Scalar::all(1.0) - clipped);
+  cv::Mat est = HierarchicalMmse(o, u, a, &r.prior, &r.posterior);
+  if (r.censored_pixels > 0) {
+    cv::Mat raised;
+    cv::max(est, bound, raised);
+    est += (raised - est).mul(high);
+    cv::max(r.prior, bound, raised);
+    r.prior += (raised - r.prior).mul(high);
+  }
+  r.estimate = est;
+  return r;
+}
+
+}  // namespace reference
+
+// Today's fused data term and MMSE give the pre-optimisation values bit for bit (the same float
+// operations in the same order): gray and colour, odd and tiny sizes, masked pixels (t below the
+// floor), clipped samples (censored), sensor noise on and off, random images and noisy 8-bit
+// renders of the built-in scenes (with random truth maps: the step is arithmetic on the maps).
+TEST(Oracle, MmseEqualsPreOptimisationImplementation) {
+  auto check = [](const std::string& what, const OracleOptions& o, const cv::Mat& image,
+                  const cv::Mat& t, const cv::Mat& e, const cv::Mat& snow, const cv::Mat& veil,
+                  double gain, double floor_var, double clip) {
+    const auto a = oracle_internal::OracleMmse(o, image, t, e, snow, veil, gain, floor_var, clip);
+    const auto b = reference::OracleMmse(o, image, t, e, snow, veil, gain, floor_var, clip);
+    EXPECT_EQ(a.masked_pixels, b.masked_pixels) << what;
+    EXPECT_EQ(a.censored_pixels, b.censored_pixels) << what;
+    EXPECT_EQ(MaxAbsDiff(a.masked, b.masked), 0.0) << what;
+    EXPECT_EQ(MaxAbsDiff(a.estimate, b.estimate), 0.0) << what;
+    EXPECT_EQ(MaxAbsDiff(a.prior, b.prior), 0.0) << what;
+    EXPECT_EQ(MaxAbsDiff(a.posterior, b.posterior), 0.0) << what;
+  };
+  uint64_t seed = 3;
+  std::vector<cv::Mat> renders;
+  for (const char* name : {"hull", "seafloor"}) {
+    RenderOptions ro;
+    ro.seed = 5;
+    renders.push_back(Render(ro, Builtin(name, 0.2)).image);
+  }
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(3, 2), cv::Size(37, 21), cv::Size(130, 97),
+                              renders[0].size(), renders[1].size()}) {
+    for (int ch : {1, 3}) {
+      const int type = CV_32FC(ch);
+      cv::Mat image(size, type), t(size, type), e(size, type), snow(size, type), veil(size, type);
+      cv::RNG rng(seed++);
+      rng.fill(image, cv::RNG::UNIFORM, 0.0, 1.0);
+      for (const cv::Mat& r : renders) {
+        if (r.size() == size && r.channels() == ch) r.copyTo(image);
+      }
+      rng.fill(t, cv::RNG::UNIFORM, 0.0, 1.0);
+      rng.fill(e, cv::RNG::UNIFORM, 0.2, 3.0);
+      rng.fill(snow, cv::RNG::UNIFORM, 0.0, 0.02);
+      rng.fill(veil, cv::RNG::UNIFORM, 0.0, 0.3);
+      // Some clipped samples and some pixels below the transmission floor.
+      image.forEach<float>([](float& v, const int*) { v = v > 0.9f ? 1.0f : v; });
+      t.forEach<float>([](float& v, const int*) { v = v < 0.03f ? 1e-5f : v; });
+      for (int variant = 0; variant < 3; ++variant) {
+        OracleOptions o;
+        if (variant == 1) o.coarse_radius = 9, o.middle_radius = 3, o.pixel_radius = 1;
+        const double gain = variant == 2 ? 0.0 : 1.0 / 2000.0;
+        const double floor_var = variant == 2 ? 1e-12 : 0.01 * 0.01 + 1.0 / (255.0 * 255.0 * 12);
+        const double clip = variant == 2 ? 1.0 - 1e-7 : 1.0 - 0.5 / 255.0 - 1e-7;
+        check(std::to_string(size.width) + "x" + std::to_string(size.height) + " ch " +
+                  std::to_string(ch) + " variant " + std::to_string(variant),
+              o, image, t, e, snow, veil, gain, floor_var, clip);
+      }
+    }
+  }
+}
+
+// End to end: today's oracle and oracle_exact give the pre-optimisation values bit for bit on
+// renders of the built-in scenes, gray and colour: 8-bit noisy (the default), float without noise
+// or backscatter, and a bright LED that clips (censored samples); targets clean and lit.
+TEST(Oracle, EqualsPreOptimisationOracleOnRenders) {
+  for (const char* name : {"hull", "seafloor", "room"}) {
+    const Scene scene = Builtin(name, 0.2);
+    for (int variant = 0; variant < 3; ++variant) {
+      RenderOptions o;
+      o.seed = 3 + variant;
+      if (variant == 1) {
+        o.water.backscatter = false;
+        o.camera.bit_depth = 32;
+        o.sensor.enabled = false;
+      }
+      if (variant == 2) {
+        o.water.type = "3C";
+        o.camera.encoding = CameraEncoding::kLinear;
+        o.light.lights[0].power = 20.0;
+      }
+      const RenderResult r = Render(o, scene);
+      for (const char* target : {"clean", "lit"}) {
+        const std::string what =
+            std::string(name) + " variant " + std::to_string(variant) + " " + target;
+        OracleOptions mmse;
+        mmse.target = target;
+        const OracleResult a = OracleEnhance(mmse, r.image, scene, r.sidecar);
+        const OracleResult b = oracle_reference::OracleEnhance(mmse, r.image, scene, r.sidecar);
+        EXPECT_EQ(MaxAbsDiff(a.image, b.image), 0.0) << what;
+        EXPECT_EQ(a.masked_pixels, b.masked_pixels) << what;
+        EXPECT_EQ(a.deblur_nsr, b.deblur_nsr) << what;
+        EXPECT_EQ(a.steps, b.steps) << what;
+        OracleExactOptions exact;
+        exact.target = target;
+        const OracleResult c = OracleExactEnhance(exact, r.image, scene, r.sidecar);
+        const OracleResult d =
+            oracle_reference::OracleExactEnhance(exact, r.image, scene, r.sidecar);
+        EXPECT_EQ(MaxAbsDiff(c.image, d.image), 0.0) << what << " exact";
+        EXPECT_EQ(c.steps, d.steps) << what << " exact";
+      }
+    }
+  }
 }
 
 TEST(Oracle, DefaultsPassCheck) {

@@ -44,6 +44,25 @@ TEST(HandWrittenAvx2, GuidedFilterEqualsPortableKernels) {
   }
 }
 
+// Radii beyond the fused kernels (dcp r 60, cap r 30): the AVX2 doubling passes against the
+// portable binary doubling, on widths with every remainder of 8 and rows shorter than the window.
+TEST(HandWrittenAvx2, LargeRadiusGuidedFilterEqualsPortableKernels) {
+  for (int cols : {40, 97, 203}) {
+    const cv::Mat guide = Textured(70, cols, 4), src = Textured(70, cols, 5);
+    for (int r : {13, 14, 16, 21, 30, 45, 60, 64, 127}) {
+      GuidedFilterOptions o;
+      o.radius = r;
+      o.eps = 1e-3;
+      const cv::Mat self = GuidedFilter(o, guide, guide), guided = GuidedFilter(o, guide, src);
+      PortableKernels portable;
+      EXPECT_EQ(cv::norm(self, GuidedFilter(o, guide, guide), cv::NORM_INF), 0.0)
+          << r << " " << cols;
+      EXPECT_EQ(cv::norm(guided, GuidedFilter(o, guide, src), cv::NORM_INF), 0.0)
+          << r << " " << cols;
+    }
+  }
+}
+
 TEST(HandWrittenAvx2, ClaheAndSimplifiedEqualPortableKernels) {
   for (int cols : {96, 101}) {
     const cv::Mat img = Textured(77, cols, 3);

@@ -1,0 +1,28 @@
+// Internals of the MMSE oracle (enhancer/oracle.cc), exposed for the tests; not part of the API.
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include "enhancer/oracle.h"
+
+namespace turbid::oracle_internal {
+
+struct OracleMmseResult {
+  cv::Mat estimate;   // MMSE estimate of h * rho (censored pixels raised onto their bound)
+  cv::Mat prior;      // prior mean of the finest level (also raised)
+  cv::Mat posterior;  // posterior variance
+  cv::Mat masked;     // CV_8UC1, 255 where some channel's t < mask_transmission
+  int masked_pixels = 0;
+  int censored_pixels = 0;  // pixels with a channel above clip_level (no weight)
+};
+
+// The oracle's data term and estimate: the noise variance max(box7(I), 0) shot_gain + floor_var
+// (7x7 local mean, reflected borders), u = (I - snow - veil) / max(t E, 1e-12) with weight
+// a = (t E)^2 / variance (0 where masked or where I > clip_level), then the hierarchical MMSE
+// (docs/methods.md, "oracle"). All maps are the image's size and type.
+OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
+                            const cv::Mat& transmission, const cv::Mat& irradiance,
+                            const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
+                            double floor_var, double clip_level);
+
+}  // namespace turbid::oracle_internal

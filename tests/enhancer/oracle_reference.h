@@ -1,0 +1,18 @@
+// The pre-optimisation oracles (commit 6722196), the reference of oracle_test.cc.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "enhancer/oracle.h"
+#include "scenes/scene.h"
+
+namespace turbid::oracle_reference {
+
+OracleResult OracleExactEnhance(const OracleExactOptions& options, const cv::Mat& image,
+                                const Scene& scene, const nlohmann::json& sidecar);
+OracleResult OracleEnhance(const OracleOptions& options, const cv::Mat& image, const Scene& scene,
+                           const nlohmann::json& sidecar);
+cv::Mat DeconvolveReflect101(const cv::Mat& image, const cv::Mat& kernel, double nsr);
+
+}  // namespace turbid::oracle_reference
