@@ -58,6 +58,7 @@ double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int border);
 void AddColorCases(std::vector<BenchCase>& cases, const InputsFn& in);    // issue 18 item 1
 void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);  // issue 18 item 2
 void AddMachineCases(std::vector<BenchCase>& cases, const InputsFn& in);  // bandwidth, peak flops
+void AddBaselineCases(std::vector<BenchCase>& cases, const InputsFn& in);  // issue 18 item 3
 
 }  // namespace turbid::bench
 

@@ -280,6 +280,7 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
   bench::AddColorCases(cases, in);
   bench::AddMetricsCases(cases, in);
   bench::AddMachineCases(cases, in);
+  bench::AddBaselineCases(cases, in);
   return cases;
 }
 
