@@ -196,7 +196,9 @@ struct FusionOptions {
 
 struct FusionResult {
   cv::Mat image;                 // fused result, [0,1]
-  std::vector<cv::Mat> inputs;   // the two derived inputs (white-balanced; contrast-enhanced)
+  // the two derived inputs (white-balanced, or the input image itself when not balanced;
+  // contrast-enhanced)
+  std::vector<cv::Mat> inputs;
   std::vector<cv::Mat> weights;  // their normalised CV_32FC1 weight maps (sum to 1 per pixel)
 };
 

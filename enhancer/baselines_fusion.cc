@@ -83,36 +83,45 @@ bool FusionOptions::Check(std::string* why) const {
 }
 
 cv::Mat FusionWeight(const cv::Mat& input, double exposedness_sigma) {
-  // The filters are OpenCV's as before; the per-pixel sums run in one pass with the same float
-  // operations in the same order, so the weights are unchanged bit for bit.
-  const cv::Mat luminance =
-      input.channels() == 1 ? input : baselines_internal::Luminance(input);
-  cv::Mat laplacian;
-  cv::Laplacian(luminance, laplacian, CV_32F, 1, 1.0, 0.0, cv::BORDER_REFLECT_101);
-  const cv::Mat blurred = Binomial5(luminance);
+  // The filters are OpenCV's as before, run on strips of rows (a strip of a larger image reads
+  // its neighbours above and below from that image, so every value is as for the whole image);
+  // the per-pixel sums run on each strip while it is in cache, with the same float operations
+  // in the same order as before, so the weights are unchanged bit for bit.
+  // A standalone luminance: a strip must find the image's own border where the image ends.
   const bool gray = input.channels() == 1;
+  const cv::Mat luminance = !gray                  ? baselines_internal::Luminance(input)
+                            : input.isSubmatrix() ? input.clone()
+                                                  : input;
   const cv::Mat saliency = gray ? cv::Mat() : Saliency(input, luminance);
   const float mean = gray ? static_cast<float>(cv::mean(luminance)[0]) : 0.0f;
   // scale * a * b in double, as OpenCV's scaled product (a.mul(b) * scale) computes it.
   const double coefficient = -1.0 / (2.0 * exposedness_sigma * exposedness_sigma);
   cv::Mat weight(input.size(), CV_32FC1);
   cv::Mat argument(1, input.cols, CV_32FC1), exposedness(1, input.cols, CV_32FC1);
-  for (int y = 0; y < input.rows; ++y) {
-    const float* l = luminance.ptr<float>(y);
-    float* arg = argument.ptr<float>();
-    for (int x = 0; x < input.cols; ++x) {
-      const float centred = l[x] - 0.5f;
-      arg[x] = static_cast<float>(coefficient * centred * centred);
-    }
-    cv::exp(argument, exposedness);
-    const float* e = exposedness.ptr<float>();
-    const float* lap = laplacian.ptr<float>(y);
-    const float* b = blurred.ptr<float>(y);
-    const float* sal = gray ? nullptr : saliency.ptr<float>(y);
-    float* w = weight.ptr<float>(y);
-    for (int x = 0; x < input.cols; ++x) {
-      const float s = gray ? std::fabs(b[x] - mean) : sal[x];
-      w[x] = std::fabs(lap[x]) + std::fabs(l[x] - b[x]) + s + e[x];
+  cv::Mat laplacian, blurred;
+  constexpr int kStrip = 32;
+  for (int y0 = 0; y0 < input.rows; y0 += kStrip) {
+    const cv::Mat strip = luminance.rowRange(y0, std::min(y0 + kStrip, input.rows));
+    cv::Laplacian(strip, laplacian, CV_32F, 1, 1.0, 0.0, cv::BORDER_REFLECT_101);
+    blurred = Binomial5(strip);
+    for (int s = 0; s < strip.rows; ++s) {
+      const int y = y0 + s;
+      const float* l = luminance.ptr<float>(y);
+      float* arg = argument.ptr<float>();
+      for (int x = 0; x < input.cols; ++x) {
+        const float centred = l[x] - 0.5f;
+        arg[x] = static_cast<float>(coefficient * centred * centred);
+      }
+      cv::exp(argument, exposedness);
+      const float* e = exposedness.ptr<float>();
+      const float* lap = laplacian.ptr<float>(s);
+      const float* b = blurred.ptr<float>(s);
+      const float* sal = gray ? nullptr : saliency.ptr<float>(y);
+      float* w = weight.ptr<float>(y);
+      for (int x = 0; x < input.cols; ++x) {
+        const float sl = gray ? std::fabs(b[x] - mean) : sal[x];
+        w[x] = std::fabs(lap[x]) + std::fabs(l[x] - b[x]) + sl + e[x];
+      }
     }
   }
   return weight;
@@ -126,18 +135,32 @@ namespace {
 void AccumulateBand(const cv::Mat& gaussian, const cv::Mat& up, const cv::Mat& weight,
                     cv::Mat& blended, bool first) {
   const int channels = gaussian.channels();
+  const int cols = gaussian.cols;
   if (first) blended.create(gaussian.size(), gaussian.type());
+  std::vector<float> band(static_cast<size_t>(cols) * channels);
   for (int y = 0; y < gaussian.rows; ++y) {
     const float* g = gaussian.ptr<float>(y);
-    const float* u = up.empty() ? nullptr : up.ptr<float>(y);
     const float* w = weight.ptr<float>(y);
     float* b = blended.ptr<float>(y);
-    for (int x = 0; x < gaussian.cols; ++x) {
-      for (int c = 0; c < channels; ++c) {
-        const int i = x * channels + c;
-        const float band = u != nullptr ? g[i] - u[i] : g[i];
-        const float term = band * w[x];
-        b[i] = first ? term : b[i] + term;
+    float* d = band.data();
+    if (up.empty()) {
+      std::copy_n(g, cols * channels, d);
+    } else {
+      const float* u = up.ptr<float>(y);
+      for (int i = 0; i < cols * channels; ++i) d[i] = g[i] - u[i];
+    }
+    if (channels == 1) {
+      if (first) {
+        for (int x = 0; x < cols; ++x) b[x] = d[x] * w[x];
+      } else {
+        for (int x = 0; x < cols; ++x) b[x] = b[x] + d[x] * w[x];
+      }
+    } else {
+      for (int x = 0; x < cols; ++x) {
+        for (int c = 0; c < channels; ++c) {
+          const int i = x * channels + c;
+          b[i] = first ? d[i] * w[x] : b[i] + d[i] * w[x];
+        }
       }
     }
   }
@@ -212,9 +235,12 @@ FusionResult FusionDetailed(const FusionOptions& options, const cv::Mat& image) 
   FusionResult result;
   // Ancuti 2012 §3.1: input 1 is the white-balanced image, input 2 its contrast-enhanced version
   // (the paper also denoises it with a bilateral filter; we leave that out, see the docs).
+  // Without a balance, input 1 is the image itself (shared, not copied, unless it is a view into
+  // a larger image).
   cv::Mat balanced = (image.channels() == 3 && options.white_balance)
                          ? GrayWorld(image, options.max_white_balance_gain)
-                         : image.clone();
+                     : image.isSubmatrix() ? image.clone()
+                                           : image;
   cv::Mat enhanced = ClaheBaseline(options.clahe, balanced);
   result.inputs = {balanced, enhanced};
 

@@ -283,6 +283,21 @@ TEST(BaselinesFusion, WeightMatchesPreOptimisationImplementation) {
   }
 }
 
+// A view into a larger image gives what the same pixels give as an image of their own (the
+// filters must not read the neighbours outside the view).
+TEST(BaselinesFusion, ViewIntoLargerImageMatchesPreOptimisationImplementation) {
+  for (int channels : {1, 3}) {
+    const cv::Mat large = Hazy(90, 80, channels, 8);
+    const cv::Mat view = large(cv::Rect(7, 11, 53, 61));
+    EXPECT_EQ(cv::norm(Fusion(FusionOptions{}, view), ReferenceFusion(FusionOptions{}, view.clone()).image,
+                       cv::NORM_INF),
+              0.0);
+    EXPECT_EQ(cv::norm(FusionWeight(view, 0.25), ReferenceFusionWeight(view.clone(), 0.25),
+                       cv::NORM_INF),
+              0.0);
+  }
+}
+
 TEST(BaselinesFusion, MatchesPreOptimisationImplementation) {
   for (int channels : {1, 3}) {
     for (cv::Size size : {cv::Size(1, 1), cv::Size(2, 3), cv::Size(17, 9), cv::Size(37, 29),
