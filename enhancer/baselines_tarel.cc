@@ -59,22 +59,21 @@ cv::Mat AbsDifference(const cv::Mat& a, const cv::Mat& b) {
   return out;
 }
 
-// V = p max(min(W, A - D), 0) with A = med(W), D = med|W - A|, one pass.
-cv::Mat Veil(const cv::Mat& w, const cv::Mat& a, const cv::Mat& d, double p) {
+// V = p max(min(W, A - D), 0) with A = med(W), D = med|W - A|, one pass, written over A (A is
+// not needed afterwards; each element is read before it is written).
+cv::Mat VeilOverMedian(const cv::Mat& w, cv::Mat& a, const cv::Mat& d, double p) {
   // In float, as OpenCV scales a float matrix by a double (the reference implementation did).
   const float pf = static_cast<float>(p);
-  cv::Mat out(w.size(), CV_32FC1);
   for (int y = 0; y < w.rows; ++y) {
     const float* pw = w.ptr<float>(y);
-    const float* pa = a.ptr<float>(y);
+    float* pa = a.ptr<float>(y);
     const float* pd = d.ptr<float>(y);
-    float* o = out.ptr<float>(y);
     for (int x = 0; x < w.cols; ++x) {
       const float bound = pa[x] - pd[x];
-      o[x] = std::max(std::min(pw[x], bound), 0.0f) * pf;
+      pa[x] = std::max(std::min(pw[x], bound), 0.0f) * pf;
     }
   }
-  return out;
+  return a;
 }
 
 // Global balance (reference code, balance == 0): the mean colour of the pixels whose whiteness
@@ -136,8 +135,8 @@ cv::Mat LocalBalanceFactors(const cv::Mat& image, int sv, double strength) {
 void BottomThirdLogStats(const cv::Mat& image, double* mean, double* stddev) {
   const int first = std::min(image.rows - 1, (2 * image.rows) / 3);
   const cv::Mat bottom = ChannelMean(image.rowRange(first, image.rows));
-  cv::Mat logs;
-  cv::log(bottom + 0.5 / 255.0, logs);
+  cv::Mat logs = bottom + 0.5 / 255.0;
+  cv::log(logs, logs);
   cv::Scalar m, s;
   cv::meanStdDev(logs, m, s);
   const double n = static_cast<double>(logs.total());
@@ -191,10 +190,10 @@ TarelResult TarelDetailed(const TarelOptions& options, const cv::Mat& image) {
   // Tarel 2009 §4.3: A = median_sv(W); B = A - median_sv(|W - A|); V = p max(min(W, B), 0).
   // Gray: W is the balanced image itself (one buffer).
   result.whiteness = color ? ChannelMin(result.balanced) : result.balanced;
-  const cv::Mat local_median = MedianFilter(result.whiteness, options.sv);
-  const cv::Mat deviation = AbsDifference(result.whiteness, local_median);
-  const cv::Mat deviation_median = MedianFilter(deviation, options.sv);
-  result.veil = Veil(result.whiteness, local_median, deviation_median, options.p);
+  cv::Mat local_median = MedianFilter(result.whiteness, options.sv);
+  const cv::Mat deviation_median =
+      MedianFilter(AbsDifference(result.whiteness, local_median), options.sv);
+  result.veil = VeilOverMedian(result.whiteness, local_median, deviation_median, options.p);
 
   // Tarel 2009 eq. 9 with the sky intensity I_s = 1 (after white balance): R = (I - V) / (1 - V).
   // V <= p W < 1, so the divisor is at least 1 - p and R >= 0.
@@ -233,8 +232,10 @@ TarelResult TarelDetailed(const TarelOptions& options, const cv::Mat& image) {
   double max_u = 0.0;
   cv::minMaxLoc(u.reshape(1), nullptr, &max_u);
   if (max_u > 1e-12 && std::isfinite(max_u)) {
+    // The quotient goes over the denominator (one buffer less).
     cv::Mat denominator = u * (1.0 - 1.0 / max_u) + cv::Scalar::all(1.0);
-    cv::divide(u, denominator, result.image);
+    cv::divide(u, denominator, denominator);
+    result.image = denominator;
   } else {
     result.image = u;
   }
