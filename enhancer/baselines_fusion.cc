@@ -181,6 +181,20 @@ void AddLevel(const cv::Mat& up, const cv::Mat& blended, cv::Mat& out, bool clam
   }
 }
 
+// Rows [y0, y1) of cv::pyrUp(src, size), as a view into `work`: pyrUp of only the source rows
+// they depend on (output rows 2i and 2i+1 read source rows i-1 .. i+1), with two rows of margin
+// whose outputs (the only ones that see the cut as a border) are dropped. So the rows are those of
+// the whole-image pyrUp, bit for bit, without a full-size buffer.
+cv::Mat PyrUpRows(const cv::Mat& src, cv::Size size, int y0, int y1, cv::Mat& work) {
+  const int sy0 = std::max(0, y0 / 2 - 2);
+  const int sy1 = std::min(src.rows, (y1 + 1) / 2 + 2);
+  cv::pyrUp(src.rowRange(sy0, sy1), work, cv::Size(size.width, 2 * (sy1 - sy0)));
+  return work.rowRange(y0 - 2 * sy0, y1 - 2 * sy0);
+}
+
+// Rows per strip of the band and collapse steps (a strip's pyrUp stays in cache).
+constexpr int kBlendStrip = 64;
+
 cv::Mat Blend(const std::vector<cv::Mat>& inputs, const std::vector<cv::Mat>& weights,
               int levels, bool clamp) {
   CV_Assert(!inputs.empty() && inputs.size() == weights.size() && levels >= 1);
@@ -190,19 +204,24 @@ cv::Mat Blend(const std::vector<cv::Mat>& inputs, const std::vector<cv::Mat>& we
               std::floor(std::log2(static_cast<double>(std::min(size.width, size.height)))));
   const int used = std::min(levels, max_levels);
   std::vector<cv::Mat> blended(used);
-  std::vector<cv::Mat> ups(used);  // per level, reused by every input
+  cv::Mat work;
   for (size_t k = 0; k < inputs.size(); ++k) {
     CV_Assert(inputs[k].size() == size && inputs[k].type() == inputs[0].type());
     CV_Assert(weights[k].size() == size && weights[k].type() == CV_32FC1);
     cv::Mat gaussian = inputs[k];
     cv::Mat weight = weights[k];
     for (int level = 0; level < used; ++level) {
+      if (k == 0) blended[level].create(gaussian.size(), gaussian.type());
       cv::Mat next_gaussian;
       cv::Mat next_weight;
       if (level + 1 < used) {
         cv::pyrDown(gaussian, next_gaussian);
-        cv::pyrUp(next_gaussian, ups[level], gaussian.size());
-        AccumulateBand(gaussian, ups[level], weight, blended[level], k == 0);
+        for (int y0 = 0; y0 < gaussian.rows; y0 += kBlendStrip) {
+          const int y1 = std::min(y0 + kBlendStrip, gaussian.rows);
+          const cv::Mat up = PyrUpRows(next_gaussian, gaussian.size(), y0, y1, work);
+          cv::Mat rows = blended[level].rowRange(y0, y1);
+          AccumulateBand(gaussian.rowRange(y0, y1), up, weight.rowRange(y0, y1), rows, k == 0);
+        }
         cv::pyrDown(weight, next_weight);
       } else {
         AccumulateBand(gaussian, cv::Mat(), weight, blended[level], k == 0);
@@ -214,9 +233,13 @@ cv::Mat Blend(const std::vector<cv::Mat>& inputs, const std::vector<cv::Mat>& we
   cv::Mat result = blended[used - 1];
   if (used == 1 && clamp) AddLevel(cv::Mat::zeros(result.size(), result.type()), result, result, true);
   for (int level = used - 2; level >= 0; --level) {
-    cv::pyrUp(result, ups[level], blended[level].size());
-    // Level 0 writes into its own blended image (read and written element by element).
-    AddLevel(ups[level], blended[level], blended[level], clamp && level == 0);
+    // Each level is written over its own blended image (read and written element by element).
+    for (int y0 = 0; y0 < blended[level].rows; y0 += kBlendStrip) {
+      const int y1 = std::min(y0 + kBlendStrip, blended[level].rows);
+      const cv::Mat up = PyrUpRows(result, blended[level].size(), y0, y1, work);
+      cv::Mat rows = blended[level].rowRange(y0, y1);
+      AddLevel(up, rows, rows, clamp && level == 0);
+    }
     result = blended[level];
   }
   return result;
