@@ -89,7 +89,7 @@ cv::Mat FusionWeight(const cv::Mat& input, double exposedness_sigma) {
   // in the same order as before, so the weights are unchanged bit for bit.
   // A standalone luminance: a strip must find the image's own border where the image ends.
   const bool gray = input.channels() == 1;
-  const cv::Mat luminance = !gray                  ? baselines_internal::Luminance(input)
+  const cv::Mat luminance = !gray                 ? baselines_internal::Luminance(input)
                             : input.isSubmatrix() ? input.clone()
                                                   : input;
   const cv::Mat saliency = gray ? cv::Mat() : Saliency(input, luminance);
@@ -195,8 +195,8 @@ cv::Mat PyrUpRows(const cv::Mat& src, cv::Size size, int y0, int y1, cv::Mat& wo
 // Rows per strip of the band and collapse steps (a strip's pyrUp stays in cache).
 constexpr int kBlendStrip = 64;
 
-cv::Mat Blend(const std::vector<cv::Mat>& inputs, const std::vector<cv::Mat>& weights,
-              int levels, bool clamp) {
+cv::Mat Blend(const std::vector<cv::Mat>& inputs, const std::vector<cv::Mat>& weights, int levels,
+              bool clamp) {
   CV_Assert(!inputs.empty() && inputs.size() == weights.size() && levels >= 1);
   const cv::Size size = inputs[0].size();
   const int max_levels =
@@ -231,7 +231,8 @@ cv::Mat Blend(const std::vector<cv::Mat>& inputs, const std::vector<cv::Mat>& we
     }
   }
   cv::Mat result = blended[used - 1];
-  if (used == 1 && clamp) AddLevel(cv::Mat::zeros(result.size(), result.type()), result, result, true);
+  if (used == 1 && clamp)
+    AddLevel(cv::Mat::zeros(result.size(), result.type()), result, result, true);
   for (int level = used - 2; level >= 0; --level) {
     // Each level is written over its own blended image (read and written element by element).
     for (int y0 = 0; y0 < blended[level].rows; y0 += kBlendStrip) {

@@ -58,6 +58,8 @@ struct FixedVec {
   constexpr bool empty() const { return count == 0; }
   constexpr T& operator[](int i) { return items[i]; }
   constexpr const T& operator[](int i) const { return items[i]; }
+  constexpr const T& back() const { return items[count - 1]; }
+  constexpr void pop_back() { --count; }
 };
 
 template <class T>
@@ -167,7 +169,9 @@ class NetworkBuilder {
       }
       auto acquire = [&]() {
         if (free.empty()) return slots++;
-        return free.items_pop();
+        const int reused = free.back();
+        free.pop_back();
+        return reused;
       };
       const int lo = needed[c.lo] ? (slot[c.lo] = acquire()) : -1;
       const int hi = needed[c.hi] ? (slot[c.hi] = acquire()) : -1;
@@ -201,23 +205,6 @@ class NetworkBuilder {
   int inputs_;
   int next_wire_;
   Store comparators_{};
-};
-
-// A stack of free slots (FixedVec/DynVec with pop).
-template <class Base>
-struct FreeList : Base {
-  constexpr int items_pop() {
-    const int v = (*this)[this->size() - 1];
-    this->pop();
-    return v;
-  }
-};
-template <int N>
-struct FixedStack : FixedVec<int, N> {
-  constexpr void pop() { --this->count; }
-};
-struct DynStack : DynVec<int> {
-  void pop() { this->pop_back(); }
 };
 
 // The stages of the filter for window size k (odd, >= 3). Blocks of 2^j columns with
@@ -260,8 +247,8 @@ constexpr List BuildStage(NetworkBuilder<List, Store>& b, int k, Stage stage, in
         }
       }
       for (int i = n_small - 1; i >= 0; --i) rest = b.Merge(blocks_small[i], rest);
-      const List large = top > 0 ? b.Merge(B::Range(0, half), B::Range(half, half))
-                                 : B::Range(0, half);
+      const List large =
+          top > 0 ? b.Merge(B::Range(0, half), B::Range(half, half)) : B::Range(0, half);
       const List all = b.Merge(large, rest);
       const int median = (k * k - 1) / 2;
       List band{};
@@ -306,7 +293,7 @@ Program RuntimeProgram(int k, Stage stage, int level) {
   const DynVec<int> wanted = BuildStage(b, k, stage, level);
   DynVec<char> needed;
   DynVec<int> last_use, slot;
-  FreeList<DynStack> free;
+  DynVec<int> free;
   DynVec<Op> ops;
   DynVec<int> outputs;
   Program p;
@@ -316,35 +303,6 @@ Program RuntimeProgram(int k, Stage stage, int level) {
   p.outputs.assign(outputs.begin(), outputs.end());
   return p;
 }
-
-// The same network as a constant: sizes and ops known to the compiler.
-constexpr int kMaxWires = 4096;
-using ConstList = FixedVec<int, 256>;
-using ConstBuilder = NetworkBuilder<ConstList, FixedVec<Comparator, kMaxWires / 2>>;
-
-template <int K, Stage S, int L>
-struct ConstProgram {
-  struct Built {
-    FixedVec<Op, kMaxWires / 2> ops;
-    FixedVec<int, 64> outputs;
-    int slots = 0;
-  };
-  static constexpr Built Build() {
-    ConstBuilder b(StageInputs(K, S, L));
-    const ConstList wanted = BuildStage(b, K, S, L);
-    FixedVec<char, kMaxWires> needed;
-    FixedVec<int, kMaxWires> last_use, slot;
-    FreeList<FixedStack<kMaxWires>> free;
-    Built built;
-    built.slots = b.Compile(wanted, needed, last_use, slot, free, built.ops, built.outputs);
-    return built;
-  }
-  static constexpr Built kBuilt = Build();
-  static constexpr int kInputs = StageInputs(K, S, L);
-  static constexpr int kSlots = kBuilt.slots;
-  static constexpr int kOps = kBuilt.ops.size();
-  static constexpr int kOutputs = kBuilt.outputs.size();
-};
 
 // ---------------------------------------------------------------------------------------------
 // Running networks
@@ -400,7 +358,7 @@ class InterpretedStages : public MedianStages {
   }
   void Run(Stage stage, int level, const float* const* in, float* const* out, int n,
            std::vector<float>& scratch) const override {
-    const Program& p = stage == Stage::kSortColumns ? sort_
+    const Program& p = stage == Stage::kSortColumns  ? sort_
                        : stage == Stage::kMergeLevel ? merge_[level - 1]
                        : stage == Stage::kCoreBand   ? core_
                                                      : finish_;
@@ -413,6 +371,35 @@ class InterpretedStages : public MedianStages {
 };
 
 #ifdef TURBID_MEDIAN_AVX2
+// The same network as a constant: sizes and ops known to the compiler.
+constexpr int kMaxWires = 4096;
+using ConstList = FixedVec<int, 256>;
+using ConstBuilder = NetworkBuilder<ConstList, FixedVec<Comparator, kMaxWires / 2>>;
+
+template <int K, Stage S, int L>
+struct ConstProgram {
+  struct Built {
+    FixedVec<Op, kMaxWires / 2> ops;
+    FixedVec<int, 64> outputs;
+    int slots = 0;
+  };
+  static constexpr Built Build() {
+    ConstBuilder b(StageInputs(K, S, L));
+    const ConstList wanted = BuildStage(b, K, S, L);
+    FixedVec<char, kMaxWires> needed;
+    FixedVec<int, kMaxWires> last_use, slot;
+    FixedVec<int, kMaxWires> free;
+    Built built;
+    built.slots = b.Compile(wanted, needed, last_use, slot, free, built.ops, built.outputs);
+    return built;
+  }
+  static constexpr Built kBuilt = Build();
+  static constexpr int kInputs = StageInputs(K, S, L);
+  static constexpr int kSlots = kBuilt.slots;
+  static constexpr int kOps = kBuilt.ops.size();
+  static constexpr int kOutputs = kBuilt.outputs.size();
+};
+
 // Straight-line code for a constant program, on vectors of lanes pixels. `Lanes` supplies the
 // vector type V and Load/Store/Min/Max.
 #define TURBID_AVX2_FN __attribute__((target("avx2"))) inline
@@ -431,13 +418,13 @@ TURBID_AVX2_FN void ApplyOps(typename Lanes::V* v, std::index_sequence<I...>) {
 
 template <class Lanes, class P, size_t... I>
 TURBID_AVX2_FN void LoadInputs(typename Lanes::V* v, const float* const* in, int x,
-                                              std::index_sequence<I...>) {
+                               std::index_sequence<I...>) {
   ((v[I] = Lanes::Load(in[I] + x)), ...);
 }
 
 template <class Lanes, class P, size_t... I>
-TURBID_AVX2_FN void StoreOutputs(const typename Lanes::V* v, float* const* out,
-                                                int x, std::index_sequence<I...>) {
+TURBID_AVX2_FN void StoreOutputs(const typename Lanes::V* v, float* const* out, int x,
+                                 std::index_sequence<I...>) {
   (Lanes::Store(out[I] + x, v[P::kBuilt.outputs[I]]), ...);
 }
 

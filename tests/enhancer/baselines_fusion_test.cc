@@ -93,8 +93,8 @@ cv::Mat ReferenceFusionWeight(const cv::Mat& input, double exposedness_sigma) {
   return laplacian_contrast + local_contrast + saliency + exposedness;
 }
 
-cv::Mat ReferencePyramidBlend(const std::vector<cv::Mat>& inputs, const std::vector<cv::Mat>& weights,
-                     int levels) {
+cv::Mat ReferencePyramidBlend(const std::vector<cv::Mat>& inputs,
+                              const std::vector<cv::Mat>& weights, int levels) {
   CV_Assert(!inputs.empty() && inputs.size() == weights.size() && levels >= 1);
   const cv::Size size = inputs[0].size();
   const int channels = inputs[0].channels();
@@ -175,7 +175,6 @@ FusionResult ReferenceFusion(const FusionOptions& options, const cv::Mat& image)
 using reference::ReferenceFusion;
 using reference::ReferenceFusionWeight;
 using reference::ReferencePyramidBlend;
-
 
 cv::Mat RandomImage(int rows, int cols, int channels, uint32_t seed) {
   std::mt19937 rng(seed);
@@ -277,9 +276,9 @@ TEST(BaselinesFusion, WeightMatchesPreOptimisationImplementation) {
     for (cv::Size size : {cv::Size(1, 1), cv::Size(3, 2), cv::Size(37, 29), cv::Size(64, 48)}) {
       const cv::Mat image = Hazy(size.height, size.width, channels, 5);
       for (double sigma : {0.25, 0.05}) {
-        EXPECT_EQ(cv::norm(FusionWeight(image, sigma), ReferenceFusionWeight(image, sigma),
-                           cv::NORM_INF),
-                  0.0)
+        EXPECT_EQ(
+            cv::norm(FusionWeight(image, sigma), ReferenceFusionWeight(image, sigma), cv::NORM_INF),
+            0.0)
             << channels << " " << size << " " << sigma;
       }
     }
@@ -292,12 +291,12 @@ TEST(BaselinesFusion, ViewIntoLargerImageMatchesPreOptimisationImplementation) {
   for (int channels : {1, 3}) {
     const cv::Mat large = Hazy(90, 80, channels, 8);
     const cv::Mat view = large(cv::Rect(7, 11, 53, 61));
-    EXPECT_EQ(cv::norm(Fusion(FusionOptions{}, view), ReferenceFusion(FusionOptions{}, view.clone()).image,
-                       cv::NORM_INF),
+    EXPECT_EQ(cv::norm(Fusion(FusionOptions{}, view),
+                       ReferenceFusion(FusionOptions{}, view.clone()).image, cv::NORM_INF),
               0.0);
-    EXPECT_EQ(cv::norm(FusionWeight(view, 0.25), ReferenceFusionWeight(view.clone(), 0.25),
-                       cv::NORM_INF),
-              0.0);
+    EXPECT_EQ(
+        cv::norm(FusionWeight(view, 0.25), ReferenceFusionWeight(view.clone(), 0.25), cv::NORM_INF),
+        0.0);
   }
 }
 

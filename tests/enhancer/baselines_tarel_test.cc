@@ -259,7 +259,6 @@ TarelResult ReferenceTarel(const TarelOptions& options, const cv::Mat& image) {
 using reference::ReferenceMedianFilter;
 using reference::ReferenceTarel;
 
-
 TEST(BaselinesTarel, DefaultsPassCheck) {
   std::string why;
   EXPECT_TRUE(TarelOptions{}.Check(&why)) << why;
@@ -427,8 +426,8 @@ TEST(BaselinesTarel, MedianFilterMatchesPreOptimisationFilter) {
     int rows, cols;
   };
   // Odd and even sizes, single rows and columns, windows larger than the image.
-  const std::vector<Case> sizes = {{1, 1}, {1, 9}, {9, 1}, {2, 3}, {3, 2}, {7, 13}, {12, 12},
-                                   {31, 17}, {40, 67}, {64, 33}};
+  const std::vector<Case> sizes = {{1, 1},  {1, 9},   {9, 1},   {2, 3},   {3, 2},
+                                   {7, 13}, {12, 12}, {31, 17}, {40, 67}, {64, 33}};
   uint32_t seed = 100;
   for (const Case& size : sizes) {
     for (int k : {1, 3, 5, 7, 9, 11, 13, 15}) {
