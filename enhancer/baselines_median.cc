@@ -76,7 +76,7 @@ struct Comparator {
 // One kept comparator on slots: slot lo = min(slot a, slot b), slot hi = max(...). An output that
 // nothing reads goes to the last slot, the sink (storing it costs less than a branch).
 struct Op {
-  uint16_t a, b, lo, hi;
+  int32_t a, b, lo, hi;
 };
 
 // Builds comparator networks on symbolic wires (inputs are wires 0..n-1; every comparator makes
@@ -175,14 +175,12 @@ class NetworkBuilder {
       };
       const int lo = needed[c.lo] ? (slot[c.lo] = acquire()) : -1;
       const int hi = needed[c.hi] ? (slot[c.hi] = acquire()) : -1;
-      ops.push_back(Op{static_cast<uint16_t>(a), static_cast<uint16_t>(b),
-                       static_cast<uint16_t>(lo < 0 ? 0xFFFF : lo),
-                       static_cast<uint16_t>(hi < 0 ? 0xFFFF : hi)});
+      ops.push_back(Op{a, b, lo, hi});
     }
     const int sink = slots;
     for (int i = 0; i < ops.size(); ++i) {
-      if (ops[i].lo == 0xFFFF) ops[i].lo = static_cast<uint16_t>(sink);
-      if (ops[i].hi == 0xFFFF) ops[i].hi = static_cast<uint16_t>(sink);
+      if (ops[i].lo < 0) ops[i].lo = sink;
+      if (ops[i].hi < 0) ops[i].hi = sink;
     }
     for (int i = 0; i < wanted.size(); ++i) outputs.push_back(slot[wanted[i]]);
     return sink + 1;

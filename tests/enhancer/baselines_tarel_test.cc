@@ -436,6 +436,11 @@ TEST(BaselinesTarel, MedianFilterMatchesPreOptimisationFilter) {
       ExpectMediansMatchReference(FewLevels(size.rows, size.cols, ++seed), k, what + " ties");
     }
   }
+  // Larger windows (run-time networks with thousands of values).
+  for (int k : {21, 31}) {
+    ExpectMediansMatchReference(Uniform(40, 45, 1, ++seed), k, "40x45 uniform");
+    ExpectMediansMatchReference(FewLevels(40, 45, ++seed), k, "40x45 ties");
+  }
   // Constant images, values outside [0, 1], signed zeros and a far outlier.
   ExpectMediansMatchReference(cv::Mat(23, 29, CV_32FC1, cv::Scalar(0.25)), 11, "constant");
   ExpectMediansMatchReference(cv::Mat(23, 29, CV_32FC1, cv::Scalar(0.0)), 11, "zero");
