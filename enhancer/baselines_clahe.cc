@@ -83,6 +83,16 @@ bool ClaheBaselineOptions::Check(std::string* why) const {
 cv::Mat ClaheBaseline(const ClaheBaselineOptions& options, const cv::Mat& image, bool rgb) {
   baselines_internal::ValidateImage(image, "clahe");
   ThrowIfInvalid(options, "clahe");
+  if (image.channels() == 1) {
+    // Gray: the luminance is the image; clamp the equalised result in place (no copies).
+    cv::Mat out = baselines_internal::ClaheGray(image, options.tiles_x, options.tiles_y,
+                                                options.clip_limit, options.bins);
+    for (int y = 0; y < out.rows; ++y) {
+      float* row = out.ptr<float>(y);
+      for (int x = 0; x < out.cols; ++x) row[x] = std::min(std::max(row[x], 0.0f), 1.0f);
+    }
+    return out;
+  }
   const cv::Mat luminance = baselines_internal::Luminance(image, rgb);
   const cv::Mat equalised = baselines_internal::ClaheGray(
       luminance, options.tiles_x, options.tiles_y, options.clip_limit, options.bins);

@@ -3,6 +3,7 @@
 
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 namespace turbid::baselines_internal {
 
@@ -41,6 +42,13 @@ cv::Mat Luminance(const cv::Mat& image, bool rgb = false);
 // hue and saturation stay; pixels with zero luminance become gray. Output clamped to [0,1].
 cv::Mat ReplaceLuminance(const cv::Mat& image, const cv::Mat& luminance,
                          const cv::Mat& new_luminance);
+
+// Exact median over a k x k window (k odd, >= 3) of a CV_32FC1 image, border reflected (as
+// MATLAB's 'symmetric'); comparator networks shared between neighbouring windows
+// (enhancer/baselines_median.cc). MedianFilter (enhancer/baselines.h) calls it. k = 11 runs
+// networks compiled to straight-line code unless `allow_compiled` is false (tests: the run-time
+// networks, used for every other k, then run for k = 11 too).
+cv::Mat NetworkMedian(const cv::Mat& image, int k, bool allow_compiled = true);
 
 inline bool IsOddPositive(int v) { return v >= 1 && v % 2 == 1; }
 

@@ -29,10 +29,51 @@ cv::Mat ChannelMin(const cv::Mat& image) {
 }
 
 cv::Mat ChannelMean(const cv::Mat& image) {
-  if (image.channels() == 1) return image.clone();
+  if (image.channels() == 1) return image;
   cv::Mat mean;
   cv::transform(image, mean, cv::Matx13f(1.0f / 3, 1.0f / 3, 1.0f / 3));
   return mean;
+}
+
+// [0,1]-clamped copy (max with 0, then min with 1, as ClampUnit).
+cv::Mat ClampedCopy(const cv::Mat& image) {
+  cv::Mat out(image.size(), image.type());
+  const int n = image.cols * image.channels();
+  for (int y = 0; y < image.rows; ++y) {
+    const float* in = image.ptr<float>(y);
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < n; ++x) o[x] = std::min(std::max(in[x], 0.0f), 1.0f);
+  }
+  return out;
+}
+
+// |a - b|, one pass.
+cv::Mat AbsDifference(const cv::Mat& a, const cv::Mat& b) {
+  cv::Mat out(a.size(), CV_32FC1);
+  for (int y = 0; y < a.rows; ++y) {
+    const float* pa = a.ptr<float>(y);
+    const float* pb = b.ptr<float>(y);
+    float* o = out.ptr<float>(y);
+    for (int x = 0; x < a.cols; ++x) o[x] = std::fabs(pa[x] - pb[x]);
+  }
+  return out;
+}
+
+// V = p max(min(W, A - D), 0) with A = med(W), D = med|W - A|, one pass, written over A (A is
+// not needed afterwards; each element is read before it is written).
+cv::Mat VeilOverMedian(const cv::Mat& w, cv::Mat& a, const cv::Mat& d, double p) {
+  // In float, as OpenCV scales a float matrix by a double (the reference implementation did).
+  const float pf = static_cast<float>(p);
+  for (int y = 0; y < w.rows; ++y) {
+    const float* pw = w.ptr<float>(y);
+    float* pa = a.ptr<float>(y);
+    const float* pd = d.ptr<float>(y);
+    for (int x = 0; x < w.cols; ++x) {
+      const float bound = pa[x] - pd[x];
+      pa[x] = std::max(std::min(pw[x], bound), 0.0f) * pf;
+    }
+  }
+  return a;
 }
 
 // Global balance (reference code, balance == 0): the mean colour of the pixels whose whiteness
@@ -89,12 +130,13 @@ cv::Mat LocalBalanceFactors(const cv::Mat& image, int sv, double strength) {
   return factors;
 }
 
-// Mean and sample standard deviation of log(v + 0.5/255) over the bottom third of the rows.
-void BottomThirdLogStats(const cv::Mat& gray, double* mean, double* stddev) {
-  const int first = std::min(gray.rows - 1, (2 * gray.rows) / 3);
-  cv::Mat bottom = gray.rowRange(first, gray.rows).clone();
-  cv::Mat logs;
-  cv::log(bottom + 0.5 / 255.0, logs);
+// Mean and sample standard deviation of log(v + 0.5/255) over the bottom third of the rows, v the
+// channel mean (only those rows are averaged).
+void BottomThirdLogStats(const cv::Mat& image, double* mean, double* stddev) {
+  const int first = std::min(image.rows - 1, (2 * image.rows) / 3);
+  const cv::Mat bottom = ChannelMean(image.rowRange(first, image.rows));
+  cv::Mat logs = bottom + 0.5 / 255.0;
+  cv::log(logs, logs);
   cv::Scalar m, s;
   cv::meanStdDev(logs, m, s);
   const double n = static_cast<double>(logs.total());
@@ -121,68 +163,7 @@ bool TarelOptions::Check(std::string* why) const {
 cv::Mat MedianFilter(const cv::Mat& image, int size) {
   CV_Assert(image.type() == CV_32FC1 && IsOddPositive(size));
   if (size == 1) return image.clone();
-  const int half = size / 2;
-  cv::Mat padded;
-  cv::copyMakeBorder(image, padded, half, half, half, half, cv::BORDER_REFLECT);
-  // Huang's sliding histogram on coarse bins finds the bin holding the median; the exact value is
-  // then selected among the few window values in that bin. Exact, and ~10x faster than selecting
-  // among all size^2 values per pixel.
-  constexpr int kBins = 4096;
-  double lo = 0.0, hi = 0.0;
-  cv::minMaxLoc(padded, &lo, &hi);
-  const double scale = hi > lo ? (kBins - 1e-3) / (hi - lo) : 0.0;
-  cv::Mat bins(padded.size(), CV_16UC1);
-  for (int y = 0; y < padded.rows; ++y) {
-    const float* v = padded.ptr<float>(y);
-    uint16_t* b = bins.ptr<uint16_t>(y);
-    for (int x = 0; x < padded.cols; ++x) {
-      b[x] = static_cast<uint16_t>(std::min(kBins - 1, static_cast<int>((v[x] - lo) * scale)));
-    }
-  }
-  cv::Mat out(image.size(), CV_32FC1);
-  const int middle = (size * size) / 2;  // rank of the median, 0-based
-  cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
-    std::vector<int> histogram(kBins);
-    std::vector<float> candidates;
-    candidates.reserve(static_cast<size_t>(size) * size);
-    for (int y = rows.start; y < rows.end; ++y) {
-      std::fill(histogram.begin(), histogram.end(), 0);
-      for (int dy = 0; dy < size; ++dy) {
-        const uint16_t* b = bins.ptr<uint16_t>(y + dy);
-        for (int dx = 0; dx < size; ++dx) ++histogram[b[dx]];
-      }
-      int bin = 0;
-      int below = 0;  // window values in bins < bin
-      float* o = out.ptr<float>(y);
-      for (int x = 0; x < image.cols; ++x) {
-        if (x > 0) {
-          for (int dy = 0; dy < size; ++dy) {
-            const uint16_t* b = bins.ptr<uint16_t>(y + dy);
-            const int gone = b[x - 1];
-            const int added = b[x - 1 + size];
-            --histogram[gone];
-            if (gone < bin) --below;
-            ++histogram[added];
-            if (added < bin) ++below;
-          }
-        }
-        while (below > middle) below -= histogram[--bin];
-        while (below + histogram[bin] <= middle) below += histogram[bin++];
-        candidates.clear();
-        for (int dy = 0; dy < size; ++dy) {
-          const uint16_t* b = bins.ptr<uint16_t>(y + dy) + x;
-          const float* v = padded.ptr<float>(y + dy) + x;
-          for (int dx = 0; dx < size; ++dx) {
-            if (b[dx] == bin) candidates.push_back(v[dx]);
-          }
-        }
-        const auto nth = candidates.begin() + (middle - below);
-        std::nth_element(candidates.begin(), nth, candidates.end());
-        o[x] = *nth;
-      }
-    }
-  });
-  return out;
+  return baselines_internal::NetworkMedian(image, size);
 }
 
 TarelResult TarelDetailed(const TarelOptions& options, const cv::Mat& image) {
@@ -196,21 +177,23 @@ TarelResult TarelDetailed(const TarelOptions& options, const cv::Mat& image) {
     result.white = GlobalWhite(image);
     cv::divide(image, cv::Scalar(result.white[0], result.white[1], result.white[2]),
                result.balanced);
+    // Balanced values above 1 would let the veil exceed 1 and the restoration divide by <= 0.
+    baselines_internal::ClampUnit(result.balanced);
   } else if (color && options.balance > 0.0) {
     local_factors = LocalBalanceFactors(image, options.sv, options.balance);
     cv::divide(image, local_factors, result.balanced);
+    baselines_internal::ClampUnit(result.balanced);
   } else {
-    result.balanced = image.clone();
+    result.balanced = ClampedCopy(image);
   }
-  // Balanced values above 1 would let the veil exceed 1 and the restoration divide by <= 0.
-  baselines_internal::ClampUnit(result.balanced);
 
   // Tarel 2009 §4.3: A = median_sv(W); B = A - median_sv(|W - A|); V = p max(min(W, B), 0).
-  result.whiteness = ChannelMin(result.balanced);
-  const cv::Mat local_median = MedianFilter(result.whiteness, options.sv);
-  const cv::Mat deviation = cv::abs(result.whiteness - local_median);
-  const cv::Mat bound = local_median - MedianFilter(deviation, options.sv);
-  result.veil = cv::max(cv::min(result.whiteness, bound), 0.0) * options.p;
+  // Gray: W is the balanced image itself (one buffer).
+  result.whiteness = color ? ChannelMin(result.balanced) : result.balanced;
+  cv::Mat local_median = MedianFilter(result.whiteness, options.sv);
+  const cv::Mat deviation_median =
+      MedianFilter(AbsDifference(result.whiteness, local_median), options.sv);
+  result.veil = VeilOverMedian(result.whiteness, local_median, deviation_median, options.p);
 
   // Tarel 2009 eq. 9 with the sky intensity I_s = 1 (after white balance): R = (I - V) / (1 - V).
   // V <= p W < 1, so the divisor is at least 1 - p and R >= 0.
@@ -231,15 +214,14 @@ TarelResult TarelDetailed(const TarelOptions& options, const cv::Mat& image) {
   }
 
   if (!options.tone_map) {
-    result.image = result.restored.clone();
-    baselines_internal::ClampUnit(result.image);
+    result.image = ClampedCopy(result.restored);
     return result;
   }
   // Reference code: a gamma that matches the log-mean and log-spread of the bottom third of the
   // image to the input's, then u / (1 + (1 - 1/max u) u), which maps max u to 1.
   double mean_in, std_in, mean_out, std_out;
-  BottomThirdLogStats(ChannelMean(result.balanced), &mean_in, &std_in);
-  BottomThirdLogStats(ChannelMean(result.restored), &mean_out, &std_out);
+  BottomThirdLogStats(result.balanced, &mean_in, &std_in);
+  BottomThirdLogStats(result.restored, &mean_out, &std_out);
   // A flat bottom third has no spread to match: keep the exponent at 1 instead of 0 or infinity.
   const double exponent =
       (std_in > 1e-6 && std_out > 1e-6) ? options.gamma_factor * std_in / std_out : 1.0;
@@ -250,8 +232,10 @@ TarelResult TarelDetailed(const TarelOptions& options, const cv::Mat& image) {
   double max_u = 0.0;
   cv::minMaxLoc(u.reshape(1), nullptr, &max_u);
   if (max_u > 1e-12 && std::isfinite(max_u)) {
+    // The quotient goes over the denominator (one buffer less).
     cv::Mat denominator = u * (1.0 - 1.0 / max_u) + cv::Scalar::all(1.0);
-    cv::divide(u, denominator, result.image);
+    cv::divide(u, denominator, denominator);
+    result.image = denominator;
   } else {
     result.image = u;
   }

@@ -55,10 +55,11 @@ std::string Format(const char* format, double value);
 double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int border);
 
 // The groups of cases, one file each (tools/bench_cases_*.cc).
-void AddColorCases(std::vector<BenchCase>& cases, const InputsFn& in);    // issue 18 item 1
-void AddDcpCases(std::vector<BenchCase>& cases, const InputsFn& in);  // 18.3: dcp, udcp, cap, oracle
-void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);  // issue 18 item 2
-void AddMachineCases(std::vector<BenchCase>& cases, const InputsFn& in);  // bandwidth, peak flops
+void AddColorCases(std::vector<BenchCase>& cases, const InputsFn& in);     // 18.1: full, simplified
+void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);   // 18.2: no-reference
+void AddBaselineCases(std::vector<BenchCase>& cases, const InputsFn& in);  // 18.3: tarel, fusion
+void AddDcpCases(std::vector<BenchCase>& cases, const InputsFn& in);       // 18.3: dcp, cap, oracle
+void AddMachineCases(std::vector<BenchCase>& cases, const InputsFn& in);   // bandwidth, peak flops
 
 }  // namespace turbid::bench
 

@@ -278,8 +278,9 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
     cases.push_back(c);
   }
   bench::AddColorCases(cases, in);
-  bench::AddDcpCases(cases, in);
   bench::AddMetricsCases(cases, in);
+  bench::AddBaselineCases(cases, in);
+  bench::AddDcpCases(cases, in);
   bench::AddMachineCases(cases, in);
   return cases;
 }
