@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 #include <functional>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <sstream>
 
@@ -57,6 +59,17 @@ const MetricInfo& FindMetric(const std::string& name) {
   for (const MetricInfo& info : ListMetrics()) known += (known.empty() ? "" : ", ") + info.name;
   throw Error("unknown metric '" + name + "' (known: " + known + ")");
 }
+
+struct OriginalCache {
+  std::mutex mutex;
+  const uchar* data = nullptr;  // which original (and at which range) the entries belong to
+  cv::Size size;
+  int type = -1;
+  double range = 0.0;
+  std::optional<VisibleEdgeOriginal> paper, ifsttar;
+};
+
+std::shared_ptr<OriginalCache> NewOriginalCache() { return std::make_shared<OriginalCache>(); }
 
 namespace {
 
@@ -140,8 +153,29 @@ class SharedWork {
         throw Error("visible-edge metrics need the original (degraded) image, none given");
       VisibleEdgeOptions options;
       options.variant = variant;
-      slot = VisibleEdges(options, ForEightBitMetrics(in_.original, &original8_),
-                          ForEightBitMetrics(in_.image, &image8_));
+      OriginalCache* cache = in_.original_cache;
+      if (cache == nullptr) {
+        slot = VisibleEdges(options, ForEightBitMetrics(in_.original, &original8_),
+                            ForEightBitMetrics(in_.image, &image8_));
+      } else {
+        std::unique_lock<std::mutex> lock(cache->mutex);
+        if (cache->data != in_.original.data || cache->size != in_.original.size() ||
+            cache->type != in_.original.type() || cache->range != Range()) {
+          cache->paper.reset();
+          cache->ifsttar.reset();
+          cache->data = in_.original.data;
+          cache->size = in_.original.size();
+          cache->type = in_.original.type();
+          cache->range = Range();
+        }
+        std::optional<VisibleEdgeOriginal>& analysis =
+            variant == VisibleEdgeVariant::kPaper ? cache->paper : cache->ifsttar;
+        if (!analysis)
+          analysis = AnalyseVisibleEdgeOriginal(options, ForEightBitMetrics(in_.original, &original8_));
+        const VisibleEdgeOriginal& original = *analysis;
+        lock.unlock();  // entries are never replaced while the cache serves this original
+        slot = VisibleEdges(options, original, ForEightBitMetrics(in_.image, &image8_));
+      }
     }
     return *slot;
   }

@@ -6,10 +6,19 @@
 #include <opencv2/core.hpp>
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace turbid {
+
+// Analysis of an original (degraded) image that scoring many restorations of it can share (the
+// visible-edge mask of the original): create one per original with NewOriginalCache() and pass it
+// with every ComputeMetrics call for that original, which must stay alive and unchanged while the
+// cache is in use. The values are the same with or without it; a cache handed another original
+// (buffer, size, type or range) starts over. Thread-safe.
+struct OriginalCache;
+std::shared_ptr<OriginalCache> NewOriginalCache();
 
 struct MetricInputs {
   cv::Mat reference;  // ground truth (full-reference metrics), float32 [0,1]
@@ -19,6 +28,7 @@ struct MetricInputs {
   // [0,1], 255 for 8-bit Mats). `turbid score` passes raw 8-bit file values as float with 255,
   // which keeps MSE/PSNR exact (docs/metrics.md, "Inputs").
   double data_range = 0.0;
+  OriginalCache* original_cache = nullptr;  // optional, see NewOriginalCache
 };
 
 struct MetricInfo {

@@ -26,6 +26,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <vector>
 
@@ -640,17 +641,56 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options, const cv::Mat&
                 std::to_string(original.rows) + " but restored is " +
                 std::to_string(restored.cols) + "x" + std::to_string(restored.rows));
   }
-  const cv::Mat gray_o = ToGray8(original, "visible edges: original");
+  return VisibleEdges(options, AnalyseVisibleEdgeOriginal(options, original), restored);
+}
+
+VisibleEdgeOriginal AnalyseVisibleEdgeOriginal(const VisibleEdgeOptions& options,
+                                               const cv::Mat& original) {
+  ThrowIfInvalid(options, "visible edges");
+  CheckAccepted(original, "visible edges: original");
+  VisibleEdgeOriginal analysis;
+  analysis.options = options;
+  analysis.gray8 = ToGray8(original, "visible edges: original");
+  analysis.mask = VisibleEdgeMask8(options, analysis.gray8);
+  analysis.visible = cv::countNonZero(analysis.mask);
+  return analysis;
+}
+
+namespace {
+
+bool SameBytes(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  const size_t row_bytes = static_cast<size_t>(a.cols) * a.elemSize();
+  for (int y = 0; y < a.rows; ++y)
+    if (std::memcmp(a.ptr(y), b.ptr(y), row_bytes) != 0) return false;
+  return true;
+}
+
+}  // namespace
+
+VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
+                               const VisibleEdgeOriginal& original, const cv::Mat& restored) {
+  ThrowIfInvalid(options, "visible edges");
+  if (original.options.variant != options.variant ||
+      original.options.visibility_threshold != options.visibility_threshold || original.gray8.empty())
+    throw Error("visible edges: the original was analysed with other options");
+  CheckAccepted(restored, "visible edges: restored");
+  const cv::Mat& gray_o = original.gray8;
+  if (gray_o.size() != restored.size()) {
+    throw Error("visible edges: original is " + std::to_string(gray_o.cols) + "x" +
+                std::to_string(gray_o.rows) + " but restored is " +
+                std::to_string(restored.cols) + "x" + std::to_string(restored.rows));
+  }
   const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
-  const cv::Mat mask_o = VisibleEdgeMask8(options, gray_o);
-  const cv::Mat mask_r = VisibleEdgeMask8(options, gray_r);
+  const cv::Mat mask_r = SameBytes(gray_r, gray_o) ? original.mask
+                                                   : VisibleEdgeMask8(options, gray_r);
   const int nl = gray_r.rows;
   const int nc = gray_r.cols;
 
   VisibleEdgeResult result;
   result.variant = VisibleEdgeVariantName(options.variant);
   result.pixels = static_cast<int64_t>(nl) * nc;
-  result.visible_original = cv::countNonZero(mask_o);
+  result.visible_original = original.visible;
   result.visible_restored = cv::countNonZero(mask_r);
   // IEEE semantics on purpose: n_o = 0 gives +inf (or NaN when n_r = 0 too), as the code does.
   result.e = static_cast<double>(result.visible_restored - result.visible_original) /

@@ -81,6 +81,23 @@ struct VisibleEdgeResult {
 VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options, const cv::Mat& original,
                                const cv::Mat& restored);
 
+// The original's half of VisibleEdges, for scoring many restorations of one original (a sweep
+// scores every method against the same degraded image): its 8-bit gray image, visible-edge mask
+// and count n_o. VisibleEdges(options, AnalyseVisibleEdgeOriginal(options, original), restored)
+// equals VisibleEdges(options, original, restored) in every field (tested).
+struct VisibleEdgeOriginal {
+  VisibleEdgeOptions options;  // what it was computed with (VisibleEdges checks they match)
+  cv::Mat gray8;               // CV_8UC1, as the published code sees the original
+  cv::Mat mask;                // CV_8UC1, 255 = visible edge pixel
+  int64_t visible = 0;         // n_o
+};
+VisibleEdgeOriginal AnalyseVisibleEdgeOriginal(const VisibleEdgeOptions& options,
+                                               const cv::Mat& original);
+// A restored image whose gray values equal the original's (e.g. the unprocessed input) reuses the
+// original's mask.
+VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
+                               const VisibleEdgeOriginal& original, const cv::Mat& restored);
+
 // The visible-edge mask alone (CV_8U, 255 = visible edge pixel) of a gray image given as CV_64F
 // values 0..255 (e.g. from ToGray255()). Exposed for inspection, tests and benchmarks.
 cv::Mat VisibleEdgeMask(const VisibleEdgeOptions& options, const cv::Mat& gray255);

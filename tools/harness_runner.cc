@@ -255,6 +255,8 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
   }
 
   bool batch_pending = false;
+  // The degraded image's visible-edge analysis, shared by the scores of every method of the item.
+  const std::shared_ptr<OriginalCache> original_cache = NewOriginalCache();
   for (const ExperimentMethod& method : experiment_.methods) {
     if (!Selected(task, method.label)) continue;
     MethodResult row;
@@ -285,7 +287,7 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
       if (options_.profile && std::isfinite(row.time_ms))
         options_.profile->Add("method " + method.label, row.time_ms);
       Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
-            reference, render.image, &row);
+            reference, render.image, &row, original_cache.get());
     } catch (const std::exception& error) {
       if (row.time_ms == 0.0) row.time_ms = MillisecondsSince(start);
       row.error = error.what();
@@ -304,12 +306,13 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
 }
 
 void HarnessRunner::Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,
-                          const cv::Mat& reference, const cv::Mat& degraded,
-                          MethodResult* row) const {
+                          const cv::Mat& reference, const cv::Mat& degraded, MethodResult* row,
+                          OriginalCache* original_cache) const {
   MetricInputs inputs;
   inputs.reference = reference;
   inputs.image = enhanced;
   inputs.original = degraded;
+  inputs.original_cache = original_cache;
   if (options_.profile == nullptr) {
     row->metrics = ComputeMetrics(metric_names_, inputs);
   } else {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "metrics/registry.h"
 #include "tools/experiment.h"
 #include "tools/stage_profile.h"
 #include "tools/sweep.h"
@@ -81,8 +82,10 @@ class HarnessRunner {
                                     const std::vector<cv::Mat>& degraded,
                                     const std::vector<std::string>& ids) const;
   // Scores `enhanced` into row (metrics) and saves its thumbnail.
+  // original_cache (optional): the degraded image's shared metric work across the item's methods.
   void Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,
-             const cv::Mat& reference, const cv::Mat& degraded, MethodResult* row) const;
+             const cv::Mat& reference, const cv::Mat& degraded, MethodResult* row,
+             OriginalCache* original_cache = nullptr) const;
 
   const Experiment& experiment_;
   std::string out_dir_;
