@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "scenes/error.h"
@@ -82,6 +83,26 @@ void QuantiseEncodedRow(float* values, int n, CameraEncoding encoding, int bits)
   for (int i = 0; i < n; ++i) {
     const float v = std::min(values[i] > 0.0f ? values[i] : 0.0f, 1.0f);
     values[i] = tables.decoded[tables.Code(v)];
+  }
+}
+
+void QuantiseEncodedRowSwapRB(float* values, int n, CameraEncoding encoding, int bits) {
+  CV_Assert(n % 3 == 0);
+  if (encoding == CameraEncoding::kLinear) {
+    QuantiseEncodedRow(values, n, encoding, bits);  // vectorised; the reorder after it
+    for (int i = 0; i < n; i += 3) std::swap(values[i], values[i + 2]);
+    return;
+  }
+  const SrgbTables& tables = TablesFor(bits);
+  const auto code = [&tables](float value) {
+    const float v = std::min(value > 0.0f ? value : 0.0f, 1.0f);  // NaN -> 0
+    return tables.decoded[tables.Code(v)];
+  };
+  for (int i = 0; i < n; i += 3) {
+    const float b = code(values[i]), g = code(values[i + 1]), r = code(values[i + 2]);
+    values[i] = r;
+    values[i + 1] = g;
+    values[i + 2] = b;
   }
 }
 

@@ -30,6 +30,10 @@ Transfer TransferFor(CameraEncoding encoding);
 // In place on n values: clip to [0, 1], quantise to the code of `encoding` at `bits` (8 or 16) and
 // decode back to linear. NaN becomes 0.
 void QuantiseEncodedRow(float* values, int n, CameraEncoding encoding, int bits);
+// The same for an interleaved 3-channel row (n values), written back with the first and third
+// channels exchanged (B, G, R -> R, G, B) in the same pass: the values of QuantiseEncodedRow,
+// reordered.
+void QuantiseEncodedRowSwapRB(float* values, int n, CameraEncoding encoding, int bits);
 // The same on a float32 image (any channel count); returns a new image.
 cv::Mat QuantiseEncoded(const cv::Mat& linear, CameraEncoding encoding, int bits);
 

@@ -127,6 +127,9 @@ def main():
     try:
         for run in range(args.runs):
             np_rate = rate(lambda k=0: ref.render(rng), args.count)
+            turbid.set_num_threads(1)  # one core, as NumPy's element-wise code
+            one_rate = rate(lambda k=0: turbid.render(scene, PARAMS, seed=k).image, args.count)
+            turbid.set_num_threads(0)
             py_rate = rate(lambda k=0: turbid.render(scene, PARAMS, seed=k).image, args.count)
             out = os.path.join(exp_dir, "out%d" % run)
             t0 = time.perf_counter()
@@ -134,9 +137,11 @@ def main():
                             out, "--threads", "1"], check=True, stdout=subprocess.DEVNULL,
                            stderr=subprocess.DEVNULL)
             gen_rate = args.count / (time.perf_counter() - t0)
-            print("run %d: NumPy %.1f img/s | turbid.render (in memory) %.1f img/s = %.1fx NumPy"
-                  " | turbid generate (PNG files, whole process) %.1f img/s = %.1fx NumPy"
-                  % (run + 1, np_rate, py_rate, py_rate / np_rate, gen_rate, gen_rate / np_rate))
+            print("run %d: NumPy %.1f img/s | turbid.render in memory, 1 thread %.1f img/s = %.1fx,"
+                  " all cores %.1f img/s = %.1fx | turbid generate (PNG files, whole process,"
+                  " 1 thread) %.1f img/s = %.1fx NumPy"
+                  % (run + 1, np_rate, one_rate, one_rate / np_rate, py_rate, py_rate / np_rate,
+                     gen_rate, gen_rate / np_rate))
     finally:
         shutil.rmtree(exp_dir)
 

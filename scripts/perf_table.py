@@ -20,13 +20,15 @@ import re
 import statistics
 import sys
 
-# case: (bytes per pixel, flops per pixel, how they were counted). Pixels: the case's image
-# (1360x1024 unless the case name says 640). Colour images have 3 samples per pixel.
+# case: (bytes per pixel, flops per pixel or None, how they were counted). Pixels: the bench's
+# inputs, 1360x1024 (the hull), or 640x480 (the seafloor) for the names in SEAFLOOR. Colour images
+# have 3 samples per pixel. None: comparisons or table look-ups, not floating-point arithmetic
+# (the bound is then the memory one alone, a loose one).
 MODEL = {
     "ssim/gray/8bit": (2, 260, "reads 2 x 1 B; 5 moment maps x 11-tap separable Gaussian "
                               "(2 passes x 11 FMA) + the SSIM formula"),
     "ssim/color/8bit": (6, 780, "3 channels of the gray case"),
-    "ssim/gray/float": (8, 260, "reads 2 x 4 B; the gray case's arithmetic"),
+    "ssim/gray/float": (8, 260, "reads 2 x 4 B; the gray case's arithmetic (in float64 here)"),
     "psnr/color/8bit": (6, 9, "reads 2 x 3 B; a difference and a square-add per sample"),
     "guided_filter/gray/r2": (8, 60, "reads 4 B, writes 4 B; 4 box sums (2 passes each) + "
                                      "coefficients"),
@@ -40,12 +42,45 @@ MODEL = {
     "enhance/full": (8, 200, "reads 4 B, writes 4 B; guided filter, light, eq. 6, Wiener 7x7, "
                              "CLAHE"),
     "enhance/simplified": (8, 140, "reads 4 B, writes 4 B; two guided filters, boost, CLAHE"),
+    "enhance/full/color": (24, 600, "3 channels of enhance/full"),
+    "enhance/full/color640": (24, 600, "3 channels of enhance/full"),
+    "enhance/simplified/color": (24, 420, "3 channels of enhance/simplified"),
+    "enhance/simplified/color640": (24, 420, "3 channels of enhance/simplified"),
+    "metrics/visible_edges/pair/paper": (6, None, "reads 2 x 3 B; window searches are table "
+                                                  "look-ups and integer sums"),
+    "metrics/visible_edges/pair/ifsttar": (6, None, "as paper"),
+    "metrics/uiqm/color/8bit": (3, 40, "reads 3 B; Sobel, block extremes, colour moments"),
+    "metrics/uciqe/color/8bit": (3, 40, "reads 3 B; Lab conversion, chroma, saturation"),
+    "baseline/tarel/gray": (8, None, "reads 4 B, writes 4 B; two exact 11x11 medians "
+                                     "(min/max networks)"),
+    "baseline/tarel/color": (24, None, "as gray, colour white balance"),
+    "baseline/tarel/median11/gray": (8, None, "one exact 11x11 median"),
+    "baseline/fusion/gray": (8, 300, "reads 4 B, writes 4 B; weights and 5-level pyramids"),
+    "baseline/fusion/color": (24, 900, "3 channels"),
+    "baseline/dcp/gray": (8, 100, "reads 4 B, writes 4 B; min filter, guided filter r 60, "
+                                  "recovery"),
+    "baseline/udcp/gray": (8, 100, "as dcp"),
+    "baseline/cap/gray": (8, 100, "as dcp"),
+    "baseline/oracle/gray": (16, 300, "reads image, range and light 12 B, writes 4 B; "
+                                      "MMSE box sums, Wiener deblur"),
+    "baseline/dcp/dark_channel/gray": (8, None, "reads 4 B, writes 4 B; minima"),
+    "baseline/dcp/color": (24, 300, "3 channels of the gray case"),
+    "baseline/udcp/color": (24, 300, "as dcp"),
+    "baseline/cap/color": (24, 300, "as dcp"),
+    "baseline/oracle/color": (48, 900, "3 channels of the gray case"),
+    "baseline/dcp/dark_channel/color": (16, None, "reads 12 B, writes 4 B; minima"),
+    "baseline/dcp/refine/color": (16, 200, "reads a colour guide 12 B, writes 4 B; 3x3 solve "
+                                           "per pixel"),
 }
+SEAFLOOR = {"enhance/full/color640", "enhance/simplified/color640", "baseline/tarel/color",
+            "baseline/fusion/color", "baseline/dcp/color", "baseline/udcp/color",
+            "baseline/cap/color", "baseline/oracle/color", "baseline/dcp/dark_channel/color",
+            "baseline/dcp/refine/color"}
 
 
 def pixels(case, width, height):
-    if "640" in case:
-        return 640 * 480
+    if case in SEAFLOOR:
+        return round(640 * width / 1360) * round(480 * height / 1024)
     return width * height
 
 
@@ -105,14 +140,16 @@ def main(paths):
         bound, at = "–", "–"
         if name in MODEL and bandwidth > 0 and flops > 0 and med:
             b, f, _ = MODEL[name]
+            f = f or 0
             n = pixels(name, width, height)
             # Inputs and outputs that fit the last-level cache stay there between the bench's
             # iterations: their bound is the cache's bandwidth.
             rate = cache_bw if cache_bw > 0 and b * n <= cache_bytes else bandwidth
             t_mem = b * n / rate * 1e3
             t_flop = f * n / flops * 1e3
-            bound = "%s / %s" % (fmt(t_mem, 2), fmt(t_flop, 2))
-            at = "%.1f×" % (med / max(t_mem, t_flop))
+            bound = "%s / %s" % (fmt(t_mem, 2), fmt(t_flop, 2) if f else "–")
+            # Without a flop model the memory bound alone says little: no ratio.
+            at = "%.1f×" % (med / max(t_mem, t_flop)) if f else "–"
         print("| `%s` | %s | %s | %s | %s | %s | %s | %s | %s |"
               % (name, cell, rows[0].get("peer") or "–",
                  fmt(statistics.median(peer)) if peer else "–", rcell, rows[0]["goal"],
@@ -121,7 +158,7 @@ def main(paths):
     print("Work per pixel counted for the bound (bytes, flops):")
     for name, (b, f, why) in MODEL.items():
         if name in names:
-            print("- `%s`: %d B, %d flop: %s" % (name, b, f, why))
+            print("- `%s`: %d B, %s flop: %s" % (name, b, "–" if f is None else f, why))
 
 
 if __name__ == "__main__":

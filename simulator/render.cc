@@ -1098,12 +1098,16 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
                                         scratch.data());
           if (noise)
             for (int i = 0; i < per_row; ++i) noise[i] = out[i] - noise[i];
-          if (srgb)
+          const bool swap_rb = options.rgb_image && channels == 3;
+          if (srgb && swap_rb) {
+            QuantiseEncodedRowSwapRB(out, per_row, CameraEncoding::kSrgb, options.camera.bit_depth);
+          } else if (srgb) {
             QuantiseEncodedRow(out, per_row, CameraEncoding::kSrgb, options.camera.bit_depth);
-          else
+          } else {
             QuantiseRow(out, per_row, levels, quantise);
-          if (options.rgb_image && channels == 3)
-            for (int x = 0; x < width; ++x) std::swap(out[3 * x], out[3 * x + 2]);
+            if (swap_rb)
+              for (int x = 0; x < width; ++x) std::swap(out[3 * x], out[3 * x + 2]);
+          }
         }
       },
       stripes);

@@ -73,3 +73,26 @@ TEST(BaselinesClahe, ColourKeepsChannelRatios) {
 
 }  // namespace
 }  // namespace turbid
+
+namespace turbid {
+namespace {
+
+// The luminance (its own loop where it reproduces OpenCV on this CPU) equals cv::transform's, in
+// B, G, R and R, G, B order, on odd sizes and values beyond [0, 1].
+TEST(BaselinesClahe, LuminanceEqualsOpenCvTransformInBothOrders) {
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(7, 3), cv::Size(641, 97), cv::Size(1360, 9)}) {
+    cv::Mat bgr(size, CV_32FC3);
+    cv::RNG rng(size.width * 31 + size.height);
+    rng.fill(bgr, cv::RNG::UNIFORM, -0.5, 2.0);
+    bgr.at<cv::Vec3f>(0, 0) = cv::Vec3f(0.0f, 1.0f, 1e-40f);
+    cv::Mat expected, rgb;
+    cv::transform(bgr, expected, cv::Matx13f(0.0722f, 0.7152f, 0.2126f));
+    cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+    EXPECT_EQ(cv::norm(baselines_internal::Luminance(bgr), expected, cv::NORM_INF), 0.0) << size;
+    EXPECT_EQ(cv::norm(baselines_internal::Luminance(rgb, true), expected, cv::NORM_INF), 0.0)
+        << size;
+  }
+}
+
+}  // namespace
+}  // namespace turbid

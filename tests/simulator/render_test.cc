@@ -188,30 +188,38 @@ TEST(Render, SameSeedSameBytesOnOneAndManyThreads) {
 // the PSF on, in the streamed and the plain path (the PSF switches between them).
 TEST(Render, RgbImageIsTheSameBytesReordered) {
   for (bool psf : {true, false})
-    for (int channels : {3, 1}) {
-      Scene scene = MakeBuiltinScene("seafloor", {0.2});
-      if (channels == 1) cv::cvtColor(scene.image, scene.image, cv::COLOR_BGR2GRAY);
-      RenderOptions o;
-      o.seed = 9;
-      o.water.type = "5C";
-      o.snow.density_per_m3 = 150.0;
-      o.psf.enabled = psf;
-      o.maps = MapSelection::FromList("transmission,veil");
-      const RenderResult bgr = Render(o, scene);
-      o.rgb_image = true;
-      const RenderResult rgb = Render(o, scene);
-      cv::Mat expected;  // a new buffer (a header copy of bgr.image would be swapped in place)
-      if (channels == 3)
-        cv::cvtColor(bgr.image, expected, cv::COLOR_BGR2RGB);
-      else
-        expected = bgr.image;
-      const cv::Mat a = rgb.image.reshape(1), b = expected.reshape(1);
-      EXPECT_EQ(std::memcmp(a.data, b.data, a.total() * a.elemSize()), 0) << psf << channels;
-      EXPECT_EQ(cv::norm(rgb.transmission, bgr.transmission, cv::NORM_INF), 0.0);
-      EXPECT_EQ(cv::norm(rgb.veil, bgr.veil, cv::NORM_INF), 0.0);
-      EXPECT_EQ(rgb.sidecar.dump(), bgr.sidecar.dump());
-      if (channels == 3) EXPECT_GT(cv::norm(rgb.image, bgr.image, cv::NORM_INF), 0.0);
-    }
+    for (int channels : {3, 1})
+      for (int camera : {0, 1, 2}) {  // sRGB 8-bit (the default), linear 16-bit, float
+        Scene scene = MakeBuiltinScene("seafloor", {0.2});
+        if (channels == 1) cv::cvtColor(scene.image, scene.image, cv::COLOR_BGR2GRAY);
+        RenderOptions o;
+        o.seed = 9;
+        o.water.type = "5C";
+        o.snow.density_per_m3 = 150.0;
+        o.psf.enabled = psf;
+        o.maps = MapSelection::FromList("transmission,veil");
+        if (camera == 1) {
+          o.camera.encoding = CameraEncoding::kLinear;
+          o.camera.bit_depth = 16;
+        } else if (camera == 2) {
+          o.camera.bit_depth = 32;
+        }
+        const RenderResult bgr = Render(o, scene);
+        o.rgb_image = true;
+        const RenderResult rgb = Render(o, scene);
+        cv::Mat expected;  // a new buffer (a header copy of bgr.image would be swapped in place)
+        if (channels == 3)
+          cv::cvtColor(bgr.image, expected, cv::COLOR_BGR2RGB);
+        else
+          expected = bgr.image;
+        const cv::Mat a = rgb.image.reshape(1), b = expected.reshape(1);
+        EXPECT_EQ(std::memcmp(a.data, b.data, a.total() * a.elemSize()), 0)
+            << psf << channels << camera;
+        EXPECT_EQ(cv::norm(rgb.transmission, bgr.transmission, cv::NORM_INF), 0.0);
+        EXPECT_EQ(cv::norm(rgb.veil, bgr.veil, cv::NORM_INF), 0.0);
+        EXPECT_EQ(rgb.sidecar.dump(), bgr.sidecar.dump());
+        if (channels == 3) EXPECT_GT(cv::norm(rgb.image, bgr.image, cv::NORM_INF), 0.0);
+      }
 }
 
 TEST(Render, RendererCachesGiveTheSameBytesAndAreThreadSafe) {
