@@ -1,8 +1,8 @@
 // CLAHE alone (uniform target) as a baseline, on luminance for colour. See enhancer/baselines.h.
 #include <algorithm>
 #include <cmath>
-#include <vector>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"

@@ -917,8 +917,8 @@ class GrayStream {
       } else {
         WindowRows(y, src_, &rows_v_);
         AnchorSums<true, true, true>(rows_u_.data(), rows_v_.data(),
-                                     static_cast<int>(rows_u_.size()), w_, Ext(0) + pad_, Ext(1) + pad_,
-                                     Ext(2) + pad_, Ext(3) + pad_);
+                                     static_cast<int>(rows_u_.size()), w_, Ext(0) + pad_,
+                                     Ext(1) + pad_, Ext(2) + pad_, Ext(3) + pad_);
       }
     } else if (self_) {
       ColumnStepSelf(Ext(0) + pad_, Ext(1) + pad_, add, sub, w_);

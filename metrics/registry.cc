@@ -171,7 +171,8 @@ class SharedWork {
         std::optional<VisibleEdgeOriginal>& analysis =
             variant == VisibleEdgeVariant::kPaper ? cache->paper : cache->ifsttar;
         if (!analysis)
-          analysis = AnalyseVisibleEdgeOriginal(options, ForEightBitMetrics(in_.original, &original8_));
+          analysis =
+              AnalyseVisibleEdgeOriginal(options, ForEightBitMetrics(in_.original, &original8_));
         const VisibleEdgeOriginal& original = *analysis;
         lock.unlock();  // entries are never replaced while the cache serves this original
         slot = VisibleEdges(options, original, ForEightBitMetrics(in_.image, &image8_));

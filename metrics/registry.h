@@ -43,9 +43,9 @@ const std::vector<MetricInfo>& ListMetrics();
 const MetricInfo& FindMetric(const std::string& name);  // throws Error for unknown names
 
 // Computes exactly the named metrics, sharing intermediate work between them. Throws Error on
-// unknown names or unusable inputs (size/channel mismatch, empty). PSNR of identical images is +inf.
-// elapsed_ms, when given, receives each metric's wall time in ms (work shared between metrics is
-// charged to the first one that needs it).
+// unknown names or unusable inputs (size/channel mismatch, empty). PSNR of identical images is
+// +inf. elapsed_ms, when given, receives each metric's wall time in ms (work shared between metrics
+// is charged to the first one that needs it).
 std::map<std::string, double> ComputeMetrics(const std::vector<std::string>& names,
                                              const MetricInputs& inputs,
                                              std::map<std::string, double>* elapsed_ms = nullptr);

@@ -672,7 +672,8 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
                                const VisibleEdgeOriginal& original, const cv::Mat& restored) {
   ThrowIfInvalid(options, "visible edges");
   if (original.options.variant != options.variant ||
-      original.options.visibility_threshold != options.visibility_threshold || original.gray8.empty())
+      original.options.visibility_threshold != options.visibility_threshold ||
+      original.gray8.empty())
     throw Error("visible edges: the original was analysed with other options");
   CheckAccepted(restored, "visible edges: restored");
   const cv::Mat& gray_o = original.gray8;
@@ -682,8 +683,8 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
                 std::to_string(restored.cols) + "x" + std::to_string(restored.rows));
   }
   const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
-  const cv::Mat mask_r = SameBytes(gray_r, gray_o) ? original.mask
-                                                   : VisibleEdgeMask8(options, gray_r);
+  const cv::Mat mask_r =
+      SameBytes(gray_r, gray_o) ? original.mask : VisibleEdgeMask8(options, gray_r);
   const int nl = gray_r.rows;
   const int nc = gray_r.cols;
 

@@ -162,7 +162,9 @@ py::array WrapNumpy(const cv::Mat& mat) {
   py::capsule owner(keep, [](void* p) { delete static_cast<cv::Mat*>(p); });
   const py::ssize_t c = keep->channels();
   const py::ssize_t rows = keep->rows, cols = keep->cols;
-  if (c == 1) return py::array_t<float>({rows, cols}, {cols * 4, py::ssize_t{4}}, keep->ptr<float>(), owner);
+  if (c == 1) {
+    return py::array_t<float>({rows, cols}, {cols * 4, py::ssize_t{4}}, keep->ptr<float>(), owner);
+  }
   return py::array_t<float>({rows, cols, c}, {cols * c * 4, c * 4, py::ssize_t{4}},
                             keep->ptr<float>(), owner);
 }
@@ -246,7 +248,8 @@ PyScene SceneFromArrays(const py::array& image, const py::array& depth_m, double
 // ---- render ------------------------------------------------------------------------------------
 
 struct PyRenderResult {
-  std::shared_ptr<RenderResult> result;  // result->image in R, G, B order (RenderOptions::rgb_image)
+  // result->image is in R, G, B order (RenderOptions::rgb_image).
+  std::shared_ptr<RenderResult> result;
 };
 
 PyRenderResult RenderScene(const PyScene& scene, const std::string& params_text,
