@@ -138,8 +138,9 @@ double PercentileOf(std::vector<float>& values, double percentile) {
 
 // I_g (1 - alpha) + I_f alpha as cv::addWeighted computes it for float images: in double, with
 // a fused multiply-add where the CPU has one (OpenCV's dispatched kernels use FMA then; its
-// baseline ones do not), rounded to float once.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// baseline ones do not), rounded to float once. Whatever compiler built turbid (clang too: the
+// sanitizer build), since OpenCV's choice is made at run time.
+#if defined(__x86_64__) && defined(__GNUC__)
 __attribute__((target("avx2,fma"))) void AddWeightedRowFma(const float* i_g, const float* i_f,
                                                            double beta, double alpha, float* dst,
                                                            int n) {
@@ -181,7 +182,7 @@ TURBID_ROW_KERNEL void ClampUnitRow(float* __restrict v, int n) {
 // `full`'s exposure and detail steps on one row: j = j * inv_level (convertTo's float product),
 // then j + k (I - I_de) as cv::scaleAdd computes it for float images: a fused multiply-add where
 // the CPU has one (as above), else a product and a sum.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && defined(__GNUC__)
 __attribute__((target("avx2,fma"))) void ExposureDetailRowFma(const float* image,
                                                               const float* denoised,
                                                               float inv_level, float k, float* j,

@@ -254,7 +254,9 @@ void WeberWindowSumsFast(const double* table, int table_stride, const uint8_t* v
                          double* sums_v, double* sums_h, double* counts_v, double* counts_h) {
   for (int i = 0; i < size; ++i) {
     for (int j = 0; j < size; ++j) {
-      const size_t k = static_cast<size_t>(i) * stride + j;
+      // Signed: the neighbours k - 1 and k - stride lie before `value` for the first row and
+      // column (the maps are padded), and an unsigned offset would wrap.
+      const ptrdiff_t k = static_cast<ptrdiff_t>(i) * stride + j;
       const uint8_t* t = tests + 4 * k;
       const double* p = table + value[k] * table_stride;
       AddWeberPair(p, table + value[k - 1] * table_stride, std::max<int>(t[0], s_min),
