@@ -317,6 +317,45 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
 
 }  // namespace
 
+// The data term and MMSE alone, on given truth maps (oracle_test.cc's reference for
+// oracle_internal::OracleMmse): the same operations as OracleEnhance below.
+oracle_internal::OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
+                                             const cv::Mat& transmission, const cv::Mat& irradiance,
+                                             const cv::Mat& snow, const cv::Mat& veil, double gain,
+                                             double floor_var, double clip_level) {
+  oracle_internal::OracleMmseResult r;
+  cv::Mat local_mean;
+  cv::boxFilter(image, local_mean, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  cv::Mat variance = PlusAll(MaxAll(local_mean, 0.0) * gain, floor_var);
+  r.masked = MaskBelow(transmission, o.mask_transmission);
+  r.masked_pixels = cv::countNonZero(r.masked);
+  cv::Mat scale = transmission.mul(irradiance);
+  scale = MaxAll(scale, 1e-12);
+  cv::Mat u = (image - snow - veil) / scale;
+  cv::Mat a;
+  cv::divide(scale.mul(scale), variance, a);
+  a.setTo(cv::Scalar::all(0), r.masked);
+  u.setTo(cv::Scalar::all(0), r.masked);
+  cv::Mat high;
+  cv::threshold(image, high, clip_level, 1.0, cv::THRESH_BINARY);
+  cv::Mat clipped = high;
+  r.censored_pixels = cv::countNonZero(MaxOverChannels(clipped) > 0);
+  cv::Mat sigma;
+  cv::sqrt(variance, sigma);
+  const cv::Mat bound = (image - 2.0 * sigma - snow - veil) / scale;
+  a = a.mul(cv::Scalar::all(1.0) - clipped);
+  cv::Mat est = HierarchicalMmse(o, u, a, &r.prior, &r.posterior);
+  if (r.censored_pixels > 0) {
+    cv::Mat raised;
+    cv::max(est, bound, raised);
+    est += (raised - est).mul(high);
+    cv::max(r.prior, bound, raised);
+    r.prior += (raised - r.prior).mul(high);
+  }
+  r.estimate = est;
+  return r;
+}
+
 cv::Mat DeconvolveReflect101(const cv::Mat& image, const cv::Mat& kernel, double nsr) {
   CV_Assert(image.depth() == CV_32F && kernel.type() == CV_32FC1 && kernel.rows == kernel.cols &&
             kernel.rows % 2 == 1);

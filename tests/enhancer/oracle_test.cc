@@ -44,127 +44,6 @@ Scene Builtin(const std::string& name, double scale) {
   return MakeBuiltinScene(name, so);
 }
 
-// ---------------------------------------------------------------------------------------------
-// The pre-optimisation data term and MMSE of commit 6722196 (enhancer/oracle.cc then: one OpenCV
-// operation per step, a full-size image each), the reference for oracle_internal::OracleMmse.
-namespace reference {
-
-cv::Mat MaxAll(const cv::Mat& m, double v) {
-  cv::Mat out;
-  cv::max(m, cv::Scalar::all(v), out);
-  return out;
-}
-cv::Mat PlusAll(const cv::Mat& m, double v) { return m + cv::Scalar::all(v); }
-
-cv::Mat MaxOverChannels(const cv::Mat& m) {
-  if (m.channels() == 1) return m;
-  cv::Mat out;
-  cv::reduce(m.reshape(1, static_cast<int>(m.total())), out, 1, cv::REDUCE_MAX);
-  return out.reshape(1, m.rows);
-}
-
-cv::Mat MaskBelow(const cv::Mat& t, double floor) {
-  std::vector<cv::Mat> planes;
-  cv::split(t, planes);
-  cv::Mat mask = planes[0] < floor;
-  for (size_t c = 1; c < planes.size(); ++c) mask |= planes[c] < floor;
-  return mask;
-}
-
-cv::Mat BoxSum(const cv::Mat& m, int radius) {
-  cv::Mat out;
-  cv::boxFilter(m, out, -1, cv::Size(2 * radius + 1, 2 * radius + 1), cv::Point(-1, -1), false,
-                cv::BORDER_REFLECT);
-  return out;
-}
-
-cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius) {
-  cv::Mat d = z - p;
-  cv::Mat num = a.mul(d.mul(d));
-  cv::Mat has;
-  cv::threshold(a, has, 0.0, 1.0, cv::THRESH_BINARY);
-  if (radius <= 0) {
-    const cv::Scalar sa = cv::sum(a), sn = cv::sum(num), sh = cv::sum(has);
-    cv::Scalar s;
-    for (int c = 0; c < z.channels(); ++c)
-      s[c] = sa[c] > 0 ? std::max(sn[c] - sh[c], 0.0) / sa[c] : 0.0;
-    return cv::Mat(z.size(), z.type(), s);
-  }
-  cv::Mat sa = BoxSum(a, radius);
-  cv::Mat v = BoxSum(num, radius) - BoxSum(has, radius);
-  v = MaxAll(v, 0.0);
-  cv::Mat out;
-  cv::divide(v, MaxAll(sa, 1e-30), out);
-  return out;
-}
-
-cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a, cv::Mat* prior,
-                         cv::Mat* posterior) {
-  const int ch = u.channels();
-  cv::Mat au = a.mul(u);
-  const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
-  cv::Scalar m0;
-  for (int c = 0; c < ch; ++c) m0[c] = sa[c] > 0 ? sau[c] / sa[c] : 0.5;
-  cv::Mat p(u.size(), u.type(), m0);
-  int prev_radius = 0;
-  for (const int radius : {o.coarse_radius, o.middle_radius}) {
-    const cv::Mat w = BoxSum(a, radius);
-    cv::Mat m;
-    cv::divide(BoxSum(au, radius), MaxAll(w, 1e-30), m);
-    const cv::Mat s = LocalSignalVariance(m, w, p, prev_radius);
-    cv::Mat sw = s.mul(w);
-    cv::Mat gain;
-    cv::divide(sw, PlusAll(sw, 1.0), gain);
-    p += gain.mul(m - p);
-    prev_radius = radius;
-  }
-  const cv::Mat s = LocalSignalVariance(u, a, p, o.pixel_radius);
-  cv::Mat sa_px = s.mul(a);
-  cv::Mat gain;
-  cv::divide(sa_px, PlusAll(sa_px, 1.0), gain);
-  *prior = p;
-  cv::divide(s, PlusAll(sa_px, 1.0), *posterior);
-  return p + gain.mul(u - p);
-}
-
-oracle_internal::OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
-                                             const cv::Mat& transmission, const cv::Mat& irradiance,
-                                             const cv::Mat& snow, const cv::Mat& veil, double gain,
-                                             double floor_var, double clip_level) {
-  oracle_internal::OracleMmseResult r;
-  cv::Mat local_mean;
-  cv::boxFilter(image, local_mean, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
-  cv::Mat variance = PlusAll(MaxAll(local_mean, 0.0) * gain, floor_var);
-  r.masked = MaskBelow(transmission, o.mask_transmission);
-  r.masked_pixels = cv::countNonZero(r.masked);
-  cv::Mat scale = transmission.mul(irradiance);
-  scale = MaxAll(scale, 1e-12);
-  cv::Mat u = (image - snow - veil) / scale;
-  cv::Mat a;
-  cv::divide(scale.mul(scale), variance, a);
-  a.setTo(cv::Scalar::all(0), r.masked);
-  u.setTo(cv::Scalar::all(0), r.masked);
-  cv::Mat high;
-  cv::threshold(image, high, clip_level, 1.0, cv::THRESH_BINARY);
-  cv::Mat clipped = high;
-  r.censored_pixels = cv::countNonZero(MaxOverChannels(clipped) > 0);
-  cv::Mat sigma;
-  cv::sqrt(variance, sigma);
-  const cv::Mat bound = (image - 2.0 * sigma - snow - veil) / scale;
-  a = a.mul(cv::Scalar::all(1.0) - clipped);
-  cv::Mat est = HierarchicalMmse(o, u, a, &r.prior, &r.posterior);
-  if (r.censored_pixels > 0) {
-    cv::Mat raised;
-    cv::max(est, bound, raised);
-    est += (raised - est).mul(high);
-    cv::max(r.prior, bound, raised);
-    r.prior += (raised - r.prior).mul(high);
-  }
-  r.estimate = est;
-  return r;
-}
-
-}  // namespace reference
 
 // Today's fused data term and MMSE give the pre-optimisation values bit for bit (the same float
 // operations in the same order): gray and colour, odd and tiny sizes, masked pixels (t below the
@@ -175,7 +54,7 @@ TEST(Oracle, MmseEqualsPreOptimisationImplementation) {
                   const cv::Mat& t, const cv::Mat& e, const cv::Mat& snow, const cv::Mat& veil,
                   double gain, double floor_var, double clip) {
     const auto a = oracle_internal::OracleMmse(o, image, t, e, snow, veil, gain, floor_var, clip);
-    const auto b = reference::OracleMmse(o, image, t, e, snow, veil, gain, floor_var, clip);
+    const auto b = oracle_reference::OracleMmse(o, image, t, e, snow, veil, gain, floor_var, clip);
     EXPECT_EQ(a.masked_pixels, b.masked_pixels) << what;
     EXPECT_EQ(a.censored_pixels, b.censored_pixels) << what;
     EXPECT_EQ(MaxAbsDiff(a.masked, b.masked), 0.0) << what;

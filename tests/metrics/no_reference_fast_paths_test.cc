@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "metrics/no_reference.h"
+#include "tests/metrics/expect_visible_edges.h"
 #include "tests/metrics/reference_pre_optimisation.h"
 
 namespace turbid {
@@ -42,20 +43,7 @@ cv::Mat Structured(int rows, int cols, int channels, uint32_t seed, int noise) {
   return img;
 }
 
-void ExpectSameResult(const VisibleEdgeResult& a, const VisibleEdgeResult& b,
-                      const std::string& what) {
-  // Bit identity: NaN == NaN counts as the same.
-  auto same = [](double x, double y) { return (std::isnan(x) && std::isnan(y)) || x == y; };
-  EXPECT_TRUE(same(a.e, b.e)) << what << ": e " << a.e << " vs " << b.e;
-  EXPECT_TRUE(same(a.r_mean, b.r_mean)) << what << ": r " << a.r_mean << " vs " << b.r_mean;
-  EXPECT_TRUE(same(a.sigma, b.sigma)) << what;
-  EXPECT_TRUE(same(a.m, b.m)) << what;
-  EXPECT_EQ(a.visible_original, b.visible_original) << what;
-  EXPECT_EQ(a.visible_restored, b.visible_restored) << what;
-  EXPECT_EQ(a.finite_log_ratios, b.finite_log_ratios) << what;
-  EXPECT_EQ(a.black_pixels, b.black_pixels) << what;
-  EXPECT_EQ(a.white_pixels, b.white_pixels) << what;
-}
+using testing::ExpectSameResult;
 
 void ExpectSameMasks(const VisibleEdgeOptions& o, const cv::Mat& image, const std::string& what) {
   const cv::Mat gray = reference::ReferenceToGray255(image, "test");

@@ -11,6 +11,7 @@
 #include "metrics/no_reference.h"
 #include "metrics/registry.h"
 #include "scenes/error.h"
+#include "tests/metrics/expect_visible_edges.h"
 
 namespace turbid {
 namespace {
@@ -41,19 +42,6 @@ Set MakeSet(int rows, int cols, int channels, uint64_t seed) {
   return s;
 }
 
-void ExpectSame(const VisibleEdgeResult& a, const VisibleEdgeResult& b, const std::string& what) {
-  const auto same = [](double x, double y) { return (std::isnan(x) && std::isnan(y)) || x == y; };
-  EXPECT_TRUE(same(a.e, b.e)) << what << ": " << a.e << " vs " << b.e;
-  EXPECT_TRUE(same(a.r_mean, b.r_mean)) << what;
-  EXPECT_EQ(a.sigma, b.sigma) << what;
-  EXPECT_EQ(a.m, b.m) << what;
-  EXPECT_EQ(a.visible_original, b.visible_original) << what;
-  EXPECT_EQ(a.visible_restored, b.visible_restored) << what;
-  EXPECT_EQ(a.finite_log_ratios, b.finite_log_ratios) << what;
-  EXPECT_EQ(a.black_pixels, b.black_pixels) << what;
-  EXPECT_EQ(a.white_pixels, b.white_pixels) << what;
-}
-
 TEST(OriginalCache, VisibleEdgesFromTheAnalysedOriginalEqualThePair) {
   for (int channels : {1, 3})
     for (const cv::Size size : {cv::Size(97, 61), cv::Size(8, 9)}) {
@@ -63,10 +51,11 @@ TEST(OriginalCache, VisibleEdgesFromTheAnalysedOriginalEqualThePair) {
         o.variant = variant;
         const VisibleEdgeOriginal analysed = AnalyseVisibleEdgeOriginal(o, set.original);
         for (size_t k = 0; k < set.restored.size(); ++k) {
-          ExpectSame(VisibleEdges(o, analysed, set.restored[k]),
-                     VisibleEdges(o, set.original, set.restored[k]),
-                     VisibleEdgeVariantName(variant) + " restoration " + std::to_string(k) + " " +
-                         std::to_string(channels) + "ch " + std::to_string(size.width));
+          testing::ExpectSameResult(
+              VisibleEdges(o, analysed, set.restored[k]),
+              VisibleEdges(o, set.original, set.restored[k]),
+              VisibleEdgeVariantName(variant) + " restoration " + std::to_string(k) + " " +
+                  std::to_string(channels) + "ch " + std::to_string(size.width));
         }
       }
     }
