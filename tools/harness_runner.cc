@@ -1,6 +1,7 @@
 #include "tools/harness_runner.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <exception>
@@ -134,6 +135,7 @@ struct HarnessRunner::SceneContext {
   Scene scene;
   std::unique_ptr<Renderer> renderer;
   std::map<std::string, double> reference_metrics;
+  std::atomic<bool> loaded{false};  // scene and renderer are set (Cost reads them)
 };
 
 HarnessRunner::HarnessRunner(const Experiment& experiment, std::string out_dir,
@@ -179,12 +181,39 @@ HarnessRunner::SceneContext& HarnessRunner::Context(int scene_index) const {
         WriteThumbnail(out_dir_ + "/thumbs/" + spec.name + "/clean.png", context.scene.image,
                        experiment_.thumbnail_width);
       }
+      context.loaded = true;
     } catch (...) {
       context.error = std::current_exception();
     }
   });
   if (context.error) std::rethrow_exception(context.error);
   return context;
+}
+
+double HarnessRunner::Cost(const ItemTask& task) const {
+  const ItemSpec& item = *task.spec;
+  double values = 0.0;
+  const SceneContext& context = *contexts_.at(static_cast<size_t>(item.scene_index));
+  if (context.loaded.load()) {
+    values = static_cast<double>(context.scene.image.total()) * context.scene.image.channels();
+  } else {
+    const ExperimentScene& spec = experiment_.scenes[static_cast<size_t>(item.scene_index)];
+    if (IsBuiltinSpec(spec.load_spec)) {
+      const std::string prefix = "builtin:";
+      const std::string name = spec.load_spec.rfind(prefix, 0) == 0
+                                   ? spec.load_spec.substr(prefix.size())
+                                   : spec.load_spec;
+      try {
+        const CameraIntrinsics camera = ScaleIntrinsics(BuiltinSceneCamera(name), spec.scale);
+        values = static_cast<double>(camera.width) * camera.height;
+      } catch (const Error&) {
+        values = 0.0;  // an unknown name fails when the scene is loaded
+      }
+    }
+  }
+  int methods = 0;
+  for (const ExperimentMethod& method : experiment_.methods) methods += Selected(task, method.label);
+  return values * (methods + 1);
 }
 
 ItemResult HarnessRunner::Run(const ItemSpec& item) const { return Run(ItemTask{&item, {}}); }
@@ -537,6 +566,18 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
 SweepHooks HarnessRunner::Hooks() const {
   SweepHooks hooks;
   hooks.run = [this](const ItemTask& task) { return Run(task); };
+  hooks.cost = [this](const ItemTask& task) { return Cost(task); };
+  if (options_.reuse) {
+    // One worker builds a scene (the built-in hull takes about a second) while the others run the
+    // items of scenes already built; a failed build is reported by the scene's items.
+    hooks.group = [](const ItemTask& task) { return task.spec->scene_index; };
+    hooks.prepare = [this](int scene_index) {
+      try {
+        Context(scene_index);
+      } catch (...) {
+      }
+    };
+  }
   int batch = 0;
   for (const ExperimentMethod& method : experiment_.methods) {
     if (!method.IsBatch()) continue;

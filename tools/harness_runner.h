@@ -73,6 +73,9 @@ class HarnessRunner {
   struct SceneContext;
   struct Pending;  // a degraded image (and its ground truth) waiting for the batch methods
   SceneContext& Context(int scene_index) const;
+  // The sweep scheduler's cost of a task: values (pixels x channels) x (methods run + 1); before
+  // the scene is loaded, the camera size of a built-in scene, 0 (unknown) for a scene file.
+  double Cost(const ItemTask& task) const;
   // A per-image external method or a results folder on one item; throws Error with the reason.
   cv::Mat RunExternal(const ExperimentMethod& method, const std::string& id,
                       const cv::Mat& degraded, double* time_ms) const;

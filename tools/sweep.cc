@@ -24,6 +24,7 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
+#include "tools/item_scheduler.h"
 
 namespace turbid {
 namespace {
@@ -380,11 +381,30 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
     int threads = options.threads > 0 ? options.threads
                                       : static_cast<int>(std::thread::hardware_concurrency());
     threads = std::max(1, std::min<int>(threads, static_cast<int>(end - begin)));
-    std::atomic<size_t> next{begin};
+    ItemScheduler scheduler(
+        end - begin,
+        hooks.group ? std::function<int(size_t)>(
+                          [&](size_t k) { return hooks.group(pending[begin + k]); })
+                    : std::function<int(size_t)>(),
+        hooks.cost ? std::function<double(size_t)>(
+                         [&](size_t k) { return hooks.cost(pending[begin + k]); })
+                   : std::function<double(size_t)>(),
+        static_cast<bool>(hooks.group) && static_cast<bool>(hooks.prepare));
     const auto work = [&]() {
       while (!stop.load()) {
-        const size_t k = next.fetch_add(1);
-        if (k >= end) break;
+        const ItemScheduler::Work next = scheduler.Next();
+        if (next.kind == ItemScheduler::Work::Kind::kDone) break;
+        if (next.kind == ItemScheduler::Work::Kind::kPrepare) {
+          try {
+            hooks.prepare(next.group);
+          } catch (...) {
+            record_error();
+            scheduler.Stop();
+          }
+          scheduler.Prepared(next.group);
+          continue;
+        }
+        const size_t k = begin + next.task;
         try {
           ItemResult result = hooks.run(pending[k]);
           if (out != nullptr) {
@@ -394,6 +414,7 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
           }
         } catch (...) {
           record_error();
+          scheduler.Stop();
         }
         wake.notify_all();
       }

@@ -8,11 +8,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <mutex>
 #include <thread>
 
 #include "scenes/error.h"
@@ -262,6 +265,71 @@ TEST(HarnessSweep, RunnerExceptionStopsTheSweepAndKeepsFinishedItems) {
   EXPECT_FALSE(fs::exists(dir.path() + "/summary.md"));
   const SweepSummary resumed = RunSweep(e, options, fake);
   EXPECT_EQ(resumed.ran, 19);
+}
+
+TEST(HarnessSweep, WorkersRunReadyScenesWhileOneIsPreparedAndCostliestItemsGoFirst) {
+  // Scene b (12 items, the costlier) is slow to prepare; scene a is ready at once. With two
+  // workers a's items run while b is prepared (b's preparation waits until two of them have
+  // started: it would wait in vain if the workers blocked on b); once b is ready its items come
+  // before a's remaining ones, although a's come first in item order. The files are those of a
+  // plain sweep.
+  const Experiment e = FakeExperiment();
+  TempDir plain, scheduled;
+  Sweep(e, plain.path(), 1);
+  FakeRunner fake{&e};
+  std::mutex mutex;
+  std::condition_variable a_started;
+  std::vector<int> started;  // scene of each item, in start order
+  SweepHooks hooks;
+  hooks.run = [&](const ItemTask& task) {
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      started.push_back(task.spec->scene_index);
+    }
+    a_started.notify_all();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    return fake(*task.spec);
+  };
+  hooks.group = [](const ItemTask& task) { return task.spec->scene_index; };
+  std::atomic<int> prepares{0};
+  bool waited = false;
+  hooks.prepare = [&](int scene) {
+    ++prepares;
+    if (scene != 1) return;
+    std::unique_lock<std::mutex> lock(mutex);
+    waited = a_started.wait_for(lock, std::chrono::seconds(20), [&] {
+      return std::count(started.begin(), started.end(), 0) >= 2;
+    });
+  };
+  hooks.cost = [](const ItemTask& task) { return task.spec->scene_index == 1 ? 2.0 : 1.0; };
+  SweepOptions options;
+  options.out_dir = scheduled.path();
+  options.threads = 2;
+  const SweepSummary summary = RunSweep(e, options, hooks);
+  EXPECT_EQ(summary.ran, 24);
+  EXPECT_EQ(prepares.load(), 2);
+  EXPECT_TRUE(waited) << "scene a's items must run while scene b is prepared";
+  ASSERT_EQ(started.size(), 24u);
+  EXPECT_EQ(started.front(), 0);
+  EXPECT_EQ(started.back(), 0) << "b's costlier items must not be left for the end";
+  ExpectSameDeterministicFiles(plain.path(), scheduled.path());
+}
+
+TEST(HarnessSweep, PrepareExceptionStopsTheSweep) {
+  const Experiment e = FakeExperiment();
+  TempDir dir;
+  FakeRunner fake{&e};
+  SweepHooks hooks;
+  hooks.run = [&](const ItemTask& task) { return fake(*task.spec); };
+  hooks.group = [](const ItemTask& task) { return task.spec->scene_index; };
+  hooks.prepare = [](int scene) {
+    if (scene == 1) throw Error("scene b", "cannot build");
+  };
+  SweepOptions options;
+  options.out_dir = dir.path();
+  options.threads = 2;
+  EXPECT_THROW(RunSweep(e, options, hooks), Error);
+  EXPECT_FALSE(fs::exists(dir.path() + "/summary.md"));
 }
 
 TEST(HarnessSweep, RegressCatchesAPerturbedMethod) {
