@@ -1300,8 +1300,10 @@ FullOptions FullVariantDefaults(const std::string& variant) {
   FullOptions o;
   if (variant == "full") return o;
   // The variants keep the paper's reading of the clamp (t >= 0.1): `full_literal` is the paper as
-  // written, `full_matched` / `full_physical` know the true beta (no over-correction to guard).
+  // written, `full_matched` / `full_physical` know the true beta (no over-correction to guard);
+  // and the paper's CLAHE target, Rayleigh alpha 0.4.
   o.t_min = 0.1;
+  o.clahe.alpha = ClaheOptions().alpha;
   if (variant == "full_literal") {
     o.light_scaling = "range";
     o.denoise_adaptive = false;

@@ -36,6 +36,13 @@ struct MethodEntry;
 // `light_scaling=blind` the LED power is not used: its scale is estimated from the image. Reading
 // the water's beta (`beta_source=auto`) or the light's power in image units
 // (`light_scaling=physical`) makes the method privileged (IsPrivileged in enhancer/registry.h).
+// CLAHE of blind `full`: adapthisteq's defaults with Rayleigh alpha 0.3 (FullOptions::clahe).
+inline ClaheOptions BlindFullClahe() {
+  ClaheOptions c;
+  c.alpha = 0.3;
+  return c;
+}
+
 struct FullOptions {
   bool denoise = true;        // step 1 (§III-A.1)
   int denoise_radius = 4;     // guided filter k, pixels, >= 1 (paper: 4)
@@ -87,7 +94,11 @@ struct FullOptions {
   double psf_forward_scatter = 0.9;    // q (paper: 0.9)
   DeconvolutionOptions deconvolution;  // Wiener, NSR 0.01
   bool contrast = true;                // step 5 (§III-A.5)
-  ClaheOptions clahe;                  // 8x8 tiles, clip 0.01, 256 bins, Rayleigh, alpha 0.4
+  // 8x8 tiles, clip 0.01, 256 bins, Rayleigh. alpha 0.3 for blind `full`, 0.4 (adapthisteq's and
+  // the paper's) for the variants: the paper equalised camera-encoded frames, where Rayleigh(0.4)
+  // has a mean of 0.47 encoded, 0.25 in linear light; `full` works in linear light, where 0.4 aims
+  // at a mean of 0.47 (twice as bright) and 0.3 at 0.37 (docs/methods.md, "The CLAHE target").
+  ClaheOptions clahe = BlindFullClahe();
   // Brightness-keeping CLAHE target (ClaheOptions::keep_mean): alpha chosen per image so that the
   // mapped mean is max(mean entering CLAHE, clahe_min_mean) instead of the fixed clahe.alpha, whose
   // Rayleigh(0.4) target lifts every restored scene towards mid-grey. Off by default: which is

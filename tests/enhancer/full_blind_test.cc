@@ -177,10 +177,10 @@ double LumaMean(const cv::Mat& image) {
 
 // Brightness kept (clahe_target_mean): the CLAHE target's alpha is chosen so that the mapped mean
 // equals the mean of the image entering CLAHE, or middle grey (clahe_min_mean 0.18) when that is
-// darker, so the output's mean luminance stays within a few hundredths of that aim; the fixed
-// Rayleigh(0.4) target lifts the restored scenes above it, so the check can fail. Measured 2026-11-25 (scale 0.25, default
-// render): kept within 0.005 (hull 0.000, seafloor 0.002, room 0.005); fixed +0.10 (hull),
-// +0.12 (seafloor), +0.12 (room).
+// darker, so the output's mean luminance stays within a few hundredths of that aim; the paper's
+// fixed Rayleigh(0.4) target lifts the restored scenes above it, so the check can fail. Measured
+// 2026-11-25 (scale 0.25, default render): kept within 0.005 (hull 0.000, seafloor 0.002, room
+// 0.005); fixed +0.10 (hull), +0.12 (seafloor), +0.12 (room) (blind full's fixed 0.3: +0.05).
 TEST(FullBlind, ClaheTargetKeepsTheRestoredBrightness) {
   BuiltinSceneOptions so;
   so.scale = 0.25;
@@ -193,6 +193,7 @@ TEST(FullBlind, ClaheTargetKeepsTheRestoredBrightness) {
     for (bool target : {true, false}) {
       FullOptions o = FullVariantDefaults("full");
       o.clahe_target_mean = target;
+      o.clahe.alpha = ClaheOptions().alpha;  // the paper's 0.4 (used when !target)
       const FullResult f = FullEnhanceDetailed(o, r.image, &scene, &r.sidecar);
       ASSERT_FALSE(f.deblurred.empty());
       const double before = LumaMean(f.deblurred), after = LumaMean(f.image);
@@ -208,6 +209,12 @@ TEST(FullBlind, ClaheTargetKeepsTheRestoredBrightness) {
     }
   }
   EXPECT_GT(worst_fixed, 0.1);
+  // Blind full aims lower than the paper's 0.4 (FullOptions::clahe); the variants keep 0.4.
+  EXPECT_EQ(FullVariantDefaults("full").clahe.alpha, 0.3);
+  EXPECT_EQ(FullOptions().clahe.alpha, 0.3);
+  for (const char* variant : {"full_literal", "full_matched", "full_physical"}) {
+    EXPECT_EQ(FullVariantDefaults(variant).clahe.alpha, 0.4) << variant;
+  }
   // Naming clahe_alpha selects the fixed target.
   EXPECT_TRUE(FullOptionsFromJson({{"clahe_alpha", 0.3}, {"clahe_target_mean", true}}, "full")
                   .clahe_target_mean);
