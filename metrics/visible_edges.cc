@@ -30,7 +30,7 @@
 #include <limits>
 #include <vector>
 
-#include "metrics/simd_dispatch.h"
+#include "metrics/visible_edge_search.h"
 #include "scenes/error.h"
 
 namespace turbid {
@@ -38,7 +38,7 @@ namespace {
 
 constexpr int kWindow = 7;  // S in the code, the paper's 7×7 sub-windows
 constexpr int kStep = 4;    // round(S/2): windows overlap by 3 pixels
-constexpr int kMaxThreshold = 256;
+using visible_edges::kMaxThreshold;
 
 // MATLAB padarray(..., 'symmetric') index: mirror including the edge pixel, periodic beyond.
 int Reflect(int i, int n) {
@@ -180,31 +180,6 @@ void CheckGray255(const cv::Mat& gray255) {
 
 // ---- 8-bit fast path -------------------------------------------------------------------------
 
-// Weber(s, v) for v in [0, 255] (rows) and s in [0, kTableStride) (columns; s = 0 and s > 256
-// hold 0, never summed), computed by the same expression as Weber().
-constexpr int kTableStride = kMaxThreshold + 8;
-
-const double* WeberTable() {
-  static const std::vector<double> table = [] {
-    std::vector<double> t(256 * kTableStride, 0.0);
-    for (int v = 0; v < 256; ++v) {
-      for (int s = 1; s <= kMaxThreshold; ++s) t[v * kTableStride + s] = Weber(s, v);
-    }
-    return t;
-  }();
-  return table.data();
-}
-
-// 1.0 / n for the pair counts of a window (at most 72), the same quotients as a division.
-const double* InverseCounts() {
-  static const std::array<double, 2 * 36 + 1> table = [] {
-    std::array<double, 2 * 36 + 1> t{};
-    for (int n = 1; n < static_cast<int>(t.size()); ++n) t[n] = 1.0 / n;
-    return t;
-  }();
-  return table.data();
-}
-
 // The 8-bit image mirrored by `pad` on every side.
 class MirroredGray8 {
  public:
@@ -267,6 +242,16 @@ class WeakPairTest {
   int k_ = 256;
 };
 
+// Byte k of kByteMasks[bits] is 255 when bit k of bits is set (bits < 128).
+constexpr std::array<uint64_t, 128> MakeByteMasks() {
+  std::array<uint64_t, 128> m{};
+  for (unsigned bits = 0; bits < 128; ++bits)
+    for (int k = 0; k < 7; ++k)
+      if (bits >> k & 1) m[bits] |= uint64_t{0xFF} << (8 * k);
+  return m;
+}
+constexpr std::array<uint64_t, 128> kByteMasks = MakeByteMasks();
+
 // VisibleEdgeMask() on CV_8UC1 gray: the same windows, thresholds, sums and decisions. Windows
 // go in bands of rows (step 4): each band computes the pair tests of its 6 pair rows (the maps of
 // BuildMaps(): [ceil(a), ceil(b) − 1] = [a, b − 1] on integers, stored as {vertical first,
@@ -279,8 +264,7 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
   const bool ifsttar = options.variant == VisibleEdgeVariant::kIfsttar;
   const double half_threshold = options.visibility_threshold / 2.0;
   const WeakPairTest weak(half_threshold);
-  const double* table = WeberTable();
-  const double* inverse = InverseCounts();
+  visible_edges::ThresholdSearch search(half_threshold);
   // Padded values: row r, column c of the maps is at(r, c) (mirrored beyond the image).
   const MirroredGray8 at(gray8, kWindow);
   const int stride = at.cols();
@@ -290,13 +274,10 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
   std::vector<uint8_t> strong(ifsttar ? 0 : tests.size());
   std::vector<std::array<uint8_t, 4>> image_row(nc);
   std::vector<uint8_t> column_lo(stride), column_hi(stride);
+  std::vector<visible_edges::Window> windows((nc + kStep - 1) / kStep);  // of a band; null: skipped
 
-  cv::Mat mask = cv::Mat::zeros(nl, nc, CV_8UC1);
-  // Per threshold [0, 256] plus the SIMD overrun, 32-byte aligned.
-  alignas(32) std::array<double, kTableStride> sum_vertical{};
-  alignas(32) std::array<double, kTableStride> sum_horizontal{};
-  alignas(32) std::array<double, kTableStride> count_vertical{};
-  alignas(32) std::array<double, kTableStride> count_horizontal{};
+  // The mask with 7 spare rows and 8 spare columns that windows at the borders may mark.
+  cv::Mat padded = cv::Mat::zeros(nl + kWindow, nc + 8, CV_8UC1);
 
   for (int r0 = 0; r0 < nl; r0 += kStep) {
     // Pair tests of padded rows r0 + 1 .. r0 + 6 (image row Reflect(r)), mirrored columns.
@@ -337,7 +318,9 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       column_lo[c] = lo;
       column_hi[c] = hi;
     }
-    for (int c0 = 0; c0 < nc; c0 += kStep) {
+    // Which windows of the band are searched, and their threshold ranges.
+    for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
+      windows[w] = {};
       if (!ifsttar) {
         bool any_strong = false;
         for (int nn = 0; nn < kPairRows; ++nn) {
@@ -357,48 +340,44 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       if (hi_value == 0) continue;
       const double bound = static_cast<double>(hi_value - lo_value) / hi_value;
       if (bound * (1.0 + 1e-9) <= half_threshold) continue;
+      windows[w] = {at.Row(r0 + 1) + c0 + 1, tests[c0 + 1].data(), stride, std::max(lo_value, 1),
+                    hi_value, !ifsttar && r0 + kWindow - 1 < nl && c0 + kWindow - 1 < nc};
+    }
+    for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
+      if (windows[w].value == nullptr) continue;
+      const visible_edges::Window* next =
+          w + 1 < static_cast<int>(windows.size()) && windows[w + 1].value != nullptr
+              ? &windows[w + 1]
+              : nullptr;
+      const visible_edges::Choice choice = search.FastSearch(windows[w], next);
+      if (!choice.visible) continue;
+      const int s0 = choice.s0;
 
-      const int s_min = std::max(lo_value, 1);
-      const int s_max = hi_value;
-      for (auto* a : {&sum_vertical, &sum_horizontal, &count_vertical, &count_horizontal})
-        std::fill(a->begin() + (s_min & ~3), a->begin() + s_max + 8, 0.0);
-      simd::WeberWindowSums(table, kTableStride, at.Row(r0 + 1) + c0 + 1, tests[c0 + 1].data(),
-                            stride, kPairRows, s_min, s_max, sum_vertical.data(),
-                            sum_horizontal.data(), count_vertical.data(), count_horizontal.data());
-
-      double best = 0.0;
-      int s0 = s_min;
-      for (int s = s_min; s <= s_max; ++s) {
-        const int count = static_cast<int>(count_vertical[s] + count_horizontal[s]);
-        if (count == 0) continue;
-        const double contrast = inverse[count] * (sum_vertical[s] + sum_horizontal[s]);
-        if (contrast > best) {
-          best = contrast;
-          s0 = s;
-        }
-      }
-      if (!(best > half_threshold)) continue;
-
-      auto mark = [&](int r, int c) {
-        if (r < nl && c < nc) mask.at<uint8_t>(r, c) = 255;
-      };
+      // Pairs separated by s0 mark both pixels: per pair row, bit k of `row` / `above` is column
+      // c0 + k of rows r and r − 1, written as 8 bytes into the padded mask (no bounds tests).
+      // s0 >= 255 separates no pair (every interval ends at 255 or before).
+      if (s0 >= 255) continue;
       for (int nn = 1; nn < kWindow; ++nn) {
-        const int r = r0 + nn;
-        for (int mm = 1; mm < kWindow; ++mm) {
-          const int c = c0 + mm;
-          const std::array<uint8_t, 4>& t = tests[static_cast<size_t>(nn - 1) * stride + c];
-          if (t[0] <= s0 && s0 < t[1]) {
-            mark(r, c);
-            mark(r, c - 1);
-          }
-          if (t[2] <= s0 && s0 < t[3]) {
-            mark(r, c);
-            mark(r - 1, c);
-          }
+        const uint8_t* t = tests[static_cast<size_t>(nn - 1) * stride + c0 + 1].data();
+        unsigned vertical = 0, horizontal = 0;
+        for (int mm = 0; mm < kPairRows; ++mm, t += 4) {
+          vertical |= static_cast<unsigned>((t[0] <= s0) & (s0 < t[1])) << (mm + 1);
+          horizontal |= static_cast<unsigned>((t[2] <= s0) & (s0 < t[3])) << (mm + 1);
         }
+        auto put = [&](int r, unsigned bits) {
+          uint64_t word;
+          uint8_t* at_byte = padded.ptr<uint8_t>(r) + c0;
+          std::memcpy(&word, at_byte, 8);
+          word |= kByteMasks[bits];
+          std::memcpy(at_byte, &word, 8);
+        };
+        put(r0 + nn, vertical | (vertical >> 1) | horizontal);
+        put(r0 + nn - 1, horizontal);
       }
     }
   }
+  cv::Mat mask;
+  padded(cv::Rect(0, 0, nc, nl)).copyTo(mask);
   return mask;
 }
 
