@@ -271,7 +271,7 @@ void WeberWindowSumsFast(const double* table, int table_stride, const uint8_t* v
 // AddPackedPairs(): two 4-wide chunks per pair from an aligned base, the lanes of the pair's
 // interval picked by a mask from a table (no per-chunk compares); the terms are computed from
 // small tables (s and 1/s per lane, v and 1/v per pixel), not read from the 540 KB Weber table,
-// whose rows miss L1; vertical and horizontal pairs go to two partial sums (two chains in flight).
+// whose rows miss L1.
 struct PackedTables {
   alignas(32) uint64_t masks[4 * 9][8];  // row (first & 3) · 9 + n: lanes [first & 3, n) of 8
   alignas(32) double s[kPackedStride];   // s
@@ -352,7 +352,7 @@ inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, in
 void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, int rows,
                         int cols, bool paper, int clip_lo, int clip_hi, double* acc) {
   double* vertical = acc;
-  double* horizontal = acc + kPackedStride;
+  double* horizontal = acc;
   for (int i = 0; i < rows; ++i) {
     for (int j = 0; j < cols; ++j) {
       const ptrdiff_t k = static_cast<ptrdiff_t>(i) * stride + j;

@@ -62,12 +62,11 @@ void WeberWindowSums(const double* table, int table_stride, const uint8_t* value
 // The terms of WeberWindowSums() summed in any order and computed another way, for an
 // approximate C(s) that is cheap to get. For the pairs of the rows × cols pixels from `value` /
 // `tests` (layout as in WeberWindowSums()), adds 128 + min(W(s, p), W(s, q)) at every threshold s
-// of the pair's interval to one of two partial sums (acc for vertical pairs, acc + kPackedStride
-// for horizontal ones), W(s, v) =
+// of the pair's interval to acc[s], W(s, v) =
 // |s − v| / max(s, v) computed as 1 − min(v/s, s/v). `paper`: every interval is [min(p, q),
 // max(p, q)) (the paper variant), which allows a shorter formula. Thresholds in [clip_lo, clip_hi]
 // always receive exactly their terms; others may receive some (unspecified), and any element of
-// the partial sums with index < 264 may be written. Summed over a window, floor(sum / 128) is the
+// acc with index < 264 may be written. Summed over a window, floor(sum / 128) is the
 // count of pairs exactly (each term is 128 plus a value in [0, 1] within a few roundings, a window
 // has at most 72 < 128 pairs, and rounding is monotone) and sum − 128 · count their Weber sum to
 // within 1e-10 (each term within 4 roundings of values <= 129, each of the <= 80 additions one

@@ -63,54 +63,146 @@ Choice ThresholdSearch::ExactSearch(const Window& w) {
   return {best > half_threshold_, s0, true};
 }
 
-simd::PackedMaximum ThresholdSearch::PackedSearch(const Window& w, const Window* next) {
-  constexpr int kRows = kPairRows;
-  // Pixel columns 0-1 of the window (shared with the window 4 pixels left), 2-3 (its own) and
-  // 4-5 (shared with `next`).
-  const bool have_left = right_value_ == w.value && right_tests_ == w.tests &&
-                         right_lo_ <= w.s_min && w.s_max <= right_hi_;
-  const double* left = shared_[right_];
-  const int first_chunk = w.s_min & ~3;
-  std::fill(window_ + first_chunk, window_ + w.s_max + 8, 0.0);
-  std::fill(window_ + kStride + first_chunk, window_ + kStride + w.s_max + 8, 0.0);
-  const int own_begin = have_left ? 2 : 0;
-  const int own_end = next != nullptr ? 4 : 6;
-  simd::AddPackedPairs(w.value + own_begin, w.tests + 4 * own_begin, w.stride, kRows,
-                       own_end - own_begin, w.own_intervals, w.s_min, w.s_max, window_);
-  double* right = shared_[1 - right_];
-  if (next != nullptr) {
-    const int lo = std::min(w.s_min, next->s_min);
-    const int hi = std::max(w.s_max, next->s_max);
-    std::fill(right + (lo & ~3), right + hi + 8, 0.0);
-    std::fill(right + kStride + (lo & ~3), right + kStride + hi + 8, 0.0);
-    simd::AddPackedPairs(w.value + 4, w.tests + 16, w.stride, kRows, 2, w.own_intervals, lo, hi, right);
-    for (int s = lo; s <= hi; ++s) right[s] += right[kStride + s];
-    right_ = 1 - right_;
-    right_value_ = w.value + 4;
-    right_tests_ = w.tests + 16;
-    right_lo_ = lo;
-    right_hi_ = hi;
-  } else {
-    right_value_ = nullptr;
+namespace {
+
+// Zeroes `acc` on the chunks that windows of threshold range [lo, hi] read and that pairs clipped
+// to it write (see simd::AddPackedPairs). Explicit 4-double steps (the ranges are short;
+// std::fill would call memset).
+void Zero(double* acc, int lo, int hi) {
+  for (int s = lo & ~3; s < hi + 8; s += 4)
+    for (int l = 0; l < 4; ++l) acc[s + l] = 0.0;
+}
+
+}  // namespace
+
+simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& band,
+                                                  const std::vector<Window>& below, int k) {
+  // The window's pixels (rows and columns 0-5 from w.value) in blocks of 2 × 2: rows 0-1 are the
+  // rows 4-5 of the window above (summed there, with columns 0-5: a strip), columns 0-1 the
+  // columns 4-5 of the window to the left (summed there, rows 2-3 and 4-5 apart).
+  const Window& w = band[k];
+  const int n = static_cast<int>(band.size());
+  const Window* right = k + 1 < n && band[k + 1].value != nullptr ? &band[k + 1] : nullptr;
+  const int n_below = static_cast<int>(below.size());
+  const Window* down = k < n_below && below[k].value != nullptr ? &below[k] : nullptr;
+  const Window* down_right = right != nullptr && k + 1 < n_below && below[k + 1].value != nullptr
+                                 ? &below[k + 1]
+                                 : nullptr;
+  auto join = [](Range r, const Window* o) {
+    return o == nullptr ? r : Range{std::min(r.lo, o->s_min), std::max(r.hi, o->s_max)};
+  };
+  const Range own{w.s_min, w.s_max};
+  const Range bottom = join(own, down);
+  const Range middle_right = join(own, right);
+  const Range bottom_right = join(join(middle_right, down), down_right);
+  const int read = strip_read_, write = 1 - strip_read_;
+  double* strip_in = &strips_[read][static_cast<size_t>(k) * kStride];
+  const bool have_top = strip_valid_[read][k] != 0 && strip_value_[read][k] == w.value &&
+                        strip_tests_[read][k] == w.tests && strip_lo_[read][k] <= own.lo &&
+                        own.hi <= strip_hi_[read][k];
+  const bool have_left = have_left_;
+  auto add = [&](int row, int rows, int col, int cols, Range clip, double* acc) {
+    const ptrdiff_t at = static_cast<ptrdiff_t>(row) * w.stride + col;
+    simd::AddPackedPairs(w.value + at, w.tests + 4 * at, w.stride, rows, cols, w.own_intervals,
+                         clip.lo, clip.hi, acc);
+  };
+  Zero(own_top_, own.lo, own.hi);
+  Zero(own_bottom_, bottom.lo, bottom.hi);
+  const int col_begin = have_left ? 2 : 0;
+  const int col_end = right != nullptr ? 4 : 6;
+  if (!have_top) add(0, 2, 0, 6, own, own_top_);
+  add(2, 2, col_begin, col_end - col_begin, own, own_top_);
+  add(4, 2, col_begin, col_end - col_begin, bottom, own_bottom_);
+  const int next = 1 - right_;
+  if (right != nullptr) {
+    Zero(right_middle_[next], middle_right.lo, middle_right.hi);
+    add(2, 2, 4, 2, middle_right, right_middle_[next]);
+    Zero(right_bottom_[next], bottom_right.lo, bottom_right.hi);
+    add(4, 2, 4, 2, bottom_right, right_bottom_[next]);
   }
-  const double* parts[4] = {window_, window_ + kStride};
+  const double* parts[7] = {own_top_, own_bottom_};
   int n_parts = 2;
-  if (have_left) parts[n_parts++] = left;
-  if (next != nullptr) parts[n_parts++] = right;
-  return simd::PackedContrasts(parts, n_parts, w.s_min, w.s_max, 2.0 * kMargin, contrast_);
+  if (have_top) parts[n_parts++] = strip_in;
+  if (have_left) {
+    parts[n_parts++] = right_middle_[right_];
+    parts[n_parts++] = right_bottom_[right_];
+  }
+  if (right != nullptr) {
+    parts[n_parts++] = right_middle_[next];
+    parts[n_parts++] = right_bottom_[next];
+  }
+  const simd::PackedMaximum m =
+      simd::PackedContrasts(parts, n_parts, w.s_min, w.s_max, 2.0 * kMargin, contrast_);
+  if (down != nullptr) {  // the sums of rows 4-5 for the window below
+    double* strip = &strips_[write][static_cast<size_t>(k) * kStride];
+    const double* left_part = have_left ? right_bottom_[right_] : zeros_;
+    const double* right_part = right != nullptr ? right_bottom_[next] : zeros_;
+    for (int s = bottom.lo & ~3; s <= (bottom.hi | 3); s += 4) {
+      for (int l = 0; l < 4; ++l) {
+        strip[s + l] = own_bottom_[s + l] + left_part[s + l] + right_part[s + l];
+      }
+    }
+    strip_valid_[write][k] = 1;
+    strip_value_[write][k] = down->value;
+    strip_tests_[write][k] = down->tests;
+    strip_lo_[write][k] = bottom.lo;
+    strip_hi_[write][k] = bottom.hi;
+  }
+  have_left_ = right != nullptr;
+  if (right != nullptr) right_ = next;
+  return m;
 }
 
-void ThresholdSearch::ApproximateContrasts(const Window& w, const Window* next) {
-  PackedSearch(w, next);
-}
-
-Choice ThresholdSearch::FastSearch(const Window& w, const Window* next) {
-  const simd::PackedMaximum m = PackedSearch(w, next);
+Choice ThresholdSearch::Decide(const Window& w, const simd::PackedMaximum& m) {
   // Every ordered C(s) is within kApproximateError < kMargin of its unordered value.
   if (m.best <= half_threshold_ - kMargin) return {false, w.s_min, false};
   // Visible, with s0 the best threshold, when every other one is clearly below it.
   if (m.best > half_threshold_ + kMargin && m.near == 1) return {true, m.first, false};
   return ExactSearch(w);
+}
+
+void ThresholdSearch::Reserve(size_t n) {
+  for (int b = 0; b < 2; ++b) {
+    if (strip_valid_[b].size() != n) {
+      strips_[b].assign(n * kStride, 0.0);
+      strip_valid_[b].assign(n, 0);
+      strip_value_[b].assign(n, nullptr);
+      strip_tests_[b].assign(n, nullptr);
+      strip_lo_[b].assign(n, 0);
+      strip_hi_[b].assign(n, -1);
+    }
+  }
+}
+
+void ThresholdSearch::SearchBand(const std::vector<Window>& band, const std::vector<Window>& below,
+                                 std::vector<Choice>* choices) {
+  const size_t n = band.size();
+  Reserve(n);
+  std::fill(strip_valid_[1 - strip_read_].begin(), strip_valid_[1 - strip_read_].end(), 0);
+  choices->assign(n, Choice{});
+  have_left_ = false;
+  for (size_t k = 0; k < n; ++k) {
+    if (band[k].value == nullptr) {
+      have_left_ = false;
+      continue;
+    }
+    (*choices)[k] = Decide(band[k], PackedWindow(band, below, static_cast<int>(k)));
+  }
+  strip_read_ = 1 - strip_read_;
+}
+
+Choice ThresholdSearch::FastSearch(const Window& w) {
+  std::vector<Choice> choices;
+  SearchBand({w}, {}, &choices);
+  return choices[0];
+}
+
+void ThresholdSearch::ApproximateContrasts(const Window& w) {
+  const std::vector<Window> band = {w};
+  Reserve(1);
+  std::fill(strip_valid_[strip_read_].begin(), strip_valid_[strip_read_].end(), 0);
+  have_left_ = false;
+  PackedWindow(band, {}, 0);
 }
 
 }  // namespace turbid::visible_edges

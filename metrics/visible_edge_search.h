@@ -9,15 +9,18 @@
 // ordered sums take ~15 vector instructions per pair and chunk of 4 thresholds. FastSearch instead
 // sums the same Weber contrasts, computed arithmetically from small tables instead of read from
 // the 540 KB table, in any order (simd::AddPackedPairs()), which is within kApproximateError of
-// the ordered C(s): the order freedom lets neighbouring windows share the sums of the 6 × 2
-// pixels they have in common (a third of each window's pairs). It decides from that alone when
+// the ordered C(s): the order freedom lets neighbouring windows share the sums of the pixels they
+// have in common (windows overlap by two pixel columns and two pixel rows), so that each pair is
+// summed about once instead of 2.25 times. It decides from that alone when
 // the decision is clear
 // by more than kMargin: the best threshold above every other one and the visibility threshold, or
 // every C(s) below it. Otherwise (near-ties, a C(s) within kMargin of the threshold) it runs
 // ExactSearch. Both give the same decision and s0 (tests/metrics/visible_edge_search_test.cc).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
+#include <vector>
 
 #include "metrics/simd_dispatch.h"
 
@@ -56,9 +59,9 @@ struct Choice {
 
 class ThresholdSearch {
  public:
-  // Largest difference between the unordered and the ordered C(s): the packed sums' ≤ 80
-  // roundings below 2^14 and ≤ 4 relative roundings per term (≤ 8e-11) plus the ordered sums'
-  // ≤ 40 relative roundings of C ≤ 1 (≤ 5e-15).
+  // Largest difference between the unordered and the ordered C(s): the packed sums' ≤ 90
+  // additions of values below 2^14 (one rounding ≤ 2^-40 each) and ≤ 4 relative roundings per
+  // term (≤ 9e-11 in all), plus the ordered sums' ≤ 40 relative roundings of C ≤ 1 (≤ 5e-15).
   static constexpr double kApproximateError = 1e-10;
   // Decisions closer than this are re-checked with the ordered sums (10 × the error bound).
   static constexpr double kMargin = 1e-9;
@@ -69,36 +72,59 @@ class ThresholdSearch {
   // The published code's search: C(s) from the ordered sums, first argmax over s with a non-zero
   // count, visible when C(s0) > half_threshold.
   Choice ExactSearch(const Window& w);
-  // The same decision and s0, from the unordered sums where they decide (see the file comment).
-  // `next`: the window 4 pixels to the right when it will be searched next (it shares two pixel
-  // columns with w, whose sums are then computed once), else nullptr.
-  Choice FastSearch(const Window& w, const Window* next = nullptr);
+
+  // The same decisions for a band of windows, from the unordered sums where they decide (see the
+  // file comment). band[k] is the window 4 pixels right of band[k − 1] (value == nullptr: not
+  // searched; its choice is "not visible"); below[k] the window 4 pixels below band[k] (empty when
+  // there is no band below). Bands must come in order, top to bottom, the `below` of one call
+  // being the `band` of the next: the pairs that neighbouring windows share (two pixel columns to
+  // the right, two pixel rows below) are summed once. Writes choices[k] for every k.
+  void SearchBand(const std::vector<Window>& band, const std::vector<Window>& below,
+                  std::vector<Choice>* choices);
+  // One window alone (no sharing): SearchBand of a band of one.
+  Choice FastSearch(const Window& w);
 
   // C(s) for s in [s_min, s_max] (−1 where no pair is separated), left in contrast(s): from the
-  // ordered sums, or from the unordered ones (with `next` as in FastSearch).
+  // ordered sums, or from the unordered ones of the window alone (this forgets the shared sums of
+  // a SearchBand sequence).
   void ExactContrasts(const Window& w);
-  void ApproximateContrasts(const Window& w, const Window* next = nullptr);
+  void ApproximateContrasts(const Window& w);
   double contrast(int s) const { return contrast_[s]; }
 
  private:
-  // The unordered contrasts into contrast_, and where their maximum is.
-  simd::PackedMaximum PackedSearch(const Window& w, const Window* next);
-
   static constexpr int kStride = simd::kPackedStride;
+  struct Range {
+    int lo, hi;
+  };
+  // A window's unordered contrasts into contrast_ and where their maximum is; updates the
+  // shared sums (see the .cc).
+  simd::PackedMaximum PackedWindow(const std::vector<Window>& band,
+                                   const std::vector<Window>& below, int k);
+  Choice Decide(const Window& w, const simd::PackedMaximum& m);
+  void Reserve(size_t n);  // the strips for bands of n windows
+
   double half_threshold_;
   alignas(32) double sum_vertical_[kTableStride] = {};
   alignas(32) double sum_horizontal_[kTableStride] = {};
   alignas(32) double count_vertical_[kTableStride] = {};
   alignas(32) double count_horizontal_[kTableStride] = {};
-  // Unordered sums: the window's own pairs (two partial sums), and two buffers of the sums of a
-  // 6 × 2 block shared by two neighbouring windows (two partial sums each, folded into the first).
-  alignas(32) double window_[2 * kStride] = {};
-  alignas(32) double shared_[2][2 * kStride] = {};
-  int right_ = 0;                        // which shared_ buffer holds the last window's right block
-  const uint8_t* right_value_ = nullptr;  // that block's first pixel (nullptr: none)
-  const uint8_t* right_tests_ = nullptr;
-  int right_lo_ = 0, right_hi_ = -1;  // thresholds where its sums are exact
   alignas(32) double contrast_[kTableStride] = {};
+  // Unordered sums of the window's own pairs in pixel rows 0-3 and in rows
+  // 4-5; of the pixels it shares with the next window (columns 4-5) in rows 2-3 and 4-5, two
+  // buffers each (this window's, the previous window's); and, per window of the band, of its
+  // pixel rows 4-5, which the window below has as rows 0-1 (two buffers: written, read).
+  alignas(32) double own_top_[kStride] = {};
+  alignas(32) double own_bottom_[kStride] = {};
+  alignas(32) double zeros_[kStride] = {};
+  alignas(32) double right_middle_[2][kStride] = {};
+  alignas(32) double right_bottom_[2][kStride] = {};
+  int right_ = 0;            // which right_* buffers the last window wrote
+  bool have_left_ = false;   // the last window wrote them for the current one
+  std::vector<double> strips_[2];     // per window, kStride doubles
+  std::vector<char> strip_valid_[2];  // per window: the strip holds the sums of its window below,
+  std::vector<const uint8_t*> strip_value_[2], strip_tests_[2];  // which is this one
+  std::vector<int> strip_lo_[2], strip_hi_[2];  // thresholds where the strip's sums are exact
+  int strip_read_ = 0;
 };
 
 }  // namespace turbid::visible_edges

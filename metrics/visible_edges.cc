@@ -252,6 +252,52 @@ constexpr std::array<uint64_t, 128> MakeByteMasks() {
 }
 constexpr std::array<uint64_t, 128> kByteMasks = MakeByteMasks();
 
+// The pair tests of one image row (see BuildMaps()) as {vertical first, vertical end,
+// horizontal first, horizontal end} per pixel j < n: `row` is the row, `up` and `up2` the two
+// above it (all readable from index −2). Two branch-free loops, so that each vectorises.
+void PairTestRow(const uint8_t* up2, const uint8_t* up, const uint8_t* row, int n, bool ifsttar,
+                 uint8_t* __restrict out) {
+  if (ifsttar) {
+    for (int j = 0; j < n; ++j) {
+      out[4 * j] = std::min(up[j - 2], up[j - 1]);
+      out[4 * j + 1] = std::max(up[j - 1], up[j]);
+      out[4 * j + 2] = std::min(up2[j - 1], up[j - 1]);
+      out[4 * j + 3] = std::max(up[j - 1], row[j - 1]);
+    }
+  } else {
+    for (int j = 0; j < n; ++j) {
+      out[4 * j] = std::min(row[j], row[j - 1]);
+      out[4 * j + 1] = std::max(row[j], row[j - 1]);
+      out[4 * j + 2] = std::min(row[j], up[j]);
+      out[4 * j + 3] = std::max(row[j], up[j]);
+    }
+  }
+}
+
+// strong[c] for c in [1, n): whether pixel c of a row of pair tests has a strong pair.
+void StrongRow(const WeakPairTest& weak, const uint8_t* __restrict tests, int n,
+               uint8_t* __restrict strong) {
+  const WeakPairTest test = weak;
+  for (int c = 1; c < n; ++c) {
+    strong[c] = test.Strong(tests[4 * c], tests[4 * c + 1]) |
+                test.Strong(tests[4 * c + 2], tests[4 * c + 3]);
+  }
+}
+
+// Per column c < n, the extremes of rows r0 .. r0 + rows − 1 of `at`.
+void ColumnExtremes(const MirroredGray8& at, int r0, int rows, int n, uint8_t* __restrict lo,
+                    uint8_t* __restrict hi) {
+  std::copy(at.Row(r0), at.Row(r0) + n, lo);
+  std::copy(at.Row(r0), at.Row(r0) + n, hi);
+  for (int nn = 1; nn < rows; ++nn) {
+    const uint8_t* row = at.Row(r0 + nn);
+    for (int c = 0; c < n; ++c) {
+      lo[c] = std::min(lo[c], row[c]);
+      hi[c] = std::max(hi[c], row[c]);
+    }
+  }
+}
+
 // VisibleEdgeMask() on CV_8UC1 gray: the same windows, thresholds, sums and decisions. Windows
 // go in bands of rows (step 4): each band computes the pair tests of its 6 pair rows (the maps of
 // BuildMaps(): [ceil(a), ceil(b) − 1] = [a, b − 1] on integers, stored as {vertical first,
@@ -269,58 +315,46 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
   const MirroredGray8 at(gray8, kWindow);
   const int stride = at.cols();
   constexpr int kPairRows = kWindow - 1;
-  // Band buffers in the stride of `at`, column c at index c (columns up to nc + 5 are used).
-  std::vector<std::array<uint8_t, 4>> tests(static_cast<size_t>(kPairRows) * stride);
-  std::vector<uint8_t> strong(ifsttar ? 0 : tests.size());
-  std::vector<std::array<uint8_t, 4>> image_row(nc);
+  const int n_windows = (nc + kStep - 1) / kStep;
+  // One band of windows (rows r0 .. r0 + 6): its pair tests in the stride of `at` (column c at
+  // index c; columns up to nc + 5 are used, 8 more are readable), which pixels have a strong
+  // pair, and its windows (value nullptr: not searched). Two bands are kept, the one searched and
+  // the one below it, which shares two pair rows with it.
+  struct Band {
+    std::vector<uint8_t> tests;  // 4 bytes per pixel
+    std::vector<uint8_t> strong;
+    std::vector<visible_edges::Window> windows;
+  };
+  Band bands[2];
+  for (Band& b : bands) {
+    b.tests.resize(4 * (static_cast<size_t>(kPairRows) * stride + 8));
+    b.strong.resize(ifsttar ? 0 : static_cast<size_t>(kPairRows) * stride + 8);
+    b.windows.resize(n_windows);
+  }
   std::vector<uint8_t> column_lo(stride), column_hi(stride);
-  std::vector<visible_edges::Window> windows((nc + kStep - 1) / kStep);  // of a band; null: skipped
 
-  // The mask with 7 spare rows and 8 spare columns that windows at the borders may mark.
-  cv::Mat padded = cv::Mat::zeros(nl + kWindow, nc + 8, CV_8UC1);
-
-  for (int r0 = 0; r0 < nl; r0 += kStep) {
+  auto prepare = [&](int r0, Band& band) {
+    uint8_t* tests = band.tests.data();
+    std::vector<uint8_t>& strong = band.strong;
     // Pair tests of padded rows r0 + 1 .. r0 + 6 (image row Reflect(r)), mirrored columns.
     for (int nn = 1; nn < kWindow; ++nn) {
       const int i = Reflect(r0 + nn, nl);
       const uint8_t* up2 = at.Row(i - 2);
       const uint8_t* up = at.Row(i - 1);
       const uint8_t* row = at.Row(i);
-      for (int j = 0; j < nc; ++j) {
-        if (ifsttar) {  // see BuildMaps()
-          image_row[j] = {std::min(up[j - 2], up[j - 1]), std::max(up[j - 1], up[j]),
-                          std::min(up2[j - 1], up[j - 1]), std::max(up[j - 1], row[j - 1])};
-        } else {
-          image_row[j] = {std::min(row[j], row[j - 1]), std::max(row[j], row[j - 1]),
-                          std::min(row[j], up[j]), std::max(row[j], up[j])};
-        }
-      }
-      std::array<uint8_t, 4>* t = &tests[static_cast<size_t>(nn - 1) * stride];
-      std::copy(image_row.begin(), image_row.end(), t);
-      for (int c = nc; c < nc + kWindow - 1; ++c) t[c] = image_row[Reflect(c, nc)];
+      uint8_t* tb = tests + 4 * static_cast<size_t>(nn - 1) * stride;
+      PairTestRow(up2, up, row, nc, ifsttar, tb);
+      for (int c = nc; c < nc + kWindow - 1; ++c) std::memcpy(tb + 4 * c, tb + 4 * Reflect(c, nc), 4);
       // Which pixels of the row have a pair that can reach the threshold.
       if (ifsttar) continue;
-      uint8_t* st = &strong[static_cast<size_t>(nn - 1) * stride];
-      const uint8_t* tb = t[0].data();
-      for (int c = 1; c < nc + kWindow - 1; ++c) {
-        st[c] = weak.Strong(tb[4 * c], tb[4 * c + 1]) | weak.Strong(tb[4 * c + 2], tb[4 * c + 3]);
-      }
+      StrongRow(weak, tb, nc + kWindow - 1, &strong[static_cast<size_t>(nn - 1) * stride]);
     }
 
     // Extremes of the band's 7 rows per column, for the windows' ranges.
-    for (int c = 0; c < nc + kWindow - 1; ++c) {
-      uint8_t lo = 255, hi = 0;
-      for (int nn = 0; nn < kWindow; ++nn) {
-        const uint8_t v = at.Row(r0 + nn)[c];
-        lo = std::min(lo, v);
-        hi = std::max(hi, v);
-      }
-      column_lo[c] = lo;
-      column_hi[c] = hi;
-    }
+    ColumnExtremes(at, r0, kWindow, nc + kWindow - 1, column_lo.data(), column_hi.data());
     // Which windows of the band are searched, and their threshold ranges.
     for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
-      windows[w] = {};
+      band.windows[w] = {};
       if (!ifsttar) {
         bool any_strong = false;
         for (int nn = 0; nn < kPairRows; ++nn) {
@@ -340,25 +374,32 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       if (hi_value == 0) continue;
       const double bound = static_cast<double>(hi_value - lo_value) / hi_value;
       if (bound * (1.0 + 1e-9) <= half_threshold) continue;
-      windows[w] = {at.Row(r0 + 1) + c0 + 1, tests[c0 + 1].data(), stride, std::max(lo_value, 1),
-                    hi_value, !ifsttar && r0 + kWindow - 1 < nl && c0 + kWindow - 1 < nc};
+      band.windows[w] = {at.Row(r0 + 1) + c0 + 1, tests + 4 * (c0 + 1), stride,
+                         std::max(lo_value, 1), hi_value,
+                         !ifsttar && r0 + kWindow - 1 < nl && c0 + kWindow - 1 < nc};
     }
-    for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
-      if (windows[w].value == nullptr) continue;
-      const visible_edges::Window* next =
-          w + 1 < static_cast<int>(windows.size()) && windows[w + 1].value != nullptr
-              ? &windows[w + 1]
-              : nullptr;
-      const visible_edges::Choice choice = search.FastSearch(windows[w], next);
-      if (!choice.visible) continue;
-      const int s0 = choice.s0;
+  };
 
+  // The mask with 7 spare rows and 8 spare columns that windows at the borders may mark.
+  cv::Mat padded = cv::Mat::zeros(nl + kWindow, nc + 8, CV_8UC1);
+  std::vector<visible_edges::Choice> choices(n_windows);
+  const std::vector<visible_edges::Window> no_band;
+
+  prepare(0, bands[0]);
+  for (int r0 = 0, b = 0; r0 < nl; r0 += kStep, b = 1 - b) {
+    const bool has_below = r0 + kStep < nl;
+    if (has_below) prepare(r0 + kStep, bands[1 - b]);
+    search.SearchBand(bands[b].windows, has_below ? bands[1 - b].windows : no_band, &choices);
+    const uint8_t* tests = bands[b].tests.data();
+    for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
+      if (!choices[w].visible) continue;
+      const int s0 = choices[w].s0;
       // Pairs separated by s0 mark both pixels: per pair row, bit k of `row` / `above` is column
       // c0 + k of rows r and r − 1, written as 8 bytes into the padded mask (no bounds tests).
       // s0 >= 255 separates no pair (every interval ends at 255 or before).
       if (s0 >= 255) continue;
       for (int nn = 1; nn < kWindow; ++nn) {
-        const uint8_t* t = tests[static_cast<size_t>(nn - 1) * stride + c0 + 1].data();
+        const uint8_t* t = tests + 4 * (static_cast<size_t>(nn - 1) * stride + c0 + 1);
         unsigned vertical = 0, horizontal = 0;
         for (int mm = 0; mm < kPairRows; ++mm, t += 4) {
           vertical |= static_cast<unsigned>((t[0] <= s0) & (s0 < t[1])) << (mm + 1);
