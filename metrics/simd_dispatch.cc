@@ -370,6 +370,18 @@ void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, 
   }
 }
 
+void ZeroPackedFast(double* acc, int lo, int hi) {
+  for (int s = lo & ~3; s < hi + 8; s += 4) _mm256_store_pd(acc + s, _mm256_setzero_pd());
+}
+
+void SumPackedFast(const double* const* parts, int n_parts, int lo, int hi, double* out) {
+  for (int s = lo & ~3; s <= (hi | 3); s += 4) {
+    __m256d sum = _mm256_load_pd(parts[0] + s);
+    for (int m = 1; m < n_parts; ++m) sum = _mm256_add_pd(sum, _mm256_load_pd(parts[m] + s));
+    _mm256_store_pd(out + s, sum);
+  }
+}
+
 PackedMaximum PackedContrastsFast(const double* const* parts, int n_parts, int s_min, int s_max,
                                   double tie_width, double* contrast) {
   const int first_chunk = s_min & ~3;
@@ -560,6 +572,20 @@ void AddPackedPairs(const uint8_t* value, const uint8_t* tests, int stride, int 
   base::AddPackedPairs(value, tests, stride, rows, cols, paper, clip_lo, clip_hi, acc);
 }
 
+void ZeroPacked(double* acc, int lo, int hi) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::ZeroPackedFast(acc, lo, hi);
+#endif
+  base::ZeroPacked(acc, lo, hi);
+}
+
+void SumPacked(const double* const* parts, int n_parts, int lo, int hi, double* out) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::SumPackedFast(parts, n_parts, lo, hi, out);
+#endif
+  base::SumPacked(parts, n_parts, lo, hi, out);
+}
+
 PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min, int s_max,
                               double tie_width, double* contrast) {
 #ifdef TURBID_HAVE_AVX2_COPY
@@ -567,6 +593,10 @@ PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min
     return avx2::PackedContrastsFast(parts, n_parts, s_min, s_max, tie_width, contrast);
 #endif
   return base::PackedContrasts(parts, n_parts, s_min, s_max, tie_width, contrast);
+}
+
+void OctaveGrayU8(const uint8_t* bgr, int n, uint8_t* gray) {
+  TURBID_DISPATCH(OctaveGrayU8(bgr, n, gray));
 }
 
 void UciqeSaturation(const uint8_t* lab, int n, const double* chroma, double* saturation,

@@ -75,6 +75,12 @@ constexpr int kPackedStride = 264;
 void AddPackedPairs(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
                     bool paper, int clip_lo, int clip_hi, double* acc);
 
+// Helpers of the packed sums, with the same 4-double (32-byte) chunks as AddPackedPairs(), so that
+// its loads of what they stored are forwarded from the stores: acc = 0 on [lo & ~3, hi + 8), and
+// out = Σ_m parts[m] (m < n_parts, in order) on [lo & ~3, hi | 3]. 32-byte aligned arrays.
+void ZeroPacked(double* acc, int lo, int hi);
+void SumPacked(const double* const* parts, int n_parts, int lo, int hi, double* out);
+
 // The approximate C(s) of packed sums (see AddPackedPairs()) and where its maximum is: for s in
 // [s_min, s_max], sum = Σ_m parts[m][s] (m < n_parts, added in order), count = floor(sum / 128)
 // and contrast[s] = (sum − 128 · count) / count, or −1 when count is 0. Returns the largest
@@ -88,6 +94,11 @@ struct PackedMaximum {
 };
 PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min, int s_max,
                               double tie_width, double* contrast);
+
+// Octave's rgb2gray of n 8-bit BGR pixels (metrics/visible_edges.h, OctaveRgbToGray) in integer
+// arithmetic: min((298936 R + 587043 G + 114021 B + 500000) / 1000000, 255). Equal to Octave's
+// double formula for all 2^24 colours (no colour falls within rounding of a half; tested over all).
+void OctaveGrayU8(const uint8_t* bgr, int n, uint8_t* gray);
 
 // UCIQE's saturation (metrics/uciqe.cc) of n 8-bit Lab pixels (L, a, b interleaved):
 // saturation[k] = chr / √(chr² + l²) and chr[k] = chr, chr = chroma[a · 256 + b], l = L / 255,

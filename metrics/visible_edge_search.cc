@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 namespace turbid::visible_edges {
@@ -63,18 +64,6 @@ Choice ThresholdSearch::ExactSearch(const Window& w) {
   return {best > half_threshold_, s0, true};
 }
 
-namespace {
-
-// Zeroes `acc` on the chunks that windows of threshold range [lo, hi] read and that pairs clipped
-// to it write (see simd::AddPackedPairs). Explicit 4-double steps (the ranges are short;
-// std::fill would call memset).
-void Zero(double* acc, int lo, int hi) {
-  for (int s = lo & ~3; s < hi + 8; s += 4)
-    for (int l = 0; l < 4; ++l) acc[s + l] = 0.0;
-}
-
-}  // namespace
-
 simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& band,
                                                   const std::vector<Window>& below, int k) {
   // The window's pixels (rows and columns 0-5 from w.value) in blocks of 2 × 2: rows 0-1 are the
@@ -96,7 +85,7 @@ simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& ban
   const Range middle_right = join(own, right);
   const Range bottom_right = join(join(middle_right, down), down_right);
   const int read = strip_read_, write = 1 - strip_read_;
-  double* strip_in = &strips_[read][static_cast<size_t>(k) * kStride];
+  double* strip_in = Strip(read, k);
   const bool have_top = strip_valid_[read][k] != 0 && strip_value_[read][k] == w.value &&
                         strip_tests_[read][k] == w.tests && strip_lo_[read][k] <= own.lo &&
                         own.hi <= strip_hi_[read][k];
@@ -106,8 +95,8 @@ simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& ban
     simd::AddPackedPairs(w.value + at, w.tests + 4 * at, w.stride, rows, cols, w.own_intervals,
                          clip.lo, clip.hi, acc);
   };
-  Zero(own_top_, own.lo, own.hi);
-  Zero(own_bottom_, bottom.lo, bottom.hi);
+  simd::ZeroPacked(own_top_, own.lo, own.hi);
+  simd::ZeroPacked(own_bottom_, bottom.lo, bottom.hi);
   const int col_begin = have_left ? 2 : 0;
   const int col_end = right != nullptr ? 4 : 6;
   if (!have_top) add(0, 2, 0, 6, own, own_top_);
@@ -115,9 +104,9 @@ simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& ban
   add(4, 2, col_begin, col_end - col_begin, bottom, own_bottom_);
   const int next = 1 - right_;
   if (right != nullptr) {
-    Zero(right_middle_[next], middle_right.lo, middle_right.hi);
+    simd::ZeroPacked(right_middle_[next], middle_right.lo, middle_right.hi);
     add(2, 2, 4, 2, middle_right, right_middle_[next]);
-    Zero(right_bottom_[next], bottom_right.lo, bottom_right.hi);
+    simd::ZeroPacked(right_bottom_[next], bottom_right.lo, bottom_right.hi);
     add(4, 2, 4, 2, bottom_right, right_bottom_[next]);
   }
   const double* parts[7] = {own_top_, own_bottom_};
@@ -134,14 +123,12 @@ simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& ban
   const simd::PackedMaximum m =
       simd::PackedContrasts(parts, n_parts, w.s_min, w.s_max, 2.0 * kMargin, contrast_);
   if (down != nullptr) {  // the sums of rows 4-5 for the window below
-    double* strip = &strips_[write][static_cast<size_t>(k) * kStride];
-    const double* left_part = have_left ? right_bottom_[right_] : zeros_;
-    const double* right_part = right != nullptr ? right_bottom_[next] : zeros_;
-    for (int s = bottom.lo & ~3; s <= (bottom.hi | 3); s += 4) {
-      for (int l = 0; l < 4; ++l) {
-        strip[s + l] = own_bottom_[s + l] + left_part[s + l] + right_part[s + l];
-      }
-    }
+    double* strip = Strip(write, k);
+    const double* strip_parts[3] = {own_bottom_};
+    int n_strip = 1;
+    if (have_left) strip_parts[n_strip++] = right_bottom_[right_];
+    if (right != nullptr) strip_parts[n_strip++] = right_bottom_[next];
+    simd::SumPacked(strip_parts, n_strip, bottom.lo, bottom.hi, strip);
     strip_valid_[write][k] = 1;
     strip_value_[write][k] = down->value;
     strip_tests_[write][k] = down->tests;
@@ -161,10 +148,16 @@ Choice ThresholdSearch::Decide(const Window& w, const simd::PackedMaximum& m) {
   return ExactSearch(w);
 }
 
+double* ThresholdSearch::Strip(int buffer, int k) {
+  double* data = strips_[buffer].data();
+  const size_t misalignment = reinterpret_cast<uintptr_t>(data) % 32 / sizeof(double);
+  return data + (misalignment == 0 ? 0 : 4 - misalignment) + static_cast<size_t>(k) * kStride;
+}
+
 void ThresholdSearch::Reserve(size_t n) {
   for (int b = 0; b < 2; ++b) {
     if (strip_valid_[b].size() != n) {
-      strips_[b].assign(n * kStride, 0.0);
+      strips_[b].assign(n * kStride + 4, 0.0);  // + 4: room to align to 32 bytes
       strip_valid_[b].assign(n, 0);
       strip_value_[b].assign(n, nullptr);
       strip_tests_[b].assign(n, nullptr);

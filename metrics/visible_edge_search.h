@@ -102,6 +102,7 @@ class ThresholdSearch {
                                    const std::vector<Window>& below, int k);
   Choice Decide(const Window& w, const simd::PackedMaximum& m);
   void Reserve(size_t n);  // the strips for bands of n windows
+  double* Strip(int buffer, int k);  // window k's strip in strips_[buffer], 32-byte aligned
 
   double half_threshold_;
   alignas(32) double sum_vertical_[kTableStride] = {};
@@ -115,12 +116,11 @@ class ThresholdSearch {
   // pixel rows 4-5, which the window below has as rows 0-1 (two buffers: written, read).
   alignas(32) double own_top_[kStride] = {};
   alignas(32) double own_bottom_[kStride] = {};
-  alignas(32) double zeros_[kStride] = {};
   alignas(32) double right_middle_[2][kStride] = {};
   alignas(32) double right_bottom_[2][kStride] = {};
   int right_ = 0;            // which right_* buffers the last window wrote
   bool have_left_ = false;   // the last window wrote them for the current one
-  std::vector<double> strips_[2];     // per window, kStride doubles
+  std::vector<double> strips_[2];     // per window, kStride doubles (see Strip())
   std::vector<char> strip_valid_[2];  // per window: the strip holds the sums of its window below,
   std::vector<const uint8_t*> strip_value_[2], strip_tests_[2];  // which is this one
   std::vector<int> strip_lo_[2], strip_hi_[2];  // thresholds where the strip's sums are exact

@@ -11,13 +11,15 @@
 // instead of range × 72 tests.
 //
 // Gray images with 8-bit values (all that VisibleEdges() produces) take a faster path with the
-// same arithmetic: Weber contrasts come from a table of |s − v| / max(s, v) (the same division,
-// done once per (s, v)), four thresholds are summed per SIMD step (metrics/simd_dispatch.h; each
-// C(s) still receives the same terms in the same order), 1 / count from a table of the same
-// quotients, and a window whose contrast cannot exceed the threshold at all is skipped (every
+// same decisions: a window whose contrast cannot exceed the threshold at all is skipped (every
 // Weber term is at most (max − min) / max of the window; in the paper variant also at most
-// 1 − √(lo/hi) of its pair, see WeakPairTest). Windows go in row bands whose pair maps stay in
-// cache. Gradients are computed only at mask pixels.
+// 1 − √(lo/hi) of its pair, see WeakPairTest); the others are decided by
+// metrics/visible_edge_search.h from contrast sums added in any order (cheaper, and shared between
+// the overlapping windows of neighbouring columns and bands), and only where that decision is
+// within rounding of a tie or of the threshold by the ordered sums of the published code (a table
+// of the same |s − v| / max(s, v) quotients, four thresholds per SIMD step, 1 / count from a table
+// of the same quotients), so that s0 and every visibility decision are those of the code. Windows
+// go in row bands whose pair maps stay in cache. Gradients are computed only at mask pixels.
 // tests/metrics/no_reference_fast_paths_test.cc checks masks and values bit for bit against the
 // pre-optimisation implementation.
 #include "metrics/visible_edges.h"
@@ -30,6 +32,7 @@
 #include <limits>
 #include <vector>
 
+#include "metrics/simd_dispatch.h"
 #include "metrics/visible_edge_search.h"
 #include "scenes/error.h"
 
@@ -519,35 +522,14 @@ cv::Mat OctaveRgbToGray(const cv::Mat& bgr8) {
     throw Error("OctaveRgbToGray: expected a non-empty 8-bit 3-channel BGR image");
   }
   // Octave's rgb2gray: im2double, then [R G B]·[0.298936; 0.587043; 0.114021], ×255 and the
-  // uint8 cast (round half away from zero, saturating). The three products are tabulated (the
-  // same doubles), then added in the same order.
-  struct Products {
-    std::array<double, 256> r, g, b;
-  };
-  static const Products products = [] {
-    Products p;
-    for (int k = 0; k < 256; ++k) {
-      const double unit = k / 255.0;
-      p.r[k] = unit * 0.298936;
-      p.g[k] = unit * 0.587043;
-      p.b[k] = unit * 0.114021;
-    }
-    return p;
-  }();
+  // uint8 cast (round half away from zero, saturating). In exact arithmetic that is the integer
+  // rounding of (298936 R + 587043 G + 114021 B) / 10^6; the doubles stay within 1e-13 of it and
+  // no colour lies within 1e-6 of a half, so the integer formula gives the same value for every
+  // colour (checked over all 2^24 in tests/metrics/no_reference_fast_paths_test.cc against the
+  // double formula).
   cv::Mat gray(bgr8.size(), CV_8UC1);
-  for (int i = 0; i < bgr8.rows; ++i) {
-    const uint8_t* src = bgr8.ptr<uint8_t>(i);
-    uint8_t* dst = gray.ptr<uint8_t>(i);
-    for (int j = 0; j < bgr8.cols; ++j) {
-      const double y =
-          (products.r[src[3 * j + 2]] + products.g[src[3 * j + 1]] + products.b[src[3 * j]]) *
-          255.0;
-      // round half away from zero for y >= 0: y − trunc(y) is exact.
-      int rounded = static_cast<int>(y);
-      rounded += (y - rounded >= 0.5);
-      dst[j] = static_cast<uint8_t>(std::min(rounded, 255));
-    }
-  }
+  for (int i = 0; i < bgr8.rows; ++i)
+    simd::OctaveGrayU8(bgr8.ptr<uint8_t>(i), bgr8.cols, gray.ptr<uint8_t>(i));
   return gray;
 }
 
