@@ -397,10 +397,11 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
     for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
       if (!choices[w].visible) continue;
       const int s0 = choices[w].s0;
-      // Pairs separated by s0 mark both pixels: per pair row, bit k of `row` / `above` is column
-      // c0 + k of rows r and r − 1, written as 8 bytes into the padded mask (no bounds tests).
+      // Pairs separated by s0 mark both pixels: bit k of rows[nn] is column c0 + k of row r0 + nn,
+      // each row written as 8 bytes into the padded mask (no bounds tests).
       // s0 >= 255 separates no pair (every interval ends at 255 or before).
       if (s0 >= 255) continue;
+      unsigned rows[kWindow] = {};  // bits of rows r0 .. r0 + 6
       for (int nn = 1; nn < kWindow; ++nn) {
         const uint8_t* t = tests + 4 * (static_cast<size_t>(nn - 1) * stride + c0 + 1);
         unsigned vertical = 0, horizontal = 0;
@@ -408,15 +409,16 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
           vertical |= static_cast<unsigned>((t[0] <= s0) & (s0 < t[1])) << (mm + 1);
           horizontal |= static_cast<unsigned>((t[2] <= s0) & (s0 < t[3])) << (mm + 1);
         }
-        auto put = [&](int r, unsigned bits) {
-          uint64_t word;
-          uint8_t* at_byte = padded.ptr<uint8_t>(r) + c0;
-          std::memcpy(&word, at_byte, 8);
-          word |= kByteMasks[bits];
-          std::memcpy(at_byte, &word, 8);
-        };
-        put(r0 + nn, vertical | (vertical >> 1) | horizontal);
-        put(r0 + nn - 1, horizontal);
+        rows[nn] |= vertical | (vertical >> 1) | horizontal;
+        rows[nn - 1] |= horizontal;
+      }
+      uint8_t* corner = padded.ptr<uint8_t>(r0) + c0;
+      const size_t step = padded.step;
+      for (int nn = 0; nn < kWindow; ++nn) {
+        uint64_t word;
+        std::memcpy(&word, corner + nn * step, 8);
+        word |= kByteMasks[rows[nn]];
+        std::memcpy(corner + nn * step, &word, 8);
       }
     }
   }
