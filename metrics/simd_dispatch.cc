@@ -273,8 +273,8 @@ void WeberWindowSumsFast(const double* table, int table_stride, const uint8_t* v
 // small tables (s and 1/s per lane, v and 1/v per pixel), not read from the 540 KB Weber table,
 // whose rows miss L1.
 struct PackedTables {
-  alignas(32) uint64_t masks[4 * 9][8];  // row (first & 3) · 9 + n: lanes [first & 3, n) of 8
-  alignas(32) double s[kPackedStride];   // s
+  alignas(32) uint64_t masks[4 * 9][8];       // row (first & 3) · 9 + n: lanes [first & 3, n) of 8
+  alignas(32) double s[kPackedStride];        // s
   alignas(32) double inverse[kPackedStride];  // 1 / s (0 for s = 0: min(0/s, s/0) = 0 = 1 − W)
 };
 constexpr PackedTables MakePackedTables() {
@@ -349,8 +349,8 @@ inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, in
   }
 }
 
-void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, int rows,
-                        int cols, bool paper, int clip_lo, int clip_hi, double* acc) {
+void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
+                        bool paper, int clip_lo, int clip_hi, double* acc) {
   double* vertical = acc;
   double* horizontal = acc;
   for (int i = 0; i < rows; ++i) {
@@ -382,6 +382,17 @@ void SumPackedFast(const double* const* parts, int n_parts, int lo, int hi, doub
   }
 }
 
+void AddPackedBlocksFast(const uint8_t* value, const uint8_t* tests, int stride, bool paper,
+                         const PackedBlock* blocks, int n_blocks) {
+  for (int b = 0; b < n_blocks; ++b) {
+    const PackedBlock& k = blocks[b];
+    if (k.zero_first) ZeroPackedFast(k.acc, k.clip_lo, k.clip_hi);
+    const ptrdiff_t at = static_cast<ptrdiff_t>(k.row) * stride + k.col;
+    AddPackedPairsFast(value + at, tests + 4 * at, stride, k.rows, k.cols, paper, k.clip_lo,
+                       k.clip_hi, k.acc);
+  }
+}
+
 PackedMaximum PackedContrastsFast(const double* const* parts, int n_parts, int s_min, int s_max,
                                   double tie_width, double* contrast) {
   const int first_chunk = s_min & ~3;
@@ -398,10 +409,9 @@ PackedMaximum PackedContrastsFast(const double* const* parts, int n_parts, int s
     // Exact, fused or not: count · 128 is exact and the difference exact (Sterbenz).
     const __m256d rest = _mm256_sub_pd(sum, _mm256_mul_pd(count, _mm256_set1_pd(128.0)));
     const __m256d index = _mm256_add_pd(_mm256_set1_pd(s), lane);
-    const __m256d valid =
-        _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(index, lo, _CMP_GE_OQ),
-                                    _mm256_cmp_pd(index, hi, _CMP_LE_OQ)),
-                      _mm256_cmp_pd(count, _mm256_setzero_pd(), _CMP_GT_OQ));
+    const __m256d valid = _mm256_and_pd(
+        _mm256_and_pd(_mm256_cmp_pd(index, lo, _CMP_GE_OQ), _mm256_cmp_pd(index, hi, _CMP_LE_OQ)),
+        _mm256_cmp_pd(count, _mm256_setzero_pd(), _CMP_GT_OQ));
     const __m256d c = _mm256_blendv_pd(none, _mm256_div_pd(rest, count), valid);
     _mm256_store_pd(contrast + s, c);
     best = _mm256_max_pd(best, c);
@@ -570,6 +580,14 @@ void AddPackedPairs(const uint8_t* value, const uint8_t* tests, int stride, int 
     return avx2::AddPackedPairsFast(value, tests, stride, rows, cols, paper, clip_lo, clip_hi, acc);
 #endif
   base::AddPackedPairs(value, tests, stride, rows, cols, paper, clip_lo, clip_hi, acc);
+}
+
+void AddPackedBlocks(const uint8_t* value, const uint8_t* tests, int stride, bool paper,
+                     const PackedBlock* blocks, int n_blocks) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::AddPackedBlocksFast(value, tests, stride, paper, blocks, n_blocks);
+#endif
+  base::AddPackedBlocks(value, tests, stride, paper, blocks, n_blocks);
 }
 
 void ZeroPacked(double* acc, int lo, int hi) {

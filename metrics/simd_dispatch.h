@@ -74,6 +74,17 @@ void WeberWindowSums(const double* table, int table_stride, const uint8_t* value
 constexpr int kPackedStride = 264;
 void AddPackedPairs(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
                     bool paper, int clip_lo, int clip_hi, double* acc);
+// Several AddPackedPairs() calls in one (a window's blocks): block b covers the pixels from
+// value + (row · stride + col) (tests likewise); with zero_first, its acc is first zeroed on
+// [clip_lo & ~3, clip_hi + 8) as ZeroPacked() does.
+struct PackedBlock {
+  int row, col, rows, cols;
+  int clip_lo, clip_hi;
+  bool zero_first;
+  double* acc;
+};
+void AddPackedBlocks(const uint8_t* value, const uint8_t* tests, int stride, bool paper,
+                     const PackedBlock* blocks, int n_blocks);
 
 // Helpers of the packed sums, with the same 4-double (32-byte) chunks as AddPackedPairs(), so that
 // its loads of what they stored are forwarded from the stores: acc = 0 on [lo & ~3, hi + 8), and
@@ -85,8 +96,8 @@ void SumPacked(const double* const* parts, int n_parts, int lo, int hi, double* 
 // [s_min, s_max], sum = Σ_m parts[m][s] (m < n_parts, added in order), count = floor(sum / 128)
 // and contrast[s] = (sum − 128 · count) / count, or −1 when count is 0. Returns the largest
 // contrast and, when it is >= 0, the number of thresholds in [s_min, s_max] whose contrast is >=
-// that maximum − tie_width and the first of them. parts must be 32-byte aligned and hold finite values on [s_min & ~3, s_max | 3];
-// contrast is written on that range.
+// that maximum − tie_width and the first of them. parts must be 32-byte aligned and hold finite
+// values on [s_min & ~3, s_max | 3]; contrast is written on that range.
 struct PackedMaximum {
   double best = -1.0;
   int near = 0;

@@ -90,25 +90,19 @@ simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& ban
                         strip_tests_[read][k] == w.tests && strip_lo_[read][k] <= own.lo &&
                         own.hi <= strip_hi_[read][k];
   const bool have_left = have_left_;
-  auto add = [&](int row, int rows, int col, int cols, Range clip, double* acc) {
-    const ptrdiff_t at = static_cast<ptrdiff_t>(row) * w.stride + col;
-    simd::AddPackedPairs(w.value + at, w.tests + 4 * at, w.stride, rows, cols, w.own_intervals,
-                         clip.lo, clip.hi, acc);
-  };
-  simd::ZeroPacked(own_top_, own.lo, own.hi);
-  simd::ZeroPacked(own_bottom_, bottom.lo, bottom.hi);
   const int col_begin = have_left ? 2 : 0;
-  const int col_end = right != nullptr ? 4 : 6;
-  if (!have_top) add(0, 2, 0, 6, own, own_top_);
-  add(2, 2, col_begin, col_end - col_begin, own, own_top_);
-  add(4, 2, col_begin, col_end - col_begin, bottom, own_bottom_);
+  const int cols = (right != nullptr ? 4 : 6) - col_begin;
   const int next = 1 - right_;
+  simd::PackedBlock blocks[5];
+  int n_blocks = 0;
+  if (!have_top) blocks[n_blocks++] = {0, 0, 2, 6, own.lo, own.hi, true, own_top_};
+  blocks[n_blocks++] = {2, col_begin, 2, cols, own.lo, own.hi, have_top, own_top_};
+  blocks[n_blocks++] = {4, col_begin, 2, cols, bottom.lo, bottom.hi, true, own_bottom_};
   if (right != nullptr) {
-    simd::ZeroPacked(right_middle_[next], middle_right.lo, middle_right.hi);
-    add(2, 2, 4, 2, middle_right, right_middle_[next]);
-    simd::ZeroPacked(right_bottom_[next], bottom_right.lo, bottom_right.hi);
-    add(4, 2, 4, 2, bottom_right, right_bottom_[next]);
+    blocks[n_blocks++] = {2, 4, 2, 2, middle_right.lo, middle_right.hi, true, right_middle_[next]};
+    blocks[n_blocks++] = {4, 4, 2, 2, bottom_right.lo, bottom_right.hi, true, right_bottom_[next]};
   }
+  simd::AddPackedBlocks(w.value, w.tests, w.stride, w.own_intervals, blocks, n_blocks);
   const double* parts[7] = {own_top_, own_bottom_};
   int n_parts = 2;
   if (have_top) parts[n_parts++] = strip_in;

@@ -101,7 +101,7 @@ class ThresholdSearch {
   simd::PackedMaximum PackedWindow(const std::vector<Window>& band,
                                    const std::vector<Window>& below, int k);
   Choice Decide(const Window& w, const simd::PackedMaximum& m);
-  void Reserve(size_t n);  // the strips for bands of n windows
+  void Reserve(size_t n);            // the strips for bands of n windows
   double* Strip(int buffer, int k);  // window k's strip in strips_[buffer], 32-byte aligned
 
   double half_threshold_;
@@ -118,8 +118,8 @@ class ThresholdSearch {
   alignas(32) double own_bottom_[kStride] = {};
   alignas(32) double right_middle_[2][kStride] = {};
   alignas(32) double right_bottom_[2][kStride] = {};
-  int right_ = 0;            // which right_* buffers the last window wrote
-  bool have_left_ = false;   // the last window wrote them for the current one
+  int right_ = 0;                     // which right_* buffers the last window wrote
+  bool have_left_ = false;            // the last window wrote them for the current one
   std::vector<double> strips_[2];     // per window, kStride doubles (see Strip())
   std::vector<char> strip_valid_[2];  // per window: the strip holds the sums of its window below,
   std::vector<const uint8_t*> strip_value_[2], strip_tests_[2];  // which is this one

@@ -347,7 +347,8 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       const uint8_t* row = at.Row(i);
       uint8_t* tb = tests + 4 * static_cast<size_t>(nn - 1) * stride;
       PairTestRow(up2, up, row, nc, ifsttar, tb);
-      for (int c = nc; c < nc + kWindow - 1; ++c) std::memcpy(tb + 4 * c, tb + 4 * Reflect(c, nc), 4);
+      for (int c = nc; c < nc + kWindow - 1; ++c)
+        std::memcpy(tb + 4 * c, tb + 4 * Reflect(c, nc), 4);
       // Which pixels of the row have a pair that can reach the threshold.
       if (ifsttar) continue;
       StrongRow(weak, tb, nc + kWindow - 1, &strong[static_cast<size_t>(nn - 1) * stride]);
@@ -377,8 +378,11 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       if (hi_value == 0) continue;
       const double bound = static_cast<double>(hi_value - lo_value) / hi_value;
       if (bound * (1.0 + 1e-9) <= half_threshold) continue;
-      band.windows[w] = {at.Row(r0 + 1) + c0 + 1, tests + 4 * (c0 + 1), stride,
-                         std::max(lo_value, 1), hi_value,
+      band.windows[w] = {at.Row(r0 + 1) + c0 + 1,
+                         tests + 4 * (c0 + 1),
+                         stride,
+                         std::max(lo_value, 1),
+                         hi_value,
                          !ifsttar && r0 + kWindow - 1 < nl && c0 + kWindow - 1 < nc};
     }
   };
@@ -683,8 +687,8 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
   const cv::Mat& gray_o = original.gray8;
   if (gray_o.size() != restored.size()) {
     throw Error("visible edges: original is " + std::to_string(gray_o.cols) + "x" +
-                std::to_string(gray_o.rows) + " but restored is " +
-                std::to_string(restored.cols) + "x" + std::to_string(restored.rows));
+                std::to_string(gray_o.rows) + " but restored is " + std::to_string(restored.cols) +
+                "x" + std::to_string(restored.rows));
   }
   const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
   const cv::Mat mask_r =

@@ -124,12 +124,13 @@ void ExpectSameChoices(const Grid& g, double half_threshold, double skip_fractio
 
 const std::vector<std::vector<int>>& Palettes() {
   static const std::vector<std::vector<int>> palettes = {
-      {2, 6},            // binary: C(3) = C(4) = 1/3 exactly, a tie at the maximum
-      {2, 18},           // ties away from the maximum (s·s' = 36)
-      {0, 255},          // saturated
-      {0, 1, 2},         // the lowest thresholds
-      {100, 101, 103},   // flat: contrasts near the visibility threshold
-      {30, 60, 90, 120}, {12, 13, 40, 41, 200},
+      {2, 6},           // binary: C(3) = C(4) = 1/3 exactly, a tie at the maximum
+      {2, 18},          // ties away from the maximum (s·s' = 36)
+      {0, 255},         // saturated
+      {0, 1, 2},        // the lowest thresholds
+      {100, 101, 103},  // flat: contrasts near the visibility threshold
+      {30, 60, 90, 120},
+      {12, 13, 40, 41, 200},
       {},  // all levels
   };
   return palettes;
