@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
@@ -267,6 +268,170 @@ void WeberWindowSumsFast(const double* table, int table_stride, const uint8_t* v
   }
 }
 
+// AddPackedPairs(): two 4-wide chunks per pair from an aligned base, the lanes of the pair's
+// interval picked by a mask from a table (no per-chunk compares); the terms are computed from
+// small tables (s and 1/s per lane, v and 1/v per pixel), not read from the 540 KB Weber table,
+// whose rows miss L1.
+struct PackedTables {
+  alignas(32) uint64_t masks[4 * 9][8];       // row (first & 3) · 9 + n: lanes [first & 3, n) of 8
+  alignas(32) double s[kPackedStride];        // s
+  alignas(32) double inverse[kPackedStride];  // 1 / s (0 for s = 0: min(0/s, s/0) = 0 = 1 − W)
+};
+constexpr PackedTables MakePackedTables() {
+  PackedTables t{};
+  for (int f = 0; f < 4; ++f)
+    for (int n = 0; n <= 8; ++n)
+      for (int l = 0; l < 8; ++l) t.masks[f * 9 + n][l] = (l >= f && l < n) ? ~uint64_t{0} : 0;
+  for (int v = 0; v < kPackedStride; ++v) {
+    t.s[v] = v;
+    t.inverse[v] = v == 0 ? 0.0 : 1.0 / v;
+  }
+  return t;
+}
+constexpr PackedTables kPacked = MakePackedTables();
+
+// 129 − max(min(p/s, s/p), min(q/s, s/q)) = 128 + min(W(s, p), W(s, q)) for the 4 thresholds
+// from s, within a few roundings.
+struct AnyPair {
+  __m256d p, inv_p, q, inv_q;
+  AnyPair(int p8, int q8)
+      : p(_mm256_broadcast_sd(kPacked.s + p8)),
+        inv_p(_mm256_broadcast_sd(kPacked.inverse + p8)),
+        q(_mm256_broadcast_sd(kPacked.s + q8)),
+        inv_q(_mm256_broadcast_sd(kPacked.inverse + q8)) {}
+  __m256d Terms(int s) const {
+    const __m256d sv = _mm256_load_pd(kPacked.s + s);
+    const __m256d inv_s = _mm256_load_pd(kPacked.inverse + s);
+    const __m256d xp = _mm256_min_pd(_mm256_mul_pd(p, inv_s), _mm256_mul_pd(sv, inv_p));
+    const __m256d xq = _mm256_min_pd(_mm256_mul_pd(q, inv_s), _mm256_mul_pd(sv, inv_q));
+    return _mm256_sub_pd(_mm256_set1_pd(129.0), _mm256_max_pd(xp, xq));
+  }
+};
+// The same when the pair's interval is [a, b) for its values a <= b (the paper variant): there
+// W(s, a) = 1 − a/s and W(s, b) = 1 − s/b.
+struct PaperPair {
+  __m256d a, inv_b;
+  PaperPair(int a8, int b8)
+      : a(_mm256_broadcast_sd(kPacked.s + a8)), inv_b(_mm256_broadcast_sd(kPacked.inverse + b8)) {}
+  __m256d Terms(int s) const {
+    const __m256d sv = _mm256_load_pd(kPacked.s + s);
+    const __m256d inv_s = _mm256_load_pd(kPacked.inverse + s);
+    return _mm256_sub_pd(_mm256_set1_pd(129.0),
+                         _mm256_max_pd(_mm256_mul_pd(a, inv_s), _mm256_mul_pd(sv, inv_b)));
+  }
+};
+
+template <typename Pair>
+inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, int clip_hi,
+                          double* acc) {
+  const int base = first & ~3;
+  const int n = last - base + 1;  // lanes from base up to last; <= 3 for an empty interval
+  if (n <= 8) {
+    const double* m =
+        reinterpret_cast<const double*>(kPacked.masks[(first & 3) * 9 + std::max(n, 0)]);
+    const __m256d t0 = _mm256_and_pd(pair.Terms(base), _mm256_load_pd(m));
+    const __m256d t1 = _mm256_and_pd(pair.Terms(base + 4), _mm256_load_pd(m + 4));
+    _mm256_store_pd(acc + base, _mm256_add_pd(_mm256_load_pd(acc + base), t0));
+    _mm256_store_pd(acc + base + 4, _mm256_add_pd(_mm256_load_pd(acc + base + 4), t1));
+    return;
+  }
+  first = std::max(first, clip_lo);
+  last = std::min(last, clip_hi);
+  const __m256d lane = _mm256_set_pd(3.0, 2.0, 1.0, 0.0);
+  const __m256d lo = _mm256_set1_pd(first);
+  const __m256d hi = _mm256_set1_pd(last);
+  for (int s = first & ~3; s <= last; s += 4) {
+    const __m256d index = _mm256_add_pd(_mm256_set1_pd(s), lane);
+    const __m256d inside =
+        _mm256_and_pd(_mm256_cmp_pd(index, lo, _CMP_GE_OQ), _mm256_cmp_pd(index, hi, _CMP_LE_OQ));
+    const __m256d term = _mm256_and_pd(pair.Terms(s), inside);
+    _mm256_store_pd(acc + s, _mm256_add_pd(_mm256_load_pd(acc + s), term));
+  }
+}
+
+void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
+                        bool paper, int clip_lo, int clip_hi, double* acc) {
+  double* vertical = acc;
+  double* horizontal = acc;
+  for (int i = 0; i < rows; ++i) {
+    for (int j = 0; j < cols; ++j) {
+      const ptrdiff_t k = static_cast<ptrdiff_t>(i) * stride + j;
+      const uint8_t* t = tests + 4 * k;
+      if (paper) {
+        AddPackedPair(PaperPair(t[0], t[1]), t[0], t[1] - 1, clip_lo, clip_hi, vertical);
+        AddPackedPair(PaperPair(t[2], t[3]), t[2], t[3] - 1, clip_lo, clip_hi, horizontal);
+      } else {  // intervals set by other pixels: clipped first, so that more take two chunks
+        AddPackedPair(AnyPair(value[k], value[k - 1]), std::max<int>(t[0], clip_lo),
+                      std::min(t[1] - 1, clip_hi), clip_lo, clip_hi, vertical);
+        AddPackedPair(AnyPair(value[k], value[k - stride]), std::max<int>(t[2], clip_lo),
+                      std::min(t[3] - 1, clip_hi), clip_lo, clip_hi, horizontal);
+      }
+    }
+  }
+}
+
+void ZeroPackedFast(double* acc, int lo, int hi) {
+  for (int s = lo & ~3; s < hi + 8; s += 4) _mm256_store_pd(acc + s, _mm256_setzero_pd());
+}
+
+void SumPackedFast(const double* const* parts, int n_parts, int lo, int hi, double* out) {
+  for (int s = lo & ~3; s <= (hi | 3); s += 4) {
+    __m256d sum = _mm256_load_pd(parts[0] + s);
+    for (int m = 1; m < n_parts; ++m) sum = _mm256_add_pd(sum, _mm256_load_pd(parts[m] + s));
+    _mm256_store_pd(out + s, sum);
+  }
+}
+
+void AddPackedBlocksFast(const uint8_t* value, const uint8_t* tests, int stride, bool paper,
+                         const PackedBlock* blocks, int n_blocks) {
+  for (int b = 0; b < n_blocks; ++b) {
+    const PackedBlock& k = blocks[b];
+    if (k.zero_first) ZeroPackedFast(k.acc, k.clip_lo, k.clip_hi);
+    const ptrdiff_t at = static_cast<ptrdiff_t>(k.row) * stride + k.col;
+    AddPackedPairsFast(value + at, tests + 4 * at, stride, k.rows, k.cols, paper, k.clip_lo,
+                       k.clip_hi, k.acc);
+  }
+}
+
+PackedMaximum PackedContrastsFast(const double* const* parts, int n_parts, int s_min, int s_max,
+                                  double tie_width, double* contrast) {
+  const int first_chunk = s_min & ~3;
+  const __m256d lane = _mm256_set_pd(3.0, 2.0, 1.0, 0.0);
+  const __m256d lo = _mm256_set1_pd(s_min);
+  const __m256d hi = _mm256_set1_pd(s_max);
+  const __m256d none = _mm256_set1_pd(-1.0);
+  __m256d best = none;
+  for (int s = first_chunk; s <= s_max; s += 4) {
+    __m256d sum = _mm256_load_pd(parts[0] + s);
+    for (int m = 1; m < n_parts; ++m) sum = _mm256_add_pd(sum, _mm256_load_pd(parts[m] + s));
+    const __m256d count =
+        _mm256_round_pd(_mm256_mul_pd(sum, _mm256_set1_pd(1.0 / 128.0)), _MM_FROUND_TO_NEG_INF);
+    // Exact, fused or not: count · 128 is exact and the difference exact (Sterbenz).
+    const __m256d rest = _mm256_sub_pd(sum, _mm256_mul_pd(count, _mm256_set1_pd(128.0)));
+    const __m256d index = _mm256_add_pd(_mm256_set1_pd(s), lane);
+    const __m256d valid = _mm256_and_pd(
+        _mm256_and_pd(_mm256_cmp_pd(index, lo, _CMP_GE_OQ), _mm256_cmp_pd(index, hi, _CMP_LE_OQ)),
+        _mm256_cmp_pd(count, _mm256_setzero_pd(), _CMP_GT_OQ));
+    const __m256d c = _mm256_blendv_pd(none, _mm256_div_pd(rest, count), valid);
+    _mm256_store_pd(contrast + s, c);
+    best = _mm256_max_pd(best, c);
+  }
+  const __m128d half = _mm_max_pd(_mm256_castpd256_pd128(best), _mm256_extractf128_pd(best, 1));
+  PackedMaximum out;
+  out.best = std::max(_mm_cvtsd_f64(half), _mm_cvtsd_f64(_mm_unpackhi_pd(half, half)));
+  out.first = s_min;
+  if (out.best < 0.0) return out;
+  const __m256d limit = _mm256_set1_pd(out.best - tie_width);
+  for (int s = first_chunk; s <= s_max; s += 4) {
+    const int bits =
+        _mm256_movemask_pd(_mm256_cmp_pd(_mm256_load_pd(contrast + s), limit, _CMP_GE_OQ));
+    if (bits == 0) continue;
+    if (out.near == 0) out.first = s + __builtin_ctz(bits);
+    out.near += __builtin_popcount(bits);
+  }
+  return out;
+}
+
 // Four pixels per step: the chroma and l² gathered from tables, the division and the square
 // root in 4-lane double (each correctly rounded, as the scalar ones).
 void UciqeSaturationFast(const uint8_t* lab, int n, const double* chroma, double* out,
@@ -406,6 +571,50 @@ void WeberWindowSums(const double* table, int table_stride, const uint8_t* value
 #endif
   base::WeberWindowSums(table, table_stride, value, tests, stride, size, s_min, s_max, sums_v,
                         sums_h, counts_v, counts_h);
+}
+
+void AddPackedPairs(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
+                    bool paper, int clip_lo, int clip_hi, double* acc) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2())
+    return avx2::AddPackedPairsFast(value, tests, stride, rows, cols, paper, clip_lo, clip_hi, acc);
+#endif
+  base::AddPackedPairs(value, tests, stride, rows, cols, paper, clip_lo, clip_hi, acc);
+}
+
+void AddPackedBlocks(const uint8_t* value, const uint8_t* tests, int stride, bool paper,
+                     const PackedBlock* blocks, int n_blocks) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::AddPackedBlocksFast(value, tests, stride, paper, blocks, n_blocks);
+#endif
+  base::AddPackedBlocks(value, tests, stride, paper, blocks, n_blocks);
+}
+
+void ZeroPacked(double* acc, int lo, int hi) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::ZeroPackedFast(acc, lo, hi);
+#endif
+  base::ZeroPacked(acc, lo, hi);
+}
+
+void SumPacked(const double* const* parts, int n_parts, int lo, int hi, double* out) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::SumPackedFast(parts, n_parts, lo, hi, out);
+#endif
+  base::SumPacked(parts, n_parts, lo, hi, out);
+}
+
+PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min, int s_max,
+                              double tie_width, double* contrast) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2())
+    return avx2::PackedContrastsFast(parts, n_parts, s_min, s_max, tie_width, contrast);
+#endif
+  return base::PackedContrasts(parts, n_parts, s_min, s_max, tie_width, contrast);
+}
+
+void OctaveGrayU8(const uint8_t* bgr, int n, uint8_t* gray) {
+  TURBID_DISPATCH(OctaveGrayU8(bgr, n, gray));
 }
 
 void UciqeSaturation(const uint8_t* lab, int n, const double* chroma, double* saturation,

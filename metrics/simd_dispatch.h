@@ -59,6 +59,58 @@ void WeberWindowSums(const double* table, int table_stride, const uint8_t* value
                      const uint8_t* tests, int stride, int size, int s_min, int s_max,
                      double* sums_v, double* sums_h, double* counts_v, double* counts_h);
 
+// The terms of WeberWindowSums() summed in any order and computed another way, for an
+// approximate C(s) that is cheap to get. For the pairs of the rows × cols pixels from `value` /
+// `tests` (layout as in WeberWindowSums()), adds 128 + min(W(s, p), W(s, q)) at every threshold s
+// of the pair's interval to acc[s], W(s, v) =
+// |s − v| / max(s, v) computed as 1 − min(v/s, s/v). `paper`: every interval is [min(p, q),
+// max(p, q)) (the paper variant), which allows a shorter formula. Thresholds in [clip_lo, clip_hi]
+// always receive exactly their terms; others may receive some (unspecified), and any element of
+// acc with index < 264 may be written. Summed over a window, floor(sum / 128) is the
+// count of pairs exactly (each term is 128 plus a value in [0, 1] within a few roundings, a window
+// has at most 72 < 128 pairs, and rounding is monotone) and sum − 128 · count their Weber sum to
+// within 1e-10 (each term within 4 roundings of values <= 129, each of the <= 80 additions one
+// rounding of a value below 2^14). 0 <= clip_lo <= clip_hi <= 256; acc 32-byte aligned.
+constexpr int kPackedStride = 264;
+void AddPackedPairs(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
+                    bool paper, int clip_lo, int clip_hi, double* acc);
+// Several AddPackedPairs() calls in one (a window's blocks): block b covers the pixels from
+// value + (row · stride + col) (tests likewise); with zero_first, its acc is first zeroed on
+// [clip_lo & ~3, clip_hi + 8) as ZeroPacked() does.
+struct PackedBlock {
+  int row, col, rows, cols;
+  int clip_lo, clip_hi;
+  bool zero_first;
+  double* acc;
+};
+void AddPackedBlocks(const uint8_t* value, const uint8_t* tests, int stride, bool paper,
+                     const PackedBlock* blocks, int n_blocks);
+
+// Helpers of the packed sums, with the same 4-double (32-byte) chunks as AddPackedPairs(), so that
+// its loads of what they stored are forwarded from the stores: acc = 0 on [lo & ~3, hi + 8), and
+// out = Σ_m parts[m] (m < n_parts, in order) on [lo & ~3, hi | 3]. 32-byte aligned arrays.
+void ZeroPacked(double* acc, int lo, int hi);
+void SumPacked(const double* const* parts, int n_parts, int lo, int hi, double* out);
+
+// The approximate C(s) of packed sums (see AddPackedPairs()) and where its maximum is: for s in
+// [s_min, s_max], sum = Σ_m parts[m][s] (m < n_parts, added in order), count = floor(sum / 128)
+// and contrast[s] = (sum − 128 · count) / count, or −1 when count is 0. Returns the largest
+// contrast and, when it is >= 0, the number of thresholds in [s_min, s_max] whose contrast is >=
+// that maximum − tie_width and the first of them. parts must be 32-byte aligned and hold finite
+// values on [s_min & ~3, s_max | 3]; contrast is written on that range.
+struct PackedMaximum {
+  double best = -1.0;
+  int near = 0;
+  int first = 0;
+};
+PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min, int s_max,
+                              double tie_width, double* contrast);
+
+// Octave's rgb2gray of n 8-bit BGR pixels (metrics/visible_edges.h, OctaveRgbToGray) in integer
+// arithmetic: min((298936 R + 587043 G + 114021 B + 500000) / 1000000, 255). Equal to Octave's
+// double formula for all 2^24 colours (no colour falls within rounding of a half; tested over all).
+void OctaveGrayU8(const uint8_t* bgr, int n, uint8_t* gray);
+
 // UCIQE's saturation (metrics/uciqe.cc) of n 8-bit Lab pixels (L, a, b interleaved):
 // saturation[k] = chr / √(chr² + l²) and chr[k] = chr, chr = chroma[a · 256 + b], l = L / 255,
 // rounded as written (no FMA contraction), so every copy gives the reference's doubles.

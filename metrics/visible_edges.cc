@@ -11,13 +11,15 @@
 // instead of range × 72 tests.
 //
 // Gray images with 8-bit values (all that VisibleEdges() produces) take a faster path with the
-// same arithmetic: Weber contrasts come from a table of |s − v| / max(s, v) (the same division,
-// done once per (s, v)), four thresholds are summed per SIMD step (metrics/simd_dispatch.h; each
-// C(s) still receives the same terms in the same order), 1 / count from a table of the same
-// quotients, and a window whose contrast cannot exceed the threshold at all is skipped (every
+// same decisions: a window whose contrast cannot exceed the threshold at all is skipped (every
 // Weber term is at most (max − min) / max of the window; in the paper variant also at most
-// 1 − √(lo/hi) of its pair, see WeakPairTest). Windows go in row bands whose pair maps stay in
-// cache. Gradients are computed only at mask pixels.
+// 1 − √(lo/hi) of its pair, see WeakPairTest); the others are decided by
+// metrics/visible_edge_search.h from contrast sums added in any order (cheaper, and shared between
+// the overlapping windows of neighbouring columns and bands), and only where that decision is
+// within rounding of a tie or of the threshold by the ordered sums of the published code (a table
+// of the same |s − v| / max(s, v) quotients, four thresholds per SIMD step, 1 / count from a table
+// of the same quotients), so that s0 and every visibility decision are those of the code. Windows
+// go in row bands whose pair maps stay in cache. Gradients are computed only at mask pixels.
 // tests/metrics/no_reference_fast_paths_test.cc checks masks and values bit for bit against the
 // pre-optimisation implementation.
 #include "metrics/visible_edges.h"
@@ -31,6 +33,7 @@
 #include <vector>
 
 #include "metrics/simd_dispatch.h"
+#include "metrics/visible_edge_search.h"
 #include "scenes/error.h"
 
 namespace turbid {
@@ -38,7 +41,7 @@ namespace {
 
 constexpr int kWindow = 7;  // S in the code, the paper's 7×7 sub-windows
 constexpr int kStep = 4;    // round(S/2): windows overlap by 3 pixels
-constexpr int kMaxThreshold = 256;
+using visible_edges::kMaxThreshold;
 
 // MATLAB padarray(..., 'symmetric') index: mirror including the edge pixel, periodic beyond.
 int Reflect(int i, int n) {
@@ -180,31 +183,6 @@ void CheckGray255(const cv::Mat& gray255) {
 
 // ---- 8-bit fast path -------------------------------------------------------------------------
 
-// Weber(s, v) for v in [0, 255] (rows) and s in [0, kTableStride) (columns; s = 0 and s > 256
-// hold 0, never summed), computed by the same expression as Weber().
-constexpr int kTableStride = kMaxThreshold + 8;
-
-const double* WeberTable() {
-  static const std::vector<double> table = [] {
-    std::vector<double> t(256 * kTableStride, 0.0);
-    for (int v = 0; v < 256; ++v) {
-      for (int s = 1; s <= kMaxThreshold; ++s) t[v * kTableStride + s] = Weber(s, v);
-    }
-    return t;
-  }();
-  return table.data();
-}
-
-// 1.0 / n for the pair counts of a window (at most 72), the same quotients as a division.
-const double* InverseCounts() {
-  static const std::array<double, 2 * 36 + 1> table = [] {
-    std::array<double, 2 * 36 + 1> t{};
-    for (int n = 1; n < static_cast<int>(t.size()); ++n) t[n] = 1.0 / n;
-    return t;
-  }();
-  return table.data();
-}
-
 // The 8-bit image mirrored by `pad` on every side.
 class MirroredGray8 {
  public:
@@ -267,6 +245,62 @@ class WeakPairTest {
   int k_ = 256;
 };
 
+// Byte k of kByteMasks[bits] is 255 when bit k of bits is set (bits < 128).
+constexpr std::array<uint64_t, 128> MakeByteMasks() {
+  std::array<uint64_t, 128> m{};
+  for (unsigned bits = 0; bits < 128; ++bits)
+    for (int k = 0; k < 7; ++k)
+      if (bits >> k & 1) m[bits] |= uint64_t{0xFF} << (8 * k);
+  return m;
+}
+constexpr std::array<uint64_t, 128> kByteMasks = MakeByteMasks();
+
+// The pair tests of one image row (see BuildMaps()) as {vertical first, vertical end,
+// horizontal first, horizontal end} per pixel j < n: `row` is the row, `up` and `up2` the two
+// above it (all readable from index −2). Two branch-free loops, so that each vectorises.
+void PairTestRow(const uint8_t* up2, const uint8_t* up, const uint8_t* row, int n, bool ifsttar,
+                 uint8_t* __restrict out) {
+  if (ifsttar) {
+    for (int j = 0; j < n; ++j) {
+      out[4 * j] = std::min(up[j - 2], up[j - 1]);
+      out[4 * j + 1] = std::max(up[j - 1], up[j]);
+      out[4 * j + 2] = std::min(up2[j - 1], up[j - 1]);
+      out[4 * j + 3] = std::max(up[j - 1], row[j - 1]);
+    }
+  } else {
+    for (int j = 0; j < n; ++j) {
+      out[4 * j] = std::min(row[j], row[j - 1]);
+      out[4 * j + 1] = std::max(row[j], row[j - 1]);
+      out[4 * j + 2] = std::min(row[j], up[j]);
+      out[4 * j + 3] = std::max(row[j], up[j]);
+    }
+  }
+}
+
+// strong[c] for c in [1, n): whether pixel c of a row of pair tests has a strong pair.
+void StrongRow(const WeakPairTest& weak, const uint8_t* __restrict tests, int n,
+               uint8_t* __restrict strong) {
+  const WeakPairTest test = weak;
+  for (int c = 1; c < n; ++c) {
+    strong[c] = test.Strong(tests[4 * c], tests[4 * c + 1]) |
+                test.Strong(tests[4 * c + 2], tests[4 * c + 3]);
+  }
+}
+
+// Per column c < n, the extremes of rows r0 .. r0 + rows − 1 of `at`.
+void ColumnExtremes(const MirroredGray8& at, int r0, int rows, int n, uint8_t* __restrict lo,
+                    uint8_t* __restrict hi) {
+  std::copy(at.Row(r0), at.Row(r0) + n, lo);
+  std::copy(at.Row(r0), at.Row(r0) + n, hi);
+  for (int nn = 1; nn < rows; ++nn) {
+    const uint8_t* row = at.Row(r0 + nn);
+    for (int c = 0; c < n; ++c) {
+      lo[c] = std::min(lo[c], row[c]);
+      hi[c] = std::max(hi[c], row[c]);
+    }
+  }
+}
+
 // VisibleEdgeMask() on CV_8UC1 gray: the same windows, thresholds, sums and decisions. Windows
 // go in bands of rows (step 4): each band computes the pair tests of its 6 pair rows (the maps of
 // BuildMaps(): [ceil(a), ceil(b) − 1] = [a, b − 1] on integers, stored as {vertical first,
@@ -279,65 +313,52 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
   const bool ifsttar = options.variant == VisibleEdgeVariant::kIfsttar;
   const double half_threshold = options.visibility_threshold / 2.0;
   const WeakPairTest weak(half_threshold);
-  const double* table = WeberTable();
-  const double* inverse = InverseCounts();
+  visible_edges::ThresholdSearch search(half_threshold);
   // Padded values: row r, column c of the maps is at(r, c) (mirrored beyond the image).
   const MirroredGray8 at(gray8, kWindow);
   const int stride = at.cols();
   constexpr int kPairRows = kWindow - 1;
-  // Band buffers in the stride of `at`, column c at index c (columns up to nc + 5 are used).
-  std::vector<std::array<uint8_t, 4>> tests(static_cast<size_t>(kPairRows) * stride);
-  std::vector<uint8_t> strong(ifsttar ? 0 : tests.size());
-  std::vector<std::array<uint8_t, 4>> image_row(nc);
+  const int n_windows = (nc + kStep - 1) / kStep;
+  // One band of windows (rows r0 .. r0 + 6): its pair tests in the stride of `at` (column c at
+  // index c; columns up to nc + 5 are used, 8 more are readable), which pixels have a strong
+  // pair, and its windows (value nullptr: not searched). Two bands are kept, the one searched and
+  // the one below it, which shares two pair rows with it.
+  struct Band {
+    std::vector<uint8_t> tests;  // 4 bytes per pixel
+    std::vector<uint8_t> strong;
+    std::vector<visible_edges::Window> windows;
+  };
+  Band bands[2];
+  for (Band& b : bands) {
+    b.tests.resize(4 * (static_cast<size_t>(kPairRows) * stride + 8));
+    b.strong.resize(ifsttar ? 0 : static_cast<size_t>(kPairRows) * stride + 8);
+    b.windows.resize(n_windows);
+  }
   std::vector<uint8_t> column_lo(stride), column_hi(stride);
 
-  cv::Mat mask = cv::Mat::zeros(nl, nc, CV_8UC1);
-  // Per threshold [0, 256] plus the SIMD overrun, 32-byte aligned.
-  alignas(32) std::array<double, kTableStride> sum_vertical{};
-  alignas(32) std::array<double, kTableStride> sum_horizontal{};
-  alignas(32) std::array<double, kTableStride> count_vertical{};
-  alignas(32) std::array<double, kTableStride> count_horizontal{};
-
-  for (int r0 = 0; r0 < nl; r0 += kStep) {
+  auto prepare = [&](int r0, Band& band) {
+    uint8_t* tests = band.tests.data();
+    std::vector<uint8_t>& strong = band.strong;
     // Pair tests of padded rows r0 + 1 .. r0 + 6 (image row Reflect(r)), mirrored columns.
     for (int nn = 1; nn < kWindow; ++nn) {
       const int i = Reflect(r0 + nn, nl);
       const uint8_t* up2 = at.Row(i - 2);
       const uint8_t* up = at.Row(i - 1);
       const uint8_t* row = at.Row(i);
-      for (int j = 0; j < nc; ++j) {
-        if (ifsttar) {  // see BuildMaps()
-          image_row[j] = {std::min(up[j - 2], up[j - 1]), std::max(up[j - 1], up[j]),
-                          std::min(up2[j - 1], up[j - 1]), std::max(up[j - 1], row[j - 1])};
-        } else {
-          image_row[j] = {std::min(row[j], row[j - 1]), std::max(row[j], row[j - 1]),
-                          std::min(row[j], up[j]), std::max(row[j], up[j])};
-        }
-      }
-      std::array<uint8_t, 4>* t = &tests[static_cast<size_t>(nn - 1) * stride];
-      std::copy(image_row.begin(), image_row.end(), t);
-      for (int c = nc; c < nc + kWindow - 1; ++c) t[c] = image_row[Reflect(c, nc)];
+      uint8_t* tb = tests + 4 * static_cast<size_t>(nn - 1) * stride;
+      PairTestRow(up2, up, row, nc, ifsttar, tb);
+      for (int c = nc; c < nc + kWindow - 1; ++c)
+        std::memcpy(tb + 4 * c, tb + 4 * Reflect(c, nc), 4);
       // Which pixels of the row have a pair that can reach the threshold.
       if (ifsttar) continue;
-      uint8_t* st = &strong[static_cast<size_t>(nn - 1) * stride];
-      const uint8_t* tb = t[0].data();
-      for (int c = 1; c < nc + kWindow - 1; ++c) {
-        st[c] = weak.Strong(tb[4 * c], tb[4 * c + 1]) | weak.Strong(tb[4 * c + 2], tb[4 * c + 3]);
-      }
+      StrongRow(weak, tb, nc + kWindow - 1, &strong[static_cast<size_t>(nn - 1) * stride]);
     }
 
     // Extremes of the band's 7 rows per column, for the windows' ranges.
-    for (int c = 0; c < nc + kWindow - 1; ++c) {
-      uint8_t lo = 255, hi = 0;
-      for (int nn = 0; nn < kWindow; ++nn) {
-        const uint8_t v = at.Row(r0 + nn)[c];
-        lo = std::min(lo, v);
-        hi = std::max(hi, v);
-      }
-      column_lo[c] = lo;
-      column_hi[c] = hi;
-    }
-    for (int c0 = 0; c0 < nc; c0 += kStep) {
+    ColumnExtremes(at, r0, kWindow, nc + kWindow - 1, column_lo.data(), column_hi.data());
+    // Which windows of the band are searched, and their threshold ranges.
+    for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
+      band.windows[w] = {};
       if (!ifsttar) {
         bool any_strong = false;
         for (int nn = 0; nn < kPairRows; ++nn) {
@@ -357,48 +378,56 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       if (hi_value == 0) continue;
       const double bound = static_cast<double>(hi_value - lo_value) / hi_value;
       if (bound * (1.0 + 1e-9) <= half_threshold) continue;
+      band.windows[w] = {at.Row(r0 + 1) + c0 + 1,
+                         tests + 4 * (c0 + 1),
+                         stride,
+                         std::max(lo_value, 1),
+                         hi_value,
+                         !ifsttar && r0 + kWindow - 1 < nl && c0 + kWindow - 1 < nc};
+    }
+  };
 
-      const int s_min = std::max(lo_value, 1);
-      const int s_max = hi_value;
-      for (auto* a : {&sum_vertical, &sum_horizontal, &count_vertical, &count_horizontal})
-        std::fill(a->begin() + (s_min & ~3), a->begin() + s_max + 8, 0.0);
-      simd::WeberWindowSums(table, kTableStride, at.Row(r0 + 1) + c0 + 1, tests[c0 + 1].data(),
-                            stride, kPairRows, s_min, s_max, sum_vertical.data(),
-                            sum_horizontal.data(), count_vertical.data(), count_horizontal.data());
+  // The mask with 7 spare rows and 8 spare columns that windows at the borders may mark.
+  cv::Mat padded = cv::Mat::zeros(nl + kWindow, nc + 8, CV_8UC1);
+  std::vector<visible_edges::Choice> choices(n_windows);
+  const std::vector<visible_edges::Window> no_band;
 
-      double best = 0.0;
-      int s0 = s_min;
-      for (int s = s_min; s <= s_max; ++s) {
-        const int count = static_cast<int>(count_vertical[s] + count_horizontal[s]);
-        if (count == 0) continue;
-        const double contrast = inverse[count] * (sum_vertical[s] + sum_horizontal[s]);
-        if (contrast > best) {
-          best = contrast;
-          s0 = s;
-        }
-      }
-      if (!(best > half_threshold)) continue;
-
-      auto mark = [&](int r, int c) {
-        if (r < nl && c < nc) mask.at<uint8_t>(r, c) = 255;
-      };
+  prepare(0, bands[0]);
+  for (int r0 = 0, b = 0; r0 < nl; r0 += kStep, b = 1 - b) {
+    const bool has_below = r0 + kStep < nl;
+    if (has_below) prepare(r0 + kStep, bands[1 - b]);
+    search.SearchBand(bands[b].windows, has_below ? bands[1 - b].windows : no_band, &choices);
+    const uint8_t* tests = bands[b].tests.data();
+    for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
+      if (!choices[w].visible) continue;
+      const int s0 = choices[w].s0;
+      // Pairs separated by s0 mark both pixels: bit k of rows[nn] is column c0 + k of row r0 + nn,
+      // each row written as 8 bytes into the padded mask (no bounds tests).
+      // s0 >= 255 separates no pair (every interval ends at 255 or before).
+      if (s0 >= 255) continue;
+      unsigned rows[kWindow] = {};  // bits of rows r0 .. r0 + 6
       for (int nn = 1; nn < kWindow; ++nn) {
-        const int r = r0 + nn;
-        for (int mm = 1; mm < kWindow; ++mm) {
-          const int c = c0 + mm;
-          const std::array<uint8_t, 4>& t = tests[static_cast<size_t>(nn - 1) * stride + c];
-          if (t[0] <= s0 && s0 < t[1]) {
-            mark(r, c);
-            mark(r, c - 1);
-          }
-          if (t[2] <= s0 && s0 < t[3]) {
-            mark(r, c);
-            mark(r - 1, c);
-          }
+        const uint8_t* t = tests + 4 * (static_cast<size_t>(nn - 1) * stride + c0 + 1);
+        unsigned vertical = 0, horizontal = 0;
+        for (int mm = 0; mm < kPairRows; ++mm, t += 4) {
+          vertical |= static_cast<unsigned>((t[0] <= s0) & (s0 < t[1])) << (mm + 1);
+          horizontal |= static_cast<unsigned>((t[2] <= s0) & (s0 < t[3])) << (mm + 1);
         }
+        rows[nn] |= vertical | (vertical >> 1) | horizontal;
+        rows[nn - 1] |= horizontal;
+      }
+      uint8_t* corner = padded.ptr<uint8_t>(r0) + c0;
+      const size_t step = padded.step;
+      for (int nn = 0; nn < kWindow; ++nn) {
+        uint64_t word;
+        std::memcpy(&word, corner + nn * step, 8);
+        word |= kByteMasks[rows[nn]];
+        std::memcpy(corner + nn * step, &word, 8);
       }
     }
   }
+  cv::Mat mask;
+  padded(cv::Rect(0, 0, nc, nl)).copyTo(mask);
   return mask;
 }
 
@@ -499,35 +528,14 @@ cv::Mat OctaveRgbToGray(const cv::Mat& bgr8) {
     throw Error("OctaveRgbToGray: expected a non-empty 8-bit 3-channel BGR image");
   }
   // Octave's rgb2gray: im2double, then [R G B]·[0.298936; 0.587043; 0.114021], ×255 and the
-  // uint8 cast (round half away from zero, saturating). The three products are tabulated (the
-  // same doubles), then added in the same order.
-  struct Products {
-    std::array<double, 256> r, g, b;
-  };
-  static const Products products = [] {
-    Products p;
-    for (int k = 0; k < 256; ++k) {
-      const double unit = k / 255.0;
-      p.r[k] = unit * 0.298936;
-      p.g[k] = unit * 0.587043;
-      p.b[k] = unit * 0.114021;
-    }
-    return p;
-  }();
+  // uint8 cast (round half away from zero, saturating). In exact arithmetic that is the integer
+  // rounding of (298936 R + 587043 G + 114021 B) / 10^6; the doubles stay within 1e-13 of it and
+  // no colour lies within 1e-6 of a half, so the integer formula gives the same value for every
+  // colour (checked over all 2^24 in tests/metrics/no_reference_fast_paths_test.cc against the
+  // double formula).
   cv::Mat gray(bgr8.size(), CV_8UC1);
-  for (int i = 0; i < bgr8.rows; ++i) {
-    const uint8_t* src = bgr8.ptr<uint8_t>(i);
-    uint8_t* dst = gray.ptr<uint8_t>(i);
-    for (int j = 0; j < bgr8.cols; ++j) {
-      const double y =
-          (products.r[src[3 * j + 2]] + products.g[src[3 * j + 1]] + products.b[src[3 * j]]) *
-          255.0;
-      // round half away from zero for y >= 0: y − trunc(y) is exact.
-      int rounded = static_cast<int>(y);
-      rounded += (y - rounded >= 0.5);
-      dst[j] = static_cast<uint8_t>(std::min(rounded, 255));
-    }
-  }
+  for (int i = 0; i < bgr8.rows; ++i)
+    simd::OctaveGrayU8(bgr8.ptr<uint8_t>(i), bgr8.cols, gray.ptr<uint8_t>(i));
   return gray;
 }
 
@@ -679,8 +687,8 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
   const cv::Mat& gray_o = original.gray8;
   if (gray_o.size() != restored.size()) {
     throw Error("visible edges: original is " + std::to_string(gray_o.cols) + "x" +
-                std::to_string(gray_o.rows) + " but restored is " +
-                std::to_string(restored.cols) + "x" + std::to_string(restored.rows));
+                std::to_string(gray_o.rows) + " but restored is " + std::to_string(restored.cols) +
+                "x" + std::to_string(restored.rows));
   }
   const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
   const cv::Mat mask_r =

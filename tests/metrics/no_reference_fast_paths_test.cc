@@ -2,7 +2,8 @@
 // implementations of commit 6722196 (tests/metrics/reference_visible_edges.cc and
 // reference_uiqm_uciqe.cc): visible-edge masks and values bit for bit, on random and structured
 // images of several sizes (odd, tiny, gray and colour, float and 8-bit input), both variants,
-// several thresholds, and the real images of $TURBID_DATA when present; UCIQE bit for bit, UIQM
+// several thresholds, images with exact ties between thresholds, and the real images of
+// $TURBID_DATA when present; the gray conversion for all 2^24 colours; UCIQE bit for bit, UIQM
 // within the stated rounding tolerance.
 #include <gtest/gtest.h>
 
@@ -160,6 +161,61 @@ TEST(NoReferenceFastPaths, VisibleEdgesOnRealData) {
                        reference::ReferenceVisibleEdges(o, image, enhanced), file.string());
     }
   }
+}
+
+// Images whose windows have exact ties between thresholds, or a best contrast equal to the
+// visibility threshold (binary {2, 6}: C = 1/3 at s = 3 and 4; a visibility threshold of 2/3 puts
+// the code's test C > 1/3 on that value), where the fast path must fall back on the ordered sums.
+TEST(NoReferenceFastPaths, VisibleEdgesOnImagesWithTies) {
+  std::mt19937 rng(21);
+  std::vector<cv::Mat> images;
+  for (const std::vector<int>& levels :
+       std::vector<std::vector<int>>{{2, 6}, {2, 18}, {0, 255}, {100, 101}, {3, 12, 48}}) {
+    for (const cv::Size size : std::vector<cv::Size>{{37, 29}, {64, 9}, {13, 71}}) {
+      cv::Mat random(size, CV_8UC1), blocks(size, CV_8UC1);
+      for (int i = 0; i < size.height; ++i) {
+        for (int j = 0; j < size.width; ++j) {
+          random.at<uint8_t>(i, j) = static_cast<uint8_t>(levels[rng() % levels.size()]);
+          blocks.at<uint8_t>(i, j) = static_cast<uint8_t>(levels[(i / 3 + j / 2) % levels.size()]);
+        }
+      }
+      images.push_back(random);
+      images.push_back(blocks);
+    }
+  }
+  for (size_t a = 0; a + 1 < images.size(); a += 2) {
+    for (auto variant : {VisibleEdgeVariant::kPaper, VisibleEdgeVariant::kIfsttar}) {
+      for (double threshold : {0.05, 2.0 / 3.0, 0.01, 1.0}) {
+        VisibleEdgeOptions o;
+        o.variant = variant;
+        o.visibility_threshold = threshold;
+        const std::string what = "ties " + std::to_string(a) + " " +
+                                 VisibleEdgeVariantName(variant) + " " + std::to_string(threshold);
+        ExpectSameResult(VisibleEdges(o, images[a], images[a + 1]),
+                         reference::ReferenceVisibleEdges(o, images[a], images[a + 1]), what);
+        ExpectSameMasks(o, images[a + 1], what);
+      }
+    }
+  }
+}
+
+// OctaveRgbToGray in integer arithmetic against the double formula, for every 8-bit colour.
+TEST(NoReferenceFastPaths, OctaveRgbToGrayEqualsTheDoubleFormulaForEveryColour) {
+  cv::Mat all(4096, 4096, CV_8UC3);
+  for (int i = 0; i < all.rows; ++i) {
+    uint8_t* row = all.ptr<uint8_t>(i);
+    for (int j = 0; j < all.cols; ++j) {
+      const int colour = i * all.cols + j;
+      row[3 * j] = static_cast<uint8_t>(colour & 255);
+      row[3 * j + 1] = static_cast<uint8_t>((colour >> 8) & 255);
+      row[3 * j + 2] = static_cast<uint8_t>(colour >> 16);
+    }
+  }
+  EXPECT_EQ(cv::countNonZero(OctaveRgbToGray(all) != reference::ReferenceOctaveRgbToGray(all)), 0);
+  // Odd widths (the row kernel's tail) and a view into a larger image.
+  const cv::Mat part = all(cv::Rect(5, 7, 101, 33));
+  EXPECT_EQ(cv::countNonZero(OctaveRgbToGray(part) != reference::ReferenceOctaveRgbToGray(part)),
+            0);
 }
 
 // UIQM: UICM and UIConM are computed from the same integers with the same operations (equal);

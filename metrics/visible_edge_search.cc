@@ -1,0 +1,195 @@
+#include "metrics/visible_edge_search.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+namespace turbid::visible_edges {
+namespace {
+
+constexpr int kPairRows = 6;  // pixels (1..6, 1..6) of a 7×7 window carry its pairs
+
+// 1.0 / n for the pair counts of a window (at most 72), the same quotients as a division.
+const double* InverseCounts() {
+  static const std::array<double, 2 * 36 + 1> table = [] {
+    std::array<double, 2 * 36 + 1> t{};
+    for (int n = 1; n < static_cast<int>(t.size()); ++n) t[n] = 1.0 / n;
+    return t;
+  }();
+  return table.data();
+}
+
+}  // namespace
+
+const double* WeberTable() {
+  static const std::vector<double> table = [] {
+    std::vector<double> t(256 * kTableStride, 0.0);
+    for (int v = 0; v < 256; ++v) {
+      for (int s = 1; s <= kMaxThreshold; ++s) {
+        t[v * kTableStride + s] =
+            std::abs(static_cast<double>(s) - v) / std::max<double>(s, static_cast<double>(v));
+      }
+    }
+    return t;
+  }();
+  return table.data();
+}
+
+void ThresholdSearch::ExactContrasts(const Window& w) {
+  for (double* a : {sum_vertical_, sum_horizontal_, count_vertical_, count_horizontal_})
+    std::fill(a + (w.s_min & ~3), a + w.s_max + 8, 0.0);
+  simd::WeberWindowSums(WeberTable(), kTableStride, w.value, w.tests, w.stride, kPairRows, w.s_min,
+                        w.s_max, sum_vertical_, sum_horizontal_, count_vertical_,
+                        count_horizontal_);
+  const double* inverse = InverseCounts();
+  for (int s = w.s_min; s <= w.s_max; ++s) {
+    const int count = static_cast<int>(count_vertical_[s] + count_horizontal_[s]);
+    contrast_[s] = count == 0 ? -1.0 : inverse[count] * (sum_vertical_[s] + sum_horizontal_[s]);
+  }
+}
+
+Choice ThresholdSearch::ExactSearch(const Window& w) {
+  ExactContrasts(w);
+  // First argmax over the thresholds that separate a pair (C is 0 elsewhere in the code).
+  double best = 0.0;
+  int s0 = w.s_min;
+  for (int s = w.s_min; s <= w.s_max; ++s) {
+    if (contrast_[s] > best) {
+      best = contrast_[s];
+      s0 = s;
+    }
+  }
+  return {best > half_threshold_, s0, true};
+}
+
+simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& band,
+                                                  const std::vector<Window>& below, int k) {
+  // The window's pixels (rows and columns 0-5 from w.value) in blocks of 2 × 2: rows 0-1 are the
+  // rows 4-5 of the window above (summed there, with columns 0-5: a strip), columns 0-1 the
+  // columns 4-5 of the window to the left (summed there, rows 2-3 and 4-5 apart).
+  const Window& w = band[k];
+  const int n = static_cast<int>(band.size());
+  const Window* right = k + 1 < n && band[k + 1].value != nullptr ? &band[k + 1] : nullptr;
+  const int n_below = static_cast<int>(below.size());
+  const Window* down = k < n_below && below[k].value != nullptr ? &below[k] : nullptr;
+  const Window* down_right = right != nullptr && k + 1 < n_below && below[k + 1].value != nullptr
+                                 ? &below[k + 1]
+                                 : nullptr;
+  auto join = [](Range r, const Window* o) {
+    return o == nullptr ? r : Range{std::min(r.lo, o->s_min), std::max(r.hi, o->s_max)};
+  };
+  const Range own{w.s_min, w.s_max};
+  const Range bottom = join(own, down);
+  const Range middle_right = join(own, right);
+  const Range bottom_right = join(join(middle_right, down), down_right);
+  const int read = strip_read_, write = 1 - strip_read_;
+  double* strip_in = Strip(read, k);
+  const bool have_top = strip_valid_[read][k] != 0 && strip_value_[read][k] == w.value &&
+                        strip_tests_[read][k] == w.tests && strip_lo_[read][k] <= own.lo &&
+                        own.hi <= strip_hi_[read][k];
+  const bool have_left = have_left_;
+  const int col_begin = have_left ? 2 : 0;
+  const int cols = (right != nullptr ? 4 : 6) - col_begin;
+  const int next = 1 - right_;
+  simd::PackedBlock blocks[5];
+  int n_blocks = 0;
+  if (!have_top) blocks[n_blocks++] = {0, 0, 2, 6, own.lo, own.hi, true, own_top_};
+  blocks[n_blocks++] = {2, col_begin, 2, cols, own.lo, own.hi, have_top, own_top_};
+  blocks[n_blocks++] = {4, col_begin, 2, cols, bottom.lo, bottom.hi, true, own_bottom_};
+  if (right != nullptr) {
+    blocks[n_blocks++] = {2, 4, 2, 2, middle_right.lo, middle_right.hi, true, right_middle_[next]};
+    blocks[n_blocks++] = {4, 4, 2, 2, bottom_right.lo, bottom_right.hi, true, right_bottom_[next]};
+  }
+  simd::AddPackedBlocks(w.value, w.tests, w.stride, w.own_intervals, blocks, n_blocks);
+  const double* parts[7] = {own_top_, own_bottom_};
+  int n_parts = 2;
+  if (have_top) parts[n_parts++] = strip_in;
+  if (have_left) {
+    parts[n_parts++] = right_middle_[right_];
+    parts[n_parts++] = right_bottom_[right_];
+  }
+  if (right != nullptr) {
+    parts[n_parts++] = right_middle_[next];
+    parts[n_parts++] = right_bottom_[next];
+  }
+  const simd::PackedMaximum m =
+      simd::PackedContrasts(parts, n_parts, w.s_min, w.s_max, 2.0 * kMargin, contrast_);
+  if (down != nullptr) {  // the sums of rows 4-5 for the window below
+    double* strip = Strip(write, k);
+    const double* strip_parts[3] = {own_bottom_};
+    int n_strip = 1;
+    if (have_left) strip_parts[n_strip++] = right_bottom_[right_];
+    if (right != nullptr) strip_parts[n_strip++] = right_bottom_[next];
+    simd::SumPacked(strip_parts, n_strip, bottom.lo, bottom.hi, strip);
+    strip_valid_[write][k] = 1;
+    strip_value_[write][k] = down->value;
+    strip_tests_[write][k] = down->tests;
+    strip_lo_[write][k] = bottom.lo;
+    strip_hi_[write][k] = bottom.hi;
+  }
+  have_left_ = right != nullptr;
+  if (right != nullptr) right_ = next;
+  return m;
+}
+
+Choice ThresholdSearch::Decide(const Window& w, const simd::PackedMaximum& m) {
+  // Every ordered C(s) is within kApproximateError < kMargin of its unordered value.
+  if (m.best <= half_threshold_ - kMargin) return {false, w.s_min, false};
+  // Visible, with s0 the best threshold, when every other one is clearly below it.
+  if (m.best > half_threshold_ + kMargin && m.near == 1) return {true, m.first, false};
+  return ExactSearch(w);
+}
+
+double* ThresholdSearch::Strip(int buffer, int k) {
+  double* data = strips_[buffer].data();
+  const size_t misalignment = reinterpret_cast<uintptr_t>(data) % 32 / sizeof(double);
+  return data + (misalignment == 0 ? 0 : 4 - misalignment) + static_cast<size_t>(k) * kStride;
+}
+
+void ThresholdSearch::Reserve(size_t n) {
+  for (int b = 0; b < 2; ++b) {
+    if (strip_valid_[b].size() != n) {
+      strips_[b].assign(n * kStride + 4, 0.0);  // + 4: room to align to 32 bytes
+      strip_valid_[b].assign(n, 0);
+      strip_value_[b].assign(n, nullptr);
+      strip_tests_[b].assign(n, nullptr);
+      strip_lo_[b].assign(n, 0);
+      strip_hi_[b].assign(n, -1);
+    }
+  }
+}
+
+void ThresholdSearch::SearchBand(const std::vector<Window>& band, const std::vector<Window>& below,
+                                 std::vector<Choice>* choices) {
+  const size_t n = band.size();
+  Reserve(n);
+  std::fill(strip_valid_[1 - strip_read_].begin(), strip_valid_[1 - strip_read_].end(), 0);
+  choices->assign(n, Choice{});
+  have_left_ = false;
+  for (size_t k = 0; k < n; ++k) {
+    if (band[k].value == nullptr) {
+      have_left_ = false;
+      continue;
+    }
+    (*choices)[k] = Decide(band[k], PackedWindow(band, below, static_cast<int>(k)));
+  }
+  strip_read_ = 1 - strip_read_;
+}
+
+Choice ThresholdSearch::FastSearch(const Window& w) {
+  std::vector<Choice> choices;
+  SearchBand({w}, {}, &choices);
+  return choices[0];
+}
+
+void ThresholdSearch::ApproximateContrasts(const Window& w) {
+  const std::vector<Window> band = {w};
+  Reserve(1);
+  std::fill(strip_valid_[strip_read_].begin(), strip_valid_[strip_read_].end(), 0);
+  have_left_ = false;
+  PackedWindow(band, {}, 0);
+}
+
+}  // namespace turbid::visible_edges

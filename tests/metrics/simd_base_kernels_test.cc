@@ -1,0 +1,92 @@
+// The portable copies of the visible-edge kernels (metrics/simd_kernels.inc, which the library
+// runs on CPUs without AVX2) against the ones the library picks on this machine: compiled here a
+// second time, in a namespace of their own, so that they are tested even where AVX2 is present.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+#include "metrics/simd_dispatch.h"
+
+namespace turbid::simd::portable {
+#define TURBID_NO_CONTRACT(...) __asm__("" : "+m"(__VA_ARGS__))
+#include "metrics/simd_kernels.inc"
+#undef TURBID_NO_CONTRACT
+}  // namespace turbid::simd::portable
+
+namespace turbid::simd {
+namespace {
+
+TEST(PortableKernels, OctaveGrayEqualsTheDispatchedCopy) {
+  std::mt19937 rng(1);
+  std::vector<uint8_t> bgr(3 * 1001);
+  for (uint8_t& v : bgr) v = static_cast<uint8_t>(rng());
+  std::vector<uint8_t> a(1001), b(1001);
+  portable::OctaveGrayU8(bgr.data(), 1001, a.data());
+  OctaveGrayU8(bgr.data(), 1001, b.data());
+  EXPECT_EQ(a, b);
+}
+
+TEST(PortableKernels, PackedSumsAndContrastsAgreeWithTheDispatchedCopies) {
+  std::mt19937 rng(2);
+  constexpr int kStride = 16;
+  for (int trial = 0; trial < 300; ++trial) {
+    const bool paper = trial % 2 == 0;
+    std::vector<uint8_t> value(8 * kStride), tests(4 * value.size());
+    const int level = static_cast<int>(rng() % 200);
+    const int spread = 1 + static_cast<int>(rng() % 56);
+    for (uint8_t& v : value) v = static_cast<uint8_t>(level + rng() % spread);
+    for (size_t k = kStride + 1; k < value.size(); ++k) {
+      uint8_t* t = &tests[4 * k];
+      const uint8_t p = value[k], left = value[k - 1], up = value[k - kStride];
+      if (paper) {
+        t[0] = std::min(p, left);
+        t[1] = std::max(p, left);
+        t[2] = std::min(p, up);
+        t[3] = std::max(p, up);
+      } else {
+        for (int d = 0; d < 4; d += 2) {
+          const int x = static_cast<int>(rng() % 256), y = static_cast<int>(rng() % 256);
+          t[d] = static_cast<uint8_t>(std::min(x, y));
+          t[d + 1] = static_cast<uint8_t>(std::max(x, y));
+        }
+      }
+    }
+    const int lo = std::max(level, 1), hi = std::max(level + spread - 1, 1);
+    alignas(32) double a[2][kPackedStride], b[2][kPackedStride];
+    const uint8_t* v0 = &value[kStride + 1];
+    const uint8_t* t0 = &tests[4 * (kStride + 1)];
+    PackedBlock pa[2] = {{0, 0, 6, 4, lo, hi, true, a[0]}, {0, 4, 6, 2, lo, hi, true, a[1]}};
+    PackedBlock pb[2] = {{0, 0, 6, 4, lo, hi, true, b[0]}, {0, 4, 6, 2, lo, hi, true, b[1]}};
+    portable::AddPackedBlocks(v0, t0, kStride, paper, pa, 2);
+    AddPackedBlocks(v0, t0, kStride, paper, pb, 2);
+    for (int s = lo; s <= hi; ++s) {
+      for (int m = 0; m < 2; ++m) {
+        ASSERT_NEAR(a[m][s], b[m][s], 1e-10) << "trial " << trial << " s " << s;
+        ASSERT_EQ(std::floor(a[m][s] / 128), std::floor(b[m][s] / 128));  // the same counts
+      }
+    }
+    alignas(32) double sum_a[kPackedStride], sum_b[kPackedStride];
+    const double* parts_a[2] = {a[0], a[1]};
+    const double* parts_b[2] = {b[0], b[1]};
+    portable::SumPacked(parts_a, 2, lo, hi, sum_a);
+    SumPacked(parts_b, 2, lo, hi, sum_b);
+    for (int s = lo; s <= hi; ++s) ASSERT_EQ(sum_a[s], a[0][s] + a[1][s]);
+    alignas(32) double ca[kPackedStride], cb[kPackedStride];
+    const double* one_a[1] = {sum_a};
+    const PackedMaximum ma = portable::PackedContrasts(one_a, 1, lo, hi, 1e-9, ca);
+    const PackedMaximum mb = PackedContrasts(one_a, 1, lo, hi, 1e-9, cb);
+    EXPECT_EQ(ma.best, mb.best);
+    EXPECT_EQ(ma.near, mb.near);
+    EXPECT_EQ(ma.first, mb.first);
+    for (int s = lo; s <= hi; ++s) ASSERT_EQ(ca[s], cb[s]);
+    portable::ZeroPacked(a[0], lo, hi);
+    for (int s = lo & ~3; s < hi + 8; ++s) ASSERT_EQ(a[0][s], 0.0);
+  }
+}
+
+}  // namespace
+}  // namespace turbid::simd
