@@ -378,6 +378,183 @@ bool FitVeilModel(const std::vector<VeilSample>& samples, cv::Vec3d* c) {
   return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
 }
 
+// ---- The three-channel fit with one t and one L map (the default `full` on colour): every grid
+// pixel gives each channel the same regressors (t, (1 - t) L, t L), so when every channel keeps
+// every pixel the three fits run side by side, one channel per vector lane (GCC/Clang vector
+// extensions; lane arithmetic is the scalar arithmetic above, so the bits are the same). Pass 0's
+// six regressor sums are the same for all three channels and summed once; pass 1 adds a
+// residual-rejected sample as +0.0, which leaves a sum started at +0.0 unchanged (such a sum is
+// never -0.0 in round-to-nearest), so the masked sums equal the skipping ones.
+typedef double VeilD4 __attribute__((vector_size(32)));
+typedef long long VeilL4 __attribute__((vector_size(32)));
+
+// The normal equations' sums s00, s01, s02, s11, s12, s22, b0, b1, b2; lane c: channel c (lane 3
+// unused).
+struct VeilSums3 {
+  VeilD4 s[9];
+};
+
+// Pass 0: v holds four floats per sample (three channels and a pad).
+TURBID_ROW_KERNEL void VeilSumsAll3(const float* __restrict t, const float* __restrict l,
+                                    const float* __restrict v, size_t n, VeilSums3* out) {
+  double s00 = 0, s01 = 0, s02 = 0, s11 = 0, s12 = 0, s22 = 0;
+  VeilD4 b0 = {0, 0, 0, 0}, b1 = b0, b2 = b0;
+  for (size_t i = 0; i < n; ++i) {
+    const double x0 = t[i], li = l[i];
+    const double x1 = (1.0 - x0) * li, x2 = x0 * li;
+    s00 += x0 * x0, s01 += x0 * x1, s02 += x0 * x2;
+    s11 += x1 * x1, s12 += x1 * x2, s22 += x2 * x2;
+    const VeilD4 x3 = {v[4 * i], v[4 * i + 1], v[4 * i + 2], 0.0};
+    b0 += x0 * x3, b1 += x1 * x3, b2 += x2 * x3;
+  }
+  const double shared[6] = {s00, s01, s02, s11, s12, s22};
+  for (int j = 0; j < 6; ++j) out->s[j] = VeilD4{shared[j], shared[j], shared[j], shared[j]};
+  out->s[6] = b0, out->s[7] = b1, out->s[8] = b2;
+}
+
+// |c0 x0 + c1 x1 + c2 x2 - x3| of every sample, channel c's into r[c][i]; coef: c0, c1, c2.
+TURBID_ROW_KERNEL void VeilResiduals3(const float* __restrict t, const float* __restrict l,
+                                      const float* __restrict v, size_t n,
+                                      const VeilD4* coef, double* __restrict r0,
+                                      double* __restrict r1, double* __restrict r2) {
+  const VeilD4 c0 = coef[0], c1 = coef[1], c2 = coef[2];
+  for (size_t i = 0; i < n; ++i) {
+    const double x0 = t[i], li = l[i];
+    const double x1 = (1.0 - x0) * li, x2 = x0 * li;
+    const VeilD4 x3 = {v[4 * i], v[4 * i + 1], v[4 * i + 2], 0.0};
+    const VeilD4 d = c0 * x0 + c1 * x1 + c2 * x2 - x3;
+    r0[i] = std::abs(d[0]), r1[i] = std::abs(d[1]), r2[i] = std::abs(d[2]);
+  }
+}
+
+// Pass 1: channel c sums the samples whose residual (recomputed as above) is <= cut[c]; coef:
+// c0, c1, c2, cut.
+TURBID_ROW_KERNEL void VeilSumsKept3(const float* __restrict t, const float* __restrict l,
+                                     const float* __restrict v, size_t n, const VeilD4* coef,
+                                     VeilSums3* out) {
+  const VeilD4 c0 = coef[0], c1 = coef[1], c2 = coef[2], cut = coef[3];
+  const VeilL4 abs_bits = {0x7fffffffffffffffLL, 0x7fffffffffffffffLL, 0x7fffffffffffffffLL,
+                           0x7fffffffffffffffLL};
+  VeilD4 acc[9] = {};
+  for (size_t i = 0; i < n; ++i) {
+    const double x0 = t[i], li = l[i];
+    const double x1 = (1.0 - x0) * li, x2 = x0 * li;
+    const VeilD4 x3 = {v[4 * i], v[4 * i + 1], v[4 * i + 2], 0.0};
+    const VeilD4 d = c0 * x0 + c1 * x1 + c2 * x2 - x3;
+    const VeilL4 keep = reinterpret_cast<VeilD4>(reinterpret_cast<VeilL4>(d) & abs_bits) <= cut;
+    const double q[6] = {x0 * x0, x0 * x1, x0 * x2, x1 * x1, x1 * x2, x2 * x2};
+    VeilD4 p[9] = {};
+    for (int j = 0; j < 6; ++j) p[j] = VeilD4{q[j], q[j], q[j], q[j]};
+    p[6] = x0 * x3, p[7] = x1 * x3, p[8] = x2 * x3;
+    for (int j = 0; j < 9; ++j) {
+      acc[j] += reinterpret_cast<VeilD4>(reinterpret_cast<VeilL4>(p[j]) & keep);
+    }
+  }
+  for (int j = 0; j < 9; ++j) out->s[j] = acc[j];
+}
+
+// Channel c's normal equations solved as FitVeilModel does: false when singular or ill-conditioned.
+bool SolveVeil(const VeilSums3& s, int c, cv::Vec3d* solution) {
+  const double s00 = s.s[0][c], s01 = s.s[1][c], s02 = s.s[2][c], s11 = s.s[3][c];
+  const double s12 = s.s[4][c], s22 = s.s[5][c];
+  const cv::Matx33d ata(s00, s01, s02, s01, s11, s12, s02, s12, s22);
+  const cv::Vec3d atb(s.s[6][c], s.s[7][c], s.s[8][c]);
+  if (!cv::solve(ata, atb, *solution, cv::DECOMP_CHOLESKY)) return false;
+  cv::Vec3d eig;
+  cv::eigen(ata, eig);
+  return eig[2] > 1e-9 * eig[0];
+}
+
+// FitVeilModel for three channels whose samples share t and L (`v`: four floats per sample).
+void FitVeilModel3(const std::vector<float>& t, const std::vector<float>& l,
+                   const std::vector<float>& v, bool ok[3], cv::Vec3d fit[3]) {
+  const size_t n = t.size();
+  for (int c = 0; c < 3; ++c) ok[c] = n >= 16;
+  if (n < 16) return;
+  VeilSums3 sums;
+  VeilSumsAll3(t.data(), l.data(), v.data(), n, &sums);
+  for (int c = 0; c < 3; ++c) ok[c] = SolveVeil(sums, c, &fit[c]);
+  if (!ok[0] && !ok[1] && !ok[2]) return;
+  // The three channels' solutions (lanes) and, once selected, their residual cuts.
+  VeilD4 coef[4] = {{fit[0][0], fit[1][0], fit[2][0], 0.0},
+                    {fit[0][1], fit[1][1], fit[2][1], 0.0},
+                    {fit[0][2], fit[1][2], fit[2][2], 0.0},
+                    {0.0, 0.0, 0.0, 0.0}};
+  std::vector<double> r[3] = {std::vector<double>(n), std::vector<double>(n),
+                              std::vector<double>(n)};
+  VeilResiduals3(t.data(), l.data(), v.data(), n, coef, r[0].data(), r[1].data(), r[2].data());
+  for (int c = 0; c < 3; ++c) {
+    if (ok[c]) coef[3][c] = enhancer_internal::SelectKth<double, uint64_t>(r[c], n * 8 / 10);
+  }
+  VeilSumsKept3(t.data(), l.data(), v.data(), n, coef, &sums);
+  for (int c = 0; c < 3; ++c) {
+    if (!ok[c]) continue;
+    ok[c] = SolveVeil(sums, c, &fit[c]) && std::isfinite(fit[c][0]) &&
+            std::isfinite(fit[c][1]) && std::isfinite(fit[c][2]);
+  }
+}
+
+// The estimate from the ratios' percentile (`bound`) and the fit: the fit is usable when it is
+// physical, a > 0 and 0 <= mean reflectance (c2 / c1) <= 1.
+void SetLightScale(double bound, bool fit_ok, const cv::Vec3d& fit, LightScaleEstimate* e) {
+  e->bound = bound;
+  if (fit_ok && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
+    e->fit = fit[1];
+    e->scale = std::min(e->fit, e->bound);
+    e->source = e->fit <= e->bound ? "fit" : "bound";
+  } else {
+    e->scale = e->bound;
+    e->source = "bound (no usable fit)";
+  }
+}
+
+// EstimateLightScale for a three-channel image with one-channel t and L maps, when every channel
+// keeps every grid pixel (the sample sets are then the same; false, nothing written, when a
+// channel's value is not finite where L is). The ratios and samples are those of the general
+// loop, in grid order; the fits run side by side (FitVeilModel3).
+bool LightScaleShared3(const cv::Mat& denoised, const cv::Mat& light, const cv::Mat& transmission,
+                       int stride, float w_min, double percentile,
+                       std::vector<LightScaleEstimate>* out) {
+  const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
+                          static_cast<size_t>((denoised.cols + stride - 1) / stride);
+  std::vector<float> ts(expected), ls(expected), vs(4 * expected);
+  std::vector<float> ratios[3] = {std::vector<float>(expected), std::vector<float>(expected),
+                                  std::vector<float>(expected)};
+  size_t n = 0, m = 0;  // samples, ratios
+  for (int y = 0; y < denoised.rows; y += stride) {
+    const float* in = denoised.ptr<float>(y);
+    const float* t = transmission.ptr<float>(y);
+    const float* l = light.ptr<float>(y);
+    for (int x = 0; x < denoised.cols; x += stride) {
+      const double ti = t[x], li = l[x];
+      if (!std::isfinite(li)) continue;
+      const float* v = in + 3 * x;
+      if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) return false;
+      const float w = static_cast<float>((1.0 - ti) * li);
+      if (w >= w_min) {
+        for (int c = 0; c < 3; ++c) {
+          ratios[c][m] = static_cast<float>(std::max(static_cast<double>(v[c]), 0.0) / w);
+        }
+        ++m;
+      }
+      ts[n] = t[x], ls[n] = l[x];
+      vs[4 * n] = v[0], vs[4 * n + 1] = v[1], vs[4 * n + 2] = v[2], vs[4 * n + 3] = 0.0f;
+      ++n;
+    }
+  }
+  if (m == 0) return true;  // no pixel carries the veil: no estimate, as in the general loop
+  ts.resize(n), ls.resize(n), vs.resize(4 * n);
+  bool fit_ok[3];
+  cv::Vec3d fit[3];
+  FitVeilModel3(ts, ls, vs, fit_ok, fit);
+  for (int c = 0; c < 3; ++c) {
+    ratios[c].resize(m);
+    SetLightScale(std::max(0.0, PercentileOf(ratios[c], percentile)), fit_ok[c], fit[c],
+                  &(*out)[c]);
+  }
+  return true;
+}
+
 }  // namespace
 
 std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, const cv::Mat& light,
@@ -415,6 +592,10 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
     active[c] = w_max[c] > 0.0f && std::isfinite(w_max[c]);
     w_min[c] = static_cast<float>(support) * w_max[c];
   }
+  if (ch == 3 && lc == 1 && tc == 1 && active[0] &&
+      LightScaleShared3(denoised, light, transmission, stride, w_min[0], percentile, &out)) {
+    return out;
+  }
   // One pass over the grid collects every channel's ratios and fit samples, each in grid order.
   std::vector<std::vector<float>> ratios(ch);
   std::vector<std::vector<VeilSample>> samples(ch);
@@ -444,18 +625,10 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
   }
   for (int c = 0; c < ch; ++c) {
     if (ratios[c].empty()) continue;
-    LightScaleEstimate& e = out[c];
-    e.bound = std::max(0.0, PercentileOf(ratios[c], percentile));
+    const double bound = std::max(0.0, PercentileOf(ratios[c], percentile));
     cv::Vec3d fit;
-    // The fit is usable when it is physical: a > 0 and 0 <= mean reflectance (c2 / c1) <= 1.
-    if (FitVeilModel(samples[c], &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
-      e.fit = fit[1];
-      e.scale = std::min(e.fit, e.bound);
-      e.source = e.fit <= e.bound ? "fit" : "bound";
-    } else {
-      e.scale = e.bound;
-      e.source = "bound (no usable fit)";
-    }
+    const bool fit_ok = FitVeilModel(samples[c], &fit);
+    SetLightScale(bound, fit_ok, fit, &out[c]);
   }
   return out;
 }

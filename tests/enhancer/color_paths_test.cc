@@ -433,6 +433,32 @@ TEST(ColorPaths, LightScaleAndNoiseEstimatesEqualReference) {
       EXPECT_EQ(d.noise_sigma, ReferenceNoiseSigma(img)) << size << " ch " << ch;
     }
   }
+  // One-channel t and L with three channels (the default `full`: the fits run side by side), with
+  // every channel finite, then with a non-finite value in one channel or in L (the channels'
+  // sample sets then differ or lose a pixel).
+  for (const cv::Size& size : OddSizes()) {
+    for (int damage = 0; damage < 4; ++damage) {
+      cv::Mat img(size, CV_32FC3), t(size, CV_32F), l(size, CV_32F);
+      cv::RNG rng(size.area() + 7 * damage);
+      rng.fill(img, cv::RNG::UNIFORM, -0.1, 1.0);
+      rng.fill(t, cv::RNG::UNIFORM, 0.1, 1.0);
+      rng.fill(l, cv::RNG::UNIFORM, 0.0, 2.0);
+      const int y = size.height / 2, x = size.width / 2 - size.width / 2 % 2;
+      if (damage == 1) img.at<cv::Vec3f>(0, 0)[1] = std::numeric_limits<float>::quiet_NaN();
+      if (damage == 2) img.at<cv::Vec3f>(y, x)[2] = std::numeric_limits<float>::infinity();
+      if (damage == 3) l.at<float>(0, 0) = std::numeric_limits<float>::quiet_NaN();
+      for (double pct : {1.0, 30.0}) {
+        const auto got = EstimateLightScale(img, l, t, pct, 0.25);
+        const auto want = ReferenceEstimateLightScale(img, l, t, pct, 0.25);
+        for (size_t c = 0; c < got.size(); ++c) {
+          EXPECT_EQ(got[c].scale, want[c].scale) << size << " damage " << damage << " c " << c;
+          EXPECT_EQ(got[c].fit, want[c].fit) << size << " damage " << damage << " c " << c;
+          EXPECT_EQ(got[c].bound, want[c].bound) << size << " damage " << damage << " c " << c;
+          EXPECT_EQ(got[c].source, want[c].source) << size << " damage " << damage << " c " << c;
+        }
+      }
+    }
+  }
 }
 
 // ---- simplified.
