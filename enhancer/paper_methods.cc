@@ -685,7 +685,9 @@ double EstimateNoiseSigma(const cv::Mat& image) {
 
 // Step 1 (eq. 4): self-guided filter per channel; with denoise_adaptive the epsilon follows the
 // haze (t_med) and the noise.
-cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r) {
+// `noise_sigma`: the image's EstimateNoiseSigma when already known (else null: computed here).
+cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r,
+                    const double* noise_sigma = nullptr) {
   if (!o.denoise) {
     r->steps.push_back("denoise: skipped (off)");
     return image;
@@ -705,7 +707,7 @@ cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r) {
       }
       if (!sample.empty()) t_med = PercentileOf(sample, 50.0);
     }
-    r->noise_sigma = EstimateNoiseSigma(image);
+    r->noise_sigma = noise_sigma != nullptr ? *noise_sigma : EstimateNoiseSigma(image);
     const double noise_eps = std::pow(o.denoise_noise_factor * r->noise_sigma, 2);
     g.eps = std::min(o.denoise_eps, std::max(o.denoise_eps * t_med * t_med, noise_eps));
     g.eps = std::max(g.eps, 1e-8);
@@ -1217,8 +1219,9 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
 // Steps 1-5 of `full` for a three-channel image after the geometry (FullEnhanceImpl's).
 cv::Mat FullColorStreamed(const FullOptions& o, const cv::Mat& image,
                           const IrradianceOptions& lights, const CameraIntrinsics& camera,
-                          const std::vector<double>& beta, bool any_beta, FullResult* r) {
-  const cv::Mat denoised = DenoiseStep(o, image, r);
+                          const std::vector<double>& beta, bool any_beta,
+                          const double* noise_sigma, FullResult* r) {
+  const cv::Mat denoised = DenoiseStep(o, image, r, noise_sigma);
   LightEstimate light = LightStepUnscaled(o, lights, camera, beta, denoised, r);
   const bool dehaze = o.dehaze && any_beta;
   ColorRowSource src(o, image, denoised, std::move(light), r->transmission, dehaze);
@@ -1248,9 +1251,23 @@ cv::Mat FullColorStreamed(const FullOptions& o, const cv::Mat& image,
 FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Scene* scene,
                            const nlohmann::json* sidecar, bool keep_steps) {
   ThrowIfInvalid(o, "full");
-  ValidateEnhanceImage(image, "full");
   FullResult r;
   const int channels = image.channels();
+  // The streamed colour path with adaptive denoising reads the input once for the finiteness
+  // check and the noise estimate: every value has a nonzero weight in some |I * N| term of the
+  // estimate (3 x 3 and larger), so a non-finite value makes the sum non-finite; only then (or
+  // when finite values overflow it) is the input scanned, to name the row as before.
+  const bool streamed = !keep_steps && image.channels() == 3;
+  double noise_sigma = 0.0;
+  const bool sigma_known =
+      streamed && o.denoise && o.denoise_adaptive && image.rows >= 3 && image.cols >= 3;
+  if (sigma_known) {
+    ValidateEnhanceImageLayout(image, "full");
+    noise_sigma = EstimateNoiseSigma(image);
+    if (!std::isfinite(noise_sigma)) ValidateEnhanceImage(image, "full");
+  } else {
+    ValidateEnhanceImage(image, "full");
+  }
 
   IrradianceOptions lights;
   std::vector<double> beta;
@@ -1267,8 +1284,9 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
     r.steps.push_back("plane: from " + source);
     if (any_beta) TransmissionStep(o, camera, beta, image.size(), keep_steps, &r);
   }
-  if (!keep_steps && channels == 3) {
-    r.image = FullColorStreamed(o, image, lights, camera, beta, any_beta, &r);
+  if (streamed) {
+    r.image = FullColorStreamed(o, image, lights, camera, beta, any_beta,
+                                sigma_known ? &noise_sigma : nullptr, &r);
     return r;
   }
   cv::Mat current = DenoiseStep(o, image, &r);

@@ -581,6 +581,41 @@ TEST(ColorPaths, FullAndSimplifiedEqualReferenceOnRealFrames) {
   }
 }
 
+TEST(ColorPaths, FullNamesTheRowOfANonFiniteInput) {
+  // The streamed colour path checks the input through its noise estimate (adaptive denoising):
+  // every corner, edge and inner value is caught, with the message of the up-front check; an
+  // input whose finite values overflow the estimate gives the whole-image pipeline's output.
+  const float bad[] = {std::numeric_limits<float>::quiet_NaN(),
+                       std::numeric_limits<float>::infinity(),
+                       -std::numeric_limits<float>::infinity()};
+  FullOptions fixed;
+  fixed.denoise_adaptive = false;
+  for (const FullOptions& o : {FullOptions{}, fixed})
+    for (float value : bad)
+      for (cv::Point at : {cv::Point(0, 0), cv::Point(48, 0), cv::Point(0, 39), cv::Point(48, 39),
+                           cv::Point(20, 17), cv::Point(1, 38)})
+        for (int channel = 0; channel < 3; ++channel) {
+          cv::Mat img(40, 49, CV_32FC3, cv::Scalar::all(0.4));
+          img.at<cv::Vec3f>(at)[channel] = value;
+          try {
+            FullEnhance(o, img, nullptr, nullptr);
+            ADD_FAILURE() << value << " at " << at << " passed";
+          } catch (const Error& e) {
+            EXPECT_EQ(std::string(e.what()), "full: input image has non-finite values (row " +
+                                                 std::to_string(at.y) + ")");
+          }
+        }
+  for (const cv::Size& size : {cv::Size(49, 40), cv::Size(2, 9), cv::Size(9, 2)}) {
+    cv::Mat huge(size, CV_32FC3, cv::Scalar::all(0.4));
+    huge.at<cv::Vec3f>(size.height / 2, size.width / 2) = {3e38f, -3e38f, 3e38f};
+    EXPECT_TRUE(SameBits(FullEnhance(FullOptions{}, huge, nullptr, nullptr),
+                         FullEnhanceDetailed(FullOptions{}, huge, nullptr, nullptr).image))
+        << size;
+    huge.at<cv::Vec3f>(0, 0)[1] = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_THROW(FullEnhance(FullOptions{}, huge, nullptr, nullptr), Error) << size;
+  }
+}
+
 TEST(ColorPaths, PortableKernelsGiveTheSameOutput) {
   // With the hand-written AVX2 kernels off (the gray building blocks' portable twins), the colour
   // paths still equal the reference.
