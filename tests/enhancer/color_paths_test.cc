@@ -471,6 +471,8 @@ TEST(ColorPaths, SimplifiedEqualsReference) {
   }
   for (const ColorRender& r : Renders()) inputs.emplace_back(r.name, r.render.image);
   for (auto& f : RealFrames()) inputs.push_back(f);
+  // Values beyond [0, 1] on both sides (the boost's clamp).
+  inputs.emplace_back("out of range", SmoothNoise(29, 41, 3) * 3.0 - 1.0);
   for (const auto& [name, img] : inputs) {
     for (int variant = 0; variant < 4; ++variant) {
       SimplifiedOptions o;
