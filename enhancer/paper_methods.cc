@@ -178,8 +178,8 @@ void AddWeightedRow(const float* i_g, const float* i_f, double beta, double alph
 // Four boosted values, double precision, rounded to float once.
 __attribute__((target("avx2,fma"))) inline __m128 BoostFma(__m128 g, __m128 f, __m256d beta,
                                                            __m256d alpha) {
-  return _mm256_cvtpd_ps(_mm256_fmadd_pd(_mm256_cvtps_pd(g), beta,
-                                         _mm256_mul_pd(_mm256_cvtps_pd(f), alpha)));
+  return _mm256_cvtpd_ps(
+      _mm256_fmadd_pd(_mm256_cvtps_pd(g), beta, _mm256_mul_pd(_mm256_cvtps_pd(f), alpha)));
 }
 __attribute__((target("avx2"))) inline __m128 BoostMulAdd(__m128 g, __m128 f, __m256d beta,
                                                           __m256d alpha) {
@@ -189,8 +189,8 @@ __attribute__((target("avx2"))) inline __m128 BoostMulAdd(__m128 g, __m128 f, __
 
 template <bool kFma>
 __attribute__((target("avx2,fma"))) bool BoostClampRowAvx2(const float* i_g, const float* i_f,
-                                                          double beta, double alpha, float* dst,
-                                                          int n) {
+                                                           double beta, double alpha, float* dst,
+                                                           int n) {
   const __m256d vb = _mm256_set1_pd(beta), va = _mm256_set1_pd(alpha);
   const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
   const __m256 max_finite = _mm256_set1_ps(std::numeric_limits<float>::max());
@@ -204,8 +204,8 @@ __attribute__((target("avx2,fma"))) bool BoostClampRowAvx2(const float* i_g, con
     const __m128 lo = kFma ? BoostFma(g0, f0, vb, va) : BoostMulAdd(g0, f0, vb, va);
     const __m128 hi = kFma ? BoostFma(g1, f1, vb, va) : BoostMulAdd(g1, f1, vb, va);
     const __m256 v = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
-    finite = _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(v, abs_mask), max_finite,
-                                                 _CMP_LE_OQ));
+    finite =
+        _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(v, abs_mask), max_finite, _CMP_LE_OQ));
     // NaN to 0 (the ordered compare is false for NaN), then std::min(x, 1) = 1 < x ? 1 : x and
     // std::max(m, 0) = m < 0 ? 0 : m (vminps / vmaxps return their second operand unless the
     // first compares less / greater: -0 stays -0, as in ClampUnitRow).
@@ -468,9 +468,9 @@ TURBID_ROW_KERNEL void VeilSumsAll3(const float* __restrict t, const float* __re
 
 // |c0 x0 + c1 x1 + c2 x2 - x3| of every sample, channel c's into r[c][i]; coef: c0, c1, c2.
 TURBID_ROW_KERNEL void VeilResiduals3(const float* __restrict t, const float* __restrict l,
-                                      const float* __restrict v, size_t n,
-                                      const VeilD4* coef, double* __restrict r0,
-                                      double* __restrict r1, double* __restrict r2) {
+                                      const float* __restrict v, size_t n, const VeilD4* coef,
+                                      double* __restrict r0, double* __restrict r1,
+                                      double* __restrict r2) {
   const VeilD4 c0 = coef[0], c1 = coef[1], c2 = coef[2];
   for (size_t i = 0; i < n; ++i) {
     const double x0 = t[i], li = l[i];
@@ -543,8 +543,8 @@ void FitVeilModel3(const std::vector<float>& t, const std::vector<float>& l,
   VeilSumsKept3(t.data(), l.data(), v.data(), n, coef, &sums);
   for (int c = 0; c < 3; ++c) {
     if (!ok[c]) continue;
-    ok[c] = SolveVeil(sums, c, &fit[c]) && std::isfinite(fit[c][0]) &&
-            std::isfinite(fit[c][1]) && std::isfinite(fit[c][2]);
+    ok[c] = SolveVeil(sums, c, &fit[c]) && std::isfinite(fit[c][0]) && std::isfinite(fit[c][1]) &&
+            std::isfinite(fit[c][2]);
   }
 }
 

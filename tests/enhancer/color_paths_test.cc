@@ -603,8 +603,8 @@ TEST(ColorPaths, FullNamesTheRowOfANonFiniteInput) {
             FullEnhance(o, img, nullptr, nullptr);
             ADD_FAILURE() << value << " at " << at << " passed";
           } catch (const Error& e) {
-            EXPECT_EQ(std::string(e.what()), "full: input image has non-finite values (row " +
-                                                 std::to_string(at.y) + ")");
+            EXPECT_EQ(std::string(e.what()),
+                      "full: input image has non-finite values (row " + std::to_string(at.y) + ")");
           }
         }
   for (const cv::Size& size : {cv::Size(49, 40), cv::Size(2, 9), cv::Size(9, 2)}) {
