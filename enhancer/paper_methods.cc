@@ -171,6 +171,60 @@ void AddWeightedRow(const float* i_g, const float* i_f, double beta, double alph
   }
 }
 
+// `simplified`'s colour row in one pass: AddWeightedRow, then ClampUnitRow, in registers (AVX2;
+// with FMA where AddWeightedRow uses it). Returns whether every boosted value (before the clamp)
+// was finite.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// Four boosted values, double precision, rounded to float once.
+__attribute__((target("avx2,fma"))) inline __m128 BoostFma(__m128 g, __m128 f, __m256d beta,
+                                                           __m256d alpha) {
+  return _mm256_cvtpd_ps(
+      _mm256_fmadd_pd(_mm256_cvtps_pd(g), beta, _mm256_mul_pd(_mm256_cvtps_pd(f), alpha)));
+}
+__attribute__((target("avx2"))) inline __m128 BoostMulAdd(__m128 g, __m128 f, __m256d beta,
+                                                          __m256d alpha) {
+  return _mm256_cvtpd_ps(_mm256_add_pd(_mm256_mul_pd(_mm256_cvtps_pd(g), beta),
+                                       _mm256_mul_pd(_mm256_cvtps_pd(f), alpha)));
+}
+
+template <bool kFma>
+__attribute__((target("avx2,fma"))) bool BoostClampRowAvx2(const float* i_g, const float* i_f,
+                                                           double beta, double alpha, float* dst,
+                                                           int n) {
+  const __m256d vb = _mm256_set1_pd(beta), va = _mm256_set1_pd(alpha);
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  const __m256 max_finite = _mm256_set1_ps(std::numeric_limits<float>::max());
+  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+  __m256 finite = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+  int i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const __m256 g = _mm256_loadu_ps(i_g + i), f = _mm256_loadu_ps(i_f + i);
+    const __m128 g0 = _mm256_castps256_ps128(g), f0 = _mm256_castps256_ps128(f);
+    const __m128 g1 = _mm256_extractf128_ps(g, 1), f1 = _mm256_extractf128_ps(f, 1);
+    const __m128 lo = kFma ? BoostFma(g0, f0, vb, va) : BoostMulAdd(g0, f0, vb, va);
+    const __m128 hi = kFma ? BoostFma(g1, f1, vb, va) : BoostMulAdd(g1, f1, vb, va);
+    const __m256 v = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
+    finite =
+        _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(v, abs_mask), max_finite, _CMP_LE_OQ));
+    // NaN to 0 (the ordered compare is false for NaN), then std::min(x, 1) = 1 < x ? 1 : x and
+    // std::max(m, 0) = m < 0 ? 0 : m (vminps / vmaxps return their second operand unless the
+    // first compares less / greater: -0 stays -0, as in ClampUnitRow).
+    const __m256 x = _mm256_and_ps(v, _mm256_cmp_ps(v, v, _CMP_ORD_Q));
+    _mm256_storeu_ps(dst + i, _mm256_max_ps(zero, _mm256_min_ps(one, x)));
+  }
+  bool all_finite = _mm256_movemask_ps(finite) == 0xff;
+  for (; i < n; ++i) {
+    const double g = i_g[i], f = i_f[i];
+    const float v = static_cast<float>(kFma ? std::fma(g, beta, f * alpha) : g * beta + f * alpha);
+    all_finite = all_finite && std::isfinite(v);
+    const float x = v != v ? 0.0f : v;
+    dst[i] = std::max(std::min(x, 1.0f), 0.0f);
+  }
+  return all_finite;
+}
+#define TURBID_HAVE_BOOST_AVX2 1
+#endif
+
 // ClampUnit on one row: NaN to 0 (cv::patchNaNs), then [0, 1].
 TURBID_ROW_KERNEL void ClampUnitRow(float* __restrict v, int n) {
   for (int i = 0; i < n; ++i) {
@@ -378,6 +432,183 @@ bool FitVeilModel(const std::vector<VeilSample>& samples, cv::Vec3d* c) {
   return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
 }
 
+// ---- The three-channel fit with one t and one L map (the default `full` on colour): every grid
+// pixel gives each channel the same regressors (t, (1 - t) L, t L), so when every channel keeps
+// every pixel the three fits run side by side, one channel per vector lane (GCC/Clang vector
+// extensions; lane arithmetic is the scalar arithmetic above, so the bits are the same). Pass 0's
+// six regressor sums are the same for all three channels and summed once; pass 1 adds a
+// residual-rejected sample as +0.0, which leaves a sum started at +0.0 unchanged (such a sum is
+// never -0.0 in round-to-nearest), so the masked sums equal the skipping ones.
+typedef double VeilD4 __attribute__((vector_size(32)));
+typedef long long VeilL4 __attribute__((vector_size(32)));
+
+// The normal equations' sums s00, s01, s02, s11, s12, s22, b0, b1, b2; lane c: channel c (lane 3
+// unused).
+struct VeilSums3 {
+  VeilD4 s[9];
+};
+
+// Pass 0: v holds four floats per sample (three channels and a pad).
+TURBID_ROW_KERNEL void VeilSumsAll3(const float* __restrict t, const float* __restrict l,
+                                    const float* __restrict v, size_t n, VeilSums3* out) {
+  double s00 = 0, s01 = 0, s02 = 0, s11 = 0, s12 = 0, s22 = 0;
+  VeilD4 b0 = {0, 0, 0, 0}, b1 = b0, b2 = b0;
+  for (size_t i = 0; i < n; ++i) {
+    const double x0 = t[i], li = l[i];
+    const double x1 = (1.0 - x0) * li, x2 = x0 * li;
+    s00 += x0 * x0, s01 += x0 * x1, s02 += x0 * x2;
+    s11 += x1 * x1, s12 += x1 * x2, s22 += x2 * x2;
+    const VeilD4 x3 = {v[4 * i], v[4 * i + 1], v[4 * i + 2], 0.0};
+    b0 += x0 * x3, b1 += x1 * x3, b2 += x2 * x3;
+  }
+  const double shared[6] = {s00, s01, s02, s11, s12, s22};
+  for (int j = 0; j < 6; ++j) out->s[j] = VeilD4{shared[j], shared[j], shared[j], shared[j]};
+  out->s[6] = b0, out->s[7] = b1, out->s[8] = b2;
+}
+
+// |c0 x0 + c1 x1 + c2 x2 - x3| of every sample, channel c's into r[c][i]; coef: c0, c1, c2.
+TURBID_ROW_KERNEL void VeilResiduals3(const float* __restrict t, const float* __restrict l,
+                                      const float* __restrict v, size_t n, const VeilD4* coef,
+                                      double* __restrict r0, double* __restrict r1,
+                                      double* __restrict r2) {
+  const VeilD4 c0 = coef[0], c1 = coef[1], c2 = coef[2];
+  for (size_t i = 0; i < n; ++i) {
+    const double x0 = t[i], li = l[i];
+    const double x1 = (1.0 - x0) * li, x2 = x0 * li;
+    const VeilD4 x3 = {v[4 * i], v[4 * i + 1], v[4 * i + 2], 0.0};
+    const VeilD4 d = c0 * x0 + c1 * x1 + c2 * x2 - x3;
+    r0[i] = std::abs(d[0]), r1[i] = std::abs(d[1]), r2[i] = std::abs(d[2]);
+  }
+}
+
+// Pass 1: channel c sums the samples whose residual (recomputed as above) is <= cut[c]; coef:
+// c0, c1, c2, cut.
+TURBID_ROW_KERNEL void VeilSumsKept3(const float* __restrict t, const float* __restrict l,
+                                     const float* __restrict v, size_t n, const VeilD4* coef,
+                                     VeilSums3* out) {
+  const VeilD4 c0 = coef[0], c1 = coef[1], c2 = coef[2], cut = coef[3];
+  const VeilL4 abs_bits = {0x7fffffffffffffffLL, 0x7fffffffffffffffLL, 0x7fffffffffffffffLL,
+                           0x7fffffffffffffffLL};
+  VeilD4 acc[9] = {};
+  for (size_t i = 0; i < n; ++i) {
+    const double x0 = t[i], li = l[i];
+    const double x1 = (1.0 - x0) * li, x2 = x0 * li;
+    const VeilD4 x3 = {v[4 * i], v[4 * i + 1], v[4 * i + 2], 0.0};
+    const VeilD4 d = c0 * x0 + c1 * x1 + c2 * x2 - x3;
+    const VeilL4 keep = reinterpret_cast<VeilD4>(reinterpret_cast<VeilL4>(d) & abs_bits) <= cut;
+    const double q[6] = {x0 * x0, x0 * x1, x0 * x2, x1 * x1, x1 * x2, x2 * x2};
+    VeilD4 p[9] = {};
+    for (int j = 0; j < 6; ++j) p[j] = VeilD4{q[j], q[j], q[j], q[j]};
+    p[6] = x0 * x3, p[7] = x1 * x3, p[8] = x2 * x3;
+    for (int j = 0; j < 9; ++j) {
+      acc[j] += reinterpret_cast<VeilD4>(reinterpret_cast<VeilL4>(p[j]) & keep);
+    }
+  }
+  for (int j = 0; j < 9; ++j) out->s[j] = acc[j];
+}
+
+// Channel c's normal equations solved as FitVeilModel does: false when singular or ill-conditioned.
+bool SolveVeil(const VeilSums3& s, int c, cv::Vec3d* solution) {
+  const double s00 = s.s[0][c], s01 = s.s[1][c], s02 = s.s[2][c], s11 = s.s[3][c];
+  const double s12 = s.s[4][c], s22 = s.s[5][c];
+  const cv::Matx33d ata(s00, s01, s02, s01, s11, s12, s02, s12, s22);
+  const cv::Vec3d atb(s.s[6][c], s.s[7][c], s.s[8][c]);
+  if (!cv::solve(ata, atb, *solution, cv::DECOMP_CHOLESKY)) return false;
+  cv::Vec3d eig;
+  cv::eigen(ata, eig);
+  return eig[2] > 1e-9 * eig[0];
+}
+
+// FitVeilModel for three channels whose samples share t and L (`v`: four floats per sample).
+void FitVeilModel3(const std::vector<float>& t, const std::vector<float>& l,
+                   const std::vector<float>& v, bool ok[3], cv::Vec3d fit[3]) {
+  const size_t n = t.size();
+  for (int c = 0; c < 3; ++c) ok[c] = n >= 16;
+  if (n < 16) return;
+  VeilSums3 sums;
+  VeilSumsAll3(t.data(), l.data(), v.data(), n, &sums);
+  for (int c = 0; c < 3; ++c) ok[c] = SolveVeil(sums, c, &fit[c]);
+  if (!ok[0] && !ok[1] && !ok[2]) return;
+  // The three channels' solutions (lanes) and, once selected, their residual cuts.
+  VeilD4 coef[4] = {{fit[0][0], fit[1][0], fit[2][0], 0.0},
+                    {fit[0][1], fit[1][1], fit[2][1], 0.0},
+                    {fit[0][2], fit[1][2], fit[2][2], 0.0},
+                    {0.0, 0.0, 0.0, 0.0}};
+  std::vector<double> r[3] = {std::vector<double>(n), std::vector<double>(n),
+                              std::vector<double>(n)};
+  VeilResiduals3(t.data(), l.data(), v.data(), n, coef, r[0].data(), r[1].data(), r[2].data());
+  for (int c = 0; c < 3; ++c) {
+    if (ok[c]) coef[3][c] = enhancer_internal::SelectKth<double, uint64_t>(r[c], n * 8 / 10);
+  }
+  VeilSumsKept3(t.data(), l.data(), v.data(), n, coef, &sums);
+  for (int c = 0; c < 3; ++c) {
+    if (!ok[c]) continue;
+    ok[c] = SolveVeil(sums, c, &fit[c]) && std::isfinite(fit[c][0]) && std::isfinite(fit[c][1]) &&
+            std::isfinite(fit[c][2]);
+  }
+}
+
+// The estimate from the ratios' percentile (`bound`) and the fit: the fit is usable when it is
+// physical, a > 0 and 0 <= mean reflectance (c2 / c1) <= 1.
+void SetLightScale(double bound, bool fit_ok, const cv::Vec3d& fit, LightScaleEstimate* e) {
+  e->bound = bound;
+  if (fit_ok && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
+    e->fit = fit[1];
+    e->scale = std::min(e->fit, e->bound);
+    e->source = e->fit <= e->bound ? "fit" : "bound";
+  } else {
+    e->scale = e->bound;
+    e->source = "bound (no usable fit)";
+  }
+}
+
+// EstimateLightScale for a three-channel image with one-channel t and L maps, when every channel
+// keeps every grid pixel (the sample sets are then the same; false, nothing written, when a
+// channel's value is not finite where L is). The ratios and samples are those of the general
+// loop, in grid order; the fits run side by side (FitVeilModel3).
+bool LightScaleShared3(const cv::Mat& denoised, const cv::Mat& light, const cv::Mat& transmission,
+                       int stride, float w_min, double percentile,
+                       std::vector<LightScaleEstimate>* out) {
+  const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
+                          static_cast<size_t>((denoised.cols + stride - 1) / stride);
+  std::vector<float> ts(expected), ls(expected), vs(4 * expected);
+  std::vector<float> ratios[3] = {std::vector<float>(expected), std::vector<float>(expected),
+                                  std::vector<float>(expected)};
+  size_t n = 0, m = 0;  // samples, ratios
+  for (int y = 0; y < denoised.rows; y += stride) {
+    const float* in = denoised.ptr<float>(y);
+    const float* t = transmission.ptr<float>(y);
+    const float* l = light.ptr<float>(y);
+    for (int x = 0; x < denoised.cols; x += stride) {
+      const double ti = t[x], li = l[x];
+      if (!std::isfinite(li)) continue;
+      const float* v = in + 3 * x;
+      if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) return false;
+      const float w = static_cast<float>((1.0 - ti) * li);
+      if (w >= w_min) {
+        for (int c = 0; c < 3; ++c) {
+          ratios[c][m] = static_cast<float>(std::max(static_cast<double>(v[c]), 0.0) / w);
+        }
+        ++m;
+      }
+      ts[n] = t[x], ls[n] = l[x];
+      vs[4 * n] = v[0], vs[4 * n + 1] = v[1], vs[4 * n + 2] = v[2], vs[4 * n + 3] = 0.0f;
+      ++n;
+    }
+  }
+  if (m == 0) return true;  // no pixel carries the veil: no estimate, as in the general loop
+  ts.resize(n), ls.resize(n), vs.resize(4 * n);
+  bool fit_ok[3];
+  cv::Vec3d fit[3];
+  FitVeilModel3(ts, ls, vs, fit_ok, fit);
+  for (int c = 0; c < 3; ++c) {
+    ratios[c].resize(m);
+    SetLightScale(std::max(0.0, PercentileOf(ratios[c], percentile)), fit_ok[c], fit[c],
+                  &(*out)[c]);
+  }
+  return true;
+}
+
 }  // namespace
 
 std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, const cv::Mat& light,
@@ -415,6 +646,10 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
     active[c] = w_max[c] > 0.0f && std::isfinite(w_max[c]);
     w_min[c] = static_cast<float>(support) * w_max[c];
   }
+  if (ch == 3 && lc == 1 && tc == 1 && active[0] &&
+      LightScaleShared3(denoised, light, transmission, stride, w_min[0], percentile, &out)) {
+    return out;
+  }
   // One pass over the grid collects every channel's ratios and fit samples, each in grid order.
   std::vector<std::vector<float>> ratios(ch);
   std::vector<std::vector<VeilSample>> samples(ch);
@@ -444,18 +679,10 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
   }
   for (int c = 0; c < ch; ++c) {
     if (ratios[c].empty()) continue;
-    LightScaleEstimate& e = out[c];
-    e.bound = std::max(0.0, PercentileOf(ratios[c], percentile));
+    const double bound = std::max(0.0, PercentileOf(ratios[c], percentile));
     cv::Vec3d fit;
-    // The fit is usable when it is physical: a > 0 and 0 <= mean reflectance (c2 / c1) <= 1.
-    if (FitVeilModel(samples[c], &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
-      e.fit = fit[1];
-      e.scale = std::min(e.fit, e.bound);
-      e.source = e.fit <= e.bound ? "fit" : "bound";
-    } else {
-      e.scale = e.bound;
-      e.source = "bound (no usable fit)";
-    }
+    const bool fit_ok = FitVeilModel(samples[c], &fit);
+    SetLightScale(bound, fit_ok, fit, &out[c]);
   }
   return out;
 }
@@ -512,7 +739,9 @@ double EstimateNoiseSigma(const cv::Mat& image) {
 
 // Step 1 (eq. 4): self-guided filter per channel; with denoise_adaptive the epsilon follows the
 // haze (t_med) and the noise.
-cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r) {
+// `noise_sigma`: the image's EstimateNoiseSigma when already known (else null: computed here).
+cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r,
+                    const double* noise_sigma = nullptr) {
   if (!o.denoise) {
     r->steps.push_back("denoise: skipped (off)");
     return image;
@@ -532,7 +761,7 @@ cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r) {
       }
       if (!sample.empty()) t_med = PercentileOf(sample, 50.0);
     }
-    r->noise_sigma = EstimateNoiseSigma(image);
+    r->noise_sigma = noise_sigma != nullptr ? *noise_sigma : EstimateNoiseSigma(image);
     const double noise_eps = std::pow(o.denoise_noise_factor * r->noise_sigma, 2);
     g.eps = std::min(o.denoise_eps, std::max(o.denoise_eps * t_med * t_med, noise_eps));
     g.eps = std::max(g.eps, 1e-8);
@@ -1044,8 +1273,9 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
 // Steps 1-5 of `full` for a three-channel image after the geometry (FullEnhanceImpl's).
 cv::Mat FullColorStreamed(const FullOptions& o, const cv::Mat& image,
                           const IrradianceOptions& lights, const CameraIntrinsics& camera,
-                          const std::vector<double>& beta, bool any_beta, FullResult* r) {
-  const cv::Mat denoised = DenoiseStep(o, image, r);
+                          const std::vector<double>& beta, bool any_beta,
+                          const double* noise_sigma, FullResult* r) {
+  const cv::Mat denoised = DenoiseStep(o, image, r, noise_sigma);
   LightEstimate light = LightStepUnscaled(o, lights, camera, beta, denoised, r);
   const bool dehaze = o.dehaze && any_beta;
   ColorRowSource src(o, image, denoised, std::move(light), r->transmission, dehaze);
@@ -1075,9 +1305,23 @@ cv::Mat FullColorStreamed(const FullOptions& o, const cv::Mat& image,
 FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Scene* scene,
                            const nlohmann::json* sidecar, bool keep_steps) {
   ThrowIfInvalid(o, "full");
-  ValidateEnhanceImage(image, "full");
   FullResult r;
   const int channels = image.channels();
+  // The streamed colour path with adaptive denoising reads the input once for the finiteness
+  // check and the noise estimate: every value has a nonzero weight in some |I * N| term of the
+  // estimate (3 x 3 and larger), so a non-finite value makes the sum non-finite; only then (or
+  // when finite values overflow it) is the input scanned, to name the row as before.
+  const bool streamed = !keep_steps && image.channels() == 3;
+  double noise_sigma = 0.0;
+  const bool sigma_known =
+      streamed && o.denoise && o.denoise_adaptive && image.rows >= 3 && image.cols >= 3;
+  if (sigma_known) {
+    ValidateEnhanceImageLayout(image, "full");
+    noise_sigma = EstimateNoiseSigma(image);
+    if (!std::isfinite(noise_sigma)) ValidateEnhanceImage(image, "full");
+  } else {
+    ValidateEnhanceImage(image, "full");
+  }
 
   IrradianceOptions lights;
   std::vector<double> beta;
@@ -1094,8 +1338,9 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
     r.steps.push_back("plane: from " + source);
     if (any_beta) TransmissionStep(o, camera, beta, image.size(), keep_steps, &r);
   }
-  if (!keep_steps && channels == 3) {
-    r.image = FullColorStreamed(o, image, lights, camera, beta, any_beta, &r);
+  if (streamed) {
+    r.image = FullColorStreamed(o, image, lights, camera, beta, any_beta,
+                                sigma_known ? &noise_sigma : nullptr, &r);
     return r;
   }
   cv::Mat current = DenoiseStep(o, image, &r);
@@ -1224,14 +1469,25 @@ cv::Mat SimplifiedColor(const SimplifiedOptions& o, const GuidedFilterOptions& f
   std::vector<float> lum(image.cols);
   if (o.contrast) bins = ClaheNewBins(o.clahe, image.size());
   bool validated = false;
+  const bool avx2 = enhancer_internal::UseHandWrittenAvx2(), fma = CpuHasFma();
   GuidedFilterSelfRows({fine, coarse}, image, [&](int y, const std::vector<const float*>& q) {
     float* dst = out.ptr<float>(y);
-    AddWeightedRow(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n);
-    if (!validated && !RowIsFinite(dst, static_cast<size_t>(n))) {
+    bool finite;
+#ifdef TURBID_HAVE_BOOST_AVX2
+    if (avx2) {
+      finite = fma ? BoostClampRowAvx2<true>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n)
+                   : BoostClampRowAvx2<false>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n);
+    } else
+#endif
+    {
+      AddWeightedRow(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n);
+      finite = RowIsFinite(dst, static_cast<size_t>(n));
+      ClampUnitRow(dst, n);
+    }
+    if (!validated && !finite) {
       ValidateEnhanceImage(image, "simplified");
       validated = true;
     }
-    ClampUnitRow(dst, n);
     if (o.contrast) ClaheBinColorRow(o.clahe, dst, lum.data(), bins, y);
   });
   if (o.contrast) ClaheColorFromBins(o.clahe, bins, out);  // in [0, 1]

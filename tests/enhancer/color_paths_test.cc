@@ -433,6 +433,32 @@ TEST(ColorPaths, LightScaleAndNoiseEstimatesEqualReference) {
       EXPECT_EQ(d.noise_sigma, ReferenceNoiseSigma(img)) << size << " ch " << ch;
     }
   }
+  // One-channel t and L with three channels (the default `full`: the fits run side by side), with
+  // every channel finite, then with a non-finite value in one channel or in L (the channels'
+  // sample sets then differ or lose a pixel).
+  for (const cv::Size& size : OddSizes()) {
+    for (int damage = 0; damage < 4; ++damage) {
+      cv::Mat img(size, CV_32FC3), t(size, CV_32F), l(size, CV_32F);
+      cv::RNG rng(size.area() + 7 * damage);
+      rng.fill(img, cv::RNG::UNIFORM, -0.1, 1.0);
+      rng.fill(t, cv::RNG::UNIFORM, 0.1, 1.0);
+      rng.fill(l, cv::RNG::UNIFORM, 0.0, 2.0);
+      const int y = size.height / 2, x = size.width / 2 - size.width / 2 % 2;
+      if (damage == 1) img.at<cv::Vec3f>(0, 0)[1] = std::numeric_limits<float>::quiet_NaN();
+      if (damage == 2) img.at<cv::Vec3f>(y, x)[2] = std::numeric_limits<float>::infinity();
+      if (damage == 3) l.at<float>(0, 0) = std::numeric_limits<float>::quiet_NaN();
+      for (double pct : {1.0, 30.0}) {
+        const auto got = EstimateLightScale(img, l, t, pct, 0.25);
+        const auto want = ReferenceEstimateLightScale(img, l, t, pct, 0.25);
+        for (size_t c = 0; c < got.size(); ++c) {
+          EXPECT_EQ(got[c].scale, want[c].scale) << size << " damage " << damage << " c " << c;
+          EXPECT_EQ(got[c].fit, want[c].fit) << size << " damage " << damage << " c " << c;
+          EXPECT_EQ(got[c].bound, want[c].bound) << size << " damage " << damage << " c " << c;
+          EXPECT_EQ(got[c].source, want[c].source) << size << " damage " << damage << " c " << c;
+        }
+      }
+    }
+  }
 }
 
 // ---- simplified.
@@ -445,6 +471,8 @@ TEST(ColorPaths, SimplifiedEqualsReference) {
   }
   for (const ColorRender& r : Renders()) inputs.emplace_back(r.name, r.render.image);
   for (auto& f : RealFrames()) inputs.push_back(f);
+  // Values beyond [0, 1] on both sides (the boost's clamp).
+  inputs.emplace_back("out of range", SmoothNoise(29, 41, 3) * 3.0 - 1.0);
   for (const auto& [name, img] : inputs) {
     for (int variant = 0; variant < 4; ++variant) {
       SimplifiedOptions o;
@@ -552,6 +580,41 @@ TEST(ColorPaths, FullAndSimplifiedEqualReferenceOnRealFrames) {
     EXPECT_TRUE(SameBits(SimplifiedEnhance(SimplifiedOptions{}, img),
                          ReferenceSimplified(SimplifiedOptions{}, img)))
         << name;
+  }
+}
+
+TEST(ColorPaths, FullNamesTheRowOfANonFiniteInput) {
+  // The streamed colour path checks the input through its noise estimate (adaptive denoising):
+  // every corner, edge and inner value is caught, with the message of the up-front check; an
+  // input whose finite values overflow the estimate gives the whole-image pipeline's output.
+  const float bad[] = {std::numeric_limits<float>::quiet_NaN(),
+                       std::numeric_limits<float>::infinity(),
+                       -std::numeric_limits<float>::infinity()};
+  FullOptions fixed;
+  fixed.denoise_adaptive = false;
+  for (const FullOptions& o : {FullOptions{}, fixed})
+    for (float value : bad)
+      for (cv::Point at : {cv::Point(0, 0), cv::Point(48, 0), cv::Point(0, 39), cv::Point(48, 39),
+                           cv::Point(20, 17), cv::Point(1, 38)})
+        for (int channel = 0; channel < 3; ++channel) {
+          cv::Mat img(40, 49, CV_32FC3, cv::Scalar::all(0.4));
+          img.at<cv::Vec3f>(at)[channel] = value;
+          try {
+            FullEnhance(o, img, nullptr, nullptr);
+            ADD_FAILURE() << value << " at " << at << " passed";
+          } catch (const Error& e) {
+            EXPECT_EQ(std::string(e.what()),
+                      "full: input image has non-finite values (row " + std::to_string(at.y) + ")");
+          }
+        }
+  for (const cv::Size& size : {cv::Size(49, 40), cv::Size(2, 9), cv::Size(9, 2)}) {
+    cv::Mat huge(size, CV_32FC3, cv::Scalar::all(0.4));
+    huge.at<cv::Vec3f>(size.height / 2, size.width / 2) = {3e38f, -3e38f, 3e38f};
+    EXPECT_TRUE(SameBits(FullEnhance(FullOptions{}, huge, nullptr, nullptr),
+                         FullEnhanceDetailed(FullOptions{}, huge, nullptr, nullptr).image))
+        << size;
+    huge.at<cv::Vec3f>(0, 0)[1] = std::numeric_limits<float>::quiet_NaN();
+    EXPECT_THROW(FullEnhance(FullOptions{}, huge, nullptr, nullptr), Error) << size;
   }
 }
 
