@@ -59,6 +59,20 @@ void WeberWindowSums(const double* table, int table_stride, const uint8_t* value
                      const uint8_t* tests, int stride, int size, int s_min, int s_max,
                      double* sums_v, double* sums_h, double* counts_v, double* counts_h);
 
+// The tables of OpenCV's 8-bit BGR → Lab (metrics/opencv_lab.h).
+struct Lab8Tables {
+  int32_t gamma[256];  // sRGB gamma of v / 255, × 255·8, rounded (0..2040)
+  int32_t matrix[9];   // X, Y, Z rows × B, G, R columns: sRGB→XYZ / D65 white × 4096, rounded
+  int32_t cbrt[3072];  // CIE f(i / 2040) × 2^15, rounded; index = a rounded X, Y or Z (<= 2041)
+  // gamma[v] · matrix column c for source byte c and value v: the {X, Y, Z, 0} terms. The B terms
+  // include the 2^11 that rounds the sums: X = (xyz[0][b][0] + xyz[1][g][0] + xyz[2][r][0]) >> 12.
+  int32_t xyz[3][256][4];
+};
+
+// n BGR pixels (3 bytes each) → 3·n bytes L, a, b with the tables (OpenCV's RGB2Lab_b
+// arithmetic; integers, so every copy gives the same bytes). `portable`: the plain loop only.
+void BgrToLab8(const uint8_t* bgr, int n, const Lab8Tables& tables, uint8_t* lab, bool portable);
+
 // UCIQE's saturation (metrics/uciqe.cc) of n 8-bit Lab pixels (L, a, b interleaved):
 // saturation[k] = chr / √(chr² + l²) and chr[k] = chr, chr = chroma[a · 256 + b], l = L / 255,
 // rounded as written (no FMA contraction), so every copy gives the reference's doubles.
