@@ -72,13 +72,15 @@ const std::array<uint8_t, 3 * 256>& GrayTable() {
   static const std::array<uint8_t, 3 * 256> table = [] {
     std::array<uint8_t, 3 * 256> bgr{}, lab{};
     for (int v = 0; v < 256; ++v) std::fill_n(bgr.begin() + 3 * v, 3, static_cast<uint8_t>(v));
-    simd::BgrToLab8(bgr.data(), 256, Tables(), lab.data(), true);
+    simd::BgrToLab8(bgr.data(), 256, Tables(), lab.data());
     return lab;
   }();
   return table;
 }
 
-void Convert(const uint8_t* src, int channels, size_t n, uint8_t* lab, bool portable) {
+}  // namespace
+
+void BgrToLab8(const uint8_t* src, int channels, size_t n, uint8_t* lab) {
   if (channels == 1) {
     const uint8_t* table = GrayTable().data();
     for (size_t k = 0; k < n; ++k) std::copy_n(table + 3 * src[k], 3, lab + 3 * k);
@@ -87,18 +89,8 @@ void Convert(const uint8_t* src, int channels, size_t n, uint8_t* lab, bool port
   constexpr size_t kBlock = size_t{1} << 30;  // the kernels count pixels in int
   for (size_t k = 0; k < n; k += kBlock) {
     const int count = static_cast<int>(std::min(kBlock, n - k));
-    simd::BgrToLab8(src + 3 * k, count, Tables(), lab + 3 * k, portable);
+    simd::BgrToLab8(src + 3 * k, count, Tables(), lab + 3 * k);
   }
-}
-
-}  // namespace
-
-void BgrToLab8(const uint8_t* src, int channels, size_t n, uint8_t* lab) {
-  Convert(src, channels, n, lab, false);
-}
-
-void BgrToLab8Portable(const uint8_t* src, int channels, size_t n, uint8_t* lab) {
-  Convert(src, channels, n, lab, true);
 }
 
 }  // namespace turbid

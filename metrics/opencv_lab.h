@@ -19,10 +19,7 @@
 namespace turbid {
 
 // n pixels of `channels` bytes (3: B, G, R; 1: gray, converted as if B = G = R) → 3·n bytes
-// L, a, b. Picks the vectorised kernel where the CPU has it.
+// L, a, b. Picks the vectorised kernel where the CPU has it (simd::ActiveSimdLevel()).
 void BgrToLab8(const uint8_t* src, int channels, size_t n, uint8_t* lab);
-
-// The same through the portable loop only (the tests compare both kernels with OpenCV).
-void BgrToLab8Portable(const uint8_t* src, int channels, size_t n, uint8_t* lab);
 
 }  // namespace turbid

@@ -679,8 +679,8 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
   const cv::Mat& gray_o = original.gray8;
   if (gray_o.size() != restored.size()) {
     throw Error("visible edges: original is " + std::to_string(gray_o.cols) + "x" +
-                std::to_string(gray_o.rows) + " but restored is " +
-                std::to_string(restored.cols) + "x" + std::to_string(restored.rows));
+                std::to_string(gray_o.rows) + " but restored is " + std::to_string(restored.cols) +
+                "x" + std::to_string(restored.rows));
   }
   const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
   const cv::Mat mask_r =

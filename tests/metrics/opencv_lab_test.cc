@@ -1,5 +1,6 @@
 // metrics/opencv_lab.h against cv::cvtColor(COLOR_BGR2Lab) on every one of the 2^24 8-bit colours,
-// through both kernels (vectorised where the CPU has it, and portable), and through both of
+// through both kernels (vectorised where the CPU has it, and the portable one, chosen with
+// simd::SetSimdLevelCap), and through both of
 // OpenCV's loops: rows of 4096 pixels go through its vectorised loop, rows of 31 pixels (fewer than
 // one vector) through its scalar one, so a difference between those would show here too.
 #include "metrics/opencv_lab.h"
@@ -9,6 +10,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
+
+#include "metrics/simd_dispatch.h"
 
 namespace turbid {
 namespace {
@@ -44,7 +47,9 @@ void ExpectAllColoursEqual(int cols) {
   ASSERT_TRUE(expected.isContinuous());
   std::vector<uint8_t> fast(3 * bgr.total()), portable(3 * bgr.total());
   BgrToLab8(bgr.ptr<uint8_t>(0), 3, bgr.total(), fast.data());
-  BgrToLab8Portable(bgr.ptr<uint8_t>(0), 3, bgr.total(), portable.data());
+  simd::SetSimdLevelCap(simd::SimdLevel::kBaseline);
+  BgrToLab8(bgr.ptr<uint8_t>(0), 3, bgr.total(), portable.data());
+  simd::SetSimdLevelCap(simd::SimdLevel::kAvx512);
   long at = FirstDifference(expected, fast);
   EXPECT_EQ(at, -1) << "vectorised kernel, rows of " << cols << ": first difference at BGR "
                     << (at & 255) << ", " << ((at >> 8) & 255) << ", " << (at >> 16);
