@@ -71,7 +71,7 @@ struct Lab8Tables {
   int32_t cbrt[3072];  // CIE f(i / 2040) × 2^15, rounded; index = a rounded X, Y or Z (<= 2041)
   // gamma[v] · matrix column c for source byte c and value v: the {X, Y, Z, 0} terms. The B terms
   // include the 2^11 that rounds the sums: X = (xyz[0][b][0] + xyz[1][g][0] + xyz[2][r][0]) >> 12.
-  int32_t xyz[3][256][4];
+  alignas(16) int32_t xyz[3][256][4];
 };
 
 // n BGR pixels (3 bytes each) → 3·n bytes L, a, b with the tables (OpenCV's RGB2Lab_b
