@@ -1,6 +1,7 @@
 #include "metrics/ssim.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
@@ -94,7 +95,11 @@ class SsimBand {
   void Run(int row_begin, int row_end, int col_begin, int col_end, cv::Mat* map, double* row_sums) {
     const int taps = static_cast<int>(taps_.size());
     const size_t padded_width = static_cast<size_t>(width_ + 2 * radius_);
+    // A band that continues the previous one keeps the ring rows it already holds.
+    const int slots = taps + kGroup - 1;
     int next_virtual = row_begin - radius_;
+    if (filled_end_ >= next_virtual && filled_end_ - slots <= next_virtual)
+      next_virtual = filled_end_;
     const float* rows[kMaxTaps + 3];
     float* vertical[kGroup][kMoments];
     for (int t = 0; t < kGroup; ++t)
@@ -117,6 +122,7 @@ class SsimBand {
         FinishRow(i + t, vertical[t], col_begin, col_end, map, row_sums);
       i += group;
     }
+    filled_end_ = next_virtual;
   }
 
   static constexpr int kMaxTaps = 2 * 64 + 1;
@@ -177,6 +183,7 @@ class SsimBand {
   std::vector<float> ring_;
   std::vector<float> padded_;
   std::vector<double> ssim_row_;
+  int filled_end_ = INT_MIN;  // ring rows [filled_end_ - slots, filled_end_) are filled
 };
 
 // The plain double-precision path (SsimOptions::exact_double): five full-size CV_64F moment
