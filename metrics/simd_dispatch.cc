@@ -336,7 +336,7 @@ void UciqeSpreadFast(const uint8_t* lab, int n, const double* chroma, double mea
 }
 
 // Eight pixels per step. Zen 4 and most x86 cores serve a gather at about one element per cycle,
-// a third of what plain loads reach (measured: a gather version took 1.7× as long), so the look-ups
+// a third of what plain loads reach (measured: a gather version took ~1.8× as long), so the look-ups
 // are loads: per pixel, X, Y, Z as one 128-bit sum of its three {X, Y, Z, 0} term rows, then f(t)
 // of each; L, a, b, the clamping packs and the interleaving are vector code over the 8 pixels. Each step stores 2 × 16 bytes of which 24 are its pixels, so it runs while two more
 // pixels follow; the portable loop does the rest.
