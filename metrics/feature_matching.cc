@@ -1,10 +1,9 @@
 #include "metrics/feature_matching.h"
 
+#include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
-
-#include <cmath>
 
 #include "metrics/full_reference.h"
 #include "metrics/image_checks.h"
@@ -57,12 +56,9 @@ nlohmann::json PairMatchResult::ToJson() const {
 nlohmann::json MatchBatchResult::ToJson() const {
   nlohmann::json detail = nlohmann::json::array();
   for (const PairMatchResult& p : per_pair) detail.push_back(p.ToJson());
-  return {{"detector", detector},
-          {"pairs", pairs},
-          {"active_sets", active_sets},
-          {"mean_correspondences", mean_correspondences},
-          {"mean_inliers", mean_inliers},
-          {"pairs_detail", detail}};
+  return {{"detector", detector},         {"pairs", pairs},
+          {"active_sets", active_sets},   {"mean_correspondences", mean_correspondences},
+          {"mean_inliers", mean_inliers}, {"pairs_detail", detail}};
 }
 
 cv::Mat ToGray8(const cv::Mat& image, double data_range) {

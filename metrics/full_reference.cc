@@ -1,9 +1,8 @@
 #include "metrics/full_reference.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <cmath>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "metrics/image_checks.h"
 #include "metrics/simd_dispatch.h"
@@ -110,8 +109,8 @@ CnrResult Cnr(const CnrOptions& options, const cv::Mat& image) {
     cv::Mat y8;
     y.convertTo(y8, CV_8U, 255.0 / range);  // saturating, rounds to nearest
     cv::Mat above;
-    result.otsu_threshold = static_cast<int>(
-        cv::threshold(y8, above, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU));
+    result.otsu_threshold =
+        static_cast<int>(cv::threshold(y8, above, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU));
     signal = above;
     cv::bitwise_not(above, background);
   }

@@ -45,8 +45,7 @@ const std::vector<MetricInfo>& ListMetrics() {
       {"uicm", "UIQM colourfulness term (FUnIE-GAN)", false, false, true},
       {"uism", "UIQM sharpness term (FUnIE-GAN)", false, false, true},
       {"uiconm", "UIQM contrast term (FUnIE-GAN)", false, false, true},
-      {"uiqm_corrected", "UIQM with the trimmed-mean and lambda_B bugs fixed", false, false,
-       true},
+      {"uiqm_corrected", "UIQM with the trimmed-mean and lambda_B bugs fixed", false, false, true},
       {"uciqe", "UCIQE, Yang & Sowmya 2015; = JOU-UIP UCIQE.py", false, false, true},
   };
   return metrics;

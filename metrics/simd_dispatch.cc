@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <limits>
 
@@ -52,14 +53,14 @@ void SsimHorizontalFormula(const float* const* moments, const float* weights, in
                            double offset, double c1, double c2, double* out) {
   const int r = taps / 2;
   for (int j = 0; j < n; ++j) {
-    float m[5];
-    for (int q = 0; q < 5; ++q) {
+    float m[4];
+    for (int q = 0; q < 4; ++q) {
       const float* p = moments[q] + j;
       float a = weights[r] * p[0];
       for (int k = 1; k <= r; ++k) a += weights[r + k] * (p[-k] + p[k]);
       m[q] = a;
     }
-    SsimFormulaRow(&m[0], &m[1], &m[2], &m[3], &m[4], 1, offset, c1, c2, out + j);
+    SsimFormulaRow(&m[0], &m[1], &m[2], &m[3], 1, offset, c1, c2, out + j);
   }
 }
 }  // namespace base
@@ -124,7 +125,7 @@ void SymmetricColumnPairFast(const float* const* rows, const float* weights, int
 }
 
 // Four output rows from taps + 3 input rows, 8 columns at a time: the input vectors are loaded once
-// (from L2: the ring of five moments does not fit L1) and reused from registers or L1 for all four
+// (from L2: the ring of four moments does not fit L1) and reused from registers or L1 for all four
 // rows, which cuts the L2 traffic of the vertical pass from 6 to 3.5 loads per output.
 template <int kRadius>
 void SymmetricColumnQuadFast(const float* const* rows, const float* weights, float* const* out,
@@ -156,11 +157,11 @@ void SymmetricColumnQuadFast(const float* const* rows, const float* weights, flo
 
 // SSIM of eight columns from their moments, in float: the moments themselves are float sums, so
 // the formula in double would only carry their rounding further, at twice the cost and two double
-// divides. The denominators are written as numerator + difference term, using
-// ux^2 + uy^2 = 2 ux uy + (ux - uy)^2 and vx + vy = 2 vxy + var(x - y): identical inputs then give
+// divides. As in SsimFormulaRow, the denominators are numerator + difference terms
+// (ux^2 + uy^2 = 2 ux uy + (ux - uy)^2, vx + vy = 2 vxy + var(x - y)): identical inputs then give
 // exactly 1, and the offset never cancels in ux - uy.
-inline __m256 FormulaPs(__m256 dx, __m256 dy, __m256 mxx, __m256 myy, __m256 mxy, __m256 offset,
-                        __m256 c1, __m256 c2) {
+inline __m256 FormulaPs(__m256 dx, __m256 dy, __m256 mxy, __m256 mdd, __m256 offset, __m256 c1,
+                        __m256 c2) {
   const __m256 two = _mm256_set1_ps(2.0f);
   const __m256 ux = _mm256_add_ps(dx, offset);
   const __m256 uy = _mm256_add_ps(dy, offset);
@@ -169,15 +170,31 @@ inline __m256 FormulaPs(__m256 dx, __m256 dy, __m256 mxx, __m256 myy, __m256 mxy
   const __m256 a2 = _mm256_fmadd_ps(two, vxy, c2);
   const __m256 d = _mm256_sub_ps(dx, dy);
   const __m256 d2 = _mm256_mul_ps(d, d);
-  const __m256 spread = _mm256_fnmadd_ps(two, mxy, _mm256_add_ps(mxx, myy));  // E[(x - y)^2]
   const __m256 b1 = _mm256_add_ps(a1, d2);
-  const __m256 b2 = _mm256_add_ps(a2, _mm256_sub_ps(spread, d2));
+  const __m256 b2 = _mm256_add_ps(a2, _mm256_sub_ps(mdd, d2));
   return _mm256_div_ps(_mm256_mul_ps(a1, a2), _mm256_mul_ps(b1, b2));
 }
 
-// Horizontal pass of the five moments, 8 columns at a time, straight into the formula: the
-// filtered moments never leave registers. A ragged end is done as one more (overlapping) block, so
-// every column takes the same arithmetic wherever the column range starts.
+// The filtered moment q of eight columns at p: every column takes this arithmetic, whichever block
+// it falls in.
+template <int kRadius>
+inline __m256 HorizontalTaps(const float* p, const float* weights, int r) {
+  __m256 m = _mm256_mul_ps(_mm256_broadcast_ss(weights + r), _mm256_loadu_ps(p));
+  for (int k = 1; k <= r; ++k)
+    m = _mm256_fmadd_ps(_mm256_broadcast_ss(weights + r + k),
+                        _mm256_add_ps(_mm256_loadu_ps(p - k), _mm256_loadu_ps(p + k)), m);
+  return m;
+}
+
+inline void StoreSsim(__m256 s, double* out) {
+  _mm256_storeu_pd(out, _mm256_cvtps_pd(_mm256_castps256_ps128(s)));
+  _mm256_storeu_pd(out + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(s, 1)));
+}
+
+// Horizontal pass of the four moments, 16 columns at a time (two blocks of 8 whose windows overlap,
+// so the loads at offsets 8 - r .. r serve both), straight into the formula: the filtered moments
+// never leave registers. A ragged end is done as (overlapping) blocks of 8, so every column takes
+// the same arithmetic wherever the column range starts.
 template <int kRadius>
 void SsimHorizontalFormulaFast(const float* const* moments, const float* weights, int taps, int n,
                                double offset, double c1, double c2, double* out) {
@@ -186,9 +203,9 @@ void SsimHorizontalFormulaFast(const float* const* moments, const float* weights
     // Fewer than 8 columns: the same vector arithmetic on a zero-extended copy, so that a narrow
     // column range gives bit for bit what the wide one gives for the same columns.
     constexpr int kMaxRadius = 64;
-    alignas(32) float copy[5][8 + 2 * kMaxRadius] = {};
-    const float* rows[5];
-    for (int q = 0; q < 5; ++q) {
+    alignas(32) float copy[4][8 + 2 * kMaxRadius] = {};
+    const float* rows[4];
+    for (int q = 0; q < 4; ++q) {
       std::copy(moments[q] - r, moments[q] + n + r, copy[q]);
       rows[q] = copy[q] + r;
     }
@@ -200,22 +217,21 @@ void SsimHorizontalFormulaFast(const float* const* moments, const float* weights
   const __m256 o = _mm256_set1_ps(static_cast<float>(offset));
   const __m256 vc1 = _mm256_set1_ps(static_cast<float>(c1));
   const __m256 vc2 = _mm256_set1_ps(static_cast<float>(c2));
-  for (int j0 = 0; j0 < n; j0 += 8) {
-    const int j = std::min(j0, n - 8);
-    __m256 m[5];
-    const __m256 wc = _mm256_broadcast_ss(weights + r);
-    for (int q = 0; q < 5; ++q) m[q] = _mm256_mul_ps(wc, _mm256_loadu_ps(moments[q] + j));
-    for (int k = 1; k <= r; ++k) {
-      const __m256 w = _mm256_broadcast_ss(weights + r + k);
-      for (int q = 0; q < 5; ++q) {
-        const float* p = moments[q] + j;
-        m[q] =
-            _mm256_fmadd_ps(w, _mm256_add_ps(_mm256_loadu_ps(p - k), _mm256_loadu_ps(p + k)), m[q]);
-      }
+  int j = 0;
+  for (; j + 16 <= n; j += 16) {
+    __m256 m0[4], m1[4];
+    for (int q = 0; q < 4; ++q) {
+      m0[q] = HorizontalTaps<kRadius>(moments[q] + j, weights, r);
+      m1[q] = HorizontalTaps<kRadius>(moments[q] + j + 8, weights, r);
     }
-    const __m256 s = FormulaPs(m[0], m[1], m[2], m[3], m[4], o, vc1, vc2);
-    _mm256_storeu_pd(out + j, _mm256_cvtps_pd(_mm256_castps256_ps128(s)));
-    _mm256_storeu_pd(out + j + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(s, 1)));
+    StoreSsim(FormulaPs(m0[0], m0[1], m0[2], m0[3], o, vc1, vc2), out + j);
+    StoreSsim(FormulaPs(m1[0], m1[1], m1[2], m1[3], o, vc1, vc2), out + j + 8);
+  }
+  for (; j < n; j += 8) {
+    const int b = std::min(j, n - 8);
+    __m256 m[4];
+    for (int q = 0; q < 4; ++q) m[q] = HorizontalTaps<kRadius>(moments[q] + b, weights, r);
+    StoreSsim(FormulaPs(m[0], m[1], m[2], m[3], o, vc1, vc2), out + b);
   }
 }
 
@@ -483,6 +499,55 @@ void UciqeSpreadFast(const uint8_t* lab, int n, const double* chroma, double mea
   }
   UciqeSpread(lab + 3 * k, n - k, chroma, mean, out + k);
 }
+
+// Eight pixels per step. Zen 4 and most x86 cores serve a gather at about one element per cycle,
+// a third of what plain loads reach (measured: a gather version took ~1.8× as long), so the look-ups
+// are loads: per pixel, X, Y, Z as one 128-bit sum of its three {X, Y, Z, 0} term rows, then f(t)
+// of each; L, a, b, the clamping packs and the interleaving are vector code over the 8 pixels. Each step stores 2 × 16 bytes of which 24 are its pixels, so it runs while two more
+// pixels follow; the portable loop does the rest.
+void BgrToLab8Fast(const uint8_t* bgr, int n, const Lab8Tables& t, uint8_t* lab) {
+  const __m256i l_scale = _mm256_set1_epi32(kLab8LScale);
+  const __m256i l_shift = _mm256_set1_epi32(kLab8LShift);
+  const __m256i ab_shift = _mm256_set1_epi32(kLab8AbShift);
+  const __m256i c500 = _mm256_set1_epi32(500);
+  const __m256i c200 = _mm256_set1_epi32(200);
+  // L0..L3 a0..a3 b0..b3 (after the packs, per 128-bit lane) → L0 a0 b0 L1 a1 b1 ...
+  const __m256i interleave = _mm256_setr_epi8(0, 4, 8, 1, 5, 9, 2, 6, 10, 3, 7, 11, -1, -1, -1, -1,
+                                              0, 4, 8, 1, 5, 9, 2, 6, 10, 3, 7, 11, -1, -1, -1, -1);
+  int k = 0;
+  for (; k + 10 <= n; k += 8) {
+    alignas(32) int32_t f[3][8];
+    for (int i = 0; i < 8; ++i) {
+      // X, Y, Z of one pixel in one 128-bit sum of its three term rows.
+      const uint8_t* p = bgr + 3 * (k + i);
+      const __m128i sum = _mm_srai_epi32(
+          _mm_add_epi32(
+              _mm_add_epi32(_mm_load_si128(reinterpret_cast<const __m128i*>(t.xyz[0][p[0]])),
+                            _mm_load_si128(reinterpret_cast<const __m128i*>(t.xyz[1][p[1]]))),
+              _mm_load_si128(reinterpret_cast<const __m128i*>(t.xyz[2][p[2]]))),
+          12);
+      f[0][i] = t.cbrt[_mm_cvtsi128_si32(sum)];
+      f[1][i] = t.cbrt[_mm_extract_epi32(sum, 1)];
+      f[2][i] = t.cbrt[_mm_extract_epi32(sum, 2)];
+    }
+    const __m256i x = _mm256_load_si256(reinterpret_cast<const __m256i*>(f[0]));
+    const __m256i y = _mm256_load_si256(reinterpret_cast<const __m256i*>(f[1]));
+    const __m256i z = _mm256_load_si256(reinterpret_cast<const __m256i*>(f[2]));
+    const __m256i l =
+        _mm256_srai_epi32(_mm256_add_epi32(_mm256_mullo_epi32(y, l_scale), l_shift), 15);
+    const __m256i a = _mm256_srai_epi32(
+        _mm256_add_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(x, y), c500), ab_shift), 15);
+    const __m256i b = _mm256_srai_epi32(
+        _mm256_add_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(y, z), c200), ab_shift), 15);
+    const __m256i la = _mm256_packus_epi32(l, a);  // u16: L0-3 a0-3 | L4-7 a4-7
+    const __m256i b0 = _mm256_packus_epi32(b, _mm256_setzero_si256());  // u16: b0-3 0 | b4-7 0
+    const __m256i bytes = _mm256_shuffle_epi8(_mm256_packus_epi16(la, b0), interleave);
+    uint8_t* out = lab + 3 * k;
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out), _mm256_castsi256_si128(bytes));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + 12), _mm256_extracti128_si256(bytes, 1));
+  }
+  avx2::BgrToLab8(bgr + 3 * k, n - k, t, lab + 3 * k);
+}
 }  // namespace avx2
 #if defined(__clang__)
 #pragma clang attribute pop
@@ -491,16 +556,128 @@ void UciqeSpreadFast(const uint8_t* lab, int n, const double* chroma, double mea
 #endif
 #endif
 
-namespace {
-bool UseAvx2() {
-#ifdef TURBID_HAVE_AVX2_COPY
-  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return yes;
+#if defined(TURBID_HAVE_AVX2_COPY)
+#define TURBID_HAVE_AVX512_COPY 1
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx512f,avx2,fma"))), apply_to = function)
 #else
-  return false;
+#pragma GCC push_options
+#pragma GCC target("avx512f,avx2,fma")
+#endif
+// 16-lane copies of the two SSIM kernels that do most of the work. Every lane takes exactly the
+// arithmetic of the 8-lane AVX2 kernels (same operations in the same order), so the results are
+// bit for bit the same; what changes is the instruction count (on Zen 4 a 512-bit operation is one
+// instruction for two 256-bit halves), which is what limits these loops.
+namespace avx512 {
+
+template <int kRadius>
+void SymmetricColumnQuadFast(const float* const* rows, const float* weights, float* const* out,
+                             int n) {
+  constexpr int kTaps = 2 * kRadius + 1;
+  __m512 w[kRadius + 1];
+  for (int k = 0; k <= kRadius; ++k) w[k] = _mm512_set1_ps(weights[kRadius + k]);
+  const auto row_sum = [&](const __m512* v, int t) {
+    __m512 acc = _mm512_mul_ps(w[0], v[kRadius + t]);
+    for (int k = 1; k <= kRadius; ++k)
+      acc = _mm512_fmadd_ps(w[k], _mm512_add_ps(v[kRadius + t - k], v[kRadius + t + k]), acc);
+    return acc;
+  };
+  int j = 0;
+  for (; j + 16 <= n; j += 16) {
+    __m512 v[kTaps + 3];
+    for (int s = 0; s < kTaps + 3; ++s) v[s] = _mm512_loadu_ps(rows[s] + j);
+    for (int t = 0; t < 4; ++t) _mm512_storeu_ps(out[t] + j, row_sum(v, t));
+  }
+  if (j < n) {
+    const float* rest[kTaps + 3];
+    float* rest_out[4];
+    for (int s = 0; s < kTaps + 3; ++s) rest[s] = rows[s] + j;
+    for (int t = 0; t < 4; ++t) rest_out[t] = out[t] + j;
+    avx2::SymmetricColumnQuadFast<kRadius>(rest, weights, rest_out, n - j);
+  }
+}
+
+inline __m512 FormulaPs(__m512 dx, __m512 dy, __m512 mxy, __m512 mdd, __m512 offset, __m512 c1,
+                        __m512 c2) {
+  const __m512 two = _mm512_set1_ps(2.0f);
+  const __m512 ux = _mm512_add_ps(dx, offset);
+  const __m512 uy = _mm512_add_ps(dy, offset);
+  const __m512 vxy = _mm512_fnmadd_ps(dx, dy, mxy);
+  const __m512 a1 = _mm512_fmadd_ps(_mm512_mul_ps(two, ux), uy, c1);
+  const __m512 a2 = _mm512_fmadd_ps(two, vxy, c2);
+  const __m512 d = _mm512_sub_ps(dx, dy);
+  const __m512 d2 = _mm512_mul_ps(d, d);
+  const __m512 b1 = _mm512_add_ps(a1, d2);
+  const __m512 b2 = _mm512_add_ps(a2, _mm512_sub_ps(mdd, d2));
+  return _mm512_div_ps(_mm512_mul_ps(a1, a2), _mm512_mul_ps(b1, b2));
+}
+
+template <int kRadius>
+inline __m512 HorizontalTaps(const float* p, const float* weights) {
+  __m512 m = _mm512_mul_ps(_mm512_set1_ps(weights[kRadius]), _mm512_loadu_ps(p));
+  for (int k = 1; k <= kRadius; ++k)
+    m = _mm512_fmadd_ps(_mm512_set1_ps(weights[kRadius + k]),
+                        _mm512_add_ps(_mm512_loadu_ps(p - k), _mm512_loadu_ps(p + k)), m);
+  return m;
+}
+
+// (The zero-masking forms: GCC 12 warns about the unmasked ones' undefined pass-through.)
+inline void StoreSsim(__m512 s, double* out) {
+  const __m256d lo = _mm512_maskz_extractf64x4_pd(0xF, _mm512_castps_pd(s), 0);
+  _mm512_storeu_pd(out, _mm512_maskz_cvtps_pd(0xFF, _mm256_castpd_ps(lo)));
+  const __m256d hi = _mm512_maskz_extractf64x4_pd(0xF, _mm512_castps_pd(s), 1);
+  _mm512_storeu_pd(out + 8, _mm512_maskz_cvtps_pd(0xFF, _mm256_castpd_ps(hi)));
+}
+
+template <int kRadius>
+void SsimHorizontalFormulaFast(const float* const* moments, const float* weights, int taps, int n,
+                               double offset, double c1, double c2, double* out) {
+  if (n < 16)
+    return avx2::SsimHorizontalFormulaFast<kRadius>(moments, weights, taps, n, offset, c1, c2, out);
+  const __m512 o = _mm512_set1_ps(static_cast<float>(offset));
+  const __m512 vc1 = _mm512_set1_ps(static_cast<float>(c1));
+  const __m512 vc2 = _mm512_set1_ps(static_cast<float>(c2));
+  for (int j0 = 0; j0 < n; j0 += 16) {
+    const int j = std::min(j0, n - 16);
+    __m512 m[4];
+    for (int q = 0; q < 4; ++q) m[q] = HorizontalTaps<kRadius>(moments[q] + j, weights);
+    StoreSsim(FormulaPs(m[0], m[1], m[2], m[3], o, vc1, vc2), out + j);
+  }
+}
+
+}  // namespace avx512
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+#endif
+
+namespace {
+SimdLevel CpuSimdLevel() {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma"))
+    return SimdLevel::kBaseline;
+  return __builtin_cpu_supports("avx512f") ? SimdLevel::kAvx512 : SimdLevel::kAvx2;
+#else
+  return SimdLevel::kBaseline;
 #endif
 }
+
+std::atomic<int> simd_level_cap{static_cast<int>(SimdLevel::kAvx512)};
+
+bool UseAvx2() { return ActiveSimdLevel() >= SimdLevel::kAvx2; }
+bool UseAvx512() { return ActiveSimdLevel() >= SimdLevel::kAvx512; }
 }  // namespace
+
+SimdLevel ActiveSimdLevel() {
+  static const SimdLevel cpu = CpuSimdLevel();
+  return std::min(cpu, static_cast<SimdLevel>(simd_level_cap.load(std::memory_order_relaxed)));
+}
+
+void SetSimdLevelCap(SimdLevel cap) {
+  simd_level_cap.store(static_cast<int>(cap), std::memory_order_relaxed);
+}
 
 #ifdef TURBID_HAVE_AVX2_COPY
 #define TURBID_DISPATCH(call) return UseAvx2() ? avx2::call : base::call
@@ -522,6 +699,9 @@ void SymmetricColumnPair(const float* const* rows, const float* weights, int tap
 void SymmetricColumnQuad(const float* const* rows, const float* weights, int taps,
                          float* const* out, int n) {
 #ifdef TURBID_HAVE_AVX2_COPY
+#ifdef TURBID_HAVE_AVX512_COPY
+  if (UseAvx512() && taps == 11) return avx512::SymmetricColumnQuadFast<5>(rows, weights, out, n);
+#endif
   if (UseAvx2() && taps == 11) return avx2::SymmetricColumnQuadFast<5>(rows, weights, out, n);
   if (UseAvx2()) {
     SymmetricColumnPair(rows, weights, taps, out[0], out[1], n);
@@ -533,6 +713,10 @@ void SymmetricColumnQuad(const float* const* rows, const float* weights, int tap
 
 void SsimHorizontalFormula(const float* const* moments, const float* weights, int taps, int n,
                            double offset, double c1, double c2, double* out) {
+#ifdef TURBID_HAVE_AVX512_COPY
+  if (UseAvx512() && taps == 11)
+    return avx512::SsimHorizontalFormulaFast<5>(moments, weights, taps, n, offset, c1, c2, out);
+#endif
 #ifdef TURBID_HAVE_AVX2_COPY
   if (UseAvx2())
     return taps == 11
@@ -543,12 +727,8 @@ void SsimHorizontalFormula(const float* const* moments, const float* weights, in
 }
 
 void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset, float* cx,
-                      float* cy, float* xx, float* yy, float* xy, int n) {
-  TURBID_DISPATCH(CentredMomentsU8(x, y, step, offset, cx, cy, xx, yy, xy, n));
-}
-
-void Products(const float* x, const float* y, float* xx, float* yy, float* xy, int n) {
-  TURBID_DISPATCH(Products(x, y, xx, yy, xy, n));
+                      float* cy, float* xy, float* dd, int n) {
+  TURBID_DISPATCH(CentredMomentsU8(x, y, step, offset, cx, cy, xy, dd, n));
 }
 
 double OrderedSum(const double* values, int n) { TURBID_DISPATCH(OrderedSum(values, n)); }
@@ -615,6 +795,13 @@ PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min
 
 void OctaveGrayU8(const uint8_t* bgr, int n, uint8_t* gray) {
   TURBID_DISPATCH(OctaveGrayU8(bgr, n, gray));
+}
+
+void BgrToLab8(const uint8_t* bgr, int n, const Lab8Tables& tables, uint8_t* lab) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::BgrToLab8Fast(bgr, n, tables, lab);
+#endif
+  base::BgrToLab8(bgr, n, tables, lab);
 }
 
 void UciqeSaturation(const uint8_t* lab, int n, const double* chroma, double* saturation,

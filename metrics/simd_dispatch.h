@@ -8,6 +8,14 @@
 
 namespace turbid::simd {
 
+// The widest instruction set the metric kernels use: the CPU's (checked once), capped by
+// SetSimdLevelCap. Copies of one kernel for different levels give the same results bit for bit
+// unless their comment says otherwise; the tests lower the cap to compare them.
+enum class SimdLevel { kBaseline = 0, kAvx2 = 1, kAvx512 = 2 };
+SimdLevel ActiveSimdLevel();
+// For tests: not synchronised with kernels running on other threads.
+void SetSimdLevelCap(SimdLevel cap);
+
 // Two consecutive output rows of a vertical pass with symmetric weights (weights[k] ==
 // weights[taps - 1 - k]): rows holds taps + 1 consecutive input rows; out0[j] = sum_k weights[k] *
 // rows[k][j] and out1[j] = sum_k weights[k] * rows[k + 1][j], j < n. Pairs of taps are added before
@@ -20,22 +28,19 @@ void SymmetricColumnPair(const float* const* rows, const float* weights, int tap
 void SymmetricColumnQuad(const float* const* rows, const float* weights, int taps,
                          float* const* out, int n);
 
-// The horizontal symmetric pass of the five SSIM moments fused with the SSIM formula: moments[m]
-// points at column 0 of a row that holds radius = taps / 2 readable values on each side (the
-// reflected border); the moments are, in order, E[x - o], E[y - o] and the centred second moments
-// E[(x - o)^2], E[(y - o)^2], E[(x - o)(y - o)] after the vertical pass. Writes the SSIM of columns
-// [0, n) to out (Wang 2004 Eq. 13).
+// The horizontal symmetric pass of the four SSIM moments fused with the SSIM formula:
+// moments[m] points at column 0 of a row that holds radius = taps / 2 readable values on each side
+// (the reflected border); the moments are, in order, E[x - o], E[y - o], the centred E[(x - o)(y -
+// o)] and E[(x - y)^2] after the vertical pass. Writes the SSIM of columns [0, n) to out (Wang 2004
+// Eq. 13, written as in SsimFormulaRow of simd_kernels.inc).
 void SsimHorizontalFormula(const float* const* moments, const float* weights, int taps, int n,
                            double offset, double c1, double c2, double* out);
 
 // One channel of two interleaved 8-bit rows (element j at x[j * step], y[j * step]), centred and
-// multiplied in one pass: cx = x - offset, cy = y - offset, xx = cx^2, yy = cy^2, xy = cx * cy
-// (exact in float for 8-bit values and offset 127.5).
+// multiplied in one pass: cx = x - offset, cy = y - offset, xy = cx * cy, dd = (x - y)^2 (all
+// exact in float for 8-bit values and offset 127.5).
 void CentredMomentsU8(const uint8_t* x, const uint8_t* y, int step, float offset, float* cx,
-                      float* cy, float* xx, float* yy, float* xy, int n);
-
-// xx = x * x, yy = y * y, xy = x * y.
-void Products(const float* x, const float* y, float* xx, float* yy, float* xy, int n);
+                      float* cy, float* xy, float* dd, int n);
 
 // Sum of n doubles in a fixed 4-lane order (vectorisable, deterministic).
 double OrderedSum(const double* values, int n);
@@ -110,6 +115,20 @@ PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min
 // arithmetic: min((298936 R + 587043 G + 114021 B + 500000) / 1000000, 255). Equal to Octave's
 // double formula for all 2^24 colours (no colour falls within rounding of a half; tested over all).
 void OctaveGrayU8(const uint8_t* bgr, int n, uint8_t* gray);
+
+// The tables of OpenCV's 8-bit BGR → Lab (metrics/opencv_lab.h).
+struct Lab8Tables {
+  int32_t gamma[256];  // sRGB gamma of v / 255, × 255·8, rounded (0..2040)
+  int32_t matrix[9];   // X, Y, Z rows × B, G, R columns: sRGB→XYZ / D65 white × 4096, rounded
+  int32_t cbrt[3072];  // CIE f(i / 2040) × 2^15, rounded; index = a rounded X, Y or Z (<= 2041)
+  // gamma[v] · matrix column c for source byte c and value v: the {X, Y, Z, 0} terms. The B terms
+  // include the 2^11 that rounds the sums: X = (xyz[0][b][0] + xyz[1][g][0] + xyz[2][r][0]) >> 12.
+  alignas(16) int32_t xyz[3][256][4];
+};
+
+// n BGR pixels (3 bytes each) → 3·n bytes L, a, b with the tables (OpenCV's RGB2Lab_b
+// arithmetic; integers, so every copy gives the same bytes).
+void BgrToLab8(const uint8_t* bgr, int n, const Lab8Tables& tables, uint8_t* lab);
 
 // UCIQE's saturation (metrics/uciqe.cc) of n 8-bit Lab pixels (L, a, b interleaved):
 // saturation[k] = chr / √(chr² + l²) and chr[k] = chr, chr = chroma[a · 256 + b], l = L / 255,

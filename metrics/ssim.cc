@@ -1,6 +1,7 @@
 #include "metrics/ssim.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
@@ -55,12 +56,16 @@ inline int Reflect(int i, int n) {
   return i;
 }
 
-// The five windowed moments, fused: every input row is converted, centred and multiplied once
-// into a ring of (2r + 4) rows; each group of four output rows is one vertical pass per moment
-// (symmetric taps: pairs added before the multiply; input rows read once for both outputs), then
-// per row one horizontal pass of the five moments fused with the SSIM formula in double, so the
-// filtered moments stay in registers. Centring by data_range / 2 keeps E[x^2] - E[x]^2 from
-// cancelling badly in float32; the variances are shift-invariant and the means get the offset back.
+// SSIM of 8-bit images: four windowed moments, fused. The formula needs E[x], E[y], cov(x, y) and
+// only the sum var(x) + var(y) = 2 cov(x, y) + var(x - y), so the moments filtered are x, y, xy
+// (centred) and (x - y)^2: four instead of five, and var(x - y) without the cancellation of
+// E[x^2] + E[y^2] - 2 E[xy]. Every input row is converted, centred and multiplied once into a ring
+// of (2r + 4) rows (all four values are exact in float for 8-bit data); each group of four output
+// rows is one vertical pass per moment (symmetric taps: pairs added before the multiply; input rows
+// read once for all four outputs), then per row one horizontal pass of the four moments fused with
+// the SSIM formula, so the filtered moments stay in registers. Centring by data_range / 2 keeps
+// E[xy] - E[x] E[y] from cancelling badly in float32; the covariance is shift-invariant and the
+// means get the offset back.
 class SsimBand {
  public:
   SsimBand(const cv::Mat& ref, const cv::Mat& img, int channel, const std::vector<float>& taps,
@@ -90,7 +95,11 @@ class SsimBand {
   void Run(int row_begin, int row_end, int col_begin, int col_end, cv::Mat* map, double* row_sums) {
     const int taps = static_cast<int>(taps_.size());
     const size_t padded_width = static_cast<size_t>(width_ + 2 * radius_);
+    // A band that continues the previous one keeps the ring rows it already holds.
+    const int slots = taps + kGroup - 1;
     int next_virtual = row_begin - radius_;
+    if (filled_end_ >= next_virtual && filled_end_ - slots <= next_virtual)
+      next_virtual = filled_end_;
     const float* rows[kMaxTaps + 3];
     float* vertical[kGroup][kMoments];
     for (int t = 0; t < kGroup; ++t)
@@ -113,12 +122,13 @@ class SsimBand {
         FinishRow(i + t, vertical[t], col_begin, col_end, map, row_sums);
       i += group;
     }
+    filled_end_ = next_virtual;
   }
 
   static constexpr int kMaxTaps = 2 * 64 + 1;
 
  private:
-  static constexpr int kMoments = 5;  // x, y, x^2, y^2, xy (centred)
+  static constexpr int kMoments = 4;  // x, y, xy (centred), (x - y)^2
   static constexpr int kGroup = 4;    // output rows per vertical pass
 
   // Reflects the vertically filtered moments of one row into their borders, then the horizontal
@@ -152,49 +162,12 @@ class SsimBand {
     return ring_.data() + (static_cast<size_t>(moment) * slots + slot) * width_;
   }
 
-  template <typename T>
-  void Centre(const cv::Mat& src, int row, float* out) const {
-    const T* p = src.ptr<T>(row) + channel_;
-    const int step = src.channels();
-    const float offset = static_cast<float>(offset_);
-    if (step == 1) {  // contiguous: lets the compiler vectorise the conversion
-      for (int j = 0; j < width_; ++j) out[j] = static_cast<float>(p[j]) - offset;
-      return;
-    }
-    for (int j = 0; j < width_; ++j) out[j] = static_cast<float>(p[j * step]) - offset;
-  }
-
-  void CentreRow(const cv::Mat& src, int row, float* out) const {
-    switch (src.depth()) {
-      case CV_8U:  // FillRing does 8-bit rows in one pass
-        break;
-      case CV_16U:
-        Centre<uint16_t>(src, row, out);
-        break;
-      case CV_32F:
-        Centre<float>(src, row, out);
-        break;
-      default:
-        Centre<double>(src, row, out);
-        break;
-    }
-  }
-
   void FillRing(int virtual_row) {
     const int row = Reflect(virtual_row, height_);
-    float* x = RingRow(virtual_row, 0);
-    float* y = RingRow(virtual_row, 1);
-    if (ref_.depth() == CV_8U) {
-      simd::CentredMomentsU8(ref_.ptr<uint8_t>(row) + channel_, img_.ptr<uint8_t>(row) + channel_,
-                             ref_.channels(), static_cast<float>(offset_), x, y,
-                             RingRow(virtual_row, 2), RingRow(virtual_row, 3),
-                             RingRow(virtual_row, 4), width_);
-      return;
-    }
-    CentreRow(ref_, row, x);
-    CentreRow(img_, row, y);
-    simd::Products(x, y, RingRow(virtual_row, 2), RingRow(virtual_row, 3), RingRow(virtual_row, 4),
-                   width_);
+    simd::CentredMomentsU8(ref_.ptr<uint8_t>(row) + channel_, img_.ptr<uint8_t>(row) + channel_,
+                           ref_.channels(), static_cast<float>(offset_), RingRow(virtual_row, 0),
+                           RingRow(virtual_row, 1), RingRow(virtual_row, 2),
+                           RingRow(virtual_row, 3), width_);
   }
 
   const cv::Mat& ref_;
@@ -210,6 +183,7 @@ class SsimBand {
   std::vector<float> ring_;
   std::vector<float> padded_;
   std::vector<double> ssim_row_;
+  int filled_end_ = INT_MIN;  // ring rows [filled_end_ - slots, filled_end_) are filled
 };
 
 // The plain double-precision path (SsimOptions::exact_double): five full-size CV_64F moment

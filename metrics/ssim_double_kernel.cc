@@ -8,13 +8,17 @@
 //
 // Layout: the output is cut into tiles (row band x column strip). A tile converts each input row
 // of its support once (centred, with scipy 'reflect' borders) into a ring of 2r + 1 rows of the
-// five moment images, then per output row runs one vertical and one horizontal symmetric 11-tap
-// pass per moment and the SSIM formula. Strips keep the ring (5 x 11 x ~330 doubles) in L2.
+// four moment images (x, y, xy and (x - y)^2: the formula needs only the sum of the variances,
+// var(x) + var(y) = 2 cov(x, y) + var(x - y)), then per output row runs one vertical and one
+// horizontal symmetric 11-tap pass per moment and the SSIM formula. Strips keep the ring
+// (4 x 11 x ~330 doubles) in L2.
 #include "metrics/ssim_double_kernel.h"
 
 #include <algorithm>
 #include <cstdint>
 #include <opencv2/core/utility.hpp>
+
+#include "metrics/simd_dispatch.h"
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
@@ -24,9 +28,9 @@
 namespace turbid::ssim_internal {
 namespace {
 
-constexpr int kMoments = 5;      // x, y, x^2, y^2, xy of centred values
+constexpr int kMoments = 4;      // x, y, xy of centred values and (x - y)^2
 constexpr int kBandRows = 64;    // a tile re-reads 2r rows of support: keep bands well above r
-constexpr int kStripCols = 320;  // ring of one tile: 5 * 11 * (320 + 10) * 8 B = 145 KB
+constexpr int kStripCols = 320;  // ring of one tile: 4 * 11 * (320 + 10) * 8 B = 116 KB
 
 // scipy.ndimage mode 'reflect' (= OpenCV BORDER_REFLECT): -1 -> 0, n -> n - 1. One reflection is
 // enough because the caller requires n >= 2r + 1.
@@ -47,13 +51,17 @@ void SymmetricFilterScalar(At at, const double* half, int radius, double* out, i
   }
 }
 
+// m: E[x - o], E[y - o], the centred E[(x - o)(y - o)] and E[(x - y)^2]. With d = ux - uy, the
+// denominators are ux^2 + uy^2 + c1 = (2 ux uy + c1) + d^2 and vx + vy + c2 = (2 vxy + c2) +
+// (E[(x - y)^2] - d^2): identical images give exactly 1.
 void FormulaScalar(const double* const* m, int n, double offset, double c1, double c2,
                    double* out) {
   for (int j = 0; j < n; ++j) {
     const double dx = m[0][j], dy = m[1][j];
-    const double ux = dx + offset, uy = dy + offset;
-    const double vx = m[2][j] - dx * dx, vy = m[3][j] - dy * dy, vxy = m[4][j] - dx * dy;
-    out[j] = (2.0 * ux * uy + c1) * (2.0 * vxy + c2) / ((ux * ux + uy * uy + c1) * (vx + vy + c2));
+    const double ux = dx + offset, uy = dy + offset, d = dx - dy;
+    const double vxy = m[2][j] - dx * dy;
+    const double a1 = 2.0 * ux * uy + c1, a2 = 2.0 * vxy + c2;
+    out[j] = (a1 * a2) / ((a1 + d * d) * (a2 + (m[3][j] - d * d)));
   }
 }
 
@@ -108,25 +116,134 @@ __attribute__((target("avx2,fma"))) void FormulaAvx2(const double* const* m, int
   for (; j + 4 <= n; j += 4) {
     const __m256d dx = _mm256_loadu_pd(m[0] + j), dy = _mm256_loadu_pd(m[1] + j);
     const __m256d ux = _mm256_add_pd(dx, off), uy = _mm256_add_pd(dy, off);
-    const __m256d vx = _mm256_fnmadd_pd(dx, dx, _mm256_loadu_pd(m[2] + j));
-    const __m256d vy = _mm256_fnmadd_pd(dy, dy, _mm256_loadu_pd(m[3] + j));
-    const __m256d vxy = _mm256_fnmadd_pd(dx, dy, _mm256_loadu_pd(m[4] + j));
-    const __m256d num = _mm256_mul_pd(_mm256_fmadd_pd(_mm256_mul_pd(two, ux), uy, vc1),
-                                      _mm256_fmadd_pd(two, vxy, vc2));
-    const __m256d den = _mm256_mul_pd(_mm256_fmadd_pd(ux, ux, _mm256_fmadd_pd(uy, uy, vc1)),
-                                      _mm256_add_pd(_mm256_add_pd(vx, vy), vc2));
-    _mm256_storeu_pd(out + j, _mm256_div_pd(num, den));
+    const __m256d d = _mm256_sub_pd(dx, dy), d2 = _mm256_mul_pd(d, d);
+    const __m256d vxy = _mm256_fnmadd_pd(dx, dy, _mm256_loadu_pd(m[2] + j));
+    const __m256d a1 = _mm256_fmadd_pd(_mm256_mul_pd(two, ux), uy, vc1);
+    const __m256d a2 = _mm256_fmadd_pd(two, vxy, vc2);
+    const __m256d b1 = _mm256_add_pd(a1, d2);
+    const __m256d b2 = _mm256_add_pd(a2, _mm256_sub_pd(_mm256_loadu_pd(m[3] + j), d2));
+    _mm256_storeu_pd(out + j, _mm256_div_pd(_mm256_mul_pd(a1, a2), _mm256_mul_pd(b1, b2)));
   }
   if (j < n) {
-    const double* rest[kMoments] = {m[0] + j, m[1] + j, m[2] + j, m[3] + j, m[4] + j};
+    const double* rest[kMoments] = {m[0] + j, m[1] + j, m[2] + j, m[3] + j};
     FormulaScalar(rest, n - j, offset, c1, c2, out + j);
   }
 }
 
-bool UseAvx2() {
-  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return yes;
+// 8-lane copies (AVX-512F): every lane takes the AVX2 copies' arithmetic in the same order, so
+// the results are bit for bit the same, in half the instructions (what limits these loops).
+template <typename At>
+__attribute__((target("avx512f,avx2,fma"))) void SymmetricFilterAvx512(At at, const double* half,
+                                                                       int radius, double* out,
+                                                                       int n) {
+  int j = 0;
+  for (; j + 32 <= n; j += 32) {
+    const __m512d w0 = _mm512_set1_pd(half[0]);
+    const double* c = at(0) + j;
+    __m512d a[4];
+    for (int l = 0; l < 4; ++l) a[l] = _mm512_mul_pd(w0, _mm512_loadu_pd(c + 8 * l));
+    for (int k = 1; k <= radius; ++k) {
+      const __m512d w = _mm512_set1_pd(half[k]);
+      const double* lo = at(-k) + j;
+      const double* hi = at(k) + j;
+      for (int l = 0; l < 4; ++l)
+        a[l] = _mm512_fmadd_pd(
+            w, _mm512_add_pd(_mm512_loadu_pd(lo + 8 * l), _mm512_loadu_pd(hi + 8 * l)), a[l]);
+    }
+    for (int l = 0; l < 4; ++l) _mm512_storeu_pd(out + j + 8 * l, a[l]);
+  }
+  for (; j + 8 <= n; j += 8) {
+    __m512d a = _mm512_mul_pd(_mm512_set1_pd(half[0]), _mm512_loadu_pd(at(0) + j));
+    for (int k = 1; k <= radius; ++k)
+      a = _mm512_fmadd_pd(_mm512_set1_pd(half[k]),
+                          _mm512_add_pd(_mm512_loadu_pd(at(-k) + j), _mm512_loadu_pd(at(k) + j)),
+                          a);
+    _mm512_storeu_pd(out + j, a);
+  }
+  if (j < n)
+    SymmetricFilterAvx2([&at, j](int k) { return at(k) + j; }, half, radius, out + j, n - j);
 }
+
+__attribute__((target("avx512f,avx2,fma"))) void FormulaAvx512(const double* const* m, int n,
+                                                               double offset, double c1, double c2,
+                                                               double* out) {
+  const __m512d off = _mm512_set1_pd(offset), vc1 = _mm512_set1_pd(c1), vc2 = _mm512_set1_pd(c2),
+                two = _mm512_set1_pd(2.0);
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    const __m512d dx = _mm512_loadu_pd(m[0] + j), dy = _mm512_loadu_pd(m[1] + j);
+    const __m512d ux = _mm512_add_pd(dx, off), uy = _mm512_add_pd(dy, off);
+    const __m512d d = _mm512_sub_pd(dx, dy), d2 = _mm512_mul_pd(d, d);
+    const __m512d vxy = _mm512_fnmadd_pd(dx, dy, _mm512_loadu_pd(m[2] + j));
+    const __m512d a1 = _mm512_fmadd_pd(_mm512_mul_pd(two, ux), uy, vc1);
+    const __m512d a2 = _mm512_fmadd_pd(two, vxy, vc2);
+    const __m512d b1 = _mm512_add_pd(a1, d2);
+    const __m512d b2 = _mm512_add_pd(a2, _mm512_sub_pd(_mm512_loadu_pd(m[3] + j), d2));
+    _mm512_storeu_pd(out + j, _mm512_div_pd(_mm512_mul_pd(a1, a2), _mm512_mul_pd(b1, b2)));
+  }
+  if (j < n) {
+    const double* rest[kMoments] = {m[0] + j, m[1] + j, m[2] + j, m[3] + j};
+    FormulaAvx2(rest, n - j, offset, c1, c2, out + j);
+  }
+}
+
+// Four output rows of the vertical pass with radius 5 from 14 consecutive input rows: each input
+// vector is loaded once for all four rows (3.5 loads per output instead of 11). Every column
+// takes the arithmetic of SymmetricFilterAvx2 / Avx512, in the same order.
+__attribute__((target("avx2,fma"))) void VerticalQuad5Avx2(const double* const* rows,
+                                                           const double* half, double* const* out,
+                                                           int n) {
+  constexpr int kR = 5;
+  __m256d w[kR + 1];
+  for (int k = 0; k <= kR; ++k) w[k] = _mm256_broadcast_sd(half + k);
+  int j = 0;
+  for (; j + 4 <= n; j += 4) {
+    __m256d v[2 * kR + 4];
+    for (int q = 0; q < 2 * kR + 4; ++q) v[q] = _mm256_loadu_pd(rows[q] + j);
+    for (int t = 0; t < 4; ++t) {
+      __m256d a = _mm256_mul_pd(w[0], v[kR + t]);
+      for (int k = 1; k <= kR; ++k)
+        a = _mm256_fmadd_pd(w[k], _mm256_add_pd(v[kR + t - k], v[kR + t + k]), a);
+      _mm256_storeu_pd(out[t] + j, a);
+    }
+  }
+  for (; j < n; ++j)
+    for (int t = 0; t < 4; ++t) {
+      double a = half[0] * rows[kR + t][j];
+      for (int k = 1; k <= kR; ++k)
+        a = __builtin_fma(half[k], rows[kR + t - k][j] + rows[kR + t + k][j], a);
+      out[t][j] = a;
+    }
+}
+
+__attribute__((target("avx512f,avx2,fma"))) void VerticalQuad5Avx512(const double* const* rows,
+                                                                     const double* half,
+                                                                     double* const* out, int n) {
+  constexpr int kR = 5;
+  __m512d w[kR + 1];
+  for (int k = 0; k <= kR; ++k) w[k] = _mm512_set1_pd(half[k]);
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    __m512d v[2 * kR + 4];
+    for (int q = 0; q < 2 * kR + 4; ++q) v[q] = _mm512_loadu_pd(rows[q] + j);
+    for (int t = 0; t < 4; ++t) {
+      __m512d a = _mm512_mul_pd(w[0], v[kR + t]);
+      for (int k = 1; k <= kR; ++k)
+        a = _mm512_fmadd_pd(w[k], _mm512_add_pd(v[kR + t - k], v[kR + t + k]), a);
+      _mm512_storeu_pd(out[t] + j, a);
+    }
+  }
+  if (j < n) {
+    const double* rest[2 * kR + 4];
+    double* rest_out[4];
+    for (int q = 0; q < 2 * kR + 4; ++q) rest[q] = rows[q] + j;
+    for (int t = 0; t < 4; ++t) rest_out[t] = out[t] + j;
+    VerticalQuad5Avx2(rest, half, rest_out, n - j);
+  }
+}
+
+bool UseAvx512() { return simd::ActiveSimdLevel() >= simd::SimdLevel::kAvx512; }
+bool UseAvx2() { return simd::ActiveSimdLevel() >= simd::SimdLevel::kAvx2; }
 #else
 bool UseAvx2() { return false; }
 #endif
@@ -134,6 +251,7 @@ bool UseAvx2() { return false; }
 template <typename At>
 void SymmetricFilter(At at, const double* half, int radius, double* out, int n) {
 #ifdef TURBID_SSIM_HAVE_AVX2
+  if (UseAvx512()) return SymmetricFilterAvx512(at, half, radius, out, n);
   if (UseAvx2()) return SymmetricFilterAvx2(at, half, radius, out, n);
 #endif
   SymmetricFilterScalar(at, half, radius, out, n);
@@ -141,9 +259,22 @@ void SymmetricFilter(At at, const double* half, int radius, double* out, int n) 
 
 void Formula(const double* const* m, int n, double offset, double c1, double c2, double* out) {
 #ifdef TURBID_SSIM_HAVE_AVX2
+  if (UseAvx512()) return FormulaAvx512(m, n, offset, c1, c2, out);
   if (UseAvx2()) return FormulaAvx2(m, n, offset, c1, c2, out);
 #endif
   FormulaScalar(m, n, offset, c1, c2, out);
+}
+
+// Four vertical output rows at once where a vectorised radius-5 kernel exists; false otherwise
+// (the caller then filters row by row, with the same arithmetic per column).
+bool VerticalQuad(const double* const* rows, const double* half, int radius, double* const* out,
+                  int n) {
+#ifdef TURBID_SSIM_HAVE_AVX2
+  if (radius == 5 && UseAvx512()) return VerticalQuad5Avx512(rows, half, out, n), true;
+  if (radius == 5 && UseAvx2()) return VerticalQuad5Avx2(rows, half, out, n), true;
+#endif
+  (void)rows, (void)half, (void)radius, (void)out, (void)n;
+  return false;
 }
 
 // Sum in a fixed 4-lane order: deterministic, and the same on every CPU.
@@ -155,6 +286,58 @@ double OrderedSum(const double* v, int n) {
   double sum = (lane[0] + lane[1]) + (lane[2] + lane[3]);
   for (; j < n; ++j) sum += v[j];
   return sum;
+}
+
+// out[m][at + j] for j < n of the centred values x - o, y - o (element j at x[j * step]): x, y,
+// xy and (x - y)^2. Plain loops; the AVX2 copy is the same code vectorised (no contraction: the
+// file is compiled without it, and only xy and d * d are products).
+template <typename T, int kStep>
+void CentredMomentsLoop(const T* x, const T* y, double offset, double* const* out, int at, int n) {
+  double* __restrict cx = out[0] + at;
+  double* __restrict cy = out[1] + at;
+  double* __restrict xy = out[2] + at;
+  double* __restrict dd = out[3] + at;
+  for (int j = 0; j < n; ++j) {
+    const double a = static_cast<double>(x[j * kStep]) - offset;
+    const double b = static_cast<double>(y[j * kStep]) - offset;
+    const double d = a - b;
+    cx[j] = a;
+    cy[j] = b;
+    xy[j] = a * b;
+    dd[j] = d * d;
+  }
+}
+
+#ifdef TURBID_SSIM_HAVE_AVX2
+template <typename T, int kStep>
+__attribute__((target("avx2"))) void CentredMomentsLoopAvx2(const T* x, const T* y, double offset,
+                                                            double* const* out, int at, int n) {
+  CentredMomentsLoop<T, kStep>(x, y, offset, out, at, n);
+}
+#endif
+
+template <typename T>
+void CentredMoments(const T* x, const T* y, int step, double offset, double* const* out, int at,
+                    int n) {
+#ifdef TURBID_SSIM_HAVE_AVX2
+  if (step == 1 && UseAvx2()) return CentredMomentsLoopAvx2<T, 1>(x, y, offset, out, at, n);
+  if (step == 3 && UseAvx2()) return CentredMomentsLoopAvx2<T, 3>(x, y, offset, out, at, n);
+#endif
+  if (step == 1) return CentredMomentsLoop<T, 1>(x, y, offset, out, at, n);
+  if (step == 3) return CentredMomentsLoop<T, 3>(x, y, offset, out, at, n);
+  double* cx = out[0] + at;
+  double* cy = out[1] + at;
+  double* xy = out[2] + at;
+  double* dd = out[3] + at;
+  for (int j = 0; j < n; ++j) {
+    const double a = static_cast<double>(x[j * step]) - offset;
+    const double b = static_cast<double>(y[j * step]) - offset;
+    const double d = a - b;
+    cx[j] = a;
+    cy[j] = b;
+    xy[j] = a * b;
+    dd[j] = d * d;
+  }
 }
 
 struct Job {
@@ -170,108 +353,121 @@ struct Job {
 // Scratch of one worker, reused for every tile it runs.
 class TileWorker {
  public:
-  explicit TileWorker(const Job& job) : job_(job), taps_(2 * job.radius + 1) {
+  explicit TileWorker(const Job& job)
+      : job_(job), taps_(2 * job.radius + 1), slots_(taps_ + kGroup - 1) {
     const size_t support = kStripCols + 2 * job.radius;
-    ring_.resize(static_cast<size_t>(kMoments) * taps_ * support);
-    vertical_.resize(kMoments * support);
+    ring_.resize(static_cast<size_t>(kMoments) * slots_ * support);
+    vertical_.resize(static_cast<size_t>(kGroup) * kMoments * support);
     filtered_.resize(kMoments * static_cast<size_t>(kStripCols));
     ssim_.resize(kStripCols);
   }
 
   // Output rows [row_begin, row_end) x columns [col_begin, col_end). Adds nothing up across
-  // tiles: writes each cropped row's partial sum to row_sums[row].
+  // tiles: writes each cropped row's partial sum to row_sums[row]. Rows go in groups of four
+  // through the vertical pass where VerticalQuad has a kernel, else one by one; every row takes
+  // the same arithmetic either way.
   void Run(int row_begin, int row_end, int col_begin, int col_end, double* row_sums,
            int row_sums_stride) {
     const int r = job_.radius;
-    const int width = job_.reference->cols;
-    const int height = job_.reference->rows;
-    const int n = col_end - col_begin;
-    support_ = n + 2 * r;
-    for (int v = row_begin - r; v < row_begin + r; ++v) FillRing(v, col_begin - r);
-    const double* rows[2 * 64 + 1];
-    const double* moments[kMoments];
-    for (int i = row_begin; i < row_end; ++i) {
-      FillRing(i + r, col_begin - r);
+    support_ = col_end - col_begin + 2 * r;
+    int next_fill = row_begin - r;
+    const double* rows[2 * 64 + kGroup];
+    for (int i = row_begin; i < row_end;) {
+      int group = i + kGroup <= row_end ? kGroup : 1;
+      for (; next_fill <= i + group - 1 + r; ++next_fill) FillRing(next_fill, col_begin - r);
       for (int m = 0; m < kMoments; ++m) {
-        for (int k = -r; k <= r; ++k) rows[k + r] = RingRow(i + k, m);
-        double* vertical = vertical_.data() + m * support_;
-        SymmetricFilter([&rows, r](int k) { return rows[k + r]; }, job_.half.data(), r, vertical,
+        for (int k = 0; k < taps_ + group - 1; ++k) rows[k] = RingRow(i - r + k, m);
+        double* out[kGroup];
+        for (int t = 0; t < kGroup; ++t) out[t] = Vertical(t, m);
+        if (group == kGroup && VerticalQuad(rows, job_.half.data(), r, out, support_)) continue;
+        group = 1;
+        SymmetricFilter([&rows, r](int k) { return rows[k + r]; }, job_.half.data(), r, out[0],
                         support_);
-        double* filtered = filtered_.data() + m * kStripCols;
-        SymmetricFilter([vertical, r](int k) { return vertical + r + k; }, job_.half.data(), r,
-                        filtered, n);
-        moments[m] = filtered;
       }
-      Formula(moments, n, job_.offset, job_.c1, job_.c2, ssim_.data());
-      if (job_.map != nullptr) {
-        float* out = job_.map->ptr<float>(i) + col_begin;
-        for (int j = 0; j < n; ++j) out[j] = static_cast<float>(ssim_[j]);
-      }
-      if (i >= r && i < height - r) {
-        const int lo = std::max(col_begin, r), hi = std::min(col_end, width - r);
-        row_sums[static_cast<size_t>(i) * row_sums_stride] =
-            hi > lo ? OrderedSum(ssim_.data() + (lo - col_begin), hi - lo) : 0.0;
-      }
+      for (int t = 0; t < group; ++t)
+        FinishRow(i + t, t, col_begin, col_end, row_sums, row_sums_stride);
+      i += group;
     }
   }
 
  private:
+  static constexpr int kGroup = 4;  // output rows per vertical pass
+
+  double* Vertical(int t, int m) {
+    return vertical_.data() + (static_cast<size_t>(t) * kMoments + m) * support_;
+  }
+
+  // Horizontal pass and formula of output row `row`, whose vertical pass is in Vertical(t, ·).
+  void FinishRow(int row, int t, int col_begin, int col_end, double* row_sums,
+                 int row_sums_stride) {
+    const int r = job_.radius;
+    const int width = job_.reference->cols;
+    const int height = job_.reference->rows;
+    const int n = col_end - col_begin;
+    const double* moments[kMoments];
+    for (int m = 0; m < kMoments; ++m) {
+      const double* vertical = Vertical(t, m);
+      double* filtered = filtered_.data() + m * kStripCols;
+      SymmetricFilter([vertical, r](int k) { return vertical + r + k; }, job_.half.data(), r,
+                      filtered, n);
+      moments[m] = filtered;
+    }
+    Formula(moments, n, job_.offset, job_.c1, job_.c2, ssim_.data());
+    if (job_.map != nullptr) {
+      float* out = job_.map->ptr<float>(row) + col_begin;
+      for (int j = 0; j < n; ++j) out[j] = static_cast<float>(ssim_[j]);
+    }
+    if (row >= r && row < height - r) {
+      const int lo = std::max(col_begin, r), hi = std::min(col_end, width - r);
+      row_sums[static_cast<size_t>(row) * row_sums_stride] =
+          hi > lo ? OrderedSum(ssim_.data() + (lo - col_begin), hi - lo) : 0.0;
+    }
+  }
+
   double* RingRow(int virtual_row, int moment) {
-    const int slot = ((virtual_row % taps_) + taps_) % taps_;
-    return ring_.data() + (static_cast<size_t>(moment) * taps_ + slot) * support_;
+    const int slot = ((virtual_row % slots_) + slots_) % slots_;
+    return ring_.data() + (static_cast<size_t>(moment) * slots_ + slot) * support_;
   }
 
-  // Columns [first, first + support_) of one row, reflected at the image edges, minus offset.
-  template <typename T>
-  void Centre(const cv::Mat& src, int row, int first, double* out) const {
-    const T* p = src.ptr<T>(row) + job_.channel;
-    const int step = src.channels();
-    const int width = src.cols;
-    const int last = first + support_;
-    const int lo = std::max(first, 0), hi = std::min(last, width);
-    const double offset = job_.offset;
-    for (int j = first; j < lo; ++j)
-      out[j - first] = static_cast<double>(p[Reflect(j, width) * step]) - offset;
-    if (step == 1) {
-      for (int j = lo; j < hi; ++j) out[j - first] = static_cast<double>(p[j]) - offset;
-    } else {
-      for (int j = lo; j < hi; ++j) out[j - first] = static_cast<double>(p[j * step]) - offset;
-    }
-    for (int j = hi; j < last; ++j)
-      out[j - first] = static_cast<double>(p[Reflect(j, width) * step]) - offset;
-  }
-
-  void CentreRow(const cv::Mat& src, int row, int first, double* out) const {
-    switch (src.depth()) {
-      case CV_8U:
-        return Centre<uint8_t>(src, row, first, out);
-      case CV_16U:
-        return Centre<uint16_t>(src, row, first, out);
-      case CV_32F:
-        return Centre<float>(src, row, first, out);
-      default:
-        return Centre<double>(src, row, first, out);
-    }
-  }
-
+  // Columns [first, first + support_) of one row of both images, reflected at the image edges,
+  // minus offset, into the four moment rows of `virtual_row`.
   void FillRing(int virtual_row, int first) {
     const int row = Reflect(virtual_row, job_.reference->rows);
-    double* x = RingRow(virtual_row, 0);
-    double* y = RingRow(virtual_row, 1);
-    CentreRow(*job_.reference, row, first, x);
-    CentreRow(*job_.image, row, first, y);
-    double* xx = RingRow(virtual_row, 2);
-    double* yy = RingRow(virtual_row, 3);
-    double* xy = RingRow(virtual_row, 4);
-    for (int j = 0; j < support_; ++j) {
-      xx[j] = x[j] * x[j];
-      yy[j] = y[j] * y[j];
-      xy[j] = x[j] * y[j];
+    double* out[kMoments];
+    for (int m = 0; m < kMoments; ++m) out[m] = RingRow(virtual_row, m);
+    switch (job_.reference->depth()) {
+      case CV_8U:
+        return FillRow<uint8_t>(row, first, out);
+      case CV_16U:
+        return FillRow<uint16_t>(row, first, out);
+      case CV_32F:
+        return FillRow<float>(row, first, out);
+      default:
+        return FillRow<double>(row, first, out);
     }
+  }
+
+  template <typename T>
+  void FillRow(int row, int first, double* const* out) const {
+    const T* x = job_.reference->ptr<T>(row) + job_.channel;
+    const T* y = job_.image->ptr<T>(row) + job_.channel;
+    const int step = job_.reference->channels();
+    const int width = job_.reference->cols;
+    const int last = first + support_;
+    const int lo = std::max(first, 0), hi = std::min(last, width);
+    // Reflected borders one column at a time, the interior as one run of columns.
+    for (int j = first; j < lo; ++j)
+      CentredMoments(x + Reflect(j, width) * step, y + Reflect(j, width) * step, 1, job_.offset,
+                     out, j - first, 1);
+    CentredMoments(x + lo * step, y + lo * step, step, job_.offset, out, lo - first, hi - lo);
+    for (int j = hi; j < last; ++j)
+      CentredMoments(x + Reflect(j, width) * step, y + Reflect(j, width) * step, 1, job_.offset,
+                     out, j - first, 1);
   }
 
   const Job& job_;
   int taps_;
+  int slots_;  // ring rows: one group's input rows
   int support_ = 0;
   std::vector<double> ring_;
   std::vector<double> vertical_;

@@ -3,7 +3,9 @@
 // The per-pixel values are the reference's (same expressions, chroma from a table over the 8-bit
 // (a, b) pairs filled with the same expression) and the means keep NumPy's summation order, but
 // they are summed chunk by chunk as they are computed (NumPy adds chunks of 8192 elements), so no
-// full-size array is allocated.
+// full-size array of them is allocated. The 8-bit Lab image is cv::cvtColor's, made by our exact
+// replica of it (metrics/opencv_lab.h) chunk by chunk, so each pixel is converted, histogrammed
+// and turned into chroma and saturation while it is in cache.
 #include "metrics/uciqe.h"
 
 #include <algorithm>
@@ -11,9 +13,9 @@
 #include <cmath>
 #include <cstdint>
 #include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "metrics/opencv_lab.h"
 #include "metrics/simd_dispatch.h"
 #include "metrics/visible_edges.h"
 #include "scenes/error.h"
@@ -96,6 +98,19 @@ const std::vector<double>& ChromaTable() {
   return table;
 }
 
+// Lab pixels (0, a, b) for every (a, b), in table order.
+const std::vector<uint8_t>& AllAbPairs() {
+  static const std::vector<uint8_t> pixels = [] {
+    std::vector<uint8_t> p(3 * 256 * 256);
+    for (int ab = 0; ab < 256 * 256; ++ab) {
+      p[3 * ab + 1] = static_cast<uint8_t>(ab >> 8);
+      p[3 * ab + 2] = static_cast<uint8_t>(ab);
+    }
+    return p;
+  }();
+  return pixels;
+}
+
 }  // namespace
 
 std::string UciqeVariantName(UciqeVariant /*variant*/) { return "jou-uip-compat"; }
@@ -124,22 +139,35 @@ nlohmann::json UciqeResult::ToJson() const {
 UciqeResult Uciqe(const UciqeOptions& options, const cv::Mat& image) {
   ThrowIfInvalid(options, "uciqe");
   cv::Mat bgr = ToEightBit(image, "uciqe");
-  if (bgr.channels() == 1) cv::cvtColor(bgr, bgr, cv::COLOR_GRAY2BGR);
-  cv::Mat lab;
-  cv::cvtColor(bgr, lab, cv::COLOR_BGR2Lab);  // OpenCV 8-bit Lab: L·255/100, a+128, b+128
-
-  const size_t n = lab.total();
-  if (!lab.isContinuous()) lab = lab.clone();
-  const uint8_t* pixels = lab.ptr<uint8_t>(0);
+  if (!bgr.isContinuous()) bgr = bgr.clone();
+  const size_t n = bgr.total();
+  const int channels = bgr.channels();  // gray converts as B = G = R (cv::COLOR_GRAY2BGR)
+  // OpenCV 8-bit Lab (L·255/100, a + 128, b + 128), made chunk by chunk by our replica of
+  // cv::cvtColor(COLOR_BGR2Lab) (metrics/opencv_lab.h) and used while the chunk is in cache.
+  cv::Mat lab_image(bgr.size(), CV_8UC3);
+  uint8_t* lab = lab_image.ptr<uint8_t>(0);
+  const uint8_t* src = bgr.ptr<uint8_t>(0);
   const double* chroma = ChromaTable().data();
   // Four interleaved partial histograms: neighbouring pixels often share L, and one table would
   // serialise their increments.
   std::array<std::array<int64_t, 256>, 4> partial{};
-  size_t k4 = 0;
-  for (; k4 + 4 <= n; k4 += 4) {
-    for (int t = 0; t < 4; ++t) ++partial[t][pixels[3 * (k4 + t)]];
+  // Saturation and chroma in one pass over the pixels, each mean in NumPy's order.
+  constexpr size_t kChunk = 8192;  // NumPy's ufunc buffer (see NumpyPairwiseSum)
+  std::vector<double> saturation_chunk(kChunk), chroma_chunk(kChunk);
+  double saturation_total = 0.0, chroma_total = 0.0;
+  for (size_t i = 0; i < n; i += kChunk) {
+    const int count = static_cast<int>(std::min(kChunk, n - i));
+    uint8_t* pixels = lab + 3 * i;
+    BgrToLab8(src + channels * i, channels, count, pixels);
+    int k4 = 0;
+    for (; k4 + 4 <= count; k4 += 4) {
+      for (int t = 0; t < 4; ++t) ++partial[t][pixels[3 * (k4 + t)]];
+    }
+    for (; k4 < count; ++k4) ++partial[0][pixels[3 * k4]];
+    simd::UciqeSaturation(pixels, count, chroma, saturation_chunk.data(), chroma_chunk.data());
+    saturation_total += NumpyPairwiseSum(saturation_chunk.data(), count);
+    chroma_total += NumpyPairwiseSum(chroma_chunk.data(), count);
   }
-  for (; k4 < n; ++k4) ++partial[0][pixels[3 * k4]];
   std::array<int64_t, 256> l_hist{};
   for (int level = 0; level < 256; ++level) {
     l_hist[level] = partial[0][level] + partial[1][level] + partial[2][level] + partial[3][level];
@@ -147,21 +175,14 @@ UciqeResult Uciqe(const UciqeOptions& options, const cv::Mat& image) {
 
   UciqeResult r;
   r.variant = UciqeVariantName(options.variant);
-  // Saturation and chroma in one pass over the pixels, each mean in NumPy's order.
-  constexpr size_t kChunk = 8192;  // NumPy's ufunc buffer (see NumpyPairwiseSum)
-  std::vector<double> saturation_chunk(kChunk), chroma_chunk(kChunk);
-  double saturation_total = 0.0, chroma_total = 0.0;
-  for (size_t i = 0; i < n; i += kChunk) {
-    const int count = static_cast<int>(std::min(kChunk, n - i));
-    simd::UciqeSaturation(pixels + 3 * i, count, chroma, saturation_chunk.data(),
-                          chroma_chunk.data());
-    saturation_total += NumpyPairwiseSum(saturation_chunk.data(), count);
-    chroma_total += NumpyPairwiseSum(chroma_chunk.data(), count);
-  }
   r.mean_saturation = saturation_total / static_cast<double>(n);
   const double mean_chr = chroma_total / static_cast<double>(n);
+  // |1 − (mean/chr)²| depends on (a, b) only: one division per pair instead of one per pixel.
+  std::vector<double> spread(256 * 256);
+  simd::UciqeSpread(AllAbPairs().data(), 256 * 256, chroma, mean_chr, spread.data());
   r.chroma_spread = std::sqrt(NumpyMeanOf(n, [&](size_t begin, size_t count, double* out) {
-    simd::UciqeSpread(pixels + 3 * begin, static_cast<int>(count), chroma, mean_chr, out);
+    const uint8_t* p = lab + 3 * begin;
+    for (size_t k = 0; k < count; ++k, p += 3) out[k] = spread[p[1] * 256 + p[2]];
   }));
 
   // con_l: first bins where the cdf of a 65536-bin histogram over [min L', max L'] exceeds 1 % and

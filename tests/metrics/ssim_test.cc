@@ -10,6 +10,7 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "metrics/simd_dispatch.h"
 #include "scenes/error.h"
 #include "tests/metrics/reference_files.h"
 
@@ -150,6 +151,50 @@ TEST(Ssim, EightBitKernelMatchesDirectEvaluationAtEveryStrideAndTail) {
       EXPECT_LT(cv::norm(want, got_map, cv::NORM_INF), 2e-6)
           << c.rows << "x" << c.cols << " channel " << ch;
       EXPECT_NEAR(got.per_channel[ch], CroppedMean(want, 5), 1e-6);
+    }
+  }
+}
+
+// SSIM with the kernels capped at one instruction set (simd::SetSimdLevelCap).
+SsimResult SsimAt(simd::SimdLevel level, const SsimOptions& options, const cv::Mat& a,
+                  const cv::Mat& b) {
+  simd::SetSimdLevelCap(level);
+  SsimResult r = Ssim(options, a, b);
+  simd::SetSimdLevelCap(simd::SimdLevel::kAvx512);
+  return r;
+}
+
+// The AVX-512 copies of the SSIM kernels (16 float / 8 double lanes) take each lane through the
+// AVX2 copies' arithmetic in the same order: means and maps equal bit for bit, on sizes whose
+// columns leave every kind of ragged block (narrower than 8, 8-15, 16-31 columns, several double
+// strips) and whose rows leave 0-3 rows after the last group of four. The portable copies (no FMA,
+// double formula) agree within float rounding. On a CPU without AVX-512 the first comparison is
+// AVX2 against itself.
+TEST(Ssim, KernelCopiesAgree) {
+  struct Case {
+    int rows, cols, type;
+  };
+  for (const Case& c : {Case{29, 13, CV_8UC1}, Case{30, 24, CV_8UC3}, Case{45, 41, CV_8UC1},
+                        Case{70, 307, CV_8UC3}, Case{31, 19, CV_32FC1}, Case{66, 701, CV_32FC1},
+                        Case{35, 350, CV_16UC3}, Case{22, 47, CV_64FC1}}) {
+    const cv::Mat a = RandomImage(c.rows, c.cols, c.type, 31);
+    cv::Mat b;
+    cv::addWeighted(a, 0.8, RandomImage(c.rows, c.cols, c.type, 32), 0.2, 0.0, b);
+    const bool eight_bit = CV_MAT_DEPTH(c.type) == CV_8U;
+    const std::string what =
+        std::to_string(c.rows) + "x" + std::to_string(c.cols) + " type " + std::to_string(c.type);
+    for (bool map : {false, true}) {
+      SsimOptions options;
+      options.compute_map = map;
+      const SsimResult wide = SsimAt(simd::SimdLevel::kAvx512, options, a, b);
+      const SsimResult avx2 = SsimAt(simd::SimdLevel::kAvx2, options, a, b);
+      const SsimResult plain = SsimAt(simd::SimdLevel::kBaseline, options, a, b);
+      EXPECT_EQ(wide.mean, avx2.mean) << what;
+      EXPECT_NEAR(plain.mean, avx2.mean, eight_bit ? 1e-7 : 1e-12) << what;
+      if (map) {
+        EXPECT_EQ(cv::norm(wide.map, avx2.map, cv::NORM_INF), 0.0) << what;
+        EXPECT_LT(cv::norm(plain.map, avx2.map, cv::NORM_INF), eight_bit ? 2e-6 : 1e-6) << what;
+      }
     }
   }
 }
