@@ -17,13 +17,13 @@ using baselines_internal::IsOddPositive;
 // Zhu 2015 eq. 8 without ε: d = θ0 + θ1 v + θ2 s, with HSV value v = max_c I^c and saturation
 // s = (max - min) / max (0 where max is 0). Gray input has s = 0: depth follows brightness only.
 // Row kernels per channel count (the same double arithmetic, vectorised).
-TURBID_ROW_KERNEL void RawDepthRow1(const float* __restrict in, double t0, double t1, double t2,
+TURBID_ROW_KERNEL void RawDepthRow1(const float* __restrict in, double t0, double t1,
                                     float* __restrict d, int w) {
   for (int x = 0; x < w; ++x) {
-    const float hi = in[x];
-    const double v = hi;
-    const double s = hi > 0.0f ? (hi - hi) / hi : 0.0;
-    d[x] = static_cast<float>(t0 + t1 * v + t2 * s);
+    // s = (hi - hi) / hi = 0 for every finite hi (the input is validated), so t2 s is a zero
+    // and the sum t0 + t1 v + t2 s equals t0 + t1 v: no double division per pixel.
+    const double v = in[x];
+    d[x] = static_cast<float>(t0 + t1 * v);
   }
 }
 
@@ -43,8 +43,8 @@ cv::Mat RawDepth(const CapOptions& options, const cv::Mat& image) {
   cv::Mat depth = internal::PooledMat(image.size(), CV_32FC1);
   for (int y = 0; y < image.rows; ++y) {
     if (image.channels() == 1) {
-      RawDepthRow1(image.ptr<float>(y), options.theta0, options.theta1, options.theta2,
-                   depth.ptr<float>(y), image.cols);
+      RawDepthRow1(image.ptr<float>(y), options.theta0, options.theta1, depth.ptr<float>(y),
+                   image.cols);
     } else {
       RawDepthRow3(image.ptr<float>(y), options.theta0, options.theta1, options.theta2,
                    depth.ptr<float>(y), image.cols);

@@ -59,6 +59,13 @@ TURBID_ROW_KERNEL void ChannelMinRow(const float* __restrict in, bool skip_red,
   }
 }
 
+// How many of v[0..n) are >= g.
+TURBID_ROW_KERNEL int CountAtLeast(const float* __restrict v, int n, float g) {
+  int count = 0;
+  for (int i = 0; i < n; ++i) count += v[i] >= g ? 1 : 0;
+  return count;
+}
+
 // min over the patch of min_c I^c / A^c (He 2011 eq. 12's double minimum). Gray: division by a
 // positive constant is monotone in float too, so the patch minimum of I / A is the dark channel
 // divided by A, value for value: no second minimum filter.
@@ -95,13 +102,22 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
                                                   underwater, options.patch_size);
   baselines_internal::ClampRange(result.raw_transmission, 0.0f, 1.0f);
   if (options.refine) {
-    result.transmission =
-        GuidedSmooth(image, result.raw_transmission, options.guided_radius, options.guided_eps);
-    baselines_internal::ClampRange(result.transmission, 0.0f, 1.0f);
+    // The clamp and the radiance recovery (He 2011 eq. 22) of each refined row as soon as the
+    // guided filter has written it (the same arithmetic as ClampRange and RecoverRadiance).
+    result.image = internal::PooledMat(image.size(), image.type());
+    const float floor = static_cast<float>(options.t0);
+    result.transmission = GuidedSmooth(
+        image, result.raw_transmission, options.guided_radius, options.guided_eps,
+        [&](int y, float* t) {
+          baselines_internal::ClampRangeRow(t, 0.0f, 1.0f, image.cols);
+          baselines_internal::RecoverRadianceRow(image.ptr<float>(y), t, image.channels(),
+                                                 result.airlight, floor,
+                                                 result.image.ptr<float>(y), image.cols);
+        });
   } else {
     result.transmission = result.raw_transmission.clone();
+    result.image = RecoverRadiance(image, result.transmission, result.airlight, options.t0);
   }
-  result.image = RecoverRadiance(image, result.transmission, result.airlight, options.t0);
   return result;
 }
 
@@ -152,7 +168,16 @@ cv::Point EstimateAirlight(const cv::Mat& image, const cv::Mat& prior, double fr
     const size_t rank = std::min(sample.size() - 1, static_cast<size_t>(2 * count / kStride + 1));
     std::nth_element(sample.begin(), sample.begin() + rank, sample.end(), std::greater<float>());
     const float g = sample[rank];
-    for (int i = 0; i < total; ++i) {
+    // Blocks of 64 with no value at or above g (almost all) are skipped after one vector count.
+    constexpr int kBlock = 64;
+    int i = 0;
+    for (; i + kBlock <= total; i += kBlock) {
+      if (CountAtLeast(p + i, kBlock, g) == 0) continue;
+      for (int j = i; j < i + kBlock; ++j) {
+        if (p[j] >= g) order.push_back(j);
+      }
+    }
+    for (; i < total; ++i) {
       if (p[i] >= g) order.push_back(i);
     }
     if (static_cast<int>(order.size()) < count) order.clear();
