@@ -66,23 +66,48 @@ TURBID_ROW_KERNEL int CountAtLeast(const float* __restrict v, int n, float g) {
   return count;
 }
 
-// min over the patch of min_c I^c / A^c (He 2011 eq. 12's double minimum). Gray: division by a
-// positive constant is monotone in float too, so the patch minimum of I / A is the dark channel
-// divided by A, value for value: no second minimum filter.
-cv::Mat NormalisedDarkChannel(const cv::Mat& image, const cv::Mat& dark, const cv::Vec3f& airlight,
-                              bool skip_red, int patch_size) {
+// min over the patch of min_c I^c / A^c (He 2011 eq. 12's double minimum), colour images. Gray
+// ones need no second minimum filter: division by a positive constant is monotone in float too,
+// so the patch minimum of I / A is the dark channel divided by A, value for value
+// (RawTransmission divides it row by row).
+cv::Mat NormalisedDarkChannel(const cv::Mat& image, const cv::Vec3f& airlight, bool skip_red,
+                              int patch_size) {
   cv::Mat out = internal::PooledMat(image.size(), CV_32FC1);
   const float a0 = std::max(airlight[0], kMinAirlight);
-  if (image.channels() == 1) {
-    for (int y = 0; y < image.rows; ++y)
-      DivideRow(dark.ptr<float>(y), a0, out.ptr<float>(y), image.cols);
-    return out;
-  }
   const float a1 = std::max(airlight[1], kMinAirlight), a2 = std::max(airlight[2], kMinAirlight);
   for (int y = 0; y < image.rows; ++y) {
     NormalisedMinRow3(image.ptr<float>(y), a0, a1, a2, skip_red, out.ptr<float>(y), image.cols);
   }
   return MinFilter(out, patch_size);
+}
+
+// t = clamp(1 - ω m, 0, 1) into `raw` (one channel), in blocks of >= 16 rows while they are in
+// cache: per block, m's rows (the gray dark channel over A, formed here, or the rows of the given
+// colour map), then cv::Mat::convertTo with α = -ω, β = 1 — the expression 1.0 - ω m evaluates to
+// that call, and its vector loop covers every value of a block of >= 16 values (it overlaps the
+// last vector rather than finishing with scalar code), so each value is the whole-image
+// expression's — then the clamp.
+void RawTransmission(const cv::Mat& image, const cv::Mat& dark, float a0, const cv::Mat& colour_m,
+                     double omega, cv::Mat& raw) {
+  const int h = image.rows, w = image.cols;
+  constexpr int kBlockRows = 16;
+  const bool gray = image.channels() == 1;
+  cv::Mat scratch;
+  if (gray) scratch.create(std::min(h, 2 * kBlockRows), w, CV_32FC1);
+  for (int y0 = 0; y0 < h;) {
+    const int rows = h - y0 < 2 * kBlockRows ? h - y0 : kBlockRows;  // the last block: the rest
+    cv::Mat m;
+    if (gray) {
+      m = scratch.rowRange(0, rows);
+      for (int i = 0; i < rows; ++i) DivideRow(dark.ptr<float>(y0 + i), a0, m.ptr<float>(i), w);
+    } else {
+      m = colour_m.rowRange(y0, y0 + rows);
+    }
+    cv::Mat out = raw.rowRange(y0, y0 + rows);
+    m.convertTo(out, CV_32F, -omega, 1.0);
+    for (int i = 0; i < rows; ++i) baselines_internal::ClampRangeRow(out.ptr<float>(i), 0.0f, 1.0f, w);
+    y0 += rows;
+  }
 }
 
 DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, bool underwater,
@@ -97,10 +122,12 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
   // than A the estimate goes negative, which no transmission can be. (OpenCV evaluates 1 - ω m,
   // with an FMA where the CPU has one: kept as it was, so the values stay the same.)
   result.raw_transmission = internal::PooledMat(image.size(), CV_32FC1);
-  result.raw_transmission =
-      1.0 - options.omega * NormalisedDarkChannel(image, result.dark_channel, result.airlight,
-                                                  underwater, options.patch_size);
-  baselines_internal::ClampRange(result.raw_transmission, 0.0f, 1.0f);
+  const float a0 = std::max(result.airlight[0], kMinAirlight);
+  const cv::Mat colour_m =
+      image.channels() == 1 ? cv::Mat()
+                            : NormalisedDarkChannel(image, result.airlight, underwater,
+                                                    options.patch_size);
+  RawTransmission(image, result.dark_channel, a0, colour_m, options.omega, result.raw_transmission);
   if (options.refine) {
     // The clamp and the radiance recovery (He 2011 eq. 22) of each refined row as soon as the
     // guided filter has written it (the same arithmetic as ClampRange and RecoverRadiance).
