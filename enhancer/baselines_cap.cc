@@ -87,15 +87,45 @@ CapResult ColorAttenuationPriorDetailed(const CapOptions& options, const cv::Mat
   // Zhu 2015 §IV-D: A is read among the farthest 0.1 % of the (min-filtered) depth map.
   result.airlight_pixel =
       EstimateAirlight(image, min_depth, options.airlight_fraction, &result.airlight);
-  result.depth = options.refine ? baselines_internal::GuidedSmooth(
-                                      image, min_depth, options.guided_radius, options.guided_eps)
-                                : min_depth;
   result.transmission = internal::PooledMat(image.size(), CV_32FC1);
-  cv::exp(-options.beta * result.depth, result.transmission);
-  baselines_internal::ClampRange(result.transmission, static_cast<float>(options.t_min),
-                                 static_cast<float>(options.t_max));
-  result.image = baselines_internal::RecoverRadiance(image, result.transmission, result.airlight,
-                                                     options.t_min);
+  const float t_min = static_cast<float>(options.t_min), t_max = static_cast<float>(options.t_max);
+  if (!options.refine) {
+    result.depth = min_depth;
+    cv::exp(-options.beta * result.depth, result.transmission);
+    baselines_internal::ClampRange(result.transmission, t_min, t_max);
+    result.image =
+        baselines_internal::RecoverRadiance(image, result.transmission, result.airlight, t_min);
+    return result;
+  }
+  // t = exp(-beta d) (Zhu 2015 eq. 4), clamped, and the radiance recovered, on blocks of refined
+  // rows while they are in cache: blocks of 16 rows, the last one taking the rest (so every block
+  // holds >= 16 values or is the whole image). The expression and cv::exp run on each block as
+  // they ran on the whole image; their vector loops cover every value of a block of >= 16 values
+  // (overlapping the last vector instead of finishing with scalar code), so each value is the
+  // whole-image one.
+  result.image = internal::PooledMat(image.size(), image.type());
+  constexpr int kBlockRows = 16;
+  const int h = image.rows, w = image.cols;
+  int block_start = 0;
+  float* block_first = nullptr;
+  result.depth = baselines_internal::GuidedSmooth(
+      image, min_depth, options.guided_radius, options.guided_eps, [&](int y, float* row) {
+        if (y == block_start) block_first = row;
+        const int rows = y + 1 - block_start;
+        CV_Assert(row == block_first + static_cast<size_t>(rows - 1) * w);  // contiguous rows
+        if (!((rows == kBlockRows && h - (y + 1) >= kBlockRows) || y + 1 == h)) return;
+        const cv::Mat depth(rows, w, CV_32FC1, block_first);  // the rows are contiguous
+        cv::Mat t = result.transmission.rowRange(block_start, y + 1);
+        cv::exp(-options.beta * depth, t);
+        for (int i = 0; i < rows; ++i) {
+          float* tr = t.ptr<float>(i);
+          baselines_internal::ClampRangeRow(tr, t_min, t_max, w);
+          baselines_internal::RecoverRadianceRow(image.ptr<float>(block_start + i), tr,
+                                                 image.channels(), result.airlight, t_min,
+                                                 result.image.ptr<float>(block_start + i), w);
+        }
+        block_start = y + 1;
+      });
   return result;
 }
 
