@@ -119,8 +119,8 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
   result.airlight_pixel =
       EstimateAirlight(image, result.dark_channel, options.airlight_fraction, &result.airlight);
   // He 2011 eq. 12: t = 1 - ω min_Ω min_c I^c / A^c. Clamped to [0,1]: where a pixel is brighter
-  // than A the estimate goes negative, which no transmission can be. (OpenCV evaluates 1 - ω m,
-  // with an FMA where the CPU has one: kept as it was, so the values stay the same.)
+  // than A the estimate goes negative, which no transmission can be. (RawTransmission keeps
+  // OpenCV's evaluation of 1 - ω m, an FMA where the CPU has one, so the values stay the same.)
   result.raw_transmission = internal::PooledMat(image.size(), CV_32FC1);
   const float a0 = std::max(result.airlight[0], kMinAirlight);
   const cv::Mat colour_m =
@@ -128,7 +128,7 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
                             : NormalisedDarkChannel(image, result.airlight, underwater,
                                                     options.patch_size);
   RawTransmission(image, result.dark_channel, a0, colour_m, options.omega, result.raw_transmission);
-  if (options.refine) {
+  if (options.refine && image.channels() == 1) {
     // The clamp and the radiance recovery (He 2011 eq. 22) of each refined row as soon as the
     // guided filter has written it (the same arithmetic as ClampRange and RecoverRadiance).
     result.image = internal::PooledMat(image.size(), image.type());
@@ -142,7 +142,14 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
                                                  result.image.ptr<float>(y), image.cols);
         });
   } else {
-    result.transmission = result.raw_transmission.clone();
+    // (A colour guide filters the whole image before any row is out: nothing to gain per row.)
+    if (options.refine) {
+      result.transmission =
+          GuidedSmooth(image, result.raw_transmission, options.guided_radius, options.guided_eps);
+      baselines_internal::ClampRange(result.transmission, 0.0f, 1.0f);
+    } else {
+      result.transmission = result.raw_transmission.clone();
+    }
     result.image = RecoverRadiance(image, result.transmission, result.airlight, options.t0);
   }
   return result;
