@@ -91,9 +91,8 @@ CapResult ColorAttenuationPriorDetailed(const CapOptions& options, const cv::Mat
   const float t_min = static_cast<float>(options.t_min), t_max = static_cast<float>(options.t_max);
   if (!options.refine || image.channels() != 1) {
     // (A colour guide filters the whole image before any row is out: nothing to gain per block.)
-    result.depth = options.refine ? baselines_internal::GuidedSmooth(image, min_depth,
-                                                                     options.guided_radius,
-                                                                     options.guided_eps)
+    result.depth = options.refine ? baselines_internal::GuidedSmooth(
+                                        image, min_depth, options.guided_radius, options.guided_eps)
                                   : min_depth;
     cv::exp(-options.beta * result.depth, result.transmission);
     baselines_internal::ClampRange(result.transmission, t_min, t_max);
@@ -102,9 +101,9 @@ CapResult ColorAttenuationPriorDetailed(const CapOptions& options, const cv::Mat
     return result;
   }
   // Gray: t = exp(-beta d) (Zhu 2015 eq. 4), clamped, and the radiance recovered, on blocks of
-  // refined rows while they are in cache: blocks of 16 rows, the last one taking the rest (so every block
-  // holds >= 16 values or is the whole image). The expression and cv::exp run on each block as
-  // they ran on the whole image; their vector loops cover every value of a block of >= 16 values
+  // refined rows while they are in cache: blocks of 16 rows, the last one taking the rest (so every
+  // block holds >= 16 values or is the whole image). The expression and cv::exp run on each block
+  // as they ran on the whole image; their vector loops cover every value of a block of >= 16 values
   // (overlapping the last vector instead of finishing with scalar code), so each value is the
   // whole-image one.
   result.image = internal::PooledMat(image.size(), image.type());

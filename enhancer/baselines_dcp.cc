@@ -105,7 +105,8 @@ void RawTransmission(const cv::Mat& image, const cv::Mat& dark, float a0, const 
     }
     cv::Mat out = raw.rowRange(y0, y0 + rows);
     m.convertTo(out, CV_32F, -omega, 1.0);
-    for (int i = 0; i < rows; ++i) baselines_internal::ClampRangeRow(out.ptr<float>(i), 0.0f, 1.0f, w);
+    for (int i = 0; i < rows; ++i)
+      baselines_internal::ClampRangeRow(out.ptr<float>(i), 0.0f, 1.0f, w);
     y0 += rows;
   }
 }
@@ -124,23 +125,23 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
   result.raw_transmission = internal::PooledMat(image.size(), CV_32FC1);
   const float a0 = std::max(result.airlight[0], kMinAirlight);
   const cv::Mat colour_m =
-      image.channels() == 1 ? cv::Mat()
-                            : NormalisedDarkChannel(image, result.airlight, underwater,
-                                                    options.patch_size);
+      image.channels() == 1
+          ? cv::Mat()
+          : NormalisedDarkChannel(image, result.airlight, underwater, options.patch_size);
   RawTransmission(image, result.dark_channel, a0, colour_m, options.omega, result.raw_transmission);
   if (options.refine && image.channels() == 1) {
     // The clamp and the radiance recovery (He 2011 eq. 22) of each refined row as soon as the
     // guided filter has written it (the same arithmetic as ClampRange and RecoverRadiance).
     result.image = internal::PooledMat(image.size(), image.type());
     const float floor = static_cast<float>(options.t0);
-    result.transmission = GuidedSmooth(
-        image, result.raw_transmission, options.guided_radius, options.guided_eps,
-        [&](int y, float* t) {
-          baselines_internal::ClampRangeRow(t, 0.0f, 1.0f, image.cols);
-          baselines_internal::RecoverRadianceRow(image.ptr<float>(y), t, image.channels(),
-                                                 result.airlight, floor,
-                                                 result.image.ptr<float>(y), image.cols);
-        });
+    result.transmission =
+        GuidedSmooth(image, result.raw_transmission, options.guided_radius, options.guided_eps,
+                     [&](int y, float* t) {
+                       baselines_internal::ClampRangeRow(t, 0.0f, 1.0f, image.cols);
+                       baselines_internal::RecoverRadianceRow(
+                           image.ptr<float>(y), t, image.channels(), result.airlight, floor,
+                           result.image.ptr<float>(y), image.cols);
+                     });
   } else {
     // (A colour guide filters the whole image before any row is out: nothing to gain per row.)
     if (options.refine) {

@@ -366,7 +366,8 @@ constexpr int kRunningAnchorCols = 128;
 
 TURBID_ROW_KERNEL void EightSums(const float* __restrict e, int count, float* __restrict g) {
   for (int i = 0; i < count; ++i) {
-    g[i] = ((e[i] + e[i + 1]) + (e[i + 2] + e[i + 3])) + ((e[i + 4] + e[i + 5]) + (e[i + 6] + e[i + 7]));
+    g[i] = ((e[i] + e[i + 1]) + (e[i + 2] + e[i + 3])) +
+           ((e[i + 4] + e[i + 5]) + (e[i + 6] + e[i + 7]));
   }
 }
 
@@ -671,7 +672,8 @@ TURBID_AVX2 void RunningWindowSumsAvx2(const float* e, int w, int window, float*
     }
   }
   for (; i < count; ++i) {
-    g[i] = ((e[i] + e[i + 1]) + (e[i + 2] + e[i + 3])) + ((e[i + 4] + e[i + 5]) + (e[i + 6] + e[i + 7]));
+    g[i] = ((e[i] + e[i + 1]) + (e[i + 2] + e[i + 3])) +
+           ((e[i + 4] + e[i + 5]) + (e[i + 6] + e[i + 7]));
   }
   const int k = window / 8;
   int x = 0;
@@ -682,8 +684,8 @@ TURBID_AVX2 void RunningWindowSumsAvx2(const float* e, int w, int window, float*
       for (int j = 1; j < k; ++j) prev = _mm256_add_ps(prev, _mm256_loadu_ps(g + x + 8 * j));
       for (int j = 8 * k; j < window; ++j) prev = _mm256_add_ps(prev, _mm256_loadu_ps(e + x + j));
     } else {
-      prev = _mm256_add_ps(prev, _mm256_sub_ps(_mm256_loadu_ps(g + x - 8 + window),
-                                               _mm256_loadu_ps(g + x - 8)));
+      prev = _mm256_add_ps(
+          prev, _mm256_sub_ps(_mm256_loadu_ps(g + x - 8 + window), _mm256_loadu_ps(g + x - 8)));
     }
     _mm256_storeu_ps(out + x, prev);
   }

@@ -288,8 +288,7 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   const cv::Mat source = water.backscatter ? NewLike(image) : e_l;
   if (water.backscatter) AddScalar(e_l, backscatter, source);
   ForRows(
-      image,
-      [](int n, const float* t, const float* src, float* v) { VeilRow(t, src, v, n); },
+      image, [](int n, const float* t, const float* src, float* v) { VeilRow(t, src, v, n); },
       truth.transmission, source, truth.veil);
   truth.snow = NewLike(image);
   truth.snow.setTo(cv::Scalar::all(0));
@@ -446,9 +445,8 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   const int ch = u.channels();
   cv::Mat au = NewLike(u);
   ForRows(
-      u,
-      [](int n, const float* aa, const float* uu, float* out) { ProductRow(aa, uu, out, n); },
-      a, u, au);
+      u, [](int n, const float* aa, const float* uu, float* out) { ProductRow(aa, uu, out, n); }, a,
+      u, au);
   // Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data).
   const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
   cv::Scalar m0;
@@ -460,9 +458,7 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
     const cv::Mat w = BoxSum(a, radius);
     cv::Mat m = BoxSum(au, radius);  // becomes the BLUE of the local mean; noise 1 / w
     ForRows(
-        u,
-        [](int n, const float* ww, float* mm) { QuotientRow(ww, mm, n); },
-        w, m);
+        u, [](int n, const float* ww, float* mm) { QuotientRow(ww, mm, n); }, w, m);
     const cv::Mat s = LocalSignalVariance(m, w, p, prev_radius);
     // p += S / (S + 1/w) (m - p) = S w / (S w + 1) (m - p); w = 0 keeps p.
     ForRows(
@@ -550,8 +546,7 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
   cv::boxFilter(image, variance, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
   ForRows(
-      variance,
-      [gain_f, floor_f](int n, float* v) { NoiseVarianceRow(v, gain_f, floor_f, n); },
+      variance, [gain_f, floor_f](int n, float* v) { NoiseVarianceRow(v, gain_f, floor_f, n); },
       variance);
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,

@@ -78,7 +78,8 @@ namespace {
 // The square root is correctly rounded in both the scalar and the vector form, and no FMA is
 // used, so both give the same values.
 void RangeRowScalar(const float* z, const double* dx, double dy2, int from, int w, float* r) {
-  for (int x = from; x < w; ++x) r[x] = static_cast<float>(z[x] * std::sqrt(dx[x] * dx[x] + dy2 + 1.0));
+  for (int x = from; x < w; ++x)
+    r[x] = static_cast<float>(z[x] * std::sqrt(dx[x] * dx[x] + dy2 + 1.0));
 }
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)

@@ -180,8 +180,8 @@ TEST(BaselinesCap, SameResultsAsThePreOptimisationImplementation) {
         cv::Mat t;
         cv::exp(-o.beta * a.depth, t);
         EXPECT_EQ(MaxDiff(a.transmission, cv::max(cv::min(t, o.t_max), o.t_min)), 0.0) << what;
-        EXPECT_EQ(MaxDiff(a.image, ref::RecoverRadiance(image, a.transmission, a.airlight, o.t_min)),
-                  0.0)
+        EXPECT_EQ(
+            MaxDiff(a.image, ref::RecoverRadiance(image, a.transmission, a.airlight, o.t_min)), 0.0)
             << what;
       } else {
         EXPECT_EQ(MaxDiff(a.depth, b.depth), 0.0) << what;

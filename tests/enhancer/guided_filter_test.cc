@@ -378,7 +378,9 @@ TEST(GuidedFilter, RunningSumVariantSmallRadiiAndRowCallback) {
     o.radius = r;
     o.eps = 1e-3;
     const cv::Mat plain = GuidedFilterGrayRunning(guide, src, r, o.eps);
-    if (r <= 12) EXPECT_EQ(cv::norm(plain, GuidedFilter(o, guide, src), cv::NORM_INF), 0.0) << r;
+    if (r <= 12) {
+      EXPECT_EQ(cv::norm(plain, GuidedFilter(o, guide, src), cv::NORM_INF), 0.0) << r;
+    }
     int next = 0;
     const cv::Mat doubled = GuidedFilterGrayRunning(guide, src, r, o.eps, [&](int y, float* row) {
       EXPECT_EQ(y, next++);

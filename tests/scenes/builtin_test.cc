@@ -2,12 +2,12 @@
 #include "scenes/builtin.h"
 
 #include <gtest/gtest.h>
-#include <opencv2/core/utility.hpp>
-#include <opencv2/features2d.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include <cmath>
 #include <limits>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "scenes/error.h"
 
@@ -226,8 +226,8 @@ TEST(BuiltinScene, RangeFromDepthEqualsThePreOptimisationLoop) {
       const double dy = (y - camera.cy) / camera.fy;
       for (int x = 0; x < scene.width(); ++x) {
         const double dx = (x - camera.cx) / camera.fx;
-        const float expected = static_cast<float>(scene.depth_m.at<float>(y, x) *
-                                                  std::sqrt(dx * dx + dy * dy + 1.0));
+        const float expected =
+            static_cast<float>(scene.depth_m.at<float>(y, x) * std::sqrt(dx * dx + dy * dy + 1.0));
         const float got = range.at<float>(y, x);
         different += (got == expected || (std::isnan(got) && std::isnan(expected))) ? 0 : 1;
       }
