@@ -111,11 +111,21 @@ cv::Mat MinFilter(const cv::Mat& gray, int size) {
   return out;
 }
 
-cv::Mat GuidedSmooth(const cv::Mat& guide, const cv::Mat& src, int radius, double eps) {
+cv::Mat GuidedSmooth(const cv::Mat& guide, const cv::Mat& src, int radius, double eps,
+                     const std::function<void(int, float*)>& row_done) {
   GuidedFilterOptions options;
   options.radius = std::max(1, std::min(radius, std::max(src.rows, src.cols)));
   options.eps = eps;
-  return GuidedFilter(options, guide, src);
+  // Beyond the fused radii, the running-sum variant (equal to float rounding, about twice as
+  // fast at dcp's r = 60 and cap's r = 30).
+  if (guide.channels() == 1 && src.channels() == 1) {
+    return GuidedFilterGrayRunning(guide, src, options.radius, eps, row_done);
+  }
+  cv::Mat q = GuidedFilter(options, guide, src);
+  if (row_done) {
+    for (int y = 0; y < q.rows; ++y) row_done(y, q.ptr<float>(y));
+  }
+  return q;
 }
 
 cv::Mat ClaheGray(const cv::Mat& gray, int tiles_x, int tiles_y, double clip_limit, int bins) {
@@ -135,17 +145,22 @@ cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission,
   cv::Mat out = internal::PooledMat(image.size(), image.type());
   const float floor = static_cast<float>(t_min);
   for (int y = 0; y < image.rows; ++y) {
-    const float* in = image.ptr<float>(y);
-    const float* t = transmission.ptr<float>(y);
-    float* o = out.ptr<float>(y);
-    if (channels == 1) {
-      RecoverRow1(in, t, airlight[0], floor, o, image.cols);
-    } else {
-      RecoverRow3(in, t, airlight[0], airlight[1], airlight[2], floor, o, image.cols);
-    }
+    RecoverRadianceRow(image.ptr<float>(y), transmission.ptr<float>(y), channels, airlight, floor,
+                       out.ptr<float>(y), image.cols);
   }
   return out;
 }
+
+void RecoverRadianceRow(const float* in, const float* t, int channels, const cv::Vec3f& airlight,
+                        float t_min, float* out, int w) {
+  if (channels == 1) {
+    RecoverRow1(in, t, airlight[0], t_min, out, w);
+  } else {
+    RecoverRow3(in, t, airlight[0], airlight[1], airlight[2], t_min, out, w);
+  }
+}
+
+void ClampRangeRow(float* v, float lo, float hi, int n) { ClampRow(v, lo, hi, n); }
 
 void ClampRange(cv::Mat& image, float lo, float hi) {
   CV_Assert(image.depth() == CV_32F);

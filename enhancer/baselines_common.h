@@ -1,6 +1,7 @@
 // Internals shared by the baseline methods (enhancer/baselines.h); not part of the public API.
 #pragma once
 
+#include <functional>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -19,7 +20,11 @@ cv::Mat MinFilter(const cv::Mat& gray, int size);
 
 // Guided-filter smoothing of the one-channel `src` with `guide` (1 or 3 channels), radius and ε on
 // [0,1] data; radius is capped to the image size (a larger window adds nothing but border).
-cv::Mat GuidedSmooth(const cv::Mat& guide, const cv::Mat& src, int radius, double eps);
+// One-channel guides at radii > 12 take GuidedFilterGrayRunning (equal to GuidedFilter to float
+// rounding). `row_done(y, row)`, if given, is called on each output row in order (for a
+// one-channel guide as soon as the row is written, while it is in cache); it may modify it.
+cv::Mat GuidedSmooth(const cv::Mat& guide, const cv::Mat& src, int radius, double eps,
+                     const std::function<void(int, float*)>& row_done = nullptr);
 
 // CLAHE with a uniform target on a one-channel float image in [0,1] (adapthisteq semantics).
 cv::Mat ClaheGray(const cv::Mat& gray, int tiles_x, int tiles_y, double clip_limit, int bins);
@@ -27,6 +32,12 @@ cv::Mat ClaheGray(const cv::Mat& gray, int tiles_x, int tiles_y, double clip_lim
 // J = (I - A) / max(t, t_min) + A per channel (He 2011 eq. 22), clamped to [0,1].
 cv::Mat RecoverRadiance(const cv::Mat& image, const cv::Mat& transmission,
                         const cv::Vec3f& airlight, double t_min);
+
+// One row of RecoverRadiance: w pixels of `channels` (1 or 3) values.
+void RecoverRadianceRow(const float* in, const float* t, int channels, const cv::Vec3f& airlight,
+                        float t_min, float* out, int w);
+// One row of ClampRange (n values).
+void ClampRangeRow(float* v, float lo, float hi, int n);
 
 // Clamps a CV_32F image to [lo, hi] in place, one pass: min(max(v, lo), hi).
 void ClampRange(cv::Mat& image, float lo, float hi);

@@ -59,23 +59,56 @@ TURBID_ROW_KERNEL void ChannelMinRow(const float* __restrict in, bool skip_red,
   }
 }
 
-// min over the patch of min_c I^c / A^c (He 2011 eq. 12's double minimum). Gray: division by a
-// positive constant is monotone in float too, so the patch minimum of I / A is the dark channel
-// divided by A, value for value: no second minimum filter.
-cv::Mat NormalisedDarkChannel(const cv::Mat& image, const cv::Mat& dark, const cv::Vec3f& airlight,
-                              bool skip_red, int patch_size) {
+// How many of v[0..n) are >= g.
+TURBID_ROW_KERNEL int CountAtLeast(const float* __restrict v, int n, float g) {
+  int count = 0;
+  for (int i = 0; i < n; ++i) count += v[i] >= g ? 1 : 0;
+  return count;
+}
+
+// min over the patch of min_c I^c / A^c (He 2011 eq. 12's double minimum), colour images. Gray
+// ones need no second minimum filter: division by a positive constant is monotone in float too,
+// so the patch minimum of I / A is the dark channel divided by A, value for value
+// (RawTransmission divides it row by row).
+cv::Mat NormalisedDarkChannel(const cv::Mat& image, const cv::Vec3f& airlight, bool skip_red,
+                              int patch_size) {
   cv::Mat out = internal::PooledMat(image.size(), CV_32FC1);
   const float a0 = std::max(airlight[0], kMinAirlight);
-  if (image.channels() == 1) {
-    for (int y = 0; y < image.rows; ++y)
-      DivideRow(dark.ptr<float>(y), a0, out.ptr<float>(y), image.cols);
-    return out;
-  }
   const float a1 = std::max(airlight[1], kMinAirlight), a2 = std::max(airlight[2], kMinAirlight);
   for (int y = 0; y < image.rows; ++y) {
     NormalisedMinRow3(image.ptr<float>(y), a0, a1, a2, skip_red, out.ptr<float>(y), image.cols);
   }
   return MinFilter(out, patch_size);
+}
+
+// t = clamp(1 - ω m, 0, 1) into `raw` (one channel), in blocks of >= 16 rows while they are in
+// cache: per block, m's rows (the gray dark channel over A, formed here, or the rows of the given
+// colour map), then cv::Mat::convertTo with α = -ω, β = 1 — the expression 1.0 - ω m evaluates to
+// that call, and its vector loop covers every value of a block of >= 16 values (it overlaps the
+// last vector rather than finishing with scalar code), so each value is the whole-image
+// expression's — then the clamp.
+void RawTransmission(const cv::Mat& image, const cv::Mat& dark, float a0, const cv::Mat& colour_m,
+                     double omega, cv::Mat& raw) {
+  const int h = image.rows, w = image.cols;
+  constexpr int kBlockRows = 16;
+  const bool gray = image.channels() == 1;
+  cv::Mat scratch;
+  if (gray) scratch.create(std::min(h, 2 * kBlockRows), w, CV_32FC1);
+  for (int y0 = 0; y0 < h;) {
+    const int rows = h - y0 < 2 * kBlockRows ? h - y0 : kBlockRows;  // the last block: the rest
+    cv::Mat m;
+    if (gray) {
+      m = scratch.rowRange(0, rows);
+      for (int i = 0; i < rows; ++i) DivideRow(dark.ptr<float>(y0 + i), a0, m.ptr<float>(i), w);
+    } else {
+      m = colour_m.rowRange(y0, y0 + rows);
+    }
+    cv::Mat out = raw.rowRange(y0, y0 + rows);
+    m.convertTo(out, CV_32F, -omega, 1.0);
+    for (int i = 0; i < rows; ++i)
+      baselines_internal::ClampRangeRow(out.ptr<float>(i), 0.0f, 1.0f, w);
+    y0 += rows;
+  }
 }
 
 DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, bool underwater,
@@ -87,21 +120,39 @@ DcpResult RunDarkChannelPrior(const DcpOptions& options, const cv::Mat& image, b
   result.airlight_pixel =
       EstimateAirlight(image, result.dark_channel, options.airlight_fraction, &result.airlight);
   // He 2011 eq. 12: t = 1 - ω min_Ω min_c I^c / A^c. Clamped to [0,1]: where a pixel is brighter
-  // than A the estimate goes negative, which no transmission can be. (OpenCV evaluates 1 - ω m,
-  // with an FMA where the CPU has one: kept as it was, so the values stay the same.)
+  // than A the estimate goes negative, which no transmission can be. (RawTransmission keeps
+  // OpenCV's evaluation of 1 - ω m, an FMA where the CPU has one, so the values stay the same.)
   result.raw_transmission = internal::PooledMat(image.size(), CV_32FC1);
-  result.raw_transmission =
-      1.0 - options.omega * NormalisedDarkChannel(image, result.dark_channel, result.airlight,
-                                                  underwater, options.patch_size);
-  baselines_internal::ClampRange(result.raw_transmission, 0.0f, 1.0f);
-  if (options.refine) {
+  const float a0 = std::max(result.airlight[0], kMinAirlight);
+  const cv::Mat colour_m =
+      image.channels() == 1
+          ? cv::Mat()
+          : NormalisedDarkChannel(image, result.airlight, underwater, options.patch_size);
+  RawTransmission(image, result.dark_channel, a0, colour_m, options.omega, result.raw_transmission);
+  if (options.refine && image.channels() == 1) {
+    // The clamp and the radiance recovery (He 2011 eq. 22) of each refined row as soon as the
+    // guided filter has written it (the same arithmetic as ClampRange and RecoverRadiance).
+    result.image = internal::PooledMat(image.size(), image.type());
+    const float floor = static_cast<float>(options.t0);
     result.transmission =
-        GuidedSmooth(image, result.raw_transmission, options.guided_radius, options.guided_eps);
-    baselines_internal::ClampRange(result.transmission, 0.0f, 1.0f);
+        GuidedSmooth(image, result.raw_transmission, options.guided_radius, options.guided_eps,
+                     [&](int y, float* t) {
+                       baselines_internal::ClampRangeRow(t, 0.0f, 1.0f, image.cols);
+                       baselines_internal::RecoverRadianceRow(
+                           image.ptr<float>(y), t, image.channels(), result.airlight, floor,
+                           result.image.ptr<float>(y), image.cols);
+                     });
   } else {
-    result.transmission = result.raw_transmission.clone();
+    // (A colour guide filters the whole image before any row is out: nothing to gain per row.)
+    if (options.refine) {
+      result.transmission =
+          GuidedSmooth(image, result.raw_transmission, options.guided_radius, options.guided_eps);
+      baselines_internal::ClampRange(result.transmission, 0.0f, 1.0f);
+    } else {
+      result.transmission = result.raw_transmission.clone();
+    }
+    result.image = RecoverRadiance(image, result.transmission, result.airlight, options.t0);
   }
-  result.image = RecoverRadiance(image, result.transmission, result.airlight, options.t0);
   return result;
 }
 
@@ -152,7 +203,16 @@ cv::Point EstimateAirlight(const cv::Mat& image, const cv::Mat& prior, double fr
     const size_t rank = std::min(sample.size() - 1, static_cast<size_t>(2 * count / kStride + 1));
     std::nth_element(sample.begin(), sample.begin() + rank, sample.end(), std::greater<float>());
     const float g = sample[rank];
-    for (int i = 0; i < total; ++i) {
+    // Blocks of 64 with no value at or above g (almost all) are skipped after one vector count.
+    constexpr int kBlock = 64;
+    int i = 0;
+    for (; i + kBlock <= total; i += kBlock) {
+      if (CountAtLeast(p + i, kBlock, g) == 0) continue;
+      for (int j = i; j < i + kBlock; ++j) {
+        if (p[j] >= g) order.push_back(j);
+      }
+    }
+    for (; i < total; ++i) {
       if (p[i] >= g) order.push_back(i);
     }
     if (static_cast<int>(order.size()) < count) order.clear();

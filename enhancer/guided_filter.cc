@@ -356,6 +356,44 @@ TURBID_ROW_KERNEL void ApplyCoefficientsFused(
   }
 }
 
+// Window sums of W > 25 values as running sums on a stride of 8 (GuidedFilterGrayRunning): with
+// the sums of 8 G(i) = ((e_i + e_i+1) + (e_i+2 + e_i+3)) + ((e_i+4 + e_i+5) + (e_i+6 + e_i+7)),
+// out(x) = out(x - 8) + (G(x - 8 + W) - G(x - 8)), so 8 neighbouring outputs advance together as
+// one vector; at x = 0, 128, 256, ... (8 outputs each) the direct sum G(x) + G(x + 8) + ... +
+// G(x + 8 (W / 8 - 1)) + e_{x + 8 (W / 8)} + ... + e_{x + W - 1} restarts them, so rounding drifts
+// over at most 15 steps. About half the additions of the doubling tree; not its rounding.
+constexpr int kRunningAnchorCols = 128;
+
+TURBID_ROW_KERNEL void EightSums(const float* __restrict e, int count, float* __restrict g) {
+  for (int i = 0; i < count; ++i) {
+    g[i] = ((e[i] + e[i + 1]) + (e[i + 2] + e[i + 3])) +
+           ((e[i + 4] + e[i + 5]) + (e[i + 6] + e[i + 7]));
+  }
+}
+
+inline float AnchoredWindowSum(const float* e, const float* g, int x, int window) {
+  const int k = window / 8;
+  float s = g[x];
+  for (int j = 1; j < k; ++j) s += g[x + 8 * j];
+  for (int j = 8 * k; j < window; ++j) s += e[x + j];
+  return s;
+}
+
+// Outputs from x on (the recurrence above, one value at a time).
+inline void RunningWindowSumsFrom(const float* e, const float* g, int x, int w, int window,
+                                  float* out) {
+  for (; x < w; ++x) {
+    out[x] = x % kRunningAnchorCols < 8 ? AnchoredWindowSum(e, g, x, window)
+                                        : out[x - 8] + (g[x - 8 + window] - g[x - 8]);
+  }
+}
+
+// `g`: w + window - 8 floats of scratch.
+void RunningWindowSumsPortable(const float* e, int w, int window, float* out, float* g) {
+  EightSums(e, w + window - 8, g);
+  RunningWindowSumsFrom(e, g, 0, w, window, out);
+}
+
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 // AVX2 kernels for W >= 9 without the separate pass of 4-sums: each 8-pixel step at x needs the
 // 4-sums starting at x, x+4, ..., x+4(K-1) (K = W/4); all but the last two were already formed by
@@ -617,6 +655,42 @@ TURBID_AVX2 void DoublingWindowSumsAvx2(const float* ext, int w, int window, flo
   }
   for (int x = 8 * blocks; x < w; ++x) out[x] = WindowTreeSum(ext, x, window);
 }
+// RunningWindowSumsPortable with vectors: the sums of 8 from lane shuffles of pair sums (as in
+// DoublingWindowSumsAvx2), 8 outputs per step. The same additions in the same order.
+TURBID_AVX2 void RunningWindowSumsAvx2(const float* e, int w, int window, float* out, float* g) {
+  const int count = w + window - 8;  // e holds count + 7 values
+  int i = 0;
+  if (count - 18 >= 0) {
+    __m256 p1 = Pair(e + 8);
+    __m256 d0 = _mm256_add_ps(Pair(e), Shift2(Pair(e), p1));
+    for (; i + 8 <= count && i <= count - 18; i += 8) {
+      const __m256 p2 = Pair(e + i + 16);
+      const __m256 d1 = _mm256_add_ps(p1, Shift2(p1, p2));
+      _mm256_storeu_ps(g + i, _mm256_add_ps(d0, Shift4(d0, d1)));
+      p1 = p2;
+      d0 = d1;
+    }
+  }
+  for (; i < count; ++i) {
+    g[i] = ((e[i] + e[i + 1]) + (e[i + 2] + e[i + 3])) +
+           ((e[i + 4] + e[i + 5]) + (e[i + 6] + e[i + 7]));
+  }
+  const int k = window / 8;
+  int x = 0;
+  __m256 prev = _mm256_setzero_ps();
+  for (; x + 8 <= w; x += 8) {
+    if (x % kRunningAnchorCols == 0) {
+      prev = _mm256_loadu_ps(g + x);
+      for (int j = 1; j < k; ++j) prev = _mm256_add_ps(prev, _mm256_loadu_ps(g + x + 8 * j));
+      for (int j = 8 * k; j < window; ++j) prev = _mm256_add_ps(prev, _mm256_loadu_ps(e + x + j));
+    } else {
+      prev = _mm256_add_ps(
+          prev, _mm256_sub_ps(_mm256_loadu_ps(g + x - 8 + window), _mm256_loadu_ps(g + x - 8)));
+    }
+    _mm256_storeu_ps(out + x, prev);
+  }
+  RunningWindowSumsFrom(e, g, x, w, window, out);
+}
 #undef TURBID_AVX2
 #define TURBID_HAVE_ROLLING_QUADS 1
 #endif
@@ -809,7 +883,7 @@ int InvCount(int t, int r, int n) { return std::min(t + r, n - 1) - std::max(t -
 class GrayStream {
  public:
   GrayStream(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self,
-             int channels = 1)
+             int channels = 1, bool running = false)
       : guide_(guide),
         src_(src),
         r_(r),
@@ -840,6 +914,11 @@ class GrayStream {
       sums_.assign(static_cast<size_t>(planes_a_ + 2) * w_, 0.0f);
       t0_.resize(ext_len_);
       t1_.resize(ext_len_);
+      if (running) {
+        CV_Assert(channels == 1);
+        running_.resize(static_cast<size_t>(w_) + window_);
+        return;
+      }
 #ifdef TURBID_HAVE_ROLLING_QUADS
       if (enhancer_internal::UseHandWrittenAvx2()) {
         doubling_.resize(DoublingScratchFloats(w_, window_));
@@ -886,6 +965,16 @@ class GrayStream {
   float* Sum(int k) { return sums_.data() + static_cast<size_t>(k) * w_; }
   // Window sums of plane k's padded column sums into Sum(k) (radii beyond kMaxFusedRadius).
   void WindowSumsOf(int k) {
+    if (!running_.empty()) {
+#ifdef TURBID_HAVE_ROLLING_QUADS
+      if (enhancer_internal::UseHandWrittenAvx2()) {
+        RunningWindowSumsAvx2(Ext(k), w_, window_, Sum(k), running_.data());
+        return;
+      }
+#endif
+      RunningWindowSumsPortable(Ext(k), w_, window_, Sum(k), running_.data());
+      return;
+    }
 #ifdef TURBID_HAVE_ROLLING_QUADS
     if (!doubling_.empty()) {
       DoublingWindowSumsAvx2(Ext(k), w_, window_, Sum(k), doubling_.data());
@@ -962,17 +1051,23 @@ class GrayStream {
   // Per-plane buffers: column sums with r zeros each side (the clipped window); window sums.
   std::vector<float> ext_, quads_, sums_, t0_, t1_, inv_cx_;
   std::vector<float> doubling_;                // DoublingWindowSumsAvx2's levels (AVX2, radii > 12)
+  std::vector<float> running_;                 // sums of 8 (GuidedFilterGrayRunning)
   std::vector<const float*> rows_u_, rows_v_;  // window rows when re-anchoring
   cv::Mat a_ring_, b_ring_;
   FusedKernels fused_;  // empty beyond kMaxFusedRadius (window sums by binary doubling)
   int next_a_ = 0;
 };
 
-cv::Mat GuidedGray(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self) {
-  GrayStream stream(guide, src, r, eps, self);
+cv::Mat GuidedGray(const cv::Mat& guide, const cv::Mat& src, int r, float eps, bool self,
+                   bool running = false,
+                   const std::function<void(int, float*)>& row_done = nullptr) {
+  GrayStream stream(guide, src, r, eps, self, 1, running);
   // The output from the recycling pool (simulator/image_pool.h): no fresh pages per call.
   cv::Mat q = internal::PooledMat(guide.size(), CV_32F);
-  for (int t = 0; t < guide.rows; ++t) stream.Row(t, q.ptr<float>(t));
+  for (int t = 0; t < guide.rows; ++t) {
+    stream.Row(t, q.ptr<float>(t));
+    if (row_done) row_done(t, q.ptr<float>(t));
+  }
   return q;
 }
 
@@ -1195,6 +1290,28 @@ cv::Mat GuidedFilter(const GuidedFilterOptions& options, const cv::Mat& guide_in
   if (out_planes.size() == 1) return out_planes[0];
   cv::merge(out_planes, out);
   return out;
+}
+
+cv::Mat GuidedFilterGrayRunning(const cv::Mat& guide_in, const cv::Mat& src_in, int radius,
+                                double eps, const std::function<void(int, float*)>& row_done) {
+  GuidedFilterOptions options;
+  options.radius = radius;
+  options.eps = eps;
+  CheckInputs(options, guide_in, src_in);
+  if (guide_in.channels() != 1 || src_in.channels() != 1) {
+    throw Error("guided filter (running sums): guide and source must have one channel");
+  }
+  if (radius <= kMaxFusedRadius) {
+    cv::Mat q = GuidedFilter(options, guide_in, src_in);
+    if (row_done) {
+      for (int y = 0; y < q.rows; ++y) row_done(y, q.ptr<float>(y));
+    }
+    return q;
+  }
+  const cv::Mat guide = Continuous(guide_in);
+  const bool self = guide_in.data == src_in.data;
+  return GuidedGray(guide, self ? guide : Continuous(src_in), radius, static_cast<float>(eps), self,
+                    /*running=*/true, row_done);
 }
 
 cv::Mat GuidedFilterSelf(const GuidedFilterOptions& options, const cv::Mat& image) {

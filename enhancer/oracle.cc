@@ -159,6 +159,60 @@ void AddScalar(const cv::Mat& m, const cv::Scalar& s, const cv::Mat& out) {
   cv::add(m, s, dst);
 }
 
+// Row kernels of the passes below (TURBID_ROW_KERNEL: vectorised, an AVX2 clone; the same float
+// operations in the same order as the loops they replaced, so the same values).
+TURBID_ROW_KERNEL void VeilRow(const float* __restrict t, const float* __restrict src,
+                               float* __restrict v, int n) {
+  for (int i = 0; i < n; ++i) v[i] = (1.0f - t[i]) * src[i];
+}
+
+TURBID_ROW_KERNEL void ProductRow(const float* __restrict a, const float* __restrict b,
+                                  float* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) out[i] = a[i] * b[i];
+}
+
+TURBID_ROW_KERNEL void QuotientRow(const float* __restrict w, float* __restrict m, int n) {
+  for (int i = 0; i < n; ++i) m[i] = m[i] / std::max(w[i], 1e-30f);
+}
+
+// p += S w / (S w + 1) (m - p).
+TURBID_ROW_KERNEL void ShrinkRow(const float* __restrict s, const float* __restrict w,
+                                 const float* __restrict m, float* __restrict p, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float sw = s[i] * w[i];
+    const float gain = sw / (sw + 1.0f);
+    p[i] = p[i] + gain * (m[i] - p[i]);
+  }
+}
+
+// The estimate and the posterior variance (into s) of HierarchicalMmse.
+TURBID_ROW_KERNEL void EstimateRow(const float* __restrict a, const float* __restrict u,
+                                   const float* __restrict p, float* __restrict s,
+                                   float* __restrict e, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float sa_px = s[i] * a[i];
+    const float den = sa_px + 1.0f;
+    const float gain = sa_px / den;
+    s[i] = s[i] / den;
+    e[i] = p[i] + gain * (u[i] - p[i]);
+  }
+}
+
+TURBID_ROW_KERNEL void NoiseVarianceRow(float* __restrict v, float gain, float floor_var, int n) {
+  for (int i = 0; i < n; ++i) v[i] = std::max(v[i], 0.0f) * gain + floor_var;
+}
+
+// LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30), in place in o.
+TURBID_ROW_KERNEL void SignalVarianceRow(float* __restrict o, const float* __restrict w,
+                                         const float* __restrict count, int n) {
+  for (int i = 0; i < n; ++i) o[i] = std::max(o[i] - count[i], 0.0f) / std::max(w[i], 1e-30f);
+}
+
+TURBID_ROW_KERNEL void SignalVarianceRowFull(float* __restrict o, const float* __restrict w,
+                                             float full, int n) {
+  for (int i = 0; i < n; ++i) o[i] = std::max(o[i] - full, 0.0f) / std::max(w[i], 1e-30f);
+}
+
 // Element-wise passes over images of the same size and type (any channel count, rows possibly
 // strided): fn(i, pointers...) for every value i of a row. Every formula below is written as the
 // OpenCV expressions it replaced evaluate it (one float rounding per operation, no FMA), so the
@@ -234,10 +288,7 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   const cv::Mat source = water.backscatter ? NewLike(image) : e_l;
   if (water.backscatter) AddScalar(e_l, backscatter, source);
   ForRows(
-      image,
-      [](int n, const float* t, const float* src, float* v) {
-        for (int i = 0; i < n; ++i) v[i] = (1.0f - t[i]) * src[i];
-      },
+      image, [](int n, const float* t, const float* src, float* v) { VeilRow(t, src, v, n); },
       truth.transmission, source, truth.veil);
   truth.snow = NewLike(image);
   truth.snow.setTo(cv::Scalar::all(0));
@@ -268,6 +319,7 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
 
 // Pixels where any channel of t is below `floor` (NaN depth has t = 0): CV_8UC1, 255 = masked.
 cv::Mat MaskBelow(const cv::Mat& t, double floor) {
+  if (t.channels() == 1) return t < floor;  // no copy of the one plane (cv::split would)
   std::vector<cv::Mat> planes;
   cv::split(t, planes);
   cv::Mat mask = planes[0] < floor;
@@ -314,7 +366,14 @@ void DataTermRow(const float* in, const float* t, const float* e, const float* s
 }
 
 // Pixels of a row with some channel above clip_level.
+TURBID_ROW_KERNEL int CountClippedRow1(const float* __restrict in, float clip_level, int cols) {
+  int count = 0;
+  for (int x = 0; x < cols; ++x) count += in[x] > clip_level ? 1 : 0;
+  return count;
+}
+
 int CountClipped(const float* in, float clip_level, int ch, int cols) {
+  if (ch == 1) return CountClippedRow1(in, clip_level, cols);
   int count = 0;
   for (int x = 0; x < cols; ++x) {
     bool clipped = false;
@@ -324,23 +383,34 @@ int CountClipped(const float* in, float clip_level, int ch, int cols) {
   return count;
 }
 
+// One row of LocalSignalVariance's numerator a (z - p)^2 and data indicator [a > 0]; returns how
+// many values have no data.
+TURBID_ROW_KERNEL int NumeratorRow(const float* __restrict zz, const float* __restrict aa,
+                                   const float* __restrict pp, float* __restrict nn,
+                                   float* __restrict hh, int n) {
+  int none = 0;
+  for (int i = 0; i < n; ++i) {
+    const float d = zz[i] - pp[i];
+    nn[i] = aa[i] * (d * d);
+    hh[i] = aa[i] > 0.0f ? 1.0f : 0.0f;
+    none += aa[i] > 0.0f ? 0 : 1;
+  }
+  return none;
+}
+
 // Local signal variance around the prior mean p of values z whose noise variances are 1 / a (a =
 // 0: no data): max(sum a (z - p)^2 - sum [a > 0], 0) / sum a over a window of `radius` (0: the
 // whole image). Unbiased for independent samples (E a (z - p)^2 = a S + 1).
 cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius) {
   cv::Mat num = NewLike(z), has = NewLike(z);
-  bool all_data = true;
+  int no_data = 0;  // values with a = 0 (a count, so the loop vectorises)
   ForRows(
       z,
-      [&all_data](int n, const float* zz, const float* aa, const float* pp, float* nn, float* hh) {
-        for (int i = 0; i < n; ++i) {
-          const float d = zz[i] - pp[i];
-          nn[i] = aa[i] * (d * d);
-          hh[i] = aa[i] > 0.0f ? 1.0f : 0.0f;
-          all_data = all_data && aa[i] > 0.0f;
-        }
+      [&no_data](int n, const float* zz, const float* aa, const float* pp, float* nn, float* hh) {
+        no_data += NumeratorRow(zz, aa, pp, nn, hh, n);
       },
       z, a, p, num, has);
+  const bool all_data = no_data == 0;
   if (radius <= 0) {
     const cv::Scalar sa = cv::sum(a), sn = cv::sum(num), sh = cv::sum(has);
     cv::Scalar s;
@@ -358,12 +428,10 @@ cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p
   const cv::Mat count = all_data ? cv::Mat() : BoxSum(has, radius);
   for (int y = 0; y < z.rows; ++y) {
     const int n = z.cols * z.channels();
-    float* o = out.ptr<float>(y);
-    const float* w = sa.ptr<float>(y);
-    const float* h = all_data ? nullptr : count.ptr<float>(y);
-    for (int i = 0; i < n; ++i) {
-      const float v = std::max(o[i] - (h != nullptr ? h[i] : full), 0.0f);
-      o[i] = v / std::max(w[i], 1e-30f);
+    if (all_data) {
+      SignalVarianceRowFull(out.ptr<float>(y), sa.ptr<float>(y), full, n);
+    } else {
+      SignalVarianceRow(out.ptr<float>(y), sa.ptr<float>(y), count.ptr<float>(y), n);
     }
   }
   return out;
@@ -377,11 +445,8 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   const int ch = u.channels();
   cv::Mat au = NewLike(u);
   ForRows(
-      u,
-      [](int n, const float* aa, const float* uu, float* out) {
-        for (int i = 0; i < n; ++i) out[i] = aa[i] * uu[i];
-      },
-      a, u, au);
+      u, [](int n, const float* aa, const float* uu, float* out) { ProductRow(aa, uu, out, n); }, a,
+      u, au);
   // Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data).
   const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
   cv::Scalar m0;
@@ -393,21 +458,13 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
     const cv::Mat w = BoxSum(a, radius);
     cv::Mat m = BoxSum(au, radius);  // becomes the BLUE of the local mean; noise 1 / w
     ForRows(
-        u,
-        [](int n, const float* ww, float* mm) {
-          for (int i = 0; i < n; ++i) mm[i] = mm[i] / std::max(ww[i], 1e-30f);
-        },
-        w, m);
+        u, [](int n, const float* ww, float* mm) { QuotientRow(ww, mm, n); }, w, m);
     const cv::Mat s = LocalSignalVariance(m, w, p, prev_radius);
     // p += S / (S + 1/w) (m - p) = S w / (S w + 1) (m - p); w = 0 keeps p.
     ForRows(
         u,
         [](int n, const float* ss, const float* ww, const float* mm, float* pp) {
-          for (int i = 0; i < n; ++i) {
-            const float sw = ss[i] * ww[i];
-            const float gain = sw / (sw + 1.0f);
-            pp[i] = pp[i] + gain * (mm[i] - pp[i]);
-          }
+          ShrinkRow(ss, ww, mm, pp, n);
         },
         s, w, m, p);
     prev_radius = radius;
@@ -419,18 +476,62 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   ForRows(
       u,
       [](int n, const float* aa, const float* uu, const float* pp, float* ss, float* ee) {
-        for (int i = 0; i < n; ++i) {
-          const float sa_px = ss[i] * aa[i];
-          const float den = sa_px + 1.0f;
-          const float gain = sa_px / den;
-          ss[i] = ss[i] / den;
-          ee[i] = pp[i] + gain * (uu[i] - pp[i]);
-        }
+        EstimateRow(aa, uu, pp, ss, ee, n);
       },
       a, u, p, s, est);
   *prior = p;
   *posterior = s;
   return est;
+}
+
+// Per-channel sums over the pixels that are not masked (see OracleEnhance's deblur).
+struct DeblurStats {
+  double posterior[3] = {0, 0, 0}, detail[3] = {0, 0, 0}, detail_sq[3] = {0, 0, 0};
+  long long count = 0;
+};
+
+// detail = est - prior (float), and DeblurStats, one row pass. Four partial sums per quantity
+// (independent chains).
+DeblurStats DetailAndStats(const cv::Mat& est, const cv::Mat& prior, const cv::Mat& posterior,
+                           const cv::Mat& masked, const cv::Mat& detail) {
+  const int ch = est.channels();
+  DeblurStats st;
+  for (int y = 0; y < est.rows; ++y) {
+    const float* e = est.ptr<float>(y);
+    const float* p = prior.ptr<float>(y);
+    const float* v = posterior.ptr<float>(y);
+    const uchar* m = masked.ptr<uchar>(y);
+    float* d = const_cast<cv::Mat&>(detail).ptr<float>(y);
+    const int n = est.cols * ch;
+    for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
+    if (ch == 1) {
+      double sp[4] = {0, 0, 0, 0}, sd[4] = {0, 0, 0, 0}, sq[4] = {0, 0, 0, 0};
+      for (int x = 0; x < est.cols; ++x) {
+        if (m[x] != 0) continue;
+        const int k = x & 3;
+        const double dd = d[x];
+        sp[k] += v[x];
+        sd[k] += dd;
+        sq[k] += dd * dd;
+        ++st.count;
+      }
+      st.posterior[0] += (sp[0] + sp[1]) + (sp[2] + sp[3]);
+      st.detail[0] += (sd[0] + sd[1]) + (sd[2] + sd[3]);
+      st.detail_sq[0] += (sq[0] + sq[1]) + (sq[2] + sq[3]);
+    } else {
+      for (int x = 0; x < est.cols; ++x) {
+        if (m[x] != 0) continue;
+        for (int c = 0; c < ch; ++c) {
+          const double dd = d[x * ch + c];
+          st.posterior[c] += v[x * ch + c];
+          st.detail[c] += dd;
+          st.detail_sq[c] += dd * dd;
+        }
+        ++st.count;
+      }
+    }
+  }
+  return st;
 }
 
 }  // namespace
@@ -445,10 +546,7 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
   cv::boxFilter(image, variance, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
   ForRows(
-      variance,
-      [gain_f, floor_f](int n, float* v) {
-        for (int i = 0; i < n; ++i) v[i] = std::max(v[i], 0.0f) * gain_f + floor_f;
-      },
+      variance, [gain_f, floor_f](int n, float* v) { NoiseVarianceRow(v, gain_f, floor_f, n); },
       variance);
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,
@@ -668,13 +766,21 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     // the blur's width): K = (noise left after the MMSE) / (variance of the deviation), both over
     // the data pixels — the MMSE filter for a white deviation of that variance (Gonzalez & Woods
     // §5.8). A constant-K Wiener on est itself would scale its mean by 1 / (1 + K).
-    const cv::Mat data = ~masked;
-    const cv::Mat detail = est - prior;
+    // detail = est - prior, and over the data pixels the mean of the posterior variance and the
+    // variance of detail, in one pass (sums in double, as cv::mean / cv::meanStdDev form them,
+    // in another order: the ratio agrees to ~1e-15).
+    const cv::Mat detail = NewLike(est);
+    const DeblurStats stats = DetailAndStats(est, prior, posterior, masked, detail);
     double noise = 0, signal = 0;
-    const cv::Scalar pm = cv::mean(posterior, data);
-    cv::Scalar mean, dev;
-    cv::meanStdDev(detail, mean, dev, data);
-    for (int c = 0; c < truth.channels; ++c) noise += pm[c], signal += dev[c] * dev[c];
+    for (int c = 0; c < truth.channels; ++c) {
+      const double n = static_cast<double>(stats.count);
+      const double pm = stats.count > 0 ? stats.posterior[c] / n : 0.0;
+      const double mean = stats.count > 0 ? stats.detail[c] / n : 0.0;
+      const double var =
+          stats.count > 0 ? std::max(stats.detail_sq[c] / n - mean * mean, 0.0) : 0.0;
+      noise += pm;
+      signal += var;
+    }
     result.deblur_nsr = std::clamp(signal > 0 ? noise / signal : 10.0, 1e-8, 10.0);
     DeconvolutionOptions d;
     d.nsr = result.deblur_nsr;

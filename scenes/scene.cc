@@ -2,6 +2,11 @@
 
 #include <cmath>
 #include <cstdint>
+#include <vector>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include "scenes/error.h"
 
@@ -67,17 +72,55 @@ void Scene::Validate() const {
   if (valid == 0) throw Error(context, "depth has no valid pixel");
 }
 
+namespace {
+
+// One row of RangeFromDepth: r = z sqrt(dx^2 + dy^2 + 1) in double, dx from the column's table.
+// The square root is correctly rounded in both the scalar and the vector form, and no FMA is
+// used, so both give the same values.
+void RangeRowScalar(const float* z, const double* dx, double dy2, int from, int w, float* r) {
+  for (int x = from; x < w; ++x)
+    r[x] = static_cast<float>(z[x] * std::sqrt(dx[x] * dx[x] + dy2 + 1.0));
+}
+
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// std::sqrt keeps errno semantics, so the compiler leaves the scalar loop as it is; this is the
+// same arithmetic four pixels at a time.
+__attribute__((target("avx2"))) void RangeRowAvx2(const float* z, const double* dx, double dy2,
+                                                  int w, float* r) {
+  const __m256d vdy2 = _mm256_set1_pd(dy2), one = _mm256_set1_pd(1.0);
+  int x = 0;
+  for (; x + 4 <= w; x += 4) {
+    const __m256d d = _mm256_loadu_pd(dx + x);
+    const __m256d q = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(d, d), vdy2), one);
+    const __m256d v = _mm256_mul_pd(_mm256_cvtps_pd(_mm_loadu_ps(z + x)), _mm256_sqrt_pd(q));
+    _mm_storeu_ps(r + x, _mm256_cvtpd_ps(v));
+  }
+  RangeRowScalar(z, dx, dy2, x, w, r);
+}
+#endif
+
+}  // namespace
+
 cv::Mat RangeFromDepth(const CameraIntrinsics& camera, const cv::Mat& depth_m) {
   CV_Assert(depth_m.type() == CV_32FC1);
   cv::Mat range(depth_m.size(), CV_32FC1);
+  std::vector<double> dx(depth_m.cols);
+  for (int x = 0; x < depth_m.cols; ++x) dx[x] = (x - camera.cx) / camera.fx;
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+  const bool avx2 = __builtin_cpu_supports("avx2");
+#endif
   for (int y = 0; y < depth_m.rows; ++y) {
     const float* z = depth_m.ptr<float>(y);
     float* r = range.ptr<float>(y);
     const double dy = (y - camera.cy) / camera.fy;
-    for (int x = 0; x < depth_m.cols; ++x) {
-      const double dx = (x - camera.cx) / camera.fx;
-      r[x] = static_cast<float>(z[x] * std::sqrt(dx * dx + dy * dy + 1.0));
+    const double dy2 = dy * dy;
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+    if (avx2) {
+      RangeRowAvx2(z, dx.data(), dy2, depth_m.cols, r);
+      continue;
     }
+#endif
+    RangeRowScalar(z, dx.data(), dy2, 0, depth_m.cols, r);
   }
   return range;
 }

@@ -154,4 +154,15 @@ inline std::vector<NamedImage> RealInputs() {
   return out;
 }
 
+// dcp, udcp and cap refine gray images with GuidedFilterGrayRunning (radius > 12: running
+// horizontal sums, not the doubling tree of the pre-optimisation filter), so their refined maps
+// equal the reference's to float rounding only: within this (absolute, maps of magnitude <= ~1),
+// the bound both float filters keep from the exact double-precision filter
+// (tests/enhancer/guided_filter_test.cc, RunningSumVariantEqualsFilterToFloatRounding). Colour
+// guides and radii <= 12 still give the reference's values bit for bit.
+constexpr double kRunningGuidedTolerance = 1e-5;
+inline bool UsesRunningGuidedFilter(const cv::Mat& image, int radius) {
+  return image.channels() == 1 && std::min(radius, std::max(image.rows, image.cols)) > 12;
+}
+
 }  // namespace turbid::baselines_reference

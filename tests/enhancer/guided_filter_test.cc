@@ -288,6 +288,111 @@ TEST(GuidedFilter, LargeRadiusGrayGuideEqualsPreOptimisationFilter) {
   }
 }
 
+// He 2013 Alg. 1 in double precision from integral images (clipped windows): the exact filter
+// of float inputs, against which both float implementations' rounding is measured.
+cv::Mat ExactGuidedGray(const cv::Mat& guide, const cv::Mat& src, int r, double eps) {
+  const int h = guide.rows, w = guide.cols;
+  auto box = [&](const cv::Mat& m) {
+    cv::Mat s;
+    cv::integral(m, s, CV_64F);
+    cv::Mat out(m.size(), CV_64F);
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const int y0 = std::max(0, y - r), y1 = std::min(h - 1, y + r);
+        const int x0 = std::max(0, x - r), x1 = std::min(w - 1, x + r);
+        const double sum = s.at<double>(y1 + 1, x1 + 1) - s.at<double>(y0, x1 + 1) -
+                           s.at<double>(y1 + 1, x0) + s.at<double>(y0, x0);
+        out.at<double>(y, x) = sum / ((y1 - y0 + 1) * (x1 - x0 + 1));
+      }
+    }
+    return out;
+  };
+  cv::Mat i, p;
+  guide.convertTo(i, CV_64F);
+  src.convertTo(p, CV_64F);
+  const cv::Mat mi = box(i), mp = box(p), mii = box(i.mul(i)), mip = box(i.mul(p));
+  const cv::Mat a = (mip - mi.mul(mp)) / (mii - mi.mul(mi) + eps);
+  const cv::Mat b = mp - a.mul(mi);
+  const cv::Mat q = box(a).mul(i) + box(b);
+  cv::Mat out;
+  q.convertTo(out, CV_32F);
+  return out;
+}
+
+// GuidedFilterGrayRunning (dcp's and cap's refinement) is GuidedFilter with running horizontal
+// sums: not the same rounding, so the values are compared with a tolerance. Its justification:
+// both filters are float implementations of the same formula, and both must lie within 1e-5 of
+// the exact (double) filter; their float window sums carry relative errors of ~1e-7 (a few
+// roundings of sums up to (2r+1)^2), which the variance cancellation mean(I^2) - mean(I)^2
+// amplifies by mean(I^2) / (var + eps) in a = cov / (var + eps) — up to ~1e3 at eps = 1e-4 in flat
+// regions, hence errors of a few 1e-6 on q in [0, 1] (measured: GuidedFilter up to 7.2e-6 from the
+// exact filter on the flat input below, this filter up to 6.9e-6, the two 1.1e-6 apart). The
+// hand-written AVX2 kernels and the portable ones give the same values bit for bit.
+TEST(GuidedFilter, RunningSumVariantEqualsFilterToFloatRounding) {
+  constexpr double kTolerance = 1e-5;
+  struct Case {
+    cv::Size size;
+    int r;
+    double eps;
+    bool flat;  // low-contrast guide: var << eps, the worst amplification
+  };
+  for (const Case& c : {Case{{1360, 1024}, 60, 1e-4, false}, Case{{1360, 1024}, 60, 1e-4, true},
+                        Case{{640, 480}, 30, 1e-3, false}, Case{{301, 77}, 60, 1e-4, true},
+                        Case{{37, 500}, 13, 1e-2, false}, Case{{203, 150}, 25, 1e-3, false},
+                        Case{{13, 3}, 30, 1e-3, false}, Case{{1, 1}, 60, 1e-4, false}}) {
+    cv::Mat guide = RandomImage(c.size.height, c.size.width, 1, 31);
+    cv::Mat src = RandomImage(c.size.height, c.size.width, 1, 32);
+    if (c.flat) {
+      guide = 0.05 * guide + 0.45;
+      src = 0.1 * src + 0.8;
+    }
+    const std::string what = std::to_string(c.size.width) + "x" + std::to_string(c.size.height) +
+                             " r " + std::to_string(c.r) + (c.flat ? " flat" : "");
+    GuidedFilterOptions o;
+    o.radius = c.r;
+    o.eps = c.eps;
+    const cv::Mat filter = GuidedFilter(o, guide, src);
+    const cv::Mat exact = ExactGuidedGray(guide, src, c.r, c.eps);
+    const cv::Mat running = GuidedFilterGrayRunning(guide, src, c.r, c.eps);
+    EXPECT_LE(cv::norm(running, filter, cv::NORM_INF), kTolerance) << what;
+    EXPECT_LE(cv::norm(running, exact, cv::NORM_INF), kTolerance) << what;
+    EXPECT_LE(cv::norm(filter, exact, cv::NORM_INF), kTolerance) << what << " (GuidedFilter)";
+    enhancer_internal::SetHandWrittenAvx2(false);
+    const cv::Mat portable = GuidedFilterGrayRunning(guide, src, c.r, c.eps);
+    enhancer_internal::SetHandWrittenAvx2(true);
+    EXPECT_EQ(cv::norm(running, portable, cv::NORM_INF), 0.0) << what << " portable";
+    // Self-guided too.
+    EXPECT_LE(cv::norm(GuidedFilterGrayRunning(guide, guide, c.r, c.eps),
+                       GuidedFilter(o, guide, guide), cv::NORM_INF),
+              kTolerance)
+        << what << " self-guided";
+  }
+}
+
+// Radii 1..12 are GuidedFilter's own kernels; row_done sees every row once, in order, and what it
+// writes is the result.
+TEST(GuidedFilter, RunningSumVariantSmallRadiiAndRowCallback) {
+  const cv::Mat guide = RandomImage(97, 71, 1, 41), src = RandomImage(97, 71, 1, 42);
+  for (int r : {1, 4, 12, 13, 60}) {
+    GuidedFilterOptions o;
+    o.radius = r;
+    o.eps = 1e-3;
+    const cv::Mat plain = GuidedFilterGrayRunning(guide, src, r, o.eps);
+    if (r <= 12) {
+      EXPECT_EQ(cv::norm(plain, GuidedFilter(o, guide, src), cv::NORM_INF), 0.0) << r;
+    }
+    int next = 0;
+    const cv::Mat doubled = GuidedFilterGrayRunning(guide, src, r, o.eps, [&](int y, float* row) {
+      EXPECT_EQ(y, next++);
+      for (int x = 0; x < guide.cols; ++x) row[x] *= 2.0f;
+    });
+    EXPECT_EQ(next, guide.rows);
+    EXPECT_EQ(cv::norm(doubled, 2.0 * plain, cv::NORM_INF), 0.0) << r;
+  }
+  EXPECT_THROW(GuidedFilterGrayRunning(cv::Mat(4, 4, CV_32FC3), cv::Mat(4, 4, CV_32FC3), 20, 1e-3),
+               Error);
+}
+
 TEST(GuidedFilter, DefaultsPassCheck) {
   std::string why;
   EXPECT_TRUE(GuidedFilterOptions{}.Check(&why)) << why;
