@@ -25,10 +25,10 @@ import sys
 # have 3 samples per pixel. None: comparisons or table look-ups, not floating-point arithmetic
 # (the bound is then the memory one alone, a loose one).
 MODEL = {
-    "ssim/gray/8bit": (2, 260, "reads 2 x 1 B; 5 moment maps x 11-tap separable Gaussian "
-                              "(2 passes x 11 FMA) + the SSIM formula"),
-    "ssim/color/8bit": (6, 780, "3 channels of the gray case"),
-    "ssim/gray/float": (8, 260, "reads 2 x 4 B; the gray case's arithmetic (in float64 here)"),
+    "ssim/gray/8bit": (2, 210, "reads 2 x 1 B; 4 moment maps (x, y, xy, (x - y)^2) x 11-tap "
+                              "separable Gaussian (2 passes x 11 FMA) + the SSIM formula"),
+    "ssim/color/8bit": (6, 630, "3 channels of the gray case"),
+    "ssim/gray/float": (8, 210, "reads 2 x 4 B; the gray case's arithmetic (in float64 here)"),
     "psnr/color/8bit": (6, 9, "reads 2 x 3 B; a difference and a square-add per sample"),
     "guided_filter/gray/r2": (8, 60, "reads 4 B, writes 4 B; 4 box sums (2 passes each) + "
                                      "coefficients"),
