@@ -282,8 +282,10 @@ void StrongRow(const WeakPairTest& weak, const uint8_t* __restrict tests, int n,
                uint8_t* __restrict strong) {
   const WeakPairTest test = weak;
   for (int c = 1; c < n; ++c) {
-    strong[c] = test.Strong(tests[4 * c], tests[4 * c + 1]) |
-                test.Strong(tests[4 * c + 2], tests[4 * c + 3]);
+    // Both tests always run (no branch): | on their 0/1 values, not ||.
+    strong[c] = static_cast<uint8_t>(
+        static_cast<uint8_t>(test.Strong(tests[4 * c], tests[4 * c + 1])) |
+        static_cast<uint8_t>(test.Strong(tests[4 * c + 2], tests[4 * c + 3])));
   }
 }
 
