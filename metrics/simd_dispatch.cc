@@ -793,6 +793,11 @@ PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min
   return base::PackedContrasts(parts, n_parts, s_min, s_max, tie_width, contrast);
 }
 
+void IfsttarStrongRow(const uint8_t* tests, const uint8_t* row, const uint8_t* up, int n, int k,
+                      int k_ratio, uint8_t* strong) {
+  TURBID_DISPATCH(IfsttarStrongRow(tests, row, up, n, k, k_ratio, strong));
+}
+
 void OctaveGrayU8(const uint8_t* bgr, int n, uint8_t* gray) {
   TURBID_DISPATCH(OctaveGrayU8(bgr, n, gray));
 }

@@ -111,6 +111,15 @@ struct PackedMaximum {
 PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min, int s_max,
                               double tie_width, double* contrast);
 
+// The ifsttar variant's strong-pair flags of one row (metrics/visible_edges.cc, WeakPairTest::
+// StrongInterval()): for c in [1, n), strong[c] = 1 when the vertical pair (row[c], row[c − 1]) over
+// the thresholds [max(tests[4c], 1), tests[4c + 1] − 1] or the horizontal pair (row[c], up[c]) over
+// [max(tests[4c + 2], 1), tests[4c + 3] − 1] may have a Weber term above τ, else 0. k and k_ratio
+// (<= 256) are WeakPairTest's integer thresholds: 1 − √(lo/hi) may exceed τ only when lo · 256 <
+// hi · k, 1 − lo/hi only when lo · 256 < hi · k_ratio. Integers: every copy gives the same flags.
+void IfsttarStrongRow(const uint8_t* tests, const uint8_t* row, const uint8_t* up, int n, int k,
+                      int k_ratio, uint8_t* strong);
+
 // Octave's rgb2gray of n 8-bit BGR pixels (metrics/visible_edges.h, OctaveRgbToGray) in integer
 // arithmetic: min((298936 R + 587043 G + 114021 B + 500000) / 1000000, 255). Equal to Octave's
 // double formula for all 2^24 colours (no colour falls within rounding of a half; tested over all).

@@ -7,6 +7,26 @@
 #include <vector>
 
 namespace turbid::visible_edges {
+
+StrongLimits StrongPairLimits(double tau) {
+  auto weak = [tau](double bound) { return bound * (1.0 + 1e-9) <= tau; };
+  StrongLimits limits;
+  // For each hi, the smallest lo whose bound is weak (the bounds fall as lo rises); every lo
+  // below it must pass lo · 256 < hi · k. A few weak pairs may pass too, which only costs a search.
+  limits.k = 1;
+  for (int hi = 1; hi < 256; ++hi) {
+    int lo = hi;
+    while (lo > 0 && weak(1.0 - std::sqrt(static_cast<double>(lo - 1) / hi))) --lo;
+    if (lo > 0) limits.k = std::max(limits.k, (lo - 1) * 256 / hi + 1);
+  }
+  limits.k_ratio = 1;
+  for (int hi = 1; hi <= 256; ++hi) {
+    int lo = hi;
+    while (lo > 0 && weak(1.0 - static_cast<double>(lo - 1) / hi)) --lo;
+    if (lo > 0) limits.k_ratio = std::max(limits.k_ratio, (lo - 1) * 256 / hi + 1);
+  }
+  return limits;
+}
 namespace {
 
 constexpr int kPairRows = 6;  // pixels (1..6, 1..6) of a 7×7 window carry its pairs

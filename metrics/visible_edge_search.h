@@ -40,6 +40,28 @@ const double* WeberTable();
 // the thresholds [tests[0], tests[1]) and the horizontal pair (pixel, upper neighbour) by
 // [tests[2], tests[3]). The 6 × 6 pixels from (1, 1) carry the window's 72 pairs. Thresholds
 // searched: [s_min, s_max], 1 <= s_min <= s_max <= 256.
+// Integer tests of pairs that cannot reach the visibility threshold τ (= the code's percentage / 2),
+// so that windows all of whose pairs are weak are skipped: a window's C(s) is a mean of its pairs'
+// terms at s, at most their largest (up to a relative rounding of ~1e-14; the limits keep a 1e-9
+// margin). Weber contrast W(s, v) = |s − v| / max(s, v) = 1 − min(s, v)/max(s, v).
+//  - k: 1 − √(lo/hi) may exceed τ only when lo · 256 < hi · k (lo <= hi <= 255), the largest
+//    term of a paper-variant pair of values lo, hi (see visible_edges.cc, WeakPairTest).
+//  - k_ratio: 1 − lo/hi may exceed τ only when lo · 256 < hi · k_ratio (lo <= hi <= 256).
+// The ifsttar variant sums the pair of values p <= q over thresholds [a, b] set by other pixels;
+// its term at s is f(s) = min(W(s, p), W(s, q)). For s <= p, f(s) = 1 − s/p, falling in s; for
+// s >= q, f(s) = 1 − q/s, rising; for p <= s <= q, f(s) = min(1 − p/s, 1 − s/q) <= 1 − √(p/q)
+// (the two meet at s = √(pq)). So on [a, b], and on any part of it a window clips, f is at most
+// f(a) = 1 − a/p when a < p, f(b) = 1 − q/b when b > q, and 1 − √(p/q) when [a, b] meets [p, q]:
+// the pair is weak unless one of those is strong by the tests above (simd::IfsttarStrongRow();
+// tests/metrics/simd_base_kernels_test.cc checks the claim on every (p, q) against the largest
+// term over sampled intervals).
+struct StrongLimits {
+  int k = 256;
+  int k_ratio = 256;
+};
+// The smallest limits that keep every pair whose bound exceeds τ / (1 + 1e-9) strong.
+StrongLimits StrongPairLimits(double tau);
+
 struct Window {
   const uint8_t* value = nullptr;
   const uint8_t* tests = nullptr;

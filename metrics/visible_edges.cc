@@ -217,32 +217,18 @@ class MirroredGray8 {
 // variant sums it for s in [lo, hi − 1] only, where it is min((s − lo)/s, (hi − s)/hi) <=
 // 1 − √(lo/hi) (the two meet at s = √(lo·hi)). A window none of whose pairs can exceed τ has
 // every C(s) <= τ (a mean of such terms, up to a relative rounding of ~1e-14; the table keeps a
-// 1e-9 margin) and is not visible. (The ifsttar variant sums each pair over an interval set by
-// other pixels, where no such bound prunes enough windows to pay for itself; measured.)
+// 1e-9 margin) and is not visible. The ifsttar variant sums each pair over an interval set by
+// other pixels; its bound is simd::IfsttarStrongRow() (proof at visible_edges::StrongLimits),
+// which prunes about a quarter of the windows searched on the bench pair.
 class WeakPairTest {
  public:
-  explicit WeakPairTest(double tau) {
-    auto weak = [tau](double bound) { return bound * (1.0 + 1e-9) <= tau; };
-    for (int hi = 1; hi < 256; ++hi) {
-      // 1 − √(lo/hi) falls as lo rises: the smallest lo whose bound is weak.
-      int lo = hi;
-      while (lo > 0 && weak(1.0 - std::sqrt(static_cast<double>(lo - 1) / hi))) --lo;
-      min_lo_[hi] = lo;
-    }
-    // The same test as one comparison of integers, lo · 256 < hi · k, with the smallest k that
-    // keeps every strong pair (lo <= min_lo − 1) strong; a few weak pairs may count as strong,
-    // which only costs a search. Vectorisable, unlike the table.
-    k_ = 1;
-    for (int hi = 1; hi < 256; ++hi) {
-      if (min_lo_[hi] > 0) k_ = std::max(k_, (min_lo_[hi] - 1) * 256 / hi + 1);
-    }
-  }
+  explicit WeakPairTest(double tau) : k_(visible_edges::StrongPairLimits(tau)) {}
   // False when a paper-variant pair test [lo, hi) cannot exceed τ (may be true for empty ones).
-  bool Strong(int lo, int hi) const { return lo * 256 < hi * k_; }
+  bool Strong(int lo, int hi) const { return lo * 256 < hi * k_.k; }
+  const visible_edges::StrongLimits& limits() const { return k_; }
 
  private:
-  std::array<int, 256> min_lo_{};
-  int k_ = 256;
+  visible_edges::StrongLimits k_;
 };
 
 // Byte k of kByteMasks[bits] is 255 when bit k of bits is set (bits < 128).
@@ -282,8 +268,10 @@ void StrongRow(const WeakPairTest& weak, const uint8_t* __restrict tests, int n,
                uint8_t* __restrict strong) {
   const WeakPairTest test = weak;
   for (int c = 1; c < n; ++c) {
-    strong[c] = test.Strong(tests[4 * c], tests[4 * c + 1]) |
-                test.Strong(tests[4 * c + 2], tests[4 * c + 3]);
+    // Both tests always run (no branch): | on their 0/1 values, not ||.
+    strong[c] = static_cast<uint8_t>(
+        static_cast<uint8_t>(test.Strong(tests[4 * c], tests[4 * c + 1])) |
+        static_cast<uint8_t>(test.Strong(tests[4 * c + 2], tests[4 * c + 3])));
   }
 }
 
@@ -331,7 +319,7 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
   Band bands[2];
   for (Band& b : bands) {
     b.tests.resize(4 * (static_cast<size_t>(kPairRows) * stride + 8));
-    b.strong.resize(ifsttar ? 0 : static_cast<size_t>(kPairRows) * stride + 8);
+    b.strong.resize(static_cast<size_t>(kPairRows) * stride + 8);
     b.windows.resize(n_windows);
   }
   std::vector<uint8_t> column_lo(stride), column_hi(stride);
@@ -349,9 +337,14 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       PairTestRow(up2, up, row, nc, ifsttar, tb);
       for (int c = nc; c < nc + kWindow - 1; ++c)
         std::memcpy(tb + 4 * c, tb + 4 * Reflect(c, nc), 4);
-      // Which pixels of the row have a pair that can reach the threshold.
-      if (ifsttar) continue;
-      StrongRow(weak, tb, nc + kWindow - 1, &strong[static_cast<size_t>(nn - 1) * stride]);
+      // Which pixels of the row have a pair that can reach the threshold (the ifsttar variant's
+      // with the values the window sums use: rows r0 + nn and r0 + nn − 1 of `at`).
+      uint8_t* strong_row = &strong[static_cast<size_t>(nn - 1) * stride];
+      if (ifsttar)
+        simd::IfsttarStrongRow(tb, at.Row(r0 + nn), at.Row(r0 + nn - 1), nc + kWindow - 1,
+                               weak.limits().k, weak.limits().k_ratio, strong_row);
+      else
+        StrongRow(weak, tb, nc + kWindow - 1, strong_row);
     }
 
     // Extremes of the band's 7 rows per column, for the windows' ranges.
@@ -359,7 +352,7 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
     // Which windows of the band are searched, and their threshold ranges.
     for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
       band.windows[w] = {};
-      if (!ifsttar) {
+      {
         bool any_strong = false;
         for (int nn = 0; nn < kPairRows; ++nn) {
           const uint8_t* row = &strong[static_cast<size_t>(nn) * stride + c0 + 1];

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "metrics/simd_dispatch.h"
+#include "metrics/visible_edge_search.h"
 
 namespace turbid::simd::portable {
 #define TURBID_NO_CONTRACT(...) __asm__("" : "+m"(__VA_ARGS__))
@@ -28,6 +29,61 @@ TEST(PortableKernels, OctaveGrayEqualsTheDispatchedCopy) {
   portable::OctaveGrayU8(bgr.data(), 1001, a.data());
   OctaveGrayU8(bgr.data(), 1001, b.data());
   EXPECT_EQ(a, b);
+}
+
+// The ifsttar variant's weak-pair test (visible_edges::StrongLimits has the proof): a pair it
+// calls weak has no term above τ anywhere on its interval. Every pair of values (p, q), each over
+// the intervals whose ends sit where the proof's cases change (1, p − 1, p, p + 1, √(pq), q − 1,
+// q, q + 1, 255) and a few random ones; the largest term by scanning the thresholds, with the
+// published code's Weber contrast. Portable and dispatched copies must give the same flags.
+TEST(PortableKernels, IfsttarStrongRowNeverCallsAVisiblePairWeak) {
+  std::mt19937 rng(5);
+  auto weber = [](double s, double v) { return std::abs(s - v) / std::max(s, v); };
+  std::vector<uint8_t> row, up, tests, flags_a, flags_b;
+  for (double tau : {0.005, 0.025, 0.1, 1.0 / 3.0, 0.5}) {
+    const visible_edges::StrongLimits limits = visible_edges::StrongPairLimits(tau);
+    row.assign(1, 0);
+    up.assign(1, 0);
+    tests.assign(4, 0);
+    for (int x = 0; x < 256; ++x) {
+      for (int y = 0; y < 256; ++y) {
+        const int p = std::min(x, y), q = std::max(x, y);
+        const int mid = static_cast<int>(std::lround(std::sqrt(static_cast<double>(p) * q)));
+        std::vector<int> ends = {1, p - 1, p, p + 1, mid, q - 1, q, q + 1, 255};
+        for (int r = 0; r < 3; ++r) ends.push_back(static_cast<int>(rng() % 256));
+        for (int& e : ends) e = std::clamp(e, 0, 255);
+        for (size_t i = 0; i < ends.size(); ++i) {
+          for (size_t j = 0; j < ends.size(); ++j) {
+            // Vertical pair empty ([255, 0)); horizontal pair (x, y) over [ends[i], ends[j]).
+            row.push_back(static_cast<uint8_t>(x));
+            up.push_back(static_cast<uint8_t>(y));
+            tests.insert(tests.end(), {255, 0, static_cast<uint8_t>(ends[i]),
+                                       static_cast<uint8_t>(ends[j])});
+          }
+        }
+      }
+    }
+    const int n = static_cast<int>(row.size());
+    flags_a.assign(n, 0);
+    flags_b.assign(n, 0);
+    portable::IfsttarStrongRow(tests.data(), row.data(), up.data(), n, limits.k, limits.k_ratio,
+                               flags_a.data());
+    IfsttarStrongRow(tests.data(), row.data(), up.data(), n, limits.k, limits.k_ratio,
+                     flags_b.data());
+    ASSERT_EQ(flags_a, flags_b) << "tau " << tau;
+    int weak = 0;
+    for (int c = 1; c < n; ++c) {
+      if (flags_a[c] != 0) continue;
+      ++weak;
+      const double p = row[c], q = up[c];
+      double largest = 0.0;
+      for (int s = std::max<int>(tests[4 * c + 2], 1); s < tests[4 * c + 3]; ++s)
+        largest = std::max(largest, std::min(weber(s, p), weber(s, q)));
+      ASSERT_LE(largest, tau) << "tau " << tau << " p " << p << " q " << q << " interval ["
+                              << int{tests[4 * c + 2]} << ", " << int{tests[4 * c + 3]} << ")";
+    }
+    EXPECT_GT(weak, n / 10) << "tau " << tau;  // the test prunes something
+  }
 }
 
 TEST(PortableKernels, PackedSumsAndContrastsAgreeWithTheDispatchedCopies) {
