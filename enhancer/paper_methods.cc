@@ -398,6 +398,15 @@ inline cv::Vec4d VeilRow(const VeilSample& s) {
   return cv::Vec4d(ti, (1.0 - ti) * li, ti * li, s.v);
 }
 
+// The fit's normal equations A^T A c = A^T b solved; false when singular or ill-conditioned
+// (near-collinear regressors: constant light or transmission).
+bool SolveVeilNormalEquations(const cv::Matx33d& ata, const cv::Vec3d& atb, cv::Vec3d* solution) {
+  if (!cv::solve(ata, atb, *solution, cv::DECOMP_CHOLESKY)) return false;
+  cv::Vec3d eig;
+  cv::eigen(ata, eig);
+  return eig[2] > 1e-9 * eig[0];
+}
+
 bool FitVeilModel(const std::vector<VeilSample>& samples, cv::Vec3d* c) {
   if (samples.size() < 16) return false;
   std::vector<char> use(samples.size(), 1);
@@ -414,11 +423,7 @@ bool FitVeilModel(const std::vector<VeilSample>& samples, cv::Vec3d* c) {
     const cv::Matx33d ata(s00, s01, s02, s01, s11, s12, s02, s12, s22);
     const cv::Vec3d atb(b0, b1, b2);
     cv::Vec3d solution;
-    if (!cv::solve(ata, atb, solution, cv::DECOMP_CHOLESKY)) return false;
-    // Condition: reject near-collinear regressors (constant light or transmission).
-    cv::Vec3d eig;
-    cv::eigen(ata, eig);
-    if (!(eig[2] > 1e-9 * eig[0])) return false;
+    if (!SolveVeilNormalEquations(ata, atb, &solution)) return false;
     *c = solution;
     if (pass == 1) break;
     for (size_t i = 0; i < samples.size(); ++i) {
@@ -512,11 +517,7 @@ bool SolveVeil(const VeilSums3& s, int c, cv::Vec3d* solution) {
   const double s00 = s.s[0][c], s01 = s.s[1][c], s02 = s.s[2][c], s11 = s.s[3][c];
   const double s12 = s.s[4][c], s22 = s.s[5][c];
   const cv::Matx33d ata(s00, s01, s02, s01, s11, s12, s02, s12, s22);
-  const cv::Vec3d atb(s.s[6][c], s.s[7][c], s.s[8][c]);
-  if (!cv::solve(ata, atb, *solution, cv::DECOMP_CHOLESKY)) return false;
-  cv::Vec3d eig;
-  cv::eigen(ata, eig);
-  return eig[2] > 1e-9 * eig[0];
+  return SolveVeilNormalEquations(ata, cv::Vec3d(s.s[6][c], s.s[7][c], s.s[8][c]), solution);
 }
 
 // FitVeilModel for three channels whose samples share t and L (`v`: four floats per sample).
