@@ -33,11 +33,15 @@ bool IsBuiltinSpec(const std::string& spec) {
   return IsBuiltinName(spec) && !fs::exists(spec, ec);
 }
 
+std::string BuiltinSpecName(const std::string& spec) {
+  return spec.rfind(kBuiltinPrefix, 0) == 0 ? spec.substr(std::string(kBuiltinPrefix).size())
+                                            : spec;
+}
+
 Scene LoadScene(const std::string& spec, const LoadSceneOptions& options) {
   ThrowIfInvalid(options, "scene " + spec);
   if (IsBuiltinSpec(spec)) {
-    const std::string name =
-        spec.rfind(kBuiltinPrefix, 0) == 0 ? spec.substr(std::string(kBuiltinPrefix).size()) : spec;
+    const std::string name = BuiltinSpecName(spec);
     BuiltinSceneOptions builtin;
     builtin.scale = options.builtin_scale;
     return MakeBuiltinScene(name, builtin);

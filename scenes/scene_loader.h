@@ -29,6 +29,9 @@ Scene LoadScene(const std::string& spec, const LoadSceneOptions& options = {});
 // True when `spec` names a built-in scene ("builtin:NAME" or a bare known name that is not an
 // existing file).
 bool IsBuiltinSpec(const std::string& spec);
+// The built-in scene's name in a spec IsBuiltinSpec accepts: "builtin:NAME" -> NAME, a bare name
+// as it is.
+std::string BuiltinSpecName(const std::string& spec);
 
 // The single-frame specs a spec stands for, in order: "FILE.json#KEY" for every frame a nyu_v2 or
 // folder scene file selects ("frames"); the spec itself otherwise (built-ins, single-frame types,

@@ -199,12 +199,9 @@ double HarnessRunner::Cost(const ItemTask& task) const {
   } else {
     const ExperimentScene& spec = experiment_.scenes[static_cast<size_t>(item.scene_index)];
     if (IsBuiltinSpec(spec.load_spec)) {
-      const std::string prefix = "builtin:";
-      const std::string name = spec.load_spec.rfind(prefix, 0) == 0
-                                   ? spec.load_spec.substr(prefix.size())
-                                   : spec.load_spec;
       try {
-        const CameraIntrinsics camera = ScaleIntrinsics(BuiltinSceneCamera(name), spec.scale);
+        const CameraIntrinsics camera =
+            ScaleIntrinsics(BuiltinSceneCamera(BuiltinSpecName(spec.load_spec)), spec.scale);
         values = static_cast<double>(camera.width) * camera.height;
       } catch (const Error&) {
         values = 0.0;  // an unknown name fails when the scene is loaded
