@@ -110,7 +110,7 @@ HarnessCatalog RegistryCatalog() {
   };
   catalog.check_scene = [](const std::string& spec) {
     if (IsBuiltinSpec(spec)) {
-      const std::string name = spec.rfind("builtin:", 0) == 0 ? spec.substr(8) : spec;
+      const std::string name = BuiltinSpecName(spec);
       for (const std::string& known : BuiltinSceneNames()) {
         if (known == name) return;
       }
