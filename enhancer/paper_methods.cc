@@ -705,6 +705,69 @@ TURBID_ROW_KERNEL void LaplacianAbsRow(const float* __restrict a, const float* _
   }
 }
 
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// Eight rows' sums of |I * N| at once (rows y0 .. y0 + 7, values i = ch .. ch + n - 1): per eight
+// values the rows' |I * N| vectors (LaplacianAbsRow's arithmetic, lane by lane) are transposed so
+// that lane k holds row k, and added to lane k's sum in value order: each lane is the scalar
+// float chain of its row, bit for bit, without the rows' values going through memory. Values past
+// the last whole eight are added one by one. row[k] receives row y0 + k's sum.
+__attribute__((target("avx2"))) inline __m256 LaplacianAbs8(const float* a, const float* b,
+                                                            const float* c, int i, int ch) {
+  const __m256 two = _mm256_set1_ps(2.0f), four = _mm256_set1_ps(4.0f);
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  __m256 s = _mm256_add_ps(_mm256_loadu_ps(a + i - ch), _mm256_loadu_ps(a + i + ch));
+  s = _mm256_add_ps(s, _mm256_loadu_ps(c + i - ch));
+  s = _mm256_add_ps(s, _mm256_loadu_ps(c + i + ch));
+  __m256 m = _mm256_add_ps(_mm256_loadu_ps(a + i), _mm256_loadu_ps(c + i));
+  m = _mm256_add_ps(m, _mm256_loadu_ps(b + i - ch));
+  m = _mm256_add_ps(m, _mm256_loadu_ps(b + i + ch));
+  const __m256 v = _mm256_add_ps(_mm256_sub_ps(s, _mm256_mul_ps(two, m)),
+                                 _mm256_mul_ps(four, _mm256_loadu_ps(b + i)));
+  return _mm256_and_ps(v, abs_mask);
+}
+
+__attribute__((target("avx2"))) void LaplacianAbsSums8(const float* const* rows, int ch, int n,
+                                                       float* row) {
+  __m256 acc = _mm256_setzero_ps();
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    const int i = j + ch;
+    __m256 v[8];
+    for (int k = 0; k < 8; ++k) v[k] = LaplacianAbs8(rows[k], rows[k + 1], rows[k + 2], i, ch);
+    // 8 x 8 transpose: t[q] lane k = v[k] lane q.
+    const __m256 u0 = _mm256_unpacklo_ps(v[0], v[1]), u1 = _mm256_unpackhi_ps(v[0], v[1]);
+    const __m256 u2 = _mm256_unpacklo_ps(v[2], v[3]), u3 = _mm256_unpackhi_ps(v[2], v[3]);
+    const __m256 u4 = _mm256_unpacklo_ps(v[4], v[5]), u5 = _mm256_unpackhi_ps(v[4], v[5]);
+    const __m256 u6 = _mm256_unpacklo_ps(v[6], v[7]), u7 = _mm256_unpackhi_ps(v[6], v[7]);
+    const __m256 w0 = _mm256_shuffle_ps(u0, u2, 0x44), w1 = _mm256_shuffle_ps(u0, u2, 0xee);
+    const __m256 w2 = _mm256_shuffle_ps(u1, u3, 0x44), w3 = _mm256_shuffle_ps(u1, u3, 0xee);
+    const __m256 w4 = _mm256_shuffle_ps(u4, u6, 0x44), w5 = _mm256_shuffle_ps(u4, u6, 0xee);
+    const __m256 w6 = _mm256_shuffle_ps(u5, u7, 0x44), w7 = _mm256_shuffle_ps(u5, u7, 0xee);
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w0, w4, 0x20));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w1, w5, 0x20));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w2, w6, 0x20));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w3, w7, 0x20));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w0, w4, 0x31));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w1, w5, 0x31));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w2, w6, 0x31));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w3, w7, 0x31));
+  }
+  _mm256_storeu_ps(row, acc);
+  for (int k = 0; k < 8; ++k) {
+    const float* a = rows[k];
+    const float* b = rows[k + 1];
+    const float* c = rows[k + 2];
+    for (int jj = j; jj < n; ++jj) {
+      const int i = jj + ch;
+      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
+                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
+      row[k] += std::abs(v);
+    }
+  }
+}
+#define TURBID_HAVE_NOISE_AVX2 1
+#endif
+
 double EstimateNoiseSigma(const cv::Mat& image) {
   if (image.rows < 3 || image.cols < 3) return 0.0;
   CV_Assert(image.depth() == CV_32F);
@@ -712,16 +775,31 @@ double EstimateNoiseSigma(const cv::Mat& image) {
   // Each row's sum is one float accumulation in order (accumulated in double over the rows, in
   // order); kRows rows are summed side by side so their dependent additions overlap.
   constexpr int kRows = 8;
-  std::vector<float> v(static_cast<size_t>(kRows) * n);
+#ifdef TURBID_HAVE_NOISE_AVX2
+  const bool avx2 = enhancer_internal::UseHandWrittenAvx2();
+#else
+  const bool avx2 = false;
+#endif
+  std::vector<float> v(avx2 ? 0 : static_cast<size_t>(kRows) * n);
   double total = 0.0;
   for (int y0 = 1; y0 + 1 < image.rows; y0 += kRows) {
     const int m = std::min(kRows, image.rows - 1 - y0);
+    float row[kRows] = {};
+#ifdef TURBID_HAVE_NOISE_AVX2
+    if (avx2 && m == kRows) {
+      const float* rows[kRows + 2];
+      for (int k = 0; k < kRows + 2; ++k) rows[k] = image.ptr<float>(y0 - 1 + k);
+      LaplacianAbsSums8(rows, ch, n, row);
+      for (int k = 0; k < m; ++k) total += row[k];
+      continue;
+    }
+#endif
+    if (avx2) v.resize(static_cast<size_t>(kRows) * n);
     for (int k = 0; k < m; ++k) {
       const int y = y0 + k;
       LaplacianAbsRow(image.ptr<float>(y - 1), image.ptr<float>(y), image.ptr<float>(y + 1), ch,
                       v.data() + static_cast<size_t>(k) * n, n);
     }
-    float row[kRows] = {};
     if (m == kRows) {
       const float* p = v.data();
       for (int i = 0; i < n; ++i) {
