@@ -273,8 +273,8 @@ bool FullOptions::Check(std::string* why) const {
     return Fail(why, "denoise_radius must be in [1, 1000]");
   if (!std::isfinite(denoise_eps) || denoise_eps <= 0) return Fail(why, "denoise_eps must be > 0");
   if (light_scaling != "blind" && light_scaling != "range" && light_scaling != "physical") {
-    return Fail(why, "light_scaling must be 'blind', 'range' or 'physical', got '" +
-                         light_scaling + "'");
+    return Fail(
+        why, "light_scaling must be 'blind', 'range' or 'physical', got '" + light_scaling + "'");
   }
   if (!std::isfinite(denoise_noise_factor) || denoise_noise_factor < 0 ||
       denoise_noise_factor > 100) {
@@ -284,15 +284,13 @@ bool FullOptions::Check(std::string* why) const {
       light_scale_percentile > 50) {
     return Fail(why, "light_scale_percentile must be in (0, 50]");
   }
-  if (!std::isfinite(light_scale_support) || light_scale_support <= 0 ||
-      light_scale_support >= 1) {
+  if (!std::isfinite(light_scale_support) || light_scale_support <= 0 || light_scale_support >= 1) {
     return Fail(why, "light_scale_support must be in (0, 1)");
   }
   if (!std::isfinite(keep_detail) || keep_detail < 0 || keep_detail > 10) {
     return Fail(why, "keep_detail must be in [0, 10]");
   }
-  if (!std::isfinite(exposure_percentile) || exposure_percentile < 0 ||
-      exposure_percentile > 100) {
+  if (!std::isfinite(exposure_percentile) || exposure_percentile < 0 || exposure_percentile > 100) {
     return Fail(why, "exposure_percentile must be in [0, 100]");
   }
   if (light_subsample < 1 || light_subsample > 64)
@@ -1103,14 +1101,37 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
 // upsampled t and E_L maps (one channel each when one beta), CLAHE's bins.
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// What DehazeSpreadAvx2 does after eq. 6: nothing; the exposure scale (j * inv_level, the
+// product of ColorRowSource::ScaleRow); or the exposure scale and the detail layer (fma(I - I_de,
+// k, j * inv_level), ExposureDetailRowFma's arithmetic).
+enum class AfterDehaze { kNone, kScale, kScaleDetail };
+
 // Eq. 6 on an interleaved BGR row from one-channel t and E_L rows (w pixels): per 8 pixels (24
 // values, three vectors) t and E_L are spread to the values' pixels by one permute each, E_L is
 // scaled per channel in double (the lanes' channels repeat with period 3) and rounded to float,
-// then (I - E) / t + E, or I / t without light (e null). The scalar arithmetic of
-// ColorRowSource's portable path, lane by lane (no FMA): the same bits.
-__attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const float* e,
-                                                      const double* scale, const float* t, float* d,
-                                                      int w) {
+// then (I - E) / t + E, or I / t without light (e null); then the `kAfter` step in registers
+// (image: the input row, for the detail layer). The scalar arithmetic of ColorRowSource's
+// portable path, lane by lane: the same bits. Compiled with FMA (the detail step's fused
+// multiply-add, as ExposureDetailRowFma); nothing else has a product feeding a sum, so nothing
+// else can be contracted. Callers check CpuHasFma().
+// The kAfter step on eight values j of eq. 6 at value index i of the row (image, denoised: the
+// input's and the denoised image's rows; image is read for the detail layer only).
+template <AfterDehaze kAfter>
+__attribute__((target("avx2,fma"))) inline __m256 AfterDehazeStep(__m256 j, const float* image,
+                                                                  const float* denoised, int i,
+                                                                  __m256 inv, __m256 kd) {
+  if (kAfter == AfterDehaze::kNone) return j;
+  const __m256 scaled = _mm256_mul_ps(j, inv);
+  if (kAfter == AfterDehaze::kScale) return scaled;
+  return _mm256_fmadd_ps(_mm256_sub_ps(_mm256_loadu_ps(image + i), _mm256_loadu_ps(denoised + i)),
+                         kd, scaled);
+}
+
+template <AfterDehaze kAfter>
+__attribute__((target("avx2,fma"))) void DehazeSpreadAvx2(const float* in, const float* e,
+                                                          const double* scale, const float* t,
+                                                          const float* image, float inv_level,
+                                                          float k_detail, float* d, int w) {
   // Pixel (within the 8) and channel of each lane of the three vectors.
   static const int kPixel[3][8] = {
       {0, 0, 0, 1, 1, 1, 2, 2}, {2, 3, 3, 3, 4, 4, 4, 5}, {5, 5, 6, 6, 6, 7, 7, 7}};
@@ -1124,6 +1145,7 @@ __attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const flo
     s_lo[k] = _mm256_setr_pd(scale[c[0]], scale[c[1]], scale[c[2]], scale[c[3]]);
     s_hi[k] = _mm256_setr_pd(scale[c[4]], scale[c[5]], scale[c[6]], scale[c[7]]);
   }
+  const __m256 inv = _mm256_set1_ps(inv_level), kd = _mm256_set1_ps(k_detail);
   int x = 0;
   for (; x + 8 <= w; x += 8) {
     const __m256 t8 = _mm256_loadu_ps(t + x);
@@ -1133,7 +1155,8 @@ __attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const flo
       const __m256 tv = _mm256_permutevar8x32_ps(t8, spread[k]);
       const __m256 v = _mm256_loadu_ps(in + i);
       if (e == nullptr) {
-        _mm256_storeu_ps(d + i, _mm256_div_ps(v, tv));
+        _mm256_storeu_ps(d + i,
+                         AfterDehazeStep<kAfter>(_mm256_div_ps(v, tv), image, in, i, inv, kd));
         continue;
       }
       const __m256 ev = _mm256_permutevar8x32_ps(e8, spread[k]);
@@ -1142,18 +1165,24 @@ __attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const flo
       const __m128 hi =
           _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(ev, 1)), s_hi[k]));
       const __m256 ee = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
-      _mm256_storeu_ps(d + i, _mm256_add_ps(_mm256_div_ps(_mm256_sub_ps(v, ee), tv), ee));
+      const __m256 j = _mm256_add_ps(_mm256_div_ps(_mm256_sub_ps(v, ee), tv), ee);
+      _mm256_storeu_ps(d + i, AfterDehazeStep<kAfter>(j, image, in, i, inv, kd));
     }
   }
   for (; x < w; ++x) {
     for (int c = 0; c < 3; ++c) {
       const int i = 3 * x + c;
+      float j;
       if (e == nullptr) {
-        d[i] = in[i] / t[x];
+        j = in[i] / t[x];
       } else {
         const float ee = static_cast<float>(static_cast<double>(e[x]) * scale[c]);
-        d[i] = (in[i] - ee) / t[x] + ee;
+        j = (in[i] - ee) / t[x] + ee;
       }
+      if (kAfter == AfterDehaze::kScale) j *= inv_level;
+      if (kAfter == AfterDehaze::kScaleDetail)
+        j = std::fma(image[i] - in[i], k_detail, j * inv_level);
+      d[i] = j;
     }
   }
 }
@@ -1175,7 +1204,11 @@ class ColorRowSource {
         keep_(static_cast<float>(o.keep_detail)),
         n_(image.cols * 3),
         e_row_(light_.map.empty() ? 0 : n_),
-        t_row_(n_) {}
+        t_row_(n_) {
+    // E_L's per-channel scale (1 without one), for DehazeSpreadAvx2.
+    const bool scaled = !light_.map.empty() && !light_.scale.empty();
+    for (int c = 0; c < 3; ++c) scale_[c] = scaled ? light_.scale[c] : 1.0;
+  }
 
   // J_plane of row y (eq. 6), or the denoised row without dehazing; `dst` holds n floats.
   void Dehazed(int y, float* dst) {
@@ -1185,14 +1218,9 @@ class ColorRowSource {
       return;
     }
 #ifdef TURBID_HAVE_DEHAZE_AVX2
-    // One t and one E_L map for every channel (one beta): spread and scaled in registers.
-    if (t_.channels() == 1 && (light_.map.empty() || light_.map.channels() == 1) &&
-        enhancer_internal::UseHandWrittenAvx2()) {
-      const bool light = !light_.map.empty(), scaled = light && !light_.scale.empty();
-      const double s[3] = {scaled ? light_.scale[0] : 1.0, scaled ? light_.scale[1] : 1.0,
-                           scaled ? light_.scale[2] : 1.0};
-      DehazeSpreadAvx2(in, light ? light_.map.ptr<float>(y) : nullptr, s, t_.ptr<float>(y), dst,
-                       image_.cols);
+    if (Spread()) {
+      DehazeSpreadAvx2<AfterDehaze::kNone>(in, LightRow(y), scale_, t_.ptr<float>(y), nullptr, 1.0f,
+                                           0.0f, dst, image_.cols);
       return;
     }
 #endif
@@ -1207,6 +1235,21 @@ class ColorRowSource {
 
   // The deblur's input row: J_plane / exposure, plus keep_detail (I - I_de).
   void Row(int y, float* dst) {
+#ifdef TURBID_HAVE_DEHAZE_AVX2
+    // Eq. 6, the exposure scale and the detail layer in one pass over the row.
+    if (dehaze_ && Spread() && (detail_ || exposure_ != 1.0f)) {
+      const float* in = denoised_.ptr<float>(y);
+      if (detail_) {
+        DehazeSpreadAvx2<AfterDehaze::kScaleDetail>(in, LightRow(y), scale_, t_.ptr<float>(y),
+                                                    image_.ptr<float>(y), exposure_, keep_, dst,
+                                                    image_.cols);
+      } else {
+        DehazeSpreadAvx2<AfterDehaze::kScale>(in, LightRow(y), scale_, t_.ptr<float>(y), nullptr,
+                                              exposure_, 0.0f, dst, image_.cols);
+      }
+      return;
+    }
+#endif
     Dehazed(y, dst);
     if (detail_) {
       ExposureDetailRow(image_.ptr<float>(y), denoised_.ptr<float>(y), exposure_, keep_, dst, n_);
@@ -1220,6 +1263,19 @@ class ColorRowSource {
   void SetExposure(double level) { exposure_ = static_cast<float>(1.0 / level); }
 
  private:
+#ifdef TURBID_HAVE_DEHAZE_AVX2
+  // Whether DehazeSpreadAvx2 serves: one t and one E_L map for every channel (one beta), spread
+  // and scaled in registers, on a CPU with AVX2 and FMA.
+  bool Spread() const {
+    static const bool fma = CpuHasFma();
+    return fma && t_.channels() == 1 && (light_.map.empty() || light_.map.channels() == 1) &&
+           enhancer_internal::UseHandWrittenAvx2();
+  }
+  const float* LightRow(int y) const {
+    return light_.map.empty() ? nullptr : light_.map.ptr<float>(y);
+  }
+#endif
+
   // Row y of a one- or three-channel map as three values per pixel, times scale[c] in double
   // (cv::multiply by a Scalar) when a scale is given.
   const float* Expand(const cv::Mat& m, int y, const std::vector<double>* scale, float* buf) {
@@ -1279,6 +1335,7 @@ class ColorRowSource {
   const float keep_;
   const int n_;
   float exposure_ = 1.0f;
+  double scale_[3];
   std::vector<float> e_row_, t_row_;
 };
 
@@ -1352,8 +1409,8 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
 // Steps 1-5 of `full` for a three-channel image after the geometry (FullEnhanceImpl's).
 cv::Mat FullColorStreamed(const FullOptions& o, const cv::Mat& image,
                           const IrradianceOptions& lights, const CameraIntrinsics& camera,
-                          const std::vector<double>& beta, bool any_beta,
-                          const double* noise_sigma, FullResult* r) {
+                          const std::vector<double>& beta, bool any_beta, const double* noise_sigma,
+                          FullResult* r) {
   const cv::Mat denoised = DenoiseStep(o, image, r, noise_sigma);
   LightEstimate light = LightStepUnscaled(o, lights, camera, beta, denoised, r);
   const bool dehaze = o.dehaze && any_beta;
@@ -1749,7 +1806,8 @@ MethodEntry FullEntry(const std::string& variant) {
   const FullOptions d = FullVariantDefaults(variant);
   MethodEntry e;
   e.info.name = variant;
-  const std::string steps = "denoise, light estimate, plane-induced dehazing, PSF deconvolution, CLAHE";
+  const std::string steps =
+      "denoise, light estimate, plane-induced dehazing, PSF deconvolution, CLAHE";
   if (variant == "full") {
     e.info.summary = "paper full model (" + steps + "), light scale estimated blind";
   } else if (variant == "full_literal") {
@@ -1850,7 +1908,7 @@ MethodEntry SimplifiedEntry() {
 }  // namespace
 
 std::vector<MethodEntry> PaperMethodEntries() {
-  return {FullEntry("full"),         FullEntry("full_literal"), FullEntry("full_matched"),
+  return {FullEntry("full"), FullEntry("full_literal"), FullEntry("full_matched"),
           FullEntry("full_physical"), SimplifiedEntry()};
 }
 
