@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 
+#include "enhancer/counted_sample.h"
 #include "enhancer/guided_filter.h"
 #include "enhancer/method.h"
 #include "enhancer/plane_fit.h"
@@ -230,6 +232,14 @@ TURBID_ROW_KERNEL void ClampUnitRow(float* __restrict v, int n) {
   for (int i = 0; i < n; ++i) {
     const float x = v[i] != v[i] ? 0.0f : v[i];
     v[i] = std::max(std::min(x, 1.0f), 0.0f);
+  }
+}
+
+// ClampUnitRow from `src` into `dst`.
+TURBID_ROW_KERNEL void ClampUnitCopyRow(const float* __restrict src, float* __restrict dst, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float x = src[i] != src[i] ? 0.0f : src[i];
+    dst[i] = std::max(std::min(x, 1.0f), 0.0f);
   }
 }
 
@@ -1343,16 +1353,15 @@ class ColorRowSource {
 void ExposureStepRows(const FullOptions& o, ColorRowSource& src, int rows, FullResult* r) {
   if (o.exposure_percentile <= 0) return;
   const int n = src.values();
-  std::vector<float> row(n), sample;
-  sample.reserve(static_cast<size_t>(rows) * n / 4 + 16);
+  std::vector<float> row(n);
+  enhancer_internal::CountedSample sample(static_cast<size_t>((rows + 1) / 2) *
+                                          static_cast<size_t>((n + 1) / 2));
   for (int y = 0; y < rows; y += 2) {
     src.Dehazed(y, row.data());
-    for (int i = 0; i < n; i += 2) {
-      if (std::isfinite(row[i])) sample.push_back(row[i]);
-    }
+    sample.AddEverySecondFinite(row.data(), n);
   }
   if (sample.empty()) return;
-  const double level = PercentileOf(sample, o.exposure_percentile);
+  const double level = sample.Percentile(o.exposure_percentile);
   if (level > 1.0) {
     r->exposure_scale = level;
     src.SetExposure(level);
@@ -1393,8 +1402,7 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
       psf.kernel,
       [&](int y, const float* row) {
         float* dst = out.ptr<float>(y);  // its denoised values were read for ring row y
-        std::copy_n(row, n, dst);
-        ClampUnitRow(dst, n);
+        ClampUnitCopyRow(row, dst, n);
         if (o.contrast) ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
       });
   if (!streamed) return false;  // another deblur path after all: nothing was read or written
