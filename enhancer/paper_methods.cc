@@ -8,6 +8,7 @@
 
 #include "enhancer/counted_sample.h"
 #include "enhancer/guided_filter.h"
+#include "enhancer/linear_upsample.h"
 #include "enhancer/method.h"
 #include "enhancer/plane_fit.h"
 #include "enhancer/select.h"
@@ -338,9 +339,12 @@ bool FullOptions::Check(std::string* why) const {
 namespace {
 
 // The light model's E_L on the plane at 1/subsample, upsampled to `size`: one channel per beta.
+// With `rows` and one channel, the map is not upsampled whole: *rows gives its rows (the result
+// is then empty).
 cv::Mat LightModelMap(const IrradianceOptions& lights, const Plane& plane,
                       const CameraIntrinsics& camera, const std::vector<double>& beta_per_m,
-                      cv::Size size, int channels, int subsample, double max_range_m) {
+                      cv::Size size, int channels, int subsample, double max_range_m,
+                      enhancer_internal::LinearUpsampler* rows = nullptr) {
   if (beta_per_m.size() != 1 && static_cast<int>(beta_per_m.size()) != channels) {
     throw Error("full: " + std::to_string(beta_per_m.size()) + " attenuation values for a " +
                 std::to_string(channels) + "-channel image");
@@ -350,7 +354,12 @@ cv::Mat LightModelMap(const IrradianceOptions& lights, const Plane& plane,
   const cv::Vec3f n(static_cast<float>(plane.normal[0]), static_cast<float>(plane.normal[1]),
                     static_cast<float>(plane.normal[2]));
   const cv::Mat normals(depth.size(), CV_32FC3, cv::Scalar(n[0], n[1], n[2]));
-  return Upsample(IrradianceMap(lights, small, depth, normals, beta_per_m), size);
+  const cv::Mat map = IrradianceMap(lights, small, depth, normals, beta_per_m);
+  if (rows != nullptr && map.channels() == 1) {
+    *rows = enhancer_internal::LinearUpsampler(map, size);
+    return {};
+  }
+  return Upsample(map, size);
 }
 
 }  // namespace
@@ -575,7 +584,16 @@ void SetLightScale(double bound, bool fit_ok, const cv::Vec3d& fit, LightScaleEs
 // keeps every grid pixel (the sample sets are then the same; false, nothing written, when a
 // channel's value is not finite where L is). The ratios and samples are those of the general
 // loop, in grid order; the fits run side by side (FitVeilModel3).
-bool LightScaleShared3(const cv::Mat& denoised, const cv::Mat& light, const cv::Mat& transmission,
+// A t or L map as EstimateLightScale reads it: image row y is row y / every of `m` (every > 1: a
+// map of the grid rows only, the streamed colour path's).
+struct GridRows {
+  const cv::Mat& m;
+  int every;
+  const float* operator()(int y) const { return m.ptr<float>(y / every); }
+  int channels() const { return m.channels(); }
+};
+
+bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmission,
                        int stride, float w_min, double percentile,
                        std::vector<LightScaleEstimate>* out) {
   const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
@@ -586,8 +604,8 @@ bool LightScaleShared3(const cv::Mat& denoised, const cv::Mat& light, const cv::
   size_t n = 0, m = 0;  // samples, ratios
   for (int y = 0; y < denoised.rows; y += stride) {
     const float* in = denoised.ptr<float>(y);
-    const float* t = transmission.ptr<float>(y);
-    const float* l = light.ptr<float>(y);
+    const float* t = transmission(y);
+    const float* l = light(y);
     for (int x = 0; x < denoised.cols; x += stride) {
       const double ti = t[x], li = l[x];
       if (!std::isfinite(li)) continue;
@@ -618,17 +636,15 @@ bool LightScaleShared3(const cv::Mat& denoised, const cv::Mat& light, const cv::
   return true;
 }
 
-}  // namespace
+// EstimateLightScale's default grid stride: about 65536 grid pixels.
+int LightScaleStride(const cv::Mat& denoised) {
+  return std::max(1, static_cast<int>(std::floor(std::sqrt(denoised.total() / 65536.0))));
+}
 
-std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, const cv::Mat& light,
-                                                   const cv::Mat& transmission, double percentile,
-                                                   double support, int stride) {
-  CV_Assert(denoised.depth() == CV_32F && light.depth() == CV_32F &&
-            transmission.depth() == CV_32F && stride >= 0);
-  if (stride == 0) {
-    stride = std::max(1, static_cast<int>(std::floor(std::sqrt(denoised.total() / 65536.0))));
-  }
-  CV_Assert(denoised.size() == light.size() && denoised.size() == transmission.size());
+// EstimateLightScale on maps given as GridRows (the checks done, `stride` > 0).
+std::vector<LightScaleEstimate> EstimateLightScaleGrid(const cv::Mat& denoised, GridRows light,
+                                                       GridRows transmission, double percentile,
+                                                       double support, int stride) {
   const int ch = denoised.channels(), lc = light.channels(), tc = transmission.channels();
   CV_Assert(ch <= 4 && (lc == 1 || lc == ch) && (tc == 1 || tc == ch));
   std::vector<LightScaleEstimate> out(ch);
@@ -642,8 +658,8 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
     }
     const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
     for (int y = 0; y < denoised.rows; y += stride) {
-      const float* t = transmission.ptr<float>(y);
-      const float* l = light.ptr<float>(y);
+      const float* t = transmission(y);
+      const float* l = light(y);
       for (int x = 0; x < denoised.cols; x += stride) {
         w_max[c] = std::max(w_max[c], (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
       }
@@ -671,8 +687,8 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
   }
   for (int y = 0; y < denoised.rows; y += stride) {
     const float* in = denoised.ptr<float>(y);
-    const float* t = transmission.ptr<float>(y);
-    const float* l = light.ptr<float>(y);
+    const float* t = transmission(y);
+    const float* l = light(y);
     for (int x = 0; x < denoised.cols; x += stride) {
       for (int c = 0; c < ch; ++c) {
         if (!active[c]) continue;
@@ -694,6 +710,19 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
     SetLightScale(bound, fit_ok, fit, &out[c]);
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, const cv::Mat& light,
+                                                   const cv::Mat& transmission, double percentile,
+                                                   double support, int stride) {
+  CV_Assert(denoised.depth() == CV_32F && light.depth() == CV_32F &&
+            transmission.depth() == CV_32F && stride >= 0);
+  if (stride == 0) stride = LightScaleStride(denoised);
+  CV_Assert(denoised.size() == light.size() && denoised.size() == transmission.size());
+  return EstimateLightScaleGrid(denoised, GridRows{light, 1}, GridRows{transmission, 1},
+                                percentile, support, stride);
 }
 
 namespace {
@@ -827,8 +856,10 @@ double EstimateNoiseSigma(const cv::Mat& image) {
 // Step 1 (eq. 4): self-guided filter per channel; with denoise_adaptive the epsilon follows the
 // haze (t_med) and the noise.
 // `noise_sigma`: the image's EstimateNoiseSigma when already known (else null: computed here).
+// `t_rows`: t as rows (the streamed colour path; r->transmission empty then), or null.
 cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r,
-                    const double* noise_sigma = nullptr) {
+                    const double* noise_sigma = nullptr,
+                    const enhancer_internal::LinearUpsampler* t_rows = nullptr) {
   if (!o.denoise) {
     r->steps.push_back("denoise: skipped (off)");
     return image;
@@ -839,12 +870,15 @@ cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r,
   std::string how;
   if (o.denoise_adaptive) {
     double t_med = 1.0;
-    if (!r->transmission.empty()) {
-      std::vector<float> sample;
+    const bool t_as_rows = t_rows != nullptr && !t_rows->empty();
+    if (!r->transmission.empty() || t_as_rows) {
+      // Every fourth value of every fourth row of t.
       const cv::Mat& t = r->transmission;
-      for (int y = 0; y < t.rows; y += 4) {
-        const float* p = t.ptr<float>(y);
-        for (int i = 0; i < t.cols * t.channels(); i += 4) sample.push_back(p[i]);
+      const int n = t_as_rows ? image.cols : t.cols * t.channels();
+      std::vector<float> sample, row(t_as_rows ? n : 0);
+      for (int y = 0; y < image.rows; y += 4) {
+        const float* p = t_as_rows ? t_rows->Row(y, row.data()) : t.ptr<float>(y);
+        for (int i = 0; i < n; i += 4) sample.push_back(p[i]);
       }
       if (!sample.empty()) t_med = PercentileOf(sample, 50.0);
     }
@@ -884,10 +918,11 @@ void ResolveLightsAndBeta(const FullOptions& o, const nlohmann::json* sidecar, i
 }
 
 // t = exp(-beta r) on the plane, clamped to t_min, at 1/light_subsample and upsampled; one map per
-// distinct beta. Fills r->transmission (and r->range_m when inspecting).
+// distinct beta. Fills r->transmission (and r->range_m when inspecting); with `t_rows` and one
+// beta, *t_rows instead (the rows of the upsampled map, one at a time).
 void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,
                       const std::vector<double>& beta, cv::Size size, bool keep_steps,
-                      FullResult* r) {
+                      FullResult* r, enhancer_internal::LinearUpsampler* t_rows = nullptr) {
   const CameraIntrinsics small = Downscaled(camera, o.light_subsample);
   const cv::Mat range = RangeFromDepth(small, PlaneDepth(*r->plane, small, o.max_range_m));
   std::vector<cv::Mat> t_planes;
@@ -895,6 +930,10 @@ void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,
     cv::Mat t;
     cv::exp(range * -b, t);
     cv::max(t, o.t_min, t);
+    if (t_rows != nullptr && beta.size() == 1) {
+      *t_rows = enhancer_internal::LinearUpsampler(t, size);
+      return;
+    }
     t_planes.push_back(Upsample(t, size));
   }
   if (keep_steps) r->range_m = Upsample(range, size);
@@ -907,15 +946,39 @@ void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,
 
 // Step 2 (eq. 5): E_L on the plane, scaled into image units blind, by the range fit, or as is.
 // Returned as `map` times `scale` per channel (scale empty: the map as is); the map has one
-// channel per distinct beta except with range scaling (image channels, scaled).
+// channel per distinct beta except with range scaling (image channels, scaled). The streamed
+// colour path may get a one-channel map as `rows` instead (`map` empty).
 struct LightEstimate {
   cv::Mat map;
+  enhancer_internal::LinearUpsampler rows;
   std::vector<double> scale;
+  bool empty() const { return map.empty() && rows.empty(); }
 };
 
+// EstimateLightScale(denoised, E_L, t) with E_L and t as maps or rows (t_rows non-null and not
+// empty: t's rows; else `transmission`): only the grid rows of the row sources are made.
+std::vector<LightScaleEstimate> LightScaleOf(const FullOptions& o, const cv::Mat& denoised,
+                                             const LightEstimate& e, const cv::Mat& transmission,
+                                             const enhancer_internal::LinearUpsampler* t_rows) {
+  const bool t_as_rows = t_rows != nullptr && !t_rows->empty();
+  if (!t_as_rows && e.rows.empty()) {
+    return EstimateLightScale(denoised, e.map, transmission, o.light_scale_percentile,
+                              o.light_scale_support);
+  }
+  const int stride = LightScaleStride(denoised);
+  const cv::Mat t_grid = t_as_rows ? t_rows->EveryNthRow(stride) : transmission;
+  const cv::Mat l_grid = e.rows.empty() ? e.map : e.rows.EveryNthRow(stride);
+  return EstimateLightScaleGrid(denoised, GridRows{l_grid, e.rows.empty() ? 1 : stride},
+                                GridRows{t_grid, t_as_rows ? stride : 1},
+                                o.light_scale_percentile, o.light_scale_support, stride);
+}
+
+// `t_rows`: the streamed colour path's t (r->transmission empty then); with it, E_L may be returned
+// as rows too.
 LightEstimate LightStepUnscaled(const FullOptions& o, const IrradianceOptions& lights,
                                 const CameraIntrinsics& camera, const std::vector<double>& beta,
-                                const cv::Mat& denoised, FullResult* r) {
+                                const cv::Mat& denoised, FullResult* r,
+                                const enhancer_internal::LinearUpsampler* t_rows = nullptr) {
   if (!o.light) {
     r->steps.push_back("light: skipped (off)");
     return {};
@@ -929,18 +992,18 @@ LightEstimate LightStepUnscaled(const FullOptions& o, const IrradianceOptions& l
               ? EstimateArtificialLight(lights, *r->plane, camera, beta, denoised, true,
                                         o.light_subsample, o.max_range_m)
               : LightModelMap(lights, *r->plane, camera, beta, denoised.size(), denoised.channels(),
-                              o.light_subsample, o.max_range_m);
-  const cv::Mat& e_l = e.map;
+                              o.light_subsample, o.max_range_m,
+                              t_rows != nullptr ? &e.rows : nullptr);
   std::string detail = o.light_scaling + " scaling";
   if (o.light_scaling == "physical") {
     r->light_scale.assign(denoised.channels(), 1.0);
   } else if (o.light_scaling == "blind") {
-    if (r->transmission.empty()) {
+    if (r->transmission.empty() && (t_rows == nullptr || t_rows->empty())) {
       // No attenuation: no veil to measure the light by, and eq. 6 leaves I unchanged.
       r->light_scale.assign(denoised.channels(), 0.0);
     } else {
-      const std::vector<LightScaleEstimate> est = EstimateLightScale(
-          denoised, e_l, r->transmission, o.light_scale_percentile, o.light_scale_support);
+      const std::vector<LightScaleEstimate> est =
+          LightScaleOf(o, denoised, e, r->transmission, t_rows);
       for (const LightScaleEstimate& est_c : est) {
         r->light_scale.push_back(est_c.scale);
         detail += "; scale " + FormatNumber(est_c.scale) + " (" + est_c.source + "; fit " +
@@ -1200,23 +1263,28 @@ __attribute__((target("avx2,fma"))) void DehazeSpreadAvx2(const float* in, const
 #endif
 
 // Row y of the image entering the deblur (J_plane, exposure-scaled, plus the detail layer), from
-// the input, the denoised image, E_L (map x scale) and t.
+// the input, the denoised image, E_L (map or rows, x scale) and t (`transmission`, or `t_rows`
+// when that is not empty).
 class ColorRowSource {
  public:
   ColorRowSource(const FullOptions& o, const cv::Mat& image, const cv::Mat& denoised,
-                 LightEstimate light, const cv::Mat& transmission, bool dehaze)
+                 LightEstimate light, const cv::Mat& transmission,
+                 const enhancer_internal::LinearUpsampler& t_rows, bool dehaze)
       : image_(image),
         denoised_(denoised),
         light_(std::move(light)),
         t_(transmission),
+        t_rows_(t_rows),
         dehaze_(dehaze),
         detail_(o.keep_detail > 0 && o.denoise),
         keep_(static_cast<float>(o.keep_detail)),
         n_(image.cols * 3),
-        e_row_(light_.map.empty() ? 0 : n_),
-        t_row_(n_) {
+        e_row_(light_.empty() ? 0 : n_),
+        t_row_(n_),
+        e_upsampled_(light_.rows.empty() ? 0 : image.cols),
+        t_upsampled_(t_rows_.empty() ? 0 : image.cols) {
     // E_L's per-channel scale (1 without one), for DehazeSpreadAvx2.
-    const bool scaled = !light_.map.empty() && !light_.scale.empty();
+    const bool scaled = !light_.empty() && !light_.scale.empty();
     for (int c = 0; c < 3; ++c) scale_[c] = scaled ? light_.scale[c] : 1.0;
   }
 
@@ -1229,16 +1297,16 @@ class ColorRowSource {
     }
 #ifdef TURBID_HAVE_DEHAZE_AVX2
     if (Spread()) {
-      DehazeSpreadAvx2<AfterDehaze::kNone>(in, LightRow(y), scale_, t_.ptr<float>(y), nullptr, 1.0f,
-                                           0.0f, dst, image_.cols);
+      DehazeSpreadAvx2<AfterDehaze::kNone>(in, LightRow(y), scale_, TRow(y), nullptr, 1.0f, 0.0f,
+                                           dst, image_.cols);
       return;
     }
 #endif
-    const float* t = Expand(t_, y, nullptr, t_row_.data());
-    if (light_.map.empty()) {
+    const float* t = Expand(TRow(y), TChannels(), nullptr, t_row_.data());
+    if (light_.empty()) {
       DehazeRowNoLight(in, t, dst, n_);
     } else {
-      const float* e = Expand(light_.map, y, &light_.scale, e_row_.data());
+      const float* e = Expand(LightRow(y), LightChannels(), &light_.scale, e_row_.data());
       DehazeRowLight(in, e, t, dst, n_);
     }
   }
@@ -1250,11 +1318,11 @@ class ColorRowSource {
     if (dehaze_ && Spread() && (detail_ || exposure_ != 1.0f)) {
       const float* in = denoised_.ptr<float>(y);
       if (detail_) {
-        DehazeSpreadAvx2<AfterDehaze::kScaleDetail>(in, LightRow(y), scale_, t_.ptr<float>(y),
+        DehazeSpreadAvx2<AfterDehaze::kScaleDetail>(in, LightRow(y), scale_, TRow(y),
                                                     image_.ptr<float>(y), exposure_, keep_, dst,
                                                     image_.cols);
       } else {
-        DehazeSpreadAvx2<AfterDehaze::kScale>(in, LightRow(y), scale_, t_.ptr<float>(y), nullptr,
+        DehazeSpreadAvx2<AfterDehaze::kScale>(in, LightRow(y), scale_, TRow(y), nullptr,
                                               exposure_, 0.0f, dst, image_.cols);
       }
       return;
@@ -1278,23 +1346,29 @@ class ColorRowSource {
   // and scaled in registers, on a CPU with AVX2 and FMA.
   bool Spread() const {
     static const bool fma = CpuHasFma();
-    return fma && t_.channels() == 1 && (light_.map.empty() || light_.map.channels() == 1) &&
+    return fma && TChannels() == 1 && (light_.empty() || LightChannels() == 1) &&
            enhancer_internal::UseHandWrittenAvx2();
   }
-  const float* LightRow(int y) const {
+#endif
+  // Row y of t and of E_L (null without light), from the maps or computed from their rows.
+  const float* TRow(int y) {
+    return t_rows_.empty() ? t_.ptr<float>(y) : t_rows_.Row(y, t_upsampled_.data());
+  }
+  const float* LightRow(int y) {
+    if (!light_.rows.empty()) return light_.rows.Row(y, e_upsampled_.data());
     return light_.map.empty() ? nullptr : light_.map.ptr<float>(y);
   }
-#endif
+  int TChannels() const { return t_rows_.empty() ? t_.channels() : 1; }
+  int LightChannels() const { return light_.rows.empty() ? light_.map.channels() : 1; }
 
-  // Row y of a one- or three-channel map as three values per pixel, times scale[c] in double
+  // A row `p` of a one- or three-channel map as three values per pixel, times scale[c] in double
   // (cv::multiply by a Scalar) when a scale is given.
-  const float* Expand(const cv::Mat& m, int y, const std::vector<double>* scale, float* buf) {
-    const float* p = m.ptr<float>(y);
+  const float* Expand(const float* p, int channels, const std::vector<double>* scale, float* buf) {
     const int w = image_.cols;
     if (scale == nullptr || scale->empty()) {
-      if (m.channels() == 3) return p;
+      if (channels == 3) return p;
       SpreadRow(p, buf, w);
-    } else if (m.channels() == 1) {
+    } else if (channels == 1) {
       SpreadScaledRow(p, (*scale)[0], (*scale)[1], (*scale)[2], buf, w);
     } else {
       ScaledRow3(p, (*scale)[0], (*scale)[1], (*scale)[2], buf, w);
@@ -1341,12 +1415,14 @@ class ColorRowSource {
   const cv::Mat& denoised_;
   const LightEstimate light_;
   const cv::Mat& t_;
+  const enhancer_internal::LinearUpsampler& t_rows_;
   const bool dehaze_, detail_;
   const float keep_;
   const int n_;
   float exposure_ = 1.0f;
   double scale_[3];
   std::vector<float> e_row_, t_row_;
+  std::vector<float> e_upsampled_, t_upsampled_;  // one-channel rows computed from *_rows
 };
 
 // ExposureStep on the rows of J_plane (the same sample: every second value of every second row).
@@ -1418,11 +1494,11 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
 cv::Mat FullColorStreamed(const FullOptions& o, const cv::Mat& image,
                           const IrradianceOptions& lights, const CameraIntrinsics& camera,
                           const std::vector<double>& beta, bool any_beta, const double* noise_sigma,
-                          FullResult* r) {
-  const cv::Mat denoised = DenoiseStep(o, image, r, noise_sigma);
-  LightEstimate light = LightStepUnscaled(o, lights, camera, beta, denoised, r);
+                          const enhancer_internal::LinearUpsampler& t_rows, FullResult* r) {
+  const cv::Mat denoised = DenoiseStep(o, image, r, noise_sigma, &t_rows);
+  LightEstimate light = LightStepUnscaled(o, lights, camera, beta, denoised, r, &t_rows);
   const bool dehaze = o.dehaze && any_beta;
-  ColorRowSource src(o, image, denoised, std::move(light), r->transmission, dehaze);
+  ColorRowSource src(o, image, denoised, std::move(light), r->transmission, t_rows, dehaze);
   if (dehaze) {
     std::string values;
     for (double b : r->beta_per_m) values += (values.empty() ? "" : "/") + FormatNumber(b);
@@ -1469,6 +1545,7 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
 
   IrradianceOptions lights;
   std::vector<double> beta;
+  enhancer_internal::LinearUpsampler t_rows;  // the streamed path's t, when one beta
   ResolveLightsAndBeta(o, sidecar, channels, &lights, &beta, &r);
   const bool any_beta = std::any_of(beta.begin(), beta.end(), [](double b) { return b > 0; });
   const bool need_light = o.light && !lights.lights.empty();
@@ -1480,11 +1557,14 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
     r.plane = ResolvePlane(o, scene, camera, &source);
     r.plane_source = source;
     r.steps.push_back("plane: from " + source);
-    if (any_beta) TransmissionStep(o, camera, beta, image.size(), keep_steps, &r);
+    // The streamed path reads t one row at a time (with one beta): no full-size map.
+    if (any_beta) {
+      TransmissionStep(o, camera, beta, image.size(), keep_steps, &r, streamed ? &t_rows : nullptr);
+    }
   }
   if (streamed) {
     r.image = FullColorStreamed(o, image, lights, camera, beta, any_beta,
-                                sigma_known ? &noise_sigma : nullptr, &r);
+                                sigma_known ? &noise_sigma : nullptr, t_rows, &r);
     return r;
   }
   cv::Mat current = DenoiseStep(o, image, &r);
