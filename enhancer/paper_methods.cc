@@ -593,9 +593,8 @@ struct GridRows {
   int channels() const { return m.channels(); }
 };
 
-bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmission,
-                       int stride, float w_min, double percentile,
-                       std::vector<LightScaleEstimate>* out) {
+bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmission, int stride,
+                       float w_min, double percentile, std::vector<LightScaleEstimate>* out) {
   const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
                           static_cast<size_t>((denoised.cols + stride - 1) / stride);
   std::vector<float> ts(expected), ls(expected), vs(4 * expected);
@@ -721,8 +720,8 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
             transmission.depth() == CV_32F && stride >= 0);
   if (stride == 0) stride = LightScaleStride(denoised);
   CV_Assert(denoised.size() == light.size() && denoised.size() == transmission.size());
-  return EstimateLightScaleGrid(denoised, GridRows{light, 1}, GridRows{transmission, 1},
-                                percentile, support, stride);
+  return EstimateLightScaleGrid(denoised, GridRows{light, 1}, GridRows{transmission, 1}, percentile,
+                                support, stride);
 }
 
 namespace {
@@ -969,8 +968,8 @@ std::vector<LightScaleEstimate> LightScaleOf(const FullOptions& o, const cv::Mat
   const cv::Mat t_grid = t_as_rows ? t_rows->EveryNthRow(stride) : transmission;
   const cv::Mat l_grid = e.rows.empty() ? e.map : e.rows.EveryNthRow(stride);
   return EstimateLightScaleGrid(denoised, GridRows{l_grid, e.rows.empty() ? 1 : stride},
-                                GridRows{t_grid, t_as_rows ? stride : 1},
-                                o.light_scale_percentile, o.light_scale_support, stride);
+                                GridRows{t_grid, t_as_rows ? stride : 1}, o.light_scale_percentile,
+                                o.light_scale_support, stride);
 }
 
 // `t_rows`: the streamed colour path's t (r->transmission empty then); with it, E_L may be returned
@@ -988,12 +987,12 @@ LightEstimate LightStepUnscaled(const FullOptions& o, const IrradianceOptions& l
     return {};
   }
   LightEstimate e;
-  e.map = o.light_scaling == "range"
-              ? EstimateArtificialLight(lights, *r->plane, camera, beta, denoised, true,
-                                        o.light_subsample, o.max_range_m)
-              : LightModelMap(lights, *r->plane, camera, beta, denoised.size(), denoised.channels(),
-                              o.light_subsample, o.max_range_m,
-                              t_rows != nullptr ? &e.rows : nullptr);
+  e.map =
+      o.light_scaling == "range"
+          ? EstimateArtificialLight(lights, *r->plane, camera, beta, denoised, true,
+                                    o.light_subsample, o.max_range_m)
+          : LightModelMap(lights, *r->plane, camera, beta, denoised.size(), denoised.channels(),
+                          o.light_subsample, o.max_range_m, t_rows != nullptr ? &e.rows : nullptr);
   std::string detail = o.light_scaling + " scaling";
   if (o.light_scaling == "physical") {
     r->light_scale.assign(denoised.channels(), 1.0);
@@ -1322,8 +1321,8 @@ class ColorRowSource {
                                                     image_.ptr<float>(y), exposure_, keep_, dst,
                                                     image_.cols);
       } else {
-        DehazeSpreadAvx2<AfterDehaze::kScale>(in, LightRow(y), scale_, TRow(y), nullptr,
-                                              exposure_, 0.0f, dst, image_.cols);
+        DehazeSpreadAvx2<AfterDehaze::kScale>(in, LightRow(y), scale_, TRow(y), nullptr, exposure_,
+                                              0.0f, dst, image_.cols);
       }
       return;
     }

@@ -95,45 +95,50 @@ TEST(FullColorKernels, NoiseEstimateEqualsReference) {
 }
 
 // The k-th smallest as the pre-optimisation percentile found it (nth_element) and as SelectKth
-// finds it: CountedSample must give SelectKth's value, which equals nth_element's as a number.
+// finds it: CountedSample must give SelectKth's value, which equals nth_element's as a number;
+// with its AVX2 kernels (rows of 16 values and more) and without.
 TEST(FullColorKernels, CountedSampleEqualsSelectKth) {
-  cv::RNG rng(5);
-  for (int kind = 0; kind < 7; ++kind) {
-    for (int rows : {1, 2, 7, 40}) {
-      for (int n : {1, 2, 5, 64, 301}) {
-        std::vector<std::vector<float>> data(rows, std::vector<float>(n));
-        std::vector<float> sample;  // the finite values at even indices, in order
-        for (auto& row : data) {
-          for (int i = 0; i < n; ++i) {
-            double v = rng.uniform(0.0, 2.0);
-            if (kind == 1) v = rng.uniform(-3.0, 3.0);
-            if (kind == 2)
-              v = std::round(v * 4) / 4 * (rng.uniform(0, 2) == 0 ? -1 : 1);  // ties, +-0
-            if (kind == 3) v = 0.75 + 1e-7 * rng.uniform(0, 16);  // one bucket: ulps apart
-            if (kind == 4) v = std::ldexp(rng.uniform(1.0, 2.0), rng.uniform(-140, 120));  // wide
-            float f = static_cast<float>(v);
-            if (kind == 5 && i % 6 == 0) f = std::numeric_limits<float>::quiet_NaN();
-            if (kind == 5 && i % 6 == 2) f = -std::numeric_limits<float>::infinity();
-            if (kind == 6 && i % 4 == 0) f = std::numeric_limits<float>::infinity();
-            row[i] = f;
-            if (i % 2 == 0 && std::isfinite(f)) sample.push_back(f);
+  for (bool avx2 : {true, false}) {
+    const Avx2Switch avx2_switch(avx2);
+    cv::RNG rng(5);
+    for (int kind = 0; kind < 8; ++kind) {
+      for (int rows : {1, 2, 7, 40}) {
+        for (int n : {1, 2, 5, 64, 301}) {
+          std::vector<std::vector<float>> data(rows, std::vector<float>(n));
+          std::vector<float> sample;  // the finite values at even indices, in order
+          for (auto& row : data) {
+            for (int i = 0; i < n; ++i) {
+              double v = rng.uniform(0.0, 2.0);
+              if (kind == 1) v = rng.uniform(-3.0, 3.0);
+              if (kind == 2)
+                v = std::round(v * 4) / 4 * (rng.uniform(0, 2) == 0 ? -1 : 1);  // ties, +-0
+              if (kind == 3) v = 0.75 + 1e-7 * rng.uniform(0, 16);  // one bucket: ulps apart
+              if (kind == 4) v = std::ldexp(rng.uniform(1.0, 2.0), rng.uniform(-140, 120));  // wide
+              float f = static_cast<float>(v);
+              if (kind == 5 && i % 6 == 0) f = std::numeric_limits<float>::quiet_NaN();
+              if (kind == 5 && i % 6 == 2) f = -std::numeric_limits<float>::infinity();
+              if (kind == 6 && i % 4 == 0) f = std::numeric_limits<float>::infinity();
+              if (kind == 7 && i == 40) f = std::numeric_limits<float>::quiet_NaN();  // one group
+              row[i] = f;
+              if (i % 2 == 0 && std::isfinite(f)) sample.push_back(f);
+            }
           }
-        }
-        enhancer_internal::CountedSample counted(static_cast<size_t>(rows) * ((n + 1) / 2));
-        for (const auto& row : data) counted.AddEverySecondFinite(row.data(), n);
-        ASSERT_EQ(counted.empty(), sample.empty());
-        if (sample.empty()) continue;
-        for (double p : {0.0, 1.0, 50.0, 99.5, 100.0}) {
-          const size_t k = static_cast<size_t>(std::floor(p / 100.0 * (sample.size() - 1)));
-          std::vector<float> scratch = sample, sorted = sample;
-          const float want = enhancer_internal::SelectKth<float, uint32_t>(scratch, k);
-          std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k),
-                           sorted.end());
-          const float got = static_cast<float>(counted.Percentile(p));
-          EXPECT_EQ(std::memcmp(&got, &want, sizeof got), 0)
-              << "kind " << kind << " rows " << rows << " n " << n << " p " << p << ": " << got
-              << " vs " << want;
-          EXPECT_EQ(got, sorted[k]) << "kind " << kind << " rows " << rows << " n " << n;
+          enhancer_internal::CountedSample counted(static_cast<size_t>(rows) * ((n + 1) / 2));
+          for (const auto& row : data) counted.AddEverySecondFinite(row.data(), n);
+          ASSERT_EQ(counted.empty(), sample.empty());
+          if (sample.empty()) continue;
+          for (double p : {0.0, 1.0, 50.0, 99.5, 100.0}) {
+            const size_t k = static_cast<size_t>(std::floor(p / 100.0 * (sample.size() - 1)));
+            std::vector<float> scratch = sample, sorted = sample;
+            const float want = enhancer_internal::SelectKth<float, uint32_t>(scratch, k);
+            std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k),
+                             sorted.end());
+            const float got = static_cast<float>(counted.Percentile(p));
+            EXPECT_EQ(std::memcmp(&got, &want, sizeof got), 0)
+                << "kind " << kind << " rows " << rows << " n " << n << " p " << p << ": " << got
+                << " vs " << want << (avx2 ? " (AVX2)" : "");
+            EXPECT_EQ(got, sorted[k]) << "kind " << kind << " rows " << rows << " n " << n;
+          }
         }
       }
     }

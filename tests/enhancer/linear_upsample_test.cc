@@ -1,6 +1,8 @@
 // LinearUpsampler (enhancer/linear_upsample.h) against cv::resize INTER_LINEAR: the same float
 // map, bit for bit, row by row, on the sizes `full` upsamples (1/light_subsample of odd and even
 // images) and on random sizes and factors, with -0, infinities and NaN among the values.
+#include "enhancer/linear_upsample.h"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,8 +12,6 @@
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
-
-#include "enhancer/linear_upsample.h"
 
 namespace turbid {
 namespace {
@@ -70,8 +70,8 @@ cv::Mat RandomMap(cv::RNG& rng, int rows, int cols, bool smooth) {
 TEST(LinearUpsample, FullsMapSizesMatchResize) {
   // `full` computes t and E_L at max(1, ceil(n / subsample)) per dimension and upsamples to n.
   cv::RNG rng(11);
-  const cv::Size images[] = {{1360, 1024}, {640, 480}, {641, 479}, {97, 61}, {5, 3}, {1, 1},
-                             {2, 7},       {33, 1},    {1, 40}};
+  const cv::Size images[] = {{1360, 1024}, {640, 480}, {641, 479}, {97, 61}, {5, 3},
+                             {1, 1},       {2, 7},     {33, 1},    {1, 40}};
   for (const cv::Size& image : images) {
     for (int sub : {1, 2, 3, 4, 5, 7, 8, 9, 16, 17, 31, 64}) {
       const int w = std::max(1, (image.width + sub - 1) / sub);
@@ -96,9 +96,12 @@ TEST(LinearUpsample, SpecialValuesMatchResize) {
   // -0 and non-finite values: an edge value is v (1 - f) + v f, and a zero weight still
   // multiplies its neighbour (inf * 0 is NaN), as in cv::resize.
   cv::RNG rng(2);
-  const float specials[] = {-0.0f, std::numeric_limits<float>::infinity(),
+  const float specials[] = {-0.0f,
+                            std::numeric_limits<float>::infinity(),
                             -std::numeric_limits<float>::infinity(),
-                            std::numeric_limits<float>::quiet_NaN(), 1e-42f, 3e38f};
+                            std::numeric_limits<float>::quiet_NaN(),
+                            1e-42f,
+                            3e38f};
   for (int trial = 0; trial < 40; ++trial) {
     cv::Mat m = RandomMap(rng, 3 + trial % 9, 2 + trial % 13, false);
     for (int k = 0; k < 4; ++k) {
