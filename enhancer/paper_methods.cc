@@ -580,10 +580,6 @@ void SetLightScale(double bound, bool fit_ok, const cv::Vec3d& fit, LightScaleEs
   }
 }
 
-// EstimateLightScale for a three-channel image with one-channel t and L maps, when every channel
-// keeps every grid pixel (the sample sets are then the same; false, nothing written, when a
-// channel's value is not finite where L is). The ratios and samples are those of the general
-// loop, in grid order; the fits run side by side (FitVeilModel3).
 // A t or L map as EstimateLightScale reads it: image row y is row y / every of `m` (every > 1: a
 // map of the grid rows only, the streamed colour path's).
 struct GridRows {
@@ -593,6 +589,10 @@ struct GridRows {
   int channels() const { return m.channels(); }
 };
 
+// EstimateLightScale for a three-channel image with one-channel t and L maps, when every channel
+// keeps every grid pixel (the sample sets are then the same; false, nothing written, when a
+// channel's value is not finite where L is). The ratios and samples are those of the general
+// loop, in grid order; the fits run side by side (FitVeilModel3).
 bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmission, int stride,
                        float w_min, double percentile, std::vector<LightScaleEstimate>* out) {
   const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
