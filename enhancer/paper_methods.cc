@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 
+#include "enhancer/counted_sample.h"
 #include "enhancer/guided_filter.h"
+#include "enhancer/linear_upsample.h"
 #include "enhancer/method.h"
 #include "enhancer/plane_fit.h"
 #include "enhancer/select.h"
@@ -233,6 +236,14 @@ TURBID_ROW_KERNEL void ClampUnitRow(float* __restrict v, int n) {
   }
 }
 
+// ClampUnitRow from `src` into `dst`.
+TURBID_ROW_KERNEL void ClampUnitCopyRow(const float* __restrict src, float* __restrict dst, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float x = src[i] != src[i] ? 0.0f : src[i];
+    dst[i] = std::max(std::min(x, 1.0f), 0.0f);
+  }
+}
+
 // `full`'s exposure and detail steps on one row: j = j * inv_level (convertTo's float product),
 // then j + k (I - I_de) as cv::scaleAdd computes it for float images: a fused multiply-add where
 // the CPU has one (as above), else a product and a sum.
@@ -273,8 +284,8 @@ bool FullOptions::Check(std::string* why) const {
     return Fail(why, "denoise_radius must be in [1, 1000]");
   if (!std::isfinite(denoise_eps) || denoise_eps <= 0) return Fail(why, "denoise_eps must be > 0");
   if (light_scaling != "blind" && light_scaling != "range" && light_scaling != "physical") {
-    return Fail(why, "light_scaling must be 'blind', 'range' or 'physical', got '" +
-                         light_scaling + "'");
+    return Fail(
+        why, "light_scaling must be 'blind', 'range' or 'physical', got '" + light_scaling + "'");
   }
   if (!std::isfinite(denoise_noise_factor) || denoise_noise_factor < 0 ||
       denoise_noise_factor > 100) {
@@ -284,15 +295,13 @@ bool FullOptions::Check(std::string* why) const {
       light_scale_percentile > 50) {
     return Fail(why, "light_scale_percentile must be in (0, 50]");
   }
-  if (!std::isfinite(light_scale_support) || light_scale_support <= 0 ||
-      light_scale_support >= 1) {
+  if (!std::isfinite(light_scale_support) || light_scale_support <= 0 || light_scale_support >= 1) {
     return Fail(why, "light_scale_support must be in (0, 1)");
   }
   if (!std::isfinite(keep_detail) || keep_detail < 0 || keep_detail > 10) {
     return Fail(why, "keep_detail must be in [0, 10]");
   }
-  if (!std::isfinite(exposure_percentile) || exposure_percentile < 0 ||
-      exposure_percentile > 100) {
+  if (!std::isfinite(exposure_percentile) || exposure_percentile < 0 || exposure_percentile > 100) {
     return Fail(why, "exposure_percentile must be in [0, 100]");
   }
   if (light_subsample < 1 || light_subsample > 64)
@@ -330,9 +339,12 @@ bool FullOptions::Check(std::string* why) const {
 namespace {
 
 // The light model's E_L on the plane at 1/subsample, upsampled to `size`: one channel per beta.
+// With `rows` and one channel, the map is not upsampled whole: *rows gives its rows (the result
+// is then empty).
 cv::Mat LightModelMap(const IrradianceOptions& lights, const Plane& plane,
                       const CameraIntrinsics& camera, const std::vector<double>& beta_per_m,
-                      cv::Size size, int channels, int subsample, double max_range_m) {
+                      cv::Size size, int channels, int subsample, double max_range_m,
+                      enhancer_internal::LinearUpsampler* rows = nullptr) {
   if (beta_per_m.size() != 1 && static_cast<int>(beta_per_m.size()) != channels) {
     throw Error("full: " + std::to_string(beta_per_m.size()) + " attenuation values for a " +
                 std::to_string(channels) + "-channel image");
@@ -342,7 +354,12 @@ cv::Mat LightModelMap(const IrradianceOptions& lights, const Plane& plane,
   const cv::Vec3f n(static_cast<float>(plane.normal[0]), static_cast<float>(plane.normal[1]),
                     static_cast<float>(plane.normal[2]));
   const cv::Mat normals(depth.size(), CV_32FC3, cv::Scalar(n[0], n[1], n[2]));
-  return Upsample(IrradianceMap(lights, small, depth, normals, beta_per_m), size);
+  const cv::Mat map = IrradianceMap(lights, small, depth, normals, beta_per_m);
+  if (rows != nullptr && map.channels() == 1) {
+    *rows = enhancer_internal::LinearUpsampler(map, size);
+    return {};
+  }
+  return Upsample(map, size);
 }
 
 }  // namespace
@@ -563,13 +580,21 @@ void SetLightScale(double bound, bool fit_ok, const cv::Vec3d& fit, LightScaleEs
   }
 }
 
+// A t or L map as EstimateLightScale reads it: image row y is row y / every of `m` (every > 1: a
+// map of the grid rows only, the streamed colour path's).
+struct GridRows {
+  const cv::Mat& m;
+  int every;
+  const float* operator()(int y) const { return m.ptr<float>(y / every); }
+  int channels() const { return m.channels(); }
+};
+
 // EstimateLightScale for a three-channel image with one-channel t and L maps, when every channel
 // keeps every grid pixel (the sample sets are then the same; false, nothing written, when a
 // channel's value is not finite where L is). The ratios and samples are those of the general
 // loop, in grid order; the fits run side by side (FitVeilModel3).
-bool LightScaleShared3(const cv::Mat& denoised, const cv::Mat& light, const cv::Mat& transmission,
-                       int stride, float w_min, double percentile,
-                       std::vector<LightScaleEstimate>* out) {
+bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmission, int stride,
+                       float w_min, double percentile, std::vector<LightScaleEstimate>* out) {
   const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
                           static_cast<size_t>((denoised.cols + stride - 1) / stride);
   std::vector<float> ts(expected), ls(expected), vs(4 * expected);
@@ -578,8 +603,8 @@ bool LightScaleShared3(const cv::Mat& denoised, const cv::Mat& light, const cv::
   size_t n = 0, m = 0;  // samples, ratios
   for (int y = 0; y < denoised.rows; y += stride) {
     const float* in = denoised.ptr<float>(y);
-    const float* t = transmission.ptr<float>(y);
-    const float* l = light.ptr<float>(y);
+    const float* t = transmission(y);
+    const float* l = light(y);
     for (int x = 0; x < denoised.cols; x += stride) {
       const double ti = t[x], li = l[x];
       if (!std::isfinite(li)) continue;
@@ -610,17 +635,15 @@ bool LightScaleShared3(const cv::Mat& denoised, const cv::Mat& light, const cv::
   return true;
 }
 
-}  // namespace
+// EstimateLightScale's default grid stride: about 65536 grid pixels.
+int LightScaleStride(const cv::Mat& denoised) {
+  return std::max(1, static_cast<int>(std::floor(std::sqrt(denoised.total() / 65536.0))));
+}
 
-std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, const cv::Mat& light,
-                                                   const cv::Mat& transmission, double percentile,
-                                                   double support, int stride) {
-  CV_Assert(denoised.depth() == CV_32F && light.depth() == CV_32F &&
-            transmission.depth() == CV_32F && stride >= 0);
-  if (stride == 0) {
-    stride = std::max(1, static_cast<int>(std::floor(std::sqrt(denoised.total() / 65536.0))));
-  }
-  CV_Assert(denoised.size() == light.size() && denoised.size() == transmission.size());
+// EstimateLightScale on maps given as GridRows (the checks done, `stride` > 0).
+std::vector<LightScaleEstimate> EstimateLightScaleGrid(const cv::Mat& denoised, GridRows light,
+                                                       GridRows transmission, double percentile,
+                                                       double support, int stride) {
   const int ch = denoised.channels(), lc = light.channels(), tc = transmission.channels();
   CV_Assert(ch <= 4 && (lc == 1 || lc == ch) && (tc == 1 || tc == ch));
   std::vector<LightScaleEstimate> out(ch);
@@ -634,8 +657,8 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
     }
     const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
     for (int y = 0; y < denoised.rows; y += stride) {
-      const float* t = transmission.ptr<float>(y);
-      const float* l = light.ptr<float>(y);
+      const float* t = transmission(y);
+      const float* l = light(y);
       for (int x = 0; x < denoised.cols; x += stride) {
         w_max[c] = std::max(w_max[c], (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
       }
@@ -663,8 +686,8 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
   }
   for (int y = 0; y < denoised.rows; y += stride) {
     const float* in = denoised.ptr<float>(y);
-    const float* t = transmission.ptr<float>(y);
-    const float* l = light.ptr<float>(y);
+    const float* t = transmission(y);
+    const float* l = light(y);
     for (int x = 0; x < denoised.cols; x += stride) {
       for (int c = 0; c < ch; ++c) {
         if (!active[c]) continue;
@@ -688,6 +711,19 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
   return out;
 }
 
+}  // namespace
+
+std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, const cv::Mat& light,
+                                                   const cv::Mat& transmission, double percentile,
+                                                   double support, int stride) {
+  CV_Assert(denoised.depth() == CV_32F && light.depth() == CV_32F &&
+            transmission.depth() == CV_32F && stride >= 0);
+  if (stride == 0) stride = LightScaleStride(denoised);
+  CV_Assert(denoised.size() == light.size() && denoised.size() == transmission.size());
+  return EstimateLightScaleGrid(denoised, GridRows{light, 1}, GridRows{transmission, 1}, percentile,
+                                support, stride);
+}
+
 namespace {
 
 // Noise standard deviation of a float image (all channels), J. Immerkaer, "Fast noise variance
@@ -705,6 +741,69 @@ TURBID_ROW_KERNEL void LaplacianAbsRow(const float* __restrict a, const float* _
   }
 }
 
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// Eight rows' sums of |I * N| at once (rows y0 .. y0 + 7, values i = ch .. ch + n - 1): per eight
+// values the rows' |I * N| vectors (LaplacianAbsRow's arithmetic, lane by lane) are transposed so
+// that lane k holds row k, and added to lane k's sum in value order: each lane is the scalar
+// float chain of its row, bit for bit, without the rows' values going through memory. Values past
+// the last whole eight are added one by one. row[k] receives row y0 + k's sum.
+__attribute__((target("avx2"))) inline __m256 LaplacianAbs8(const float* a, const float* b,
+                                                            const float* c, int i, int ch) {
+  const __m256 two = _mm256_set1_ps(2.0f), four = _mm256_set1_ps(4.0f);
+  const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  __m256 s = _mm256_add_ps(_mm256_loadu_ps(a + i - ch), _mm256_loadu_ps(a + i + ch));
+  s = _mm256_add_ps(s, _mm256_loadu_ps(c + i - ch));
+  s = _mm256_add_ps(s, _mm256_loadu_ps(c + i + ch));
+  __m256 m = _mm256_add_ps(_mm256_loadu_ps(a + i), _mm256_loadu_ps(c + i));
+  m = _mm256_add_ps(m, _mm256_loadu_ps(b + i - ch));
+  m = _mm256_add_ps(m, _mm256_loadu_ps(b + i + ch));
+  const __m256 v = _mm256_add_ps(_mm256_sub_ps(s, _mm256_mul_ps(two, m)),
+                                 _mm256_mul_ps(four, _mm256_loadu_ps(b + i)));
+  return _mm256_and_ps(v, abs_mask);
+}
+
+__attribute__((target("avx2"))) void LaplacianAbsSums8(const float* const* rows, int ch, int n,
+                                                       float* row) {
+  __m256 acc = _mm256_setzero_ps();
+  int j = 0;
+  for (; j + 8 <= n; j += 8) {
+    const int i = j + ch;
+    __m256 v[8];
+    for (int k = 0; k < 8; ++k) v[k] = LaplacianAbs8(rows[k], rows[k + 1], rows[k + 2], i, ch);
+    // 8 x 8 transpose: t[q] lane k = v[k] lane q.
+    const __m256 u0 = _mm256_unpacklo_ps(v[0], v[1]), u1 = _mm256_unpackhi_ps(v[0], v[1]);
+    const __m256 u2 = _mm256_unpacklo_ps(v[2], v[3]), u3 = _mm256_unpackhi_ps(v[2], v[3]);
+    const __m256 u4 = _mm256_unpacklo_ps(v[4], v[5]), u5 = _mm256_unpackhi_ps(v[4], v[5]);
+    const __m256 u6 = _mm256_unpacklo_ps(v[6], v[7]), u7 = _mm256_unpackhi_ps(v[6], v[7]);
+    const __m256 w0 = _mm256_shuffle_ps(u0, u2, 0x44), w1 = _mm256_shuffle_ps(u0, u2, 0xee);
+    const __m256 w2 = _mm256_shuffle_ps(u1, u3, 0x44), w3 = _mm256_shuffle_ps(u1, u3, 0xee);
+    const __m256 w4 = _mm256_shuffle_ps(u4, u6, 0x44), w5 = _mm256_shuffle_ps(u4, u6, 0xee);
+    const __m256 w6 = _mm256_shuffle_ps(u5, u7, 0x44), w7 = _mm256_shuffle_ps(u5, u7, 0xee);
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w0, w4, 0x20));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w1, w5, 0x20));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w2, w6, 0x20));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w3, w7, 0x20));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w0, w4, 0x31));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w1, w5, 0x31));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w2, w6, 0x31));
+    acc = _mm256_add_ps(acc, _mm256_permute2f128_ps(w3, w7, 0x31));
+  }
+  _mm256_storeu_ps(row, acc);
+  for (int k = 0; k < 8; ++k) {
+    const float* a = rows[k];
+    const float* b = rows[k + 1];
+    const float* c = rows[k + 2];
+    for (int jj = j; jj < n; ++jj) {
+      const int i = jj + ch;
+      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
+                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
+      row[k] += std::abs(v);
+    }
+  }
+}
+#define TURBID_HAVE_NOISE_AVX2 1
+#endif
+
 double EstimateNoiseSigma(const cv::Mat& image) {
   if (image.rows < 3 || image.cols < 3) return 0.0;
   CV_Assert(image.depth() == CV_32F);
@@ -712,16 +811,31 @@ double EstimateNoiseSigma(const cv::Mat& image) {
   // Each row's sum is one float accumulation in order (accumulated in double over the rows, in
   // order); kRows rows are summed side by side so their dependent additions overlap.
   constexpr int kRows = 8;
-  std::vector<float> v(static_cast<size_t>(kRows) * n);
+#ifdef TURBID_HAVE_NOISE_AVX2
+  const bool avx2 = enhancer_internal::UseHandWrittenAvx2();
+#else
+  const bool avx2 = false;
+#endif
+  std::vector<float> v(avx2 ? 0 : static_cast<size_t>(kRows) * n);
   double total = 0.0;
   for (int y0 = 1; y0 + 1 < image.rows; y0 += kRows) {
     const int m = std::min(kRows, image.rows - 1 - y0);
+    float row[kRows] = {};
+#ifdef TURBID_HAVE_NOISE_AVX2
+    if (avx2 && m == kRows) {
+      const float* rows[kRows + 2];
+      for (int k = 0; k < kRows + 2; ++k) rows[k] = image.ptr<float>(y0 - 1 + k);
+      LaplacianAbsSums8(rows, ch, n, row);
+      for (int k = 0; k < m; ++k) total += row[k];
+      continue;
+    }
+#endif
+    if (avx2) v.resize(static_cast<size_t>(kRows) * n);
     for (int k = 0; k < m; ++k) {
       const int y = y0 + k;
       LaplacianAbsRow(image.ptr<float>(y - 1), image.ptr<float>(y), image.ptr<float>(y + 1), ch,
                       v.data() + static_cast<size_t>(k) * n, n);
     }
-    float row[kRows] = {};
     if (m == kRows) {
       const float* p = v.data();
       for (int i = 0; i < n; ++i) {
@@ -741,8 +855,10 @@ double EstimateNoiseSigma(const cv::Mat& image) {
 // Step 1 (eq. 4): self-guided filter per channel; with denoise_adaptive the epsilon follows the
 // haze (t_med) and the noise.
 // `noise_sigma`: the image's EstimateNoiseSigma when already known (else null: computed here).
+// `t_rows`: t as rows (the streamed colour path; r->transmission empty then), or null.
 cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r,
-                    const double* noise_sigma = nullptr) {
+                    const double* noise_sigma = nullptr,
+                    const enhancer_internal::LinearUpsampler* t_rows = nullptr) {
   if (!o.denoise) {
     r->steps.push_back("denoise: skipped (off)");
     return image;
@@ -753,12 +869,15 @@ cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r,
   std::string how;
   if (o.denoise_adaptive) {
     double t_med = 1.0;
-    if (!r->transmission.empty()) {
-      std::vector<float> sample;
+    const bool t_as_rows = t_rows != nullptr && !t_rows->empty();
+    if (!r->transmission.empty() || t_as_rows) {
+      // Every fourth value of every fourth row of t.
       const cv::Mat& t = r->transmission;
-      for (int y = 0; y < t.rows; y += 4) {
-        const float* p = t.ptr<float>(y);
-        for (int i = 0; i < t.cols * t.channels(); i += 4) sample.push_back(p[i]);
+      const int n = t_as_rows ? image.cols : t.cols * t.channels();
+      std::vector<float> sample, row(t_as_rows ? n : 0);
+      for (int y = 0; y < image.rows; y += 4) {
+        const float* p = t_as_rows ? t_rows->Row(y, row.data()) : t.ptr<float>(y);
+        for (int i = 0; i < n; i += 4) sample.push_back(p[i]);
       }
       if (!sample.empty()) t_med = PercentileOf(sample, 50.0);
     }
@@ -798,10 +917,11 @@ void ResolveLightsAndBeta(const FullOptions& o, const nlohmann::json* sidecar, i
 }
 
 // t = exp(-beta r) on the plane, clamped to t_min, at 1/light_subsample and upsampled; one map per
-// distinct beta. Fills r->transmission (and r->range_m when inspecting).
+// distinct beta. Fills r->transmission (and r->range_m when inspecting); with `t_rows` and one
+// beta, *t_rows instead (the rows of the upsampled map, one at a time).
 void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,
                       const std::vector<double>& beta, cv::Size size, bool keep_steps,
-                      FullResult* r) {
+                      FullResult* r, enhancer_internal::LinearUpsampler* t_rows = nullptr) {
   const CameraIntrinsics small = Downscaled(camera, o.light_subsample);
   const cv::Mat range = RangeFromDepth(small, PlaneDepth(*r->plane, small, o.max_range_m));
   std::vector<cv::Mat> t_planes;
@@ -809,6 +929,10 @@ void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,
     cv::Mat t;
     cv::exp(range * -b, t);
     cv::max(t, o.t_min, t);
+    if (t_rows != nullptr && beta.size() == 1) {
+      *t_rows = enhancer_internal::LinearUpsampler(t, size);
+      return;
+    }
     t_planes.push_back(Upsample(t, size));
   }
   if (keep_steps) r->range_m = Upsample(range, size);
@@ -821,15 +945,39 @@ void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,
 
 // Step 2 (eq. 5): E_L on the plane, scaled into image units blind, by the range fit, or as is.
 // Returned as `map` times `scale` per channel (scale empty: the map as is); the map has one
-// channel per distinct beta except with range scaling (image channels, scaled).
+// channel per distinct beta except with range scaling (image channels, scaled). The streamed
+// colour path may get a one-channel map as `rows` instead (`map` empty).
 struct LightEstimate {
   cv::Mat map;
+  enhancer_internal::LinearUpsampler rows;
   std::vector<double> scale;
+  bool empty() const { return map.empty() && rows.empty(); }
 };
 
+// EstimateLightScale(denoised, E_L, t) with E_L and t as maps or rows (t_rows non-null and not
+// empty: t's rows; else `transmission`): only the grid rows of the row sources are made.
+std::vector<LightScaleEstimate> LightScaleOf(const FullOptions& o, const cv::Mat& denoised,
+                                             const LightEstimate& e, const cv::Mat& transmission,
+                                             const enhancer_internal::LinearUpsampler* t_rows) {
+  const bool t_as_rows = t_rows != nullptr && !t_rows->empty();
+  if (!t_as_rows && e.rows.empty()) {
+    return EstimateLightScale(denoised, e.map, transmission, o.light_scale_percentile,
+                              o.light_scale_support);
+  }
+  const int stride = LightScaleStride(denoised);
+  const cv::Mat t_grid = t_as_rows ? t_rows->EveryNthRow(stride) : transmission;
+  const cv::Mat l_grid = e.rows.empty() ? e.map : e.rows.EveryNthRow(stride);
+  return EstimateLightScaleGrid(denoised, GridRows{l_grid, e.rows.empty() ? 1 : stride},
+                                GridRows{t_grid, t_as_rows ? stride : 1}, o.light_scale_percentile,
+                                o.light_scale_support, stride);
+}
+
+// `t_rows`: the streamed colour path's t (r->transmission empty then); with it, E_L may be returned
+// as rows too.
 LightEstimate LightStepUnscaled(const FullOptions& o, const IrradianceOptions& lights,
                                 const CameraIntrinsics& camera, const std::vector<double>& beta,
-                                const cv::Mat& denoised, FullResult* r) {
+                                const cv::Mat& denoised, FullResult* r,
+                                const enhancer_internal::LinearUpsampler* t_rows = nullptr) {
   if (!o.light) {
     r->steps.push_back("light: skipped (off)");
     return {};
@@ -839,22 +987,22 @@ LightEstimate LightStepUnscaled(const FullOptions& o, const IrradianceOptions& l
     return {};
   }
   LightEstimate e;
-  e.map = o.light_scaling == "range"
-              ? EstimateArtificialLight(lights, *r->plane, camera, beta, denoised, true,
-                                        o.light_subsample, o.max_range_m)
-              : LightModelMap(lights, *r->plane, camera, beta, denoised.size(), denoised.channels(),
-                              o.light_subsample, o.max_range_m);
-  const cv::Mat& e_l = e.map;
+  e.map =
+      o.light_scaling == "range"
+          ? EstimateArtificialLight(lights, *r->plane, camera, beta, denoised, true,
+                                    o.light_subsample, o.max_range_m)
+          : LightModelMap(lights, *r->plane, camera, beta, denoised.size(), denoised.channels(),
+                          o.light_subsample, o.max_range_m, t_rows != nullptr ? &e.rows : nullptr);
   std::string detail = o.light_scaling + " scaling";
   if (o.light_scaling == "physical") {
     r->light_scale.assign(denoised.channels(), 1.0);
   } else if (o.light_scaling == "blind") {
-    if (r->transmission.empty()) {
+    if (r->transmission.empty() && (t_rows == nullptr || t_rows->empty())) {
       // No attenuation: no veil to measure the light by, and eq. 6 leaves I unchanged.
       r->light_scale.assign(denoised.channels(), 0.0);
     } else {
-      const std::vector<LightScaleEstimate> est = EstimateLightScale(
-          denoised, e_l, r->transmission, o.light_scale_percentile, o.light_scale_support);
+      const std::vector<LightScaleEstimate> est =
+          LightScaleOf(o, denoised, e, r->transmission, t_rows);
       for (const LightScaleEstimate& est_c : est) {
         r->light_scale.push_back(est_c.scale);
         detail += "; scale " + FormatNumber(est_c.scale) + " (" + est_c.source + "; fit " +
@@ -1025,14 +1173,37 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
 // upsampled t and E_L maps (one channel each when one beta), CLAHE's bins.
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+// What DehazeSpreadAvx2 does after eq. 6: nothing; the exposure scale (j * inv_level, the
+// product of ColorRowSource::ScaleRow); or the exposure scale and the detail layer (fma(I - I_de,
+// k, j * inv_level), ExposureDetailRowFma's arithmetic).
+enum class AfterDehaze { kNone, kScale, kScaleDetail };
+
 // Eq. 6 on an interleaved BGR row from one-channel t and E_L rows (w pixels): per 8 pixels (24
 // values, three vectors) t and E_L are spread to the values' pixels by one permute each, E_L is
 // scaled per channel in double (the lanes' channels repeat with period 3) and rounded to float,
-// then (I - E) / t + E, or I / t without light (e null). The scalar arithmetic of
-// ColorRowSource's portable path, lane by lane (no FMA): the same bits.
-__attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const float* e,
-                                                      const double* scale, const float* t, float* d,
-                                                      int w) {
+// then (I - E) / t + E, or I / t without light (e null); then the `kAfter` step in registers
+// (image: the input row, for the detail layer). The scalar arithmetic of ColorRowSource's
+// portable path, lane by lane: the same bits. Compiled with FMA (the detail step's fused
+// multiply-add, as ExposureDetailRowFma); nothing else has a product feeding a sum, so nothing
+// else can be contracted. Callers check CpuHasFma().
+// The kAfter step on eight values j of eq. 6 at value index i of the row (image, denoised: the
+// input's and the denoised image's rows; image is read for the detail layer only).
+template <AfterDehaze kAfter>
+__attribute__((target("avx2,fma"))) inline __m256 AfterDehazeStep(__m256 j, const float* image,
+                                                                  const float* denoised, int i,
+                                                                  __m256 inv, __m256 kd) {
+  if (kAfter == AfterDehaze::kNone) return j;
+  const __m256 scaled = _mm256_mul_ps(j, inv);
+  if (kAfter == AfterDehaze::kScale) return scaled;
+  return _mm256_fmadd_ps(_mm256_sub_ps(_mm256_loadu_ps(image + i), _mm256_loadu_ps(denoised + i)),
+                         kd, scaled);
+}
+
+template <AfterDehaze kAfter>
+__attribute__((target("avx2,fma"))) void DehazeSpreadAvx2(const float* in, const float* e,
+                                                          const double* scale, const float* t,
+                                                          const float* image, float inv_level,
+                                                          float k_detail, float* d, int w) {
   // Pixel (within the 8) and channel of each lane of the three vectors.
   static const int kPixel[3][8] = {
       {0, 0, 0, 1, 1, 1, 2, 2}, {2, 3, 3, 3, 4, 4, 4, 5}, {5, 5, 6, 6, 6, 7, 7, 7}};
@@ -1046,6 +1217,7 @@ __attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const flo
     s_lo[k] = _mm256_setr_pd(scale[c[0]], scale[c[1]], scale[c[2]], scale[c[3]]);
     s_hi[k] = _mm256_setr_pd(scale[c[4]], scale[c[5]], scale[c[6]], scale[c[7]]);
   }
+  const __m256 inv = _mm256_set1_ps(inv_level), kd = _mm256_set1_ps(k_detail);
   int x = 0;
   for (; x + 8 <= w; x += 8) {
     const __m256 t8 = _mm256_loadu_ps(t + x);
@@ -1055,7 +1227,8 @@ __attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const flo
       const __m256 tv = _mm256_permutevar8x32_ps(t8, spread[k]);
       const __m256 v = _mm256_loadu_ps(in + i);
       if (e == nullptr) {
-        _mm256_storeu_ps(d + i, _mm256_div_ps(v, tv));
+        _mm256_storeu_ps(d + i,
+                         AfterDehazeStep<kAfter>(_mm256_div_ps(v, tv), image, in, i, inv, kd));
         continue;
       }
       const __m256 ev = _mm256_permutevar8x32_ps(e8, spread[k]);
@@ -1064,18 +1237,24 @@ __attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const flo
       const __m128 hi =
           _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(ev, 1)), s_hi[k]));
       const __m256 ee = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
-      _mm256_storeu_ps(d + i, _mm256_add_ps(_mm256_div_ps(_mm256_sub_ps(v, ee), tv), ee));
+      const __m256 j = _mm256_add_ps(_mm256_div_ps(_mm256_sub_ps(v, ee), tv), ee);
+      _mm256_storeu_ps(d + i, AfterDehazeStep<kAfter>(j, image, in, i, inv, kd));
     }
   }
   for (; x < w; ++x) {
     for (int c = 0; c < 3; ++c) {
       const int i = 3 * x + c;
+      float j;
       if (e == nullptr) {
-        d[i] = in[i] / t[x];
+        j = in[i] / t[x];
       } else {
         const float ee = static_cast<float>(static_cast<double>(e[x]) * scale[c]);
-        d[i] = (in[i] - ee) / t[x] + ee;
+        j = (in[i] - ee) / t[x] + ee;
       }
+      if (kAfter == AfterDehaze::kScale) j *= inv_level;
+      if (kAfter == AfterDehaze::kScaleDetail)
+        j = std::fma(image[i] - in[i], k_detail, j * inv_level);
+      d[i] = j;
     }
   }
 }
@@ -1083,21 +1262,30 @@ __attribute__((target("avx2"))) void DehazeSpreadAvx2(const float* in, const flo
 #endif
 
 // Row y of the image entering the deblur (J_plane, exposure-scaled, plus the detail layer), from
-// the input, the denoised image, E_L (map x scale) and t.
+// the input, the denoised image, E_L (map or rows, x scale) and t (`transmission`, or `t_rows`
+// when that is not empty).
 class ColorRowSource {
  public:
   ColorRowSource(const FullOptions& o, const cv::Mat& image, const cv::Mat& denoised,
-                 LightEstimate light, const cv::Mat& transmission, bool dehaze)
+                 LightEstimate light, const cv::Mat& transmission,
+                 const enhancer_internal::LinearUpsampler& t_rows, bool dehaze)
       : image_(image),
         denoised_(denoised),
         light_(std::move(light)),
         t_(transmission),
+        t_rows_(t_rows),
         dehaze_(dehaze),
         detail_(o.keep_detail > 0 && o.denoise),
         keep_(static_cast<float>(o.keep_detail)),
         n_(image.cols * 3),
-        e_row_(light_.map.empty() ? 0 : n_),
-        t_row_(n_) {}
+        e_row_(light_.empty() ? 0 : n_),
+        t_row_(n_),
+        e_upsampled_(light_.rows.empty() ? 0 : image.cols),
+        t_upsampled_(t_rows_.empty() ? 0 : image.cols) {
+    // E_L's per-channel scale (1 without one), for DehazeSpreadAvx2.
+    const bool scaled = !light_.empty() && !light_.scale.empty();
+    for (int c = 0; c < 3; ++c) scale_[c] = scaled ? light_.scale[c] : 1.0;
+  }
 
   // J_plane of row y (eq. 6), or the denoised row without dehazing; `dst` holds n floats.
   void Dehazed(int y, float* dst) {
@@ -1107,28 +1295,38 @@ class ColorRowSource {
       return;
     }
 #ifdef TURBID_HAVE_DEHAZE_AVX2
-    // One t and one E_L map for every channel (one beta): spread and scaled in registers.
-    if (t_.channels() == 1 && (light_.map.empty() || light_.map.channels() == 1) &&
-        enhancer_internal::UseHandWrittenAvx2()) {
-      const bool light = !light_.map.empty(), scaled = light && !light_.scale.empty();
-      const double s[3] = {scaled ? light_.scale[0] : 1.0, scaled ? light_.scale[1] : 1.0,
-                           scaled ? light_.scale[2] : 1.0};
-      DehazeSpreadAvx2(in, light ? light_.map.ptr<float>(y) : nullptr, s, t_.ptr<float>(y), dst,
-                       image_.cols);
+    if (Spread()) {
+      DehazeSpreadAvx2<AfterDehaze::kNone>(in, LightRow(y), scale_, TRow(y), nullptr, 1.0f, 0.0f,
+                                           dst, image_.cols);
       return;
     }
 #endif
-    const float* t = Expand(t_, y, nullptr, t_row_.data());
-    if (light_.map.empty()) {
+    const float* t = Expand(TRow(y), TChannels(), nullptr, t_row_.data());
+    if (light_.empty()) {
       DehazeRowNoLight(in, t, dst, n_);
     } else {
-      const float* e = Expand(light_.map, y, &light_.scale, e_row_.data());
+      const float* e = Expand(LightRow(y), LightChannels(), &light_.scale, e_row_.data());
       DehazeRowLight(in, e, t, dst, n_);
     }
   }
 
   // The deblur's input row: J_plane / exposure, plus keep_detail (I - I_de).
   void Row(int y, float* dst) {
+#ifdef TURBID_HAVE_DEHAZE_AVX2
+    // Eq. 6, the exposure scale and the detail layer in one pass over the row.
+    if (dehaze_ && Spread() && (detail_ || exposure_ != 1.0f)) {
+      const float* in = denoised_.ptr<float>(y);
+      if (detail_) {
+        DehazeSpreadAvx2<AfterDehaze::kScaleDetail>(in, LightRow(y), scale_, TRow(y),
+                                                    image_.ptr<float>(y), exposure_, keep_, dst,
+                                                    image_.cols);
+      } else {
+        DehazeSpreadAvx2<AfterDehaze::kScale>(in, LightRow(y), scale_, TRow(y), nullptr, exposure_,
+                                              0.0f, dst, image_.cols);
+      }
+      return;
+    }
+#endif
     Dehazed(y, dst);
     if (detail_) {
       ExposureDetailRow(image_.ptr<float>(y), denoised_.ptr<float>(y), exposure_, keep_, dst, n_);
@@ -1142,15 +1340,34 @@ class ColorRowSource {
   void SetExposure(double level) { exposure_ = static_cast<float>(1.0 / level); }
 
  private:
-  // Row y of a one- or three-channel map as three values per pixel, times scale[c] in double
+#ifdef TURBID_HAVE_DEHAZE_AVX2
+  // Whether DehazeSpreadAvx2 serves: one t and one E_L map for every channel (one beta), spread
+  // and scaled in registers, on a CPU with AVX2 and FMA.
+  bool Spread() const {
+    static const bool fma = CpuHasFma();
+    return fma && TChannels() == 1 && (light_.empty() || LightChannels() == 1) &&
+           enhancer_internal::UseHandWrittenAvx2();
+  }
+#endif
+  // Row y of t and of E_L (null without light), from the maps or computed from their rows.
+  const float* TRow(int y) {
+    return t_rows_.empty() ? t_.ptr<float>(y) : t_rows_.Row(y, t_upsampled_.data());
+  }
+  const float* LightRow(int y) {
+    if (!light_.rows.empty()) return light_.rows.Row(y, e_upsampled_.data());
+    return light_.map.empty() ? nullptr : light_.map.ptr<float>(y);
+  }
+  int TChannels() const { return t_rows_.empty() ? t_.channels() : 1; }
+  int LightChannels() const { return light_.rows.empty() ? light_.map.channels() : 1; }
+
+  // A row `p` of a one- or three-channel map as three values per pixel, times scale[c] in double
   // (cv::multiply by a Scalar) when a scale is given.
-  const float* Expand(const cv::Mat& m, int y, const std::vector<double>* scale, float* buf) {
-    const float* p = m.ptr<float>(y);
+  const float* Expand(const float* p, int channels, const std::vector<double>* scale, float* buf) {
     const int w = image_.cols;
     if (scale == nullptr || scale->empty()) {
-      if (m.channels() == 3) return p;
+      if (channels == 3) return p;
       SpreadRow(p, buf, w);
-    } else if (m.channels() == 1) {
+    } else if (channels == 1) {
       SpreadScaledRow(p, (*scale)[0], (*scale)[1], (*scale)[2], buf, w);
     } else {
       ScaledRow3(p, (*scale)[0], (*scale)[1], (*scale)[2], buf, w);
@@ -1197,27 +1414,29 @@ class ColorRowSource {
   const cv::Mat& denoised_;
   const LightEstimate light_;
   const cv::Mat& t_;
+  const enhancer_internal::LinearUpsampler& t_rows_;
   const bool dehaze_, detail_;
   const float keep_;
   const int n_;
   float exposure_ = 1.0f;
+  double scale_[3];
   std::vector<float> e_row_, t_row_;
+  std::vector<float> e_upsampled_, t_upsampled_;  // one-channel rows computed from *_rows
 };
 
 // ExposureStep on the rows of J_plane (the same sample: every second value of every second row).
 void ExposureStepRows(const FullOptions& o, ColorRowSource& src, int rows, FullResult* r) {
   if (o.exposure_percentile <= 0) return;
   const int n = src.values();
-  std::vector<float> row(n), sample;
-  sample.reserve(static_cast<size_t>(rows) * n / 4 + 16);
+  std::vector<float> row(n);
+  enhancer_internal::CountedSample sample(static_cast<size_t>((rows + 1) / 2) *
+                                          static_cast<size_t>((n + 1) / 2));
   for (int y = 0; y < rows; y += 2) {
     src.Dehazed(y, row.data());
-    for (int i = 0; i < n; i += 2) {
-      if (std::isfinite(row[i])) sample.push_back(row[i]);
-    }
+    sample.AddEverySecondFinite(row.data(), n);
   }
   if (sample.empty()) return;
-  const double level = PercentileOf(sample, o.exposure_percentile);
+  const double level = sample.Percentile(o.exposure_percentile);
   if (level > 1.0) {
     r->exposure_scale = level;
     src.SetExposure(level);
@@ -1258,8 +1477,7 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
       psf.kernel,
       [&](int y, const float* row) {
         float* dst = out.ptr<float>(y);  // its denoised values were read for ring row y
-        std::copy_n(row, n, dst);
-        ClampUnitRow(dst, n);
+        ClampUnitCopyRow(row, dst, n);
         if (o.contrast) ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
       });
   if (!streamed) return false;  // another deblur path after all: nothing was read or written
@@ -1274,12 +1492,12 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
 // Steps 1-5 of `full` for a three-channel image after the geometry (FullEnhanceImpl's).
 cv::Mat FullColorStreamed(const FullOptions& o, const cv::Mat& image,
                           const IrradianceOptions& lights, const CameraIntrinsics& camera,
-                          const std::vector<double>& beta, bool any_beta,
-                          const double* noise_sigma, FullResult* r) {
-  const cv::Mat denoised = DenoiseStep(o, image, r, noise_sigma);
-  LightEstimate light = LightStepUnscaled(o, lights, camera, beta, denoised, r);
+                          const std::vector<double>& beta, bool any_beta, const double* noise_sigma,
+                          const enhancer_internal::LinearUpsampler& t_rows, FullResult* r) {
+  const cv::Mat denoised = DenoiseStep(o, image, r, noise_sigma, &t_rows);
+  LightEstimate light = LightStepUnscaled(o, lights, camera, beta, denoised, r, &t_rows);
   const bool dehaze = o.dehaze && any_beta;
-  ColorRowSource src(o, image, denoised, std::move(light), r->transmission, dehaze);
+  ColorRowSource src(o, image, denoised, std::move(light), r->transmission, t_rows, dehaze);
   if (dehaze) {
     std::string values;
     for (double b : r->beta_per_m) values += (values.empty() ? "" : "/") + FormatNumber(b);
@@ -1326,6 +1544,7 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
 
   IrradianceOptions lights;
   std::vector<double> beta;
+  enhancer_internal::LinearUpsampler t_rows;  // the streamed path's t, when one beta
   ResolveLightsAndBeta(o, sidecar, channels, &lights, &beta, &r);
   const bool any_beta = std::any_of(beta.begin(), beta.end(), [](double b) { return b > 0; });
   const bool need_light = o.light && !lights.lights.empty();
@@ -1337,11 +1556,14 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
     r.plane = ResolvePlane(o, scene, camera, &source);
     r.plane_source = source;
     r.steps.push_back("plane: from " + source);
-    if (any_beta) TransmissionStep(o, camera, beta, image.size(), keep_steps, &r);
+    // The streamed path reads t one row at a time (with one beta): no full-size map.
+    if (any_beta) {
+      TransmissionStep(o, camera, beta, image.size(), keep_steps, &r, streamed ? &t_rows : nullptr);
+    }
   }
   if (streamed) {
     r.image = FullColorStreamed(o, image, lights, camera, beta, any_beta,
-                                sigma_known ? &noise_sigma : nullptr, &r);
+                                sigma_known ? &noise_sigma : nullptr, t_rows, &r);
     return r;
   }
   cv::Mat current = DenoiseStep(o, image, &r);
@@ -1671,7 +1893,8 @@ MethodEntry FullEntry(const std::string& variant) {
   const FullOptions d = FullVariantDefaults(variant);
   MethodEntry e;
   e.info.name = variant;
-  const std::string steps = "denoise, light estimate, plane-induced dehazing, PSF deconvolution, CLAHE";
+  const std::string steps =
+      "denoise, light estimate, plane-induced dehazing, PSF deconvolution, CLAHE";
   if (variant == "full") {
     e.info.summary = "paper full model (" + steps + "), light scale estimated blind";
   } else if (variant == "full_literal") {
@@ -1772,7 +1995,7 @@ MethodEntry SimplifiedEntry() {
 }  // namespace
 
 std::vector<MethodEntry> PaperMethodEntries() {
-  return {FullEntry("full"),         FullEntry("full_literal"), FullEntry("full_matched"),
+  return {FullEntry("full"), FullEntry("full_literal"), FullEntry("full_matched"),
           FullEntry("full_physical"), SimplifiedEntry()};
 }
 

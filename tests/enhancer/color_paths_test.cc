@@ -543,6 +543,13 @@ std::vector<std::pair<std::string, FullOptions>> FullVariants() {
   o = FullOptions{};
   o.beta_per_m = 0;
   v.emplace_back("beta 0", o);
+  // t and E_L at full resolution (the streamed path reads the maps' rows as they are) and at an
+  // odd subsample (its rows upsampled one at a time).
+  for (int subsample : {1, 3}) {
+    o = FullOptions{};
+    o.light_subsample = subsample;
+    v.emplace_back("light_subsample " + std::to_string(subsample), o);
+  }
   return v;
 }
 

@@ -1,0 +1,211 @@
+// The kernels of `full`'s streamed colour path added in issue 18 item 1, round 3: the noise
+// estimate's eight-row AVX2 sums, eq. 6 fused with the exposure scale and the detail layer, and
+// the exposure percentile counted while its sample is produced. Each must give what the code
+// before it gave, bit for bit (ReferenceNoiseSigma is the pre-optimisation estimate of commit
+// 6722196; FullEnhanceDetailed keeps the whole-image steps, which do not use these kernels).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "enhancer/counted_sample.h"
+#include "enhancer/paper_methods.h"
+#include "enhancer/select.h"
+#include "enhancer/simd_switch.h"
+#include "scenes/builtin.h"
+#include "simulator/render.h"
+
+namespace turbid {
+namespace {
+
+// The Immerkaer estimate as commit 6722196 computed it: one float chain per row, rows summed in
+// double.
+double ReferenceNoiseSigma(const cv::Mat& image) {
+  if (image.rows < 3 || image.cols < 3) return 0.0;
+  const int ch = image.channels(), n = (image.cols - 2) * ch;
+  double total = 0.0;
+  for (int y = 1; y + 1 < image.rows; ++y) {
+    const float* a = image.ptr<float>(y - 1);
+    const float* b = image.ptr<float>(y);
+    const float* c = image.ptr<float>(y + 1);
+    float row = 0.0f;
+    for (int i = ch; i < n + ch; ++i) {
+      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
+                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
+      row += std::abs(v);
+    }
+    total += row;
+  }
+  const double count = 6.0 * (image.cols - 2) * (image.rows - 2) * ch;
+  return std::sqrt(CV_PI / 2.0) * total / count;
+}
+
+// Bitwise equality of two float images (+0 and -0 equal).
+::testing::AssertionResult SameBits(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) {
+    return ::testing::AssertionFailure() << "size or type differ";
+  }
+  const size_t n = static_cast<size_t>(a.cols) * a.channels();
+  for (int y = 0; y < a.rows; ++y) {
+    const float* p = a.ptr<float>(y);
+    const float* q = b.ptr<float>(y);
+    for (size_t i = 0; i < n; ++i) {
+      if (std::memcmp(p + i, q + i, sizeof(float)) != 0 && !(p[i] == 0.0f && q[i] == 0.0f)) {
+        return ::testing::AssertionFailure()
+               << "row " << y << " value " << i << ": " << p[i] << " vs " << q[i];
+      }
+    }
+  }
+  return ::testing::AssertionSuccess();
+}
+
+// The hand-written AVX2 kernels on and off (their portable twins), restored on scope exit.
+struct Avx2Switch {
+  explicit Avx2Switch(bool on) { enhancer_internal::SetHandWrittenAvx2(on); }
+  ~Avx2Switch() { enhancer_internal::SetHandWrittenAvx2(true); }
+};
+
+TEST(FullColorKernels, NoiseEstimateEqualsReference) {
+  // Heights around the eight-row blocks (whole blocks, a short last block), widths with and
+  // without values past the last whole eight, gray and colour, small and large magnitudes.
+  for (bool avx2 : {true, false}) {
+    Avx2Switch s(avx2);
+    for (const cv::Size size :
+         {cv::Size(3, 3), cv::Size(4, 10), cv::Size(10, 11), cv::Size(11, 17), cv::Size(34, 18),
+          cv::Size(35, 26), cv::Size(130, 81), cv::Size(257, 9)}) {
+      for (int ch : {1, 3}) {
+        for (double amplitude : {1.0, 1e30}) {
+          cv::Mat img(size, CV_32FC(ch));
+          cv::RNG(size.area() * ch).fill(img, cv::RNG::UNIFORM, -0.2, 1.3);
+          img *= amplitude;
+          FullOptions o;
+          o.light = false, o.dehaze = false, o.deblur = false, o.contrast = false;
+          const FullResult r = FullEnhanceDetailed(o, img, nullptr, nullptr);
+          EXPECT_EQ(r.noise_sigma, ReferenceNoiseSigma(img))
+              << size << " ch " << ch << " x" << amplitude << " avx2 " << avx2;
+        }
+      }
+    }
+  }
+}
+
+// The k-th smallest as the pre-optimisation percentile found it (nth_element) and as SelectKth
+// finds it: CountedSample must give SelectKth's value, which equals nth_element's as a number;
+// with its AVX2 kernels (rows of 16 values and more) and without.
+TEST(FullColorKernels, CountedSampleEqualsSelectKth) {
+  for (bool avx2 : {true, false}) {
+    const Avx2Switch avx2_switch(avx2);
+    cv::RNG rng(5);
+    for (int kind = 0; kind < 8; ++kind) {
+      for (int rows : {1, 2, 7, 40}) {
+        for (int n : {1, 2, 5, 64, 301}) {
+          std::vector<std::vector<float>> data(rows, std::vector<float>(n));
+          std::vector<float> sample;  // the finite values at even indices, in order
+          for (auto& row : data) {
+            for (int i = 0; i < n; ++i) {
+              double v = rng.uniform(0.0, 2.0);
+              if (kind == 1) v = rng.uniform(-3.0, 3.0);
+              if (kind == 2)
+                v = std::round(v * 4) / 4 * (rng.uniform(0, 2) == 0 ? -1 : 1);  // ties, +-0
+              if (kind == 3) v = 0.75 + 1e-7 * rng.uniform(0, 16);  // one bucket: ulps apart
+              if (kind == 4) v = std::ldexp(rng.uniform(1.0, 2.0), rng.uniform(-140, 120));  // wide
+              float f = static_cast<float>(v);
+              if (kind == 5 && i % 6 == 0) f = std::numeric_limits<float>::quiet_NaN();
+              if (kind == 5 && i % 6 == 2) f = -std::numeric_limits<float>::infinity();
+              if (kind == 6 && i % 4 == 0) f = std::numeric_limits<float>::infinity();
+              if (kind == 7 && i == 40) f = std::numeric_limits<float>::quiet_NaN();  // one group
+              row[i] = f;
+              if (i % 2 == 0 && std::isfinite(f)) sample.push_back(f);
+            }
+          }
+          enhancer_internal::CountedSample counted(static_cast<size_t>(rows) * ((n + 1) / 2));
+          for (const auto& row : data) counted.AddEverySecondFinite(row.data(), n);
+          ASSERT_EQ(counted.empty(), sample.empty());
+          if (sample.empty()) continue;
+          for (double p : {0.0, 1.0, 50.0, 99.5, 100.0}) {
+            const size_t k = static_cast<size_t>(std::floor(p / 100.0 * (sample.size() - 1)));
+            std::vector<float> scratch = sample, sorted = sample;
+            const float want = enhancer_internal::SelectKth<float, uint32_t>(scratch, k);
+            std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k),
+                             sorted.end());
+            const float got = static_cast<float>(counted.Percentile(p));
+            EXPECT_EQ(std::memcmp(&got, &want, sizeof got), 0)
+                << "kind " << kind << " rows " << rows << " n " << n << " p " << p << ": " << got
+                << " vs " << want << (avx2 ? " (AVX2)" : "");
+            EXPECT_EQ(got, sorted[k]) << "kind " << kind << " rows " << rows << " n " << n;
+          }
+        }
+      }
+    }
+  }
+}
+
+// Bright, hazy colour inputs whose J_plane exceeds 1 (the exposure scale applies), of widths with
+// and without pixels past the last whole eight.
+cv::Mat BrightInput(cv::Size size, int seed) {
+  cv::Mat img(size, CV_32FC3);
+  cv::RNG(seed).fill(img, cv::RNG::UNIFORM, 0.3, 1.0);
+  if (size.width > 2 && size.height > 2) cv::GaussianBlur(img, img, cv::Size(0, 0), 1.1);
+  return img;
+}
+
+TEST(FullColorKernels, FusedDehazeExposureDetailEqualsWholeImageSteps) {
+  // Eq. 6 with the exposure scale, with and without the detail layer, with and without light,
+  // AVX2 on and off (the portable row path); FullEnhanceDetailed runs eq. 6, the exposure
+  // division and cv::scaleAdd's detail as whole-image steps.
+  int exposed = 0;
+  for (bool avx2 : {true, false}) {
+    Avx2Switch s(avx2);
+    for (const cv::Size size :
+         {cv::Size(8, 6), cv::Size(13, 9), cv::Size(40, 31), cv::Size(129, 70)}) {
+      const cv::Mat img = BrightInput(size, size.area());
+      for (int variant = 0; variant < 4; ++variant) {
+        FullOptions o;
+        o.beta_per_m = 0.9;
+        o.t_min = 0.2;
+        if (variant == 1) o.keep_detail = 0;
+        if (variant == 2) o.light = false;
+        if (variant == 3) o.light_scaling = "physical";
+        const FullResult slow = FullEnhanceDetailed(o, img, nullptr, nullptr);
+        exposed += slow.exposure_scale > 1.0;
+        EXPECT_TRUE(SameBits(FullEnhance(o, img, nullptr, nullptr), slow.image))
+            << size << " variant " << variant << " avx2 " << avx2;
+      }
+    }
+  }
+  EXPECT_GT(exposed, 20) << "the inputs should make the exposure scale apply";
+}
+
+TEST(FullColorKernels, FullEqualsWholeImageStepsOnBenchScenes) {
+  // The bench's scenes (seafloor, tinted hull) at a small scale: every new kernel on rendered
+  // data, the exposure scale included where the render calls for it.
+  for (const char* name : {"seafloor", "hull"}) {
+    BuiltinSceneOptions so;
+    so.scale = 0.2;
+    Scene scene = MakeBuiltinScene(name, so);
+    if (scene.image.channels() == 1) {
+      const cv::Mat g = scene.image;
+      cv::merge(std::vector<cv::Mat>{g * 0.8, g * 0.95, g}, scene.image);
+    }
+    RenderOptions ro;
+    ro.water.type = "3C";
+    ro.seed = 1;
+    ro.camera.encoding = CameraEncoding::kLinear;
+    const RenderResult r = Render(ro, scene);
+    for (double gain : {1.0, 3.0}) {
+      const cv::Mat img = r.image * gain;
+      const FullResult slow = FullEnhanceDetailed(FullOptions{}, img, &scene, &r.sidecar);
+      EXPECT_TRUE(SameBits(FullEnhance(FullOptions{}, img, &scene, &r.sidecar), slow.image))
+          << name << " gain " << gain;
+      EXPECT_EQ(slow.noise_sigma, ReferenceNoiseSigma(img)) << name << " gain " << gain;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace turbid
