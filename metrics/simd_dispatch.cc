@@ -368,12 +368,11 @@ void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, 
       if (paper) {
         AddPackedPair(TablePair(table, t[0], t[1]), t[0], t[1] - 1, clip_lo, clip_hi, acc);
         AddPackedPair(TablePair(table, t[2], t[3]), t[2], t[3] - 1, clip_lo, clip_hi, acc);
-      } else {  // intervals set by other pixels: clipped first, so that more take two chunks
-        AddPackedPair(TablePair(table, value[k], value[k - 1]), std::max<int>(t[0], clip_lo),
-                      std::min(t[1] - 1, clip_hi), clip_lo, clip_hi, acc);
-        AddPackedPair(TablePair(table, value[k], value[k - stride]),
-                      std::max<int>(t[2], clip_lo), std::min(t[3] - 1, clip_hi), clip_lo, clip_hi,
+      } else {  // intervals set by other pixels, not clipped to the window first (-6 % instructions)
+        AddPackedPair(TablePair(table, value[k], value[k - 1]), t[0], t[1] - 1, clip_lo, clip_hi,
                       acc);
+        AddPackedPair(TablePair(table, value[k], value[k - stride]), t[2], t[3] - 1, clip_lo,
+                      clip_hi, acc);
       }
     }
   }
