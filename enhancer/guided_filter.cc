@@ -655,38 +655,6 @@ TURBID_AVX2 void DoublingWindowSumsAvx2(const float* ext, int w, int window, flo
   }
   for (int x = 8 * blocks; x < w; ++x) out[x] = WindowTreeSum(ext, x, window);
 }
-// The direct window sum of the 8 outputs from x (an anchor of RunningWindowSumsFrom), and one
-// step of its recurrence from the 8 outputs before x.
-TURBID_AVX2 inline __m256 RunningAnchor(const float* e, const float* g, int x, int window) {
-  const int k = window / 8;
-  __m256 sum = _mm256_loadu_ps(g + x);
-  for (int j = 1; j < k; ++j) sum = _mm256_add_ps(sum, _mm256_loadu_ps(g + x + 8 * j));
-  for (int j = 8 * k; j < window; ++j) sum = _mm256_add_ps(sum, _mm256_loadu_ps(e + x + j));
-  return sum;
-}
-TURBID_AVX2 inline __m256 RunningStep(__m256 prev, const float* g, int x, int window) {
-  return _mm256_add_ps(
-      prev, _mm256_sub_ps(_mm256_loadu_ps(g + x - 8 + window), _mm256_loadu_ps(g + x - 8)));
-}
-// N whole stretches of kRunningAnchorCols outputs from x0 (a multiple of it), advanced together.
-template <int N>
-TURBID_AVX2 inline void RunningSegments(const float* e, const float* g, int x0, int window,
-                                        float* out) {
-  __m256 prev[N];
-  for (int n = 0; n < N; ++n) {
-    const int x = x0 + n * kRunningAnchorCols;
-    prev[n] = RunningAnchor(e, g, x, window);
-    _mm256_storeu_ps(out + x, prev[n]);
-  }
-  for (int v = 8; v < kRunningAnchorCols; v += 8) {
-    for (int n = 0; n < N; ++n) {
-      const int x = x0 + n * kRunningAnchorCols + v;
-      prev[n] = RunningStep(prev[n], g, x, window);
-      _mm256_storeu_ps(out + x, prev[n]);
-    }
-  }
-}
-
 // RunningWindowSumsPortable with vectors: the sums of 8 from lane shuffles of pair sums (as in
 // DoublingWindowSumsAvx2), 8 outputs per step. The same additions in the same order.
 TURBID_AVX2 void RunningWindowSumsAvx2(const float* e, int w, int window, float* out, float* g) {
@@ -707,18 +675,18 @@ TURBID_AVX2 void RunningWindowSumsAvx2(const float* e, int w, int window, float*
     g[i] = ((e[i] + e[i + 1]) + (e[i + 2] + e[i + 3])) +
            ((e[i + 4] + e[i + 5]) + (e[i + 6] + e[i + 7]));
   }
-  // Each stretch of kRunningAnchorCols columns is its own chain of additions from its anchor;
-  // RunningSegments advances several stretches together, so that their chains overlap (one
-  // chain alone waits on each addition's latency). The same additions per output.
-  constexpr int kSegment = kRunningAnchorCols;
-  const int segments = w / kSegment;  // whole stretches; the rest one vector at a time
+  const int k = window / 8;
   int x = 0;
-  for (; x + 4 * kSegment <= segments * kSegment; x += 4 * kSegment)
-    RunningSegments<4>(e, g, x, window, out);
-  for (; x + kSegment <= segments * kSegment; x += kSegment) RunningSegments<1>(e, g, x, window, out);
   __m256 prev = _mm256_setzero_ps();
   for (; x + 8 <= w; x += 8) {
-    prev = x % kSegment == 0 ? RunningAnchor(e, g, x, window) : RunningStep(prev, g, x, window);
+    if (x % kRunningAnchorCols == 0) {
+      prev = _mm256_loadu_ps(g + x);
+      for (int j = 1; j < k; ++j) prev = _mm256_add_ps(prev, _mm256_loadu_ps(g + x + 8 * j));
+      for (int j = 8 * k; j < window; ++j) prev = _mm256_add_ps(prev, _mm256_loadu_ps(e + x + j));
+    } else {
+      prev = _mm256_add_ps(
+          prev, _mm256_sub_ps(_mm256_loadu_ps(g + x - 8 + window), _mm256_loadu_ps(g + x - 8)));
+    }
     _mm256_storeu_ps(out + x, prev);
   }
   RunningWindowSumsFrom(e, g, x, w, window, out);
