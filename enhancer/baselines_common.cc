@@ -28,8 +28,7 @@ TURBID_ROW_KERNEL void MinRows(float* __restrict dst, const float* __restrict a,
   for (int i = 0; i < n; ++i) dst[i] = std::min(a[i], b[i]);
 }
 
-TURBID_ROW_KERNEL void MinRows4(float* __restrict dst, const float* __restrict a, int step,
-                                int n) {
+TURBID_ROW_KERNEL void MinRows4(float* __restrict dst, const float* __restrict a, int step, int n) {
   for (int i = 0; i < n; ++i) {
     dst[i] = std::min(std::min(a[i], a[i + step]), std::min(a[i + 2 * step], a[i + 3 * step]));
   }

@@ -204,9 +204,9 @@ cv::Point EstimateAirlight(const cv::Mat& image, const cv::Mat& prior, double fr
     for (int y = 0; y < rows; y += kStride)
       sample.insert(sample.end(), p + static_cast<size_t>(y) * cols,
                     p + static_cast<size_t>(y + 1) * cols);
-    const size_t rank = std::min(
-        sample.size() - 1,
-        static_cast<size_t>(2.0 * count * static_cast<double>(sample.size()) / total) + 1);
+    const size_t rank =
+        std::min(sample.size() - 1,
+                 static_cast<size_t>(2.0 * count * static_cast<double>(sample.size()) / total) + 1);
     std::nth_element(sample.begin(), sample.begin() + rank, sample.end(), std::greater<float>());
     const float g = sample[rank];
     // Blocks of 64 with no value at or above g (almost all) are skipped after one vector count.

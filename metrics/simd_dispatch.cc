@@ -312,8 +312,9 @@ const double* PackedTermTable() {
     double* row0 = t.data() + (8 - reinterpret_cast<uintptr_t>(t.data()) % 64 / 8) % 8;
     for (int v = 0; v < 256; ++v) {
       for (int s = 0; s < kPackedStride; ++s) {
-        const double ratio = v == 0 || s == 0 ? 0.0 : std::min(static_cast<double>(v) / s,
-                                                                 static_cast<double>(s) / v);
+        const double ratio = v == 0 || s == 0
+                                 ? 0.0
+                                 : std::min(static_cast<double>(v) / s, static_cast<double>(s) / v);
         row0[v * kPackedStride + s] = 129.0 - ratio;
       }
     }
@@ -368,7 +369,7 @@ void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, 
       if (paper) {
         AddPackedPair(TablePair(table, t[0], t[1]), t[0], t[1] - 1, clip_lo, clip_hi, acc);
         AddPackedPair(TablePair(table, t[2], t[3]), t[2], t[3] - 1, clip_lo, clip_hi, acc);
-      } else {  // intervals set by other pixels, not clipped to the window first (-6 % instructions)
+      } else {  // intervals set by other pixels, not clipped to the window (-6 % instructions)
         AddPackedPair(TablePair(table, value[k], value[k - 1]), t[0], t[1] - 1, clip_lo, clip_hi,
                       acc);
         AddPackedPair(TablePair(table, value[k], value[k - stride]), t[2], t[3] - 1, clip_lo,
