@@ -28,13 +28,23 @@ TURBID_ROW_KERNEL void MinRows(float* __restrict dst, const float* __restrict a,
   for (int i = 0; i < n; ++i) dst[i] = std::min(a[i], b[i]);
 }
 
-// Minimum over `size` consecutive values of the row `ext` (w + size - 1 values): windows of 2, 4,
-// ..., 2^p <= size by doubling (ping-pong between ext and tmp, both destroyed), then two
-// overlapping 2^p windows.
+TURBID_ROW_KERNEL void MinRows4(float* __restrict dst, const float* __restrict a, int step, int n) {
+  for (int i = 0; i < n; ++i) {
+    dst[i] = std::min(std::min(a[i], a[i + step]), std::min(a[i + 2 * step], a[i + 3 * step]));
+  }
+}
+
+// Minimum over `size` consecutive values of the row `ext` (w + size - 1 values): windows of 4,
+// 16, ... (four-way steps) and then 2 × that while <= size, by doubling (ping-pong between ext
+// and tmp, both destroyed), then two overlapping windows of the largest length.
 void RowWindowMin(float* ext, float* tmp, int w, int size, float* out) {
   int len = 1;
   float* src = ext;
   float* dst = tmp;
+  for (; 4 * len <= size; len *= 4) {
+    MinRows4(dst, src, len, w + size - 1 - 3 * len);
+    std::swap(src, dst);
+  }
   for (; 2 * len <= size; len *= 2) {
     MinRows(dst, src, src + len, w + size - 1 - len);
     std::swap(src, dst);
@@ -70,40 +80,44 @@ TURBID_ROW_KERNEL void ClampRow(float* __restrict v, float lo, float hi, int w) 
 // column (rows -r .. h-1+r, block b = padded rows [b size - r, (b+1) size - r)): output row y's
 // window is the tail of block y / size (suffix minima) and the head of the next (prefix minima),
 // about three comparisons per pixel whatever the size. Then each row's horizontal minimum by
-// doubling (RowWindowMin).
+// doubling (RowWindowMin). The last suffix row and the first prefix row are the image rows
+// themselves, and each column minimum is written straight into the padded row that the
+// horizontal pass reads (no row copies but the one of each block's first output row).
 cv::Mat MinFilter(const cv::Mat& gray, int size) {
   CV_Assert(gray.type() == CV_32FC1);
   if (size <= 1) return gray.clone();
   const int h = gray.rows, w = gray.cols, r = size / 2;
   cv::Mat out = internal::PooledMat(gray.size(), CV_32FC1);
   std::vector<float> suffix(static_cast<size_t>(size) * w), prefix(static_cast<size_t>(size) * w);
-  std::vector<float> column(w), ext(static_cast<size_t>(w) + size - 1), tmp(ext.size());
+  std::vector<const float*> s(size), p(size);  // suffix / prefix rows of the block
+  std::vector<float> ext(static_cast<size_t>(w) + size - 1), tmp(ext.size());
   auto row = [&](int padded) { return gray.ptr<float>(std::clamp(padded, 0, h - 1)); };
   for (int y0 = 0; y0 < h; y0 += size) {
     // Block y0 / size holds padded rows y0 - r .. y0 - r + size - 1; the next block follows.
     const int top = y0 - r;
-    float* s = suffix.data();
-    std::copy(row(top + size - 1), row(top + size - 1) + w, s + static_cast<size_t>(size - 1) * w);
+    s[size - 1] = row(top + size - 1);
     for (int i = size - 2; i >= 0; --i) {
-      MinRows(s + static_cast<size_t>(i) * w, s + static_cast<size_t>(i + 1) * w, row(top + i), w);
+      float* dst = suffix.data() + static_cast<size_t>(i) * w;
+      MinRows(dst, s[i + 1], row(top + i), w);
+      s[i] = dst;
     }
     const int rows_here = std::min(size, h - y0);
-    float* p = prefix.data();
     if (rows_here > 1) {
-      std::copy(row(top + size), row(top + size) + w, p);
+      p[0] = row(top + size);
       for (int i = 1; i + 1 < rows_here; ++i) {
-        MinRows(p + static_cast<size_t>(i) * w, p + static_cast<size_t>(i - 1) * w,
-                row(top + size + i), w);
+        float* dst = prefix.data() + static_cast<size_t>(i) * w;
+        MinRows(dst, p[i - 1], row(top + size + i), w);
+        p[i] = dst;
       }
     }
+    float* col = ext.data() + r;
     for (int i = 0; i < rows_here; ++i) {
-      const float* col = s + static_cast<size_t>(i) * w;
       if (i > 0) {
-        MinRows(column.data(), col, p + static_cast<size_t>(i - 1) * w, w);
-        col = column.data();
+        MinRows(col, s[i], p[i - 1], w);
+      } else {
+        std::copy(s[0], s[0] + w, col);
       }
       std::fill(ext.begin(), ext.begin() + r, col[0]);
-      std::copy(col, col + w, ext.begin() + r);
       std::fill(ext.begin() + r + w, ext.end(), col[w - 1]);
       RowWindowMin(ext.data(), tmp.data(), w, size, out.ptr<float>(y0 + i));
     }

@@ -192,15 +192,21 @@ cv::Point EstimateAirlight(const cv::Mat& image, const cv::Mat& prior, double fr
   const float* p = prior.ptr<float>();
   // The `count` brightest pixels (ties: the lower index first) are a fixed set; only it is
   // searched. It lies among the pixels at or above any value g that at least `count` pixels
-  // reach, so a g read from every 16th pixel (at the rank that leaves about twice `count` above)
-  // narrows the sort to those; when too few reach g, all pixels are sorted.
+  // reach, so a g read from every 16th row (at the rank that leaves about twice `count` above;
+  // whole rows, so that the sample reads 1/16 of the map's cache lines, not all of them) narrows
+  // the sort to those; when too few reach g, all pixels are sorted.
   std::vector<int> order;
   constexpr int kStride = 16;
-  if (total >= 64 * kStride && count <= total / (4 * kStride)) {
+  const int rows = prior.rows, cols = prior.cols;
+  if (rows >= 4 * kStride && total >= 64 * kStride && count <= total / (4 * kStride)) {
     std::vector<float> sample;
-    sample.reserve(total / kStride + 1);
-    for (int i = 0; i < total; i += kStride) sample.push_back(p[i]);
-    const size_t rank = std::min(sample.size() - 1, static_cast<size_t>(2 * count / kStride + 1));
+    sample.reserve(static_cast<size_t>((rows + kStride - 1) / kStride) * cols);
+    for (int y = 0; y < rows; y += kStride)
+      sample.insert(sample.end(), p + static_cast<size_t>(y) * cols,
+                    p + static_cast<size_t>(y + 1) * cols);
+    const size_t rank =
+        std::min(sample.size() - 1,
+                 static_cast<size_t>(2.0 * count * static_cast<double>(sample.size()) / total) + 1);
     std::nth_element(sample.begin(), sample.begin() + rank, sample.end(), std::greater<float>());
     const float g = sample[rank];
     // Blocks of 64 with no value at or above g (almost all) are skipped after one vector count.

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #if defined(__x86_64__) && defined(__GNUC__)
 #include <immintrin.h>
@@ -285,56 +286,49 @@ void WeberWindowSumsFast(const double* table, int table_stride, const uint8_t* v
 }
 
 // AddPackedPairs(): two 4-wide chunks per pair from an aligned base, the lanes of the pair's
-// interval picked by a mask from a table (no per-chunk compares); the terms are computed from
-// small tables (s and 1/s per lane, v and 1/v per pixel), not read from the 540 KB Weber table,
-// whose rows miss L1.
+// interval picked by a mask from a table (no per-chunk compares).
 struct PackedTables {
-  alignas(32) uint64_t masks[4 * 9][8];       // row (first & 3) · 9 + n: lanes [first & 3, n) of 8
-  alignas(32) double s[kPackedStride];        // s
-  alignas(32) double inverse[kPackedStride];  // 1 / s (0 for s = 0: min(0/s, s/0) = 0 = 1 − W)
+  alignas(32) uint64_t masks[4 * 9][8];  // row (first & 3) · 9 + n: lanes [first & 3, n) of 8
 };
 constexpr PackedTables MakePackedTables() {
   PackedTables t{};
   for (int f = 0; f < 4; ++f)
     for (int n = 0; n <= 8; ++n)
       for (int l = 0; l < 8; ++l) t.masks[f * 9 + n][l] = (l >= f && l < n) ? ~uint64_t{0} : 0;
-  for (int v = 0; v < kPackedStride; ++v) {
-    t.s[v] = v;
-    t.inverse[v] = v == 0 ? 0.0 : 1.0 / v;
-  }
   return t;
 }
 constexpr PackedTables kPacked = MakePackedTables();
 
-// 129 − max(min(p/s, s/p), min(q/s, s/q)) = 128 + min(W(s, p), W(s, q)) for the 4 thresholds
-// from s, within a few roundings.
-struct AnyPair {
-  __m256d p, inv_p, q, inv_q;
-  AnyPair(int p8, int q8)
-      : p(_mm256_broadcast_sd(kPacked.s + p8)),
-        inv_p(_mm256_broadcast_sd(kPacked.inverse + p8)),
-        q(_mm256_broadcast_sd(kPacked.s + q8)),
-        inv_q(_mm256_broadcast_sd(kPacked.inverse + q8)) {}
-  __m256d Terms(int s) const {
-    const __m256d sv = _mm256_load_pd(kPacked.s + s);
-    const __m256d inv_s = _mm256_load_pd(kPacked.inverse + s);
-    const __m256d xp = _mm256_min_pd(_mm256_mul_pd(p, inv_s), _mm256_mul_pd(sv, inv_p));
-    const __m256d xq = _mm256_min_pd(_mm256_mul_pd(q, inv_s), _mm256_mul_pd(sv, inv_q));
-    return _mm256_sub_pd(_mm256_set1_pd(129.0), _mm256_max_pd(xp, xq));
-  }
-};
-// The same when the pair's interval is [a, b) for its values a <= b (the paper variant): there
-// W(s, a) = 1 − a/s and W(s, b) = 1 − s/b.
-struct PaperPair {
-  __m256d a, inv_b;
-  PaperPair(int a8, int b8)
-      : a(_mm256_broadcast_sd(kPacked.s + a8)), inv_b(_mm256_broadcast_sd(kPacked.inverse + b8)) {}
-  __m256d Terms(int s) const {
-    const __m256d sv = _mm256_load_pd(kPacked.s + s);
-    const __m256d inv_s = _mm256_load_pd(kPacked.inverse + s);
-    return _mm256_sub_pd(_mm256_set1_pd(129.0),
-                         _mm256_max_pd(_mm256_mul_pd(a, inv_s), _mm256_mul_pd(sv, inv_b)));
-  }
+// 128 + min(W(s, p), W(s, q)) = 129 − max(min(p/s, s/p), min(q/s, s/q)) for the 4 thresholds
+// from s, as the smaller of two rows of a table of 129 − min(v/s, s/v) (a division and a
+// subtraction per entry, each correctly rounded: within the rounding that AddPackedPairs()
+// allows): two loads and a minimum per chunk. Computing the terms instead (v and 1/v per pixel, s
+// and 1/s per lane: four products, two minima, a maximum and a subtraction per chunk) took ~20 %
+// more instructions in this kernel. The table (540 KB) is read only at the rows of the window's
+// values and the columns of its thresholds, which neighbouring windows share.
+const double* PackedTermTable() {
+  static const std::vector<double> table = [] {
+    std::vector<double> t(256 * kPackedStride + 8);  // + 8: room to align to 64 bytes
+    double* row0 = t.data() + (8 - reinterpret_cast<uintptr_t>(t.data()) % 64 / 8) % 8;
+    for (int v = 0; v < 256; ++v) {
+      for (int s = 0; s < kPackedStride; ++s) {
+        const double ratio = v == 0 || s == 0
+                                 ? 0.0
+                                 : std::min(static_cast<double>(v) / s, static_cast<double>(s) / v);
+        row0[v * kPackedStride + s] = 129.0 - ratio;
+      }
+    }
+    return t;
+  }();
+  const double* data = table.data();
+  return data + (8 - reinterpret_cast<uintptr_t>(data) % 64 / 8) % 8;
+}
+struct TablePair {
+  const double* p;
+  const double* q;
+  TablePair(const double* table, int p8, int q8)
+      : p(table + p8 * kPackedStride), q(table + q8 * kPackedStride) {}
+  __m256d Terms(int s) const { return _mm256_min_pd(_mm256_load_pd(p + s), _mm256_load_pd(q + s)); }
 };
 
 template <typename Pair>
@@ -367,20 +361,19 @@ inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, in
 
 void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
                         bool paper, int clip_lo, int clip_hi, double* acc) {
-  double* vertical = acc;
-  double* horizontal = acc;
+  const double* table = PackedTermTable();
   for (int i = 0; i < rows; ++i) {
     for (int j = 0; j < cols; ++j) {
       const ptrdiff_t k = static_cast<ptrdiff_t>(i) * stride + j;
       const uint8_t* t = tests + 4 * k;
       if (paper) {
-        AddPackedPair(PaperPair(t[0], t[1]), t[0], t[1] - 1, clip_lo, clip_hi, vertical);
-        AddPackedPair(PaperPair(t[2], t[3]), t[2], t[3] - 1, clip_lo, clip_hi, horizontal);
-      } else {  // intervals set by other pixels: clipped first, so that more take two chunks
-        AddPackedPair(AnyPair(value[k], value[k - 1]), std::max<int>(t[0], clip_lo),
-                      std::min(t[1] - 1, clip_hi), clip_lo, clip_hi, vertical);
-        AddPackedPair(AnyPair(value[k], value[k - stride]), std::max<int>(t[2], clip_lo),
-                      std::min(t[3] - 1, clip_hi), clip_lo, clip_hi, horizontal);
+        AddPackedPair(TablePair(table, t[0], t[1]), t[0], t[1] - 1, clip_lo, clip_hi, acc);
+        AddPackedPair(TablePair(table, t[2], t[3]), t[2], t[3] - 1, clip_lo, clip_hi, acc);
+      } else {  // intervals set by other pixels, not clipped to the window (-6 % instructions)
+        AddPackedPair(TablePair(table, value[k], value[k - 1]), t[0], t[1] - 1, clip_lo, clip_hi,
+                      acc);
+        AddPackedPair(TablePair(table, value[k], value[k - stride]), t[2], t[3] - 1, clip_lo,
+                      clip_hi, acc);
       }
     }
   }

@@ -7,8 +7,9 @@
 // C(s) = (Σ_vertical + Σ_horizontal) / count, each Σ added in the code's pair order; rounding makes
 // the result depend on that order, so the exact search adds in that order (ExactSearch). Those
 // ordered sums take ~15 vector instructions per pair and chunk of 4 thresholds. FastSearch instead
-// sums the same Weber contrasts, computed arithmetically from small tables instead of read from
-// the 540 KB table, in any order (simd::AddPackedPairs()), which is within kApproximateError of
+// sums the same Weber contrasts, computed as 1 − min(v/s, s/v) (the AVX2 copy reads them from
+// a table of those values), in any order (simd::AddPackedPairs()), which is within
+// kApproximateError of
 // the ordered C(s): the order freedom lets neighbouring windows share the sums of the pixels they
 // have in common (windows overlap by two pixel columns and two pixel rows), so that each pair is
 // summed about once instead of 2.25 times. It decides from that alone when
