@@ -190,7 +190,7 @@ __attribute__((target("avx2"))) inline __m128 BoostMulAdd(__m128 g, __m128 f, __
 template <bool kFma>
 __attribute__((target("avx2,fma"))) bool BoostClampRowAvx2(const float* i_g, const float* i_f,
                                                            double beta, double alpha, float* dst,
-                                                           int n) {
+                                                           int n, float* next_dst) {
   const __m256d vb = _mm256_set1_pd(beta), va = _mm256_set1_pd(alpha);
   const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
   const __m256 max_finite = _mm256_set1_ps(std::numeric_limits<float>::max());
@@ -198,6 +198,7 @@ __attribute__((target("avx2,fma"))) bool BoostClampRowAvx2(const float* i_g, con
   __m256 finite = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
   int i = 0;
   for (; i + 8 <= n; i += 8) {
+    if (next_dst != nullptr) __builtin_prefetch(next_dst + i, 1, 3);
     const __m256 g = _mm256_loadu_ps(i_g + i), f = _mm256_loadu_ps(i_f + i);
     const __m128 g0 = _mm256_castps256_ps128(g), f0 = _mm256_castps256_ps128(f);
     const __m128 g1 = _mm256_extractf128_ps(g, 1), f1 = _mm256_extractf128_ps(f, 1);
@@ -1476,8 +1477,11 @@ cv::Mat SimplifiedColor(const SimplifiedOptions& o, const GuidedFilterOptions& f
     bool finite;
 #ifdef TURBID_HAVE_BOOST_AVX2
     if (avx2) {
-      finite = fma ? BoostClampRowAvx2<true>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n)
-                   : BoostClampRowAvx2<false>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n);
+      // The next output row, fetched for writing while this one is boosted.
+      float* next_dst = y + 1 < image.rows ? out.ptr<float>(y + 1) : nullptr;
+      finite = fma ? BoostClampRowAvx2<true>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n, next_dst)
+                   : BoostClampRowAvx2<false>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n,
+                                              next_dst);
     } else
 #endif
     {
