@@ -545,6 +545,18 @@ TEST(ColorPaths, SimplifiedEqualsReference) {
   }
 }
 
+TEST(ColorPaths, SimplifiedEqualsReferenceOnLargeImages) {
+  // Images over 8 MiB: the boosted rows go to the output with non-temporal stores and CLAHE's
+  // binning reads a cached copy. 1024 pixels: every row 32-byte aligned (streamed); 1031: rows
+  // alternate between aligned and not (the plain stores), in one image.
+  for (const cv::Size& size : {cv::Size(1024, 760), cv::Size(1031, 731)}) {
+    const cv::Mat img = SmoothNoise(size.height, size.width, 17);
+    EXPECT_TRUE(SameBits(SimplifiedEnhance(SimplifiedOptions{}, img),
+                         ReferenceSimplified(SimplifiedOptions{}, img)))
+        << size;
+  }
+}
+
 TEST(ColorPaths, SimplifiedNamesTheRowOfANonFiniteInput) {
   const float bad[] = {std::numeric_limits<float>::quiet_NaN(),
                        std::numeric_limits<float>::infinity(),
