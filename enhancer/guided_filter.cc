@@ -323,14 +323,17 @@ TURBID_ROW_KERNEL void QuadSumsRange(const float* __restrict e0, const float* __
   }
 }
 
-template <int W, int S = 1>
+// kUniform: every inv_cx[x] of the call equals inv_cx[0] (columns at least r from the border),
+// which is read once: the same product per value, one load less.
+template <int W, int S = 1, bool kUniform = false>
 TURBID_ROW_KERNEL void SelfCoefficientsFused(
     const float* __restrict e_i, const float* __restrict e_ii, const float* __restrict q_i,
     const float* __restrict q_ii, const float* __restrict inv_cx, float inv_cy, float eps,
     float* __restrict a, float* __restrict b, int w) {
+  const float cx = inv_cx[0];
   for (int x = 0; x < w; ++x) {
     SelfCoefficient(WindowSumAt<W, S>(e_i, q_i, x), WindowSumAt<W, S>(e_ii, q_ii, x),
-                    inv_cx[x] * inv_cy, eps, a + x, b + x);
+                    (kUniform ? cx : inv_cx[x]) * inv_cy, eps, a + x, b + x);
   }
 }
 
@@ -356,14 +359,15 @@ TURBID_ROW_KERNEL void GuidedCoefficientsFused(const float* const* __restrict e,
   }
 }
 
-template <int W, int S = 1>
+template <int W, int S = 1, bool kUniform = false>
 TURBID_ROW_KERNEL void ApplyCoefficientsFused(
     const float* __restrict e_a, const float* __restrict e_b, const float* __restrict q_a,
     const float* __restrict q_b, const float* __restrict guide, const float* __restrict inv_cx,
     float inv_cy, float* __restrict q, int w) {
+  const float cx = inv_cx[0];
   for (int x = 0; x < w; ++x) {
     q[x] = ApplyCoefficient(WindowSumAt<W, S>(e_a, q_a, x), WindowSumAt<W, S>(e_b, q_b, x),
-                            guide[x], inv_cx[x] * inv_cy);
+                            guide[x], (kUniform ? cx : inv_cx[x]) * inv_cy);
   }
 }
 
@@ -716,6 +720,9 @@ struct FusedKernels {
                               float*, float*, int) = nullptr;
   void (*apply)(const float*, const float*, const float*, const float*, const float*, const float*,
                 float, float*, int) = nullptr;
+  // Interleaved streams: the same kernels for columns whose window counts are all 2r + 1.
+  decltype(self_coefficients) self_coefficients_uniform = nullptr;
+  decltype(apply) apply_uniform = nullptr;
 };
 
 constexpr int kMaxFusedRadius = 12;
@@ -732,6 +739,10 @@ FusedKernels MakeFusedKernels([[maybe_unused]] bool avx2) {
   k.self_coefficients = &SelfCoefficientsFused<W, S>;
   if constexpr (S == 1) k.guided_coefficients = &GuidedCoefficientsFused<W>;
   k.apply = &ApplyCoefficientsFused<W, S>;
+  if constexpr (S > 1) {
+    k.self_coefficients_uniform = &SelfCoefficientsFused<W, S, true>;
+    k.apply_uniform = &ApplyCoefficientsFused<W, S, true>;
+  }
   if constexpr (W >= 9) {
     k.quads = &QuadSumsPair<W, S>;
 #ifdef TURBID_HAVE_ROLLING_QUADS
@@ -967,8 +978,11 @@ class GrayStream {
           ColumnStepPair(Ext(ka) + pad_ + c0, Ext(kb) + pad_ + c0, Offset(a_add, c0),
                          Offset(a_sub, c0), Offset(b_add, c0), Offset(b_sub, c0), n);
         }, [&](int o0, int n) {
-          fused_.apply(Ext(ka) + o0, Ext(kb) + o0, Offset(Quad(ka), o0), Offset(Quad(kb), o0),
-                       guide + o0, inv_cx_.data() + o0, inv_cy, dst + o0, n);
+          SplitAtBorders(o0, n, [&](int x0, int m, bool uniform) {
+            (uniform ? fused_.apply_uniform : fused_.apply)(
+                Ext(ka) + x0, Ext(kb) + x0, Offset(Quad(ka), x0), Offset(Quad(kb), x0), guide + x0,
+                inv_cx_.data() + x0, inv_cy, dst + x0, m);
+          });
         });
         return;
       }
@@ -1028,6 +1042,16 @@ class GrayStream {
         window(out_done, o1 - out_done);
         out_done = o1;
       }
+    }
+  }
+  // Values [o0, o0 + n) cut where the window counts along x change: f(x0, m, uniform) on each
+  // piece, uniform where every value lies at least r pixels from both borders (count 2r + 1).
+  template <typename F>
+  void SplitAtBorders(int o0, int n, F&& f) {
+    const int lo = std::min(pad_, w_), hi = std::max(w_ - pad_, lo), end = o0 + n;
+    const int cuts[4] = {o0, std::clamp(lo, o0, end), std::clamp(hi, o0, end), end};
+    for (int i = 0; i < 3; ++i) {
+      if (cuts[i + 1] > cuts[i]) f(cuts[i], cuts[i + 1] - cuts[i], i == 1);
     }
   }
   // Window sums of plane k's padded column sums into Sum(k) (radii beyond kMaxFusedRadius).
@@ -1095,9 +1119,11 @@ class GrayStream {
         ColumnStepSelf(Ext(0) + pad_ + c0, Ext(1) + pad_ + c0, Offset(add, c0), Offset(sub, c0),
                        n);
       }, [&](int o0, int n) {
-        fused_.self_coefficients(Ext(0) + o0, Ext(1) + o0, Offset(Quad(0), o0),
-                                 Offset(Quad(1), o0), inv_cx_.data() + o0, inv_cy, eps_, ar + o0,
-                                 br + o0, n);
+        SplitAtBorders(o0, n, [&](int x0, int m, bool uniform) {
+          (uniform ? fused_.self_coefficients_uniform : fused_.self_coefficients)(
+              Ext(0) + x0, Ext(1) + x0, Offset(Quad(0), x0), Offset(Quad(1), x0),
+              inv_cx_.data() + x0, inv_cy, eps_, ar + x0, br + x0, m);
+        });
       });
       return;
     } else if (self_) {
