@@ -974,16 +974,19 @@ class GrayStream {
         const float* b_sub = RingRow(b_ring_, sub);
         const float inv_cy = 1.0f / static_cast<float>(InvCount(t, r_, h_));
         const float* guide = guide_.ptr<float>(t);
-        Chunked(ka, [&](int c0, int n) {
-          ColumnStepPair(Ext(ka) + pad_ + c0, Ext(kb) + pad_ + c0, Offset(a_add, c0),
-                         Offset(a_sub, c0), Offset(b_add, c0), Offset(b_sub, c0), n);
-        }, [&](int o0, int n) {
-          SplitAtBorders(o0, n, [&](int x0, int m, bool uniform) {
-            (uniform ? fused_.apply_uniform : fused_.apply)(
-                Ext(ka) + x0, Ext(kb) + x0, Offset(Quad(ka), x0), Offset(Quad(kb), x0), guide + x0,
-                inv_cx_.data() + x0, inv_cy, dst + x0, m);
-          });
-        });
+        Chunked(
+            ka,
+            [&](int c0, int n) {
+              ColumnStepPair(Ext(ka) + pad_ + c0, Ext(kb) + pad_ + c0, Offset(a_add, c0),
+                             Offset(a_sub, c0), Offset(b_add, c0), Offset(b_sub, c0), n);
+            },
+            [&](int o0, int n) {
+              SplitAtBorders(o0, n, [&](int x0, int m, bool uniform) {
+                (uniform ? fused_.apply_uniform : fused_.apply)(
+                    Ext(ka) + x0, Ext(kb) + x0, Offset(Quad(ka), x0), Offset(Quad(kb), x0),
+                    guide + x0, inv_cx_.data() + x0, inv_cy, dst + x0, m);
+              });
+            });
         return;
       }
       ColumnStepPair(Ext(ka) + pad_, Ext(kb) + pad_, RingRow(a_ring_, add), RingRow(a_ring_, sub),
@@ -1109,22 +1112,25 @@ class GrayStream {
       // prefetchers stop at page boundaries).
       const char* next =
           add != nullptr && y + r_ + 1 < h_ ? reinterpret_cast<const char*>(add + w_) : nullptr;
-      Chunked(0, [&](int c0, int n) {
-        if (next != nullptr) {
-          const char* end = next + sizeof(float) * (c0 + n);
-          for (const char* p = next + sizeof(float) * c0; p < end; p += 64) {
-            __builtin_prefetch(p, 0, 2);
-          }
-        }
-        ColumnStepSelf(Ext(0) + pad_ + c0, Ext(1) + pad_ + c0, Offset(add, c0), Offset(sub, c0),
-                       n);
-      }, [&](int o0, int n) {
-        SplitAtBorders(o0, n, [&](int x0, int m, bool uniform) {
-          (uniform ? fused_.self_coefficients_uniform : fused_.self_coefficients)(
-              Ext(0) + x0, Ext(1) + x0, Offset(Quad(0), x0), Offset(Quad(1), x0),
-              inv_cx_.data() + x0, inv_cy, eps_, ar + x0, br + x0, m);
-        });
-      });
+      Chunked(
+          0,
+          [&](int c0, int n) {
+            if (next != nullptr) {
+              const char* end = next + sizeof(float) * (c0 + n);
+              for (const char* p = next + sizeof(float) * c0; p < end; p += 64) {
+                __builtin_prefetch(p, 0, 2);
+              }
+            }
+            ColumnStepSelf(Ext(0) + pad_ + c0, Ext(1) + pad_ + c0, Offset(add, c0), Offset(sub, c0),
+                           n);
+          },
+          [&](int o0, int n) {
+            SplitAtBorders(o0, n, [&](int x0, int m, bool uniform) {
+              (uniform ? fused_.self_coefficients_uniform : fused_.self_coefficients)(
+                  Ext(0) + x0, Ext(1) + x0, Offset(Quad(0), x0), Offset(Quad(1), x0),
+                  inv_cx_.data() + x0, inv_cy, eps_, ar + x0, br + x0, m);
+            });
+          });
       return;
     } else if (self_) {
       ColumnStepSelf(Ext(0) + pad_, Ext(1) + pad_, add, sub, w_);

@@ -1500,8 +1500,8 @@ cv::Mat SimplifiedColor(const SimplifiedOptions& o, const GuidedFilterOptions& f
       }
       finite = fma ? BoostClampRowAvx2<true>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n, next_dst,
                                              stream_dst)
-                   : BoostClampRowAvx2<false>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n,
-                                              next_dst, stream_dst);
+                   : BoostClampRowAvx2<false>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n, next_dst,
+                                              stream_dst);
     } else
 #endif
     {
