@@ -312,14 +312,28 @@ TURBID_ROW_KERNEL void QuadSumsPair(const float* __restrict e0, const float* __r
   }
 }
 
-template <int W, int S = 1>
+// The same sums of 4 (one plane pair) for `count` positions from the given pointers: the
+// chunked interleaved stream (GrayStream::Chunked) forms them piece by piece.
+template <int S>
+TURBID_ROW_KERNEL void QuadSumsRange(const float* __restrict e0, const float* __restrict e1,
+                                     float* __restrict q0, float* __restrict q1, int count) {
+  for (int x = 0; x < count; ++x) {
+    q0[x] = e0[x] + e0[x + S] + e0[x + 2 * S] + e0[x + 3 * S];
+    q1[x] = e1[x] + e1[x + S] + e1[x + 2 * S] + e1[x + 3 * S];
+  }
+}
+
+// kUniform: every inv_cx[x] of the call equals inv_cx[0] (columns at least r from the border),
+// which is read once: the same product per value, one load less.
+template <int W, int S = 1, bool kUniform = false>
 TURBID_ROW_KERNEL void SelfCoefficientsFused(
     const float* __restrict e_i, const float* __restrict e_ii, const float* __restrict q_i,
     const float* __restrict q_ii, const float* __restrict inv_cx, float inv_cy, float eps,
     float* __restrict a, float* __restrict b, int w) {
+  const float cx = inv_cx[0];
   for (int x = 0; x < w; ++x) {
     SelfCoefficient(WindowSumAt<W, S>(e_i, q_i, x), WindowSumAt<W, S>(e_ii, q_ii, x),
-                    inv_cx[x] * inv_cy, eps, a + x, b + x);
+                    (kUniform ? cx : inv_cx[x]) * inv_cy, eps, a + x, b + x);
   }
 }
 
@@ -345,14 +359,15 @@ TURBID_ROW_KERNEL void GuidedCoefficientsFused(const float* const* __restrict e,
   }
 }
 
-template <int W, int S = 1>
+template <int W, int S = 1, bool kUniform = false>
 TURBID_ROW_KERNEL void ApplyCoefficientsFused(
     const float* __restrict e_a, const float* __restrict e_b, const float* __restrict q_a,
     const float* __restrict q_b, const float* __restrict guide, const float* __restrict inv_cx,
     float inv_cy, float* __restrict q, int w) {
+  const float cx = inv_cx[0];
   for (int x = 0; x < w; ++x) {
     q[x] = ApplyCoefficient(WindowSumAt<W, S>(e_a, q_a, x), WindowSumAt<W, S>(e_b, q_b, x),
-                            guide[x], inv_cx[x] * inv_cy);
+                            guide[x], (kUniform ? cx : inv_cx[x]) * inv_cy);
   }
 }
 
@@ -705,9 +720,15 @@ struct FusedKernels {
                               float*, float*, int) = nullptr;
   void (*apply)(const float*, const float*, const float*, const float*, const float*, const float*,
                 float, float*, int) = nullptr;
+  // Interleaved streams: the same kernels for columns whose window counts are all 2r + 1.
+  decltype(self_coefficients) self_coefficients_uniform = nullptr;
+  decltype(apply) apply_uniform = nullptr;
 };
 
 constexpr int kMaxFusedRadius = 12;
+// Values per chunk of the interleaved stream's running steps (GrayStream::Chunked): the chunk's
+// rows of column sums, sums of 4 and coefficients stay within L1.
+constexpr int kChunkValues = 384;
 
 // S > 1 (interleaved channels, each self-guided): no guided kernel and no rolling AVX2 kernels
 // (their 4-sums advance by 8 values, which is not a whole number of pixels).
@@ -718,6 +739,10 @@ FusedKernels MakeFusedKernels([[maybe_unused]] bool avx2) {
   k.self_coefficients = &SelfCoefficientsFused<W, S>;
   if constexpr (S == 1) k.guided_coefficients = &GuidedCoefficientsFused<W>;
   k.apply = &ApplyCoefficientsFused<W, S>;
+  if constexpr (S > 1) {
+    k.self_coefficients_uniform = &SelfCoefficientsFused<W, S, true>;
+    k.apply_uniform = &ApplyCoefficientsFused<W, S, true>;
+  }
   if constexpr (W >= 9) {
     k.quads = &QuadSumsPair<W, S>;
 #ifdef TURBID_HAVE_ROLLING_QUADS
@@ -910,6 +935,7 @@ class GrayStream {
     // Buffers of the path in use: sums of 4 for the portable fused kernels (W >= 9); window sums
     // and doubling scratch for the unfused one.
     if (fused_.quads != nullptr) quads_.assign(static_cast<size_t>(planes_a_ + 2) * ext_len_, 0.0f);
+    chunked_ = channels == 3 && fused_.apply != nullptr;
     if (fused_.apply == nullptr) {
       sums_.assign(static_cast<size_t>(planes_a_ + 2) * w_, 0.0f);
       t0_.resize(ext_len_);
@@ -941,6 +967,28 @@ class GrayStream {
     } else {
       const int add = t + r_ < h_ ? (t + r_) % ring_ : -1;
       const int sub = t - r_ - 1 >= 0 ? (t - r_ - 1) % ring_ : -1;
+      if (chunked_) {
+        const float* a_add = RingRow(a_ring_, add);
+        const float* a_sub = RingRow(a_ring_, sub);
+        const float* b_add = RingRow(b_ring_, add);
+        const float* b_sub = RingRow(b_ring_, sub);
+        const float inv_cy = 1.0f / static_cast<float>(InvCount(t, r_, h_));
+        const float* guide = guide_.ptr<float>(t);
+        Chunked(
+            ka,
+            [&](int c0, int n) {
+              ColumnStepPair(Ext(ka) + pad_ + c0, Ext(kb) + pad_ + c0, Offset(a_add, c0),
+                             Offset(a_sub, c0), Offset(b_add, c0), Offset(b_sub, c0), n);
+            },
+            [&](int o0, int n) {
+              SplitAtBorders(o0, n, [&](int x0, int m, bool uniform) {
+                (uniform ? fused_.apply_uniform : fused_.apply)(
+                    Ext(ka) + x0, Ext(kb) + x0, Offset(Quad(ka), x0), Offset(Quad(kb), x0),
+                    guide + x0, inv_cx_.data() + x0, inv_cy, dst + x0, m);
+              });
+            });
+        return;
+      }
       ColumnStepPair(Ext(ka) + pad_, Ext(kb) + pad_, RingRow(a_ring_, add), RingRow(a_ring_, sub),
                      RingRow(b_ring_, add), RingRow(b_ring_, sub), w_);
     }
@@ -963,6 +1011,52 @@ class GrayStream {
     return quads_.empty() ? nullptr : quads_.data() + static_cast<size_t>(k) * ext_len_;
   }
   float* Sum(int k) { return sums_.data() + static_cast<size_t>(k) * w_; }
+  template <typename T>
+  static T* Offset(T* p, int n) {
+    return p == nullptr ? nullptr : p + n;
+  }
+  // One running step of the interleaved stream (stage A: planes 0, 1; stage B: a, b), chunk by
+  // chunk along the row so that what a chunk's column-sum update writes is still in L1 when the
+  // sums of 4 and the window sums read it: update(c0, n) updates the column sums of values
+  // [c0, c0 + n); then the sums of 4 of planes k, k + 1 and window(o0, n) the outputs [o0, o0 + n)
+  // whose windows lie within the updated columns (output x reads the padded sums up to x + 2 pad,
+  // i.e. columns up to x + pad; the sums of 4 it reads end sooner). Every value gets the
+  // arithmetic of the whole-row passes, so the results are bit-identical to them.
+  template <typename Update, typename Window>
+  void Chunked(int k, Update&& update, Window&& window) {
+    constexpr int kS = 3;                                     // values per pixel
+    const int quads_end = w_ + 4 * kS * (window_ / 4 - 1);  // positions QuadSumsPair forms
+    int quads_done = 0, out_done = 0;
+    for (int c0 = 0; c0 < w_; c0 += kChunkValues) {
+      const int c1 = std::min(c0 + kChunkValues, w_);
+      update(c0, c1 - c0);
+      const bool last = c1 == w_;
+      if (!quads_.empty()) {
+        // The sum of 4 at i reads the padded sums i .. i + 3 kS.
+        const int q1 = last ? quads_end : std::min(pad_ + c1 - 3 * kS, quads_end);
+        if (q1 > quads_done) {
+          QuadSumsRange<kS>(Ext(k) + quads_done, Ext(k + 1) + quads_done, Quad(k) + quads_done,
+                           Quad(k + 1) + quads_done, q1 - quads_done);
+          quads_done = q1;
+        }
+      }
+      const int o1 = last ? w_ : c1 - pad_;
+      if (o1 > out_done) {
+        window(out_done, o1 - out_done);
+        out_done = o1;
+      }
+    }
+  }
+  // Values [o0, o0 + n) cut where the window counts along x change: f(x0, m, uniform) on each
+  // piece, uniform where every value lies at least r pixels from both borders (count 2r + 1).
+  template <typename F>
+  void SplitAtBorders(int o0, int n, F&& f) {
+    const int lo = std::min(pad_, w_), hi = std::max(w_ - pad_, lo), end = o0 + n;
+    const int cuts[4] = {o0, std::clamp(lo, o0, end), std::clamp(hi, o0, end), end};
+    for (int i = 0; i < 3; ++i) {
+      if (cuts[i + 1] > cuts[i]) f(cuts[i], cuts[i + 1] - cuts[i], i == 1);
+    }
+  }
   // Window sums of plane k's padded column sums into Sum(k) (radii beyond kMaxFusedRadius).
   void WindowSumsOf(int k) {
     if (!running_.empty()) {
@@ -1009,6 +1103,35 @@ class GrayStream {
                                      static_cast<int>(rows_u_.size()), w_, Ext(0) + pad_,
                                      Ext(1) + pad_, Ext(2) + pad_, Ext(3) + pad_);
       }
+    } else if (chunked_) {
+      const float inv_cy = 1.0f / static_cast<float>(InvCount(y, r_, h_));
+      float* ar = a_ring_.ptr<float>(y % ring_);
+      float* br = b_ring_.ptr<float>(y % ring_);
+      // The next step's new row follows this one's in memory (a continuous image): fetched into
+      // L2 while this row is worked on (else its first reads wait for memory; the hardware
+      // prefetchers stop at page boundaries).
+      const char* next =
+          add != nullptr && y + r_ + 1 < h_ ? reinterpret_cast<const char*>(add + w_) : nullptr;
+      Chunked(
+          0,
+          [&](int c0, int n) {
+            if (next != nullptr) {
+              const char* end = next + sizeof(float) * (c0 + n);
+              for (const char* p = next + sizeof(float) * c0; p < end; p += 64) {
+                __builtin_prefetch(p, 0, 2);
+              }
+            }
+            ColumnStepSelf(Ext(0) + pad_ + c0, Ext(1) + pad_ + c0, Offset(add, c0), Offset(sub, c0),
+                           n);
+          },
+          [&](int o0, int n) {
+            SplitAtBorders(o0, n, [&](int x0, int m, bool uniform) {
+              (uniform ? fused_.self_coefficients_uniform : fused_.self_coefficients)(
+                  Ext(0) + x0, Ext(1) + x0, Offset(Quad(0), x0), Offset(Quad(1), x0),
+                  inv_cx_.data() + x0, inv_cy, eps_, ar + x0, br + x0, m);
+            });
+          });
+      return;
     } else if (self_) {
       ColumnStepSelf(Ext(0) + pad_, Ext(1) + pad_, add, sub, w_);
     } else {
@@ -1055,6 +1178,7 @@ class GrayStream {
   std::vector<const float*> rows_u_, rows_v_;  // window rows when re-anchoring
   cv::Mat a_ring_, b_ring_;
   FusedKernels fused_;  // empty beyond kMaxFusedRadius (window sums by binary doubling)
+  bool chunked_ = false;  // interleaved colour: the running steps chunk by chunk (Chunked)
   int next_a_ = 0;
 };
 

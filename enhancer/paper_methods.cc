@@ -176,7 +176,8 @@ void AddWeightedRow(const float* i_g, const float* i_f, double beta, double alph
 
 // `simplified`'s colour row in one pass: AddWeightedRow, then ClampUnitRow, in registers (AVX2;
 // with FMA where AddWeightedRow uses it). Returns whether every boosted value (before the clamp)
-// was finite.
+// was finite. `next_dst` (or null): prefetched for writing as the row goes. `stream_dst` (32-byte
+// aligned, or null): the clamped values are also written there, with non-temporal stores.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 // Four boosted values, double precision, rounded to float once.
 __attribute__((target("avx2,fma"))) inline __m128 BoostFma(__m128 g, __m128 f, __m256d beta,
@@ -193,7 +194,8 @@ __attribute__((target("avx2"))) inline __m128 BoostMulAdd(__m128 g, __m128 f, __
 template <bool kFma>
 __attribute__((target("avx2,fma"))) bool BoostClampRowAvx2(const float* i_g, const float* i_f,
                                                            double beta, double alpha, float* dst,
-                                                           int n) {
+                                                           int n, float* next_dst,
+                                                           float* stream_dst) {
   const __m256d vb = _mm256_set1_pd(beta), va = _mm256_set1_pd(alpha);
   const __m256 abs_mask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
   const __m256 max_finite = _mm256_set1_ps(std::numeric_limits<float>::max());
@@ -201,6 +203,7 @@ __attribute__((target("avx2,fma"))) bool BoostClampRowAvx2(const float* i_g, con
   __m256 finite = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
   int i = 0;
   for (; i + 8 <= n; i += 8) {
+    if (next_dst != nullptr) __builtin_prefetch(next_dst + i, 1, 3);
     const __m256 g = _mm256_loadu_ps(i_g + i), f = _mm256_loadu_ps(i_f + i);
     const __m128 g0 = _mm256_castps256_ps128(g), f0 = _mm256_castps256_ps128(f);
     const __m128 g1 = _mm256_extractf128_ps(g, 1), f1 = _mm256_extractf128_ps(f, 1);
@@ -213,7 +216,9 @@ __attribute__((target("avx2,fma"))) bool BoostClampRowAvx2(const float* i_g, con
     // std::max(m, 0) = m < 0 ? 0 : m (vminps / vmaxps return their second operand unless the
     // first compares less / greater: -0 stays -0, as in ClampUnitRow).
     const __m256 x = _mm256_and_ps(v, _mm256_cmp_ps(v, v, _CMP_ORD_Q));
-    _mm256_storeu_ps(dst + i, _mm256_max_ps(zero, _mm256_min_ps(one, x)));
+    const __m256 c = _mm256_max_ps(zero, _mm256_min_ps(one, x));
+    _mm256_storeu_ps(dst + i, c);
+    if (stream_dst != nullptr) _mm256_stream_ps(stream_dst + i, c);
   }
   bool all_finite = _mm256_movemask_ps(finite) == 0xff;
   for (; i < n; ++i) {
@@ -222,6 +227,7 @@ __attribute__((target("avx2,fma"))) bool BoostClampRowAvx2(const float* i_g, con
     all_finite = all_finite && std::isfinite(v);
     const float x = v != v ? 0.0f : v;
     dst[i] = std::max(std::min(x, 1.0f), 0.0f);
+    if (stream_dst != nullptr) stream_dst[i] = dst[i];
   }
   return all_finite;
 }
@@ -1681,6 +1687,9 @@ cv::Mat SimplifiedGray(const SimplifiedOptions& o, const GuidedFilterOptions& fi
   return o.contrast ? ClaheFromBins(o.clahe, bins) : out;
 }
 
+// Output images above this size are written with non-temporal stores by SimplifiedColor.
+constexpr size_t kStreamBytes = size_t{8} << 20;
+
 // Three-channel `simplified`, streamed as the gray path is: both guided filters interleaved by
 // rows, the boost, the clamp and CLAHE's luminance binning per row into the output buffer, then
 // the colour CLAHE in place. The input is scanned for non-finite values only when a boosted row
@@ -1689,7 +1698,10 @@ cv::Mat SimplifiedColor(const SimplifiedOptions& o, const GuidedFilterOptions& f
                         const GuidedFilterOptions& coarse, const cv::Mat& image) {
   const int n = image.cols * 3;
   cv::Mat out(image.size(), CV_32FC3), bins;
-  std::vector<float> lum(image.cols);
+  // Images too large to stay in the last-level cache until CLAHE's pass reads them back are
+  // written with non-temporal stores (smaller ones: the pass finds them in cache).
+  const bool stream = o.contrast && out.total() * out.elemSize() > kStreamBytes;
+  std::vector<float> lum(image.cols), row(stream ? n : 0);
   if (o.contrast) bins = ClaheNewBins(o.clahe, image.size());
   bool validated = false;
   const bool avx2 = enhancer_internal::UseHandWrittenAvx2(), fma = CpuHasFma();
@@ -1698,8 +1710,20 @@ cv::Mat SimplifiedColor(const SimplifiedOptions& o, const GuidedFilterOptions& f
     bool finite;
 #ifdef TURBID_HAVE_BOOST_AVX2
     if (avx2) {
-      finite = fma ? BoostClampRowAvx2<true>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n)
-                   : BoostClampRowAvx2<false>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n);
+      float* next_dst = nullptr;
+      float* stream_dst = nullptr;
+      if (stream && reinterpret_cast<uintptr_t>(dst) % 32 == 0) {
+        // CLAHE's binning reads the row from `row` (still in L1); the image row is written with
+        // non-temporal stores (no read of its old contents).
+        stream_dst = dst;
+        dst = row.data();
+      } else if (y + 1 < image.rows) {
+        next_dst = out.ptr<float>(y + 1);  // fetched for writing while this row is boosted
+      }
+      finite = fma ? BoostClampRowAvx2<true>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n, next_dst,
+                                             stream_dst)
+                   : BoostClampRowAvx2<false>(q[1], q[0], 1.0 - o.alpha, o.alpha, dst, n, next_dst,
+                                              stream_dst);
     } else
 #endif
     {
@@ -1713,6 +1737,9 @@ cv::Mat SimplifiedColor(const SimplifiedOptions& o, const GuidedFilterOptions& f
     }
     if (o.contrast) ClaheBinColorRow(o.clahe, dst, lum.data(), bins, y);
   });
+#if defined(__x86_64__)
+  _mm_sfence();  // the non-temporal stores ordered before CLAHE's reads
+#endif
   if (o.contrast) ClaheColorFromBins(o.clahe, bins, out);  // in [0, 1]
   return out;
 }

@@ -353,6 +353,27 @@ TEST(ColorPaths, GuidedFilterInterleavedEqualsPlaneByPlane) {
   }
 }
 
+TEST(ColorPaths, GuidedFilterChunkedRowsEqualPlaneByPlane) {
+  // The interleaved stream's running steps go chunk by chunk (384 values, 128 pixels): widths
+  // around one and two chunks, a chunk edge inside the last window, every fused radius, and the
+  // portable kernels as well as the hand-written ones; rows past a re-anchoring (64 rows) too.
+  for (int width : {120, 127, 128, 129, 131, 136, 250, 256, 257, 263, 700}) {
+    const cv::Mat img = SmoothNoise(70, width, 29 + width);
+    for (int r = 1; r <= 12; ++r) {
+      GuidedFilterOptions o;
+      o.radius = r;
+      o.eps = r % 2 == 0 ? 0.16 : 0.003;
+      const cv::Mat expect = ReferenceGuidedFilterSelf(o, img);
+      for (bool avx2 : {true, false}) {
+        enhancer_internal::SetHandWrittenAvx2(avx2);
+        EXPECT_TRUE(SameBits(GuidedFilterSelf(o, img), expect))
+            << width << " r " << r << " avx2 " << avx2;
+      }
+      enhancer_internal::SetHandWrittenAvx2(true);
+    }
+  }
+}
+
 TEST(ColorPaths, DeconvolveInterleavedEqualsPlaneByPlane) {
   const cv::Mat psf = PsfKernel(PsfOptions{}).kernel;
   for (const cv::Size& size : OddSizes()) {
@@ -389,6 +410,45 @@ TEST(ColorPaths, ClaheFromColorBinsEqualsWholeImage) {
       EXPECT_TRUE(SameBits(out, expect)) << size << " keep_mean " << keep_mean;
       EXPECT_TRUE(SameBits(Clahe(o, img), expect)) << size;
     }
+  }
+}
+
+TEST(ColorPaths, ClaheColorKernelsEqualPortableLoops) {
+  // The luminance and the ratio step (8 pixels per vector step, the rest one at a time) against
+  // the whole-image reference, with the portable loops as well: every width up to 3 vector steps
+  // past a multiple of 8, dark pixels (the gray branch) at every lane, values beyond [0, 1]
+  // (the ratio's clamp), -0, and the R, G, B order.
+  for (int width = 1; width <= 27; ++width) {
+    cv::Mat img = SmoothNoise(19, width, 41 + width) * 1.3;
+    img -= cv::Scalar::all(0.1);
+    for (int x = 0; x < width; x += 3) img.at<cv::Vec3f>(x % 19, x) = cv::Vec3f(0, 0, 0);
+    if (width > 4) img.at<cv::Vec3f>(5, 4) = cv::Vec3f(-0.0f, 2e-7f, -0.0f);  // l <= 1e-6
+    if (width > 9) img.at<cv::Vec3f>(7, 9) = cv::Vec3f(-0.5f, 0.2f, 0.9f);
+    for (bool avx2 : {true, false}) {
+      enhancer_internal::SetHandWrittenAvx2(avx2);
+      for (bool rgb : {false, true}) {
+        ClaheOptions o;
+        o.rgb = rgb;
+        // R, G, B order: the same values as the reordered image's B, G, R result.
+        cv::Mat bgr_in;  // a new buffer: cvtColor into img's would reorder img itself
+        if (rgb) {
+          cv::cvtColor(img, bgr_in, cv::COLOR_RGB2BGR);
+        } else {
+          bgr_in = img;
+        }
+        cv::Mat expect = ReferenceClahe(ClaheOptions{}, bgr_in);
+        if (rgb) cv::cvtColor(expect, expect, cv::COLOR_BGR2RGB);
+        cv::Mat bins = ClaheNewBins(o, img.size());
+        std::vector<float> lum(img.cols);
+        for (int y = 0; y < img.rows; ++y) {
+          ClaheBinColorRow(o, img.ptr<float>(y), lum.data(), bins, y);
+        }
+        cv::Mat out = img.clone();
+        ClaheColorFromBins(o, bins, out);
+        EXPECT_TRUE(SameBits(out, expect)) << width << " avx2 " << avx2 << " rgb " << rgb;
+      }
+    }
+    enhancer_internal::SetHandWrittenAvx2(true);
   }
 }
 
@@ -482,6 +542,18 @@ TEST(ColorPaths, SimplifiedEqualsReference) {
       EXPECT_TRUE(SameBits(SimplifiedEnhance(o, img), ReferenceSimplified(o, img)))
           << name << " variant " << variant;
     }
+  }
+}
+
+TEST(ColorPaths, SimplifiedEqualsReferenceOnLargeImages) {
+  // Images over 8 MiB: the boosted rows go to the output with non-temporal stores and CLAHE's
+  // binning reads a cached copy. 1024 pixels: every row 32-byte aligned (streamed); 1031: rows
+  // alternate between aligned and not (the plain stores), in one image.
+  for (const cv::Size& size : {cv::Size(1024, 760), cv::Size(1031, 731)}) {
+    const cv::Mat img = SmoothNoise(size.height, size.width, 17);
+    EXPECT_TRUE(SameBits(SimplifiedEnhance(SimplifiedOptions{}, img),
+                         ReferenceSimplified(SimplifiedOptions{}, img)))
+        << size;
   }
 }
 
