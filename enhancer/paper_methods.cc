@@ -1704,7 +1704,7 @@ cv::Mat SimplifiedColor(const SimplifiedOptions& o, const GuidedFilterOptions& f
   std::vector<float> lum(image.cols), row(stream ? n : 0);
   if (o.contrast) bins = ClaheNewBins(o.clahe, image.size());
   bool validated = false;
-  const bool avx2 = enhancer_internal::UseHandWrittenAvx2(), fma = CpuHasFma();
+  [[maybe_unused]] const bool avx2 = enhancer_internal::UseHandWrittenAvx2(), fma = CpuHasFma();
   GuidedFilterSelfRows({fine, coarse}, image, [&](int y, const std::vector<const float*>& q) {
     float* dst = out.ptr<float>(y);
     bool finite;
