@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -327,10 +328,209 @@ cv::Mat MaskBelow(const cv::Mat& t, double floor) {
   return mask;
 }
 
+// ---- Box sums in cv::boxFilter's order -------------------------------------------------------
+// cv::boxFilter on CV_32F (OpenCV 4.6, box_filter.simd.hpp) sums in double: per row (the row
+// extended by its reflected border), a window of 3 or 5 as the direct sum s0 + s1 + ... left to
+// right, any other as a running sum (s = 0, s += x_0 .. x_{k-1}, then s += (x_{i+k} - x_i) per
+// step, the difference formed in double); then per column a running sum over the row sums (SUM =
+// 0, SUM += h_0 .. h_{k-2}, then per output row s = SUM + h_{y+k-1}, out = float(s [* scale]), SUM
+// = s - h_y). Those are serial chains, one per row and one per column. The same operations in the
+// same order give the same doubles; what is new is only which independent chains run side by side:
+// eight rows' running sums interleaved (instead of one row at a time), the column step vectorised
+// across columns, and the row sums kept in a ring of k + 8 rows (no full-size double buffer).
+
+// The direct sums of a window of 3 or 5 (values cn apart), left to right.
+TURBID_ROW_KERNEL void BoxDirect3Row(const float* __restrict s, double* __restrict d, int cn,
+                                     int n) {
+  for (int i = 0; i < n; ++i) {
+    d[i] = (static_cast<double>(s[i]) + static_cast<double>(s[i + cn])) +
+           static_cast<double>(s[i + 2 * cn]);
+  }
+}
+
+TURBID_ROW_KERNEL void BoxDirect5Row(const float* __restrict s, double* __restrict d, int cn,
+                                     int n) {
+  for (int i = 0; i < n; ++i) {
+    d[i] = (((static_cast<double>(s[i]) + static_cast<double>(s[i + cn])) +
+             static_cast<double>(s[i + 2 * cn])) +
+            static_cast<double>(s[i + 3 * cn])) +
+           static_cast<double>(s[i + 4 * cn]);
+  }
+}
+
+// One output row of the column running sum: s = SUM + h_new, out = float(s), SUM = s - h_old.
+TURBID_ROW_KERNEL void BoxColumnRow(double* __restrict sum, const double* __restrict add,
+                                    const double* __restrict sub, float* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) {
+    const double s = sum[i] + add[i];
+    out[i] = static_cast<float>(s);
+    sum[i] = s - sub[i];
+  }
+}
+
+TURBID_ROW_KERNEL void BoxColumnRowScaled(double* __restrict sum, const double* __restrict add,
+                                          const double* __restrict sub, float* __restrict out,
+                                          double scale, int n) {
+  for (int i = 0; i < n; ++i) {
+    const double s = sum[i] + add[i];
+    out[i] = static_cast<float>(s * scale);
+    sum[i] = s - sub[i];
+  }
+}
+
+TURBID_ROW_KERNEL void BoxAccumulateRow(double* __restrict sum, const double* __restrict add,
+                                        int n) {
+  for (int i = 0; i < n; ++i) sum[i] += add[i];
+}
+
+// The running sums of four rows at once (independent chains side by side, the sums in
+// registers): for each channel c, from the first sum h_r[c], h_r[(i + 1) cn + c] = h_r[i cn + c]
+// + (double(e_r[(i + k) cn + c]) - double(e_r[i cn + c])) in order of i.
+TURBID_ROW_KERNEL void BoxRunning4(const float* __restrict e0, const float* __restrict e1,
+                                   const float* __restrict e2, const float* __restrict e3,
+                                   double* __restrict h0, double* __restrict h1,
+                                   double* __restrict h2, double* __restrict h3, int cn, int k,
+                                   int steps) {
+  const int ahead = k * cn;
+  for (int c = 0; c < cn; ++c) {
+    double s0 = h0[c], s1 = h1[c], s2 = h2[c], s3 = h3[c];
+    for (int i = 0; i < steps; ++i) {
+      const int j = i * cn + c;
+      s0 = s0 + (static_cast<double>(e0[j + ahead]) - static_cast<double>(e0[j]));
+      s1 = s1 + (static_cast<double>(e1[j + ahead]) - static_cast<double>(e1[j]));
+      s2 = s2 + (static_cast<double>(e2[j + ahead]) - static_cast<double>(e2[j]));
+      s3 = s3 + (static_cast<double>(e3[j + ahead]) - static_cast<double>(e3[j]));
+      h0[j + cn] = s0;
+      h1[j + cn] = s1;
+      h2[j + cn] = s2;
+      h3[j + cn] = s3;
+    }
+  }
+}
+
+void BoxRunning1(const float* e, double* h, int cn, int k, int steps) {
+  for (int c = 0; c < cn; ++c) {
+    double s = h[c];
+    for (int i = 0; i < steps; ++i) {
+      const int j = i * cn + c;
+      s = s + (static_cast<double>(e[j + k * cn]) - static_cast<double>(e[j]));
+      h[j + cn] = s;
+    }
+  }
+}
+
+// Box sums of kPlanes images of the same shape (rows x cols, cn channels) streamed a row at a
+// time: produce(source_row, float* const* in) writes that row of each plane into in[p] (cols cn
+// values; it may be asked for a row more than once, for the reflected border); consume(y, const
+// float* const* out) receives output row y of each plane, in order of y. scale 1: sums;
+// otherwise each sum times scale (cv::boxFilter's normalised mean). Only a ring of k + 4 row sums
+// per plane is kept, so the planes need not exist as whole images.
+template <int kPlanes, typename Produce, typename Consume>
+void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& produce,
+               Consume&& consume) {
+  const int k = 2 * radius + 1;
+  const int n = cols * cn;
+  const int ext_n = (cols + k - 1) * cn;  // values per bordered row
+  constexpr int kBatch = 4;
+  const int capacity = k + kBatch;
+  const int total_rows = rows + k - 1;  // bordered rows j = 0 .. rows + k - 2
+  // Reflected border columns (BORDER_REFLECT, as cv::borderInterpolate places them).
+  std::vector<int> xofs(cols + k - 1);
+  for (int j = 0; j < cols + k - 1; ++j)
+    xofs[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
+  // Scratch kept per thread between calls (fresh pages on every call would cost more than the
+  // sums): the rings, the bordered input rows, the column sums and the output rows.
+  thread_local std::vector<double> ring_store, sum_store;
+  thread_local std::vector<float> ext_store, out_store;
+  const size_t ring_n = static_cast<size_t>(capacity) * n;
+  ring_store.resize(std::max(ring_store.size(), kPlanes * ring_n));
+  sum_store.assign(static_cast<size_t>(kPlanes) * n, 0.0);
+  ext_store.resize(std::max(ext_store.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  out_store.resize(std::max(out_store.size(), static_cast<size_t>(kPlanes) * n));
+  auto slot = [&](int p, int j) {
+    return ring_store.data() + p * ring_n + static_cast<size_t>(j % capacity) * n;
+  };
+  auto ext_row = [&](int p, int b) {
+    return ext_store.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+  };
+  int produced = 0;  // bordered rows whose row sums are in the rings
+  auto produce_batch = [&](int count) {
+    for (int b = 0; b < count; ++b) {
+      const int j = produced + b;
+      float* in[kPlanes];
+      for (int p = 0; p < kPlanes; ++p) in[p] = ext_row(p, b) + radius * cn;
+      produce(cv::borderInterpolate(j - radius, rows, cv::BORDER_REFLECT), in);
+      for (int p = 0; p < kPlanes; ++p) {
+        float* e = ext_row(p, b);
+        for (int x = 0; x < cols + k - 1; ++x) {
+          if (x == radius) x = std::min(radius + cols, cols + k - 1);  // the interior is there
+          if (x >= cols + k - 1) break;
+          for (int c = 0; c < cn; ++c) e[x * cn + c] = e[(radius + xofs[x]) * cn + c];
+        }
+        double* h = slot(p, j);
+        if (k == 3) {
+          BoxDirect3Row(e, h, cn, n);
+        } else if (k == 5) {
+          BoxDirect5Row(e, h, cn, n);
+        } else {
+          for (int c = 0; c < cn; ++c) {
+            double sum = 0;
+            for (int i = 0; i < k; ++i) sum += static_cast<double>(e[i * cn + c]);
+            h[c] = sum;
+          }
+        }
+      }
+    }
+    if (k != 3 && k != 5) {
+      for (int p = 0; p < kPlanes; ++p) {
+        int b = 0;
+        for (; b + 4 <= count; b += 4) {
+          const int j = produced + b;
+          BoxRunning4(ext_row(p, b), ext_row(p, b + 1), ext_row(p, b + 2), ext_row(p, b + 3),
+                      slot(p, j), slot(p, j + 1), slot(p, j + 2), slot(p, j + 3), cn, k, cols - 1);
+        }
+        for (; b < count; ++b) BoxRunning1(ext_row(p, b), slot(p, produced + b), cn, k, cols - 1);
+      }
+    }
+    produced += count;
+  };
+  auto need = [&](int j) {
+    while (produced <= j) produce_batch(std::min(kBatch, total_rows - produced));
+  };
+  for (int j = 0; j < k - 1; ++j) {
+    need(j);
+    for (int p = 0; p < kPlanes; ++p) BoxAccumulateRow(sum_store.data() + p * n, slot(p, j), n);
+  }
+  const float* out[kPlanes];
+  for (int p = 0; p < kPlanes; ++p) out[p] = out_store.data() + static_cast<size_t>(p) * n;
+  for (int y = 0; y < rows; ++y) {
+    need(y + k - 1);
+    for (int p = 0; p < kPlanes; ++p) {
+      double* sum = sum_store.data() + p * n;
+      float* o = out_store.data() + static_cast<size_t>(p) * n;
+      if (scale != 1.0) {
+        BoxColumnRowScaled(sum, slot(p, y + k - 1), slot(p, y), o, scale, n);
+      } else {
+        BoxColumnRow(sum, slot(p, y + k - 1), slot(p, y), o, n);
+      }
+    }
+    consume(y, out);
+  }
+}
+
+// A whole image through BoxStream.
+template <typename Consume>
+void BoxStreamImage(const cv::Mat& src, int radius, double scale, Consume&& consume) {
+  const size_t bytes = sizeof(float) * src.cols * src.channels();
+  BoxStream<1>(
+      src.rows, src.cols, src.channels(), radius, scale,
+      [&](int y, float* const* in) { std::memcpy(in[0], src.ptr<float>(y), bytes); },
+      std::forward<Consume>(consume));
+}
+
 cv::Mat BoxSum(const cv::Mat& m, int radius) {
   cv::Mat out = NewLike(m);
-  cv::boxFilter(m, out, -1, cv::Size(2 * radius + 1, 2 * radius + 1), cv::Point(-1, -1), false,
-                cv::BORDER_REFLECT);
+  oracle_internal::BoxFilterReflect(m, out, radius, false);
   return out;
 }
 
@@ -538,12 +738,23 @@ DeblurStats DetailAndStats(const cv::Mat& est, const cv::Mat& prior, const cv::M
 
 namespace oracle_internal {
 
+void BoxFilterReflect(const cv::Mat& source, cv::Mat& dst, int radius, bool normalize) {
+  CV_Assert(source.depth() == CV_32F && radius >= 1);
+  const cv::Mat src = source;  // a header of its own: dst may be the same Mat object
+  if (dst.data == src.data) dst = cv::Mat();  // rows of src are read after rows of dst are written
+  dst.create(src.size(), src.type());
+  const int k = 2 * radius + 1;
+  const size_t bytes = sizeof(float) * src.cols * src.channels();
+  BoxStreamImage(src, radius, normalize ? 1.0 / (k * k) : 1.0,
+                 [&](int y, const float* const* out) { std::memcpy(dst.ptr<float>(y), out[0], bytes); });
+}
+
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
                             double floor_var, double clip_level_d) {
   cv::Mat variance = NewLike(image);
-  cv::boxFilter(image, variance, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  BoxFilterReflect(image, variance, 3, true);
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
   ForRows(
       variance, [gain_f, floor_f](int n, float* v) { NoiseVarianceRow(v, gain_f, floor_f, n); },

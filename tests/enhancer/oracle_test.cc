@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
@@ -44,6 +45,80 @@ Scene Builtin(const std::string& name, double scale) {
   return MakeBuiltinScene(name, so);
 }
 
+
+// Float images equal bit for bit, except that any NaN equals any NaN (which NaN an addition of
+// two NaNs gives depends on its operand order, which a compiler may swap).
+bool SameBits(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type() || a.depth() != CV_32F) return false;
+  for (int y = 0; y < a.rows; ++y) {
+    const float* p = a.ptr<float>(y);
+    const float* q = b.ptr<float>(y);
+    for (int i = 0; i < a.cols * a.channels(); ++i) {
+      if (std::isnan(p[i]) && std::isnan(q[i])) continue;
+      if (std::memcmp(&p[i], &q[i], sizeof(float)) != 0) return false;
+    }
+  }
+  return true;
+}
+
+// The oracle's box sums give cv::boxFilter's values bit for bit (the same double operations in
+// the same order): windows 3 and 5 (direct sums) and larger ones (running sums), sums and means,
+// one and three channels, odd and tiny sizes (windows wider than the image), and values many
+// orders of magnitude apart, where any other summation order gives other values (a running sum
+// that passed a 1e30 keeps its rounding error): uniform values, signed values 1e-30 .. 1e30 with
+// zeros and negative zeros, and some infinities and NaNs.
+TEST(Oracle, BoxFilterReflectEqualsOpenCvBitForBit) {
+  uint64_t seed = 11;
+  int compared = 0;
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(2, 3), cv::Size(7, 1), cv::Size(1, 9),
+                              cv::Size(5, 40), cv::Size(37, 21), cv::Size(130, 97),
+                              cv::Size(272, 205)}) {
+    for (int ch : {1, 3}) {
+      for (int kind = 0; kind < 3; ++kind) {
+        cv::RNG rng(seed++);
+        cv::Mat src(size, CV_32FC(ch));
+        src.forEach<float>([&](float& v, const int*) { v = 0; });
+        for (int y = 0; y < src.rows; ++y) {
+          float* p = src.ptr<float>(y);
+          for (int i = 0; i < src.cols * ch; ++i) {
+            if (kind == 0) {
+              p[i] = rng.uniform(0.0f, 1.0f);
+            } else {
+              const double u = rng.uniform(0.0, 1.0);
+              const double mag = std::pow(10.0, rng.uniform(-30.0, 30.0));
+              p[i] = u < 0.1 ? 0.0f : u < 0.15 ? -0.0f
+                                    : static_cast<float>(u < 0.55 ? -mag : mag);
+              if (kind == 2 && u > 0.998) {
+                p[i] = u > 0.999 ? std::numeric_limits<float>::quiet_NaN()
+                                 : std::numeric_limits<float>::infinity();
+              }
+            }
+          }
+        }
+        for (int radius : {1, 2, 3, 4, 9, 16, 40}) {
+          for (bool normalize : {false, true}) {
+            const cv::Size window(2 * radius + 1, 2 * radius + 1);
+            cv::Mat expected, got;
+            cv::boxFilter(src, expected, -1, window, cv::Point(-1, -1), normalize,
+                          cv::BORDER_REFLECT);
+            oracle_internal::BoxFilterReflect(src, got, radius, normalize);
+            EXPECT_TRUE(SameBits(got, expected))
+                << size << " ch " << ch << " kind " << kind << " radius " << radius
+                << (normalize ? " mean" : " sum") << ": max |diff| " << MaxAbsDiff(got, expected);
+            ++compared;
+          }
+        }
+        // In place (dst = src).
+        cv::Mat expected, in_place = src.clone();
+        cv::boxFilter(src, expected, -1, cv::Size(9, 9), cv::Point(-1, -1), false,
+                      cv::BORDER_REFLECT);
+        oracle_internal::BoxFilterReflect(in_place, in_place, 4, false);
+        EXPECT_TRUE(SameBits(in_place, expected)) << size << " in place";
+      }
+    }
+  }
+  EXPECT_EQ(compared, 8 * 2 * 3 * 7 * 2);
+}
 
 // Today's fused data term and MMSE give the pre-optimisation values bit for bit (the same float
 // operations in the same order): gray and colour, odd and tiny sizes, masked pixels (t below the
