@@ -172,8 +172,10 @@ TURBID_ROW_KERNEL void ProductRow(const float* __restrict a, const float* __rest
   for (int i = 0; i < n; ++i) out[i] = a[i] * b[i];
 }
 
-TURBID_ROW_KERNEL void QuotientRow(const float* __restrict w, float* __restrict m, int n) {
-  for (int i = 0; i < n; ++i) m[i] = m[i] / std::max(w[i], 1e-30f);
+// out = m / max(w, 1e-30).
+TURBID_ROW_KERNEL void QuotientRow(const float* __restrict w, const float* __restrict m,
+                                   float* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) out[i] = m[i] / std::max(w[i], 1e-30f);
 }
 
 // p += S w / (S w + 1) (m - p).
@@ -199,19 +201,29 @@ TURBID_ROW_KERNEL void EstimateRow(const float* __restrict a, const float* __res
   }
 }
 
-TURBID_ROW_KERNEL void NoiseVarianceRow(float* __restrict v, float gain, float floor_var, int n) {
-  for (int i = 0; i < n; ++i) v[i] = std::max(v[i], 0.0f) * gain + floor_var;
+TURBID_ROW_KERNEL void NoiseVarianceRow(const float* __restrict mean, float* __restrict v,
+                                        float gain, float floor_var, int n) {
+  for (int i = 0; i < n; ++i) v[i] = std::max(mean[i], 0.0f) * gain + floor_var;
 }
 
-// LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30), in place in o.
-TURBID_ROW_KERNEL void SignalVarianceRow(float* __restrict o, const float* __restrict w,
-                                         const float* __restrict count, int n) {
-  for (int i = 0; i < n; ++i) o[i] = std::max(o[i] - count[i], 0.0f) / std::max(w[i], 1e-30f);
+// LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30).
+TURBID_ROW_KERNEL void SignalVarianceRow(const float* __restrict sum, const float* __restrict w,
+                                         const float* __restrict count, float* __restrict o,
+                                         int n) {
+  for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - count[i], 0.0f) / std::max(w[i], 1e-30f);
 }
 
-TURBID_ROW_KERNEL void SignalVarianceRowFull(float* __restrict o, const float* __restrict w,
-                                             float full, int n) {
-  for (int i = 0; i < n; ++i) o[i] = std::max(o[i] - full, 0.0f) / std::max(w[i], 1e-30f);
+TURBID_ROW_KERNEL void SignalVarianceRowFull(const float* __restrict sum,
+                                             const float* __restrict w, float full,
+                                             float* __restrict o, int n) {
+  for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - full, 0.0f) / std::max(w[i], 1e-30f);
+}
+
+// Values of a row with no data (a > 0 false: 0, negative or NaN).
+TURBID_ROW_KERNEL int NoDataRow(const float* __restrict a, int n) {
+  int none = 0;
+  for (int i = 0; i < n; ++i) none += a[i] > 0.0f ? 0 : 1;
+  return none;
 }
 
 // Element-wise passes over images of the same size and type (any channel count, rows possibly
@@ -419,6 +431,19 @@ void BoxRunning1(const float* e, double* h, int cn, int k, int steps) {
   }
 }
 
+// BoxStream's buffers, kept per thread between calls (fresh pages on every call would cost more
+// than the sums): the rings of row sums, the bordered input rows, the column sums and the output
+// rows. One set per thread: BoxStream calls do not nest.
+struct BoxScratch {
+  std::vector<double> ring, sum;
+  std::vector<float> ext, out;
+};
+
+BoxScratch& ThreadBoxScratch() {
+  thread_local BoxScratch scratch;
+  return scratch;
+}
+
 // Box sums of kPlanes images of the same shape (rows x cols, cn channels) streamed a row at a
 // time: produce(source_row, float* const* in) writes that row of each plane into in[p] (cols cn
 // values; it may be asked for a row more than once, for the reflected border); consume(y, const
@@ -438,10 +463,11 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   std::vector<int> xofs(cols + k - 1);
   for (int j = 0; j < cols + k - 1; ++j)
     xofs[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
-  // Scratch kept per thread between calls (fresh pages on every call would cost more than the
-  // sums): the rings, the bordered input rows, the column sums and the output rows.
-  thread_local std::vector<double> ring_store, sum_store;
-  thread_local std::vector<float> ext_store, out_store;
+  BoxScratch& scratch = ThreadBoxScratch();
+  std::vector<double>& ring_store = scratch.ring;
+  std::vector<double>& sum_store = scratch.sum;
+  std::vector<float>& ext_store = scratch.ext;
+  std::vector<float>& out_store = scratch.out;
   const size_t ring_n = static_cast<size_t>(capacity) * n;
   ring_store.resize(std::max(ring_store.size(), kPlanes * ring_n));
   sum_store.assign(static_cast<size_t>(kPlanes) * n, 0.0);
@@ -528,11 +554,6 @@ void BoxStreamImage(const cv::Mat& src, int radius, double scale, Consume&& cons
       std::forward<Consume>(consume));
 }
 
-cv::Mat BoxSum(const cv::Mat& m, int radius) {
-  cv::Mat out = NewLike(m);
-  oracle_internal::BoxFilterReflect(m, out, radius, false);
-  return out;
-}
 
 // One row of the data term: u = ((I - S) - veil) / sc and a = sc^2 / variance with
 // sc = max(t E, 1e-12), both 0 where masked; a also 0 where I > clip_level (censored).
@@ -600,18 +621,19 @@ TURBID_ROW_KERNEL int NumeratorRow(const float* __restrict zz, const float* __re
 
 // Local signal variance around the prior mean p of values z whose noise variances are 1 / a (a =
 // 0: no data): max(sum a (z - p)^2 - sum [a > 0], 0) / sum a over a window of `radius` (0: the
-// whole image). Unbiased for independent samples (E a (z - p)^2 = a S + 1).
-cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius) {
-  cv::Mat num = NewLike(z), has = NewLike(z);
-  int no_data = 0;  // values with a = 0 (a count, so the loop vectorises)
-  ForRows(
-      z,
-      [&no_data](int n, const float* zz, const float* aa, const float* pp, float* nn, float* hh) {
-        no_data += NumeratorRow(zz, aa, pp, nn, hh, n);
-      },
-      z, a, p, num, has);
-  const bool all_data = no_data == 0;
+// whole image). Unbiased for independent samples (E a (z - p)^2 = a S + 1). no_data: how many
+// values of a have a > 0 false.
+cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius,
+                            int no_data) {
+  const int n = z.cols * z.channels();
   if (radius <= 0) {
+    cv::Mat num = NewLike(z), has = NewLike(z);
+    ForRows(
+        z,
+        [](int n, const float* zz, const float* aa, const float* pp, float* nn, float* hh) {
+          NumeratorRow(zz, aa, pp, nn, hh, n);
+        },
+        z, a, p, num, has);
     const cv::Scalar sa = cv::sum(a), sn = cv::sum(num), sh = cv::sum(has);
     cv::Scalar s;
     for (int c = 0; c < z.channels(); ++c)
@@ -620,19 +642,38 @@ cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p
     out.setTo(s);
     return out;
   }
-  const cv::Mat sa = BoxSum(a, radius);
-  cv::Mat out = BoxSum(num, radius);
-  // The box count of [a > 0] is a small integer, exact whatever the summation; with data
-  // everywhere it is the full (2r + 1)^2 window (reflected borders).
+  // The box sums of a, of the numerator and (where some value has no data) of [a > 0], streamed:
+  // the numerator and the indicator exist only as rows. With data everywhere the box count of
+  // [a > 0] is the full (2r + 1)^2 window (reflected borders), a small integer, exact whatever the
+  // summation.
+  cv::Mat out = NewLike(z);
+  const size_t bytes = sizeof(float) * n;
+  thread_local std::vector<float> has_row;
+  has_row.resize(std::max<size_t>(has_row.size(), n));
   const float full = static_cast<float>((2 * radius + 1) * (2 * radius + 1));
-  const cv::Mat count = all_data ? cv::Mat() : BoxSum(has, radius);
-  for (int y = 0; y < z.rows; ++y) {
-    const int n = z.cols * z.channels();
-    if (all_data) {
-      SignalVarianceRowFull(out.ptr<float>(y), sa.ptr<float>(y), full, n);
-    } else {
-      SignalVarianceRow(out.ptr<float>(y), sa.ptr<float>(y), count.ptr<float>(y), n);
-    }
+  auto numerator = [&](int y, float* nn, float* hh) {
+    NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p.ptr<float>(y), nn, hh, n);
+  };
+  if (no_data == 0) {
+    BoxStream<2>(
+        z.rows, z.cols, z.channels(), radius, 1.0,
+        [&](int y, float* const* in) {
+          std::memcpy(in[0], a.ptr<float>(y), bytes);
+          numerator(y, in[1], has_row.data());
+        },
+        [&](int y, const float* const* o) {
+          SignalVarianceRowFull(o[1], o[0], full, out.ptr<float>(y), n);
+        });
+  } else {
+    BoxStream<3>(
+        z.rows, z.cols, z.channels(), radius, 1.0,
+        [&](int y, float* const* in) {
+          std::memcpy(in[0], a.ptr<float>(y), bytes);
+          numerator(y, in[1], in[2]);
+        },
+        [&](int y, const float* const* o) {
+          SignalVarianceRow(o[1], o[0], o[2], out.ptr<float>(y), n);
+        });
   }
   return out;
 }
@@ -640,13 +681,12 @@ cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p
 // The linear MMSE estimate of rho from u = rho + noise of variance v (a = 1 / v, 0 where
 // masked), under a hierarchical local Gaussian prior (docs/methods.md, "oracle"). Writes the
 // prior mean of the finest level to *prior and the posterior variance to *posterior.
-cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a, cv::Mat* prior,
-                         cv::Mat* posterior) {
+// au = a u; a_no_data: how many values of a have a > 0 false.
+cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a,
+                         const cv::Mat& au, int a_no_data, cv::Mat* prior, cv::Mat* posterior) {
   const int ch = u.channels();
-  cv::Mat au = NewLike(u);
-  ForRows(
-      u, [](int n, const float* aa, const float* uu, float* out) { ProductRow(aa, uu, out, n); }, a,
-      u, au);
+  const int n = u.cols * ch;
+  const size_t bytes = sizeof(float) * n;
   // Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data).
   const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
   cv::Scalar m0;
@@ -655,11 +695,22 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   p.setTo(m0);
   int prev_radius = 0;  // 0: global
   for (const int radius : {o.coarse_radius, o.middle_radius}) {
-    const cv::Mat w = BoxSum(a, radius);
-    cv::Mat m = BoxSum(au, radius);  // becomes the BLUE of the local mean; noise 1 / w
-    ForRows(
-        u, [](int n, const float* ww, float* mm) { QuotientRow(ww, mm, n); }, w, m);
-    const cv::Mat s = LocalSignalVariance(m, w, p, prev_radius);
+    // w = box sum of a; m = box sum of a u / max(w, 1e-30), the BLUE of the local mean (noise
+    // 1 / w). One streamed pass: the two box sums exist only as rows.
+    const cv::Mat w = NewLike(u), m = NewLike(u);
+    int w_no_data = 0;
+    BoxStream<2>(
+        u.rows, u.cols, ch, radius, 1.0,
+        [&](int y, float* const* in) {
+          std::memcpy(in[0], a.ptr<float>(y), bytes);
+          std::memcpy(in[1], au.ptr<float>(y), bytes);
+        },
+        [&](int y, const float* const* out) {
+          std::memcpy(const_cast<cv::Mat&>(w).ptr<float>(y), out[0], bytes);
+          QuotientRow(out[0], out[1], const_cast<cv::Mat&>(m).ptr<float>(y), n);
+          w_no_data += NoDataRow(out[0], n);
+        });
+    const cv::Mat s = LocalSignalVariance(m, w, p, prev_radius, w_no_data);
     // p += S / (S + 1/w) (m - p) = S w / (S w + 1) (m - p); w = 0 keeps p.
     ForRows(
         u,
@@ -669,7 +720,7 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
         s, w, m, p);
     prev_radius = radius;
   }
-  cv::Mat s = LocalSignalVariance(u, a, p, o.pixel_radius);
+  cv::Mat s = LocalSignalVariance(u, a, p, o.pixel_radius, a_no_data);
   // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
   // S v / (S + v) = S / (S a + 1), S where masked. `s` becomes the posterior, `est` the estimate.
   cv::Mat est = NewLike(u);
@@ -753,12 +804,7 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
                             double floor_var, double clip_level_d) {
-  cv::Mat variance = NewLike(image);
-  BoxFilterReflect(image, variance, 3, true);
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
-  ForRows(
-      variance, [gain_f, floor_f](int n, float* v) { NoiseVarianceRow(v, gain_f, floor_f, n); },
-      variance);
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,
   // 0 where masked. Clipped samples (I at 1 in a channel) are not Gaussian data: they get no
@@ -770,30 +816,44 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
   const cv::Mat& masked = r.masked;
   const float clip_level = static_cast<float>(clip_level_d);
   const int ch = image.channels();
-  cv::Mat u = NewLike(image), a = NewLike(image);
-  int censored = 0;
-  for (int y = 0; y < image.rows; ++y) {
+  // One streamed pass: the 7 x 7 mean of I (cv::boxFilter's, bit for bit), the variance from it
+  // (a row only), the data term, a u, and the counts.
+  cv::Mat u = NewLike(image), a = NewLike(image), au = NewLike(image);
+  int censored = 0, a_no_data = 0;
+  const int n = image.cols * ch;
+  thread_local std::vector<float> variance_row;
+  variance_row.resize(std::max<size_t>(variance_row.size(), n));
+  BoxStreamImage(image, 3, 1.0 / 49.0, [&](int y, const float* const* mean) {
+    float* var = variance_row.data();
+    NoiseVarianceRow(mean[0], var, gain_f, floor_f, n);
+    float* uu = u.ptr<float>(y);
+    float* aa = a.ptr<float>(y);
     DataTermRow(image.ptr<float>(y), transmission.ptr<float>(y), irradiance.ptr<float>(y),
-                snow.ptr<float>(y), veil.ptr<float>(y), variance.ptr<float>(y),
-                masked.ptr<uchar>(y), clip_level, ch, image.cols, u.ptr<float>(y), a.ptr<float>(y));
+                snow.ptr<float>(y), veil.ptr<float>(y), var, masked.ptr<uchar>(y), clip_level, ch,
+                image.cols, uu, aa);
     censored += CountClipped(image.ptr<float>(y), clip_level, ch, image.cols);
-  }
+    ProductRow(aa, uu, au.ptr<float>(y), n);
+    a_no_data += NoDataRow(aa, n);
+  });
   r.censored_pixels = censored;
-  r.estimate = HierarchicalMmse(o, u, a, &r.prior, &r.posterior);
+  r.estimate = HierarchicalMmse(o, u, a, au, a_no_data, &r.prior, &r.posterior);
   cv::Mat& est = r.estimate;
   cv::Mat& prior = r.prior;
   if (censored > 0) {
-    // est += (max(est, bound) - est) [clipped], and the same for the prior.
-    for (int y = 0; y < image.rows; ++y) {
+    // est += (max(est, bound) - est) [clipped], and the same for the prior. The variance rows
+    // again (the box mean streamed a second time: cheaper than keeping a whole image of them for
+    // the renders that clip).
+    BoxStreamImage(image, 3, 1.0 / 49.0, [&](int y, const float* const* mean) {
+      float* var = variance_row.data();
+      NoiseVarianceRow(mean[0], var, gain_f, floor_f, n);
       const float* in = image.ptr<float>(y);
       const float* t = transmission.ptr<float>(y);
       const float* e = irradiance.ptr<float>(y);
       const float* sn = snow.ptr<float>(y);
       const float* ve = veil.ptr<float>(y);
-      const float* var = variance.ptr<float>(y);
       float* es = est.ptr<float>(y);
       float* pr = prior.ptr<float>(y);
-      for (int i = 0; i < image.cols * ch; ++i) {
+      for (int i = 0; i < n; ++i) {
         if (in[i] > clip_level) {
           const float sc = std::max(t[i] * e[i], 1e-12f);
           const float bound = (((in[i] - 2.0f * std::sqrt(var[i])) - sn[i]) - ve[i]) / sc;
@@ -805,7 +865,7 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
           pr[i] = std::isfinite(pr[i]) ? pr[i] + 0.0f : std::numeric_limits<float>::quiet_NaN();
         }
       }
-    }
+    });
   }
   return r;
 }
