@@ -348,8 +348,8 @@ cv::Mat MaskBelow(const cv::Mat& t, double floor) {
 // 0, SUM += h_0 .. h_{k-2}, then per output row s = SUM + h_{y+k-1}, out = float(s [* scale]), SUM
 // = s - h_y). Those are serial chains, one per row and one per column. The same operations in the
 // same order give the same doubles; what is new is only which independent chains run side by side:
-// eight rows' running sums interleaved (instead of one row at a time), the column step vectorised
-// across columns, and the row sums kept in a ring of k + 8 rows (no full-size double buffer).
+// four rows' running sums interleaved (instead of one row at a time), the column step vectorised
+// across columns, and the row sums kept in a ring of k + 4 rows per plane.
 
 // The direct sums of a window of 3 or 5 (values cn apart), left to right.
 TURBID_ROW_KERNEL void BoxDirect3Row(const float* __restrict s, double* __restrict d, int cn,
@@ -797,7 +797,9 @@ void BoxFilterReflect(const cv::Mat& source, cv::Mat& dst, int radius, bool norm
   const int k = 2 * radius + 1;
   const size_t bytes = sizeof(float) * src.cols * src.channels();
   BoxStreamImage(src, radius, normalize ? 1.0 / (k * k) : 1.0,
-                 [&](int y, const float* const* out) { std::memcpy(dst.ptr<float>(y), out[0], bytes); });
+                 [&](int y, const float* const* out) {
+                   std::memcpy(dst.ptr<float>(y), out[0], bytes);
+                 });
 }
 
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,

@@ -19,7 +19,7 @@ struct OracleMmseResult {
 // dst = the sums of src (CV_32F, any channel count) over (2 radius + 1)^2 windows, reflected
 // borders (BORDER_REFLECT), divided by the window's area when `normalize`: the values
 // cv::boxFilter(src, dst, -1, window, anchor (-1, -1), normalize, BORDER_REFLECT) gives, bit for
-// bit (its sums in double, in its order: oracle.cc says which), about 4x faster. dst may be src.
+// bit (its sums in double, in its order: oracle.cc says which). dst may be src.
 void BoxFilterReflect(const cv::Mat& src, cv::Mat& dst, int radius, bool normalize);
 
 // The oracle's data term and estimate: the noise variance max(box7(I), 0) shot_gain + floor_var
