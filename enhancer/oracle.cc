@@ -1,7 +1,9 @@
 #include "enhancer/oracle.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <opencv2/imgproc.hpp>
@@ -176,16 +178,6 @@ TURBID_ROW_KERNEL void ProductRow(const float* __restrict a, const float* __rest
 TURBID_ROW_KERNEL void QuotientRow(const float* __restrict w, const float* __restrict m,
                                    float* __restrict out, int n) {
   for (int i = 0; i < n; ++i) out[i] = m[i] / std::max(w[i], 1e-30f);
-}
-
-// p += S w / (S w + 1) (m - p).
-TURBID_ROW_KERNEL void ShrinkRow(const float* __restrict s, const float* __restrict w,
-                                 const float* __restrict m, float* __restrict p, int n) {
-  for (int i = 0; i < n; ++i) {
-    const float sw = s[i] * w[i];
-    const float gain = sw / (sw + 1.0f);
-    p[i] = p[i] + gain * (m[i] - p[i]);
-  }
 }
 
 // The estimate and the posterior variance (into s) of HierarchicalMmse.
@@ -619,119 +611,211 @@ TURBID_ROW_KERNEL int NumeratorRow(const float* __restrict zz, const float* __re
   return none;
 }
 
-// Local signal variance around the prior mean p of values z whose noise variances are 1 / a (a =
-// 0: no data): max(sum a (z - p)^2 - sum [a > 0], 0) / sum a over a window of `radius` (0: the
-// whole image). Unbiased for independent samples (E a (z - p)^2 = a S + 1). no_data: how many
-// values of a have a > 0 false.
-cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius,
-                            int no_data) {
-  const int n = z.cols * z.channels();
-  if (radius <= 0) {
-    cv::Mat num = NewLike(z), has = NewLike(z);
-    ForRows(
-        z,
-        [](int n, const float* zz, const float* aa, const float* pp, float* nn, float* hh) {
-          NumeratorRow(zz, aa, pp, nn, hh, n);
-        },
-        z, a, p, num, has);
-    const cv::Scalar sa = cv::sum(a), sn = cv::sum(num), sh = cv::sum(has);
-    cv::Scalar s;
-    for (int c = 0; c < z.channels(); ++c)
-      s[c] = sa[c] > 0 ? std::max(sn[c] - sh[c], 0.0) / sa[c] : 0.0;
-    cv::Mat out = NewLike(z);
-    out.setTo(s);
-    return out;
+// The numerator alone (the whole-image variance counts the indicator instead of summing it).
+TURBID_ROW_KERNEL void NumeratorOnlyRow(const float* __restrict zz, const float* __restrict aa,
+                                        const float* __restrict pp, float* __restrict nn, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float d = zz[i] - pp[i];
+    nn[i] = aa[i] * (d * d);
   }
-  // The box sums of a, of the numerator and (where some value has no data) of [a > 0], streamed:
-  // the numerator and the indicator exist only as rows. With data everywhere the box count of
-  // [a > 0] is the full (2r + 1)^2 window (reflected borders), a small integer, exact whatever the
-  // summation.
-  cv::Mat out = NewLike(z);
+}
+
+// out = p + S w / (S w + 1) (m - p): the shrink of the prior p towards the level mean m.
+TURBID_ROW_KERNEL void ShrinkRowTo(const float* __restrict s, const float* __restrict w,
+                                   const float* __restrict m, const float* __restrict p,
+                                   float* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float sw = s[i] * w[i];
+    const float gain = sw / (sw + 1.0f);
+    out[i] = p[i] + gain * (m[i] - p[i]);
+  }
+}
+
+// Per channel, the values of a row with no data (a > 0 false).
+void NoDataPerChannel(const float* a, int cols, int ch, long long* none) {
+  if (ch == 1) {
+    none[0] += NoDataRow(a, cols);
+    return;
+  }
+  for (int x = 0; x < cols; ++x)
+    for (int c = 0; c < ch; ++c) none[c] += a[x * ch + c] > 0.0f ? 0 : 1;
+}
+
+// The censored values (I > clip_level) of the data term, per row, with their lower bounds on
+// rho, (I - 2 sigma - S - veil) / max(t E, 1e-12): row y's are entries row_start[y] ..
+// row_start[y + 1] - 1 (value index within the row, bound).
+struct Censored {
+  std::vector<int> row_start, index;
+  std::vector<float> bound;
+};
+
+// x + 0 where x is finite, NaN elsewhere: the unclipped branch of the censoring step (its
+// factor 0 times a finite difference).
+TURBID_ROW_KERNEL void KeepFiniteRow(const float* __restrict x, float* __restrict out, int n) {
+  // As bit masks, so that the sum is formed for every value and the loop has no branch.
+  constexpr uint32_t kQuietNan = std::bit_cast<uint32_t>(std::numeric_limits<float>::quiet_NaN());
+  for (int i = 0; i < n; ++i) {
+    const uint32_t kept = std::bit_cast<uint32_t>(x[i] + 0.0f);
+    const uint32_t finite =
+        (std::bit_cast<uint32_t>(x[i]) & 0x7f800000u) != 0x7f800000u ? ~0u : 0u;
+    out[i] = std::bit_cast<float>((kept & finite) | (kQuietNan & ~finite));
+  }
+}
+
+// The censoring step on one row: listed values raised onto their bound, x + (max(x, bound) -
+// x); the others x + 0 (KeepFiniteRow).
+void CensorRow(const Censored& c, int y, const float* x, float* out, int n) {
+  KeepFiniteRow(x, out, n);
+  for (int j = c.row_start[y]; j < c.row_start[y + 1]; ++j) {
+    const int i = c.index[j];
+    out[i] = x[i] + (std::max(x[i], c.bound[j]) - x[i]);
+  }
+}
+
+// Row buffers of HierarchicalMmse's streams (per thread, kept between calls).
+struct MmseRows {
+  std::vector<float> has, s, e;
+};
+
+MmseRows& ThreadMmseRows(int n) {
+  thread_local MmseRows rows;
+  for (std::vector<float>* v : {&rows.has, &rows.s, &rows.e})
+    v->resize(std::max<size_t>(v->size(), static_cast<size_t>(n)));
+  return rows;
+}
+
+// Local signal variance around the prior mean p of values z whose noise variances are 1 / a (a =
+// 0: no data): max(box(a (z - p)^2) - box([a > 0]), 0) / box(a) over windows of `radius`.
+// Unbiased for independent samples (E a (z - p)^2 = a S + 1). no_data: how many values of a
+// have a > 0 false. Streamed: the box sums of a, of the numerator and (where some value has no
+// data) of [a > 0] exist only as rows; consume(y, s) receives the variance's row y. With data
+// everywhere the box count of [a > 0] is the full (2r + 1)^2 window (reflected borders), a small
+// integer, exact whatever the summation. s_row(y): where row y of the variance goes.
+template <typename SRow, typename Consume>
+void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius,
+                         long long no_data, SRow&& s_row, Consume&& consume) {
+  const int n = z.cols * z.channels();
   const size_t bytes = sizeof(float) * n;
-  thread_local std::vector<float> has_row;
-  has_row.resize(std::max<size_t>(has_row.size(), n));
+  MmseRows& rows = ThreadMmseRows(n);
   const float full = static_cast<float>((2 * radius + 1) * (2 * radius + 1));
-  auto numerator = [&](int y, float* nn, float* hh) {
-    NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p.ptr<float>(y), nn, hh, n);
-  };
   if (no_data == 0) {
     BoxStream<2>(
         z.rows, z.cols, z.channels(), radius, 1.0,
         [&](int y, float* const* in) {
           std::memcpy(in[0], a.ptr<float>(y), bytes);
-          numerator(y, in[1], has_row.data());
+          NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p.ptr<float>(y), in[1],
+                       rows.has.data(), n);
         },
         [&](int y, const float* const* o) {
-          SignalVarianceRowFull(o[1], o[0], full, out.ptr<float>(y), n);
+          SignalVarianceRowFull(o[1], o[0], full, s_row(y), n);
+          consume(y);
         });
   } else {
     BoxStream<3>(
         z.rows, z.cols, z.channels(), radius, 1.0,
         [&](int y, float* const* in) {
           std::memcpy(in[0], a.ptr<float>(y), bytes);
-          numerator(y, in[1], in[2]);
+          NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p.ptr<float>(y), in[1], in[2], n);
         },
         [&](int y, const float* const* o) {
-          SignalVarianceRow(o[1], o[0], o[2], out.ptr<float>(y), n);
+          SignalVarianceRow(o[1], o[0], o[2], s_row(y), n);
+          consume(y);
         });
   }
-  return out;
 }
 
 // The linear MMSE estimate of rho from u = rho + noise of variance v (a = 1 / v, 0 where
 // masked), under a hierarchical local Gaussian prior (docs/methods.md, "oracle"). Writes the
 // prior mean of the finest level to *prior and the posterior variance to *posterior.
-// au = a u; a_no_data: how many values of a have a > 0 false.
+// au = a u; a_no_data: how many values of a have a > 0 false; censored (may be null): the
+// censoring step applied to the estimate and the prior (OracleMmse).
+//
+// Level 0 is a per-channel constant (the weighted global mean), level 1 (coarse) shrinks it
+// towards the coarse local means with one per-channel signal variance (whole-image sums), level
+// 2 (middle) towards the middle local means with the signal variance over coarse windows, and
+// the estimate uses the signal variance over pixel windows. Each step is an epilogue of the box
+// stream that makes its inputs; only the level means, weights and priors are images (a prior is
+// written to a new image, since the stream that reads it re-reads rows for the bottom border).
 cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a,
-                         const cv::Mat& au, int a_no_data, cv::Mat* prior, cv::Mat* posterior) {
+                         const cv::Mat& au, long long a_no_data, const Censored* censored,
+                         cv::Mat* prior, cv::Mat* posterior) {
   const int ch = u.channels();
   const int n = u.cols * ch;
   const size_t bytes = sizeof(float) * n;
-  // Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data).
+  MmseRows& rows = ThreadMmseRows(n);
+  // Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data), in
+  // float as setTo stores it, as one row.
   const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
-  cv::Scalar m0;
-  for (int c = 0; c < ch; ++c) m0[c] = sa[c] > 0 ? sau[c] / sa[c] : 0.5;
-  cv::Mat p = NewLike(u);
-  p.setTo(m0);
-  int prev_radius = 0;  // 0: global
-  for (const int radius : {o.coarse_radius, o.middle_radius}) {
-    // w = box sum of a; m = box sum of a u / max(w, 1e-30), the BLUE of the local mean (noise
-    // 1 / w). One streamed pass: the two box sums exist only as rows.
-    const cv::Mat w = NewLike(u), m = NewLike(u);
-    int w_no_data = 0;
-    BoxStream<2>(
-        u.rows, u.cols, ch, radius, 1.0,
-        [&](int y, float* const* in) {
-          std::memcpy(in[0], a.ptr<float>(y), bytes);
-          std::memcpy(in[1], au.ptr<float>(y), bytes);
-        },
-        [&](int y, const float* const* out) {
-          std::memcpy(const_cast<cv::Mat&>(w).ptr<float>(y), out[0], bytes);
-          QuotientRow(out[0], out[1], const_cast<cv::Mat&>(m).ptr<float>(y), n);
-          w_no_data += NoDataRow(out[0], n);
-        });
-    const cv::Mat s = LocalSignalVariance(m, w, p, prev_radius, w_no_data);
-    // p += S / (S + 1/w) (m - p) = S w / (S w + 1) (m - p); w = 0 keeps p.
-    ForRows(
-        u,
-        [](int n, const float* ss, const float* ww, const float* mm, float* pp) {
-          ShrinkRow(ss, ww, mm, pp, n);
-        },
-        s, w, m, p);
-    prev_radius = radius;
+  std::vector<float> p0(n), s0(n);
+  for (int i = 0; i < n; ++i) {
+    const int c = i % ch;
+    p0[i] = static_cast<float>(sa[c] > 0 ? sau[c] / sa[c] : 0.5);
   }
-  cv::Mat s = LocalSignalVariance(u, a, p, o.pixel_radius, a_no_data);
+  // w = box sum of a; m = box sum of a u / max(w, 1e-30), the BLUE of the local mean (noise
+  // 1 / w).
+  auto level = [&](int y, const float* const* out, const cv::Mat& w, const cv::Mat& m) {
+    std::memcpy(const_cast<cv::Mat&>(w).ptr<float>(y), out[0], bytes);
+    QuotientRow(out[0], out[1], const_cast<cv::Mat&>(m).ptr<float>(y), n);
+  };
+  auto level_input = [&](int y, float* const* in) {
+    std::memcpy(in[0], a.ptr<float>(y), bytes);
+    std::memcpy(in[1], au.ptr<float>(y), bytes);
+  };
+  // Coarse level, and the numerator of its whole-image signal variance (z = m, weights w, p =
+  // the level-0 constant).
+  const cv::Mat wc = NewLike(u), mc = NewLike(u), num = NewLike(u);
+  long long wc_none[4] = {0, 0, 0, 0};
+  BoxStream<2>(u.rows, u.cols, ch, o.coarse_radius, 1.0, level_input,
+               [&](int y, const float* const* out) {
+                 level(y, out, wc, mc);
+                 NumeratorOnlyRow(mc.ptr<float>(y), out[0], p0.data(),
+                                  const_cast<cv::Mat&>(num).ptr<float>(y), n);
+                 NoDataPerChannel(out[0], u.cols, ch, wc_none);
+               });
+  // max(sum w (m - p)^2 - sum [w > 0], 0) / sum w per channel; the count of [w > 0] is an
+  // integer, exact in double whatever the order of its sum.
+  const cv::Scalar sw = cv::sum(wc), sn = cv::sum(num);
+  const double values = static_cast<double>(u.rows) * u.cols;
+  for (int i = 0; i < n; ++i) {
+    const int c = i % ch;
+    const double sh = values - static_cast<double>(wc_none[c]);
+    s0[i] = static_cast<float>(sw[c] > 0 ? std::max(sn[c] - sh, 0.0) / sw[c] : 0.0);
+  }
+  // Middle level; the coarse shrink p1 = p0 + S w / (S w + 1) (m - p0) as its epilogue (w = 0
+  // keeps p).
+  const cv::Mat wm = NewLike(u), mm = NewLike(u), p1 = NewLike(u);
+  long long wm_none = 0;
+  BoxStream<2>(u.rows, u.cols, ch, o.middle_radius, 1.0, level_input,
+               [&](int y, const float* const* out) {
+                 level(y, out, wm, mm);
+                 wm_none += NoDataRow(out[0], n);
+                 ShrinkRowTo(s0.data(), wc.ptr<float>(y), mc.ptr<float>(y), p0.data(),
+                             const_cast<cv::Mat&>(p1).ptr<float>(y), n);
+               });
+  // The middle level's signal variance over coarse windows, and its shrink into p2.
+  const cv::Mat p2 = NewLike(u);
+  LocalSignalVariance(
+      mm, wm, p1, o.coarse_radius, wm_none, [&](int) { return rows.s.data(); }, [&](int y) {
+    ShrinkRowTo(rows.s.data(), wm.ptr<float>(y), mm.ptr<float>(y), p1.ptr<float>(y),
+                const_cast<cv::Mat&>(p2).ptr<float>(y), n);
+  });
   // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
-  // S v / (S + v) = S / (S a + 1), S where masked. `s` becomes the posterior, `est` the estimate.
-  cv::Mat est = NewLike(u);
-  ForRows(
-      u,
-      [](int n, const float* aa, const float* uu, const float* pp, float* ss, float* ee) {
-        EstimateRow(aa, uu, pp, ss, ee, n);
-      },
-      a, u, p, s, est);
-  *prior = p;
-  *posterior = s;
+  // S v / (S + v) = S / (S a + 1), S where masked.
+  cv::Mat post = NewLike(u), est = NewLike(u);
+  cv::Mat prior_out = censored != nullptr ? NewLike(u) : p2;
+  LocalSignalVariance(
+      u, a, p2, o.pixel_radius, a_no_data, [&](int y) { return post.ptr<float>(y); }, [&](int y) {
+    float* s = post.ptr<float>(y);
+    if (censored == nullptr) {
+      EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est.ptr<float>(y), n);
+      return;
+    }
+    EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, rows.e.data(), n);
+    CensorRow(*censored, y, rows.e.data(), est.ptr<float>(y), n);
+    CensorRow(*censored, y, p2.ptr<float>(y), prior_out.ptr<float>(y), n);
+  });
+  *prior = prior_out;
+  *posterior = post;
   return est;
 }
 
@@ -740,6 +824,55 @@ struct DeblurStats {
   double posterior[3] = {0, 0, 0}, detail[3] = {0, 0, 0}, detail_sq[3] = {0, 0, 0};
   long long count = 0;
 };
+
+// One gray row of DetailAndStats: d = e - p, and over the values not masked the sums of v, d and
+// d^2 in four partial sums, value x into sum x mod 4 (the partial sums side by side: one vector
+// of four doubles each; a masked value adds +0, which leaves a sum started at +0 unchanged).
+// Returns how many values are not masked.
+TURBID_ROW_KERNEL int DetailStatsRow1(const float* __restrict e, const float* __restrict p,
+                                      const float* __restrict v, const uchar* __restrict m,
+                                      float* __restrict d, double* __restrict sp,
+                                      double* __restrict sd, double* __restrict sq, int n) {
+  for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
+  // The four partial sums as one vector each (GCC vector extensions; masked values as +0 by
+  // a bit mask).
+  using V4d = double __attribute__((vector_size(32)));
+  using V4f = float __attribute__((vector_size(16)));
+  using V4l = int64_t __attribute__((vector_size(32)));
+  V4d vp = {sp[0], sp[1], sp[2], sp[3]}, vd = {sd[0], sd[1], sd[2], sd[3]};
+  V4d vq = {sq[0], sq[1], sq[2], sq[3]};
+  V4l kept = {0, 0, 0, 0};
+  int x = 0;
+  for (; x + 4 <= n; x += 4) {
+    V4f vf, df;
+    std::memcpy(&vf, v + x, sizeof(vf));
+    std::memcpy(&df, d + x, sizeof(df));
+    const V4l keep = V4l{m[x], m[x + 1], m[x + 2], m[x + 3]} == 0;  // all ones where kept
+    const V4d vv = __builtin_convertvector(vf, V4d), dd = __builtin_convertvector(df, V4d);
+    const V4d dd2 = dd * dd;
+    vp += reinterpret_cast<V4d>(reinterpret_cast<V4l>(vv) & keep);
+    vd += reinterpret_cast<V4d>(reinterpret_cast<V4l>(dd) & keep);
+    vq += reinterpret_cast<V4d>(reinterpret_cast<V4l>(dd2) & keep);
+    kept -= keep;
+  }
+  int count = 0;
+  for (int k = 0; k < 4; ++k) {
+    sp[k] = vp[k];
+    sd[k] = vd[k];
+    sq[k] = vq[k];
+    count += static_cast<int>(kept[k]);
+  }
+  for (; x < n; ++x) {
+    if (m[x] != 0) continue;
+    const int k = x & 3;
+    const double dd = d[x];
+    sp[k] += v[x];
+    sd[k] += dd;
+    sq[k] += dd * dd;
+    ++count;
+  }
+  return count;
+}
 
 // detail = est - prior (float), and DeblurStats, one row pass. Four partial sums per quantity
 // (independent chains).
@@ -754,22 +887,14 @@ DeblurStats DetailAndStats(const cv::Mat& est, const cv::Mat& prior, const cv::M
     const uchar* m = masked.ptr<uchar>(y);
     float* d = const_cast<cv::Mat&>(detail).ptr<float>(y);
     const int n = est.cols * ch;
-    for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
     if (ch == 1) {
       double sp[4] = {0, 0, 0, 0}, sd[4] = {0, 0, 0, 0}, sq[4] = {0, 0, 0, 0};
-      for (int x = 0; x < est.cols; ++x) {
-        if (m[x] != 0) continue;
-        const int k = x & 3;
-        const double dd = d[x];
-        sp[k] += v[x];
-        sd[k] += dd;
-        sq[k] += dd * dd;
-        ++st.count;
-      }
+      st.count += DetailStatsRow1(e, p, v, m, d, sp, sd, sq, n);
       st.posterior[0] += (sp[0] + sp[1]) + (sp[2] + sp[3]);
       st.detail[0] += (sd[0] + sd[1]) + (sd[2] + sd[3]);
       st.detail_sq[0] += (sq[0] + sq[1]) + (sq[2] + sq[3]);
     } else {
+      for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
       for (int x = 0; x < est.cols; ++x) {
         if (m[x] != 0) continue;
         for (int c = 0; c < ch; ++c) {
@@ -784,6 +909,58 @@ DeblurStats DetailAndStats(const cv::Mat& est, const cv::Mat& prior, const cv::M
   }
   return st;
 }
+
+// The oracle's last steps on one row (kCh channels): v = p + d where not masked, p where masked
+// (kDeblur: p + the deblurred detail, then the prior copied back onto the masked pixels), or v =
+// the estimate p (!kDeblur); times E (kLit: target lit); then cv::patchNaNs(v, 0), cv::min(v, 1)
+// and max(v, 0) (0 for v < 0). Returns how many values are -0: cv::max's vector loop makes them
+// +0, its scalar loop (a row's last few values) keeps them, so the caller leaves those to cv::max
+// (which leaves every other value as it is).
+template <int kCh, bool kDeblur, bool kLit>
+TURBID_ROW_KERNEL int FinishRowN(const float* __restrict p, const float* __restrict d,
+                                 const uchar* __restrict m, const float* __restrict e,
+                                 float* __restrict out, int cols) {
+  int negative_zeros = 0;
+  for (int x = 0; x < cols; ++x) {
+    for (int c = 0; c < kCh; ++c) {
+      const int i = x * kCh + c;
+      float v = p[i];
+      if constexpr (kDeblur) {
+        // As bit masks, so that the sum is formed for every value and the loop has no branch.
+        const uint32_t sum = std::bit_cast<uint32_t>(p[i] + d[i]);
+        const uint32_t keep = m[x] != 0 ? ~0u : 0u;
+        v = std::bit_cast<float>((std::bit_cast<uint32_t>(p[i]) & keep) | (sum & ~keep));
+      }
+      if constexpr (kLit) v = v * e[i];
+      v = std::isnan(v) ? 0.0f : v;
+      v = 1.0f < v ? 1.0f : v;
+      // v < 0 ? 0 : v on the bits (v is not NaN here): negative values other than -0 become +0.
+      const uint32_t bits = std::bit_cast<uint32_t>(v);
+      negative_zeros += bits == 0x80000000u ? 1 : 0;
+      out[i] = std::bit_cast<float>(bits > 0x80000000u ? 0u : bits);
+    }
+  }
+  return negative_zeros;
+}
+
+struct Finisher {
+  int ch;
+  bool deblur, lit;
+  template <int kCh>
+  int Run(const float* p, const float* d, const uchar* m, const float* e, float* out,
+          int cols) const {
+    if (deblur) {
+      return lit ? FinishRowN<kCh, true, true>(p, d, m, e, out, cols)
+                 : FinishRowN<kCh, true, false>(p, d, m, e, out, cols);
+    }
+    return lit ? FinishRowN<kCh, false, true>(p, d, m, e, out, cols)
+               : FinishRowN<kCh, false, false>(p, d, m, e, out, cols);
+  }
+  int operator()(const float* p, const float* d, const uchar* m, const float* e, float* out,
+                 int cols) const {
+    return ch == 1 ? Run<1>(p, d, m, e, out, cols) : Run<3>(p, d, m, e, out, cols);
+  }
+};
 
 }  // namespace
 
@@ -819,56 +996,44 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
   const float clip_level = static_cast<float>(clip_level_d);
   const int ch = image.channels();
   // One streamed pass: the 7 x 7 mean of I (cv::boxFilter's, bit for bit), the variance from it
-  // (a row only), the data term, a u, and the counts.
+  // (a row only), the data term, a u, the counts, and the censored values with their bounds
+  // (est += (max(est, bound) - est) where clipped, applied as the estimate is made).
   cv::Mat u = NewLike(image), a = NewLike(image), au = NewLike(image);
-  int censored = 0, a_no_data = 0;
+  int censored = 0;
+  long long a_no_data = 0;
   const int n = image.cols * ch;
   thread_local std::vector<float> variance_row;
   variance_row.resize(std::max<size_t>(variance_row.size(), n));
+  thread_local Censored clipped;
+  clipped.row_start.assign(1, 0);
+  clipped.index.clear();
+  clipped.bound.clear();
   BoxStreamImage(image, 3, 1.0 / 49.0, [&](int y, const float* const* mean) {
     float* var = variance_row.data();
     NoiseVarianceRow(mean[0], var, gain_f, floor_f, n);
+    const float* in = image.ptr<float>(y);
+    const float* t = transmission.ptr<float>(y);
+    const float* e = irradiance.ptr<float>(y);
+    const float* sn = snow.ptr<float>(y);
+    const float* ve = veil.ptr<float>(y);
     float* uu = u.ptr<float>(y);
     float* aa = a.ptr<float>(y);
-    DataTermRow(image.ptr<float>(y), transmission.ptr<float>(y), irradiance.ptr<float>(y),
-                snow.ptr<float>(y), veil.ptr<float>(y), var, masked.ptr<uchar>(y), clip_level, ch,
-                image.cols, uu, aa);
-    censored += CountClipped(image.ptr<float>(y), clip_level, ch, image.cols);
+    DataTermRow(in, t, e, sn, ve, var, masked.ptr<uchar>(y), clip_level, ch, image.cols, uu, aa);
+    const int clipped_here = CountClipped(in, clip_level, ch, image.cols);
+    censored += clipped_here;
+    for (int i = 0; clipped_here > 0 && i < n; ++i) {
+      if (!(in[i] > clip_level)) continue;
+      const float sc = std::max(t[i] * e[i], 1e-12f);
+      clipped.index.push_back(i);
+      clipped.bound.push_back((((in[i] - 2.0f * std::sqrt(var[i])) - sn[i]) - ve[i]) / sc);
+    }
+    clipped.row_start.push_back(static_cast<int>(clipped.index.size()));
     ProductRow(aa, uu, au.ptr<float>(y), n);
     a_no_data += NoDataRow(aa, n);
   });
   r.censored_pixels = censored;
-  r.estimate = HierarchicalMmse(o, u, a, au, a_no_data, &r.prior, &r.posterior);
-  cv::Mat& est = r.estimate;
-  cv::Mat& prior = r.prior;
-  if (censored > 0) {
-    // est += (max(est, bound) - est) [clipped], and the same for the prior. The variance rows
-    // again (the box mean streamed a second time: cheaper than keeping a whole image of them for
-    // the renders that clip).
-    BoxStreamImage(image, 3, 1.0 / 49.0, [&](int y, const float* const* mean) {
-      float* var = variance_row.data();
-      NoiseVarianceRow(mean[0], var, gain_f, floor_f, n);
-      const float* in = image.ptr<float>(y);
-      const float* t = transmission.ptr<float>(y);
-      const float* e = irradiance.ptr<float>(y);
-      const float* sn = snow.ptr<float>(y);
-      const float* ve = veil.ptr<float>(y);
-      float* es = est.ptr<float>(y);
-      float* pr = prior.ptr<float>(y);
-      for (int i = 0; i < n; ++i) {
-        if (in[i] > clip_level) {
-          const float sc = std::max(t[i] * e[i], 1e-12f);
-          const float bound = (((in[i] - 2.0f * std::sqrt(var[i])) - sn[i]) - ve[i]) / sc;
-          es[i] = es[i] + (std::max(es[i], bound) - es[i]);
-          pr[i] = pr[i] + (std::max(pr[i], bound) - pr[i]);
-        } else {
-          // The same with the factor 0: x + 0 for finite x (the bound is finite), NaN otherwise.
-          es[i] = std::isfinite(es[i]) ? es[i] + 0.0f : std::numeric_limits<float>::quiet_NaN();
-          pr[i] = std::isfinite(pr[i]) ? pr[i] + 0.0f : std::numeric_limits<float>::quiet_NaN();
-        }
-      }
-    });
-  }
+  r.estimate = HierarchicalMmse(o, u, a, au, a_no_data, censored > 0 ? &clipped : nullptr,
+                                &r.prior, &r.posterior);
   return r;
 }
 
@@ -1057,18 +1222,36 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     result.deblur_nsr = std::clamp(signal > 0 ? noise / signal : 10.0, 1e-8, 10.0);
     DeconvolutionOptions d;
     d.nsr = result.deblur_nsr;
-    std::vector<cv::Mat> per_level;
-    for (size_t i = 0; i < blur.Count(); ++i)
-      per_level.push_back(Deconvolve(d, detail, blur.Kernel(i)));
-    est = prior + (blur.depth_dependent ? blur.Blend(per_level) : per_level[0]);
-    prior.copyTo(est, masked);
+    // est = prior + the deblurred detail, the prior where masked, then the target and the clamp:
+    // one pass, fed by the streamed deconvolution where it has one (one kernel, spatial path).
+    const Finisher finish{truth.channels, true, o.target == "lit"};
+    cv::Mat out = NewLike(est);
+    int negative_zeros = 0;
+    auto emit = [&](int y, const float* row) {
+      negative_zeros += finish(prior.ptr<float>(y), row, masked.ptr<uchar>(y),
+                               truth.irradiance.ptr<float>(y), out.ptr<float>(y), out.cols);
+    };
+    if (blur.Count() != 1 || blur.depth_dependent || !DeconvolveRows(d, detail, blur.Kernel(0), emit)) {
+      std::vector<cv::Mat> per_level;
+      for (size_t i = 0; i < blur.Count(); ++i)
+        per_level.push_back(Deconvolve(d, detail, blur.Kernel(i)));
+      const cv::Mat deblurred = blur.depth_dependent ? blur.Blend(per_level) : per_level[0];
+      for (int y = 0; y < out.rows; ++y) emit(y, deblurred.ptr<float>(y));
+    }
     result.steps.push_back("deblur: Wiener, NSR " + std::to_string(result.deblur_nsr));
+    if (negative_zeros > 0) cv::max(out, 0.0, out);
+    result.image = out;
+    return result;
   }
-  cv::Mat out = o.target == "lit" ? est.mul(truth.irradiance) : est;
-  cv::patchNaNs(out, 0.0);
-  cv::min(out, 1.0, out);
-  cv::max(out, 0.0, out);
-  result.image = out;
+  // The target and the clamp (cv::patchNaNs, cv::min, cv::max) in one pass, in place.
+  const Finisher finish{truth.channels, false, o.target == "lit"};
+  int negative_zeros = 0;
+  for (int y = 0; y < est.rows; ++y) {
+    negative_zeros += finish(est.ptr<float>(y), nullptr, nullptr, truth.irradiance.ptr<float>(y),
+                             est.ptr<float>(y), est.cols);
+  }
+  if (negative_zeros > 0) cv::max(est, 0.0, est);
+  result.image = est;
   return result;
 }
 
