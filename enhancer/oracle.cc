@@ -979,6 +979,21 @@ void BoxFilterReflect(const cv::Mat& source, cv::Mat& dst, int radius, bool norm
                  });
 }
 
+void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& masked,
+                 const cv::Mat& irradiance, cv::Mat& out) {
+  CV_Assert(prior.depth() == CV_32F && (prior.channels() == 1 || prior.channels() == 3));
+  const Finisher finish{prior.channels(), !detail.empty(), !irradiance.empty()};
+  if (out.data != prior.data) out.create(prior.size(), prior.type());
+  int negative_zeros = 0;
+  for (int y = 0; y < prior.rows; ++y) {
+    negative_zeros += finish(prior.ptr<float>(y), detail.empty() ? nullptr : detail.ptr<float>(y),
+                             detail.empty() ? nullptr : masked.ptr<uchar>(y),
+                             irradiance.empty() ? nullptr : irradiance.ptr<float>(y),
+                             out.ptr<float>(y), prior.cols);
+  }
+  if (negative_zeros > 0) cv::max(out, 0.0, out);
+}
+
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
@@ -1231,7 +1246,8 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
       negative_zeros += finish(prior.ptr<float>(y), row, masked.ptr<uchar>(y),
                                truth.irradiance.ptr<float>(y), out.ptr<float>(y), out.cols);
     };
-    if (blur.Count() != 1 || blur.depth_dependent || !DeconvolveRows(d, detail, blur.Kernel(0), emit)) {
+    if (blur.Count() != 1 || blur.depth_dependent ||
+        !DeconvolveRows(d, detail, blur.Kernel(0), emit)) {
       std::vector<cv::Mat> per_level;
       for (size_t i = 0; i < blur.Count(); ++i)
         per_level.push_back(Deconvolve(d, detail, blur.Kernel(i)));
@@ -1243,14 +1259,8 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     result.image = out;
     return result;
   }
-  // The target and the clamp (cv::patchNaNs, cv::min, cv::max) in one pass, in place.
-  const Finisher finish{truth.channels, false, o.target == "lit"};
-  int negative_zeros = 0;
-  for (int y = 0; y < est.rows; ++y) {
-    negative_zeros += finish(est.ptr<float>(y), nullptr, nullptr, truth.irradiance.ptr<float>(y),
-                             est.ptr<float>(y), est.cols);
-  }
-  if (negative_zeros > 0) cv::max(est, 0.0, est);
+  oracle_internal::FinishImage(est, cv::Mat(), masked,
+                               o.target == "lit" ? truth.irradiance : cv::Mat(), est);
   result.image = est;
   return result;
 }

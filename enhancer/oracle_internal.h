@@ -22,6 +22,14 @@ struct OracleMmseResult {
 // bit (its sums in double, in its order: oracle.cc says which). dst may be src.
 void BoxFilterReflect(const cv::Mat& src, cv::Mat& dst, int radius, bool normalize);
 
+// The oracle's last step: v = prior + detail where masked is 0, prior where it is not (detail
+// empty: v = prior, masked unused), times irradiance (empty: not), then cv::patchNaNs(v, 0),
+// cv::min(v, 1.0) and cv::max(v, 0.0), with their values bit for bit (-0 included: OpenCV's
+// vector max makes it +0, its scalar loop keeps it). CV_32F, 1 or 3 channels, masked CV_8UC1;
+// out may be prior.
+void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& masked,
+                 const cv::Mat& irradiance, cv::Mat& out);
+
 // The oracle's data term and estimate: the noise variance max(box7(I), 0) shot_gain + floor_var
 // (7x7 local mean, reflected borders), u = (I - snow - veil) / max(t E, 1e-12) with weight
 // a = (t E)^2 / variance (0 where masked or where I > clip_level), then the hierarchical MMSE
