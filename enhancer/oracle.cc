@@ -15,6 +15,7 @@
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
 #include "simulator/image_pool.h"
+#include "simulator/kernels.h"
 #include "simulator/light.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
@@ -156,17 +157,26 @@ BlurModel MakeBlurModel(const PsfOptions& options, const cv::Mat& range_m,
 // oracle needs a few dozen per call, and fresh pages for each cost more than its arithmetic.
 cv::Mat NewLike(const cv::Mat& m) { return internal::PooledMat(m.size(), m.type()); }
 
-// out = m + s per channel (cv::add of a Mat and a Scalar: the scalar in float).
-void AddScalar(const cv::Mat& m, const cv::Scalar& s, const cv::Mat& out) {
-  cv::Mat dst = out;
-  cv::add(m, s, dst);
-}
-
 // Row kernels of the passes below (TURBID_ROW_KERNEL: vectorised, an AVX2 clone; the same float
 // operations in the same order as the loops they replaced, so the same values).
 TURBID_ROW_KERNEL void VeilRow(const float* __restrict t, const float* __restrict src,
                                float* __restrict v, int n) {
   for (int i = 0; i < n; ++i) v[i] = (1.0f - t[i]) * src[i];
+}
+
+// out = a + v per channel (cv::add of an image and a scalar: the scalar in float).
+TURBID_ROW_KERNEL void AddScalarRow1(const float* __restrict a, float v, float* __restrict out,
+                                     int n) {
+  for (int i = 0; i < n; ++i) out[i] = a[i] + v;
+}
+
+void AddPerChannelRow(const float* a, const float* v, int ch, float* out, int cols) {
+  if (ch == 1) {
+    AddScalarRow1(a, v[0], out, cols);
+    return;
+  }
+  for (int x = 0; x < cols; ++x)
+    for (int c = 0; c < ch; ++c) out[x * ch + c] = a[x * ch + c] + v[c];
 }
 
 TURBID_ROW_KERNEL void ProductRow(const float* __restrict a, const float* __restrict b,
@@ -263,14 +273,6 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   const bool zero_beta = std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
   truth.range_m = RangeFromDepth(scene.camera, scene.depth_m);
 
-  cv::Mat e_l(image.size(), image.type(), cv::Scalar::all(0));
-  if (!ro.light.lights.empty()) {
-    const cv::Mat normals =
-        scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
-    e_l = IrradianceMap(ro.light, scene.camera, scene.depth_m, normals, beta);
-  }
-  truth.irradiance = NewLike(image);
-  AddScalar(e_l, ToScalar(ambient), truth.irradiance);
   if (zero_beta) {
     // The renderer's beta = 0 path: t = 1 where depth is valid, 0 (open water) where it is NaN.
     cv::Mat valid = truth.range_m == truth.range_m;  // 255 where not NaN
@@ -279,9 +281,8 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
     std::vector<cv::Mat> planes(ch, t1);
     cv::merge(planes, truth.transmission);
   } else {
-    truth.transmission = TransmissionMap(truth.range_m, beta);
+    truth.transmission = NewLike(image);
   }
-  // veil = (1 - t) (E_L [+ B_inf]), as (one - t).mul(E_L + B_inf) evaluates it.
   cv::Scalar backscatter = cv::Scalar::all(0);
   if (water.backscatter) {
     backscatter = ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
@@ -289,12 +290,57 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   } else {
     truth.steps.push_back("veil: (1 - t) E_L");
   }
+  // One pass over the rows: the lights' irradiance E_L (IrradianceMap's row kernels: each light's
+  // distance and geometric factor, accumulated onto zeros), E = E_L + E_A, t (TransmissionMap's
+  // row kernel) and the veil (1 - t)(E_L [+ B_inf]), with the float operations of the whole-image
+  // functions and of cv::add with a scalar (the scalar in float); E_L, the lights' geometry and
+  // E_L + B_inf exist only as rows.
+  const int w = image.cols, n = w * ch;
+  cv::Mat normals;
+  std::optional<internal::LightRowContext> context;
+  std::vector<internal::LightRowConstants> lights;
+  if (!ro.light.lights.empty()) {
+    ThrowIfInvalid(ro.light, "light");
+    normals = scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
+    CV_Assert(scene.depth_m.type() == CV_32FC1 && normals.type() == CV_32FC3 &&
+              normals.size() == scene.depth_m.size());
+    context = internal::LightContextFor(ro.light, scene.camera, w);
+    lights = internal::LightConstantsFor(ro.light, ch);
+  }
+  float neg_beta[3] = {0, 0, 0}, ambient_f[3] = {0, 0, 0}, backscatter_f[3] = {0, 0, 0};
+  for (int c = 0; c < ch; ++c) {
+    neg_beta[c] = -static_cast<float>(beta[c]);
+    ambient_f[c] = static_cast<float>(ambient[c]);
+    backscatter_f[c] = static_cast<float>(backscatter[c]);
+  }
+  thread_local std::vector<float> rows;
+  rows.resize(std::max<size_t>(rows.size(), static_cast<size_t>(2 * n + 7 * w)));
+  float* e_l = rows.data();
+  float* source = e_l + n;
+  float* l_row = source + n;
+  float* g_row = l_row + w;
+  float* cos_scratch = g_row + w;
+  truth.irradiance = NewLike(image);
   truth.veil = NewLike(image);
-  const cv::Mat source = water.backscatter ? NewLike(image) : e_l;
-  if (water.backscatter) AddScalar(e_l, backscatter, source);
-  ForRows(
-      image, [](int n, const float* t, const float* src, float* v) { VeilRow(t, src, v, n); },
-      truth.transmission, source, truth.veil);
+  for (int y = 0; y < image.rows; ++y) {
+    std::fill(e_l, e_l + n, 0.0f);
+    for (const internal::LightRowConstants& light : lights) {
+      internal::LightGeometryRow(*context, light, context->RayY(scene.camera, y),
+                                 scene.depth_m.ptr<float>(y), normals.ptr<cv::Vec3f>(y), w, l_row,
+                                 g_row, cos_scratch);
+      internal::AccumulateLightRow(l_row, g_row, w, ch, neg_beta, light.color, false, e_l);
+    }
+    float* e = truth.irradiance.ptr<float>(y);
+    float* t = truth.transmission.ptr<float>(y);
+    AddPerChannelRow(e_l, ambient_f, ch, e, w);
+    if (!zero_beta) TransmissionRows(truth.range_m.ptr<float>(y), w, beta, t);
+    const float* src = e_l;
+    if (water.backscatter) {
+      AddPerChannelRow(e_l, backscatter_f, ch, source, w);
+      src = source;
+    }
+    VeilRow(t, src, truth.veil.ptr<float>(y), n);
+  }
   truth.snow = NewLike(image);
   truth.snow.setTo(cv::Scalar::all(0));
   if (remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {

@@ -229,17 +229,34 @@ TEST(Oracle, MmseEqualsPreOptimisationImplementation) {
 
 // End to end: today's oracle and oracle_exact give the pre-optimisation values on renders of the
 // built-in scenes, gray and colour: 8-bit noisy (the default), float without noise or
-// backscatter, and a bright LED that clips (censored samples); targets clean and lit. Bit for bit
+// backscatter, a bright LED that clips (censored samples), two lights with normals from the depth,
+// and no lights without attenuation; targets clean and lit. Bit for bit
 // except the Wiener noise-to-signal ratio: its three masked means are now summed in double in one
 // pass (not cv::mean / cv::meanStdDev's order), so it agrees to double rounding (relative 1e-12
 // allows ~1e4 ulps); a ratio that far apart moves the deblurred image by less than 1e-12
 // relative, i.e. not at all in float (the images are compared bit for bit, and are equal).
 TEST(Oracle, EqualsPreOptimisationOracleOnRenders) {
   for (const char* name : {"hull", "seafloor", "room"}) {
-    const Scene scene = Builtin(name, 0.2);
-    for (int variant = 0; variant < 3; ++variant) {
+    const Scene builtin = Builtin(name, 0.2);
+    for (int variant = 0; variant < 5; ++variant) {
+      Scene scene = builtin;
       RenderOptions o;
       o.seed = 3 + variant;
+      if (variant == 3) {
+        // Two lights, normals from the depth (the truth maps' per-row light geometry).
+        LightOptions second;
+        second.position_in_camera_m = {0.3, -0.2, 0.1};
+        second.half_power_angle_deg = 30.0;
+        second.color_rgb = {1.0, 0.8, 0.6};
+        o.light.lights.push_back(second);
+        scene.normals.release();
+      }
+      if (variant == 4) {
+        // No lights and no attenuation (t = 1 where the depth is valid).
+        o.light.lights.clear();
+        o.water.beta_rgb_per_m = {0.0, 0.0, 0.0};
+        o.water.beta_gray_per_m = 0.0;
+      }
       if (variant == 1) {
         o.water.backscatter = false;
         o.camera.bit_depth = 32;
