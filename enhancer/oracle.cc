@@ -342,14 +342,20 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
     VeilRow(t, src, truth.veil.ptr<float>(y), n);
   }
   truth.snow = NewLike(image);
-  truth.snow.setTo(cv::Scalar::all(0));
   if (remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
-    const MarineSnow snow =
-        RenderMarineSnow(ro.snow, ro.light, scene.camera, truth.range_m, beta, ambient, ro.seed);
-    truth.snow = snow.layer;
-    truth.steps.push_back("snow: " + std::to_string(snow.visible) +
+    // RenderMarineSnow's layer (its particles drawn row by row onto zeros), into a pooled image.
+    const internal::SnowSplats splats = internal::DrawMarineSnow(
+        ro.snow, ro.light, scene.camera, truth.range_m, beta, ambient, ro.seed);
+    CV_Assert(splats.channels == ch);
+    for (int y = 0; y < image.rows; ++y) {
+      float* row = truth.snow.ptr<float>(y);
+      std::fill(row, row + n, 0.0f);
+      internal::AddSnowRow(splats, y, w, source, row);
+    }
+    truth.steps.push_back("snow: " + std::to_string(splats.visible) +
                           " particles re-rendered from the seed and subtracted");
   } else {
+    truth.snow.setTo(cv::Scalar::all(0));
     truth.steps.push_back("snow: none subtracted");
   }
   truth.blur = MakeBlurModel(ro.psf, truth.range_m, beta);
@@ -718,6 +724,91 @@ void CensorRow(const Censored& c, int y, const float* x, float* out, int n) {
   }
 }
 
+using DeblurStats = oracle_internal::DetailSums;
+
+// One gray row of DetailAndStats: d = e - p, and over the values not masked the sums of v, d and
+// d^2 in four partial sums, value x into sum x mod 4 (the partial sums side by side: one vector
+// of four doubles each; a masked value adds +0, which leaves a sum started at +0 unchanged).
+// Returns how many values are not masked.
+TURBID_ROW_KERNEL int DetailStatsRow1(const float* __restrict e, const float* __restrict p,
+                                      const float* __restrict v, const uchar* __restrict m,
+                                      float* __restrict d, double* __restrict sp,
+                                      double* __restrict sd, double* __restrict sq, int n) {
+  for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
+  // The four partial sums as one vector each (GCC vector extensions; masked values as +0 by
+  // a bit mask).
+  using V4d = double __attribute__((vector_size(32)));
+  using V4f = float __attribute__((vector_size(16)));
+  using V4l = int64_t __attribute__((vector_size(32)));
+  V4d vp = {sp[0], sp[1], sp[2], sp[3]}, vd = {sd[0], sd[1], sd[2], sd[3]};
+  V4d vq = {sq[0], sq[1], sq[2], sq[3]};
+  V4l kept = {0, 0, 0, 0};
+  int x = 0;
+  for (; x + 4 <= n; x += 4) {
+    V4f vf, df;
+    std::memcpy(&vf, v + x, sizeof(vf));
+    std::memcpy(&df, d + x, sizeof(df));
+    const V4l keep = V4l{m[x], m[x + 1], m[x + 2], m[x + 3]} == 0;  // all ones where kept
+    const V4d vv = __builtin_convertvector(vf, V4d), dd = __builtin_convertvector(df, V4d);
+    const V4d dd2 = dd * dd;
+    vp += reinterpret_cast<V4d>(reinterpret_cast<V4l>(vv) & keep);
+    vd += reinterpret_cast<V4d>(reinterpret_cast<V4l>(dd) & keep);
+    vq += reinterpret_cast<V4d>(reinterpret_cast<V4l>(dd2) & keep);
+    kept -= keep;
+  }
+  int count = 0;
+  for (int k = 0; k < 4; ++k) {
+    sp[k] = vp[k];
+    sd[k] = vd[k];
+    sq[k] = vq[k];
+    count += static_cast<int>(kept[k]);
+  }
+  for (; x < n; ++x) {
+    if (m[x] != 0) continue;
+    const int k = x & 3;
+    const double dd = d[x];
+    sp[k] += v[x];
+    sd[k] += dd;
+    sq[k] += dd * dd;
+    ++count;
+  }
+  return count;
+}
+
+// One row of the detail d = e - p (float) and of DeblurStats (cols pixels, ch channels). Four
+// partial sums per quantity for one channel (independent chains).
+void DetailStatsRow(const float* e, const float* p, const float* v, const uchar* m, float* d,
+                    int cols, int ch, DeblurStats& st) {
+  const int n = cols * ch;
+  if (ch == 1) {
+    double sp[4] = {0, 0, 0, 0}, sd[4] = {0, 0, 0, 0}, sq[4] = {0, 0, 0, 0};
+    st.count += DetailStatsRow1(e, p, v, m, d, sp, sd, sq, n);
+    st.posterior[0] += (sp[0] + sp[1]) + (sp[2] + sp[3]);
+    st.detail[0] += (sd[0] + sd[1]) + (sd[2] + sd[3]);
+    st.detail_sq[0] += (sq[0] + sq[1]) + (sq[2] + sq[3]);
+    return;
+  }
+  for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
+  for (int x = 0; x < cols; ++x) {
+    if (m[x] != 0) continue;
+    for (int c = 0; c < ch; ++c) {
+      const double dd = d[x * ch + c];
+      st.posterior[c] += v[x * ch + c];
+      st.detail[c] += dd;
+      st.detail_sq[c] += dd * dd;
+    }
+    ++st.count;
+  }
+}
+
+// HierarchicalMmse's optional output: detail = est - prior and its sums over the pixels not
+// masked (OracleEnhance's Wiener ratio), made as the estimate's rows are.
+struct DetailOut {
+  cv::Mat masked;  // CV_8UC1, 255 = masked
+  cv::Mat detail;  // the estimate's size and type
+  DeblurStats sums;
+};
+
 // Row buffers of HierarchicalMmse's streams (per thread, kept between calls).
 struct MmseRows {
   std::vector<float> has, s, e;
@@ -784,7 +875,7 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, i
 // written to a new image, since the stream that reads it re-reads rows for the bottom border).
 cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a,
                          const cv::Mat& au, long long a_no_data, const Censored* censored,
-                         cv::Mat* prior, cv::Mat* posterior) {
+                         cv::Mat* prior, cv::Mat* posterior, DetailOut* detail) {
   const int ch = u.channels();
   const int n = u.cols * ch;
   const size_t bytes = sizeof(float) * n;
@@ -854,106 +945,19 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
     float* s = post.ptr<float>(y);
     if (censored == nullptr) {
       EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est.ptr<float>(y), n);
-      return;
+    } else {
+      EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, rows.e.data(), n);
+      CensorRow(*censored, y, rows.e.data(), est.ptr<float>(y), n);
+      CensorRow(*censored, y, p2.ptr<float>(y), prior_out.ptr<float>(y), n);
     }
-    EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, rows.e.data(), n);
-    CensorRow(*censored, y, rows.e.data(), est.ptr<float>(y), n);
-    CensorRow(*censored, y, p2.ptr<float>(y), prior_out.ptr<float>(y), n);
+    if (detail != nullptr) {
+      DetailStatsRow(est.ptr<float>(y), prior_out.ptr<float>(y), s, detail->masked.ptr<uchar>(y),
+                     detail->detail.ptr<float>(y), u.cols, ch, detail->sums);
+    }
   });
   *prior = prior_out;
   *posterior = post;
   return est;
-}
-
-// Per-channel sums over the pixels that are not masked (see OracleEnhance's deblur).
-struct DeblurStats {
-  double posterior[3] = {0, 0, 0}, detail[3] = {0, 0, 0}, detail_sq[3] = {0, 0, 0};
-  long long count = 0;
-};
-
-// One gray row of DetailAndStats: d = e - p, and over the values not masked the sums of v, d and
-// d^2 in four partial sums, value x into sum x mod 4 (the partial sums side by side: one vector
-// of four doubles each; a masked value adds +0, which leaves a sum started at +0 unchanged).
-// Returns how many values are not masked.
-TURBID_ROW_KERNEL int DetailStatsRow1(const float* __restrict e, const float* __restrict p,
-                                      const float* __restrict v, const uchar* __restrict m,
-                                      float* __restrict d, double* __restrict sp,
-                                      double* __restrict sd, double* __restrict sq, int n) {
-  for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
-  // The four partial sums as one vector each (GCC vector extensions; masked values as +0 by
-  // a bit mask).
-  using V4d = double __attribute__((vector_size(32)));
-  using V4f = float __attribute__((vector_size(16)));
-  using V4l = int64_t __attribute__((vector_size(32)));
-  V4d vp = {sp[0], sp[1], sp[2], sp[3]}, vd = {sd[0], sd[1], sd[2], sd[3]};
-  V4d vq = {sq[0], sq[1], sq[2], sq[3]};
-  V4l kept = {0, 0, 0, 0};
-  int x = 0;
-  for (; x + 4 <= n; x += 4) {
-    V4f vf, df;
-    std::memcpy(&vf, v + x, sizeof(vf));
-    std::memcpy(&df, d + x, sizeof(df));
-    const V4l keep = V4l{m[x], m[x + 1], m[x + 2], m[x + 3]} == 0;  // all ones where kept
-    const V4d vv = __builtin_convertvector(vf, V4d), dd = __builtin_convertvector(df, V4d);
-    const V4d dd2 = dd * dd;
-    vp += reinterpret_cast<V4d>(reinterpret_cast<V4l>(vv) & keep);
-    vd += reinterpret_cast<V4d>(reinterpret_cast<V4l>(dd) & keep);
-    vq += reinterpret_cast<V4d>(reinterpret_cast<V4l>(dd2) & keep);
-    kept -= keep;
-  }
-  int count = 0;
-  for (int k = 0; k < 4; ++k) {
-    sp[k] = vp[k];
-    sd[k] = vd[k];
-    sq[k] = vq[k];
-    count += static_cast<int>(kept[k]);
-  }
-  for (; x < n; ++x) {
-    if (m[x] != 0) continue;
-    const int k = x & 3;
-    const double dd = d[x];
-    sp[k] += v[x];
-    sd[k] += dd;
-    sq[k] += dd * dd;
-    ++count;
-  }
-  return count;
-}
-
-// detail = est - prior (float), and DeblurStats, one row pass. Four partial sums per quantity
-// (independent chains).
-DeblurStats DetailAndStats(const cv::Mat& est, const cv::Mat& prior, const cv::Mat& posterior,
-                           const cv::Mat& masked, const cv::Mat& detail) {
-  const int ch = est.channels();
-  DeblurStats st;
-  for (int y = 0; y < est.rows; ++y) {
-    const float* e = est.ptr<float>(y);
-    const float* p = prior.ptr<float>(y);
-    const float* v = posterior.ptr<float>(y);
-    const uchar* m = masked.ptr<uchar>(y);
-    float* d = const_cast<cv::Mat&>(detail).ptr<float>(y);
-    const int n = est.cols * ch;
-    if (ch == 1) {
-      double sp[4] = {0, 0, 0, 0}, sd[4] = {0, 0, 0, 0}, sq[4] = {0, 0, 0, 0};
-      st.count += DetailStatsRow1(e, p, v, m, d, sp, sd, sq, n);
-      st.posterior[0] += (sp[0] + sp[1]) + (sp[2] + sp[3]);
-      st.detail[0] += (sd[0] + sd[1]) + (sd[2] + sd[3]);
-      st.detail_sq[0] += (sq[0] + sq[1]) + (sq[2] + sq[3]);
-    } else {
-      for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
-      for (int x = 0; x < est.cols; ++x) {
-        if (m[x] != 0) continue;
-        for (int c = 0; c < ch; ++c) {
-          const double dd = d[x * ch + c];
-          st.posterior[c] += v[x * ch + c];
-          st.detail[c] += dd;
-          st.detail_sq[c] += dd * dd;
-        }
-        ++st.count;
-      }
-    }
-  }
-  return st;
 }
 
 // The oracle's last steps on one row (kCh channels): v = p + d where not masked, p where masked
@@ -1043,7 +1047,7 @@ void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& mas
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
-                            double floor_var, double clip_level_d) {
+                            double floor_var, double clip_level_d, bool with_detail) {
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,
@@ -1093,8 +1097,17 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
     a_no_data += NoDataRow(aa, n);
   });
   r.censored_pixels = censored;
+  DetailOut detail_out;
+  if (with_detail) {
+    detail_out.masked = masked;
+    detail_out.detail = NewLike(image);
+  }
   r.estimate = HierarchicalMmse(o, u, a, au, a_no_data, censored > 0 ? &clipped : nullptr,
-                                &r.prior, &r.posterior);
+                                &r.prior, &r.posterior, with_detail ? &detail_out : nullptr);
+  if (with_detail) {
+    r.detail = detail_out.detail;
+    r.detail_sums = detail_out.sums;
+  }
   return r;
 }
 
@@ -1239,9 +1252,10 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   // variance read from the noisy value weights the darker draws more and biases every weighted
   // mean low.
   const double half_step = bits == 32 ? 0.0 : 0.5 * step;
-  oracle_internal::OracleMmseResult mmse =
-      oracle_internal::OracleMmse(o, image, truth.transmission, truth.irradiance, truth.snow,
-                                  truth.veil, gain, floor_var, 1.0 - half_step - 1e-7);
+  const BlurModel& blur = truth.blur;
+  oracle_internal::OracleMmseResult mmse = oracle_internal::OracleMmse(
+      o, image, truth.transmission, truth.irradiance, truth.snow, truth.veil, gain, floor_var,
+      1.0 - half_step - 1e-7, blur.active && o.deblur);
   result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
                          " + read^2 + step^2 / 12" + (sensor ? "" : " (sensor off)"));
   result.masked_pixels = mmse.masked_pixels;
@@ -1259,17 +1273,16 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
                            " pixels with t < " + std::to_string(o.mask_transmission) +
                            ", set to the prior mean");
   }
-  const BlurModel& blur = truth.blur;
   if (blur.active && o.deblur) {
     // Wiener on the deviation from the prior mean (the signal's mean; smooth, so h * P = P to
     // the blur's width): K = (noise left after the MMSE) / (variance of the deviation), both over
     // the data pixels — the MMSE filter for a white deviation of that variance (Gonzalez & Woods
     // §5.8). A constant-K Wiener on est itself would scale its mean by 1 / (1 + K).
     // detail = est - prior, and over the data pixels the mean of the posterior variance and the
-    // variance of detail, in one pass (sums in double, as cv::mean / cv::meanStdDev form them,
-    // in another order: the ratio agrees to ~1e-15).
-    const cv::Mat detail = NewLike(est);
-    const DeblurStats stats = DetailAndStats(est, prior, posterior, masked, detail);
+    // variance of detail, made with the estimate's rows (OracleMmse; sums in double, as cv::mean
+    // / cv::meanStdDev form them, in another order: the ratio agrees to ~1e-15).
+    const cv::Mat& detail = mmse.detail;
+    const DeblurStats& stats = mmse.detail_sums;
     double noise = 0, signal = 0;
     for (int c = 0; c < truth.channels; ++c) {
       const double n = static_cast<double>(stats.count);
