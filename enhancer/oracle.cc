@@ -442,8 +442,10 @@ TURBID_ROW_KERNEL void BoxAccumulateRow(double* __restrict sum, const double* __
 // The running sums of four rows at once (independent chains side by side, the sums in
 // registers): for each channel c, from the first sum h_r[c], h_r[(i + 1) cn + c] = h_r[i cn + c]
 // + (double(e_r[(i + k) cn + c]) - double(e_r[i cn + c])) in order of i.
-TURBID_ROW_KERNEL void BoxRunning4(const float* __restrict e0, const float* __restrict e1,
-                                   const float* __restrict e2, const float* __restrict e3,
+// The rows come as doubles (converted beforehand by vector conversions, exact): a scalar float
+// to double conversion per value was the chains' bottleneck (one per cycle).
+TURBID_ROW_KERNEL void BoxRunning4(const double* __restrict e0, const double* __restrict e1,
+                                   const double* __restrict e2, const double* __restrict e3,
                                    double* __restrict h0, double* __restrict h1,
                                    double* __restrict h2, double* __restrict h3, int cn, int k,
                                    int steps) {
@@ -452,10 +454,10 @@ TURBID_ROW_KERNEL void BoxRunning4(const float* __restrict e0, const float* __re
     double s0 = h0[c], s1 = h1[c], s2 = h2[c], s3 = h3[c];
     for (int i = 0; i < steps; ++i) {
       const int j = i * cn + c;
-      s0 = s0 + (static_cast<double>(e0[j + ahead]) - static_cast<double>(e0[j]));
-      s1 = s1 + (static_cast<double>(e1[j + ahead]) - static_cast<double>(e1[j]));
-      s2 = s2 + (static_cast<double>(e2[j + ahead]) - static_cast<double>(e2[j]));
-      s3 = s3 + (static_cast<double>(e3[j + ahead]) - static_cast<double>(e3[j]));
+      s0 = s0 + (e0[j + ahead] - e0[j]);
+      s1 = s1 + (e1[j + ahead] - e1[j]);
+      s2 = s2 + (e2[j + ahead] - e2[j]);
+      s3 = s3 + (e3[j + ahead] - e3[j]);
       h0[j + cn] = s0;
       h1[j + cn] = s1;
       h2[j + cn] = s2;
@@ -464,12 +466,16 @@ TURBID_ROW_KERNEL void BoxRunning4(const float* __restrict e0, const float* __re
   }
 }
 
-void BoxRunning1(const float* e, double* h, int cn, int k, int steps) {
+TURBID_ROW_KERNEL void WidenRow(const float* __restrict in, double* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) out[i] = static_cast<double>(in[i]);
+}
+
+void BoxRunning1(const double* e, double* h, int cn, int k, int steps) {
   for (int c = 0; c < cn; ++c) {
     double s = h[c];
     for (int i = 0; i < steps; ++i) {
       const int j = i * cn + c;
-      s = s + (static_cast<double>(e[j + k * cn]) - static_cast<double>(e[j]));
+      s = s + (e[j + k * cn] - e[j]);
       h[j + cn] = s;
     }
   }
@@ -479,7 +485,7 @@ void BoxRunning1(const float* e, double* h, int cn, int k, int steps) {
 // than the sums): the rings of row sums, the bordered input rows, the column sums and the output
 // rows. One set per thread: BoxStream calls do not nest.
 struct BoxScratch {
-  std::vector<double> ring, sum;
+  std::vector<double> ring, sum, ext_d;
   std::vector<float> ext, out;
 };
 
@@ -516,12 +522,21 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   ring_store.resize(std::max(ring_store.size(), kPlanes * ring_n));
   sum_store.assign(static_cast<size_t>(kPlanes) * n, 0.0);
   ext_store.resize(std::max(ext_store.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  const bool running = k != 3 && k != 5;
+  std::vector<double>& ext_d_store = scratch.ext_d;
+  if (running) {
+    ext_d_store.resize(
+        std::max(ext_d_store.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  }
   out_store.resize(std::max(out_store.size(), static_cast<size_t>(kPlanes) * n));
   auto slot = [&](int p, int j) {
     return ring_store.data() + p * ring_n + static_cast<size_t>(j % capacity) * n;
   };
   auto ext_row = [&](int p, int b) {
     return ext_store.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+  };
+  auto ext_d_row = [&](int p, int b) {
+    return ext_d_store.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
   };
   int produced = 0;  // bordered rows whose row sums are in the rings
   auto produce_batch = [&](int count) {
@@ -548,18 +563,21 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
             for (int i = 0; i < k; ++i) sum += static_cast<double>(e[i * cn + c]);
             h[c] = sum;
           }
+          WidenRow(e, ext_d_row(p, b), ext_n);
         }
       }
     }
-    if (k != 3 && k != 5) {
+    if (running) {
       for (int p = 0; p < kPlanes; ++p) {
         int b = 0;
         for (; b + 4 <= count; b += 4) {
           const int j = produced + b;
-          BoxRunning4(ext_row(p, b), ext_row(p, b + 1), ext_row(p, b + 2), ext_row(p, b + 3),
-                      slot(p, j), slot(p, j + 1), slot(p, j + 2), slot(p, j + 3), cn, k, cols - 1);
+          BoxRunning4(ext_d_row(p, b), ext_d_row(p, b + 1), ext_d_row(p, b + 2),
+                      ext_d_row(p, b + 3), slot(p, j), slot(p, j + 1), slot(p, j + 2),
+                      slot(p, j + 3), cn, k, cols - 1);
         }
-        for (; b < count; ++b) BoxRunning1(ext_row(p, b), slot(p, produced + b), cn, k, cols - 1);
+        for (; b < count; ++b)
+          BoxRunning1(ext_d_row(p, b), slot(p, produced + b), cn, k, cols - 1);
       }
     }
     produced += count;
