@@ -606,6 +606,141 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   }
 }
 
+// BoxStream for two radii at once (sums, scale 1): the same box sums of the same planes over
+// windows of radius `large` and `small` < large, from one pass over the input rows. The small
+// window's bordered rows are a run of the large one's (bordered row j of the small window is row
+// j + (large - small) of the large one's, the same source row, and its bordered columns are a
+// run of the large one's), so each input row is produced and widened once. Each radius keeps its
+// own ring of row sums and column sums and makes the same double operations in the same order as
+// BoxStream; consume_large(y, out) and consume_small(y, out) each receive their rows in order of
+// y (interleaved with each other).
+template <int kPlanes, typename Produce, typename ConsumeLarge, typename ConsumeSmall>
+void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce&& produce,
+                       ConsumeLarge&& consume_large, ConsumeSmall&& consume_small) {
+  CV_Assert(small >= 1 && small < large);
+  constexpr int kBatch = 4;
+  const int n = cols * cn;
+  const int kl = 2 * large + 1;
+  const int ext_n = (cols + kl - 1) * cn;
+  const int offset = large - small;
+  std::vector<int> xofs(cols + kl - 1);
+  for (int j = 0; j < cols + kl - 1; ++j)
+    xofs[j] = cv::borderInterpolate(j - large, cols, cv::BORDER_REFLECT);
+  struct Window {
+    int k = 0, capacity = 0, total = 0, produced = 0, accumulated = 0, emitted = 0;
+    double* ring = nullptr;
+    double* sum = nullptr;
+  };
+  Window win[2];
+  win[0].k = kl;
+  win[1].k = 2 * small + 1;
+  BoxScratch& scratch = ThreadBoxScratch();
+  size_t ring_total = 0;
+  for (Window& w : win) {
+    w.capacity = w.k + kBatch;
+    w.total = rows + w.k - 1;
+    ring_total += static_cast<size_t>(kPlanes) * w.capacity * n;
+  }
+  scratch.ring.resize(std::max(scratch.ring.size(), ring_total));
+  scratch.sum.assign(static_cast<size_t>(2) * kPlanes * n, 0.0);
+  scratch.ext.resize(std::max(scratch.ext.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  scratch.ext_d.resize(
+      std::max(scratch.ext_d.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  scratch.out.resize(std::max(scratch.out.size(), static_cast<size_t>(kPlanes) * n));
+  win[0].ring = scratch.ring.data();
+  win[1].ring = win[0].ring + static_cast<size_t>(kPlanes) * win[0].capacity * n;
+  win[0].sum = scratch.sum.data();
+  win[1].sum = win[0].sum + static_cast<size_t>(kPlanes) * n;
+  auto slot = [&](const Window& w, int p, int j) {
+    return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * n;
+  };
+  auto ext_row = [&](int p, int b) {
+    return scratch.ext.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+  };
+  auto ext_d_row = [&](int p, int b) {
+    return scratch.ext_d.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+  };
+  // The row sums of bordered rows (count of them, from the batch's row `first`) of window w,
+  // whose rows start `shift` values into the large window's bordered rows.
+  auto row_sums = [&](Window& w, int first, int count, int shift) {
+    for (int p = 0; p < kPlanes; ++p) {
+      for (int b = first; b < first + count; ++b) {
+        const float* e = ext_row(p, b) + shift;
+        double* h = slot(w, p, w.produced + b - first);
+        if (w.k == 3) {
+          BoxDirect3Row(e, h, cn, n);
+        } else if (w.k == 5) {
+          BoxDirect5Row(e, h, cn, n);
+        } else {
+          for (int c = 0; c < cn; ++c) {
+            double s = 0;
+            for (int i = 0; i < w.k; ++i) s += static_cast<double>(e[i * cn + c]);
+            h[c] = s;
+          }
+        }
+      }
+      if (w.k == 3 || w.k == 5) continue;
+      int b = first;
+      for (; b + 4 <= first + count; b += 4) {
+        const int j = w.produced + b - first;
+        BoxRunning4(ext_d_row(p, b) + shift, ext_d_row(p, b + 1) + shift,
+                    ext_d_row(p, b + 2) + shift, ext_d_row(p, b + 3) + shift, slot(w, p, j),
+                    slot(w, p, j + 1), slot(w, p, j + 2), slot(w, p, j + 3), cn, w.k, cols - 1);
+      }
+      for (; b < first + count; ++b)
+        BoxRunning1(ext_d_row(p, b) + shift, slot(w, p, w.produced + b - first), cn, w.k,
+                    cols - 1);
+    }
+    w.produced += count;
+  };
+  // The column steps that the rows produced so far allow, in order: the first k - 1 rows into the
+  // column sums, then one output row per further row.
+  const float* out[kPlanes];
+  for (int p = 0; p < kPlanes; ++p) out[p] = scratch.out.data() + static_cast<size_t>(p) * n;
+  auto columns = [&](Window& w, auto& consume) {
+    while (w.accumulated < w.k - 1 && w.accumulated < w.produced) {
+      for (int p = 0; p < kPlanes; ++p)
+        BoxAccumulateRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, w.accumulated), n);
+      ++w.accumulated;
+    }
+    while (w.accumulated == w.k - 1 && w.emitted < rows && w.emitted + w.k - 1 < w.produced) {
+      const int y = w.emitted;
+      for (int p = 0; p < kPlanes; ++p) {
+        BoxColumnRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, y + w.k - 1), slot(w, p, y),
+                     scratch.out.data() + static_cast<size_t>(p) * n, n);
+      }
+      consume(y, out);
+      ++w.emitted;
+    }
+  };
+  const int total = win[0].total;
+  for (int j0 = 0; j0 < total; j0 += kBatch) {
+    const int count = std::min(kBatch, total - j0);
+    for (int b = 0; b < count; ++b) {
+      const int j = j0 + b;
+      float* in[kPlanes];
+      for (int p = 0; p < kPlanes; ++p) in[p] = ext_row(p, b) + large * cn;
+      produce(cv::borderInterpolate(j - large, rows, cv::BORDER_REFLECT), in);
+      for (int p = 0; p < kPlanes; ++p) {
+        float* e = ext_row(p, b);
+        for (int x = 0; x < cols + kl - 1; ++x) {
+          if (x == large) x = std::min(large + cols, cols + kl - 1);  // the interior is there
+          if (x >= cols + kl - 1) break;
+          for (int c = 0; c < cn; ++c) e[x * cn + c] = e[(large + xofs[x]) * cn + c];
+        }
+        WidenRow(e, ext_d_row(p, b), ext_n);
+      }
+    }
+    row_sums(win[0], 0, count, 0);
+    // The small window's rows among these: bordered rows j - offset in [0, its total).
+    const int first = std::max(0, offset - j0);
+    const int last = std::min(count, offset + win[1].total - j0);  // exclusive
+    if (last > first) row_sums(win[1], first, last - first, offset * cn);
+    columns(win[1], consume_small);
+    columns(win[0], consume_large);
+  }
+}
+
 // A whole image through BoxStream.
 template <typename Consume>
 void BoxStreamImage(const cv::Mat& src, int radius, double scale, Consume&& consume) {
@@ -843,11 +978,12 @@ MmseRows& ThreadMmseRows(int n) {
 // 0: no data): max(box(a (z - p)^2) - box([a > 0]), 0) / box(a) over windows of `radius`.
 // Unbiased for independent samples (E a (z - p)^2 = a S + 1). no_data: how many values of a
 // have a > 0 false. Streamed: the box sums of a, of the numerator and (where some value has no
-// data) of [a > 0] exist only as rows; consume(y, s) receives the variance's row y. With data
-// everywhere the box count of [a > 0] is the full (2r + 1)^2 window (reflected borders), a small
-// integer, exact whatever the summation. s_row(y): where row y of the variance goes.
-template <typename SRow, typename Consume>
-void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius,
+// data) of [a > 0] exist only as rows; consume(y) is called once row y of the variance is in
+// s_row(y), in order of y. p_row(y): row y of p (asked for once or more per row, before the
+// variance's row y). With data everywhere the box count of [a > 0] is the full (2r + 1)^2 window
+// (reflected borders), a small integer, exact whatever the summation.
+template <typename PRow, typename SRow, typename Consume>
+void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int radius,
                          long long no_data, SRow&& s_row, Consume&& consume) {
   const int n = z.cols * z.channels();
   const size_t bytes = sizeof(float) * n;
@@ -858,8 +994,7 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, i
         z.rows, z.cols, z.channels(), radius, 1.0,
         [&](int y, float* const* in) {
           std::memcpy(in[0], a.ptr<float>(y), bytes);
-          NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p.ptr<float>(y), in[1],
-                       rows.has.data(), n);
+          NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], rows.has.data(), n);
         },
         [&](int y, const float* const* o) {
           SignalVarianceRowFull(o[1], o[0], full, s_row(y), n);
@@ -870,7 +1005,7 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, i
         z.rows, z.cols, z.channels(), radius, 1.0,
         [&](int y, float* const* in) {
           std::memcpy(in[0], a.ptr<float>(y), bytes);
-          NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p.ptr<float>(y), in[1], in[2], n);
+          NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], in[2], n);
         },
         [&](int y, const float* const* o) {
           SignalVarianceRow(o[1], o[0], o[2], s_row(y), n);
@@ -916,17 +1051,25 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
     std::memcpy(in[0], a.ptr<float>(y), bytes);
     std::memcpy(in[1], au.ptr<float>(y), bytes);
   };
-  // Coarse level, and the numerator of its whole-image signal variance (z = m, weights w, p =
-  // the level-0 constant).
+  // The coarse and middle levels from one pass over a and a u (BoxStreamTwoRadii), with the
+  // numerator of the coarse level's whole-image signal variance (z = m, weights w, p = the
+  // level-0 constant).
   const cv::Mat wc = NewLike(u), mc = NewLike(u), num = NewLike(u);
+  const cv::Mat wm = NewLike(u), mm = NewLike(u);
   long long wc_none[4] = {0, 0, 0, 0};
-  BoxStream<2>(u.rows, u.cols, ch, o.coarse_radius, 1.0, level_input,
-               [&](int y, const float* const* out) {
-                 level(y, out, wc, mc);
-                 NumeratorOnlyRow(mc.ptr<float>(y), out[0], p0.data(),
-                                  const_cast<cv::Mat&>(num).ptr<float>(y), n);
-                 NoDataPerChannel(out[0], u.cols, ch, wc_none);
-               });
+  long long wm_none = 0;
+  BoxStreamTwoRadii<2>(
+      u.rows, u.cols, ch, o.coarse_radius, o.middle_radius, level_input,
+      [&](int y, const float* const* out) {
+        level(y, out, wc, mc);
+        NumeratorOnlyRow(mc.ptr<float>(y), out[0], p0.data(),
+                         const_cast<cv::Mat&>(num).ptr<float>(y), n);
+        NoDataPerChannel(out[0], u.cols, ch, wc_none);
+      },
+      [&](int y, const float* const* out) {
+        level(y, out, wm, mm);
+        wm_none += NoDataRow(out[0], n);
+      });
   // max(sum w (m - p)^2 - sum [w > 0], 0) / sum w per channel; the count of [w > 0] is an
   // integer, exact in double whatever the order of its sum.
   const cv::Scalar sw = cv::sum(wc), sn = cv::sum(num);
@@ -936,30 +1079,28 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
     const double sh = values - static_cast<double>(wc_none[c]);
     s0[i] = static_cast<float>(sw[c] > 0 ? std::max(sn[c] - sh, 0.0) / sw[c] : 0.0);
   }
-  // Middle level; the coarse shrink p1 = p0 + S w / (S w + 1) (m - p0) as its epilogue (w = 0
-  // keeps p).
-  const cv::Mat wm = NewLike(u), mm = NewLike(u), p1 = NewLike(u);
-  long long wm_none = 0;
-  BoxStream<2>(u.rows, u.cols, ch, o.middle_radius, 1.0, level_input,
-               [&](int y, const float* const* out) {
-                 level(y, out, wm, mm);
-                 wm_none += NoDataRow(out[0], n);
-                 ShrinkRowTo(s0.data(), wc.ptr<float>(y), mc.ptr<float>(y), p0.data(),
-                             const_cast<cv::Mat&>(p1).ptr<float>(y), n);
-               });
-  // The middle level's signal variance over coarse windows, and its shrink into p2.
-  const cv::Mat p2 = NewLike(u);
+  // The middle level's signal variance over coarse windows around p1, the coarse shrink p1 = p0 +
+  // S w / (S w + 1) (m - p0) (w = 0 keeps p), made as the stream first asks for its rows (again
+  // for the reflected border: the same values); then the middle shrink into p2.
+  const cv::Mat p1 = NewLike(u), p2 = NewLike(u);
+  auto p1_row = [&](int y) {
+    float* row = const_cast<cv::Mat&>(p1).ptr<float>(y);
+    ShrinkRowTo(s0.data(), wc.ptr<float>(y), mc.ptr<float>(y), p0.data(), row, n);
+    return row;
+  };
   LocalSignalVariance(
-      mm, wm, p1, o.coarse_radius, wm_none, [&](int) { return rows.s.data(); }, [&](int y) {
-    ShrinkRowTo(rows.s.data(), wm.ptr<float>(y), mm.ptr<float>(y), p1.ptr<float>(y),
-                const_cast<cv::Mat&>(p2).ptr<float>(y), n);
-  });
+      mm, wm, p1_row, o.coarse_radius, wm_none, [&](int) { return rows.s.data(); },
+      [&](int y) {
+        ShrinkRowTo(rows.s.data(), wm.ptr<float>(y), mm.ptr<float>(y), p1.ptr<float>(y),
+                    const_cast<cv::Mat&>(p2).ptr<float>(y), n);
+      });
   // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
   // S v / (S + v) = S / (S a + 1), S where masked.
   cv::Mat post = NewLike(u), est = NewLike(u);
   cv::Mat prior_out = censored != nullptr ? NewLike(u) : p2;
   LocalSignalVariance(
-      u, a, p2, o.pixel_radius, a_no_data, [&](int y) { return post.ptr<float>(y); }, [&](int y) {
+      u, a, [&](int y) { return p2.ptr<float>(y); }, o.pixel_radius, a_no_data,
+      [&](int y) { return post.ptr<float>(y); }, [&](int y) {
     float* s = post.ptr<float>(y);
     if (censored == nullptr) {
       EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est.ptr<float>(y), n);

@@ -175,7 +175,8 @@ TEST(Oracle, FinishImageEqualsOpenCvSteps) {
 // Today's fused data term and MMSE give the pre-optimisation values bit for bit (the same float
 // operations in the same order): gray and colour, odd and tiny sizes, masked pixels (t below the
 // floor), clipped samples (censored), sensor noise on and off, random images and noisy 8-bit
-// renders of the built-in scenes (with random truth maps: the step is arithmetic on the maps).
+// renders of the built-in scenes (with random truth maps: the step is arithmetic on the maps);
+// radii giving running and direct row sums at each level.
 TEST(Oracle, MmseEqualsPreOptimisationImplementation) {
   auto check = [](const std::string& what, const OracleOptions& o, const cv::Mat& image,
                   const cv::Mat& t, const cv::Mat& e, const cv::Mat& snow, const cv::Mat& veil,
@@ -213,9 +214,12 @@ TEST(Oracle, MmseEqualsPreOptimisationImplementation) {
       // Some clipped samples and some pixels below the transmission floor.
       image.forEach<float>([](float& v, const int*) { v = v > 0.9f ? 1.0f : v; });
       t.forEach<float>([](float& v, const int*) { v = v < 0.03f ? 1e-5f : v; });
-      for (int variant = 0; variant < 3; ++variant) {
+      for (int variant = 0; variant < 5; ++variant) {
         OracleOptions o;
         if (variant == 1) o.coarse_radius = 9, o.middle_radius = 3, o.pixel_radius = 1;
+        // Middle windows of 3 and 5 (direct row sums beside the coarse running sums).
+        if (variant == 3) o.coarse_radius = 5, o.middle_radius = 1, o.pixel_radius = 2;
+        if (variant == 4) o.coarse_radius = 40, o.middle_radius = 2, o.pixel_radius = 3;
         const double gain = variant == 2 ? 0.0 : 1.0 / 2000.0;
         const double floor_var = variant == 2 ? 1e-12 : 0.01 * 0.01 + 1.0 / (255.0 * 255.0 * 12);
         const double clip = variant == 2 ? 1.0 - 1e-7 : 1.0 - 0.5 / 255.0 - 1e-7;
