@@ -801,22 +801,8 @@ int CountClipped(const float* in, float clip_level, int ch, int cols) {
   return count;
 }
 
-// One row of LocalSignalVariance's numerator a (z - p)^2 and data indicator [a > 0]; returns how
-// many values have no data.
-TURBID_ROW_KERNEL int NumeratorRow(const float* __restrict zz, const float* __restrict aa,
-                                   const float* __restrict pp, float* __restrict nn,
-                                   float* __restrict hh, int n) {
-  int none = 0;
-  for (int i = 0; i < n; ++i) {
-    const float d = zz[i] - pp[i];
-    nn[i] = aa[i] * (d * d);
-    hh[i] = aa[i] > 0.0f ? 1.0f : 0.0f;
-    none += aa[i] > 0.0f ? 0 : 1;
-  }
-  return none;
-}
-
-// The numerator alone (the whole-image variance counts the indicator instead of summing it).
+// One row of LocalSignalVariance's numerator a (z - p)^2 (its box count of [a > 0] is made in
+// integers: BoxCount).
 TURBID_ROW_KERNEL void NumeratorOnlyRow(const float* __restrict zz, const float* __restrict aa,
                                         const float* __restrict pp, float* __restrict nn, int n) {
   for (int i = 0; i < n; ++i) {
@@ -962,6 +948,73 @@ struct DetailOut {
   DeblurStats sums;
 };
 
+// Box counts of [a > 0] over (2 radius + 1)^2 windows, reflected borders, streamed: Add(a) takes
+// the source row of the next bordered row (in BoxStream's order: bordered rows 0, 1, ...),
+// Output(y, out) writes output row y (in order of y, once rows up to y + 2 radius are in). The
+// counts are integers, exact in any order of summation, so they equal the double box sums of the
+// 0 / 1 indicator that they replace (and cost integer adds instead of a third double plane).
+class BoxCount {
+ public:
+  BoxCount(int cols, int cn, int radius)
+      : cols_(cols), cn_(cn), k_(2 * radius + 1), n_(cols * cn), capacity_(k_ + 8) {
+    xofs_.resize(cols + k_ - 1);
+    for (int j = 0; j < cols + k_ - 1; ++j)
+      xofs_[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
+    indicator_.resize(static_cast<size_t>(cols) * cn);
+    ring_.resize(static_cast<size_t>(capacity_) * n_);
+    vertical_.assign(n_, 0);
+  }
+  void Add(const float* a) {
+    IndicatorRow(a, indicator_.data(), n_);
+    int32_t* h = ring_.data() + static_cast<size_t>(added_ % capacity_) * n_;
+    for (int c = 0; c < cn_; ++c) {
+      int32_t sum = 0;
+      for (int i = 0; i < k_; ++i) sum += indicator_[xofs_[i] * cn_ + c];
+      h[c] = sum;
+      for (int x = 1; x < cols_; ++x) {
+        sum += indicator_[xofs_[x + k_ - 1] * cn_ + c] - indicator_[xofs_[x - 1] * cn_ + c];
+        h[x * cn_ + c] = sum;
+      }
+    }
+    ++added_;
+  }
+  void Output(int y, float* out) {
+    CV_Assert(added_ >= y + k_ && y + k_ + 8 > added_);
+    if (y == 0) {
+      std::fill(vertical_.begin(), vertical_.end(), 0);
+      for (int j = 0; j < k_; ++j) AddRows(vertical_.data(), Row(j), nullptr, n_);
+    } else {
+      AddRows(vertical_.data(), Row(y + k_ - 1), Row(y - 1), n_);
+    }
+    IntToFloatRow(vertical_.data(), out, n_);
+  }
+
+ private:
+  TURBID_ROW_KERNEL static void IndicatorRow(const float* __restrict a, int32_t* __restrict out,
+                                             int n) {
+    for (int i = 0; i < n; ++i) out[i] = a[i] > 0.0f ? 1 : 0;
+  }
+  TURBID_ROW_KERNEL static void AddRows(int32_t* __restrict v, const int32_t* __restrict add,
+                                        const int32_t* __restrict sub, int n) {
+    if (sub == nullptr) {
+      for (int i = 0; i < n; ++i) v[i] += add[i];
+    } else {
+      for (int i = 0; i < n; ++i) v[i] += add[i] - sub[i];
+    }
+  }
+  TURBID_ROW_KERNEL static void IntToFloatRow(const int32_t* __restrict v, float* __restrict out,
+                                              int n) {
+    for (int i = 0; i < n; ++i) out[i] = static_cast<float>(v[i]);
+  }
+  const int32_t* Row(int j) const {
+    return ring_.data() + static_cast<size_t>(j % capacity_) * n_;
+  }
+  int cols_, cn_, k_, n_, capacity_;
+  int added_ = 0;
+  std::vector<int> xofs_;
+  std::vector<int32_t> indicator_, ring_, vertical_;
+};
+
 // Row buffers of HierarchicalMmse's streams (per thread, kept between calls).
 struct MmseRows {
   std::vector<float> has, s, e;
@@ -994,21 +1047,26 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
         z.rows, z.cols, z.channels(), radius, 1.0,
         [&](int y, float* const* in) {
           std::memcpy(in[0], a.ptr<float>(y), bytes);
-          NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], rows.has.data(), n);
+          NumeratorOnlyRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], n);
         },
         [&](int y, const float* const* o) {
           SignalVarianceRowFull(o[1], o[0], full, s_row(y), n);
           consume(y);
         });
   } else {
-    BoxStream<3>(
+    // The box count of [a > 0] in integers beside the two double planes (BoxStream asks for its
+    // bordered rows once each, in order).
+    BoxCount count(z.cols, z.channels(), radius);
+    BoxStream<2>(
         z.rows, z.cols, z.channels(), radius, 1.0,
         [&](int y, float* const* in) {
           std::memcpy(in[0], a.ptr<float>(y), bytes);
-          NumeratorRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], in[2], n);
+          NumeratorOnlyRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], n);
+          count.Add(a.ptr<float>(y));
         },
         [&](int y, const float* const* o) {
-          SignalVarianceRow(o[1], o[0], o[2], s_row(y), n);
+          count.Output(y, rows.has.data());
+          SignalVarianceRow(o[1], o[0], rows.has.data(), s_row(y), n);
           consume(y);
         });
   }
