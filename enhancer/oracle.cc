@@ -960,20 +960,35 @@ class BoxCount {
     xofs_.resize(cols + k_ - 1);
     for (int j = 0; j < cols + k_ - 1; ++j)
       xofs_[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
-    indicator_.resize(static_cast<size_t>(cols) * cn);
+    bordered_.resize(static_cast<size_t>(cols + k_ - 1) * cn);
+    prefix_.resize(bordered_.size() + 1);
     ring_.resize(static_cast<size_t>(capacity_) * n_);
     vertical_.assign(n_, 0);
   }
   void Add(const float* a) {
-    IndicatorRow(a, indicator_.data(), n_);
+    // The bordered indicator row, then its window sums: direct for small windows, else as
+    // differences of prefix sums (integers: any order gives the same counts).
+    const int ext_n = (cols_ + k_ - 1) * cn_;
+    int32_t* e = bordered_.data();
+    IndicatorRow(a, e + (k_ / 2) * cn_, n_);
+    for (int x = 0; x < cols_ + k_ - 1; ++x) {
+      if (x == k_ / 2) x = std::min(k_ / 2 + cols_, cols_ + k_ - 1);  // the interior is there
+      if (x >= cols_ + k_ - 1) break;
+      for (int c = 0; c < cn_; ++c) e[x * cn_ + c] = e[(k_ / 2 + xofs_[x]) * cn_ + c];
+    }
     int32_t* h = ring_.data() + static_cast<size_t>(added_ % capacity_) * n_;
-    for (int c = 0; c < cn_; ++c) {
-      int32_t sum = 0;
-      for (int i = 0; i < k_; ++i) sum += indicator_[xofs_[i] * cn_ + c];
-      h[c] = sum;
-      for (int x = 1; x < cols_; ++x) {
-        sum += indicator_[xofs_[x + k_ - 1] * cn_ + c] - indicator_[xofs_[x - 1] * cn_ + c];
-        h[x * cn_ + c] = sum;
+    if (k_ <= 9) {
+      WindowSumsDirect(e, h, cn_, k_, n_);
+    } else {
+      int32_t* prefix = prefix_.data();
+      prefix[0] = 0;
+      for (int i = 0; i < ext_n; ++i) prefix[i + 1] = prefix[i] + e[i];
+      // Per channel c the window of value i = x cn + c is i, i + cn, ..., i + (k - 1) cn; with
+      // one channel the prefix sums give it directly.
+      if (cn_ == 1) {
+        WindowSumsPrefix(prefix, h, k_, n_);
+      } else {
+        WindowSumsDirect(e, h, cn_, k_, n_);
       }
     }
     ++added_;
@@ -994,6 +1009,16 @@ class BoxCount {
                                              int n) {
     for (int i = 0; i < n; ++i) out[i] = a[i] > 0.0f ? 1 : 0;
   }
+  TURBID_ROW_KERNEL static void WindowSumsDirect(const int32_t* __restrict e,
+                                                 int32_t* __restrict h, int cn, int k, int n) {
+    for (int i = 0; i < n; ++i) h[i] = 0;
+    for (int j = 0; j < k; ++j)
+      for (int i = 0; i < n; ++i) h[i] += e[i + j * cn];
+  }
+  TURBID_ROW_KERNEL static void WindowSumsPrefix(const int32_t* __restrict prefix,
+                                                 int32_t* __restrict h, int k, int n) {
+    for (int i = 0; i < n; ++i) h[i] = prefix[i + k] - prefix[i];
+  }
   TURBID_ROW_KERNEL static void AddRows(int32_t* __restrict v, const int32_t* __restrict add,
                                         const int32_t* __restrict sub, int n) {
     if (sub == nullptr) {
@@ -1012,7 +1037,7 @@ class BoxCount {
   int cols_, cn_, k_, n_, capacity_;
   int added_ = 0;
   std::vector<int> xofs_;
-  std::vector<int32_t> indicator_, ring_, vertical_;
+  std::vector<int32_t> bordered_, prefix_, ring_, vertical_;
 };
 
 // Row buffers of HierarchicalMmse's streams (per thread, kept between calls).
