@@ -374,6 +374,31 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   return truth;
 }
 
+// MaskBelow's row for the oracle's stream: 255 where some channel of t is below floor (the
+// threshold in float, as cv::compare converts it), else 0; returns how many.
+TURBID_ROW_KERNEL int MaskRow1(const float* __restrict t, float floor, uchar* __restrict m,
+                               int cols) {
+  int count = 0;
+  for (int x = 0; x < cols; ++x) {
+    const bool below = t[x] < floor;
+    m[x] = below ? 255 : 0;
+    count += below ? 1 : 0;
+  }
+  return count;
+}
+
+int MaskRow(const float* t, float floor, int ch, int cols, uchar* m) {
+  if (ch == 1) return MaskRow1(t, floor, m, cols);
+  int count = 0;
+  for (int x = 0; x < cols; ++x) {
+    bool below = false;
+    for (int c = 0; c < ch; ++c) below = below || t[x * ch + c] < floor;
+    m[x] = below ? 255 : 0;
+    count += below ? 1 : 0;
+  }
+  return count;
+}
+
 // Pixels where any channel of t is below `floor` (NaN depth has t = 0): CV_8UC1, 255 = masked.
 cv::Mat MaskBelow(const cv::Mat& t, double floor) {
   if (t.channels() == 1) return t < floor;  // no copy of the one plane (cv::split would)
@@ -613,10 +638,13 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
 // run of the large one's), so each input row is produced and widened once. Each radius keeps its
 // own ring of row sums and column sums and makes the same double operations in the same order as
 // BoxStream; consume_large(y, out) and consume_small(y, out) each receive their rows in order of
-// y (interleaved with each other).
-template <int kPlanes, typename Produce, typename ConsumeLarge, typename ConsumeSmall>
+// y (interleaved with each other). first_large(y) / first_small(y): where output row y of the
+// first plane is written (out[0] points there).
+template <int kPlanes, typename Produce, typename ConsumeLarge, typename ConsumeSmall,
+          typename FirstLarge, typename FirstSmall>
 void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce&& produce,
-                       ConsumeLarge&& consume_large, ConsumeSmall&& consume_small) {
+                       ConsumeLarge&& consume_large, ConsumeSmall&& consume_small,
+                       FirstLarge&& first_large, FirstSmall&& first_small) {
   CV_Assert(small >= 1 && small < large);
   constexpr int kBatch = 4;
   const int n = cols * cn;
@@ -695,9 +723,7 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   };
   // The column steps that the rows produced so far allow, in order: the first k - 1 rows into the
   // column sums, then one output row per further row.
-  const float* out[kPlanes];
-  for (int p = 0; p < kPlanes; ++p) out[p] = scratch.out.data() + static_cast<size_t>(p) * n;
-  auto columns = [&](Window& w, auto& consume) {
+  auto columns = [&](Window& w, auto& consume, auto& first_plane) {
     while (w.accumulated < w.k - 1 && w.accumulated < w.produced) {
       for (int p = 0; p < kPlanes; ++p)
         BoxAccumulateRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, w.accumulated), n);
@@ -705,11 +731,14 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
     }
     while (w.accumulated == w.k - 1 && w.emitted < rows && w.emitted + w.k - 1 < w.produced) {
       const int y = w.emitted;
+      const float* outs[kPlanes];
       for (int p = 0; p < kPlanes; ++p) {
+        float* o = p == 0 ? first_plane(y) : scratch.out.data() + static_cast<size_t>(p) * n;
         BoxColumnRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, y + w.k - 1), slot(w, p, y),
-                     scratch.out.data() + static_cast<size_t>(p) * n, n);
+                     o, n);
+        outs[p] = o;
       }
-      consume(y, out);
+      consume(y, outs);
       ++w.emitted;
     }
   };
@@ -736,8 +765,8 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
     const int first = std::max(0, offset - j0);
     const int last = std::min(count, offset + win[1].total - j0);  // exclusive
     if (last > first) row_sums(win[1], first, last - first, offset * cn);
-    columns(win[1], consume_small);
-    columns(win[0], consume_large);
+    columns(win[1], consume_small, first_small);
+    columns(win[0], consume_large, first_large);
   }
 }
 
@@ -1126,8 +1155,7 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   }
   // w = box sum of a; m = box sum of a u / max(w, 1e-30), the BLUE of the local mean (noise
   // 1 / w).
-  auto level = [&](int y, const float* const* out, const cv::Mat& w, const cv::Mat& m) {
-    std::memcpy(const_cast<cv::Mat&>(w).ptr<float>(y), out[0], bytes);
+  auto level = [&](int y, const float* const* out, const cv::Mat& m) {
     QuotientRow(out[0], out[1], const_cast<cv::Mat&>(m).ptr<float>(y), n);
   };
   auto level_input = [&](int y, float* const* in) {
@@ -1144,15 +1172,17 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   BoxStreamTwoRadii<2>(
       u.rows, u.cols, ch, o.coarse_radius, o.middle_radius, level_input,
       [&](int y, const float* const* out) {
-        level(y, out, wc, mc);
+        level(y, out, mc);
         NumeratorOnlyRow(mc.ptr<float>(y), out[0], p0.data(),
                          const_cast<cv::Mat&>(num).ptr<float>(y), n);
         NoDataPerChannel(out[0], u.cols, ch, wc_none);
       },
       [&](int y, const float* const* out) {
-        level(y, out, wm, mm);
+        level(y, out, mm);
         wm_none += NoDataRow(out[0], n);
-      });
+      },
+      [&](int y) { return const_cast<cv::Mat&>(wc).ptr<float>(y); },  // w written in place
+      [&](int y) { return const_cast<cv::Mat&>(wm).ptr<float>(y); });
   // max(sum w (m - p)^2 - sum [w > 0], 0) / sum w per channel; the count of [w > 0] is an
   // integer, exact in double whatever the order of its sum.
   const cv::Scalar sw = cv::sum(wc), sn = cv::sum(num);
@@ -1297,9 +1327,9 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
   // weight. A sample clipped at 1 still bounds rho from below, (1 - 2 sigma - S - veil) / (t E):
   // the estimate is raised onto that bound where it falls short (docs/methods.md).
   OracleMmseResult r;
-  r.masked = MaskBelow(transmission, o.mask_transmission);
-  r.masked_pixels = cv::countNonZero(r.masked);
+  r.masked = internal::PooledMat(image.size(), CV_8UC1);  // made row by row in the stream below
   const cv::Mat& masked = r.masked;
+  const float mask_floor = static_cast<float>(o.mask_transmission);  // as cv::compare takes it
   const float clip_level = static_cast<float>(clip_level_d);
   const int ch = image.channels();
   // One streamed pass: the 7 x 7 mean of I (cv::boxFilter's, bit for bit), the variance from it
@@ -1325,7 +1355,9 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
     const float* ve = veil.ptr<float>(y);
     float* uu = u.ptr<float>(y);
     float* aa = a.ptr<float>(y);
-    DataTermRow(in, t, e, sn, ve, var, masked.ptr<uchar>(y), clip_level, ch, image.cols, uu, aa);
+    uchar* mk = const_cast<cv::Mat&>(masked).ptr<uchar>(y);
+    r.masked_pixels += MaskRow(t, mask_floor, ch, image.cols, mk);
+    DataTermRow(in, t, e, sn, ve, var, mk, clip_level, ch, image.cols, uu, aa);
     const int clipped_here = CountClipped(in, clip_level, ch, image.cols);
     censored += clipped_here;
     for (int i = 0; clipped_here > 0 && i < n; ++i) {

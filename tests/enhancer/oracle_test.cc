@@ -214,11 +214,22 @@ TEST(Oracle, MmseEqualsPreOptimisationImplementation) {
       // Some clipped samples and some pixels below the transmission floor.
       image.forEach<float>([](float& v, const int*) { v = v > 0.9f ? 1.0f : v; });
       t.forEach<float>([](float& v, const int*) { v = v < 0.03f ? 1e-5f : v; });
+      // Values at and beside 0.7f, the threshold of variant 3 (0.7f < 0.7: a threshold compared
+      // in double instead of float, as cv::compare takes it, masks other pixels).
+      t.forEach<float>([](float& v, const int* pos) {
+        const int k = (pos[0] * 7 + pos[1]) % 11;
+        if (k == 0) v = 0.7f;
+        if (k == 1) v = std::nextafter(0.7f, 0.0f);
+        if (k == 2) v = std::nextafter(0.7f, 1.0f);
+      });
       for (int variant = 0; variant < 5; ++variant) {
         OracleOptions o;
         if (variant == 1) o.coarse_radius = 9, o.middle_radius = 3, o.pixel_radius = 1;
         // Middle windows of 3 and 5 (direct row sums beside the coarse running sums).
-        if (variant == 3) o.coarse_radius = 5, o.middle_radius = 1, o.pixel_radius = 2;
+        if (variant == 3) {
+          o.coarse_radius = 5, o.middle_radius = 1, o.pixel_radius = 2;
+          o.mask_transmission = 0.7;
+        }
         if (variant == 4) o.coarse_radius = 40, o.middle_radius = 2, o.pixel_radius = 3;
         const double gain = variant == 2 ? 0.0 : 1.0 / 2000.0;
         const double floor_var = variant == 2 ? 1e-12 : 0.01 * 0.01 + 1.0 / (255.0 * 255.0 * 12);
