@@ -215,9 +215,8 @@ TURBID_ROW_KERNEL void SignalVarianceRow(const float* __restrict sum, const floa
   for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - count[i], 0.0f) / std::max(w[i], 1e-30f);
 }
 
-TURBID_ROW_KERNEL void SignalVarianceRowFull(const float* __restrict sum,
-                                             const float* __restrict w, float full,
-                                             float* __restrict o, int n) {
+TURBID_ROW_KERNEL void SignalVarianceRowFull(const float* __restrict sum, const float* __restrict w,
+                                             float full, float* __restrict o, int n) {
   for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - full, 0.0f) / std::max(w[i], 1e-30f);
 }
 
@@ -362,14 +361,12 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   if (!truth.blur.active) {
     truth.steps.push_back("psf: none (disabled or a delta)");
   } else {
-    truth.steps.push_back(std::string("psf: ") +
-                          (truth.blur.turbidity
-                               ? std::to_string(truth.blur.Count()) +
-                                     " turbidity-dependent levels"
-                           : truth.blur.depth_dependent
-                               ? std::to_string(truth.blur.levels.size()) + " range-dependent levels"
-                               : "one kernel, radius " +
-                                     std::to_string(truth.blur.levels[0].radius_px) + " px"));
+    truth.steps.push_back(
+        std::string("psf: ") +
+        (truth.blur.turbidity ? std::to_string(truth.blur.Count()) + " turbidity-dependent levels"
+         : truth.blur.depth_dependent
+             ? std::to_string(truth.blur.levels.size()) + " range-dependent levels"
+             : "one kernel, radius " + std::to_string(truth.blur.levels[0].radius_px) + " px"));
   }
   return truth;
 }
@@ -550,8 +547,7 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   const bool running = k != 3 && k != 5;
   std::vector<double>& ext_d_store = scratch.ext_d;
   if (running) {
-    ext_d_store.resize(
-        std::max(ext_d_store.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+    ext_d_store.resize(std::max(ext_d_store.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
   }
   out_store.resize(std::max(out_store.size(), static_cast<size_t>(kPlanes) * n));
   auto slot = [&](int p, int j) {
@@ -601,8 +597,7 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
                       ext_d_row(p, b + 3), slot(p, j), slot(p, j + 1), slot(p, j + 2),
                       slot(p, j + 3), cn, k, cols - 1);
         }
-        for (; b < count; ++b)
-          BoxRunning1(ext_d_row(p, b), slot(p, produced + b), cn, k, cols - 1);
+        for (; b < count; ++b) BoxRunning1(ext_d_row(p, b), slot(p, produced + b), cn, k, cols - 1);
       }
     }
     produced += count;
@@ -716,8 +711,7 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
                     slot(w, p, j + 1), slot(w, p, j + 2), slot(w, p, j + 3), cn, w.k, cols - 1);
       }
       for (; b < first + count; ++b)
-        BoxRunning1(ext_d_row(p, b) + shift, slot(w, p, w.produced + b - first), cn, w.k,
-                    cols - 1);
+        BoxRunning1(ext_d_row(p, b) + shift, slot(w, p, w.produced + b - first), cn, w.k, cols - 1);
     }
     w.produced += count;
   };
@@ -734,8 +728,8 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
       const float* outs[kPlanes];
       for (int p = 0; p < kPlanes; ++p) {
         float* o = p == 0 ? first_plane(y) : scratch.out.data() + static_cast<size_t>(p) * n;
-        BoxColumnRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, y + w.k - 1), slot(w, p, y),
-                     o, n);
+        BoxColumnRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, y + w.k - 1), slot(w, p, y), o,
+                     n);
         outs[p] = o;
       }
       consume(y, outs);
@@ -779,7 +773,6 @@ void BoxStreamImage(const cv::Mat& src, int radius, double scale, Consume&& cons
       [&](int y, float* const* in) { std::memcpy(in[0], src.ptr<float>(y), bytes); },
       std::forward<Consume>(consume));
 }
-
 
 // One row of the data term: u = ((I - S) - veil) / sc and a = sc^2 / variance with
 // sc = max(t E, 1e-12), both 0 where masked; a also 0 where I > clip_level (censored).
@@ -876,8 +869,7 @@ TURBID_ROW_KERNEL void KeepFiniteRow(const float* __restrict x, float* __restric
   constexpr uint32_t kQuietNan = std::bit_cast<uint32_t>(std::numeric_limits<float>::quiet_NaN());
   for (int i = 0; i < n; ++i) {
     const uint32_t kept = std::bit_cast<uint32_t>(x[i] + 0.0f);
-    const uint32_t finite =
-        (std::bit_cast<uint32_t>(x[i]) & 0x7f800000u) != 0x7f800000u ? ~0u : 0u;
+    const uint32_t finite = (std::bit_cast<uint32_t>(x[i]) & 0x7f800000u) != 0x7f800000u ? ~0u : 0u;
     out[i] = std::bit_cast<float>((kept & finite) | (kQuietNan & ~finite));
   }
 }
@@ -1038,8 +1030,8 @@ class BoxCount {
                                              int n) {
     for (int i = 0; i < n; ++i) out[i] = a[i] > 0.0f ? 1 : 0;
   }
-  TURBID_ROW_KERNEL static void WindowSumsDirect(const int32_t* __restrict e,
-                                                 int32_t* __restrict h, int cn, int k, int n) {
+  TURBID_ROW_KERNEL static void WindowSumsDirect(const int32_t* __restrict e, int32_t* __restrict h,
+                                                 int cn, int k, int n) {
     for (int i = 0; i < n; ++i) h[i] = 0;
     for (int j = 0; j < k; ++j)
       for (int i = 0; i < n; ++i) h[i] += e[i + j * cn];
@@ -1060,9 +1052,7 @@ class BoxCount {
                                               int n) {
     for (int i = 0; i < n; ++i) out[i] = static_cast<float>(v[i]);
   }
-  const int32_t* Row(int j) const {
-    return ring_.data() + static_cast<size_t>(j % capacity_) * n_;
-  }
+  const int32_t* Row(int j) const { return ring_.data() + static_cast<size_t>(j % capacity_) * n_; }
   int cols_, cn_, k_, n_, capacity_;
   int added_ = 0;
   std::vector<int> xofs_;
@@ -1213,20 +1203,22 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   cv::Mat prior_out = censored != nullptr ? NewLike(u) : p2;
   LocalSignalVariance(
       u, a, [&](int y) { return p2.ptr<float>(y); }, o.pixel_radius, a_no_data,
-      [&](int y) { return post.ptr<float>(y); }, [&](int y) {
-    float* s = post.ptr<float>(y);
-    if (censored == nullptr) {
-      EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est.ptr<float>(y), n);
-    } else {
-      EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, rows.e.data(), n);
-      CensorRow(*censored, y, rows.e.data(), est.ptr<float>(y), n);
-      CensorRow(*censored, y, p2.ptr<float>(y), prior_out.ptr<float>(y), n);
-    }
-    if (detail != nullptr) {
-      DetailStatsRow(est.ptr<float>(y), prior_out.ptr<float>(y), s, detail->masked.ptr<uchar>(y),
-                     detail->detail.ptr<float>(y), u.cols, ch, detail->sums);
-    }
-  });
+      [&](int y) { return post.ptr<float>(y); },
+      [&](int y) {
+        float* s = post.ptr<float>(y);
+        if (censored == nullptr) {
+          EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est.ptr<float>(y), n);
+        } else {
+          EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, rows.e.data(), n);
+          CensorRow(*censored, y, rows.e.data(), est.ptr<float>(y), n);
+          CensorRow(*censored, y, p2.ptr<float>(y), prior_out.ptr<float>(y), n);
+        }
+        if (detail != nullptr) {
+          DetailStatsRow(est.ptr<float>(y), prior_out.ptr<float>(y), s,
+                         detail->masked.ptr<uchar>(y), detail->detail.ptr<float>(y), u.cols, ch,
+                         detail->sums);
+        }
+      });
   *prior = prior_out;
   *posterior = post;
   return est;
@@ -1290,15 +1282,14 @@ namespace oracle_internal {
 
 void BoxFilterReflect(const cv::Mat& source, cv::Mat& dst, int radius, bool normalize) {
   CV_Assert(source.depth() == CV_32F && radius >= 1);
-  const cv::Mat src = source;  // a header of its own: dst may be the same Mat object
+  const cv::Mat src = source;                 // a header of its own: dst may be the same Mat object
   if (dst.data == src.data) dst = cv::Mat();  // rows of src are read after rows of dst are written
   dst.create(src.size(), src.type());
   const int k = 2 * radius + 1;
   const size_t bytes = sizeof(float) * src.cols * src.channels();
-  BoxStreamImage(src, radius, normalize ? 1.0 / (k * k) : 1.0,
-                 [&](int y, const float* const* out) {
-                   std::memcpy(dst.ptr<float>(y), out[0], bytes);
-                 });
+  BoxStreamImage(src, radius, normalize ? 1.0 / (k * k) : 1.0, [&](int y, const float* const* out) {
+    std::memcpy(dst.ptr<float>(y), out[0], bytes);
+  });
 }
 
 void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& masked,
@@ -1376,8 +1367,8 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
     detail_out.masked = masked;
     detail_out.detail = NewLike(image);
   }
-  r.estimate = HierarchicalMmse(o, u, a, au, a_no_data, censored > 0 ? &clipped : nullptr,
-                                &r.prior, &r.posterior, with_detail ? &detail_out : nullptr);
+  r.estimate = HierarchicalMmse(o, u, a, au, a_no_data, censored > 0 ? &clipped : nullptr, &r.prior,
+                                &r.posterior, with_detail ? &detail_out : nullptr);
   if (with_detail) {
     r.detail = detail_out.detail;
     r.detail_sums = detail_out.sums;
@@ -1411,7 +1402,8 @@ bool OracleOptions::Check(std::string* why) const {
   }
   if (pixel_radius < 1 || middle_radius < 1 || coarse_radius <= middle_radius ||
       coarse_radius > 256) {
-    return Fail(why, "radii must satisfy 1 <= middle_radius < coarse_radius <= 256, pixel_radius >= 1");
+    return Fail(why,
+                "radii must satisfy 1 <= middle_radius < coarse_radius <= 256, pixel_radius >= 1");
   }
   if (pixel_radius > 64) return Fail(why, "pixel_radius must be <= 64");
   return true;
@@ -1471,8 +1463,8 @@ OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& imag
   if (result.masked_pixels > 0) {
     // No data there: the mean of the rest, so the deblurring does not spread a huge value.
     b.setTo(cv::mean(b, ~masked), masked);
-    result.steps.push_back("masked: " + std::to_string(result.masked_pixels) +
-                           " pixels with t < " + std::to_string(o.min_transmission));
+    result.steps.push_back("masked: " + std::to_string(result.masked_pixels) + " pixels with t < " +
+                           std::to_string(o.min_transmission));
   }
   cv::Mat lit = b;
   const BlurModel& blur = truth.blur;
@@ -1497,8 +1489,7 @@ OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& imag
       result.steps.push_back("deblur: exact reflect-101 inverse of the PSF");
     }
   }
-  cv::Mat out = o.target == "lit" ? lit.clone()
-                                  : lit / MaxAll(truth.irradiance, o.min_irradiance);
+  cv::Mat out = o.target == "lit" ? lit.clone() : lit / MaxAll(truth.irradiance, o.min_irradiance);
   cv::patchNaNs(out, 0.0);
   cv::min(out, 1.0, out);
   cv::max(out, 0.0, out);
@@ -1517,8 +1508,8 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   // quantisation step's 1/12 step^2.
   const bool sensor = ro.sensor.enabled;
   const double read2 = sensor ? ro.sensor.read_noise * ro.sensor.read_noise : 0.0;
-  const double gain = sensor && ro.sensor.photons_at_white > 0 ? 1.0 / ro.sensor.photons_at_white
-                                                              : 0.0;
+  const double gain =
+      sensor && ro.sensor.photons_at_white > 0 ? 1.0 / ro.sensor.photons_at_white : 0.0;
   const int bits = ro.camera.bit_depth;
   const double step = bits == 32 ? 0.0 : 1.0 / ((1 << bits) - 1);
   const double floor_var = read2 + step * step / 12.0 + 1e-12;
@@ -1543,9 +1534,8 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
                          std::to_string(o.coarse_radius) + " / " + std::to_string(o.middle_radius) +
                          " / " + std::to_string(o.pixel_radius) + " px");
   if (result.masked_pixels > 0) {
-    result.steps.push_back("masked: " + std::to_string(result.masked_pixels) +
-                           " pixels with t < " + std::to_string(o.mask_transmission) +
-                           ", set to the prior mean");
+    result.steps.push_back("masked: " + std::to_string(result.masked_pixels) + " pixels with t < " +
+                           std::to_string(o.mask_transmission) + ", set to the prior mean");
   }
   if (blur.active && o.deblur) {
     // Wiener on the deviation from the prior mean (the signal's mean; smooth, so h * P = P to

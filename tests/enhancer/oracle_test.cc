@@ -45,7 +45,6 @@ Scene Builtin(const std::string& name, double scale) {
   return MakeBuiltinScene(name, so);
 }
 
-
 // Float images equal bit for bit, except that any NaN equals any NaN (which NaN an addition of
 // two NaNs gives depends on its operand order, which a compiler may swap).
 bool SameBits(const cv::Mat& a, const cv::Mat& b) {
@@ -70,9 +69,9 @@ bool SameBits(const cv::Mat& a, const cv::Mat& b) {
 TEST(Oracle, BoxFilterReflectEqualsOpenCvBitForBit) {
   uint64_t seed = 11;
   int compared = 0;
-  for (const cv::Size size : {cv::Size(1, 1), cv::Size(2, 3), cv::Size(7, 1), cv::Size(1, 9),
-                              cv::Size(5, 40), cv::Size(37, 21), cv::Size(130, 97),
-                              cv::Size(272, 205)}) {
+  for (const cv::Size size :
+       {cv::Size(1, 1), cv::Size(2, 3), cv::Size(7, 1), cv::Size(1, 9), cv::Size(5, 40),
+        cv::Size(37, 21), cv::Size(130, 97), cv::Size(272, 205)}) {
     for (int ch : {1, 3}) {
       for (int kind = 0; kind < 3; ++kind) {
         cv::RNG rng(seed++);
@@ -86,8 +85,7 @@ TEST(Oracle, BoxFilterReflectEqualsOpenCvBitForBit) {
             } else {
               const double u = rng.uniform(0.0, 1.0);
               const double mag = std::pow(10.0, rng.uniform(-30.0, 30.0));
-              p[i] = u < 0.1 ? 0.0f : u < 0.15 ? -0.0f
-                                    : static_cast<float>(u < 0.55 ? -mag : mag);
+              p[i] = u < 0.1 ? 0.0f : u < 0.15 ? -0.0f : static_cast<float>(u < 0.55 ? -mag : mag);
               if (kind == 2 && u > 0.998) {
                 p[i] = u > 0.999 ? std::numeric_limits<float>::quiet_NaN()
                                  : std::numeric_limits<float>::infinity();
@@ -128,8 +126,8 @@ TEST(Oracle, BoxFilterReflectEqualsOpenCvBitForBit) {
 TEST(Oracle, FinishImageEqualsOpenCvSteps) {
   uint64_t seed = 11;
   int compared = 0;
-  for (const cv::Size size : {cv::Size(1, 1), cv::Size(3, 2), cv::Size(37, 21), cv::Size(130, 97),
-                              cv::Size(1360, 4)}) {
+  for (const cv::Size size :
+       {cv::Size(1, 1), cv::Size(3, 2), cv::Size(37, 21), cv::Size(130, 97), cv::Size(1360, 4)}) {
     for (int ch : {1, 3}) {
       const int type = CV_32FC(ch);
       cv::RNG rng(seed++);
@@ -139,9 +137,13 @@ TEST(Oracle, FinishImageEqualsOpenCvSteps) {
       rng.fill(e, cv::RNG::UNIFORM, 0.1, 2.0);
       rng.fill(masked, cv::RNG::UNIFORM, 0, 2);
       masked *= 255;
-      const float specials[] = {-0.0f, 0.0f, std::numeric_limits<float>::quiet_NaN(),
+      const float specials[] = {-0.0f,
+                                0.0f,
+                                std::numeric_limits<float>::quiet_NaN(),
                                 std::numeric_limits<float>::infinity(),
-                                -std::numeric_limits<float>::infinity(), -1e-44f, 2.0f};
+                                -std::numeric_limits<float>::infinity(),
+                                -1e-44f,
+                                2.0f};
       const int n = size.area() * ch;
       float* p = prior.ptr<float>();
       float* d = detail.ptr<float>();
