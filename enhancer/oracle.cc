@@ -1,7 +1,10 @@
 #include "enhancer/oracle.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -12,6 +15,7 @@
 #include "scenes/error.h"
 #include "scenes/row_kernel.h"
 #include "simulator/image_pool.h"
+#include "simulator/kernels.h"
 #include "simulator/light.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
@@ -153,12 +157,6 @@ BlurModel MakeBlurModel(const PsfOptions& options, const cv::Mat& range_m,
 // oracle needs a few dozen per call, and fresh pages for each cost more than its arithmetic.
 cv::Mat NewLike(const cv::Mat& m) { return internal::PooledMat(m.size(), m.type()); }
 
-// out = m + s per channel (cv::add of a Mat and a Scalar: the scalar in float).
-void AddScalar(const cv::Mat& m, const cv::Scalar& s, const cv::Mat& out) {
-  cv::Mat dst = out;
-  cv::add(m, s, dst);
-}
-
 // Row kernels of the passes below (TURBID_ROW_KERNEL: vectorised, an AVX2 clone; the same float
 // operations in the same order as the loops they replaced, so the same values).
 TURBID_ROW_KERNEL void VeilRow(const float* __restrict t, const float* __restrict src,
@@ -166,23 +164,30 @@ TURBID_ROW_KERNEL void VeilRow(const float* __restrict t, const float* __restric
   for (int i = 0; i < n; ++i) v[i] = (1.0f - t[i]) * src[i];
 }
 
+// out = a + v per channel (cv::add of an image and a scalar: the scalar in float).
+TURBID_ROW_KERNEL void AddScalarRow1(const float* __restrict a, float v, float* __restrict out,
+                                     int n) {
+  for (int i = 0; i < n; ++i) out[i] = a[i] + v;
+}
+
+void AddPerChannelRow(const float* a, const float* v, int ch, float* out, int cols) {
+  if (ch == 1) {
+    AddScalarRow1(a, v[0], out, cols);
+    return;
+  }
+  for (int x = 0; x < cols; ++x)
+    for (int c = 0; c < ch; ++c) out[x * ch + c] = a[x * ch + c] + v[c];
+}
+
 TURBID_ROW_KERNEL void ProductRow(const float* __restrict a, const float* __restrict b,
                                   float* __restrict out, int n) {
   for (int i = 0; i < n; ++i) out[i] = a[i] * b[i];
 }
 
-TURBID_ROW_KERNEL void QuotientRow(const float* __restrict w, float* __restrict m, int n) {
-  for (int i = 0; i < n; ++i) m[i] = m[i] / std::max(w[i], 1e-30f);
-}
-
-// p += S w / (S w + 1) (m - p).
-TURBID_ROW_KERNEL void ShrinkRow(const float* __restrict s, const float* __restrict w,
-                                 const float* __restrict m, float* __restrict p, int n) {
-  for (int i = 0; i < n; ++i) {
-    const float sw = s[i] * w[i];
-    const float gain = sw / (sw + 1.0f);
-    p[i] = p[i] + gain * (m[i] - p[i]);
-  }
+// out = m / max(w, 1e-30).
+TURBID_ROW_KERNEL void QuotientRow(const float* __restrict w, const float* __restrict m,
+                                   float* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) out[i] = m[i] / std::max(w[i], 1e-30f);
 }
 
 // The estimate and the posterior variance (into s) of HierarchicalMmse.
@@ -198,19 +203,28 @@ TURBID_ROW_KERNEL void EstimateRow(const float* __restrict a, const float* __res
   }
 }
 
-TURBID_ROW_KERNEL void NoiseVarianceRow(float* __restrict v, float gain, float floor_var, int n) {
-  for (int i = 0; i < n; ++i) v[i] = std::max(v[i], 0.0f) * gain + floor_var;
+TURBID_ROW_KERNEL void NoiseVarianceRow(const float* __restrict mean, float* __restrict v,
+                                        float gain, float floor_var, int n) {
+  for (int i = 0; i < n; ++i) v[i] = std::max(mean[i], 0.0f) * gain + floor_var;
 }
 
-// LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30), in place in o.
-TURBID_ROW_KERNEL void SignalVarianceRow(float* __restrict o, const float* __restrict w,
-                                         const float* __restrict count, int n) {
-  for (int i = 0; i < n; ++i) o[i] = std::max(o[i] - count[i], 0.0f) / std::max(w[i], 1e-30f);
+// LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30).
+TURBID_ROW_KERNEL void SignalVarianceRow(const float* __restrict sum, const float* __restrict w,
+                                         const float* __restrict count, float* __restrict o,
+                                         int n) {
+  for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - count[i], 0.0f) / std::max(w[i], 1e-30f);
 }
 
-TURBID_ROW_KERNEL void SignalVarianceRowFull(float* __restrict o, const float* __restrict w,
-                                             float full, int n) {
-  for (int i = 0; i < n; ++i) o[i] = std::max(o[i] - full, 0.0f) / std::max(w[i], 1e-30f);
+TURBID_ROW_KERNEL void SignalVarianceRowFull(const float* __restrict sum, const float* __restrict w,
+                                             float full, float* __restrict o, int n) {
+  for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - full, 0.0f) / std::max(w[i], 1e-30f);
+}
+
+// Values of a row with no data (a > 0 false: 0, negative or NaN).
+TURBID_ROW_KERNEL int NoDataRow(const float* __restrict a, int n) {
+  int none = 0;
+  for (int i = 0; i < n; ++i) none += a[i] > 0.0f ? 0 : 1;
+  return none;
 }
 
 // Element-wise passes over images of the same size and type (any channel count, rows possibly
@@ -258,14 +272,6 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   const bool zero_beta = std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
   truth.range_m = RangeFromDepth(scene.camera, scene.depth_m);
 
-  cv::Mat e_l(image.size(), image.type(), cv::Scalar::all(0));
-  if (!ro.light.lights.empty()) {
-    const cv::Mat normals =
-        scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
-    e_l = IrradianceMap(ro.light, scene.camera, scene.depth_m, normals, beta);
-  }
-  truth.irradiance = NewLike(image);
-  AddScalar(e_l, ToScalar(ambient), truth.irradiance);
   if (zero_beta) {
     // The renderer's beta = 0 path: t = 1 where depth is valid, 0 (open water) where it is NaN.
     cv::Mat valid = truth.range_m == truth.range_m;  // 255 where not NaN
@@ -274,9 +280,8 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
     std::vector<cv::Mat> planes(ch, t1);
     cv::merge(planes, truth.transmission);
   } else {
-    truth.transmission = TransmissionMap(truth.range_m, beta);
+    truth.transmission = NewLike(image);
   }
-  // veil = (1 - t) (E_L [+ B_inf]), as (one - t).mul(E_L + B_inf) evaluates it.
   cv::Scalar backscatter = cv::Scalar::all(0);
   if (water.backscatter) {
     backscatter = ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
@@ -284,37 +289,111 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   } else {
     truth.steps.push_back("veil: (1 - t) E_L");
   }
+  // One pass over the rows: the lights' irradiance E_L (IrradianceMap's row kernels: each light's
+  // distance and geometric factor, accumulated onto zeros), E = E_L + E_A, t (TransmissionMap's
+  // row kernel) and the veil (1 - t)(E_L [+ B_inf]), with the float operations of the whole-image
+  // functions and of cv::add with a scalar (the scalar in float); E_L, the lights' geometry and
+  // E_L + B_inf exist only as rows.
+  const int w = image.cols, n = w * ch;
+  cv::Mat normals;
+  std::optional<internal::LightRowContext> context;
+  std::vector<internal::LightRowConstants> lights;
+  if (!ro.light.lights.empty()) {
+    ThrowIfInvalid(ro.light, "light");
+    normals = scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
+    CV_Assert(scene.depth_m.type() == CV_32FC1 && normals.type() == CV_32FC3 &&
+              normals.size() == scene.depth_m.size());
+    context = internal::LightContextFor(ro.light, scene.camera, w);
+    lights = internal::LightConstantsFor(ro.light, ch);
+  }
+  float neg_beta[3] = {0, 0, 0}, ambient_f[3] = {0, 0, 0}, backscatter_f[3] = {0, 0, 0};
+  for (int c = 0; c < ch; ++c) {
+    neg_beta[c] = -static_cast<float>(beta[c]);
+    ambient_f[c] = static_cast<float>(ambient[c]);
+    backscatter_f[c] = static_cast<float>(backscatter[c]);
+  }
+  thread_local std::vector<float> rows;
+  rows.resize(std::max<size_t>(rows.size(), static_cast<size_t>(2 * n + 7 * w)));
+  float* e_l = rows.data();
+  float* source = e_l + n;
+  float* l_row = source + n;
+  float* g_row = l_row + w;
+  float* cos_scratch = g_row + w;
+  truth.irradiance = NewLike(image);
   truth.veil = NewLike(image);
-  const cv::Mat source = water.backscatter ? NewLike(image) : e_l;
-  if (water.backscatter) AddScalar(e_l, backscatter, source);
-  ForRows(
-      image, [](int n, const float* t, const float* src, float* v) { VeilRow(t, src, v, n); },
-      truth.transmission, source, truth.veil);
+  for (int y = 0; y < image.rows; ++y) {
+    std::fill(e_l, e_l + n, 0.0f);
+    for (const internal::LightRowConstants& light : lights) {
+      internal::LightGeometryRow(*context, light, context->RayY(scene.camera, y),
+                                 scene.depth_m.ptr<float>(y), normals.ptr<cv::Vec3f>(y), w, l_row,
+                                 g_row, cos_scratch);
+      internal::AccumulateLightRow(l_row, g_row, w, ch, neg_beta, light.color, false, e_l);
+    }
+    float* e = truth.irradiance.ptr<float>(y);
+    float* t = truth.transmission.ptr<float>(y);
+    AddPerChannelRow(e_l, ambient_f, ch, e, w);
+    if (!zero_beta) TransmissionRows(truth.range_m.ptr<float>(y), w, beta, t);
+    const float* src = e_l;
+    if (water.backscatter) {
+      AddPerChannelRow(e_l, backscatter_f, ch, source, w);
+      src = source;
+    }
+    VeilRow(t, src, truth.veil.ptr<float>(y), n);
+  }
   truth.snow = NewLike(image);
-  truth.snow.setTo(cv::Scalar::all(0));
   if (remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
-    const MarineSnow snow =
-        RenderMarineSnow(ro.snow, ro.light, scene.camera, truth.range_m, beta, ambient, ro.seed);
-    truth.snow = snow.layer;
-    truth.steps.push_back("snow: " + std::to_string(snow.visible) +
+    // RenderMarineSnow's layer (its particles drawn row by row onto zeros), into a pooled image.
+    const internal::SnowSplats splats = internal::DrawMarineSnow(
+        ro.snow, ro.light, scene.camera, truth.range_m, beta, ambient, ro.seed);
+    CV_Assert(splats.channels == ch);
+    for (int y = 0; y < image.rows; ++y) {
+      float* row = truth.snow.ptr<float>(y);
+      std::fill(row, row + n, 0.0f);
+      internal::AddSnowRow(splats, y, w, source, row);
+    }
+    truth.steps.push_back("snow: " + std::to_string(splats.visible) +
                           " particles re-rendered from the seed and subtracted");
   } else {
+    truth.snow.setTo(cv::Scalar::all(0));
     truth.steps.push_back("snow: none subtracted");
   }
   truth.blur = MakeBlurModel(ro.psf, truth.range_m, beta);
   if (!truth.blur.active) {
     truth.steps.push_back("psf: none (disabled or a delta)");
   } else {
-    truth.steps.push_back(std::string("psf: ") +
-                          (truth.blur.turbidity
-                               ? std::to_string(truth.blur.Count()) +
-                                     " turbidity-dependent levels"
-                           : truth.blur.depth_dependent
-                               ? std::to_string(truth.blur.levels.size()) + " range-dependent levels"
-                               : "one kernel, radius " +
-                                     std::to_string(truth.blur.levels[0].radius_px) + " px"));
+    truth.steps.push_back(
+        std::string("psf: ") +
+        (truth.blur.turbidity ? std::to_string(truth.blur.Count()) + " turbidity-dependent levels"
+         : truth.blur.depth_dependent
+             ? std::to_string(truth.blur.levels.size()) + " range-dependent levels"
+             : "one kernel, radius " + std::to_string(truth.blur.levels[0].radius_px) + " px"));
   }
   return truth;
+}
+
+// MaskBelow's row for the oracle's stream: 255 where some channel of t is below floor (the
+// threshold in float, as cv::compare converts it), else 0; returns how many.
+TURBID_ROW_KERNEL int MaskRow1(const float* __restrict t, float floor, uchar* __restrict m,
+                               int cols) {
+  int count = 0;
+  for (int x = 0; x < cols; ++x) {
+    const bool below = t[x] < floor;
+    m[x] = below ? 255 : 0;
+    count += below ? 1 : 0;
+  }
+  return count;
+}
+
+int MaskRow(const float* t, float floor, int ch, int cols, uchar* m) {
+  if (ch == 1) return MaskRow1(t, floor, m, cols);
+  int count = 0;
+  for (int x = 0; x < cols; ++x) {
+    bool below = false;
+    for (int c = 0; c < ch; ++c) below = below || t[x * ch + c] < floor;
+    m[x] = below ? 255 : 0;
+    count += below ? 1 : 0;
+  }
+  return count;
 }
 
 // Pixels where any channel of t is below `floor` (NaN depth has t = 0): CV_8UC1, 255 = masked.
@@ -327,11 +406,372 @@ cv::Mat MaskBelow(const cv::Mat& t, double floor) {
   return mask;
 }
 
-cv::Mat BoxSum(const cv::Mat& m, int radius) {
-  cv::Mat out = NewLike(m);
-  cv::boxFilter(m, out, -1, cv::Size(2 * radius + 1, 2 * radius + 1), cv::Point(-1, -1), false,
-                cv::BORDER_REFLECT);
-  return out;
+// ---- Box sums in cv::boxFilter's order -------------------------------------------------------
+// cv::boxFilter on CV_32F (OpenCV 4.6, box_filter.simd.hpp) sums in double: per row (the row
+// extended by its reflected border), a window of 3 or 5 as the direct sum s0 + s1 + ... left to
+// right, any other as a running sum (s = 0, s += x_0 .. x_{k-1}, then s += (x_{i+k} - x_i) per
+// step, the difference formed in double); then per column a running sum over the row sums (SUM =
+// 0, SUM += h_0 .. h_{k-2}, then per output row s = SUM + h_{y+k-1}, out = float(s [* scale]), SUM
+// = s - h_y). Those are serial chains, one per row and one per column. The same operations in the
+// same order give the same doubles; what is new is only which independent chains run side by side:
+// four rows' running sums interleaved (instead of one row at a time), the column step vectorised
+// across columns, and the row sums kept in a ring of k + 4 rows per plane.
+
+// The direct sums of a window of 3 or 5 (values cn apart), left to right.
+TURBID_ROW_KERNEL void BoxDirect3Row(const float* __restrict s, double* __restrict d, int cn,
+                                     int n) {
+  for (int i = 0; i < n; ++i) {
+    d[i] = (static_cast<double>(s[i]) + static_cast<double>(s[i + cn])) +
+           static_cast<double>(s[i + 2 * cn]);
+  }
+}
+
+TURBID_ROW_KERNEL void BoxDirect5Row(const float* __restrict s, double* __restrict d, int cn,
+                                     int n) {
+  for (int i = 0; i < n; ++i) {
+    d[i] = (((static_cast<double>(s[i]) + static_cast<double>(s[i + cn])) +
+             static_cast<double>(s[i + 2 * cn])) +
+            static_cast<double>(s[i + 3 * cn])) +
+           static_cast<double>(s[i + 4 * cn]);
+  }
+}
+
+// One output row of the column running sum: s = SUM + h_new, out = float(s), SUM = s - h_old.
+TURBID_ROW_KERNEL void BoxColumnRow(double* __restrict sum, const double* __restrict add,
+                                    const double* __restrict sub, float* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) {
+    const double s = sum[i] + add[i];
+    out[i] = static_cast<float>(s);
+    sum[i] = s - sub[i];
+  }
+}
+
+TURBID_ROW_KERNEL void BoxColumnRowScaled(double* __restrict sum, const double* __restrict add,
+                                          const double* __restrict sub, float* __restrict out,
+                                          double scale, int n) {
+  for (int i = 0; i < n; ++i) {
+    const double s = sum[i] + add[i];
+    out[i] = static_cast<float>(s * scale);
+    sum[i] = s - sub[i];
+  }
+}
+
+TURBID_ROW_KERNEL void BoxAccumulateRow(double* __restrict sum, const double* __restrict add,
+                                        int n) {
+  for (int i = 0; i < n; ++i) sum[i] += add[i];
+}
+
+// The running sums of four rows at once (independent chains side by side, the sums in
+// registers): for each channel c, from the first sum h_r[c], h_r[(i + 1) cn + c] = h_r[i cn + c]
+// + (double(e_r[(i + k) cn + c]) - double(e_r[i cn + c])) in order of i.
+// The rows come as doubles (converted beforehand by vector conversions, exact): a scalar float
+// to double conversion per value was the chains' bottleneck (one per cycle).
+TURBID_ROW_KERNEL void BoxRunning4(const double* __restrict e0, const double* __restrict e1,
+                                   const double* __restrict e2, const double* __restrict e3,
+                                   double* __restrict h0, double* __restrict h1,
+                                   double* __restrict h2, double* __restrict h3, int cn, int k,
+                                   int steps) {
+  const int ahead = k * cn;
+  for (int c = 0; c < cn; ++c) {
+    double s0 = h0[c], s1 = h1[c], s2 = h2[c], s3 = h3[c];
+    for (int i = 0; i < steps; ++i) {
+      const int j = i * cn + c;
+      s0 = s0 + (e0[j + ahead] - e0[j]);
+      s1 = s1 + (e1[j + ahead] - e1[j]);
+      s2 = s2 + (e2[j + ahead] - e2[j]);
+      s3 = s3 + (e3[j + ahead] - e3[j]);
+      h0[j + cn] = s0;
+      h1[j + cn] = s1;
+      h2[j + cn] = s2;
+      h3[j + cn] = s3;
+    }
+  }
+}
+
+TURBID_ROW_KERNEL void WidenRow(const float* __restrict in, double* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) out[i] = static_cast<double>(in[i]);
+}
+
+void BoxRunning1(const double* e, double* h, int cn, int k, int steps) {
+  for (int c = 0; c < cn; ++c) {
+    double s = h[c];
+    for (int i = 0; i < steps; ++i) {
+      const int j = i * cn + c;
+      s = s + (e[j + k * cn] - e[j]);
+      h[j + cn] = s;
+    }
+  }
+}
+
+// BoxStream's buffers, kept per thread between calls (fresh pages on every call would cost more
+// than the sums): the rings of row sums, the bordered input rows, the column sums and the output
+// rows. One set per thread: BoxStream calls do not nest.
+struct BoxScratch {
+  std::vector<double> ring, sum, ext_d;
+  std::vector<float> ext, out;
+};
+
+BoxScratch& ThreadBoxScratch() {
+  thread_local BoxScratch scratch;
+  return scratch;
+}
+
+// Box sums of kPlanes images of the same shape (rows x cols, cn channels) streamed a row at a
+// time: produce(source_row, float* const* in) writes that row of each plane into in[p] (cols cn
+// values; it may be asked for a row more than once, for the reflected border); consume(y, const
+// float* const* out) receives output row y of each plane, in order of y. scale 1: sums;
+// otherwise each sum times scale (cv::boxFilter's normalised mean). Only a ring of k + 4 row sums
+// per plane is kept, so the planes need not exist as whole images.
+template <int kPlanes, typename Produce, typename Consume>
+void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& produce,
+               Consume&& consume) {
+  const int k = 2 * radius + 1;
+  const int n = cols * cn;
+  const int ext_n = (cols + k - 1) * cn;  // values per bordered row
+  constexpr int kBatch = 4;
+  const int capacity = k + kBatch;
+  const int total_rows = rows + k - 1;  // bordered rows j = 0 .. rows + k - 2
+  // Reflected border columns (BORDER_REFLECT, as cv::borderInterpolate places them).
+  std::vector<int> xofs(cols + k - 1);
+  for (int j = 0; j < cols + k - 1; ++j)
+    xofs[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
+  BoxScratch& scratch = ThreadBoxScratch();
+  std::vector<double>& ring_store = scratch.ring;
+  std::vector<double>& sum_store = scratch.sum;
+  std::vector<float>& ext_store = scratch.ext;
+  std::vector<float>& out_store = scratch.out;
+  const size_t ring_n = static_cast<size_t>(capacity) * n;
+  ring_store.resize(std::max(ring_store.size(), kPlanes * ring_n));
+  sum_store.assign(static_cast<size_t>(kPlanes) * n, 0.0);
+  ext_store.resize(std::max(ext_store.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  const bool running = k != 3 && k != 5;
+  std::vector<double>& ext_d_store = scratch.ext_d;
+  if (running) {
+    ext_d_store.resize(std::max(ext_d_store.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  }
+  out_store.resize(std::max(out_store.size(), static_cast<size_t>(kPlanes) * n));
+  auto slot = [&](int p, int j) {
+    return ring_store.data() + p * ring_n + static_cast<size_t>(j % capacity) * n;
+  };
+  auto ext_row = [&](int p, int b) {
+    return ext_store.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+  };
+  auto ext_d_row = [&](int p, int b) {
+    return ext_d_store.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+  };
+  int produced = 0;  // bordered rows whose row sums are in the rings
+  auto produce_batch = [&](int count) {
+    for (int b = 0; b < count; ++b) {
+      const int j = produced + b;
+      float* in[kPlanes];
+      for (int p = 0; p < kPlanes; ++p) in[p] = ext_row(p, b) + radius * cn;
+      produce(cv::borderInterpolate(j - radius, rows, cv::BORDER_REFLECT), in);
+      for (int p = 0; p < kPlanes; ++p) {
+        float* e = ext_row(p, b);
+        for (int x = 0; x < cols + k - 1; ++x) {
+          if (x == radius) x = std::min(radius + cols, cols + k - 1);  // the interior is there
+          if (x >= cols + k - 1) break;
+          for (int c = 0; c < cn; ++c) e[x * cn + c] = e[(radius + xofs[x]) * cn + c];
+        }
+        double* h = slot(p, j);
+        if (k == 3) {
+          BoxDirect3Row(e, h, cn, n);
+        } else if (k == 5) {
+          BoxDirect5Row(e, h, cn, n);
+        } else {
+          for (int c = 0; c < cn; ++c) {
+            double sum = 0;
+            for (int i = 0; i < k; ++i) sum += static_cast<double>(e[i * cn + c]);
+            h[c] = sum;
+          }
+          WidenRow(e, ext_d_row(p, b), ext_n);
+        }
+      }
+    }
+    if (running) {
+      for (int p = 0; p < kPlanes; ++p) {
+        int b = 0;
+        for (; b + 4 <= count; b += 4) {
+          const int j = produced + b;
+          BoxRunning4(ext_d_row(p, b), ext_d_row(p, b + 1), ext_d_row(p, b + 2),
+                      ext_d_row(p, b + 3), slot(p, j), slot(p, j + 1), slot(p, j + 2),
+                      slot(p, j + 3), cn, k, cols - 1);
+        }
+        for (; b < count; ++b) BoxRunning1(ext_d_row(p, b), slot(p, produced + b), cn, k, cols - 1);
+      }
+    }
+    produced += count;
+  };
+  auto need = [&](int j) {
+    while (produced <= j) produce_batch(std::min(kBatch, total_rows - produced));
+  };
+  for (int j = 0; j < k - 1; ++j) {
+    need(j);
+    for (int p = 0; p < kPlanes; ++p) BoxAccumulateRow(sum_store.data() + p * n, slot(p, j), n);
+  }
+  const float* out[kPlanes];
+  for (int p = 0; p < kPlanes; ++p) out[p] = out_store.data() + static_cast<size_t>(p) * n;
+  for (int y = 0; y < rows; ++y) {
+    need(y + k - 1);
+    for (int p = 0; p < kPlanes; ++p) {
+      double* sum = sum_store.data() + p * n;
+      float* o = out_store.data() + static_cast<size_t>(p) * n;
+      if (scale != 1.0) {
+        BoxColumnRowScaled(sum, slot(p, y + k - 1), slot(p, y), o, scale, n);
+      } else {
+        BoxColumnRow(sum, slot(p, y + k - 1), slot(p, y), o, n);
+      }
+    }
+    consume(y, out);
+  }
+}
+
+// BoxStream for two radii at once (sums, scale 1): the same box sums of the same planes over
+// windows of radius `large` and `small` < large, from one pass over the input rows. The small
+// window's bordered rows are a run of the large one's (bordered row j of the small window is row
+// j + (large - small) of the large one's, the same source row, and its bordered columns are a
+// run of the large one's), so each input row is produced and widened once. Each radius keeps its
+// own ring of row sums and column sums and makes the same double operations in the same order as
+// BoxStream; consume_large(y, out) and consume_small(y, out) each receive their rows in order of
+// y (interleaved with each other). first_large(y) / first_small(y): where output row y of the
+// first plane is written (out[0] points there).
+template <int kPlanes, typename Produce, typename ConsumeLarge, typename ConsumeSmall,
+          typename FirstLarge, typename FirstSmall>
+void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce&& produce,
+                       ConsumeLarge&& consume_large, ConsumeSmall&& consume_small,
+                       FirstLarge&& first_large, FirstSmall&& first_small) {
+  CV_Assert(small >= 1 && small < large);
+  constexpr int kBatch = 4;
+  const int n = cols * cn;
+  const int kl = 2 * large + 1;
+  const int ext_n = (cols + kl - 1) * cn;
+  const int offset = large - small;
+  std::vector<int> xofs(cols + kl - 1);
+  for (int j = 0; j < cols + kl - 1; ++j)
+    xofs[j] = cv::borderInterpolate(j - large, cols, cv::BORDER_REFLECT);
+  struct Window {
+    int k = 0, capacity = 0, total = 0, produced = 0, accumulated = 0, emitted = 0;
+    double* ring = nullptr;
+    double* sum = nullptr;
+  };
+  Window win[2];
+  win[0].k = kl;
+  win[1].k = 2 * small + 1;
+  BoxScratch& scratch = ThreadBoxScratch();
+  size_t ring_total = 0;
+  for (Window& w : win) {
+    w.capacity = w.k + kBatch;
+    w.total = rows + w.k - 1;
+    ring_total += static_cast<size_t>(kPlanes) * w.capacity * n;
+  }
+  scratch.ring.resize(std::max(scratch.ring.size(), ring_total));
+  scratch.sum.assign(static_cast<size_t>(2) * kPlanes * n, 0.0);
+  scratch.ext.resize(std::max(scratch.ext.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  scratch.ext_d.resize(
+      std::max(scratch.ext_d.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  scratch.out.resize(std::max(scratch.out.size(), static_cast<size_t>(kPlanes) * n));
+  win[0].ring = scratch.ring.data();
+  win[1].ring = win[0].ring + static_cast<size_t>(kPlanes) * win[0].capacity * n;
+  win[0].sum = scratch.sum.data();
+  win[1].sum = win[0].sum + static_cast<size_t>(kPlanes) * n;
+  auto slot = [&](const Window& w, int p, int j) {
+    return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * n;
+  };
+  auto ext_row = [&](int p, int b) {
+    return scratch.ext.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+  };
+  auto ext_d_row = [&](int p, int b) {
+    return scratch.ext_d.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+  };
+  // The row sums of bordered rows (count of them, from the batch's row `first`) of window w,
+  // whose rows start `shift` values into the large window's bordered rows.
+  auto row_sums = [&](Window& w, int first, int count, int shift) {
+    for (int p = 0; p < kPlanes; ++p) {
+      for (int b = first; b < first + count; ++b) {
+        const float* e = ext_row(p, b) + shift;
+        double* h = slot(w, p, w.produced + b - first);
+        if (w.k == 3) {
+          BoxDirect3Row(e, h, cn, n);
+        } else if (w.k == 5) {
+          BoxDirect5Row(e, h, cn, n);
+        } else {
+          for (int c = 0; c < cn; ++c) {
+            double s = 0;
+            for (int i = 0; i < w.k; ++i) s += static_cast<double>(e[i * cn + c]);
+            h[c] = s;
+          }
+        }
+      }
+      if (w.k == 3 || w.k == 5) continue;
+      int b = first;
+      for (; b + 4 <= first + count; b += 4) {
+        const int j = w.produced + b - first;
+        BoxRunning4(ext_d_row(p, b) + shift, ext_d_row(p, b + 1) + shift,
+                    ext_d_row(p, b + 2) + shift, ext_d_row(p, b + 3) + shift, slot(w, p, j),
+                    slot(w, p, j + 1), slot(w, p, j + 2), slot(w, p, j + 3), cn, w.k, cols - 1);
+      }
+      for (; b < first + count; ++b)
+        BoxRunning1(ext_d_row(p, b) + shift, slot(w, p, w.produced + b - first), cn, w.k, cols - 1);
+    }
+    w.produced += count;
+  };
+  // The column steps that the rows produced so far allow, in order: the first k - 1 rows into the
+  // column sums, then one output row per further row.
+  auto columns = [&](Window& w, auto& consume, auto& first_plane) {
+    while (w.accumulated < w.k - 1 && w.accumulated < w.produced) {
+      for (int p = 0; p < kPlanes; ++p)
+        BoxAccumulateRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, w.accumulated), n);
+      ++w.accumulated;
+    }
+    while (w.accumulated == w.k - 1 && w.emitted < rows && w.emitted + w.k - 1 < w.produced) {
+      const int y = w.emitted;
+      const float* outs[kPlanes];
+      for (int p = 0; p < kPlanes; ++p) {
+        float* o = p == 0 ? first_plane(y) : scratch.out.data() + static_cast<size_t>(p) * n;
+        BoxColumnRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, y + w.k - 1), slot(w, p, y), o,
+                     n);
+        outs[p] = o;
+      }
+      consume(y, outs);
+      ++w.emitted;
+    }
+  };
+  const int total = win[0].total;
+  for (int j0 = 0; j0 < total; j0 += kBatch) {
+    const int count = std::min(kBatch, total - j0);
+    for (int b = 0; b < count; ++b) {
+      const int j = j0 + b;
+      float* in[kPlanes];
+      for (int p = 0; p < kPlanes; ++p) in[p] = ext_row(p, b) + large * cn;
+      produce(cv::borderInterpolate(j - large, rows, cv::BORDER_REFLECT), in);
+      for (int p = 0; p < kPlanes; ++p) {
+        float* e = ext_row(p, b);
+        for (int x = 0; x < cols + kl - 1; ++x) {
+          if (x == large) x = std::min(large + cols, cols + kl - 1);  // the interior is there
+          if (x >= cols + kl - 1) break;
+          for (int c = 0; c < cn; ++c) e[x * cn + c] = e[(large + xofs[x]) * cn + c];
+        }
+        WidenRow(e, ext_d_row(p, b), ext_n);
+      }
+    }
+    row_sums(win[0], 0, count, 0);
+    // The small window's rows among these: bordered rows j - offset in [0, its total).
+    const int first = std::max(0, offset - j0);
+    const int last = std::min(count, offset + win[1].total - j0);  // exclusive
+    if (last > first) row_sums(win[1], first, last - first, offset * cn);
+    columns(win[1], consume_small, first_small);
+    columns(win[0], consume_large, first_large);
+  }
+}
+
+// A whole image through BoxStream.
+template <typename Consume>
+void BoxStreamImage(const cv::Mat& src, int radius, double scale, Consume&& consume) {
+  const size_t bytes = sizeof(float) * src.cols * src.channels();
+  BoxStream<1>(
+      src.rows, src.cols, src.channels(), radius, scale,
+      [&](int y, float* const* in) { std::memcpy(in[0], src.ptr<float>(y), bytes); },
+      std::forward<Consume>(consume));
 }
 
 // One row of the data term: u = ((I - S) - veil) / sc and a = sc^2 / variance with
@@ -383,218 +823,555 @@ int CountClipped(const float* in, float clip_level, int ch, int cols) {
   return count;
 }
 
-// One row of LocalSignalVariance's numerator a (z - p)^2 and data indicator [a > 0]; returns how
-// many values have no data.
-TURBID_ROW_KERNEL int NumeratorRow(const float* __restrict zz, const float* __restrict aa,
-                                   const float* __restrict pp, float* __restrict nn,
-                                   float* __restrict hh, int n) {
-  int none = 0;
+// One row of LocalSignalVariance's numerator a (z - p)^2 (its box count of [a > 0] is made in
+// integers: BoxCount).
+TURBID_ROW_KERNEL void NumeratorOnlyRow(const float* __restrict zz, const float* __restrict aa,
+                                        const float* __restrict pp, float* __restrict nn, int n) {
   for (int i = 0; i < n; ++i) {
     const float d = zz[i] - pp[i];
     nn[i] = aa[i] * (d * d);
-    hh[i] = aa[i] > 0.0f ? 1.0f : 0.0f;
-    none += aa[i] > 0.0f ? 0 : 1;
   }
-  return none;
+}
+
+// out = p + S w / (S w + 1) (m - p): the shrink of the prior p towards the level mean m.
+TURBID_ROW_KERNEL void ShrinkRowTo(const float* __restrict s, const float* __restrict w,
+                                   const float* __restrict m, const float* __restrict p,
+                                   float* __restrict out, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float sw = s[i] * w[i];
+    const float gain = sw / (sw + 1.0f);
+    out[i] = p[i] + gain * (m[i] - p[i]);
+  }
+}
+
+// Per channel, the values of a row with no data (a > 0 false).
+void NoDataPerChannel(const float* a, int cols, int ch, long long* none) {
+  if (ch == 1) {
+    none[0] += NoDataRow(a, cols);
+    return;
+  }
+  for (int x = 0; x < cols; ++x)
+    for (int c = 0; c < ch; ++c) none[c] += a[x * ch + c] > 0.0f ? 0 : 1;
+}
+
+// The censored values (I > clip_level) of the data term, per row, with their lower bounds on
+// rho, (I - 2 sigma - S - veil) / max(t E, 1e-12): row y's are entries row_start[y] ..
+// row_start[y + 1] - 1 (value index within the row, bound).
+struct Censored {
+  std::vector<int> row_start, index;
+  std::vector<float> bound;
+};
+
+// x + 0 where x is finite, NaN elsewhere: the unclipped branch of the censoring step (its
+// factor 0 times a finite difference).
+TURBID_ROW_KERNEL void KeepFiniteRow(const float* __restrict x, float* __restrict out, int n) {
+  // As bit masks, so that the sum is formed for every value and the loop has no branch.
+  constexpr uint32_t kQuietNan = std::bit_cast<uint32_t>(std::numeric_limits<float>::quiet_NaN());
+  for (int i = 0; i < n; ++i) {
+    const uint32_t kept = std::bit_cast<uint32_t>(x[i] + 0.0f);
+    const uint32_t finite = (std::bit_cast<uint32_t>(x[i]) & 0x7f800000u) != 0x7f800000u ? ~0u : 0u;
+    out[i] = std::bit_cast<float>((kept & finite) | (kQuietNan & ~finite));
+  }
+}
+
+// The censoring step on one row: listed values raised onto their bound, x + (max(x, bound) -
+// x); the others x + 0 (KeepFiniteRow).
+void CensorRow(const Censored& c, int y, const float* x, float* out, int n) {
+  KeepFiniteRow(x, out, n);
+  for (int j = c.row_start[y]; j < c.row_start[y + 1]; ++j) {
+    const int i = c.index[j];
+    out[i] = x[i] + (std::max(x[i], c.bound[j]) - x[i]);
+  }
+}
+
+using DeblurStats = oracle_internal::DetailSums;
+
+// One gray row of DetailAndStats: d = e - p, and over the values not masked the sums of v, d and
+// d^2 in four partial sums, value x into sum x mod 4 (the partial sums side by side: one vector
+// of four doubles each; a masked value adds +0, which leaves a sum started at +0 unchanged).
+// Returns how many values are not masked.
+TURBID_ROW_KERNEL int DetailStatsRow1(const float* __restrict e, const float* __restrict p,
+                                      const float* __restrict v, const uchar* __restrict m,
+                                      float* __restrict d, double* __restrict sp,
+                                      double* __restrict sd, double* __restrict sq, int n) {
+  for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
+  // The four partial sums as one vector each (GCC vector extensions; masked values as +0 by
+  // a bit mask).
+  using V4d = double __attribute__((vector_size(32)));
+  using V4f = float __attribute__((vector_size(16)));
+  using V4l = int64_t __attribute__((vector_size(32)));
+  V4d vp = {sp[0], sp[1], sp[2], sp[3]}, vd = {sd[0], sd[1], sd[2], sd[3]};
+  V4d vq = {sq[0], sq[1], sq[2], sq[3]};
+  V4l kept = {0, 0, 0, 0};
+  int x = 0;
+  for (; x + 4 <= n; x += 4) {
+    V4f vf, df;
+    std::memcpy(&vf, v + x, sizeof(vf));
+    std::memcpy(&df, d + x, sizeof(df));
+    const V4l keep = V4l{m[x], m[x + 1], m[x + 2], m[x + 3]} == 0;  // all ones where kept
+    const V4d vv = __builtin_convertvector(vf, V4d), dd = __builtin_convertvector(df, V4d);
+    const V4d dd2 = dd * dd;
+    vp += reinterpret_cast<V4d>(reinterpret_cast<V4l>(vv) & keep);
+    vd += reinterpret_cast<V4d>(reinterpret_cast<V4l>(dd) & keep);
+    vq += reinterpret_cast<V4d>(reinterpret_cast<V4l>(dd2) & keep);
+    kept -= keep;
+  }
+  int count = 0;
+  for (int k = 0; k < 4; ++k) {
+    sp[k] = vp[k];
+    sd[k] = vd[k];
+    sq[k] = vq[k];
+    count += static_cast<int>(kept[k]);
+  }
+  for (; x < n; ++x) {
+    if (m[x] != 0) continue;
+    const int k = x & 3;
+    const double dd = d[x];
+    sp[k] += v[x];
+    sd[k] += dd;
+    sq[k] += dd * dd;
+    ++count;
+  }
+  return count;
+}
+
+// One row of the detail d = e - p (float) and of DeblurStats (cols pixels, ch channels). Four
+// partial sums per quantity for one channel (independent chains).
+void DetailStatsRow(const float* e, const float* p, const float* v, const uchar* m, float* d,
+                    int cols, int ch, DeblurStats& st) {
+  const int n = cols * ch;
+  if (ch == 1) {
+    double sp[4] = {0, 0, 0, 0}, sd[4] = {0, 0, 0, 0}, sq[4] = {0, 0, 0, 0};
+    st.count += DetailStatsRow1(e, p, v, m, d, sp, sd, sq, n);
+    st.posterior[0] += (sp[0] + sp[1]) + (sp[2] + sp[3]);
+    st.detail[0] += (sd[0] + sd[1]) + (sd[2] + sd[3]);
+    st.detail_sq[0] += (sq[0] + sq[1]) + (sq[2] + sq[3]);
+    return;
+  }
+  for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
+  for (int x = 0; x < cols; ++x) {
+    if (m[x] != 0) continue;
+    for (int c = 0; c < ch; ++c) {
+      const double dd = d[x * ch + c];
+      st.posterior[c] += v[x * ch + c];
+      st.detail[c] += dd;
+      st.detail_sq[c] += dd * dd;
+    }
+    ++st.count;
+  }
+}
+
+// HierarchicalMmse's optional output: detail = est - prior and its sums over the pixels not
+// masked (OracleEnhance's Wiener ratio), made as the estimate's rows are.
+struct DetailOut {
+  cv::Mat masked;  // CV_8UC1, 255 = masked
+  cv::Mat detail;  // the estimate's size and type
+  DeblurStats sums;
+};
+
+// Box counts of [a > 0] over (2 radius + 1)^2 windows, reflected borders, streamed: Add(a) takes
+// the source row of the next bordered row (in BoxStream's order: bordered rows 0, 1, ...),
+// Output(y, out) writes output row y (in order of y, once rows up to y + 2 radius are in). The
+// counts are integers, exact in any order of summation, so they equal the double box sums of the
+// 0 / 1 indicator that they replace (and cost integer adds instead of a third double plane).
+class BoxCount {
+ public:
+  BoxCount(int cols, int cn, int radius)
+      : cols_(cols), cn_(cn), k_(2 * radius + 1), n_(cols * cn), capacity_(k_ + 8) {
+    xofs_.resize(cols + k_ - 1);
+    for (int j = 0; j < cols + k_ - 1; ++j)
+      xofs_[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
+    bordered_.resize(static_cast<size_t>(cols + k_ - 1) * cn);
+    prefix_.resize(bordered_.size() + 1);
+    ring_.resize(static_cast<size_t>(capacity_) * n_);
+    vertical_.assign(n_, 0);
+  }
+  void Add(const float* a) {
+    // The bordered indicator row, then its window sums: direct for small windows, else as
+    // differences of prefix sums (integers: any order gives the same counts).
+    const int ext_n = (cols_ + k_ - 1) * cn_;
+    int32_t* e = bordered_.data();
+    IndicatorRow(a, e + (k_ / 2) * cn_, n_);
+    for (int x = 0; x < cols_ + k_ - 1; ++x) {
+      if (x == k_ / 2) x = std::min(k_ / 2 + cols_, cols_ + k_ - 1);  // the interior is there
+      if (x >= cols_ + k_ - 1) break;
+      for (int c = 0; c < cn_; ++c) e[x * cn_ + c] = e[(k_ / 2 + xofs_[x]) * cn_ + c];
+    }
+    int32_t* h = ring_.data() + static_cast<size_t>(added_ % capacity_) * n_;
+    if (k_ <= 9) {
+      WindowSumsDirect(e, h, cn_, k_, n_);
+    } else {
+      int32_t* prefix = prefix_.data();
+      prefix[0] = 0;
+      for (int i = 0; i < ext_n; ++i) prefix[i + 1] = prefix[i] + e[i];
+      // Per channel c the window of value i = x cn + c is i, i + cn, ..., i + (k - 1) cn; with
+      // one channel the prefix sums give it directly.
+      if (cn_ == 1) {
+        WindowSumsPrefix(prefix, h, k_, n_);
+      } else {
+        WindowSumsDirect(e, h, cn_, k_, n_);
+      }
+    }
+    ++added_;
+  }
+  void Output(int y, float* out) {
+    CV_Assert(added_ >= y + k_ && y + k_ + 8 > added_);
+    if (y == 0) {
+      std::fill(vertical_.begin(), vertical_.end(), 0);
+      for (int j = 0; j < k_; ++j) AddRows(vertical_.data(), Row(j), nullptr, n_);
+    } else {
+      AddRows(vertical_.data(), Row(y + k_ - 1), Row(y - 1), n_);
+    }
+    IntToFloatRow(vertical_.data(), out, n_);
+  }
+
+ private:
+  TURBID_ROW_KERNEL static void IndicatorRow(const float* __restrict a, int32_t* __restrict out,
+                                             int n) {
+    for (int i = 0; i < n; ++i) out[i] = a[i] > 0.0f ? 1 : 0;
+  }
+  TURBID_ROW_KERNEL static void WindowSumsDirect(const int32_t* __restrict e, int32_t* __restrict h,
+                                                 int cn, int k, int n) {
+    for (int i = 0; i < n; ++i) h[i] = 0;
+    for (int j = 0; j < k; ++j)
+      for (int i = 0; i < n; ++i) h[i] += e[i + j * cn];
+  }
+  TURBID_ROW_KERNEL static void WindowSumsPrefix(const int32_t* __restrict prefix,
+                                                 int32_t* __restrict h, int k, int n) {
+    for (int i = 0; i < n; ++i) h[i] = prefix[i + k] - prefix[i];
+  }
+  TURBID_ROW_KERNEL static void AddRows(int32_t* __restrict v, const int32_t* __restrict add,
+                                        const int32_t* __restrict sub, int n) {
+    if (sub == nullptr) {
+      for (int i = 0; i < n; ++i) v[i] += add[i];
+    } else {
+      for (int i = 0; i < n; ++i) v[i] += add[i] - sub[i];
+    }
+  }
+  TURBID_ROW_KERNEL static void IntToFloatRow(const int32_t* __restrict v, float* __restrict out,
+                                              int n) {
+    for (int i = 0; i < n; ++i) out[i] = static_cast<float>(v[i]);
+  }
+  const int32_t* Row(int j) const { return ring_.data() + static_cast<size_t>(j % capacity_) * n_; }
+  int cols_, cn_, k_, n_, capacity_;
+  int added_ = 0;
+  std::vector<int> xofs_;
+  std::vector<int32_t> bordered_, prefix_, ring_, vertical_;
+};
+
+// Row buffers of HierarchicalMmse's streams (per thread, kept between calls).
+struct MmseRows {
+  std::vector<float> has, s, e;
+};
+
+MmseRows& ThreadMmseRows(int n) {
+  thread_local MmseRows rows;
+  for (std::vector<float>* v : {&rows.has, &rows.s, &rows.e})
+    v->resize(std::max<size_t>(v->size(), static_cast<size_t>(n)));
+  return rows;
 }
 
 // Local signal variance around the prior mean p of values z whose noise variances are 1 / a (a =
-// 0: no data): max(sum a (z - p)^2 - sum [a > 0], 0) / sum a over a window of `radius` (0: the
-// whole image). Unbiased for independent samples (E a (z - p)^2 = a S + 1).
-cv::Mat LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, const cv::Mat& p, int radius) {
-  cv::Mat num = NewLike(z), has = NewLike(z);
-  int no_data = 0;  // values with a = 0 (a count, so the loop vectorises)
-  ForRows(
-      z,
-      [&no_data](int n, const float* zz, const float* aa, const float* pp, float* nn, float* hh) {
-        no_data += NumeratorRow(zz, aa, pp, nn, hh, n);
-      },
-      z, a, p, num, has);
-  const bool all_data = no_data == 0;
-  if (radius <= 0) {
-    const cv::Scalar sa = cv::sum(a), sn = cv::sum(num), sh = cv::sum(has);
-    cv::Scalar s;
-    for (int c = 0; c < z.channels(); ++c)
-      s[c] = sa[c] > 0 ? std::max(sn[c] - sh[c], 0.0) / sa[c] : 0.0;
-    cv::Mat out = NewLike(z);
-    out.setTo(s);
-    return out;
-  }
-  const cv::Mat sa = BoxSum(a, radius);
-  cv::Mat out = BoxSum(num, radius);
-  // The box count of [a > 0] is a small integer, exact whatever the summation; with data
-  // everywhere it is the full (2r + 1)^2 window (reflected borders).
+// 0: no data): max(box(a (z - p)^2) - box([a > 0]), 0) / box(a) over windows of `radius`.
+// Unbiased for independent samples (E a (z - p)^2 = a S + 1). no_data: how many values of a
+// have a > 0 false. Streamed: the box sums of a, of the numerator and (where some value has no
+// data) of [a > 0] exist only as rows; consume(y) is called once row y of the variance is in
+// s_row(y), in order of y. p_row(y): row y of p (asked for once or more per row, before the
+// variance's row y). With data everywhere the box count of [a > 0] is the full (2r + 1)^2 window
+// (reflected borders), a small integer, exact whatever the summation.
+template <typename PRow, typename SRow, typename Consume>
+void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int radius,
+                         long long no_data, SRow&& s_row, Consume&& consume) {
+  const int n = z.cols * z.channels();
+  const size_t bytes = sizeof(float) * n;
+  MmseRows& rows = ThreadMmseRows(n);
   const float full = static_cast<float>((2 * radius + 1) * (2 * radius + 1));
-  const cv::Mat count = all_data ? cv::Mat() : BoxSum(has, radius);
-  for (int y = 0; y < z.rows; ++y) {
-    const int n = z.cols * z.channels();
-    if (all_data) {
-      SignalVarianceRowFull(out.ptr<float>(y), sa.ptr<float>(y), full, n);
-    } else {
-      SignalVarianceRow(out.ptr<float>(y), sa.ptr<float>(y), count.ptr<float>(y), n);
-    }
+  if (no_data == 0) {
+    BoxStream<2>(
+        z.rows, z.cols, z.channels(), radius, 1.0,
+        [&](int y, float* const* in) {
+          std::memcpy(in[0], a.ptr<float>(y), bytes);
+          NumeratorOnlyRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], n);
+        },
+        [&](int y, const float* const* o) {
+          SignalVarianceRowFull(o[1], o[0], full, s_row(y), n);
+          consume(y);
+        });
+  } else {
+    // The box count of [a > 0] in integers beside the two double planes (BoxStream asks for its
+    // bordered rows once each, in order).
+    BoxCount count(z.cols, z.channels(), radius);
+    BoxStream<2>(
+        z.rows, z.cols, z.channels(), radius, 1.0,
+        [&](int y, float* const* in) {
+          std::memcpy(in[0], a.ptr<float>(y), bytes);
+          NumeratorOnlyRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], n);
+          count.Add(a.ptr<float>(y));
+        },
+        [&](int y, const float* const* o) {
+          count.Output(y, rows.has.data());
+          SignalVarianceRow(o[1], o[0], rows.has.data(), s_row(y), n);
+          consume(y);
+        });
   }
-  return out;
 }
 
 // The linear MMSE estimate of rho from u = rho + noise of variance v (a = 1 / v, 0 where
 // masked), under a hierarchical local Gaussian prior (docs/methods.md, "oracle"). Writes the
 // prior mean of the finest level to *prior and the posterior variance to *posterior.
-cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a, cv::Mat* prior,
-                         cv::Mat* posterior) {
+// au = a u; a_no_data: how many values of a have a > 0 false; censored (may be null): the
+// censoring step applied to the estimate and the prior (OracleMmse).
+//
+// Level 0 is a per-channel constant (the weighted global mean), level 1 (coarse) shrinks it
+// towards the coarse local means with one per-channel signal variance (whole-image sums), level
+// 2 (middle) towards the middle local means with the signal variance over coarse windows, and
+// the estimate uses the signal variance over pixel windows. Each step is an epilogue of the box
+// stream that makes its inputs; only the level means, weights and priors are images (a prior is
+// written to a new image, since the stream that reads it re-reads rows for the bottom border).
+cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a,
+                         const cv::Mat& au, long long a_no_data, const Censored* censored,
+                         cv::Mat* prior, cv::Mat* posterior, DetailOut* detail) {
   const int ch = u.channels();
-  cv::Mat au = NewLike(u);
-  ForRows(
-      u, [](int n, const float* aa, const float* uu, float* out) { ProductRow(aa, uu, out, n); }, a,
-      u, au);
-  // Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data).
+  const int n = u.cols * ch;
+  const size_t bytes = sizeof(float) * n;
+  MmseRows& rows = ThreadMmseRows(n);
+  // Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data), in
+  // float as setTo stores it, as one row.
   const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
-  cv::Scalar m0;
-  for (int c = 0; c < ch; ++c) m0[c] = sa[c] > 0 ? sau[c] / sa[c] : 0.5;
-  cv::Mat p = NewLike(u);
-  p.setTo(m0);
-  int prev_radius = 0;  // 0: global
-  for (const int radius : {o.coarse_radius, o.middle_radius}) {
-    const cv::Mat w = BoxSum(a, radius);
-    cv::Mat m = BoxSum(au, radius);  // becomes the BLUE of the local mean; noise 1 / w
-    ForRows(
-        u, [](int n, const float* ww, float* mm) { QuotientRow(ww, mm, n); }, w, m);
-    const cv::Mat s = LocalSignalVariance(m, w, p, prev_radius);
-    // p += S / (S + 1/w) (m - p) = S w / (S w + 1) (m - p); w = 0 keeps p.
-    ForRows(
-        u,
-        [](int n, const float* ss, const float* ww, const float* mm, float* pp) {
-          ShrinkRow(ss, ww, mm, pp, n);
-        },
-        s, w, m, p);
-    prev_radius = radius;
+  std::vector<float> p0(n), s0(n);
+  for (int i = 0; i < n; ++i) {
+    const int c = i % ch;
+    p0[i] = static_cast<float>(sa[c] > 0 ? sau[c] / sa[c] : 0.5);
   }
-  cv::Mat s = LocalSignalVariance(u, a, p, o.pixel_radius);
-  // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
-  // S v / (S + v) = S / (S a + 1), S where masked. `s` becomes the posterior, `est` the estimate.
-  cv::Mat est = NewLike(u);
-  ForRows(
-      u,
-      [](int n, const float* aa, const float* uu, const float* pp, float* ss, float* ee) {
-        EstimateRow(aa, uu, pp, ss, ee, n);
+  // w = box sum of a; m = box sum of a u / max(w, 1e-30), the BLUE of the local mean (noise
+  // 1 / w).
+  auto level = [&](int y, const float* const* out, const cv::Mat& m) {
+    QuotientRow(out[0], out[1], const_cast<cv::Mat&>(m).ptr<float>(y), n);
+  };
+  auto level_input = [&](int y, float* const* in) {
+    std::memcpy(in[0], a.ptr<float>(y), bytes);
+    std::memcpy(in[1], au.ptr<float>(y), bytes);
+  };
+  // The coarse and middle levels from one pass over a and a u (BoxStreamTwoRadii), with the
+  // numerator of the coarse level's whole-image signal variance (z = m, weights w, p = the
+  // level-0 constant).
+  const cv::Mat wc = NewLike(u), mc = NewLike(u), num = NewLike(u);
+  const cv::Mat wm = NewLike(u), mm = NewLike(u);
+  long long wc_none[4] = {0, 0, 0, 0};
+  long long wm_none = 0;
+  BoxStreamTwoRadii<2>(
+      u.rows, u.cols, ch, o.coarse_radius, o.middle_radius, level_input,
+      [&](int y, const float* const* out) {
+        level(y, out, mc);
+        NumeratorOnlyRow(mc.ptr<float>(y), out[0], p0.data(),
+                         const_cast<cv::Mat&>(num).ptr<float>(y), n);
+        NoDataPerChannel(out[0], u.cols, ch, wc_none);
       },
-      a, u, p, s, est);
-  *prior = p;
-  *posterior = s;
+      [&](int y, const float* const* out) {
+        level(y, out, mm);
+        wm_none += NoDataRow(out[0], n);
+      },
+      [&](int y) { return const_cast<cv::Mat&>(wc).ptr<float>(y); },  // w written in place
+      [&](int y) { return const_cast<cv::Mat&>(wm).ptr<float>(y); });
+  // max(sum w (m - p)^2 - sum [w > 0], 0) / sum w per channel; the count of [w > 0] is an
+  // integer, exact in double whatever the order of its sum.
+  const cv::Scalar sw = cv::sum(wc), sn = cv::sum(num);
+  const double values = static_cast<double>(u.rows) * u.cols;
+  for (int i = 0; i < n; ++i) {
+    const int c = i % ch;
+    const double sh = values - static_cast<double>(wc_none[c]);
+    s0[i] = static_cast<float>(sw[c] > 0 ? std::max(sn[c] - sh, 0.0) / sw[c] : 0.0);
+  }
+  // The middle level's signal variance over coarse windows around p1, the coarse shrink p1 = p0 +
+  // S w / (S w + 1) (m - p0) (w = 0 keeps p), made as the stream first asks for its rows (again
+  // for the reflected border: the same values); then the middle shrink into p2.
+  const cv::Mat p1 = NewLike(u), p2 = NewLike(u);
+  auto p1_row = [&](int y) {
+    float* row = const_cast<cv::Mat&>(p1).ptr<float>(y);
+    ShrinkRowTo(s0.data(), wc.ptr<float>(y), mc.ptr<float>(y), p0.data(), row, n);
+    return row;
+  };
+  LocalSignalVariance(
+      mm, wm, p1_row, o.coarse_radius, wm_none, [&](int) { return rows.s.data(); },
+      [&](int y) {
+        ShrinkRowTo(rows.s.data(), wm.ptr<float>(y), mm.ptr<float>(y), p1.ptr<float>(y),
+                    const_cast<cv::Mat&>(p2).ptr<float>(y), n);
+      });
+  // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
+  // S v / (S + v) = S / (S a + 1), S where masked.
+  cv::Mat post = NewLike(u), est = NewLike(u);
+  cv::Mat prior_out = censored != nullptr ? NewLike(u) : p2;
+  LocalSignalVariance(
+      u, a, [&](int y) { return p2.ptr<float>(y); }, o.pixel_radius, a_no_data,
+      [&](int y) { return post.ptr<float>(y); },
+      [&](int y) {
+        float* s = post.ptr<float>(y);
+        if (censored == nullptr) {
+          EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est.ptr<float>(y), n);
+        } else {
+          EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, rows.e.data(), n);
+          CensorRow(*censored, y, rows.e.data(), est.ptr<float>(y), n);
+          CensorRow(*censored, y, p2.ptr<float>(y), prior_out.ptr<float>(y), n);
+        }
+        if (detail != nullptr) {
+          DetailStatsRow(est.ptr<float>(y), prior_out.ptr<float>(y), s,
+                         detail->masked.ptr<uchar>(y), detail->detail.ptr<float>(y), u.cols, ch,
+                         detail->sums);
+        }
+      });
+  *prior = prior_out;
+  *posterior = post;
   return est;
 }
 
-// Per-channel sums over the pixels that are not masked (see OracleEnhance's deblur).
-struct DeblurStats {
-  double posterior[3] = {0, 0, 0}, detail[3] = {0, 0, 0}, detail_sq[3] = {0, 0, 0};
-  long long count = 0;
-};
-
-// detail = est - prior (float), and DeblurStats, one row pass. Four partial sums per quantity
-// (independent chains).
-DeblurStats DetailAndStats(const cv::Mat& est, const cv::Mat& prior, const cv::Mat& posterior,
-                           const cv::Mat& masked, const cv::Mat& detail) {
-  const int ch = est.channels();
-  DeblurStats st;
-  for (int y = 0; y < est.rows; ++y) {
-    const float* e = est.ptr<float>(y);
-    const float* p = prior.ptr<float>(y);
-    const float* v = posterior.ptr<float>(y);
-    const uchar* m = masked.ptr<uchar>(y);
-    float* d = const_cast<cv::Mat&>(detail).ptr<float>(y);
-    const int n = est.cols * ch;
-    for (int i = 0; i < n; ++i) d[i] = e[i] - p[i];
-    if (ch == 1) {
-      double sp[4] = {0, 0, 0, 0}, sd[4] = {0, 0, 0, 0}, sq[4] = {0, 0, 0, 0};
-      for (int x = 0; x < est.cols; ++x) {
-        if (m[x] != 0) continue;
-        const int k = x & 3;
-        const double dd = d[x];
-        sp[k] += v[x];
-        sd[k] += dd;
-        sq[k] += dd * dd;
-        ++st.count;
+// The oracle's last steps on one row (kCh channels): v = p + d where not masked, p where masked
+// (kDeblur: p + the deblurred detail, then the prior copied back onto the masked pixels), or v =
+// the estimate p (!kDeblur); times E (kLit: target lit); then cv::patchNaNs(v, 0), cv::min(v, 1)
+// and max(v, 0) (0 for v < 0). Returns how many values are -0: cv::max's vector loop makes them
+// +0, its scalar loop (a row's last few values) keeps them, so the caller leaves those to cv::max
+// (which leaves every other value as it is).
+template <int kCh, bool kDeblur, bool kLit>
+TURBID_ROW_KERNEL int FinishRowN(const float* __restrict p, const float* __restrict d,
+                                 const uchar* __restrict m, const float* __restrict e,
+                                 float* __restrict out, int cols) {
+  int negative_zeros = 0;
+  for (int x = 0; x < cols; ++x) {
+    for (int c = 0; c < kCh; ++c) {
+      const int i = x * kCh + c;
+      float v = p[i];
+      if constexpr (kDeblur) {
+        // As bit masks, so that the sum is formed for every value and the loop has no branch.
+        const uint32_t sum = std::bit_cast<uint32_t>(p[i] + d[i]);
+        const uint32_t keep = m[x] != 0 ? ~0u : 0u;
+        v = std::bit_cast<float>((std::bit_cast<uint32_t>(p[i]) & keep) | (sum & ~keep));
       }
-      st.posterior[0] += (sp[0] + sp[1]) + (sp[2] + sp[3]);
-      st.detail[0] += (sd[0] + sd[1]) + (sd[2] + sd[3]);
-      st.detail_sq[0] += (sq[0] + sq[1]) + (sq[2] + sq[3]);
-    } else {
-      for (int x = 0; x < est.cols; ++x) {
-        if (m[x] != 0) continue;
-        for (int c = 0; c < ch; ++c) {
-          const double dd = d[x * ch + c];
-          st.posterior[c] += v[x * ch + c];
-          st.detail[c] += dd;
-          st.detail_sq[c] += dd * dd;
-        }
-        ++st.count;
-      }
+      if constexpr (kLit) v = v * e[i];
+      v = std::isnan(v) ? 0.0f : v;
+      v = 1.0f < v ? 1.0f : v;
+      // v < 0 ? 0 : v on the bits (v is not NaN here): negative values other than -0 become +0.
+      const uint32_t bits = std::bit_cast<uint32_t>(v);
+      negative_zeros += bits == 0x80000000u ? 1 : 0;
+      out[i] = std::bit_cast<float>(bits > 0x80000000u ? 0u : bits);
     }
   }
-  return st;
+  return negative_zeros;
 }
+
+struct Finisher {
+  int ch;
+  bool deblur, lit;
+  template <int kCh>
+  int Run(const float* p, const float* d, const uchar* m, const float* e, float* out,
+          int cols) const {
+    if (deblur) {
+      return lit ? FinishRowN<kCh, true, true>(p, d, m, e, out, cols)
+                 : FinishRowN<kCh, true, false>(p, d, m, e, out, cols);
+    }
+    return lit ? FinishRowN<kCh, false, true>(p, d, m, e, out, cols)
+               : FinishRowN<kCh, false, false>(p, d, m, e, out, cols);
+  }
+  int operator()(const float* p, const float* d, const uchar* m, const float* e, float* out,
+                 int cols) const {
+    return ch == 1 ? Run<1>(p, d, m, e, out, cols) : Run<3>(p, d, m, e, out, cols);
+  }
+};
 
 }  // namespace
 
 namespace oracle_internal {
 
+void BoxFilterReflect(const cv::Mat& source, cv::Mat& dst, int radius, bool normalize) {
+  CV_Assert(source.depth() == CV_32F && radius >= 1);
+  const cv::Mat src = source;                 // a header of its own: dst may be the same Mat object
+  if (dst.data == src.data) dst = cv::Mat();  // rows of src are read after rows of dst are written
+  dst.create(src.size(), src.type());
+  const int k = 2 * radius + 1;
+  const size_t bytes = sizeof(float) * src.cols * src.channels();
+  BoxStreamImage(src, radius, normalize ? 1.0 / (k * k) : 1.0, [&](int y, const float* const* out) {
+    std::memcpy(dst.ptr<float>(y), out[0], bytes);
+  });
+}
+
+void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& masked,
+                 const cv::Mat& irradiance, cv::Mat& out) {
+  CV_Assert(prior.depth() == CV_32F && (prior.channels() == 1 || prior.channels() == 3));
+  const Finisher finish{prior.channels(), !detail.empty(), !irradiance.empty()};
+  if (out.data != prior.data) out.create(prior.size(), prior.type());
+  int negative_zeros = 0;
+  for (int y = 0; y < prior.rows; ++y) {
+    negative_zeros += finish(prior.ptr<float>(y), detail.empty() ? nullptr : detail.ptr<float>(y),
+                             detail.empty() ? nullptr : masked.ptr<uchar>(y),
+                             irradiance.empty() ? nullptr : irradiance.ptr<float>(y),
+                             out.ptr<float>(y), prior.cols);
+  }
+  if (negative_zeros > 0) cv::max(out, 0.0, out);
+}
+
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
-                            double floor_var, double clip_level_d) {
-  cv::Mat variance = NewLike(image);
-  cv::boxFilter(image, variance, -1, cv::Size(7, 7), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+                            double floor_var, double clip_level_d, bool with_detail) {
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
-  ForRows(
-      variance, [gain_f, floor_f](int n, float* v) { NoiseVarianceRow(v, gain_f, floor_f, n); },
-      variance);
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,
   // 0 where masked. Clipped samples (I at 1 in a channel) are not Gaussian data: they get no
   // weight. A sample clipped at 1 still bounds rho from below, (1 - 2 sigma - S - veil) / (t E):
   // the estimate is raised onto that bound where it falls short (docs/methods.md).
   OracleMmseResult r;
-  r.masked = MaskBelow(transmission, o.mask_transmission);
-  r.masked_pixels = cv::countNonZero(r.masked);
+  r.masked = internal::PooledMat(image.size(), CV_8UC1);  // made row by row in the stream below
   const cv::Mat& masked = r.masked;
+  const float mask_floor = static_cast<float>(o.mask_transmission);  // as cv::compare takes it
   const float clip_level = static_cast<float>(clip_level_d);
   const int ch = image.channels();
-  cv::Mat u = NewLike(image), a = NewLike(image);
+  // One streamed pass: the 7 x 7 mean of I (cv::boxFilter's, bit for bit), the variance from it
+  // (a row only), the data term, a u, the counts, and the censored values with their bounds
+  // (est += (max(est, bound) - est) where clipped, applied as the estimate is made).
+  cv::Mat u = NewLike(image), a = NewLike(image), au = NewLike(image);
   int censored = 0;
-  for (int y = 0; y < image.rows; ++y) {
-    DataTermRow(image.ptr<float>(y), transmission.ptr<float>(y), irradiance.ptr<float>(y),
-                snow.ptr<float>(y), veil.ptr<float>(y), variance.ptr<float>(y),
-                masked.ptr<uchar>(y), clip_level, ch, image.cols, u.ptr<float>(y), a.ptr<float>(y));
-    censored += CountClipped(image.ptr<float>(y), clip_level, ch, image.cols);
-  }
-  r.censored_pixels = censored;
-  r.estimate = HierarchicalMmse(o, u, a, &r.prior, &r.posterior);
-  cv::Mat& est = r.estimate;
-  cv::Mat& prior = r.prior;
-  if (censored > 0) {
-    // est += (max(est, bound) - est) [clipped], and the same for the prior.
-    for (int y = 0; y < image.rows; ++y) {
-      const float* in = image.ptr<float>(y);
-      const float* t = transmission.ptr<float>(y);
-      const float* e = irradiance.ptr<float>(y);
-      const float* sn = snow.ptr<float>(y);
-      const float* ve = veil.ptr<float>(y);
-      const float* var = variance.ptr<float>(y);
-      float* es = est.ptr<float>(y);
-      float* pr = prior.ptr<float>(y);
-      for (int i = 0; i < image.cols * ch; ++i) {
-        if (in[i] > clip_level) {
-          const float sc = std::max(t[i] * e[i], 1e-12f);
-          const float bound = (((in[i] - 2.0f * std::sqrt(var[i])) - sn[i]) - ve[i]) / sc;
-          es[i] = es[i] + (std::max(es[i], bound) - es[i]);
-          pr[i] = pr[i] + (std::max(pr[i], bound) - pr[i]);
-        } else {
-          // The same with the factor 0: x + 0 for finite x (the bound is finite), NaN otherwise.
-          es[i] = std::isfinite(es[i]) ? es[i] + 0.0f : std::numeric_limits<float>::quiet_NaN();
-          pr[i] = std::isfinite(pr[i]) ? pr[i] + 0.0f : std::numeric_limits<float>::quiet_NaN();
-        }
-      }
+  long long a_no_data = 0;
+  const int n = image.cols * ch;
+  thread_local std::vector<float> variance_row;
+  variance_row.resize(std::max<size_t>(variance_row.size(), n));
+  thread_local Censored clipped;
+  clipped.row_start.assign(1, 0);
+  clipped.index.clear();
+  clipped.bound.clear();
+  BoxStreamImage(image, 3, 1.0 / 49.0, [&](int y, const float* const* mean) {
+    float* var = variance_row.data();
+    NoiseVarianceRow(mean[0], var, gain_f, floor_f, n);
+    const float* in = image.ptr<float>(y);
+    const float* t = transmission.ptr<float>(y);
+    const float* e = irradiance.ptr<float>(y);
+    const float* sn = snow.ptr<float>(y);
+    const float* ve = veil.ptr<float>(y);
+    float* uu = u.ptr<float>(y);
+    float* aa = a.ptr<float>(y);
+    uchar* mk = const_cast<cv::Mat&>(masked).ptr<uchar>(y);
+    r.masked_pixels += MaskRow(t, mask_floor, ch, image.cols, mk);
+    DataTermRow(in, t, e, sn, ve, var, mk, clip_level, ch, image.cols, uu, aa);
+    const int clipped_here = CountClipped(in, clip_level, ch, image.cols);
+    censored += clipped_here;
+    for (int i = 0; clipped_here > 0 && i < n; ++i) {
+      if (!(in[i] > clip_level)) continue;
+      const float sc = std::max(t[i] * e[i], 1e-12f);
+      clipped.index.push_back(i);
+      clipped.bound.push_back((((in[i] - 2.0f * std::sqrt(var[i])) - sn[i]) - ve[i]) / sc);
     }
+    clipped.row_start.push_back(static_cast<int>(clipped.index.size()));
+    ProductRow(aa, uu, au.ptr<float>(y), n);
+    a_no_data += NoDataRow(aa, n);
+  });
+  r.censored_pixels = censored;
+  DetailOut detail_out;
+  if (with_detail) {
+    detail_out.masked = masked;
+    detail_out.detail = NewLike(image);
+  }
+  r.estimate = HierarchicalMmse(o, u, a, au, a_no_data, censored > 0 ? &clipped : nullptr, &r.prior,
+                                &r.posterior, with_detail ? &detail_out : nullptr);
+  if (with_detail) {
+    r.detail = detail_out.detail;
+    r.detail_sums = detail_out.sums;
   }
   return r;
 }
@@ -625,7 +1402,8 @@ bool OracleOptions::Check(std::string* why) const {
   }
   if (pixel_radius < 1 || middle_radius < 1 || coarse_radius <= middle_radius ||
       coarse_radius > 256) {
-    return Fail(why, "radii must satisfy 1 <= middle_radius < coarse_radius <= 256, pixel_radius >= 1");
+    return Fail(why,
+                "radii must satisfy 1 <= middle_radius < coarse_radius <= 256, pixel_radius >= 1");
   }
   if (pixel_radius > 64) return Fail(why, "pixel_radius must be <= 64");
   return true;
@@ -685,8 +1463,8 @@ OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& imag
   if (result.masked_pixels > 0) {
     // No data there: the mean of the rest, so the deblurring does not spread a huge value.
     b.setTo(cv::mean(b, ~masked), masked);
-    result.steps.push_back("masked: " + std::to_string(result.masked_pixels) +
-                           " pixels with t < " + std::to_string(o.min_transmission));
+    result.steps.push_back("masked: " + std::to_string(result.masked_pixels) + " pixels with t < " +
+                           std::to_string(o.min_transmission));
   }
   cv::Mat lit = b;
   const BlurModel& blur = truth.blur;
@@ -711,8 +1489,7 @@ OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& imag
       result.steps.push_back("deblur: exact reflect-101 inverse of the PSF");
     }
   }
-  cv::Mat out = o.target == "lit" ? lit.clone()
-                                  : lit / MaxAll(truth.irradiance, o.min_irradiance);
+  cv::Mat out = o.target == "lit" ? lit.clone() : lit / MaxAll(truth.irradiance, o.min_irradiance);
   cv::patchNaNs(out, 0.0);
   cv::min(out, 1.0, out);
   cv::max(out, 0.0, out);
@@ -731,8 +1508,8 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   // quantisation step's 1/12 step^2.
   const bool sensor = ro.sensor.enabled;
   const double read2 = sensor ? ro.sensor.read_noise * ro.sensor.read_noise : 0.0;
-  const double gain = sensor && ro.sensor.photons_at_white > 0 ? 1.0 / ro.sensor.photons_at_white
-                                                              : 0.0;
+  const double gain =
+      sensor && ro.sensor.photons_at_white > 0 ? 1.0 / ro.sensor.photons_at_white : 0.0;
   const int bits = ro.camera.bit_depth;
   const double step = bits == 32 ? 0.0 : 1.0 / ((1 << bits) - 1);
   const double floor_var = read2 + step * step / 12.0 + 1e-12;
@@ -740,9 +1517,10 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   // variance read from the noisy value weights the darker draws more and biases every weighted
   // mean low.
   const double half_step = bits == 32 ? 0.0 : 0.5 * step;
-  oracle_internal::OracleMmseResult mmse =
-      oracle_internal::OracleMmse(o, image, truth.transmission, truth.irradiance, truth.snow,
-                                  truth.veil, gain, floor_var, 1.0 - half_step - 1e-7);
+  const BlurModel& blur = truth.blur;
+  oracle_internal::OracleMmseResult mmse = oracle_internal::OracleMmse(
+      o, image, truth.transmission, truth.irradiance, truth.snow, truth.veil, gain, floor_var,
+      1.0 - half_step - 1e-7, blur.active && o.deblur);
   result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
                          " + read^2 + step^2 / 12" + (sensor ? "" : " (sensor off)"));
   result.masked_pixels = mmse.masked_pixels;
@@ -756,21 +1534,19 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
                          std::to_string(o.coarse_radius) + " / " + std::to_string(o.middle_radius) +
                          " / " + std::to_string(o.pixel_radius) + " px");
   if (result.masked_pixels > 0) {
-    result.steps.push_back("masked: " + std::to_string(result.masked_pixels) +
-                           " pixels with t < " + std::to_string(o.mask_transmission) +
-                           ", set to the prior mean");
+    result.steps.push_back("masked: " + std::to_string(result.masked_pixels) + " pixels with t < " +
+                           std::to_string(o.mask_transmission) + ", set to the prior mean");
   }
-  const BlurModel& blur = truth.blur;
   if (blur.active && o.deblur) {
     // Wiener on the deviation from the prior mean (the signal's mean; smooth, so h * P = P to
     // the blur's width): K = (noise left after the MMSE) / (variance of the deviation), both over
     // the data pixels — the MMSE filter for a white deviation of that variance (Gonzalez & Woods
     // §5.8). A constant-K Wiener on est itself would scale its mean by 1 / (1 + K).
     // detail = est - prior, and over the data pixels the mean of the posterior variance and the
-    // variance of detail, in one pass (sums in double, as cv::mean / cv::meanStdDev form them,
-    // in another order: the ratio agrees to ~1e-15).
-    const cv::Mat detail = NewLike(est);
-    const DeblurStats stats = DetailAndStats(est, prior, posterior, masked, detail);
+    // variance of detail, made with the estimate's rows (OracleMmse; sums in double, as cv::mean
+    // / cv::meanStdDev form them, in another order: the ratio agrees to ~1e-15).
+    const cv::Mat& detail = mmse.detail;
+    const DeblurStats& stats = mmse.detail_sums;
     double noise = 0, signal = 0;
     for (int c = 0; c < truth.channels; ++c) {
       const double n = static_cast<double>(stats.count);
@@ -784,18 +1560,31 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     result.deblur_nsr = std::clamp(signal > 0 ? noise / signal : 10.0, 1e-8, 10.0);
     DeconvolutionOptions d;
     d.nsr = result.deblur_nsr;
-    std::vector<cv::Mat> per_level;
-    for (size_t i = 0; i < blur.Count(); ++i)
-      per_level.push_back(Deconvolve(d, detail, blur.Kernel(i)));
-    est = prior + (blur.depth_dependent ? blur.Blend(per_level) : per_level[0]);
-    prior.copyTo(est, masked);
+    // est = prior + the deblurred detail, the prior where masked, then the target and the clamp:
+    // one pass, fed by the streamed deconvolution where it has one (one kernel, spatial path).
+    const Finisher finish{truth.channels, true, o.target == "lit"};
+    cv::Mat out = NewLike(est);
+    int negative_zeros = 0;
+    auto emit = [&](int y, const float* row) {
+      negative_zeros += finish(prior.ptr<float>(y), row, masked.ptr<uchar>(y),
+                               truth.irradiance.ptr<float>(y), out.ptr<float>(y), out.cols);
+    };
+    if (blur.Count() != 1 || blur.depth_dependent ||
+        !DeconvolveRows(d, detail, blur.Kernel(0), emit)) {
+      std::vector<cv::Mat> per_level;
+      for (size_t i = 0; i < blur.Count(); ++i)
+        per_level.push_back(Deconvolve(d, detail, blur.Kernel(i)));
+      const cv::Mat deblurred = blur.depth_dependent ? blur.Blend(per_level) : per_level[0];
+      for (int y = 0; y < out.rows; ++y) emit(y, deblurred.ptr<float>(y));
+    }
     result.steps.push_back("deblur: Wiener, NSR " + std::to_string(result.deblur_nsr));
+    if (negative_zeros > 0) cv::max(out, 0.0, out);
+    result.image = out;
+    return result;
   }
-  cv::Mat out = o.target == "lit" ? est.mul(truth.irradiance) : est;
-  cv::patchNaNs(out, 0.0);
-  cv::min(out, 1.0, out);
-  cv::max(out, 0.0, out);
-  result.image = out;
+  oracle_internal::FinishImage(est, cv::Mat(), masked,
+                               o.target == "lit" ? truth.irradiance : cv::Mat(), est);
+  result.image = est;
   return result;
 }
 

@@ -7,6 +7,13 @@
 
 namespace turbid::oracle_internal {
 
+// Per channel, over the pixels not masked: the sums of the posterior variance, of est - prior and
+// of its square (in double), and how many pixels.
+struct DetailSums {
+  double posterior[3] = {0, 0, 0}, detail[3] = {0, 0, 0}, detail_sq[3] = {0, 0, 0};
+  long long count = 0;
+};
+
 struct OracleMmseResult {
   cv::Mat estimate;   // MMSE estimate of h * rho (censored pixels raised onto their bound)
   cv::Mat prior;      // prior mean of the finest level (also raised)
@@ -14,15 +21,33 @@ struct OracleMmseResult {
   cv::Mat masked;     // CV_8UC1, 255 where some channel's t < mask_transmission
   int masked_pixels = 0;
   int censored_pixels = 0;  // pixels with a channel above clip_level (no weight)
+  // With with_detail only: estimate - prior (float) and its sums (OracleEnhance's deblur).
+  cv::Mat detail;
+  DetailSums detail_sums;
 };
+
+// dst = the sums of src (CV_32F, any channel count) over (2 radius + 1)^2 windows, reflected
+// borders (BORDER_REFLECT), divided by the window's area when `normalize`: the values
+// cv::boxFilter(src, dst, -1, window, anchor (-1, -1), normalize, BORDER_REFLECT) gives, bit for
+// bit (its sums in double, in its order: oracle.cc says which). dst may be src.
+void BoxFilterReflect(const cv::Mat& src, cv::Mat& dst, int radius, bool normalize);
+
+// The oracle's last step: v = prior + detail where masked is 0, prior where it is not (detail
+// empty: v = prior, masked unused), times irradiance (empty: not), then cv::patchNaNs(v, 0),
+// cv::min(v, 1.0) and cv::max(v, 0.0), with their values bit for bit (-0 included: OpenCV's
+// vector max makes it +0, its scalar loop keeps it). CV_32F, 1 or 3 channels, masked CV_8UC1;
+// out may be prior.
+void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& masked,
+                 const cv::Mat& irradiance, cv::Mat& out);
 
 // The oracle's data term and estimate: the noise variance max(box7(I), 0) shot_gain + floor_var
 // (7x7 local mean, reflected borders), u = (I - snow - veil) / max(t E, 1e-12) with weight
 // a = (t E)^2 / variance (0 where masked or where I > clip_level), then the hierarchical MMSE
-// (docs/methods.md, "oracle"). All maps are the image's size and type.
+// (docs/methods.md, "oracle"). All maps are the image's size and type. with_detail: also the
+// detail and its sums (made as the estimate's rows are).
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
-                            double floor_var, double clip_level);
+                            double floor_var, double clip_level, bool with_detail = false);
 
 }  // namespace turbid::oracle_internal
