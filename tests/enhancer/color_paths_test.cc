@@ -24,10 +24,14 @@
 #include "scenes/image_io.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
+#include "tests/enhancer/color_reference.h"
 #include "tests/support/test_support.h"
 
 namespace turbid {
 namespace {
+
+using color_reference::ReferenceNoiseSigma;
+using color_reference::SameBits;
 
 // ---- The pre-optimisation implementation (commit 6722196), colour parts.
 
@@ -196,47 +200,7 @@ std::vector<LightScaleEstimate> ReferenceEstimateLightScale(const cv::Mat& denoi
   return out;
 }
 
-double ReferenceNoiseSigma(const cv::Mat& image) {
-  if (image.rows < 3 || image.cols < 3) return 0.0;
-  const int ch = image.channels(), n = (image.cols - 2) * ch;
-  double total = 0.0;
-  for (int y = 1; y + 1 < image.rows; ++y) {
-    const float* a = image.ptr<float>(y - 1);
-    const float* b = image.ptr<float>(y);
-    const float* c = image.ptr<float>(y + 1);
-    float row = 0.0f;
-    for (int i = ch; i < n + ch; ++i) {
-      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
-                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
-      row += std::abs(v);
-    }
-    total += row;
-  }
-  const double count = 6.0 * (image.cols - 2) * (image.rows - 2) * ch;
-  return std::sqrt(CV_PI / 2.0) * total / count;
-}
-
 // ---- Inputs.
-
-// Bitwise equality (NaN-safe); the message names the first differing value.
-::testing::AssertionResult SameBits(const cv::Mat& a, const cv::Mat& b) {
-  if (a.size() != b.size() || a.type() != b.type()) {
-    return ::testing::AssertionFailure() << "size or type differ";
-  }
-  const size_t n = static_cast<size_t>(a.cols) * a.channels();
-  for (int y = 0; y < a.rows; ++y) {
-    const float* p = a.ptr<float>(y);
-    const float* q = b.ptr<float>(y);
-    for (size_t i = 0; i < n; ++i) {
-      if (std::memcmp(p + i, q + i, sizeof(float)) != 0 && !(p[i] == 0.0f && q[i] == 0.0f)) {
-        return ::testing::AssertionFailure()
-               << "row " << y << " value " << i << ": " << p[i] << " vs " << q[i] << " (max |diff| "
-               << cv::norm(a, b, cv::NORM_INF) << ")";
-      }
-    }
-  }
-  return ::testing::AssertionSuccess();
-}
 
 cv::Mat SmoothNoise(int rows, int cols, int seed) {
   cv::Mat img(rows, cols, CV_32FC3);

@@ -19,50 +19,13 @@
 #include "enhancer/simd_switch.h"
 #include "scenes/builtin.h"
 #include "simulator/render.h"
+#include "tests/enhancer/color_reference.h"
 
 namespace turbid {
 namespace {
 
-// The Immerkaer estimate as commit 6722196 computed it: one float chain per row, rows summed in
-// double.
-double ReferenceNoiseSigma(const cv::Mat& image) {
-  if (image.rows < 3 || image.cols < 3) return 0.0;
-  const int ch = image.channels(), n = (image.cols - 2) * ch;
-  double total = 0.0;
-  for (int y = 1; y + 1 < image.rows; ++y) {
-    const float* a = image.ptr<float>(y - 1);
-    const float* b = image.ptr<float>(y);
-    const float* c = image.ptr<float>(y + 1);
-    float row = 0.0f;
-    for (int i = ch; i < n + ch; ++i) {
-      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
-                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
-      row += std::abs(v);
-    }
-    total += row;
-  }
-  const double count = 6.0 * (image.cols - 2) * (image.rows - 2) * ch;
-  return std::sqrt(CV_PI / 2.0) * total / count;
-}
-
-// Bitwise equality of two float images (+0 and -0 equal).
-::testing::AssertionResult SameBits(const cv::Mat& a, const cv::Mat& b) {
-  if (a.size() != b.size() || a.type() != b.type()) {
-    return ::testing::AssertionFailure() << "size or type differ";
-  }
-  const size_t n = static_cast<size_t>(a.cols) * a.channels();
-  for (int y = 0; y < a.rows; ++y) {
-    const float* p = a.ptr<float>(y);
-    const float* q = b.ptr<float>(y);
-    for (size_t i = 0; i < n; ++i) {
-      if (std::memcmp(p + i, q + i, sizeof(float)) != 0 && !(p[i] == 0.0f && q[i] == 0.0f)) {
-        return ::testing::AssertionFailure()
-               << "row " << y << " value " << i << ": " << p[i] << " vs " << q[i];
-      }
-    }
-  }
-  return ::testing::AssertionSuccess();
-}
+using color_reference::ReferenceNoiseSigma;
+using color_reference::SameBits;
 
 // The hand-written AVX2 kernels on and off (their portable twins), restored on scope exit.
 struct Avx2Switch {
