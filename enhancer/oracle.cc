@@ -522,6 +522,19 @@ BoxScratch& ThreadBoxScratch() {
 // float* const* out) receives output row y of each plane, in order of y. scale 1: sums;
 // otherwise each sum times scale (cv::boxFilter's normalised mean). Only a ring of k + 4 row sums
 // per plane is kept, so the planes need not exist as whole images.
+// The reflected border columns of a bordered row whose interior (cols pixels of cn values) is
+// already at e + radius cn: columns x < radius and x >= radius + cols of the cols + 2 radius,
+// copied from the interior pixels xofs[x] (BORDER_REFLECT, as cv::borderInterpolate places them).
+template <typename T>
+void FillReflectedBorder(T* e, int cols, int cn, int radius, const std::vector<int>& xofs) {
+  const int width = cols + 2 * radius;
+  for (int x = 0; x < width; ++x) {
+    if (x == radius) x = std::min(radius + cols, width);  // the interior is there
+    if (x >= width) break;
+    for (int c = 0; c < cn; ++c) e[x * cn + c] = e[(radius + xofs[x]) * cn + c];
+  }
+}
+
 template <int kPlanes, typename Produce, typename Consume>
 void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& produce,
                Consume&& consume) {
@@ -568,11 +581,7 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
       produce(cv::borderInterpolate(j - radius, rows, cv::BORDER_REFLECT), in);
       for (int p = 0; p < kPlanes; ++p) {
         float* e = ext_row(p, b);
-        for (int x = 0; x < cols + k - 1; ++x) {
-          if (x == radius) x = std::min(radius + cols, cols + k - 1);  // the interior is there
-          if (x >= cols + k - 1) break;
-          for (int c = 0; c < cn; ++c) e[x * cn + c] = e[(radius + xofs[x]) * cn + c];
-        }
+        FillReflectedBorder(e, cols, cn, radius, xofs);
         double* h = slot(p, j);
         if (k == 3) {
           BoxDirect3Row(e, h, cn, n);
@@ -746,11 +755,7 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
       produce(cv::borderInterpolate(j - large, rows, cv::BORDER_REFLECT), in);
       for (int p = 0; p < kPlanes; ++p) {
         float* e = ext_row(p, b);
-        for (int x = 0; x < cols + kl - 1; ++x) {
-          if (x == large) x = std::min(large + cols, cols + kl - 1);  // the interior is there
-          if (x >= cols + kl - 1) break;
-          for (int c = 0; c < cn; ++c) e[x * cn + c] = e[(large + xofs[x]) * cn + c];
-        }
+        FillReflectedBorder(e, cols, cn, large, xofs);
         WidenRow(e, ext_d_row(p, b), ext_n);
       }
     }
@@ -992,11 +997,7 @@ class BoxCount {
     const int ext_n = (cols_ + k_ - 1) * cn_;
     int32_t* e = bordered_.data();
     IndicatorRow(a, e + (k_ / 2) * cn_, n_);
-    for (int x = 0; x < cols_ + k_ - 1; ++x) {
-      if (x == k_ / 2) x = std::min(k_ / 2 + cols_, cols_ + k_ - 1);  // the interior is there
-      if (x >= cols_ + k_ - 1) break;
-      for (int c = 0; c < cn_; ++c) e[x * cn_ + c] = e[(k_ / 2 + xofs_[x]) * cn_ + c];
-    }
+    FillReflectedBorder(e, cols_, cn_, k_ / 2, xofs_);
     int32_t* h = ring_.data() + static_cast<size_t>(added_ % capacity_) * n_;
     if (k_ <= 9) {
       WindowSumsDirect(e, h, cn_, k_, n_);
