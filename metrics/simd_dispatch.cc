@@ -359,9 +359,9 @@ inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, in
   }
 }
 
-void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
-                        bool paper, int clip_lo, int clip_hi, double* acc) {
-  const double* table = PackedTermTable();
+__attribute__((always_inline)) inline void AddPackedPairsInline(
+    const double* table, const uint8_t* value, const uint8_t* tests, int stride, int rows,
+    int cols, bool paper, int clip_lo, int clip_hi, double* acc) {
   for (int i = 0; i < rows; ++i) {
     for (int j = 0; j < cols; ++j) {
       const ptrdiff_t k = static_cast<ptrdiff_t>(i) * stride + j;
@@ -377,6 +377,12 @@ void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, 
       }
     }
   }
+}
+
+void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
+                        bool paper, int clip_lo, int clip_hi, double* acc) {
+  AddPackedPairsInline(PackedTermTable(), value, tests, stride, rows, cols, paper, clip_lo, clip_hi,
+                       acc);
 }
 
 void ZeroPackedFast(double* acc, int lo, int hi) {
@@ -420,11 +426,12 @@ void AddPackedBlocksFast(const uint8_t* value, const uint8_t* tests, int stride,
       _mm256_store_pd(zero[3] + s, z);
     }
   }
+  const double* table = PackedTermTable();
   for (int b = 0; b < n_blocks; ++b) {
     const PackedBlock& k = blocks[b];
     const ptrdiff_t at = static_cast<ptrdiff_t>(k.row) * stride + k.col;
-    AddPackedPairsFast(value + at, tests + 4 * at, stride, k.rows, k.cols, paper, k.clip_lo,
-                       k.clip_hi, k.acc);
+    AddPackedPairsInline(table, value + at, tests + 4 * at, stride, k.rows, k.cols, paper,
+                         k.clip_lo, k.clip_hi, k.acc);
   }
 }
 
