@@ -360,8 +360,8 @@ inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, in
 }
 
 __attribute__((always_inline)) inline void AddPackedPairsInline(
-    const double* table, const uint8_t* value, const uint8_t* tests, int stride, int rows,
-    int cols, bool paper, int clip_lo, int clip_hi, double* acc) {
+    const double* table, const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
+    bool paper, int clip_lo, int clip_hi, double* acc) {
   for (int i = 0; i < rows; ++i) {
     for (int j = 0; j < cols; ++j) {
       const ptrdiff_t k = static_cast<ptrdiff_t>(i) * stride + j;
