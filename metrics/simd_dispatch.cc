@@ -359,9 +359,9 @@ inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, in
   }
 }
 
-void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
-                        bool paper, int clip_lo, int clip_hi, double* acc) {
-  const double* table = PackedTermTable();
+__attribute__((always_inline)) inline void AddPackedPairsInline(
+    const double* table, const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
+    bool paper, int clip_lo, int clip_hi, double* acc) {
   for (int i = 0; i < rows; ++i) {
     for (int j = 0; j < cols; ++j) {
       const ptrdiff_t k = static_cast<ptrdiff_t>(i) * stride + j;
@@ -379,6 +379,12 @@ void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, 
   }
 }
 
+void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
+                        bool paper, int clip_lo, int clip_hi, double* acc) {
+  AddPackedPairsInline(PackedTermTable(), value, tests, stride, rows, cols, paper, clip_lo, clip_hi,
+                       acc);
+}
+
 void ZeroPackedFast(double* acc, int lo, int hi) {
   for (int s = lo & ~3; s < hi + 8; s += 4) _mm256_store_pd(acc + s, _mm256_setzero_pd());
 }
@@ -393,26 +399,67 @@ void SumPackedFast(const double* const* parts, int n_parts, int lo, int hi, doub
 
 void AddPackedBlocksFast(const uint8_t* value, const uint8_t* tests, int stride, bool paper,
                          const PackedBlock* blocks, int n_blocks) {
+  // The accumulators to zero, in one loop over the union of their ranges (four stores per chunk;
+  // unused slots repeat the first accumulator) instead of a memset call each.
+  double* zero[4] = {};
+  int n_zero = 0, lo = kPackedStride, hi = 0;
   for (int b = 0; b < n_blocks; ++b) {
     const PackedBlock& k = blocks[b];
-    if (k.zero_first) ZeroPackedFast(k.acc, k.clip_lo, k.clip_hi);
+    if (!k.zero_first) continue;
+    if (n_zero == 4) {  // more than four: flush the first four
+      for (int s = lo & ~3; s < hi + 8; s += 4)
+        for (double* a : zero) _mm256_store_pd(a + s, _mm256_setzero_pd());
+      n_zero = 0, lo = kPackedStride, hi = 0;
+    }
+    zero[n_zero++] = k.acc;
+    lo = std::min(lo, k.clip_lo);
+    hi = std::max(hi, k.clip_hi);
+  }
+  if (n_zero > 0) {
+    for (int m = n_zero; m < 4; ++m) zero[m] = zero[0];
+    __m256d z = _mm256_setzero_pd();
+    asm("" : "+x"(z));  // not known to be zero: no memset call per accumulator
+    for (int s = lo & ~3; s < hi + 8; s += 4) {
+      _mm256_store_pd(zero[0] + s, z);
+      _mm256_store_pd(zero[1] + s, z);
+      _mm256_store_pd(zero[2] + s, z);
+      _mm256_store_pd(zero[3] + s, z);
+    }
+  }
+  const double* table = PackedTermTable();
+  for (int b = 0; b < n_blocks; ++b) {
+    const PackedBlock& k = blocks[b];
     const ptrdiff_t at = static_cast<ptrdiff_t>(k.row) * stride + k.col;
-    AddPackedPairsFast(value + at, tests + 4 * at, stride, k.rows, k.cols, paper, k.clip_lo,
-                       k.clip_hi, k.acc);
+    AddPackedPairsInline(table, value + at, tests + 4 * at, stride, k.rows, k.cols, paper,
+                         k.clip_lo, k.clip_hi, k.acc);
   }
 }
 
-PackedMaximum PackedContrastsFast(const double* const* parts, int n_parts, int s_min, int s_max,
-                                  double tie_width, double* contrast) {
+// PackedContrasts() and PackedContrastsWithStrip(): with a strip (n_add >= 0), strip += Σ adds
+// on the strip's range first, chunk by chunk, and the strip is the last part of each sum.
+PackedMaximum PackedContrastsChunks(const double* const* parts, int n_parts, double* strip,
+                                    const double* const* adds, int n_add, int strip_lo,
+                                    int strip_hi, int s_min, int s_max, double tie_width,
+                                    double* contrast) {
   const int first_chunk = s_min & ~3;
+  auto complete = [&](int s) {
+    __m256d v = _mm256_load_pd(strip + s);
+    for (int m = 0; m < n_add; ++m) v = _mm256_add_pd(v, _mm256_load_pd(adds[m] + s));
+    _mm256_store_pd(strip + s, v);
+    return v;
+  };
+  if (strip != nullptr)
+    for (int s = strip_lo & ~3; s < first_chunk; s += 4) complete(s);
   const __m256d lane = _mm256_set_pd(3.0, 2.0, 1.0, 0.0);
   const __m256d lo = _mm256_set1_pd(s_min);
   const __m256d hi = _mm256_set1_pd(s_max);
   const __m256d none = _mm256_set1_pd(-1.0);
   __m256d best = none;
-  for (int s = first_chunk; s <= s_max; s += 4) {
+  int s = first_chunk;
+  for (; s <= s_max; s += 4) {
     __m256d sum = _mm256_load_pd(parts[0] + s);
     for (int m = 1; m < n_parts; ++m) sum = _mm256_add_pd(sum, _mm256_load_pd(parts[m] + s));
+    if (strip != nullptr) sum = _mm256_add_pd(sum, complete(s));
     const __m256d count =
         _mm256_round_pd(_mm256_mul_pd(sum, _mm256_set1_pd(1.0 / 128.0)), _MM_FROUND_TO_NEG_INF);
     // Exact, fused or not: count · 128 is exact and the difference exact (Sterbenz).
@@ -425,6 +472,8 @@ PackedMaximum PackedContrastsFast(const double* const* parts, int n_parts, int s
     _mm256_store_pd(contrast + s, c);
     best = _mm256_max_pd(best, c);
   }
+  if (strip != nullptr)
+    for (; s <= strip_hi; s += 4) complete(s);
   const __m128d half = _mm_max_pd(_mm256_castpd256_pd128(best), _mm256_extractf128_pd(best, 1));
   PackedMaximum out;
   out.best = std::max(_mm_cvtsd_f64(half), _mm_cvtsd_f64(_mm_unpackhi_pd(half, half)));
@@ -439,6 +488,20 @@ PackedMaximum PackedContrastsFast(const double* const* parts, int n_parts, int s
     out.near += __builtin_popcount(bits);
   }
   return out;
+}
+
+PackedMaximum PackedContrastsFast(const double* const* parts, int n_parts, int s_min, int s_max,
+                                  double tie_width, double* contrast) {
+  return PackedContrastsChunks(parts, n_parts, nullptr, nullptr, 0, 0, -1, s_min, s_max, tie_width,
+                               contrast);
+}
+
+PackedMaximum PackedContrastsWithStripFast(const double* const* parts, int n_parts, double* strip,
+                                           const double* const* adds, int n_add, int strip_lo,
+                                           int strip_hi, int s_min, int s_max, double tie_width,
+                                           double* contrast) {
+  return PackedContrastsChunks(parts, n_parts, strip, adds, n_add, strip_lo, strip_hi, s_min, s_max,
+                               tie_width, contrast);
 }
 
 // Four pixels per step: the chroma and l² gathered from tables, the division and the square
@@ -784,6 +847,19 @@ PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min
     return avx2::PackedContrastsFast(parts, n_parts, s_min, s_max, tie_width, contrast);
 #endif
   return base::PackedContrasts(parts, n_parts, s_min, s_max, tie_width, contrast);
+}
+
+PackedMaximum PackedContrastsWithStrip(const double* const* parts, int n_parts, double* strip,
+                                       const double* const* adds, int n_add, int strip_lo,
+                                       int strip_hi, int s_min, int s_max, double tie_width,
+                                       double* contrast) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2())
+    return avx2::PackedContrastsWithStripFast(parts, n_parts, strip, adds, n_add, strip_lo,
+                                              strip_hi, s_min, s_max, tie_width, contrast);
+#endif
+  return base::PackedContrastsWithStrip(parts, n_parts, strip, adds, n_add, strip_lo, strip_hi,
+                                        s_min, s_max, tie_width, contrast);
 }
 
 void IfsttarStrongRow(const uint8_t* tests, const uint8_t* row, const uint8_t* up, int n, int k,

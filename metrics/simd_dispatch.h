@@ -80,8 +80,8 @@ constexpr int kPackedStride = 264;
 void AddPackedPairs(const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
                     bool paper, int clip_lo, int clip_hi, double* acc);
 // Several AddPackedPairs() calls in one (a window's blocks): block b covers the pixels from
-// value + (row · stride + col) (tests likewise); with zero_first, its acc is first zeroed on
-// [clip_lo & ~3, clip_hi + 8) as ZeroPacked() does.
+// value + (row · stride + col) (tests likewise); with zero_first, its acc is zeroed on (at least)
+// [clip_lo & ~3, clip_hi + 8) as ZeroPacked() does, before any block is added.
 struct PackedBlock {
   int row, col, rows, cols;
   int clip_lo, clip_hi;
@@ -110,6 +110,14 @@ struct PackedMaximum {
 };
 PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min, int s_max,
                               double tie_width, double* contrast);
+// PackedContrasts() of parts[0..n_parts) and a strip that is completed first: strip[s] +=
+// Σ_m adds[m][s] (m < n_add, in order) on [strip_lo & ~3, strip_hi | 3], which must contain
+// [s_min, s_max]; the strip is then the last part of each sum (1 <= n_parts <= 7). One pass where
+// SumPacked() and PackedContrasts() would take two.
+PackedMaximum PackedContrastsWithStrip(const double* const* parts, int n_parts, double* strip,
+                                       const double* const* adds, int n_add, int strip_lo,
+                                       int strip_hi, int s_min, int s_max, double tie_width,
+                                       double* contrast);
 
 // The ifsttar variant's strong-pair flags of one row (metrics/visible_edges.cc, WeakPairTest::
 // StrongInterval()): for c in [1, n), strong[c] = 1 when the vertical pair (row[c], row[c − 1]) over

@@ -113,36 +113,37 @@ simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& ban
   const int col_begin = have_left ? 2 : 0;
   const int cols = (right != nullptr ? 4 : 6) - col_begin;
   const int next = 1 - right_;
+  // Rows 2-3 of the window's own columns go straight into the strip it got from the window
+  // above (read once, by this window only); rows 4-5 of them into the strip it writes for the
+  // window below, which the contrast pass completes with the shared blocks of columns 0-1 and
+  // 4-5 (rows 4-5). So only the strip and the two blocks shared with the right window are zeroed.
+  double* top = have_top ? strip_in : own_top_;
+  double* strip = down != nullptr ? Strip(write, k) : strip_scratch_;
   simd::PackedBlock blocks[5];
   int n_blocks = 0;
   if (!have_top) blocks[n_blocks++] = {0, 0, 2, 6, own.lo, own.hi, true, own_top_};
-  blocks[n_blocks++] = {2, col_begin, 2, cols, own.lo, own.hi, have_top, own_top_};
-  blocks[n_blocks++] = {4, col_begin, 2, cols, bottom.lo, bottom.hi, true, own_bottom_};
+  blocks[n_blocks++] = {2, col_begin, 2, cols, own.lo, own.hi, false, top};
+  blocks[n_blocks++] = {4, col_begin, 2, cols, bottom.lo, bottom.hi, true, strip};
   if (right != nullptr) {
     blocks[n_blocks++] = {2, 4, 2, 2, middle_right.lo, middle_right.hi, true, right_middle_[next]};
     blocks[n_blocks++] = {4, 4, 2, 2, bottom_right.lo, bottom_right.hi, true, right_bottom_[next]};
   }
   simd::AddPackedBlocks(w.value, w.tests, w.stride, w.own_intervals, blocks, n_blocks);
-  const double* parts[7] = {own_top_, own_bottom_};
-  int n_parts = 2;
-  if (have_top) parts[n_parts++] = strip_in;
+  const double* parts[3] = {top};
+  const double* adds[2];
+  int n_parts = 1, n_adds = 0;
   if (have_left) {
     parts[n_parts++] = right_middle_[right_];
-    parts[n_parts++] = right_bottom_[right_];
+    adds[n_adds++] = right_bottom_[right_];
   }
   if (right != nullptr) {
     parts[n_parts++] = right_middle_[next];
-    parts[n_parts++] = right_bottom_[next];
+    adds[n_adds++] = right_bottom_[next];
   }
   const simd::PackedMaximum m =
-      simd::PackedContrasts(parts, n_parts, w.s_min, w.s_max, 2.0 * kMargin, contrast_);
-  if (down != nullptr) {  // the sums of rows 4-5 for the window below
-    double* strip = Strip(write, k);
-    const double* strip_parts[3] = {own_bottom_};
-    int n_strip = 1;
-    if (have_left) strip_parts[n_strip++] = right_bottom_[right_];
-    if (right != nullptr) strip_parts[n_strip++] = right_bottom_[next];
-    simd::SumPacked(strip_parts, n_strip, bottom.lo, bottom.hi, strip);
+      simd::PackedContrastsWithStrip(parts, n_parts, strip, adds, n_adds, bottom.lo, bottom.hi,
+                                     w.s_min, w.s_max, 2.0 * kMargin, contrast_);
+  if (down != nullptr) {
     strip_valid_[write][k] = 1;
     strip_value_[write][k] = down->value;
     strip_tests_[write][k] = down->tests;

@@ -133,14 +133,16 @@ class ThresholdSearch {
   alignas(32) double count_vertical_[kTableStride] = {};
   alignas(32) double count_horizontal_[kTableStride] = {};
   alignas(32) double contrast_[kTableStride] = {};
-  // Unordered sums of the window's own pairs in pixel rows 0-3 and in rows
-  // 4-5; of the pixels it shares with the next window (columns 4-5) in rows 2-3 and 4-5, two
-  // buffers each (this window's, the previous window's); and, per window of the band, of its
-  // pixel rows 4-5, which the window below has as rows 0-1 (two buffers: written, read).
+  // Unordered sums of the window's own pairs in pixel rows 0-3 when no strip came from the window
+  // above (otherwise rows 2-3 are added to that strip); of the pixels it shares with the next
+  // window (columns 4-5) in rows 2-3 and 4-5, two buffers each (this window's, the previous
+  // window's); and, per window of the band, of its pixel rows 4-5, which the window below has as
+  // rows 0-1 (two buffers: written, read).
   alignas(32) double own_top_[kStride] = {};
-  alignas(32) double own_bottom_[kStride] = {};
   alignas(32) double right_middle_[2][kStride] = {};
   alignas(32) double right_bottom_[2][kStride] = {};
+  // The sums of rows 4-5 when there is no window below.
+  alignas(32) double strip_scratch_[kStride] = {};
   int right_ = 0;                     // which right_* buffers the last window wrote
   bool have_left_ = false;            // the last window wrote them for the current one
   std::vector<double> strips_[2];     // per window, kStride doubles (see Strip())

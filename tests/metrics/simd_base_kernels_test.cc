@@ -112,7 +112,7 @@ TEST(PortableKernels, PackedSumsAndContrastsAgreeWithTheDispatchedCopies) {
       }
     }
     const int lo = std::max(level, 1), hi = std::max(level + spread - 1, 1);
-    alignas(32) double a[2][kPackedStride], b[2][kPackedStride];
+    alignas(32) double a[2][kPackedStride] = {}, b[2][kPackedStride] = {};  // finite everywhere
     const uint8_t* v0 = &value[kStride + 1];
     const uint8_t* t0 = &tests[4 * (kStride + 1)];
     PackedBlock pa[2] = {{0, 0, 6, 4, lo, hi, true, a[0]}, {0, 4, 6, 2, lo, hi, true, a[1]}};
@@ -139,8 +139,43 @@ TEST(PortableKernels, PackedSumsAndContrastsAgreeWithTheDispatchedCopies) {
     EXPECT_EQ(ma.near, mb.near);
     EXPECT_EQ(ma.first, mb.first);
     for (int s = lo; s <= hi; ++s) ASSERT_EQ(ca[s], cb[s]);
+    // The strip pass: strip += the adds on a range around [lo, hi], then the contrasts of the
+    // parts and the strip; the same strip and contrasts from both copies.
+    const int strip_lo = std::max(1, lo - static_cast<int>(rng() % 9));
+    const int strip_hi = std::min(256, hi + static_cast<int>(rng() % 9));
+    alignas(32) double strip_a[kPackedStride], strip_b[kPackedStride];
+    for (int s = 0; s < kPackedStride; ++s) strip_a[s] = strip_b[s] = a[1][s] + b[0][s];
+    const double* adds[2] = {a[0], b[1]};
+    const double* parts_s[2] = {b[0], a[1]};
+    const PackedMaximum sa = portable::PackedContrastsWithStrip(
+        parts_s, 1 + trial % 2, strip_a, adds, trial % 3, strip_lo, strip_hi, lo, hi, 1e-9, ca);
+    const PackedMaximum sb = PackedContrastsWithStrip(
+        parts_s, 1 + trial % 2, strip_b, adds, trial % 3, strip_lo, strip_hi, lo, hi, 1e-9, cb);
+    EXPECT_EQ(sa.best, sb.best);
+    EXPECT_EQ(sa.near, sb.near);
+    EXPECT_EQ(sa.first, sb.first);
+    for (int s = lo; s <= hi; ++s) ASSERT_EQ(ca[s], cb[s]) << "trial " << trial << " s " << s;
+    for (int s = strip_lo & ~3; s <= (strip_hi | 3); ++s) {
+      double expected = a[1][s] + b[0][s];
+      for (int m = 0; m < trial % 3; ++m) expected += adds[m][s];
+      ASSERT_EQ(strip_b[s], expected) << "trial " << trial << " s " << s;
+      ASSERT_EQ(strip_a[s], expected);
+    }
+    // The contrasts are those of PackedContrasts() with the completed strip as the last part.
+    const double* with_strip[3] = {b[0], a[1], strip_a};
+    with_strip[1 + trial % 2] = strip_a;
+    const PackedMaximum sp = PackedContrasts(with_strip, 2 + trial % 2, lo, hi, 1e-9, ca);
+    EXPECT_EQ(sp.best, sb.best);
+    EXPECT_EQ(sp.first, sb.first);
+    for (int s = lo; s <= hi; ++s) ASSERT_EQ(ca[s], cb[s]);
     portable::ZeroPacked(a[0], lo, hi);
     for (int s = lo & ~3; s < hi + 8; ++s) ASSERT_EQ(a[0][s], 0.0);
+    // AddPackedBlocks zeroes every zero_first accumulator before adding any block.
+    std::fill(std::begin(b[0]), std::end(b[0]), 7.0);
+    std::fill(std::begin(b[1]), std::end(b[1]), 7.0);
+    PackedBlock none[2] = {{0, 0, 0, 0, lo, hi, true, b[0]}, {0, 0, 0, 0, lo, hi, true, b[1]}};
+    AddPackedBlocks(v0, t0, kStride, paper, none, 2);
+    for (int s = lo & ~3; s < hi + 8; ++s) ASSERT_EQ(b[0][s] + b[1][s], 0.0);
   }
 }
 
