@@ -385,18 +385,6 @@ void AddPackedPairsFast(const uint8_t* value, const uint8_t* tests, int stride, 
                        acc);
 }
 
-void ZeroPackedFast(double* acc, int lo, int hi) {
-  for (int s = lo & ~3; s < hi + 8; s += 4) _mm256_store_pd(acc + s, _mm256_setzero_pd());
-}
-
-void SumPackedFast(const double* const* parts, int n_parts, int lo, int hi, double* out) {
-  for (int s = lo & ~3; s <= (hi | 3); s += 4) {
-    __m256d sum = _mm256_load_pd(parts[0] + s);
-    for (int m = 1; m < n_parts; ++m) sum = _mm256_add_pd(sum, _mm256_load_pd(parts[m] + s));
-    _mm256_store_pd(out + s, sum);
-  }
-}
-
 void AddPackedBlocksFast(const uint8_t* value, const uint8_t* tests, int stride, bool paper,
                          const PackedBlock* blocks, int n_blocks) {
   // The accumulators to zero, in one loop over the union of their ranges (four stores per chunk;
@@ -824,20 +812,6 @@ void AddPackedBlocks(const uint8_t* value, const uint8_t* tests, int stride, boo
   if (UseAvx2()) return avx2::AddPackedBlocksFast(value, tests, stride, paper, blocks, n_blocks);
 #endif
   base::AddPackedBlocks(value, tests, stride, paper, blocks, n_blocks);
-}
-
-void ZeroPacked(double* acc, int lo, int hi) {
-#ifdef TURBID_HAVE_AVX2_COPY
-  if (UseAvx2()) return avx2::ZeroPackedFast(acc, lo, hi);
-#endif
-  base::ZeroPacked(acc, lo, hi);
-}
-
-void SumPacked(const double* const* parts, int n_parts, int lo, int hi, double* out) {
-#ifdef TURBID_HAVE_AVX2_COPY
-  if (UseAvx2()) return avx2::SumPackedFast(parts, n_parts, lo, hi, out);
-#endif
-  base::SumPacked(parts, n_parts, lo, hi, out);
 }
 
 PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min, int s_max,

@@ -81,7 +81,7 @@ void AddPackedPairs(const uint8_t* value, const uint8_t* tests, int stride, int 
                     bool paper, int clip_lo, int clip_hi, double* acc);
 // Several AddPackedPairs() calls in one (a window's blocks): block b covers the pixels from
 // value + (row · stride + col) (tests likewise); with zero_first, its acc is zeroed on (at least)
-// [clip_lo & ~3, clip_hi + 8) as ZeroPacked() does, before any block is added.
+// [clip_lo & ~3, clip_hi + 8), before any block is added.
 struct PackedBlock {
   int row, col, rows, cols;
   int clip_lo, clip_hi;
@@ -90,12 +90,6 @@ struct PackedBlock {
 };
 void AddPackedBlocks(const uint8_t* value, const uint8_t* tests, int stride, bool paper,
                      const PackedBlock* blocks, int n_blocks);
-
-// Helpers of the packed sums, with the same 4-double (32-byte) chunks as AddPackedPairs(), so that
-// its loads of what they stored are forwarded from the stores: acc = 0 on [lo & ~3, hi + 8), and
-// out = Σ_m parts[m] (m < n_parts, in order) on [lo & ~3, hi | 3]. 32-byte aligned arrays.
-void ZeroPacked(double* acc, int lo, int hi);
-void SumPacked(const double* const* parts, int n_parts, int lo, int hi, double* out);
 
 // The approximate C(s) of packed sums (see AddPackedPairs()) and where its maximum is: for s in
 // [s_min, s_max], sum = Σ_m parts[m][s] (m < n_parts, added in order), count = floor(sum / 128)
@@ -113,7 +107,7 @@ PackedMaximum PackedContrasts(const double* const* parts, int n_parts, int s_min
 // PackedContrasts() of parts[0..n_parts) and a strip that is completed first: strip[s] +=
 // Σ_m adds[m][s] (m < n_add, in order) on [strip_lo & ~3, strip_hi | 3], which must contain
 // [s_min, s_max]; the strip is then the last part of each sum (1 <= n_parts <= 7). One pass where
-// SumPacked() and PackedContrasts() would take two.
+// completing the strip and PackedContrasts() would take two.
 PackedMaximum PackedContrastsWithStrip(const double* const* parts, int n_parts, double* strip,
                                        const double* const* adds, int n_add, int strip_lo,
                                        int strip_hi, int s_min, int s_max, double tie_width,
