@@ -270,7 +270,15 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   const std::vector<double> beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, ch);
   const std::vector<double> ambient = ChannelValues(water.ambient_rgb, water.ambient_gray, ch);
   const bool zero_beta = std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
-  truth.range_m = RangeFromDepth(scene.camera, scene.depth_m);
+  // The range: RangeFromDepth's rows, made in the row pass below (its values, one read of the
+  // depth) except on the beta = 0 path, which needs the whole image first.
+  CV_Assert(scene.depth_m.type() == CV_32FC1);
+  const std::vector<double> range_dx = RangeColumnTable(scene.camera, scene.depth_m.cols);
+  if (zero_beta) {
+    truth.range_m = RangeFromDepth(scene.camera, scene.depth_m);
+  } else {
+    truth.range_m = internal::PooledMat(scene.depth_m.size(), CV_32FC1);
+  }
 
   if (zero_beta) {
     // The renderer's beta = 0 path: t = 1 where depth is valid, 0 (open water) where it is NaN.
@@ -332,7 +340,11 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
     float* e = truth.irradiance.ptr<float>(y);
     float* t = truth.transmission.ptr<float>(y);
     AddPerChannelRow(e_l, ambient_f, ch, e, w);
-    if (!zero_beta) TransmissionRows(truth.range_m.ptr<float>(y), w, beta, t);
+    if (!zero_beta) {
+      float* range = truth.range_m.ptr<float>(y);
+      RangeFromDepthRow(scene.camera, range_dx, scene.depth_m.ptr<float>(y), y, range);
+      TransmissionRows(range, w, beta, t);
+    }
     const float* src = e_l;
     if (water.backscatter) {
       AddPerChannelRow(e_l, backscatter_f, ch, source, w);

@@ -101,27 +101,32 @@ __attribute__((target("avx2"))) void RangeRowAvx2(const float* z, const double* 
 
 }  // namespace
 
+std::vector<double> RangeColumnTable(const CameraIntrinsics& camera, int cols) {
+  std::vector<double> dx(cols);
+  for (int x = 0; x < cols; ++x) dx[x] = (x - camera.cx) / camera.fx;
+  return dx;
+}
+
+void RangeFromDepthRow(const CameraIntrinsics& camera, const std::vector<double>& dx,
+                       const float* z, int y, float* r) {
+  const int cols = static_cast<int>(dx.size());
+  const double dy = (y - camera.cy) / camera.fy;
+  const double dy2 = dy * dy;
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+  if (__builtin_cpu_supports("avx2")) {
+    RangeRowAvx2(z, dx.data(), dy2, cols, r);
+    return;
+  }
+#endif
+  RangeRowScalar(z, dx.data(), dy2, 0, cols, r);
+}
+
 cv::Mat RangeFromDepth(const CameraIntrinsics& camera, const cv::Mat& depth_m) {
   CV_Assert(depth_m.type() == CV_32FC1);
   cv::Mat range(depth_m.size(), CV_32FC1);
-  std::vector<double> dx(depth_m.cols);
-  for (int x = 0; x < depth_m.cols; ++x) dx[x] = (x - camera.cx) / camera.fx;
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-  const bool avx2 = __builtin_cpu_supports("avx2");
-#endif
-  for (int y = 0; y < depth_m.rows; ++y) {
-    const float* z = depth_m.ptr<float>(y);
-    float* r = range.ptr<float>(y);
-    const double dy = (y - camera.cy) / camera.fy;
-    const double dy2 = dy * dy;
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-    if (avx2) {
-      RangeRowAvx2(z, dx.data(), dy2, depth_m.cols, r);
-      continue;
-    }
-#endif
-    RangeRowScalar(z, dx.data(), dy2, 0, depth_m.cols, r);
-  }
+  const std::vector<double> dx = RangeColumnTable(camera, depth_m.cols);
+  for (int y = 0; y < depth_m.rows; ++y)
+    RangeFromDepthRow(camera, dx, depth_m.ptr<float>(y), y, range.ptr<float>(y));
   return range;
 }
 

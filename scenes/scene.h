@@ -61,4 +61,11 @@ struct Scene {
 // Range along the viewing ray r = z * |K^-1 [u v 1]| (metres); NaN where depth is NaN.
 cv::Mat RangeFromDepth(const CameraIntrinsics& camera, const cv::Mat& depth_m);
 
+// RangeFromDepth one row at a time (the same values): dx = RangeColumnTable(camera, cols), the
+// columns' (x - cx) / fx; RangeFromDepthRow writes row y of the range (dx.size() values) from row
+// y of the depth, z.
+std::vector<double> RangeColumnTable(const CameraIntrinsics& camera, int cols);
+void RangeFromDepthRow(const CameraIntrinsics& camera, const std::vector<double>& dx,
+                       const float* z, int y, float* r);
+
 }  // namespace turbid
