@@ -399,16 +399,7 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       // s0 >= 255 separates no pair (every interval ends at 255 or before).
       if (s0 >= 255) continue;
       unsigned rows[kWindow] = {};  // bits of rows r0 .. r0 + 6
-      for (int nn = 1; nn < kWindow; ++nn) {
-        const uint8_t* t = tests + 4 * (static_cast<size_t>(nn - 1) * stride + c0 + 1);
-        unsigned vertical = 0, horizontal = 0;
-        for (int mm = 0; mm < kPairRows; ++mm, t += 4) {
-          vertical |= static_cast<unsigned>((t[0] <= s0) & (s0 < t[1])) << (mm + 1);
-          horizontal |= static_cast<unsigned>((t[2] <= s0) & (s0 < t[3])) << (mm + 1);
-        }
-        rows[nn] |= vertical | (vertical >> 1) | horizontal;
-        rows[nn - 1] |= horizontal;
-      }
+      simd::SeparatedPairRows(tests + 4 * static_cast<size_t>(c0 + 1), stride, s0, rows);
       uint8_t* corner = padded.ptr<uint8_t>(r0) + c0;
       const size_t step = padded.step;
       for (int nn = 0; nn < kWindow; ++nn) {
