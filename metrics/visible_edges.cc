@@ -453,10 +453,8 @@ cv::Mat ToGray8(const cv::Mat& image, const std::string& what) {
 
 // Sobel squared magnitude gx² + gy² at (i, j) of the image mirrored by 1 pixel: MATLAB
 // imfilter(I, [1 2 1; 0 0 0; −1 −2 −1] and its transpose, 'symmetric'); integers, so exact.
-int SobelSquared(const MirroredGray8& at, int i, int j) {
-  const uint8_t* up = at.Row(i - 1);
-  const uint8_t* mid = at.Row(i);
-  const uint8_t* down = at.Row(i + 1);
+// `up`, `mid` and `down` are rows i − 1, i and i + 1 of that mirrored image.
+inline int SobelSquared(const uint8_t* up, const uint8_t* mid, const uint8_t* down, int j) {
   const int gy = up[j - 1] + 2 * up[j] + up[j + 1] - down[j - 1] - 2 * down[j] - down[j + 1];
   const int gx =
       up[j - 1] + 2 * mid[j - 1] + down[j - 1] - up[j + 1] - 2 * mid[j + 1] - down[j + 1];
@@ -717,9 +715,11 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
   std::vector<int> next(column_start.begin(), column_start.end() - 1);
   for (int i = 0; i < nl; ++i) {
     const uint8_t* m = mask_r.ptr<uint8_t>(i);
+    const uint8_t *r0 = at_r.Row(i - 1), *r1 = at_r.Row(i), *r2 = at_r.Row(i + 1);
+    const uint8_t *o0 = at_o.Row(i - 1), *o1 = at_o.Row(i), *o2 = at_o.Row(i + 1);
     auto add_term = [&](int j) {
-      const double grad_r = std::sqrt(static_cast<double>(SobelSquared(at_r, i, j)));
-      const double grad_o = std::sqrt(static_cast<double>(SobelSquared(at_o, i, j)));
+      const double grad_r = std::sqrt(static_cast<double>(SobelSquared(r0, r1, r2, j)));
+      const double grad_o = std::sqrt(static_cast<double>(SobelSquared(o0, o1, o2, j)));
       terms[next[j]++] = std::log(grad_r / grad_o);
     };
     // Mask pixels in row order, 8 mask bytes at a time (most words are all zero).
