@@ -592,6 +592,29 @@ void BgrToLab8Fast(const uint8_t* bgr, int n, const Lab8Tables& t, uint8_t* lab)
   }
   avx2::BgrToLab8(bgr + 3 * k, n - k, t, lab + 3 * k);
 }
+// Bits 1..6 of the result: the sign bits of 32-bit words 0..5 of x.
+inline unsigned SignBits6(__m256i x) {
+  return (static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(x))) & 0x3Fu) << 1;
+}
+
+// SeparatedPairRows() with one 32-byte comparison per row: byte b of `le` is 0xFF when tests
+// byte b <= s0; a pair {first, end} is separated when le(first) and not le(end), which the 32-bit
+// shift lines up per pixel; bytes 0 (vertical) and 2 (horizontal) of each pixel, moved to the
+// top of their word, then give the pixels' bits by movemask.
+void SeparatedPairRowsFast(const uint8_t* tests, int stride, int s0, unsigned* rows) {
+  const __m256i s = _mm256_set1_epi8(static_cast<char>(s0));
+  for (int nn = 1; nn < 7; ++nn) {
+    const __m256i t = _mm256_loadu_si256(
+        reinterpret_cast<const __m256i*>(tests + 4 * static_cast<size_t>(nn - 1) * stride));
+    const __m256i le = _mm256_cmpeq_epi8(_mm256_max_epu8(t, s), s);
+    const __m256i sep = _mm256_andnot_si256(_mm256_srli_epi32(le, 8), le);
+    const unsigned vertical = SignBits6(_mm256_slli_epi32(sep, 24));
+    const unsigned horizontal = SignBits6(_mm256_slli_epi32(sep, 8));
+    rows[nn] |= vertical | (vertical >> 1) | horizontal;
+    rows[nn - 1] |= horizontal;
+  }
+}
+
 }  // namespace avx2
 #if defined(__clang__)
 #pragma clang attribute pop
@@ -839,6 +862,13 @@ PackedMaximum PackedContrastsWithStrip(const double* const* parts, int n_parts, 
 void IfsttarStrongRow(const uint8_t* tests, const uint8_t* row, const uint8_t* up, int n, int k,
                       int k_ratio, uint8_t* strong) {
   TURBID_DISPATCH(IfsttarStrongRow(tests, row, up, n, k, k_ratio, strong));
+}
+
+void SeparatedPairRows(const uint8_t* tests, int stride, int s0, unsigned* rows) {
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::SeparatedPairRowsFast(tests, stride, s0, rows);
+#endif
+  base::SeparatedPairRows(tests, stride, s0, rows);
 }
 
 void OctaveGrayU8(const uint8_t* bgr, int n, uint8_t* gray) {

@@ -122,6 +122,15 @@ PackedMaximum PackedContrastsWithStrip(const double* const* parts, int n_parts, 
 void IfsttarStrongRow(const uint8_t* tests, const uint8_t* row, const uint8_t* up, int n, int k,
                       int k_ratio, uint8_t* strong);
 
+// The pixels a visible window marks (metrics/visible_edges.cc, VisibleEdgeMask8): `tests` is the
+// window's first pair pixel in the band's layout ({vertical first, vertical end, horizontal first,
+// horizontal end} per pixel, `stride` pixels per row, 6 rows of 6 pixels, 32 bytes readable from
+// each row's start). A pair is separated when first <= s0 < end; bit k of rows[nn] (nn < 7, k < 7)
+// is set for column k of the window's row nn when a separated pair touches it (a vertical pair
+// marks its pixel and the left one, a horizontal pair its pixel and the upper one). rows[] is
+// OR-ed into. Integers: every copy gives the same bits.
+void SeparatedPairRows(const uint8_t* tests, int stride, int s0, unsigned* rows);
+
 // Octave's rgb2gray of n 8-bit BGR pixels (metrics/visible_edges.h, OctaveRgbToGray) in integer
 // arithmetic: min((298936 R + 587043 G + 114021 B + 500000) / 1000000, 255). Equal to Octave's
 // double formula for all 2^24 colours (no colour falls within rounding of a half; tested over all).

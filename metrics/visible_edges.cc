@@ -26,6 +26,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -323,6 +324,22 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
     b.windows.resize(n_windows);
   }
   std::vector<uint8_t> column_lo(stride), column_hi(stride);
+  // Every Weber term of a window is at most (hi − lo) / hi, and so is every C(s) up to a relative
+  // rounding of ~1e-14: no threshold can be visible when that bound (with a 1e-9 margin) is below
+  // the threshold. The bound grows with hi − lo, so per hi the test is hi − lo <= skip_up_to[hi]:
+  // the largest difference it passes, found with the same double expression (no division per
+  // window).
+  auto below_threshold = [&](int difference, int hi) {
+    const double bound = static_cast<double>(difference) / hi;
+    return bound * (1.0 + 1e-9) <= half_threshold;
+  };
+  std::array<int, 256> skip_up_to{};
+  for (int hi = 1; hi < 256; ++hi) {
+    int d = std::clamp(static_cast<int>(half_threshold * hi), 0, hi);
+    while (d >= 0 && !below_threshold(d, hi)) --d;
+    while (d < hi && below_threshold(d + 1, hi)) ++d;
+    skip_up_to[hi] = d;  // −1: no window with this hi is skipped
+  }
 
   auto prepare = [&](int r0, Band& band) {
     uint8_t* tests = band.tests.data();
@@ -365,12 +382,8 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
         lo_value = std::min<int>(lo_value, column_lo[c0 + mm]);
         hi_value = std::max<int>(hi_value, column_hi[c0 + mm]);
       }
-      // Every Weber term of the window is at most (hi − lo) / hi, and so is every C(s) up to a
-      // relative rounding of ~1e-14: no threshold can be visible when that bound is below it.
-      // An all-black window has no separated pair at all.
-      if (hi_value == 0) continue;
-      const double bound = static_cast<double>(hi_value - lo_value) / hi_value;
-      if (bound * (1.0 + 1e-9) <= half_threshold) continue;
+      // An all-black window has no separated pair at all; see skip_up_to for the bound.
+      if (hi_value == 0 || hi_value - lo_value <= skip_up_to[hi_value]) continue;
       band.windows[w] = {at.Row(r0 + 1) + c0 + 1,
                          tests + 4 * (c0 + 1),
                          stride,
@@ -399,16 +412,7 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
       // s0 >= 255 separates no pair (every interval ends at 255 or before).
       if (s0 >= 255) continue;
       unsigned rows[kWindow] = {};  // bits of rows r0 .. r0 + 6
-      for (int nn = 1; nn < kWindow; ++nn) {
-        const uint8_t* t = tests + 4 * (static_cast<size_t>(nn - 1) * stride + c0 + 1);
-        unsigned vertical = 0, horizontal = 0;
-        for (int mm = 0; mm < kPairRows; ++mm, t += 4) {
-          vertical |= static_cast<unsigned>((t[0] <= s0) & (s0 < t[1])) << (mm + 1);
-          horizontal |= static_cast<unsigned>((t[2] <= s0) & (s0 < t[3])) << (mm + 1);
-        }
-        rows[nn] |= vertical | (vertical >> 1) | horizontal;
-        rows[nn - 1] |= horizontal;
-      }
+      simd::SeparatedPairRows(tests + 4 * static_cast<size_t>(c0 + 1), stride, s0, rows);
       uint8_t* corner = padded.ptr<uint8_t>(r0) + c0;
       const size_t step = padded.step;
       for (int nn = 0; nn < kWindow; ++nn) {
@@ -449,10 +453,8 @@ cv::Mat ToGray8(const cv::Mat& image, const std::string& what) {
 
 // Sobel squared magnitude gx² + gy² at (i, j) of the image mirrored by 1 pixel: MATLAB
 // imfilter(I, [1 2 1; 0 0 0; −1 −2 −1] and its transpose, 'symmetric'); integers, so exact.
-int SobelSquared(const MirroredGray8& at, int i, int j) {
-  const uint8_t* up = at.Row(i - 1);
-  const uint8_t* mid = at.Row(i);
-  const uint8_t* down = at.Row(i + 1);
+// `up`, `mid` and `down` are rows i − 1, i and i + 1 of that mirrored image.
+inline int SobelSquared(const uint8_t* up, const uint8_t* mid, const uint8_t* down, int j) {
   const int gy = up[j - 1] + 2 * up[j] + up[j + 1] - down[j - 1] - 2 * down[j] - down[j + 1];
   const int gx =
       up[j - 1] + 2 * mid[j - 1] + down[j - 1] - up[j + 1] - 2 * mid[j + 1] - down[j + 1];
@@ -713,12 +715,26 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
   std::vector<int> next(column_start.begin(), column_start.end() - 1);
   for (int i = 0; i < nl; ++i) {
     const uint8_t* m = mask_r.ptr<uint8_t>(i);
-    for (int j = 0; j < nc; ++j) {
-      if (m[j] == 0) continue;
-      const double grad_r = std::sqrt(static_cast<double>(SobelSquared(at_r, i, j)));
-      const double grad_o = std::sqrt(static_cast<double>(SobelSquared(at_o, i, j)));
+    const uint8_t *r0 = at_r.Row(i - 1), *r1 = at_r.Row(i), *r2 = at_r.Row(i + 1);
+    const uint8_t *o0 = at_o.Row(i - 1), *o1 = at_o.Row(i), *o2 = at_o.Row(i + 1);
+    auto add_term = [&](int j) {
+      const double grad_r = std::sqrt(static_cast<double>(SobelSquared(r0, r1, r2, j)));
+      const double grad_o = std::sqrt(static_cast<double>(SobelSquared(o0, o1, o2, j)));
       terms[next[j]++] = std::log(grad_r / grad_o);
+    };
+    // Mask pixels in row order, 8 mask bytes at a time (most words are all zero).
+    int j0 = 0;
+    for (; j0 + 8 <= nc; j0 += 8) {
+      uint64_t word;
+      std::memcpy(&word, m + j0, 8);
+      while (word != 0) {
+        const int k = std::countr_zero(word) / 8;
+        add_term(j0 + k);
+        word &= ~(uint64_t{0xFF} << (8 * k));
+      }
     }
+    for (int j = j0; j < nc; ++j)
+      if (m[j] != 0) add_term(j);
   }
   double log_sum = 0.0;
   for (const double term : terms) {
@@ -731,13 +747,20 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
                       ? std::exp((1.0 / static_cast<double>(result.visible_restored)) * log_sum)
                       : std::numeric_limits<double>::quiet_NaN();
 
+  // Counted in locals (a store to `result` per pixel would keep the loop from vectorising).
+  int64_t black = 0, white = 0;
   for (int i = 0; i < nl; ++i) {
     const uint8_t* row = gray_r.ptr<uint8_t>(i);
+    int32_t row_black = 0, row_white = 0;
     for (int j = 0; j < nc; ++j) {
-      result.black_pixels += row[j] == 0;
-      result.white_pixels += row[j] == 255;
+      row_black += row[j] == 0;
+      row_white += row[j] == 255;
     }
+    black += row_black;
+    white += row_white;
   }
+  result.black_pixels = black;
+  result.white_pixels = white;
   const double pixels = static_cast<double>(result.pixels);
   // The code counts `R == 256 | R == 0`: on 8-bit data only black pixels.
   const int64_t saturated = options.variant == VisibleEdgeVariant::kIfsttar

@@ -31,6 +31,42 @@ TEST(PortableKernels, OctaveGrayEqualsTheDispatchedCopy) {
   EXPECT_EQ(a, b);
 }
 
+// The pixels a visible window marks: portable and dispatched copies against a pixel-by-pixel
+// reading of the rule (a vertical pair at window column k marks columns k and k − 1 of its row, a
+// horizontal one column k of its row and of the row above), with pair ends drawn near s0 so that
+// both comparisons hit their edges, over strides, thresholds and OR-ed starting bits.
+TEST(PortableKernels, SeparatedPairRowsMarkThePairsThresholdSeparates) {
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 4000; ++trial) {
+    const int stride = 8 + static_cast<int>(rng() % 20);
+    const int s0 = trial < 255 ? trial : static_cast<int>(rng() % 255);
+    std::vector<uint8_t> tests(4 * (static_cast<size_t>(5) * stride + 8));
+    for (uint8_t& v : tests) {
+      const int near = s0 + static_cast<int>(rng() % 5) - 2;
+      v = static_cast<uint8_t>(rng() % 4 == 0 ? rng() % 256 : std::clamp(near, 0, 255));
+    }
+    unsigned start[7];
+    for (unsigned& b : start) b = rng() % 4 == 0 ? rng() % 128 : 0;
+    unsigned expected[7], a[7], b[7];
+    std::copy(start, start + 7, expected);
+    for (int nn = 1; nn < 7; ++nn) {
+      for (int k = 1; k < 7; ++k) {
+        const uint8_t* t = &tests[4 * (static_cast<size_t>(nn - 1) * stride + (k - 1))];
+        if (t[0] <= s0 && s0 < t[1]) expected[nn] |= 3u << (k - 1);
+        if (t[2] <= s0 && s0 < t[3]) expected[nn] |= 1u << k, expected[nn - 1] |= 1u << k;
+      }
+    }
+    std::copy(start, start + 7, a);
+    std::copy(start, start + 7, b);
+    portable::SeparatedPairRows(tests.data(), stride, s0, a);
+    SeparatedPairRows(tests.data(), stride, s0, b);
+    for (int nn = 0; nn < 7; ++nn) {
+      ASSERT_EQ(a[nn], expected[nn]) << "portable, trial " << trial << " row " << nn;
+      ASSERT_EQ(b[nn], expected[nn]) << "dispatched, trial " << trial << " row " << nn;
+    }
+  }
+}
+
 // The ifsttar variant's weak-pair test (visible_edges::StrongLimits has the proof): a pair it
 // calls weak has no term above τ anywhere on its interval. Every pair of values (p, q), each over
 // the intervals whose ends sit where the proof's cases change (1, p − 1, p, p + 1, √(pq), q − 1,
