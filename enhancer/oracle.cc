@@ -426,8 +426,9 @@ cv::Mat MaskBelow(const cv::Mat& t, double floor) {
 // 0, SUM += h_0 .. h_{k-2}, then per output row s = SUM + h_{y+k-1}, out = float(s [* scale]), SUM
 // = s - h_y). Those are serial chains, one per row and one per column. The same operations in the
 // same order give the same doubles; what is new is only which independent chains run side by side:
-// four rows' running sums interleaved (instead of one row at a time), the column step vectorised
-// across columns, and the row sums kept in a ring of k + 4 rows per plane.
+// eight rows' running sums side by side in two four-row vectors (gray; four scalar rows in
+// colour) instead of one row at a time, the column step vectorised across columns, and the row
+// sums kept in a ring of k + 8 rows per plane.
 
 // The direct sums of a window of 3 or 5 (values cn apart), left to right.
 TURBID_ROW_KERNEL void BoxDirect3Row(const float* __restrict s, double* __restrict d, int cn,
@@ -500,6 +501,87 @@ TURBID_ROW_KERNEL void BoxRunning4(const double* __restrict e0, const double* __
   }
 }
 
+// BoxRunning4 for eight rows of one channel (cn = 1) whose bordered rows are `stride` values
+// apart (e + r stride): the same per-row operations in the same order, h_r[i + 1] = h_r[i] +
+// (e_r[i + k] - e_r[i]), but each chain step is one vector add over four rows (two vectors: rows
+// 0-3 and 4-7), so eight chains run side by side instead of four (the four scalar chains of
+// BoxRunning4 are latency-bound at ~1 value per cycle). The differences of four columns are
+// formed row-wise and transposed (4 x 4) into column vectors; the sums are transposed back into
+// the rows, stored 32-byte aligned where the rows allow it (unaligned stores split cache lines).
+TURBID_ROW_KERNEL void BoxRunning8Gray(const double* __restrict e, size_t stride,
+                                       double* const* __restrict h, int k, int steps) {
+  using V4d = double __attribute__((vector_size(32)));
+  using V4i = int64_t __attribute__((vector_size(32)));
+  // The difference of four columns of one row: e_r[i + k ..] - e_r[i ..].
+  auto diff = [k](V4d& d, const double* p) {
+    V4d a, b;
+    std::memcpy(&a, p + k, sizeof(a));
+    std::memcpy(&b, p, sizeof(b));
+    d = a - b;
+  };
+  auto transpose = [](V4d& r0, V4d& r1, V4d& r2, V4d& r3) {
+    const V4d t0 = __builtin_shuffle(r0, r1, V4i{0, 4, 2, 6});
+    const V4d t1 = __builtin_shuffle(r0, r1, V4i{1, 5, 3, 7});
+    const V4d t2 = __builtin_shuffle(r2, r3, V4i{0, 4, 2, 6});
+    const V4d t3 = __builtin_shuffle(r2, r3, V4i{1, 5, 3, 7});
+    r0 = __builtin_shuffle(t0, t2, V4i{0, 1, 4, 5});
+    r1 = __builtin_shuffle(t1, t3, V4i{0, 1, 4, 5});
+    r2 = __builtin_shuffle(t0, t2, V4i{2, 3, 6, 7});
+    r3 = __builtin_shuffle(t1, t3, V4i{2, 3, 6, 7});
+  };
+  double* hr[8];
+  for (int r = 0; r < 8; ++r) hr[r] = h[r];
+  // First the columns up to where the stores h_r + i + 1 are 32-byte aligned (when the eight
+  // rows share their alignment), one row at a time.
+  int i = 0;
+  const auto misalign = [](const double* p) { return reinterpret_cast<uintptr_t>(p) % 32; };
+  bool same = misalign(hr[0]) % sizeof(double) == 0;
+  for (int r = 1; r < 8; ++r) same = same && misalign(hr[r]) == misalign(hr[0]);
+  if (same) {
+    while (i < steps && misalign(hr[0] + i + 1) != 0) ++i;
+    for (int r = 0; r < 8; ++r) {
+      const double* er = e + static_cast<size_t>(r) * stride;
+      double sum = hr[r][0];
+      for (int j = 0; j < i; ++j) {
+        sum = sum + (er[j + k] - er[j]);
+        hr[r][j + 1] = sum;
+      }
+    }
+  }
+  V4d s[2];
+  for (int g = 0; g < 2; ++g)
+    s[g] = V4d{hr[4 * g][i], hr[4 * g + 1][i], hr[4 * g + 2][i], hr[4 * g + 3][i]};
+  for (; i + 4 <= steps; i += 4) {
+    for (int g = 0; g < 2; ++g) {
+      const double* eg = e + static_cast<size_t>(4 * g) * stride + i;
+      V4d d0, d1, d2, d3;
+      diff(d0, eg);
+      diff(d1, eg + stride);
+      diff(d2, eg + 2 * stride);
+      diff(d3, eg + 3 * stride);
+      transpose(d0, d1, d2, d3);  // now d_c: column i + c of the four rows
+      V4d s0 = s[g] + d0;
+      V4d s1 = s0 + d1;
+      V4d s2 = s1 + d2;
+      V4d s3 = s2 + d3;
+      s[g] = s3;
+      transpose(s0, s1, s2, s3);  // now s_r: columns i + 1 .. i + 4 of row 4 g + r
+      std::memcpy(hr[4 * g] + i + 1, &s0, sizeof(s0));
+      std::memcpy(hr[4 * g + 1] + i + 1, &s1, sizeof(s1));
+      std::memcpy(hr[4 * g + 2] + i + 1, &s2, sizeof(s2));
+      std::memcpy(hr[4 * g + 3] + i + 1, &s3, sizeof(s3));
+    }
+  }
+  for (int r = 0; r < 8; ++r) {
+    const double* er = e + static_cast<size_t>(r) * stride;
+    double sum = s[r / 4][r % 4];
+    for (int j = i; j < steps; ++j) {
+      sum = sum + (er[j + k] - er[j]);
+      hr[r][j + 1] = sum;
+    }
+  }
+}
+
 TURBID_ROW_KERNEL void WidenRow(const float* __restrict in, double* __restrict out, int n) {
   for (int i = 0; i < n; ++i) out[i] = static_cast<double>(in[i]);
 }
@@ -532,7 +614,7 @@ BoxScratch& ThreadBoxScratch() {
 // time: produce(source_row, float* const* in) writes that row of each plane into in[p] (cols cn
 // values; it may be asked for a row more than once, for the reflected border); consume(y, const
 // float* const* out) receives output row y of each plane, in order of y. scale 1: sums;
-// otherwise each sum times scale (cv::boxFilter's normalised mean). Only a ring of k + 4 row sums
+// otherwise each sum times scale (cv::boxFilter's normalised mean). Only a ring of k + 8 row sums
 // per plane is kept, so the planes need not exist as whole images.
 // The reflected border columns of a bordered row whose interior (cols pixels of cn values) is
 // already at e + radius cn: columns x < radius and x >= radius + cols of the cols + 2 radius,
@@ -553,8 +635,10 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   const int k = 2 * radius + 1;
   const int n = cols * cn;
   const int ext_n = (cols + k - 1) * cn;  // values per bordered row
-  constexpr int kBatch = 4;
-  const int capacity = k + kBatch;
+  // Rows per batch: BoxRunning8Gray's eight chains in gray, BoxRunning4's four in colour (a
+  // smaller ring).
+  const int batch = cn == 1 ? 8 : 4;
+  const int capacity = k + batch;
   const int total_rows = rows + k - 1;  // bordered rows j = 0 .. rows + k - 2
   // Reflected border columns (BORDER_REFLECT, as cv::borderInterpolate places them).
   std::vector<int> xofs(cols + k - 1);
@@ -568,21 +652,21 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   const size_t ring_n = static_cast<size_t>(capacity) * n;
   ring_store.resize(std::max(ring_store.size(), kPlanes * ring_n));
   sum_store.assign(static_cast<size_t>(kPlanes) * n, 0.0);
-  ext_store.resize(std::max(ext_store.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  ext_store.resize(std::max(ext_store.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
   const bool running = k != 3 && k != 5;
   std::vector<double>& ext_d_store = scratch.ext_d;
   if (running) {
-    ext_d_store.resize(std::max(ext_d_store.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+    ext_d_store.resize(std::max(ext_d_store.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
   }
   out_store.resize(std::max(out_store.size(), static_cast<size_t>(kPlanes) * n));
   auto slot = [&](int p, int j) {
     return ring_store.data() + p * ring_n + static_cast<size_t>(j % capacity) * n;
   };
   auto ext_row = [&](int p, int b) {
-    return ext_store.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+    return ext_store.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
   };
   auto ext_d_row = [&](int p, int b) {
-    return ext_d_store.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+    return ext_d_store.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
   };
   int produced = 0;  // bordered rows whose row sums are in the rings
   auto produce_batch = [&](int count) {
@@ -612,6 +696,12 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
     if (running) {
       for (int p = 0; p < kPlanes; ++p) {
         int b = 0;
+        for (; cn == 1 && b + 8 <= count; b += 8) {
+          const int j = produced + b;
+          double* h[8];
+          for (int r = 0; r < 8; ++r) h[r] = slot(p, j + r);
+          BoxRunning8Gray(ext_d_row(p, b), ext_n, h, k, cols - 1);
+        }
         for (; b + 4 <= count; b += 4) {
           const int j = produced + b;
           BoxRunning4(ext_d_row(p, b), ext_d_row(p, b + 1), ext_d_row(p, b + 2),
@@ -624,7 +714,7 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
     produced += count;
   };
   auto need = [&](int j) {
-    while (produced <= j) produce_batch(std::min(kBatch, total_rows - produced));
+    while (produced <= j) produce_batch(std::min(batch, total_rows - produced));
   };
   for (int j = 0; j < k - 1; ++j) {
     need(j);
@@ -662,7 +752,9 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
                        ConsumeLarge&& consume_large, ConsumeSmall&& consume_small,
                        FirstLarge&& first_large, FirstSmall&& first_small) {
   CV_Assert(small >= 1 && small < large);
-  constexpr int kBatch = 4;
+  // Rows per batch: BoxRunning8Gray's eight chains in gray, BoxRunning4's four in colour (a
+  // smaller ring).
+  const int batch = cn == 1 ? 8 : 4;
   const int n = cols * cn;
   const int kl = 2 * large + 1;
   const int ext_n = (cols + kl - 1) * cn;
@@ -681,15 +773,15 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   BoxScratch& scratch = ThreadBoxScratch();
   size_t ring_total = 0;
   for (Window& w : win) {
-    w.capacity = w.k + kBatch;
+    w.capacity = w.k + batch;
     w.total = rows + w.k - 1;
     ring_total += static_cast<size_t>(kPlanes) * w.capacity * n;
   }
   scratch.ring.resize(std::max(scratch.ring.size(), ring_total));
   scratch.sum.assign(static_cast<size_t>(2) * kPlanes * n, 0.0);
-  scratch.ext.resize(std::max(scratch.ext.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+  scratch.ext.resize(std::max(scratch.ext.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
   scratch.ext_d.resize(
-      std::max(scratch.ext_d.size(), static_cast<size_t>(kPlanes) * kBatch * ext_n));
+      std::max(scratch.ext_d.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
   scratch.out.resize(std::max(scratch.out.size(), static_cast<size_t>(kPlanes) * n));
   win[0].ring = scratch.ring.data();
   win[1].ring = win[0].ring + static_cast<size_t>(kPlanes) * win[0].capacity * n;
@@ -699,10 +791,10 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
     return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * n;
   };
   auto ext_row = [&](int p, int b) {
-    return scratch.ext.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+    return scratch.ext.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
   };
   auto ext_d_row = [&](int p, int b) {
-    return scratch.ext_d.data() + (static_cast<size_t>(p) * kBatch + b) * ext_n;
+    return scratch.ext_d.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
   };
   // The row sums of bordered rows (count of them, from the batch's row `first`) of window w,
   // whose rows start `shift` values into the large window's bordered rows.
@@ -725,6 +817,11 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
       }
       if (w.k == 3 || w.k == 5) continue;
       int b = first;
+      for (; cn == 1 && b + 8 <= first + count; b += 8) {
+        double* h[8];
+        for (int r = 0; r < 8; ++r) h[r] = slot(w, p, w.produced + b - first + r);
+        BoxRunning8Gray(ext_d_row(p, b) + shift, ext_n, h, w.k, cols - 1);
+      }
       for (; b + 4 <= first + count; b += 4) {
         const int j = w.produced + b - first;
         BoxRunning4(ext_d_row(p, b) + shift, ext_d_row(p, b + 1) + shift,
@@ -758,8 +855,8 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
     }
   };
   const int total = win[0].total;
-  for (int j0 = 0; j0 < total; j0 += kBatch) {
-    const int count = std::min(kBatch, total - j0);
+  for (int j0 = 0; j0 < total; j0 += batch) {
+    const int count = std::min(batch, total - j0);
     for (int b = 0; b < count; ++b) {
       const int j = j0 + b;
       float* in[kPlanes];
