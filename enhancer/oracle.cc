@@ -511,7 +511,6 @@ TURBID_ROW_KERNEL void BoxRunning4(const double* __restrict e0, const double* __
 TURBID_ROW_KERNEL void BoxRunning8Gray(const double* __restrict e, size_t stride,
                                        double* const* __restrict h, int k, int steps) {
   using V4d = double __attribute__((vector_size(32)));
-  using V4i = int64_t __attribute__((vector_size(32)));
   // The difference of four columns of one row: e_r[i + k ..] - e_r[i ..].
   auto diff = [k](V4d& d, const double* p) {
     V4d a, b;
@@ -520,14 +519,14 @@ TURBID_ROW_KERNEL void BoxRunning8Gray(const double* __restrict e, size_t stride
     d = a - b;
   };
   auto transpose = [](V4d& r0, V4d& r1, V4d& r2, V4d& r3) {
-    const V4d t0 = __builtin_shuffle(r0, r1, V4i{0, 4, 2, 6});
-    const V4d t1 = __builtin_shuffle(r0, r1, V4i{1, 5, 3, 7});
-    const V4d t2 = __builtin_shuffle(r2, r3, V4i{0, 4, 2, 6});
-    const V4d t3 = __builtin_shuffle(r2, r3, V4i{1, 5, 3, 7});
-    r0 = __builtin_shuffle(t0, t2, V4i{0, 1, 4, 5});
-    r1 = __builtin_shuffle(t1, t3, V4i{0, 1, 4, 5});
-    r2 = __builtin_shuffle(t0, t2, V4i{2, 3, 6, 7});
-    r3 = __builtin_shuffle(t1, t3, V4i{2, 3, 6, 7});
+    const V4d t0 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6);
+    const V4d t1 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+    const V4d t2 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6);
+    const V4d t3 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+    r0 = __builtin_shufflevector(t0, t2, 0, 1, 4, 5);
+    r1 = __builtin_shufflevector(t1, t3, 0, 1, 4, 5);
+    r2 = __builtin_shufflevector(t0, t2, 2, 3, 6, 7);
+    r3 = __builtin_shufflevector(t1, t3, 2, 3, 6, 7);
   };
   double* hr[8];
   for (int r = 0; r < 8; ++r) hr[r] = h[r];
