@@ -162,6 +162,10 @@ def main(paths):
 
 
 if __name__ == "__main__":
-    if len(sys.argv) < 2:
-        sys.exit(__doc__)
-    main(sys.argv[1:])
+    if len(sys.argv) < 2 or sys.argv[1] in ("-h", "--help"):
+        print(__doc__)
+        sys.exit(0 if len(sys.argv) >= 2 else 2)
+    try:
+        main(sys.argv[1:])
+    except (OSError, ValueError, KeyError) as e:
+        sys.exit("perf_table: %s" % e)
