@@ -628,6 +628,18 @@ void FillReflectedBorder(T* e, int cols, int cn, int radius, const std::vector<i
   }
 }
 
+// Bordered row j (of rows + 2 radius) of every plane: produce(y, in) writes image row y =
+// reflect(j - radius) into the planes' interiors, then their reflected borders are filled.
+// ext_row(p) is plane p's bordered row.
+template <int kPlanes, typename Produce, typename ExtRow>
+void ProduceBorderedRow(Produce& produce, ExtRow&& ext_row, int j, int rows, int cols, int cn,
+                        int radius, const std::vector<int>& xofs) {
+  float* in[kPlanes];
+  for (int p = 0; p < kPlanes; ++p) in[p] = ext_row(p) + radius * cn;
+  produce(cv::borderInterpolate(j - radius, rows, cv::BORDER_REFLECT), in);
+  for (int p = 0; p < kPlanes; ++p) FillReflectedBorder(ext_row(p), cols, cn, radius, xofs);
+}
+
 template <int kPlanes, typename Produce, typename Consume>
 void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& produce,
                Consume&& consume) {
@@ -671,12 +683,10 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   auto produce_batch = [&](int count) {
     for (int b = 0; b < count; ++b) {
       const int j = produced + b;
-      float* in[kPlanes];
-      for (int p = 0; p < kPlanes; ++p) in[p] = ext_row(p, b) + radius * cn;
-      produce(cv::borderInterpolate(j - radius, rows, cv::BORDER_REFLECT), in);
+      ProduceBorderedRow<kPlanes>(produce, [&](int p) { return ext_row(p, b); }, j, rows, cols,
+                                  cn, radius, xofs);
       for (int p = 0; p < kPlanes; ++p) {
         float* e = ext_row(p, b);
-        FillReflectedBorder(e, cols, cn, radius, xofs);
         double* h = slot(p, j);
         if (k == 3) {
           BoxDirect3Row(e, h, cn, n);
@@ -857,15 +867,9 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   for (int j0 = 0; j0 < total; j0 += batch) {
     const int count = std::min(batch, total - j0);
     for (int b = 0; b < count; ++b) {
-      const int j = j0 + b;
-      float* in[kPlanes];
-      for (int p = 0; p < kPlanes; ++p) in[p] = ext_row(p, b) + large * cn;
-      produce(cv::borderInterpolate(j - large, rows, cv::BORDER_REFLECT), in);
-      for (int p = 0; p < kPlanes; ++p) {
-        float* e = ext_row(p, b);
-        FillReflectedBorder(e, cols, cn, large, xofs);
-        WidenRow(e, ext_d_row(p, b), ext_n);
-      }
+      ProduceBorderedRow<kPlanes>(produce, [&](int p) { return ext_row(p, b); }, j0 + b, rows,
+                                  cols, cn, large, xofs);
+      for (int p = 0; p < kPlanes; ++p) WidenRow(ext_row(p, b), ext_d_row(p, b), ext_n);
     }
     row_sums(win[0], 0, count, 0);
     // The small window's rows among these: bordered rows j - offset in [0, its total).
