@@ -735,16 +735,18 @@ namespace {
 // Noise standard deviation of a float image (all channels), J. Immerkaer, "Fast noise variance
 // estimation", CVIU 64(2) 1996, eq. 2: sqrt(pi/2) / (6 (W-2)(H-2)) sum |I * N| with the 3x3
 // Laplacian-difference mask N = [1 -2 1; -2 4 -2; 1 -2 1], over interior pixels.
+// |I * N| at value i of row b (a above, c below), ch values between horizontal neighbours.
+inline float LaplacianAbsAt(const float* a, const float* b, const float* c, int i, int ch) {
+  const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
+                  2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
+  return std::abs(v);
+}
+
 // |I * N| along one row (the mask's 3x3 sum), for the n values from i = ch on.
 TURBID_ROW_KERNEL void LaplacianAbsRow(const float* __restrict a, const float* __restrict b,
                                        const float* __restrict c, int ch, float* __restrict out,
                                        int n) {
-  for (int j = 0; j < n; ++j) {
-    const int i = j + ch;
-    const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
-                    2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
-    out[j] = std::abs(v);
-  }
+  for (int j = 0; j < n; ++j) out[j] = LaplacianAbsAt(a, b, c, j + ch, ch);
 }
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
@@ -796,15 +798,8 @@ __attribute__((target("avx2"))) void LaplacianAbsSums8(const float* const* rows,
   }
   _mm256_storeu_ps(row, acc);
   for (int k = 0; k < 8; ++k) {
-    const float* a = rows[k];
-    const float* b = rows[k + 1];
-    const float* c = rows[k + 2];
-    for (int jj = j; jj < n; ++jj) {
-      const int i = jj + ch;
-      const float v = (a[i - ch] + a[i + ch] + c[i - ch] + c[i + ch]) -
-                      2.0f * (a[i] + c[i] + b[i - ch] + b[i + ch]) + 4.0f * b[i];
-      row[k] += std::abs(v);
-    }
+    for (int jj = j; jj < n; ++jj)
+      row[k] += LaplacianAbsAt(rows[k], rows[k + 1], rows[k + 2], jj + ch, ch);
   }
 }
 #define TURBID_HAVE_NOISE_AVX2 1

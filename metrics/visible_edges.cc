@@ -232,6 +232,11 @@ class WeakPairTest {
   visible_edges::StrongLimits k_;
 };
 
+// The mask is read and written 8 bytes at a time as one uint64_t (here and in the r-bar scan):
+// byte k of the word is mask column j0 + k only on a little-endian machine.
+static_assert(std::endian::native == std::endian::little,
+              "the mask's 8-byte words assume little-endian byte order");
+
 // Byte k of kByteMasks[bits] is 255 when bit k of bits is set (bits < 128).
 constexpr std::array<uint64_t, 128> MakeByteMasks() {
   std::array<uint64_t, 128> m{};
