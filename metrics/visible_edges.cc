@@ -346,11 +346,23 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
     skip_up_to[hi] = d;  // −1: no window with this hi is skipped
   }
 
-  auto prepare = [&](int r0, Band& band) {
+  // `above`: the band of r0 − 4 when it was prepared last, else nullptr.
+  auto prepare = [&](int r0, Band& band, const Band* above) {
     uint8_t* tests = band.tests.data();
     std::vector<uint8_t>& strong = band.strong;
-    // Pair tests of padded rows r0 + 1 .. r0 + 6 (image row Reflect(r)), mirrored columns.
-    for (int nn = 1; nn < kWindow; ++nn) {
+    // Pair tests of padded rows r0 + 1 .. r0 + 6 (image row Reflect(r)), mirrored columns. They
+    // depend on the padded row alone, so the two rows the band shares with the band above (its
+    // rows 5 and 6) are copied from there.
+    int first_row = 1;
+    if (above != nullptr) {
+      constexpr int kShared = kPairRows - kStep;
+      std::memcpy(tests, above->tests.data() + 4 * static_cast<size_t>(kStep) * stride,
+                  4 * static_cast<size_t>(kShared) * stride);
+      std::memcpy(strong.data(), above->strong.data() + static_cast<size_t>(kStep) * stride,
+                  static_cast<size_t>(kShared) * stride);
+      first_row += kShared;
+    }
+    for (int nn = first_row; nn < kWindow; ++nn) {
       const int i = Reflect(r0 + nn, nl);
       const uint8_t* up2 = at.Row(i - 2);
       const uint8_t* up = at.Row(i - 1);
@@ -403,10 +415,10 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
   std::vector<visible_edges::Choice> choices(n_windows);
   const std::vector<visible_edges::Window> no_band;
 
-  prepare(0, bands[0]);
+  prepare(0, bands[0], nullptr);
   for (int r0 = 0, b = 0; r0 < nl; r0 += kStep, b = 1 - b) {
     const bool has_below = r0 + kStep < nl;
-    if (has_below) prepare(r0 + kStep, bands[1 - b]);
+    if (has_below) prepare(r0 + kStep, bands[1 - b], &bands[b]);
     search.SearchBand(bands[b].windows, has_below ? bands[1 - b].windows : no_band, &choices);
     const uint8_t* tests = bands[b].tests.data();
     for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
