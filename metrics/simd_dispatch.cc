@@ -335,10 +335,12 @@ template <typename Pair>
 inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, int clip_hi,
                           double* acc) {
   const int base = first & ~3;
-  const int n = last - base + 1;  // lanes from base up to last; <= 3 for an empty interval
+  // Lanes from base up to last: <= 3 for an empty interval (last = first − 1); negative (huge
+  // as unsigned) only when last < first − 1, which no caller passes and for which the loop below
+  // adds nothing.
+  const unsigned n = static_cast<unsigned>(last - base + 1);
   if (n <= 8) {
-    const double* m =
-        reinterpret_cast<const double*>(kPacked.masks[(first & 3) * 9 + std::max(n, 0)]);
+    const double* m = reinterpret_cast<const double*>(kPacked.masks[(first & 3) * 9 + n]);
     const __m256d t0 = _mm256_and_pd(pair.Terms(base), _mm256_load_pd(m));
     const __m256d t1 = _mm256_and_pd(pair.Terms(base + 4), _mm256_load_pd(m + 4));
     _mm256_store_pd(acc + base, _mm256_add_pd(_mm256_load_pd(acc + base), t0));
