@@ -361,22 +361,59 @@ inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, in
   }
 }
 
+// The pairs of one pixel.
+__attribute__((always_inline)) inline void AddPackedPixel(const double* table,
+                                                          const uint8_t* value, const uint8_t* t,
+                                                          int stride, bool paper, int clip_lo,
+                                                          int clip_hi, double* acc) {
+  if (paper) {
+    AddPackedPair(TablePair(table, t[0], t[1]), t[0], t[1] - 1, clip_lo, clip_hi, acc);
+    AddPackedPair(TablePair(table, t[2], t[3]), t[2], t[3] - 1, clip_lo, clip_hi, acc);
+  } else {  // intervals set by other pixels, not clipped to the window (-6 % instructions)
+    AddPackedPair(TablePair(table, value[0], value[-1]), t[0], t[1] - 1, clip_lo, clip_hi, acc);
+    AddPackedPair(TablePair(table, value[0], value[-stride]), t[2], t[3] - 1, clip_lo, clip_hi,
+                  acc);
+  }
+}
+
+// A block of kRows × kCols pixels with its pixel loops unrolled (no loop branches to mispredict
+// as the block shapes alternate).
+template <int kRows, int kCols>
+__attribute__((always_inline)) inline void AddPackedPixels(const double* table,
+                                                           const uint8_t* value,
+                                                           const uint8_t* tests, int stride,
+                                                           bool paper, int clip_lo, int clip_hi,
+                                                           double* acc) {
+#pragma GCC unroll 8
+  for (int i = 0; i < kRows; ++i) {
+#pragma GCC unroll 8
+    for (int j = 0; j < kCols; ++j) {
+      const ptrdiff_t k = static_cast<ptrdiff_t>(i) * stride + j;
+      AddPackedPixel(table, value + k, tests + 4 * k, stride, paper, clip_lo, clip_hi, acc);
+    }
+  }
+}
+
 __attribute__((always_inline)) inline void AddPackedPairsInline(
     const double* table, const uint8_t* value, const uint8_t* tests, int stride, int rows, int cols,
     bool paper, int clip_lo, int clip_hi, double* acc) {
+  // The window's blocks (visible_edge_search.cc) are 2 pixels high and 2, 4 or 6 wide.
+  if (rows == 2) {
+    switch (cols) {
+      case 2:
+        return AddPackedPixels<2, 2>(table, value, tests, stride, paper, clip_lo, clip_hi, acc);
+      case 4:
+        return AddPackedPixels<2, 4>(table, value, tests, stride, paper, clip_lo, clip_hi, acc);
+      case 6:
+        return AddPackedPixels<2, 6>(table, value, tests, stride, paper, clip_lo, clip_hi, acc);
+      default:
+        break;
+    }
+  }
   for (int i = 0; i < rows; ++i) {
     for (int j = 0; j < cols; ++j) {
       const ptrdiff_t k = static_cast<ptrdiff_t>(i) * stride + j;
-      const uint8_t* t = tests + 4 * k;
-      if (paper) {
-        AddPackedPair(TablePair(table, t[0], t[1]), t[0], t[1] - 1, clip_lo, clip_hi, acc);
-        AddPackedPair(TablePair(table, t[2], t[3]), t[2], t[3] - 1, clip_lo, clip_hi, acc);
-      } else {  // intervals set by other pixels, not clipped to the window (-6 % instructions)
-        AddPackedPair(TablePair(table, value[k], value[k - 1]), t[0], t[1] - 1, clip_lo, clip_hi,
-                      acc);
-        AddPackedPair(TablePair(table, value[k], value[k - stride]), t[2], t[3] - 1, clip_lo,
-                      clip_hi, acc);
-      }
+      AddPackedPixel(table, value + k, tests + 4 * k, stride, paper, clip_lo, clip_hi, acc);
     }
   }
 }

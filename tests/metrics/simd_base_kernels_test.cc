@@ -161,6 +161,25 @@ TEST(PortableKernels, PackedSumsAndContrastsAgreeWithTheDispatchedCopies) {
         ASSERT_EQ(std::floor(a[m][s] / 128), std::floor(b[m][s] / 128));  // the same counts
       }
     }
+    // Blocks 2 pixels high and 2, 4 or 6 wide (the window's shapes, which the AVX2 copy unrolls),
+    // the last one adding to the sums of the first.
+    {
+      alignas(32) double c[3][kPackedStride] = {}, d[3][kPackedStride] = {};
+      PackedBlock qa[4] = {{0, 0, 2, 6, lo, hi, true, c[0]},
+                           {2, 0, 2, 4, lo, hi, true, c[1]},
+                           {4, 2, 2, 2, lo, hi, true, c[2]},
+                           {2, 4, 2, 2, lo, hi, false, c[0]}};
+      PackedBlock qb[4] = {qa[0], qa[1], qa[2], qa[3]};
+      for (int m = 0; m < 4; ++m) qb[m].acc = d[m % 3];
+      portable::AddPackedBlocks(v0, t0, kStride, paper, qa, 4);
+      AddPackedBlocks(v0, t0, kStride, paper, qb, 4);
+      for (int s = lo; s <= hi; ++s) {
+        for (int m = 0; m < 3; ++m) {
+          ASSERT_NEAR(c[m][s], d[m][s], 1e-10) << "trial " << trial << " s " << s << " m " << m;
+          ASSERT_EQ(std::floor(c[m][s] / 128), std::floor(d[m][s] / 128));
+        }
+      }
+    }
     alignas(32) double sum_a[kPackedStride];
     for (int s = lo & ~3; s <= (hi | 3); ++s) sum_a[s] = a[0][s] + a[1][s];
     alignas(32) double ca[kPackedStride], cb[kPackedStride];
