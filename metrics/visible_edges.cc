@@ -295,6 +295,17 @@ void ColumnExtremes(const MirroredGray8& at, int r0, int rows, int n, uint8_t* _
   }
 }
 
+// In place, for c < n − 6: lo[c] = min(lo[c .. c + 6]) and hi[c] = max(hi[c .. c + 6]) (the
+// extremes of the 7 columns of the window from c), in three passes that vectorise: spans 2, 4, 7.
+void SpanExtremes7(int n, uint8_t* __restrict lo, uint8_t* __restrict hi) {
+  for (const int offset : {1, 2, 3}) {
+    for (int c = 0; c + offset < n; ++c) {
+      lo[c] = std::min(lo[c], lo[c + offset]);
+      hi[c] = std::max(hi[c], hi[c + offset]);
+    }
+  }
+}
+
 // VisibleEdgeMask() on CV_8UC1 gray: the same windows, thresholds, sums and decisions. Windows
 // go in bands of rows (step 4): each band computes the pair tests of its 6 pair rows (the maps of
 // BuildMaps(): [ceil(a), ceil(b) − 1] = [a, b − 1] on integers, stored as {vertical first,
@@ -328,7 +339,7 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
     b.strong.resize(static_cast<size_t>(kPairRows) * stride + 8);
     b.windows.resize(n_windows);
   }
-  std::vector<uint8_t> column_lo(stride), column_hi(stride);
+  std::vector<uint8_t> column_lo(stride), column_hi(stride), column_strong(stride + 8);
   // Every Weber term of a window is at most (hi − lo) / hi, and so is every C(s) up to a relative
   // rounding of ~1e-14: no threshold can be visible when that bound (with a 1e-9 margin) is below
   // the threshold. The bound grows with hi − lo, so per hi the test is hi − lo <= skip_up_to[hi]:
@@ -381,24 +392,26 @@ cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8
         StrongRow(weak, tb, nc + kWindow - 1, strong_row);
     }
 
-    // Extremes of the band's 7 rows per column, for the windows' ranges.
-    ColumnExtremes(at, r0, kWindow, nc + kWindow - 1, column_lo.data(), column_hi.data());
+    // Extremes of the band's 7 rows per column, then of each window's 7 columns, for the
+    // windows' ranges.
+    const int n = nc + kWindow - 1;
+    ColumnExtremes(at, r0, kWindow, n, column_lo.data(), column_hi.data());
+    SpanExtremes7(n, column_lo.data(), column_hi.data());
+    // Per column, whether any of the band's 6 pair rows has a strong pair there; a window's six
+    // columns from c0 + 1 are then read as one 8-byte word.
+    std::copy(strong.begin(), strong.begin() + n, column_strong.begin());
+    for (int nn = 1; nn < kPairRows; ++nn) {
+      const uint8_t* row = &strong[static_cast<size_t>(nn) * stride];
+      uint8_t* __restrict any = column_strong.data();
+      for (int c = 1; c < n; ++c) any[c] |= row[c];
+    }
     // Which windows of the band are searched, and their threshold ranges.
     for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
       band.windows[w] = {};
-      {
-        bool any_strong = false;
-        for (int nn = 0; nn < kPairRows; ++nn) {
-          const uint8_t* row = &strong[static_cast<size_t>(nn) * stride + c0 + 1];
-          for (int mm = 0; mm < kPairRows; ++mm) any_strong |= row[mm] != 0;
-        }
-        if (!any_strong) continue;
-      }
-      int lo_value = 255, hi_value = 0;
-      for (int mm = 0; mm < kWindow; ++mm) {
-        lo_value = std::min<int>(lo_value, column_lo[c0 + mm]);
-        hi_value = std::max<int>(hi_value, column_hi[c0 + mm]);
-      }
+      uint64_t any_strong;
+      std::memcpy(&any_strong, &column_strong[c0 + 1], 8);
+      if ((any_strong & 0xFFFF'FFFF'FFFFu) == 0) continue;  // bytes 0-5: columns c0 + 1 .. c0 + 6
+      const int lo_value = column_lo[c0], hi_value = column_hi[c0];
       // An all-black window has no separated pair at all; see skip_up_to for the bound.
       if (hi_value == 0 || hi_value - lo_value <= skip_up_to[hi_value]) continue;
       band.windows[w] = {at.Row(r0 + 1) + c0 + 1,
