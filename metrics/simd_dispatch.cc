@@ -307,21 +307,20 @@ constexpr PackedTables kPacked = MakePackedTables();
 // more instructions in this kernel. The table (540 KB) is read only at the rows of the window's
 // values and the columns of its thresholds, which neighbouring windows share.
 const double* PackedTermTable() {
-  static const std::vector<double> table = [] {
-    std::vector<double> t(256 * kPackedStride + 8);  // + 8: room to align to 64 bytes
-    double* row0 = t.data() + (8 - reinterpret_cast<uintptr_t>(t.data()) % 64 / 8) % 8;
+  static const double* const row0 = [] {
+    static std::vector<double> t(256 * kPackedStride + 8);  // + 8: room to align to 64 bytes
+    double* row = t.data() + (8 - reinterpret_cast<uintptr_t>(t.data()) % 64 / 8) % 8;
     for (int v = 0; v < 256; ++v) {
       for (int s = 0; s < kPackedStride; ++s) {
         const double ratio = v == 0 || s == 0
                                  ? 0.0
                                  : std::min(static_cast<double>(v) / s, static_cast<double>(s) / v);
-        row0[v * kPackedStride + s] = 129.0 - ratio;
+        row[v * kPackedStride + s] = 129.0 - ratio;
       }
     }
-    return t;
+    return row;
   }();
-  const double* data = table.data();
-  return data + (8 - reinterpret_cast<uintptr_t>(data) % 64 / 8) % 8;
+  return row0;
 }
 struct TablePair {
   const double* p;
@@ -771,18 +770,31 @@ SimdLevel CpuSimdLevel() {
 }
 
 std::atomic<int> simd_level_cap{static_cast<int>(SimdLevel::kAvx512)};
+// min(CPU level, cap), or −1 before the first use: one relaxed load per dispatched call (the
+// window kernels are called a few times per 7×7 window).
+std::atomic<int> active_level{-1};
 
-bool UseAvx2() { return ActiveSimdLevel() >= SimdLevel::kAvx2; }
-bool UseAvx512() { return ActiveSimdLevel() >= SimdLevel::kAvx512; }
+int ComputeActiveLevel() {
+  static const SimdLevel cpu = CpuSimdLevel();
+  const int level = std::min(static_cast<int>(cpu), simd_level_cap.load(std::memory_order_relaxed));
+  active_level.store(level, std::memory_order_relaxed);
+  return level;
+}
+
+inline SimdLevel ActiveLevel() {
+  const int level = active_level.load(std::memory_order_relaxed);
+  return static_cast<SimdLevel>(level >= 0 ? level : ComputeActiveLevel());
+}
+
+inline bool UseAvx2() { return ActiveLevel() >= SimdLevel::kAvx2; }
+inline bool UseAvx512() { return ActiveLevel() >= SimdLevel::kAvx512; }
 }  // namespace
 
-SimdLevel ActiveSimdLevel() {
-  static const SimdLevel cpu = CpuSimdLevel();
-  return std::min(cpu, static_cast<SimdLevel>(simd_level_cap.load(std::memory_order_relaxed)));
-}
+SimdLevel ActiveSimdLevel() { return ActiveLevel(); }
 
 void SetSimdLevelCap(SimdLevel cap) {
   simd_level_cap.store(static_cast<int>(cap), std::memory_order_relaxed);
+  ComputeActiveLevel();
 }
 
 #ifdef TURBID_HAVE_AVX2_COPY

@@ -163,16 +163,13 @@ Choice ThresholdSearch::Decide(const Window& w, const simd::PackedMaximum& m) {
   return ExactSearch(w);
 }
 
-double* ThresholdSearch::Strip(int buffer, int k) {
-  double* data = strips_[buffer].data();
-  const size_t misalignment = reinterpret_cast<uintptr_t>(data) % 32 / sizeof(double);
-  return data + (misalignment == 0 ? 0 : 4 - misalignment) + static_cast<size_t>(k) * kStride;
-}
-
 void ThresholdSearch::Reserve(size_t n) {
   for (int b = 0; b < 2; ++b) {
     if (strip_valid_[b].size() != n) {
       strips_[b].assign(n * kStride + 4, 0.0);  // + 4: room to align to 32 bytes
+      double* data = strips_[b].data();
+      const size_t misalignment = reinterpret_cast<uintptr_t>(data) % 32 / sizeof(double);
+      strip_base_[b] = data + (misalignment == 0 ? 0 : 4 - misalignment);
       strip_valid_[b].assign(n, 0);
       strip_value_[b].assign(n, nullptr);
       strip_tests_[b].assign(n, nullptr);

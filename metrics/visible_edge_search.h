@@ -91,6 +91,9 @@ class ThresholdSearch {
 
   // half_threshold: the code's percentage / 2, i.e. VisibleEdgeOptions::visibility_threshold / 2.
   explicit ThresholdSearch(double half_threshold) : half_threshold_(half_threshold) {}
+  // Not copyable: strip_base_ points into strips_.
+  ThresholdSearch(const ThresholdSearch&) = delete;
+  ThresholdSearch& operator=(const ThresholdSearch&) = delete;
 
   // The published code's search: C(s) from the ordered sums, first argmax over s with a non-zero
   // count, visible when C(s0) > half_threshold.
@@ -125,7 +128,10 @@ class ThresholdSearch {
                                    const std::vector<Window>& below, int k);
   Choice Decide(const Window& w, const simd::PackedMaximum& m);
   void Reserve(size_t n);            // the strips for bands of n windows
-  double* Strip(int buffer, int k);  // window k's strip in strips_[buffer], 32-byte aligned
+  // Window k's strip in strips_[buffer], 32-byte aligned (strip_base_, set by Reserve()).
+  double* Strip(int buffer, int k) const {
+    return strip_base_[buffer] + static_cast<size_t>(k) * kStride;
+  }
 
   double half_threshold_;
   alignas(32) double sum_vertical_[kTableStride] = {};
@@ -146,6 +152,7 @@ class ThresholdSearch {
   int right_ = 0;                     // which right_* buffers the last window wrote
   bool have_left_ = false;            // the last window wrote them for the current one
   std::vector<double> strips_[2];     // per window, kStride doubles (see Strip())
+  double* strip_base_[2] = {};        // the first 32-byte aligned element of strips_[b]
   std::vector<char> strip_valid_[2];  // per window: the strip holds the sums of its window below,
   std::vector<const uint8_t*> strip_value_[2], strip_tests_[2];  // which is this one
   std::vector<int> strip_lo_[2], strip_hi_[2];  // thresholds where the strip's sums are exact
