@@ -463,10 +463,14 @@ void AddPackedBlocksFast(const uint8_t* value, const uint8_t* tests, int stride,
 
 // PackedContrasts() and PackedContrastsWithStrip(): with a strip (n_add >= 0), strip += Σ adds
 // on the strip's range first, chunk by chunk, and the strip is the last part of each sum.
+// kParts, kAdds >= 0: n_parts and n_add known at compile time (the part loops unrolled).
+template <int kParts = -1, int kAdds = -1>
 PackedMaximum PackedContrastsChunks(const double* const* parts, int n_parts, double* strip,
                                     const double* const* adds, int n_add, int strip_lo,
                                     int strip_hi, int s_min, int s_max, double tie_width,
                                     double* contrast) {
+  if constexpr (kParts >= 0) n_parts = kParts;
+  if constexpr (kAdds >= 0) n_add = kAdds;
   const int first_chunk = s_min & ~3;
   auto complete = [&](int s) {
     __m256d v = _mm256_load_pd(strip + s);
@@ -526,6 +530,22 @@ PackedMaximum PackedContrastsWithStripFast(const double* const* parts, int n_par
                                            const double* const* adds, int n_add, int strip_lo,
                                            int strip_hi, int s_min, int s_max, double tie_width,
                                            double* contrast) {
+  // A window's calls (visible_edge_search.cc): 1 to 3 parts and one add fewer.
+  if (n_add == n_parts - 1) {
+    switch (n_parts) {
+      case 1:
+        return PackedContrastsChunks<1, 0>(parts, n_parts, strip, adds, n_add, strip_lo, strip_hi,
+                                           s_min, s_max, tie_width, contrast);
+      case 2:
+        return PackedContrastsChunks<2, 1>(parts, n_parts, strip, adds, n_add, strip_lo, strip_hi,
+                                           s_min, s_max, tie_width, contrast);
+      case 3:
+        return PackedContrastsChunks<3, 2>(parts, n_parts, strip, adds, n_add, strip_lo, strip_hi,
+                                           s_min, s_max, tie_width, contrast);
+      default:
+        break;
+    }
+  }
   return PackedContrastsChunks(parts, n_parts, strip, adds, n_add, strip_lo, strip_hi, s_min, s_max,
                                tie_width, contrast);
 }

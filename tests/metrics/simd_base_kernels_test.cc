@@ -197,25 +197,28 @@ TEST(PortableKernels, PackedSumsAndContrastsAgreeWithTheDispatchedCopies) {
     alignas(32) double strip_a[kPackedStride], strip_b[kPackedStride];
     for (int s = 0; s < kPackedStride; ++s) strip_a[s] = strip_b[s] = a[1][s] + b[0][s];
     const double* adds[2] = {a[0], b[1]};
-    const double* parts_s[2] = {b[0], a[1]};
+    // Every count of parts (1-3) and adds (0-2): the AVX2 copy has its own loops for the
+    // window's combinations (adds = parts − 1).
+    const int n_parts = 1 + trial % 3, n_add = trial / 3 % 3;
+    const double* parts_s[3] = {b[0], a[1], b[1]};
     const PackedMaximum sa = portable::PackedContrastsWithStrip(
-        parts_s, 1 + trial % 2, strip_a, adds, trial % 3, strip_lo, strip_hi, lo, hi, 1e-9, ca);
+        parts_s, n_parts, strip_a, adds, n_add, strip_lo, strip_hi, lo, hi, 1e-9, ca);
     const PackedMaximum sb = PackedContrastsWithStrip(
-        parts_s, 1 + trial % 2, strip_b, adds, trial % 3, strip_lo, strip_hi, lo, hi, 1e-9, cb);
+        parts_s, n_parts, strip_b, adds, n_add, strip_lo, strip_hi, lo, hi, 1e-9, cb);
     EXPECT_EQ(sa.best, sb.best);
     EXPECT_EQ(sa.near, sb.near);
     EXPECT_EQ(sa.first, sb.first);
     for (int s = lo; s <= hi; ++s) ASSERT_EQ(ca[s], cb[s]) << "trial " << trial << " s " << s;
     for (int s = strip_lo & ~3; s <= (strip_hi | 3); ++s) {
       double expected = a[1][s] + b[0][s];
-      for (int m = 0; m < trial % 3; ++m) expected += adds[m][s];
+      for (int m = 0; m < n_add; ++m) expected += adds[m][s];
       ASSERT_EQ(strip_b[s], expected) << "trial " << trial << " s " << s;
       ASSERT_EQ(strip_a[s], expected);
     }
     // The contrasts are those of PackedContrasts() with the completed strip as the last part.
-    const double* with_strip[3] = {b[0], a[1], strip_a};
-    with_strip[1 + trial % 2] = strip_a;
-    const PackedMaximum sp = PackedContrasts(with_strip, 2 + trial % 2, lo, hi, 1e-9, ca);
+    const double* with_strip[4] = {b[0], a[1], b[1], strip_a};
+    with_strip[n_parts] = strip_a;
+    const PackedMaximum sp = PackedContrasts(with_strip, n_parts + 1, lo, hi, 1e-9, ca);
     EXPECT_EQ(sp.best, sb.best);
     EXPECT_EQ(sp.first, sb.first);
     for (int s = lo; s <= hi; ++s) ASSERT_EQ(ca[s], cb[s]);
