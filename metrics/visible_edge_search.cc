@@ -186,13 +186,19 @@ void ThresholdSearch::SearchBand(const std::vector<Window>& band, const std::vec
   std::fill(strip_valid_[1 - strip_read_].begin(), strip_valid_[1 - strip_read_].end(), 0);
   choices->assign(n, Choice{});
   have_left_ = false;
+  // All the band's sums first, then the decisions: a decision's branch waits for the end of its
+  // window's contrast pass (divisions), and when it is mispredicted the next windows' work done
+  // meanwhile is lost; in a separate loop its inputs are ready.
+  maxima_.resize(n);
   for (size_t k = 0; k < n; ++k) {
     if (band[k].value == nullptr) {
       have_left_ = false;
       continue;
     }
-    (*choices)[k] = Decide(band[k], PackedWindow(band, below, static_cast<int>(k)));
+    maxima_[k] = PackedWindow(band, below, static_cast<int>(k));
   }
+  for (size_t k = 0; k < n; ++k)
+    if (band[k].value != nullptr) (*choices)[k] = Decide(band[k], maxima_[k]);
   strip_read_ = 1 - strip_read_;
 }
 

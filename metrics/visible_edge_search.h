@@ -157,6 +157,7 @@ class ThresholdSearch {
   std::vector<const uint8_t*> strip_value_[2], strip_tests_[2];  // which is this one
   std::vector<int> strip_lo_[2], strip_hi_[2];  // thresholds where the strip's sums are exact
   int strip_read_ = 0;
+  std::vector<simd::PackedMaximum> maxima_;  // per window of the band being searched
 };
 
 }  // namespace turbid::visible_edges
