@@ -361,10 +361,9 @@ inline void AddPackedPair(const Pair& pair, int first, int last, int clip_lo, in
 }
 
 // The pairs of one pixel.
-__attribute__((always_inline)) inline void AddPackedPixel(const double* table,
-                                                          const uint8_t* value, const uint8_t* t,
-                                                          int stride, bool paper, int clip_lo,
-                                                          int clip_hi, double* acc) {
+__attribute__((always_inline)) inline void AddPackedPixel(const double* table, const uint8_t* value,
+                                                          const uint8_t* t, int stride, bool paper,
+                                                          int clip_lo, int clip_hi, double* acc) {
   if (paper) {
     AddPackedPair(TablePair(table, t[0], t[1]), t[0], t[1] - 1, clip_lo, clip_hi, acc);
     AddPackedPair(TablePair(table, t[2], t[3]), t[2], t[3] - 1, clip_lo, clip_hi, acc);
@@ -650,6 +649,82 @@ void BgrToLab8Fast(const uint8_t* bgr, int n, const Lab8Tables& t, uint8_t* lab)
   }
   avx2::BgrToLab8(bgr + 3 * k, n - k, t, lab + 3 * k);
 }
+// IfsttarStrongRow() 16 pixels at a time: the interleaved tests split into planes by a byte
+// shuffle, a word permutation and 64-bit unpacks, then IfsttarStrongPair()'s arithmetic in 16-bit
+// lanes (every value <= 256 compares as signed; the products and shifts, up to 255 · 256, as
+// unsigned through a sign flip). The same integers as the portable loop, so the same flags.
+inline __m256i LessU16(__m256i u, __m256i v) {  // u < v, unsigned 16-bit
+  const __m256i flip = _mm256_set1_epi16(static_cast<short>(0x8000));
+  return _mm256_cmpgt_epi16(_mm256_xor_si256(v, flip), _mm256_xor_si256(u, flip));
+}
+
+inline __m256i IfsttarStrongPairs(__m256i x, __m256i y, __m256i first, __m256i end, __m256i k,
+                                  __m256i k_ratio) {
+  const __m256i one = _mm256_set1_epi16(1);
+  const __m256i p = _mm256_min_epu16(x, y), q = _mm256_max_epu16(x, y);
+  const __m256i a = _mm256_max_epu16(first, one);
+  const __m256i b_k = _mm256_mullo_epi16(_mm256_sub_epi16(end, one), k_ratio);
+  const __m256i below = _mm256_and_si256(
+      _mm256_cmpgt_epi16(p, a), LessU16(_mm256_slli_epi16(a, 8), _mm256_mullo_epi16(p, k_ratio)));
+  const __m256i above = _mm256_and_si256(_mm256_cmpgt_epi16(end, _mm256_add_epi16(q, one)),
+                                         LessU16(_mm256_slli_epi16(q, 8), b_k));
+  // a <= q and e > p: not (a > q) and e > p.
+  const __m256i middle = _mm256_andnot_si256(
+      _mm256_cmpgt_epi16(a, q),
+      _mm256_and_si256(_mm256_cmpgt_epi16(end, p),
+                       LessU16(_mm256_slli_epi16(p, 8), _mm256_mullo_epi16(q, k))));
+  return _mm256_and_si256(_mm256_cmpgt_epi16(end, a),
+                          _mm256_or_si256(below, _mm256_or_si256(above, middle)));
+}
+
+// The tests of 8 pixels as {first v} × 8, {end v} × 8 | {first h} × 8, {end h} × 8.
+inline __m256i TestPlanes(const uint8_t* t) {
+  // Per 128-bit lane of 4 pixels: {first v} × 4, {end v} × 4, {first h} × 4, {end h} × 4.
+  const __m256i group = _mm256_setr_epi8(0, 4, 8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15, 0, 4,
+                                         8, 12, 1, 5, 9, 13, 2, 6, 10, 14, 3, 7, 11, 15);
+  const __m256i g =
+      _mm256_shuffle_epi8(_mm256_loadu_si256(reinterpret_cast<const __m256i*>(t)), group);
+  return _mm256_permutevar8x32_epi32(g, _mm256_setr_epi32(0, 4, 1, 5, 2, 6, 3, 7));
+}
+
+inline __m256i Widen(__m128i bytes) { return _mm256_cvtepu8_epi16(bytes); }
+
+void IfsttarStrongRowFast(const uint8_t* tests, const uint8_t* row, const uint8_t* up, int n, int k,
+                          int k_ratio, uint8_t* strong) {
+  const __m256i k16 = _mm256_set1_epi16(static_cast<short>(k));
+  const __m256i kr16 = _mm256_set1_epi16(static_cast<short>(k_ratio));
+  // Steps of 16 pixels; a ragged end as one more step ending at n (flags recomputed, the same).
+  for (int c = 1; c < n; c += 16) {
+    if (c + 16 > n) {
+      if (n < 17) break;
+      c = n - 16;
+    }
+    const __m256i t0 = TestPlanes(tests + 4 * c), t1 = TestPlanes(tests + 4 * c + 32);
+    const __m256i firsts = _mm256_unpacklo_epi64(t0, t1);  // first v × 16 | first h × 16
+    const __m256i ends = _mm256_unpackhi_epi64(t0, t1);    // end v × 16 | end h × 16
+    const __m256i x = Widen(_mm_loadu_si128(reinterpret_cast<const __m128i*>(row + c)));
+    const __m256i left = Widen(_mm_loadu_si128(reinterpret_cast<const __m128i*>(row + c - 1)));
+    const __m256i upper = Widen(_mm_loadu_si128(reinterpret_cast<const __m128i*>(up + c)));
+    const __m256i vertical = IfsttarStrongPairs(x, left, Widen(_mm256_castsi256_si128(firsts)),
+                                                Widen(_mm256_castsi256_si128(ends)), k16, kr16);
+    const __m256i horizontal =
+        IfsttarStrongPairs(x, upper, Widen(_mm256_extracti128_si256(firsts, 1)),
+                           Widen(_mm256_extracti128_si256(ends, 1)), k16, kr16);
+    const __m256i flags =
+        _mm256_and_si256(_mm256_or_si256(vertical, horizontal), _mm256_set1_epi16(1));
+    const __m256i packed = _mm256_packus_epi16(flags, flags);  // per lane: 8 flags twice
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(strong + c),
+                     _mm256_castsi256_si128(_mm256_permute4x64_epi64(packed, 0x08)));
+  }
+  if (n >= 17) return;
+  const uint16_t k_16 = static_cast<uint16_t>(k), kr_16 = static_cast<uint16_t>(k_ratio);
+  for (int c = 1; c < n; ++c) {
+    strong[c] = static_cast<uint8_t>(
+        IfsttarStrongPair(row[c], row[c - 1], tests[4 * c], tests[4 * c + 1], k_16, kr_16) |
+        IfsttarStrongPair(row[c], up[c], tests[4 * c + 2], tests[4 * c + 3], k_16, kr_16));
+  }
+}
+
 // Bits 1..6 of the result: the sign bits of 32-bit words 0..5 of x.
 inline unsigned SignBits6(__m256i x) {
   return (static_cast<unsigned>(_mm256_movemask_ps(_mm256_castsi256_ps(x))) & 0x3Fu) << 1;
@@ -932,7 +1007,10 @@ PackedMaximum PackedContrastsWithStrip(const double* const* parts, int n_parts, 
 
 void IfsttarStrongRow(const uint8_t* tests, const uint8_t* row, const uint8_t* up, int n, int k,
                       int k_ratio, uint8_t* strong) {
-  TURBID_DISPATCH(IfsttarStrongRow(tests, row, up, n, k, k_ratio, strong));
+#ifdef TURBID_HAVE_AVX2_COPY
+  if (UseAvx2()) return avx2::IfsttarStrongRowFast(tests, row, up, n, k, k_ratio, strong);
+#endif
+  base::IfsttarStrongRow(tests, row, up, n, k, k_ratio, strong);
 }
 
 void SeparatedPairRows(const uint8_t* tests, int stride, int s0, unsigned* rows) {

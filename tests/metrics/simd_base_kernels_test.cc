@@ -122,6 +122,38 @@ TEST(PortableKernels, IfsttarStrongRowNeverCallsAVisiblePairWeak) {
   }
 }
 
+// Both pairs of every pixel with random values and intervals (ends drawn near the values so
+// that the comparisons hit their edges), random limits, and row lengths that leave every tail:
+// the dispatched copy (16 pixels per step in AVX2) gives the portable copy's flags.
+TEST(PortableKernels, IfsttarStrongRowEqualsTheDispatchedCopy) {
+  std::mt19937 rng(17);
+  std::vector<uint8_t> row, up, tests, flags_a, flags_b;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int n = 1 + static_cast<int>(rng() % 300);
+    const int k = 1 + static_cast<int>(rng() % 256), k_ratio = 1 + static_cast<int>(rng() % 256);
+    row.resize(n);
+    up.resize(n);
+    tests.resize(4 * static_cast<size_t>(n));
+    for (int c = 0; c < n; ++c) {
+      row[c] = static_cast<uint8_t>(rng());
+      up[c] = static_cast<uint8_t>(rng());
+    }
+    for (int c = 0; c < n; ++c) {
+      const int values[3] = {row[c], c > 0 ? row[c - 1] : 0, up[c]};
+      for (int d = 0; d < 4; ++d) {
+        const int near = values[rng() % 3] + static_cast<int>(rng() % 5) - 2;
+        tests[4 * c + d] = static_cast<uint8_t>(rng() % 2 ? std::clamp(near, 0, 255) : rng() % 256);
+      }
+    }
+    flags_a.assign(n, 0);
+    flags_b.assign(n, 0);
+    portable::IfsttarStrongRow(tests.data(), row.data(), up.data(), n, k, k_ratio, flags_a.data());
+    IfsttarStrongRow(tests.data(), row.data(), up.data(), n, k, k_ratio, flags_b.data());
+    ASSERT_EQ(flags_a, flags_b) << "trial " << trial << " n " << n << " k " << k << " k_ratio "
+                                << k_ratio;
+  }
+}
+
 TEST(PortableKernels, PackedSumsAndContrastsAgreeWithTheDispatchedCopies) {
   std::mt19937 rng(2);
   constexpr int kStride = 16;
@@ -203,8 +235,8 @@ TEST(PortableKernels, PackedSumsAndContrastsAgreeWithTheDispatchedCopies) {
     const double* parts_s[3] = {b[0], a[1], b[1]};
     const PackedMaximum sa = portable::PackedContrastsWithStrip(
         parts_s, n_parts, strip_a, adds, n_add, strip_lo, strip_hi, lo, hi, 1e-9, ca);
-    const PackedMaximum sb = PackedContrastsWithStrip(
-        parts_s, n_parts, strip_b, adds, n_add, strip_lo, strip_hi, lo, hi, 1e-9, cb);
+    const PackedMaximum sb = PackedContrastsWithStrip(parts_s, n_parts, strip_b, adds, n_add,
+                                                      strip_lo, strip_hi, lo, hi, 1e-9, cb);
     EXPECT_EQ(sa.best, sb.best);
     EXPECT_EQ(sa.near, sb.near);
     EXPECT_EQ(sa.first, sb.first);
