@@ -306,21 +306,22 @@ constexpr PackedTables kPacked = MakePackedTables();
 // and 1/s per lane: four products, two minima, a maximum and a subtraction per chunk) took ~20 %
 // more instructions in this kernel. The table (540 KB) is read only at the rows of the window's
 // values and the columns of its thresholds, which neighbouring windows share.
-const double* PackedTermTable() {
-  static const double* const row0 = [] {
-    static std::vector<double> t(256 * kPackedStride + 8);  // + 8: room to align to 64 bytes
-    double* row = t.data() + (8 - reinterpret_cast<uintptr_t>(t.data()) % 64 / 8) % 8;
-    for (int v = 0; v < 256; ++v) {
-      for (int s = 0; s < kPackedStride; ++s) {
-        const double ratio = v == 0 || s == 0
-                                 ? 0.0
-                                 : std::min(static_cast<double>(v) / s, static_cast<double>(s) / v);
-        row[v * kPackedStride + s] = 129.0 - ratio;
-      }
+// Called once, by PackedTermTable().
+const double* BuildPackedTermTable() {
+  static std::vector<double> t(256 * kPackedStride + 8);  // + 8: room to align to 64 bytes
+  double* row0 = t.data() + (8 - reinterpret_cast<uintptr_t>(t.data()) % 64 / 8) % 8;
+  for (int v = 0; v < 256; ++v) {
+    for (int s = 0; s < kPackedStride; ++s) {
+      const double ratio =
+          v == 0 || s == 0 ? 0.0 : std::min(static_cast<double>(v) / s, static_cast<double>(s) / v);
+      row0[v * kPackedStride + s] = 129.0 - ratio;
     }
-    return row;
-  }();
+  }
   return row0;
+}
+inline const double* PackedTermTable() {
+  static const double* const table = BuildPackedTermTable();
+  return table;
 }
 struct TablePair {
   const double* p;
@@ -440,16 +441,36 @@ void AddPackedBlocksFast(const uint8_t* value, const uint8_t* tests, int stride,
     lo = std::min(lo, k.clip_lo);
     hi = std::max(hi, k.clip_hi);
   }
-  if (n_zero > 0) {
-    for (int m = n_zero; m < 4; ++m) zero[m] = zero[0];
-    __m256d z = _mm256_setzero_pd();
-    asm("" : "+x"(z));  // not known to be zero: no memset call per accumulator
-    for (int s = lo & ~3; s < hi + 8; s += 4) {
-      _mm256_store_pd(zero[0] + s, z);
-      _mm256_store_pd(zero[1] + s, z);
-      _mm256_store_pd(zero[2] + s, z);
-      _mm256_store_pd(zero[3] + s, z);
-    }
+  __m256d z = _mm256_setzero_pd();
+  asm("" : "+x"(z));  // not known to be zero: no memset call per accumulator
+  // One loop per count of accumulators, so that none is stored twice.
+  switch (n_zero) {
+    case 4:
+      for (int s = lo & ~3; s < hi + 8; s += 4) {
+        _mm256_store_pd(zero[0] + s, z);
+        _mm256_store_pd(zero[1] + s, z);
+        _mm256_store_pd(zero[2] + s, z);
+        _mm256_store_pd(zero[3] + s, z);
+      }
+      break;
+    case 3:
+      for (int s = lo & ~3; s < hi + 8; s += 4) {
+        _mm256_store_pd(zero[0] + s, z);
+        _mm256_store_pd(zero[1] + s, z);
+        _mm256_store_pd(zero[2] + s, z);
+      }
+      break;
+    case 2:
+      for (int s = lo & ~3; s < hi + 8; s += 4) {
+        _mm256_store_pd(zero[0] + s, z);
+        _mm256_store_pd(zero[1] + s, z);
+      }
+      break;
+    case 1:
+      for (int s = lo & ~3; s < hi + 8; s += 4) _mm256_store_pd(zero[0] + s, z);
+      break;
+    default:
+      break;
   }
   const double* table = PackedTermTable();
   for (int b = 0; b < n_blocks; ++b) {

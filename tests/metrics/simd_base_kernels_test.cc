@@ -256,12 +256,19 @@ TEST(PortableKernels, PackedSumsAndContrastsAgreeWithTheDispatchedCopies) {
     for (int s = lo; s <= hi; ++s) ASSERT_EQ(ca[s], cb[s]);
     portable::ZeroPacked(a[0], lo, hi);
     for (int s = lo & ~3; s < hi + 8; ++s) ASSERT_EQ(a[0][s], 0.0);
-    // AddPackedBlocks zeroes every zero_first accumulator before adding any block.
-    std::fill(std::begin(b[0]), std::end(b[0]), 7.0);
-    std::fill(std::begin(b[1]), std::end(b[1]), 7.0);
-    PackedBlock none[2] = {{0, 0, 0, 0, lo, hi, true, b[0]}, {0, 0, 0, 0, lo, hi, true, b[1]}};
-    AddPackedBlocks(v0, t0, kStride, paper, none, 2);
-    for (int s = lo & ~3; s < hi + 8; ++s) ASSERT_EQ(b[0][s] + b[1][s], 0.0);
+    // AddPackedBlocks zeroes every zero_first accumulator before adding any block, whatever
+    // their count (1 to 5; the AVX2 copy has a loop per count up to 4).
+    alignas(32) double z[5][kPackedStride];
+    const int n_zero = 1 + trial % 5;
+    PackedBlock none[5];
+    for (int m = 0; m < n_zero; ++m) {
+      std::fill(std::begin(z[m]), std::end(z[m]), 7.0);
+      const int zlo = std::max(1, lo - static_cast<int>(rng() % 9));
+      none[m] = {0, 0, 0, 0, zlo, hi, true, z[m]};
+    }
+    AddPackedBlocks(v0, t0, kStride, paper, none, n_zero);
+    for (int m = 0; m < n_zero; ++m)
+      for (int s = none[m].clip_lo & ~3; s < hi + 8; ++s) ASSERT_EQ(z[m][s], 0.0) << "m " << m;
   }
 }
 
