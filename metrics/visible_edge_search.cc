@@ -155,7 +155,9 @@ simd::PackedMaximum ThresholdSearch::PackedWindow(const std::vector<Window>& ban
   return m;
 }
 
-Choice ThresholdSearch::Decide(const Window& w, const simd::PackedMaximum& m) {
+// Inline (its one caller is SearchBand()): returned through memory, the choice's fields were
+// written as bytes and read back as one word, which store forwarding does not serve.
+inline Choice ThresholdSearch::Decide(const Window& w, const simd::PackedMaximum& m) {
   // Every ordered C(s) is within kApproximateError < kMargin of its unordered value.
   if (m.best <= half_threshold_ - kMargin) return {false, w.s_min, false};
   // Visible, with s0 the best threshold, when every other one is clearly below it.
