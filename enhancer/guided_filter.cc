@@ -1044,6 +1044,10 @@ class GrayStream {
     }
   }
 
+  // Whether stage A prefetches the input row of its next step (default on; off for a stream
+  // whose rows another stream of the same image has fetched already).
+  void SetPrefetchNextRow(bool on) { prefetch_next_ = on; }
+
   // Writes output row t (rows must be asked for in order 0, 1, ..., h-1).
   void Row(int t, float* dst) {
     const int need = std::min(t + r_, h_ - 1);
@@ -1242,7 +1246,9 @@ class GrayStream {
       // L2 while this row is worked on (else its first reads wait for memory; the hardware
       // prefetchers stop at page boundaries).
       const char* next =
-          add != nullptr && y + r_ + 1 < h_ ? reinterpret_cast<const char*>(add + w_) : nullptr;
+          prefetch_next_ && add != nullptr && y + r_ + 1 < h_
+              ? reinterpret_cast<const char*>(add + w_)
+              : nullptr;
       Chunked(
           0,
           [&](int c0, int n) {
@@ -1310,6 +1316,7 @@ class GrayStream {
   FusedKernels fused_;  // empty beyond kMaxFusedRadius (window sums by binary doubling)
   bool chunked_ = false;  // interleaved colour: the running steps chunk by chunk (Chunked)
   bool fuse_quads_ = false;  // chunked with sums of 4, AVX2: ColumnStepQuads3 forms them
+  bool prefetch_next_ = true;  // stage A prefetches the next input row (SetPrefetchNextRow)
   int next_a_ = 0;
 };
 
@@ -1608,6 +1615,17 @@ void GuidedFilterSelfRows(const std::vector<GuidedFilterOptions>& options, const
       streams[k] = std::make_unique<GrayStream>(image, image, options[k].radius,
                                                 static_cast<float>(options[k].eps), true, channels);
     }
+  }
+  // The next input row is prefetched by the stream that reads furthest ahead (the largest
+  // radius) only: the others read it a few rows later, from L2.
+  int widest = -1;
+  for (size_t k = 0; k < options.size(); ++k) {
+    if (streams[k] && (widest < 0 || options[k].radius > options[widest].radius)) {
+      widest = static_cast<int>(k);
+    }
+  }
+  for (size_t k = 0; k < options.size(); ++k) {
+    if (streams[k]) streams[k]->SetPrefetchNextRow(static_cast<int>(k) == widest);
   }
   const size_t n = static_cast<size_t>(image.cols) * channels;
   std::vector<float> rows(options.size() * n);
