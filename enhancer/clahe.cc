@@ -223,8 +223,9 @@ double AlphaForMappedMean(ClaheDistribution d, const std::vector<double>& weight
   return std::exp(0.5 * (lo + hi));
 }
 
-// Each tile's histogram is counted into four interleaved sub-histograms (consecutive pixels
-// often share a bin; separate counters avoid a store-to-load dependency per pixel).
+// Each tile's histogram is counted into eight interleaved sub-histograms (consecutive pixels
+// often share a bin; separate counters keep the increments of one counter eight pixels apart,
+// so their store-to-load chains overlap).
 template <typename Index>
 cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, ClaheStats* stats) {
   cv::Mat maps(o.tiles_y * o.tiles_x, o.bins, CV_32F);
@@ -233,7 +234,9 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, C
   for (int x = 0; x < p.padded_w; ++x) col_src[x] = SymmetricIndex(x - p.pre_x, idx.cols);
   const int pixels = p.tile_h * p.tile_w;
   const int bins = o.bins;
-  std::vector<int> sub(static_cast<size_t>(o.tiles_x) * 4 * bins);
+  constexpr int kSub = 8;
+  constexpr int kAhead = 4;  // rows
+  std::vector<int> sub(static_cast<size_t>(kSub) * bins);
   std::vector<int> hist(bins);
   // keep_mean: the clipped histograms wait for alpha; the pixel counts go onto the fraction grid.
   const bool match = o.keep_mean && o.distribution != ClaheDistribution::kUniform;
@@ -247,62 +250,72 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, C
   if (!match && static_cast<double>(pixels) < static_cast<double>(o.tiles_x) * o.tiles_y * bins) {
     memo.assign(static_cast<size_t>(pixels) + 1, -1.0f);
   }
+  // The means of ClaheStats (and keep_mean's target) only where asked for; summed in registers
+  // (a sum kept in memory across the loop waits on its own store at every bin).
+  const bool want_means = match || stats != nullptr;
   double bin_sum = 0.0, mapped_sum = 0.0;
   for (int ty = 0; ty < o.tiles_y; ++ty) {
-    std::fill(sub.begin(), sub.end(), 0);
-    for (int y = ty * p.tile_h; y < (ty + 1) * p.tile_h; ++y) {
-      const Index* row = idx.ptr<Index>(row_src[y]);
-      for (int tx = 0; tx < o.tiles_x; ++tx) {
-        int* h0 = sub.data() + static_cast<size_t>(tx) * 4 * bins;
-        int* h1 = h0 + bins;
-        int* h2 = h1 + bins;
-        int* h3 = h2 + bins;
-        const int x0 = tx * p.tile_w, x_end = x0 + p.tile_w;
-        // Columns inside the image are a contiguous run; only padded columns need the table.
-        const int in_lo = std::max(x0, p.pre_x), in_hi = std::min(x_end, p.pre_x + idx.cols);
+    for (int tx = 0; tx < o.tiles_x; ++tx) {
+      // One tile at a time: its kSub sub-histograms stay in L1 (the tile's rows are read from
+      // the bin image, a few KiB each).
+      std::fill(sub.begin(), sub.end(), 0);
+      int* h[kSub];
+      for (int j = 0; j < kSub; ++j) h[j] = sub.data() + static_cast<size_t>(j) * bins;
+      const int x0 = tx * p.tile_w, x_end = x0 + p.tile_w;
+      // Columns inside the image are a contiguous run; only padded columns need the table.
+      const int in_lo = std::max(x0, p.pre_x), in_hi = std::min(x_end, p.pre_x + idx.cols);
+      const int n = std::max(in_hi - in_lo, 0);
+      const int y_end = (ty + 1) * p.tile_h;
+      for (int y = ty * p.tile_h; y < y_end; ++y) {
+        const Index* row = idx.ptr<Index>(row_src[y]);
+        if (y + kAhead < y_end && n > 0) {  // the tile's rows are strided: fetch a few ahead
+          const char* ahead =
+              reinterpret_cast<const char*>(idx.ptr<Index>(row_src[y + kAhead]) + (in_lo - p.pre_x));
+          for (int b = 0; b < n * static_cast<int>(sizeof(Index)); b += 64) {
+            __builtin_prefetch(ahead + b, 0, 3);
+          }
+          __builtin_prefetch(ahead + n * sizeof(Index) - 1, 0, 3);
+        }
         int x = x0;
-        for (; x < in_lo; ++x) ++h0[row[col_src[x]]];
+        for (; x < in_lo; ++x) ++h[0][row[col_src[x]]];
         const Index* run = row + (in_lo - p.pre_x);
-        const int n = std::max(in_hi - in_lo, 0);
         int k = 0;
         if constexpr (sizeof(Index) == 1) {
-          // Eight 8-bit indices per load, taken apart by shifts (one load instead of eight; which
-          // sub-histogram a pixel goes to does not matter, they are summed).
+          // Eight 8-bit indices per load, taken apart by shifts, each to its own sub-histogram
+          // (which one a pixel goes to does not matter: they are summed).
           for (; k + 8 <= n; k += 8) {
             uint64_t v;
             std::memcpy(&v, run + k, sizeof(v));
-            ++h0[v & 0xff];
-            ++h1[(v >> 8) & 0xff];
-            ++h2[(v >> 16) & 0xff];
-            ++h3[(v >> 24) & 0xff];
-            ++h0[(v >> 32) & 0xff];
-            ++h1[(v >> 40) & 0xff];
-            ++h2[(v >> 48) & 0xff];
-            ++h3[v >> 56];
+            for (int j = 0; j < 8; ++j) ++h[j][(v >> (8 * j)) & 0xff];
           }
         }
-        for (; k + 4 <= n; k += 4) {
-          ++h0[run[k]];
-          ++h1[run[k + 1]];
-          ++h2[run[k + 2]];
-          ++h3[run[k + 3]];
+        for (; k + 8 <= n; k += 8) {
+          for (int j = 0; j < 8; ++j) ++h[j][run[k + j]];
         }
-        for (; k < n; ++k) ++h0[run[k]];
-        for (x = std::max(in_hi, in_lo); x < x_end; ++x) ++h0[row[col_src[x]]];
+        for (; k < n; ++k) ++h[0][run[k]];
+        for (x = std::max(in_hi, in_lo); x < x_end; ++x) ++h[0][row[col_src[x]]];
       }
-    }
-    for (int tx = 0; tx < o.tiles_x; ++tx) {
-      const int* h0 = sub.data() + static_cast<size_t>(tx) * 4 * bins;
       for (int b = 0; b < bins; ++b) {
-        hist[b] = h0[b] + h0[bins + b] + h0[2 * bins + b] + h0[3 * bins + b];
+        int c = 0;
+        for (int j = 0; j < kSub; ++j) c += h[j][b];
+        hist[b] = c;
       }
-      for (int b = 0; b < bins; ++b) bin_sum += static_cast<double>(b) * hist[b];
+      if (want_means) {
+        double acc = bin_sum;
+        for (int b = 0; b < bins; ++b) acc += static_cast<double>(b) * hist[b];
+        bin_sum = acc;
+      }
       if (!match) {
-        std::vector<int> counts = hist;
+        std::vector<int> counts;
+        if (want_means) counts = hist;
         ClipHistogram(o, hist, pixels);
         const std::vector<float> m =
             ShapeMapping(fixed, hist, pixels, memo.empty() ? nullptr : &memo);
-        for (int b = 0; b < bins; ++b) mapped_sum += static_cast<double>(counts[b]) * m[b];
+        if (want_means) {
+          double acc = mapped_sum;
+          for (int b = 0; b < bins; ++b) acc += static_cast<double>(counts[b]) * m[b];
+          mapped_sum = acc;
+        }
         std::copy(m.begin(), m.end(), maps.ptr<float>(ty * o.tiles_x + tx));
         continue;
       }
@@ -655,6 +668,14 @@ __attribute__((target("avx2"))) void LuminanceRatioRowAvx2(float* bgr, const flo
     const __m256 g = _mm256_div_ps(e, l);
     const __m256 dark = _mm256_cmp_ps(l, tiny, _CMP_LE_OQ);
     const __m256i spread[3] = {spread0, spread1, spread2};
+    if (_mm256_movemask_ps(dark) == 0) {  // no dark pixel (the usual case): no blend with e
+      for (int k = 0; k < 3; ++k) {
+        const __m256 gk = _mm256_permutevar8x32_ps(g, spread[k]);
+        const __m256 v = _mm256_mul_ps(_mm256_loadu_ps(p + 8 * k), gk);
+        _mm256_storeu_ps(p + 8 * k, _mm256_min_ps(one, _mm256_max_ps(zero, v)));
+      }
+      continue;
+    }
     for (int k = 0; k < 3; ++k) {
       const __m256 gk = _mm256_permutevar8x32_ps(g, spread[k]);
       const __m256 ek = _mm256_permutevar8x32_ps(e, spread[k]);
