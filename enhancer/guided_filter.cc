@@ -1112,32 +1112,38 @@ class GrayStream {
   // The sums of 4 formed with the column-sum update of a chunk trail its first column by this many
   // padded positions (ColumnStepQuads3 reads the 16 column sums before the chunk).
   static constexpr int kQuadLag = 16;
-  // Whether the chunk from c0 updates its column sums with ColumnStepQuads3.
-  bool FuseQuads(int c0) const { return fuse_quads_ && pad_ + c0 >= kQuadLag; }
   // The chunk's column-sum update of planes k, k + 1 (kSquare: stage A's I and I^2 from one row
-  // pair; else stage B's a and b), with the sums of 4 where FuseQuads; returns what Chunked wants.
+  // pair; else stage B's a and b) on values [c0, c0 + n); where fuse_quads_, with the sums of 4 at
+  // padded positions [max(pad + c0 - kQuadLag, 0), + m) (ColumnStepQuads3; returns m). Its first
+  // kQuadLag - pad - c0 values, if any, are updated alone (the kernel reads the 16 column sums
+  // before where it starts, which must lie in the padding or earlier chunks).
   template <bool kSquare>
   int ColumnChunk(int k, int c0, int n, const float* add0, const float* sub0, const float* add1,
                   const float* sub1) {
-    float* e0 = Ext(k) + pad_ + c0;
-    float* e1 = Ext(k + 1) + pad_ + c0;
+    auto plain = [&](int from, int count) {
+      float* e0 = Ext(k) + pad_ + from;
+      float* e1 = Ext(k + 1) + pad_ + from;
+      if (kSquare) {
+        ColumnStepSelf(e0, e1, Offset(add0, from), Offset(sub0, from), count);
+      } else {
+        ColumnStepPair(e0, e1, Offset(add0, from), Offset(sub0, from), Offset(add1, from),
+                       Offset(sub1, from), count);
+      }
+    };
 #ifdef TURBID_HAVE_COLUMN_QUADS3
-    if (FuseQuads(c0)) {
-      // The sums of 4 are written from 16 positions before the chunk's first column.
+    const int lead = std::max(kQuadLag - pad_ - c0, 0);
+    if (fuse_quads_ && lead < n) {
+      if (lead > 0) plain(c0, lead);
+      const int from = c0 + lead;
+      // The sums of 4 are written from 16 positions before the first column updated here.
       static_assert(kQuadLag == 16, "ColumnStepQuads3's lag");
-      const int q = pad_ + c0;
-      const int m = ColumnStepQuads3Rows<kSquare>(e0, e1, Offset(add0, c0), Offset(sub0, c0),
-                                                  Offset(add1, c0), Offset(sub1, c0), Quad(k) + q,
-                                                  Quad(k + 1) + q, n);
-      return m;  // the update is done (0: no sums of 4 formed, fewer than 8 values)
+      return ColumnStepQuads3Rows<kSquare>(
+          Ext(k) + pad_ + from, Ext(k + 1) + pad_ + from, Offset(add0, from), Offset(sub0, from),
+          Offset(add1, from), Offset(sub1, from), Quad(k) + pad_ + from,
+          Quad(k + 1) + pad_ + from, n - lead);  // the update is done (0: no sums formed)
     }
 #endif
-    if (kSquare) {
-      ColumnStepSelf(e0, e1, Offset(add0, c0), Offset(sub0, c0), n);
-    } else {
-      ColumnStepPair(e0, e1, Offset(add0, c0), Offset(sub0, c0), Offset(add1, c0),
-                     Offset(sub1, c0), n);
-    }
+    plain(c0, n);
     return 0;
   }
   // One running step of the interleaved stream (stage A: planes 0, 1; stage B: a, b), chunk by
@@ -1160,7 +1166,7 @@ class GrayStream {
       const bool last = c1 == w_;
       if (!quads_.empty()) {
         if (fused > 0) {  // the update formed the sums of 4 at [f0, f0 + fused)
-          const int f0 = pad_ + c0 - kQuadLag;
+          const int f0 = std::max(pad_ + c0 - kQuadLag, 0);
           if (f0 > quads_done) {  // those before it read only final column sums
             QuadSumsRange<kS>(Ext(k) + quads_done, Ext(k + 1) + quads_done, Quad(k) + quads_done,
                               Quad(k + 1) + quads_done, f0 - quads_done);
