@@ -1321,7 +1321,7 @@ class GrayStream {
   cv::Mat a_ring_, b_ring_;
   FusedKernels fused_;  // empty beyond kMaxFusedRadius (window sums by binary doubling)
   bool chunked_ = false;  // interleaved colour: the running steps chunk by chunk (Chunked)
-  bool fuse_quads_ = false;  // chunked with sums of 4, AVX2: ColumnStepQuads3 forms them
+  [[maybe_unused]] bool fuse_quads_ = false;  // chunked, sums of 4, AVX2: ColumnStepQuads3
   bool prefetch_next_ = true;  // stage A prefetches the next input row (SetPrefetchNextRow)
   int next_a_ = 0;
 };
