@@ -172,14 +172,23 @@ struct TargetQuantile {
 // adapthisteq's clipHistogram, in place (see ClaheMapHistogram).
 void ClipHistogram(const ClaheOptions& o, std::vector<int>& hist, int pixels);
 // makeMapping: the clipped histogram's cumulative fractions shaped by `target`.
+// `memo` (or null): pixels + 1 floats, -1 where not yet known, shared by the tiles of one image
+// (one target): each cumulative count's quantile is computed once (a tile's sums take at most
+// pixels + 1 values, and the tiles of small images share many).
 std::vector<float> ShapeMapping(const TargetQuantile& target, const std::vector<int>& clipped,
-                                int pixels) {
+                                int pixels, std::vector<float>* memo = nullptr) {
   std::vector<float> map(clipped.size());
   long long sum = 0;
   const double inv = 1.0 / pixels;
   for (size_t b = 0; b < clipped.size(); ++b) {
     sum += clipped[b];
-    map[b] = static_cast<float>(target(sum * inv));
+    if (memo != nullptr && sum <= pixels) {  // the quantiles are >= 0 (-0 at most): -1 is unset
+      float& q = (*memo)[static_cast<size_t>(sum)];
+      if (q < -0.5f) q = static_cast<float>(target(sum * inv));
+      map[b] = q;
+    } else {
+      map[b] = static_cast<float>(target(sum * inv));
+    }
   }
   return map;
 }
@@ -214,8 +223,9 @@ double AlphaForMappedMean(ClaheDistribution d, const std::vector<double>& weight
   return std::exp(0.5 * (lo + hi));
 }
 
-// Each tile's histogram is counted into four interleaved sub-histograms (consecutive pixels
-// often share a bin; separate counters avoid a store-to-load dependency per pixel).
+// Each tile's histogram is counted into eight interleaved sub-histograms (consecutive pixels
+// often share a bin; separate counters keep the increments of one counter eight pixels apart,
+// so their store-to-load chains overlap).
 template <typename Index>
 cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, ClaheStats* stats) {
   cv::Mat maps(o.tiles_y * o.tiles_x, o.bins, CV_32F);
@@ -224,7 +234,9 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, C
   for (int x = 0; x < p.padded_w; ++x) col_src[x] = SymmetricIndex(x - p.pre_x, idx.cols);
   const int pixels = p.tile_h * p.tile_w;
   const int bins = o.bins;
-  std::vector<int> sub(static_cast<size_t>(o.tiles_x) * 4 * bins);
+  constexpr int kSub = 8;
+  constexpr int kAhead = 4;  // rows
+  std::vector<int> sub(static_cast<size_t>(kSub) * bins);
   std::vector<int> hist(bins);
   // keep_mean: the clipped histograms wait for alpha; the pixel counts go onto the fraction grid.
   const bool match = o.keep_mean && o.distribution != ClaheDistribution::kUniform;
@@ -232,45 +244,78 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, C
   std::vector<double> weight(match ? kMeanGrid + 1 : 0);
   if (match) clipped.resize(static_cast<size_t>(o.tiles_y) * o.tiles_x * bins);
   const TargetQuantile fixed(o.distribution, o.alpha);
+  // Quantiles by cumulative count, computed once each, where there are fewer counts than the
+  // tiles' bins (small tiles: 80 x 60 pixels at 640 x 480 against 64 tiles of 256 bins).
+  std::vector<float> memo;
+  if (!match && static_cast<double>(pixels) < static_cast<double>(o.tiles_x) * o.tiles_y * bins) {
+    memo.assign(static_cast<size_t>(pixels) + 1, -1.0f);
+  }
+  // The means of ClaheStats (and keep_mean's target) only where asked for; summed in registers
+  // (a sum kept in memory across the loop waits on its own store at every bin).
+  const bool want_means = match || stats != nullptr;
   double bin_sum = 0.0, mapped_sum = 0.0;
   for (int ty = 0; ty < o.tiles_y; ++ty) {
-    std::fill(sub.begin(), sub.end(), 0);
-    for (int y = ty * p.tile_h; y < (ty + 1) * p.tile_h; ++y) {
-      const Index* row = idx.ptr<Index>(row_src[y]);
-      for (int tx = 0; tx < o.tiles_x; ++tx) {
-        int* h0 = sub.data() + static_cast<size_t>(tx) * 4 * bins;
-        int* h1 = h0 + bins;
-        int* h2 = h1 + bins;
-        int* h3 = h2 + bins;
-        const int x0 = tx * p.tile_w, x_end = x0 + p.tile_w;
-        // Columns inside the image are a contiguous run; only padded columns need the table.
-        const int in_lo = std::max(x0, p.pre_x), in_hi = std::min(x_end, p.pre_x + idx.cols);
-        int x = x0;
-        for (; x < in_lo; ++x) ++h0[row[col_src[x]]];
-        const Index* run = row + (in_lo - p.pre_x);
-        const int n = std::max(in_hi - in_lo, 0);
-        int k = 0;
-        for (; k + 4 <= n; k += 4) {
-          ++h0[run[k]];
-          ++h1[run[k + 1]];
-          ++h2[run[k + 2]];
-          ++h3[run[k + 3]];
-        }
-        for (; k < n; ++k) ++h0[run[k]];
-        for (x = std::max(in_hi, in_lo); x < x_end; ++x) ++h0[row[col_src[x]]];
-      }
-    }
     for (int tx = 0; tx < o.tiles_x; ++tx) {
-      const int* h0 = sub.data() + static_cast<size_t>(tx) * 4 * bins;
-      for (int b = 0; b < bins; ++b) {
-        hist[b] = h0[b] + h0[bins + b] + h0[2 * bins + b] + h0[3 * bins + b];
+      // One tile at a time: its kSub sub-histograms stay in L1 (the tile's rows are read from
+      // the bin image, a few KiB each).
+      std::fill(sub.begin(), sub.end(), 0);
+      int* h[kSub];
+      for (int j = 0; j < kSub; ++j) h[j] = sub.data() + static_cast<size_t>(j) * bins;
+      const int x0 = tx * p.tile_w, x_end = x0 + p.tile_w;
+      // Columns inside the image are a contiguous run; only padded columns need the table.
+      const int in_lo = std::max(x0, p.pre_x), in_hi = std::min(x_end, p.pre_x + idx.cols);
+      const int n = std::max(in_hi - in_lo, 0);
+      const int y_end = (ty + 1) * p.tile_h;
+      for (int y = ty * p.tile_h; y < y_end; ++y) {
+        const Index* row = idx.ptr<Index>(row_src[y]);
+        if (y + kAhead < y_end && n > 0) {  // the tile's rows are strided: fetch a few ahead
+          const char* ahead =
+              reinterpret_cast<const char*>(idx.ptr<Index>(row_src[y + kAhead]) + (in_lo - p.pre_x));
+          for (int b = 0; b < n * static_cast<int>(sizeof(Index)); b += 64) {
+            __builtin_prefetch(ahead + b, 0, 3);
+          }
+          __builtin_prefetch(ahead + n * sizeof(Index) - 1, 0, 3);
+        }
+        int x = x0;
+        for (; x < in_lo; ++x) ++h[0][row[col_src[x]]];
+        const Index* run = row + (in_lo - p.pre_x);
+        int k = 0;
+        if constexpr (sizeof(Index) == 1) {
+          // Eight 8-bit indices per load, taken apart by shifts, each to its own sub-histogram
+          // (which one a pixel goes to does not matter: they are summed).
+          for (; k + 8 <= n; k += 8) {
+            uint64_t v;
+            std::memcpy(&v, run + k, sizeof(v));
+            for (int j = 0; j < 8; ++j) ++h[j][(v >> (8 * j)) & 0xff];
+          }
+        }
+        for (; k + 8 <= n; k += 8) {
+          for (int j = 0; j < 8; ++j) ++h[j][run[k + j]];
+        }
+        for (; k < n; ++k) ++h[0][run[k]];
+        for (x = std::max(in_hi, in_lo); x < x_end; ++x) ++h[0][row[col_src[x]]];
       }
-      for (int b = 0; b < bins; ++b) bin_sum += static_cast<double>(b) * hist[b];
+      for (int b = 0; b < bins; ++b) {
+        int c = 0;
+        for (int j = 0; j < kSub; ++j) c += h[j][b];
+        hist[b] = c;
+      }
+      if (want_means) {
+        double acc = bin_sum;
+        for (int b = 0; b < bins; ++b) acc += static_cast<double>(b) * hist[b];
+        bin_sum = acc;
+      }
       if (!match) {
-        std::vector<int> counts = hist;
+        std::vector<int> counts;
+        if (want_means) counts = hist;
         ClipHistogram(o, hist, pixels);
-        const std::vector<float> m = ShapeMapping(fixed, hist, pixels);
-        for (int b = 0; b < bins; ++b) mapped_sum += static_cast<double>(counts[b]) * m[b];
+        const std::vector<float> m =
+            ShapeMapping(fixed, hist, pixels, memo.empty() ? nullptr : &memo);
+        if (want_means) {
+          double acc = mapped_sum;
+          for (int b = 0; b < bins; ++b) acc += static_cast<double>(counts[b]) * m[b];
+          mapped_sum = acc;
+        }
         std::copy(m.begin(), m.end(), maps.ptr<float>(ty * o.tiles_x + tx));
         continue;
       }
@@ -405,6 +450,45 @@ __attribute__((target("avx2"))) void InterpolateRowAvx2(const float* pairs, cons
   InterpolateRow(pairs, b + x, lo + x, wx + x, dst + x, n - x);
 }
 
+// BlendRows then PairRows in one pass, without the blended row in memory: per 8 values the blends
+// at i and i + bins (each blend value is formed twice, by the same operations, so it is the same
+// float both times), their difference, and the two interleaved with unpack and lane permutes.
+// Same operations in the same order as the two portable loops (no FMA), so bit-identical.
+__attribute__((target("avx2"))) inline __m256 Blend8(const float* up, const float* dn, __m256 w) {
+  const __m256 u = _mm256_loadu_ps(up);
+  return _mm256_add_ps(u, _mm256_mul_ps(w, _mm256_sub_ps(_mm256_loadu_ps(dn), u)));
+}
+__attribute__((target("avx2"))) inline void StorePairs8(float* pairs, __m256 left, __m256 diff) {
+  const __m256 lo = _mm256_unpacklo_ps(left, diff);  // l0 d0 l1 d1 | l4 d4 l5 d5
+  const __m256 hi = _mm256_unpackhi_ps(left, diff);  // l2 d2 l3 d3 | l6 d6 l7 d7
+  _mm256_storeu_ps(pairs, _mm256_permute2f128_ps(lo, hi, 0x20));
+  _mm256_storeu_ps(pairs + 8, _mm256_permute2f128_ps(lo, hi, 0x31));
+}
+__attribute__((target("avx2"))) void BlendPairRowsAvx2(const float* up, const float* dn, float wy,
+                                                       int n, int bins, float* pairs) {
+  const __m256 w = _mm256_set1_ps(wy), zero = _mm256_setzero_ps();
+  const int inner = std::max(n - bins, 0);  // values with a right neighbour column
+  auto blend = [&](int i) { return up[i] + wy * (dn[i] - up[i]); };
+  int i = 0;
+  for (; i + 8 <= inner; i += 8) {
+    const __m256 left = Blend8(up + i, dn + i, w), right = Blend8(up + i + bins, dn + i + bins, w);
+    StorePairs8(pairs + 2 * i, left, _mm256_sub_ps(right, left));
+  }
+  for (; i < inner; ++i) {
+    pairs[2 * i] = blend(i);
+    pairs[2 * i + 1] = blend(i + bins) - pairs[2 * i];
+  }
+  for (; i + 8 <= n; i += 8) {
+    const __m256 left = Blend8(up + i, dn + i, w);
+    StorePairs8(pairs + 2 * i, left, _mm256_sub_ps(zero, left));
+  }
+  for (; i < n; ++i) {
+    pairs[2 * i] = blend(i);
+    pairs[2 * i + 1] = 0.0f - pairs[2 * i];
+  }
+}
+#define TURBID_HAVE_BLEND_PAIRS_AVX2 1
+
 void Interpolate(const float* pairs, const uint8_t* b, const int* lo, const float* wx, float* dst,
                  int n) {
   if (enhancer_internal::UseHandWrittenAvx2()) {
@@ -447,9 +531,17 @@ void ClaheRowsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, Cla
     // Rows in the outer half tiles (and, per tile row, repeated weights) reuse the LUT.
     if (iy.lo[y] != lut_lo || iy.hi[y] != lut_hi || iy.w[y] != lut_w) {
       lut_lo = iy.lo[y], lut_hi = iy.hi[y], lut_w = iy.w[y];
-      BlendRows(m + static_cast<size_t>(lut_lo) * row_len,
-                m + static_cast<size_t>(lut_hi) * row_len, lut_w, blend.data(), row_len);
-      PairRows(blend.data(), row_len, bins, pairs.data());
+      const float* up = m + static_cast<size_t>(lut_lo) * row_len;
+      const float* dn = m + static_cast<size_t>(lut_hi) * row_len;
+#ifdef TURBID_HAVE_BLEND_PAIRS_AVX2
+      if (enhancer_internal::UseHandWrittenAvx2()) {
+        BlendPairRowsAvx2(up, dn, lut_w, row_len, bins, pairs.data());
+      } else
+#endif
+      {
+        BlendRows(up, dn, lut_w, blend.data(), row_len);
+        PairRows(blend.data(), row_len, bins, pairs.data());
+      }
     }
     float* dst = row(y);
     Interpolate(pairs.data(), idx.ptr<Index>(y), lo.data(), wx.data(), dst, idx.cols);
@@ -576,6 +668,14 @@ __attribute__((target("avx2"))) void LuminanceRatioRowAvx2(float* bgr, const flo
     const __m256 g = _mm256_div_ps(e, l);
     const __m256 dark = _mm256_cmp_ps(l, tiny, _CMP_LE_OQ);
     const __m256i spread[3] = {spread0, spread1, spread2};
+    if (_mm256_movemask_ps(dark) == 0) {  // no dark pixel (the usual case): no blend with e
+      for (int k = 0; k < 3; ++k) {
+        const __m256 gk = _mm256_permutevar8x32_ps(g, spread[k]);
+        const __m256 v = _mm256_mul_ps(_mm256_loadu_ps(p + 8 * k), gk);
+        _mm256_storeu_ps(p + 8 * k, _mm256_min_ps(one, _mm256_max_ps(zero, v)));
+      }
+      continue;
+    }
     for (int k = 0; k < 3; ++k) {
       const __m256 gk = _mm256_permutevar8x32_ps(g, spread[k]);
       const __m256 ek = _mm256_permutevar8x32_ps(e, spread[k]);

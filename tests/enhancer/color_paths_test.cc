@@ -416,6 +416,112 @@ TEST(ColorPaths, ClaheColorKernelsEqualPortableLoops) {
   }
 }
 
+// CLAHE of a one-channel image written out pixel by pixel (no row LUT, no sub-histograms, no
+// shared quantiles): the arithmetic of ClaheRowsT / MappingsT before perf5-simp (be04b57), for
+// the gray path that both colour methods' CLAHE uses. Tile mappings from each tile's histogram
+// counted over the mirrored padding and shaped by ClaheMapHistogram; per pixel the two tile rows'
+// mappings blended vertically (up + wy (dn - up)), then horizontally as left + wx (right - left)
+// with right = 0 past the last tile column, clamped to [0, 1].
+cv::Mat ReferenceClaheGray(const ClaheOptions& o, const cv::Mat& gray) {
+  auto pad_amount = [](int n, int tiles, int* dim) {
+    int pad = 0;
+    *dim = n / tiles;
+    if (n % tiles != 0) *dim = n / tiles + 1, pad = *dim * tiles - n;
+    if (*dim % 2 != 0) pad += tiles, *dim += 1;
+    return pad;
+  };
+  auto mirror = [](int i, int n) {
+    const int period = 2 * n;
+    int m = i % period;
+    if (m < 0) m += period;
+    return m < n ? m : period - 1 - m;
+  };
+  int tile_h, tile_w;
+  const int pre_y = pad_amount(gray.rows, o.tiles_y, &tile_h) / 2;
+  const int pre_x = pad_amount(gray.cols, o.tiles_x, &tile_w) / 2;
+  cv::Mat bin(gray.size(), CV_32S);
+  const float scale = static_cast<float>(o.bins - 1);
+  for (int y = 0; y < gray.rows; ++y) {
+    for (int x = 0; x < gray.cols; ++x) {
+      const float c = std::min(std::max(0.0f, gray.at<float>(y, x)), 1.0f);
+      bin.at<int>(y, x) = static_cast<int>(c * scale + 0.5f);
+    }
+  }
+  std::vector<std::vector<float>> maps;
+  for (int ty = 0; ty < o.tiles_y; ++ty) {
+    for (int tx = 0; tx < o.tiles_x; ++tx) {
+      std::vector<int> hist(o.bins, 0);
+      for (int y = ty * tile_h; y < (ty + 1) * tile_h; ++y) {
+        for (int x = tx * tile_w; x < (tx + 1) * tile_w; ++x) {
+          ++hist[bin.at<int>(mirror(y - pre_y, gray.rows), mirror(x - pre_x, gray.cols))];
+        }
+      }
+      maps.push_back(ClaheMapHistogram(o, hist, tile_h * tile_w));
+    }
+  }
+  auto neighbours = [](int i, int pre, int tile, int tiles, int* lo, int* hi, float* w) {
+    const double t = (static_cast<double>(i + pre) - tile / 2) / tile;
+    const int f = static_cast<int>(std::floor(t));
+    if (f < 0) {
+      *lo = *hi = 0, *w = 0.0f;
+    } else if (f >= tiles - 1) {
+      *lo = *hi = tiles - 1, *w = 0.0f;
+    } else {
+      *lo = f, *hi = f + 1, *w = static_cast<float>(t - f);
+    }
+  };
+  cv::Mat out(gray.size(), CV_32F);
+  for (int y = 0; y < gray.rows; ++y) {
+    int up, dn, lo, hi;
+    float wy, wx;
+    neighbours(y, pre_y, tile_h, o.tiles_y, &up, &dn, &wy);
+    for (int x = 0; x < gray.cols; ++x) {
+      neighbours(x, pre_x, tile_w, o.tiles_x, &lo, &hi, &wx);
+      const int b = bin.at<int>(y, x);
+      auto blend = [&](int tx) {
+        const float u = maps[up * o.tiles_x + tx][b], d = maps[dn * o.tiles_x + tx][b];
+        return u + wy * (d - u);
+      };
+      const float left = blend(lo);
+      const float right = lo + 1 < o.tiles_x ? blend(lo + 1) : 0.0f;
+      out.at<float>(y, x) = std::min(std::max(left + wx * (right - left), 0.0f), 1.0f);
+    }
+  }
+  return out;
+}
+
+TEST(ColorPaths, ClaheRowLutsAndMappingsEqualPixelByPixelReference) {
+  // The row LUT (blend and pairs in one AVX2 pass: bins not a multiple of 8 reach its scalar
+  // tails, in the inner tile columns and the last one, whose differences are multiplied by a
+  // weight of 0 and so cannot show), the 8-bit histogram counting (eight indices per load; runs
+  // shorter than 8 and padded columns), and the quantiles shared between tiles (few pixels per
+  // tile: shared; many: not): hand-written and portable kernels.
+  struct Case {
+    int rows, cols, tiles_x, tiles_y, bins;
+  };
+  const Case cases[] = {{37, 53, 8, 8, 256}, {48, 64, 2, 3, 7},   {61, 45, 5, 7, 9},
+                        {30, 90, 3, 2, 100}, {33, 29, 4, 4, 1000}, {64, 80, 8, 8, 2},
+                        {120, 160, 2, 2, 13}};
+  for (const Case& c : cases) {
+    cv::Mat img(c.rows, c.cols, CV_32F);
+    cv::RNG(c.bins + c.cols).fill(img, cv::RNG::UNIFORM, -0.1, 1.1);
+    cv::GaussianBlur(img, img, cv::Size(0, 0), 1.5);
+    for (ClaheDistribution d : {ClaheDistribution::kRayleigh, ClaheDistribution::kUniform,
+                                ClaheDistribution::kExponential}) {
+      ClaheOptions o;
+      o.tiles_x = c.tiles_x, o.tiles_y = c.tiles_y, o.bins = c.bins, o.distribution = d;
+      const cv::Mat expect = ReferenceClaheGray(o, img);
+      for (bool avx2 : {true, false}) {
+        enhancer_internal::SetHandWrittenAvx2(avx2);
+        EXPECT_TRUE(SameBits(Clahe(o, img), expect))
+            << c.rows << "x" << c.cols << " tiles " << c.tiles_x << "x" << c.tiles_y << " bins "
+            << c.bins << " avx2 " << avx2 << " distribution " << static_cast<int>(d);
+      }
+      enhancer_internal::SetHandWrittenAvx2(true);
+    }
+  }
+}
+
 TEST(ColorPaths, LightScaleAndNoiseEstimatesEqualReference) {
   // Both feed `full` (blind light scale, adaptive denoising epsilon): equal to the old code on
   // renders (through FullEnhanceDetailed's intermediates) and on random maps, gray and colour.
