@@ -609,6 +609,24 @@ BoxScratch& ThreadBoxScratch() {
   return scratch;
 }
 
+// At least `count` values of v from a 64-byte line on (std::vector's data of these sizes starts
+// 16 bytes past a line, so every other 32-byte access would split one); v grows as needed.
+template <typename T>
+T* Aligned64(std::vector<T>& v, size_t count) {
+  constexpr size_t kPad = 64 / sizeof(T);
+  v.resize(std::max(v.size(), count + kPad));
+  const uintptr_t p = reinterpret_cast<uintptr_t>(v.data());
+  return v.data() + ((64 - p % 64) % 64) / sizeof(T);
+}
+
+// Values per buffer row: n rounded up to whole 64-byte lines (rows of an aligned block stay
+// aligned).
+template <typename T>
+size_t LineStride(size_t n) {
+  constexpr size_t kLine = 64 / sizeof(T);
+  return (n + kLine - 1) / kLine * kLine;
+}
+
 // Box sums of kPlanes images of the same shape (rows x cols, cn channels) streamed a row at a
 // time: produce(source_row, float* const* in) writes that row of each plane into in[p] (cols cn
 // values; it may be asked for a row more than once, for the reflected border); consume(y, const
@@ -655,29 +673,24 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   std::vector<int> xofs(cols + k - 1);
   for (int j = 0; j < cols + k - 1; ++j)
     xofs[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
+  // Every buffer row starts on a 64-byte line (rows padded to whole lines).
   BoxScratch& scratch = ThreadBoxScratch();
-  std::vector<double>& ring_store = scratch.ring;
-  std::vector<double>& sum_store = scratch.sum;
-  std::vector<float>& ext_store = scratch.ext;
-  std::vector<float>& out_store = scratch.out;
-  const size_t ring_n = static_cast<size_t>(capacity) * n;
-  ring_store.resize(std::max(ring_store.size(), kPlanes * ring_n));
-  sum_store.assign(static_cast<size_t>(kPlanes) * n, 0.0);
-  ext_store.resize(std::max(ext_store.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
+  const size_t rn = LineStride<double>(n), on = LineStride<float>(n);
+  const size_t en = LineStride<float>(ext_n), edn = LineStride<double>(ext_n);
+  const size_t ring_n = static_cast<size_t>(capacity) * rn;
+  double* const ring = Aligned64(scratch.ring, kPlanes * ring_n);
+  double* const sums = Aligned64(scratch.sum, kPlanes * rn);
+  std::fill(sums, sums + kPlanes * rn, 0.0);
+  float* const ext = Aligned64(scratch.ext, kPlanes * batch * en);
   const bool running = k != 3 && k != 5;
-  std::vector<double>& ext_d_store = scratch.ext_d;
-  if (running) {
-    ext_d_store.resize(std::max(ext_d_store.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
-  }
-  out_store.resize(std::max(out_store.size(), static_cast<size_t>(kPlanes) * n));
+  double* const ext_d = running ? Aligned64(scratch.ext_d, kPlanes * batch * edn) : nullptr;
+  float* const outs = Aligned64(scratch.out, kPlanes * on);
   auto slot = [&](int p, int j) {
-    return ring_store.data() + p * ring_n + static_cast<size_t>(j % capacity) * n;
+    return ring + p * ring_n + static_cast<size_t>(j % capacity) * rn;
   };
-  auto ext_row = [&](int p, int b) {
-    return ext_store.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
-  };
+  auto ext_row = [&](int p, int b) { return ext + (static_cast<size_t>(p) * batch + b) * en; };
   auto ext_d_row = [&](int p, int b) {
-    return ext_d_store.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
+    return ext_d + (static_cast<size_t>(p) * batch + b) * edn;
   };
   int produced = 0;  // bordered rows whose row sums are in the rings
   auto produce_batch = [&](int count) {
@@ -709,7 +722,7 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
           const int j = produced + b;
           double* h[8];
           for (int r = 0; r < 8; ++r) h[r] = slot(p, j + r);
-          BoxRunning8Gray(ext_d_row(p, b), ext_n, h, k, cols - 1);
+          BoxRunning8Gray(ext_d_row(p, b), edn, h, k, cols - 1);
         }
         for (; b + 4 <= count; b += 4) {
           const int j = produced + b;
@@ -727,15 +740,15 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   };
   for (int j = 0; j < k - 1; ++j) {
     need(j);
-    for (int p = 0; p < kPlanes; ++p) BoxAccumulateRow(sum_store.data() + p * n, slot(p, j), n);
+    for (int p = 0; p < kPlanes; ++p) BoxAccumulateRow(sums + p * rn, slot(p, j), n);
   }
   const float* out[kPlanes];
-  for (int p = 0; p < kPlanes; ++p) out[p] = out_store.data() + static_cast<size_t>(p) * n;
+  for (int p = 0; p < kPlanes; ++p) out[p] = outs + p * on;
   for (int y = 0; y < rows; ++y) {
     need(y + k - 1);
     for (int p = 0; p < kPlanes; ++p) {
-      double* sum = sum_store.data() + p * n;
-      float* o = out_store.data() + static_cast<size_t>(p) * n;
+      double* sum = sums + p * rn;
+      float* o = outs + p * on;
       if (scale != 1.0) {
         BoxColumnRowScaled(sum, slot(p, y + k - 1), slot(p, y), o, scale, n);
       } else {
@@ -779,31 +792,30 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   Window win[2];
   win[0].k = kl;
   win[1].k = 2 * small + 1;
+  // Every buffer row starts on a 64-byte line (rows padded to whole lines).
   BoxScratch& scratch = ThreadBoxScratch();
+  const size_t rn = LineStride<double>(n), on = LineStride<float>(n);
+  const size_t en = LineStride<float>(ext_n), edn = LineStride<double>(ext_n);
   size_t ring_total = 0;
   for (Window& w : win) {
     w.capacity = w.k + batch;
     w.total = rows + w.k - 1;
-    ring_total += static_cast<size_t>(kPlanes) * w.capacity * n;
+    ring_total += static_cast<size_t>(kPlanes) * w.capacity * rn;
   }
-  scratch.ring.resize(std::max(scratch.ring.size(), ring_total));
-  scratch.sum.assign(static_cast<size_t>(2) * kPlanes * n, 0.0);
-  scratch.ext.resize(std::max(scratch.ext.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
-  scratch.ext_d.resize(
-      std::max(scratch.ext_d.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
-  scratch.out.resize(std::max(scratch.out.size(), static_cast<size_t>(kPlanes) * n));
-  win[0].ring = scratch.ring.data();
-  win[1].ring = win[0].ring + static_cast<size_t>(kPlanes) * win[0].capacity * n;
-  win[0].sum = scratch.sum.data();
-  win[1].sum = win[0].sum + static_cast<size_t>(kPlanes) * n;
+  win[0].ring = Aligned64(scratch.ring, ring_total);
+  win[1].ring = win[0].ring + static_cast<size_t>(kPlanes) * win[0].capacity * rn;
+  win[0].sum = Aligned64(scratch.sum, 2 * kPlanes * rn);
+  std::fill(win[0].sum, win[0].sum + 2 * kPlanes * rn, 0.0);
+  win[1].sum = win[0].sum + kPlanes * rn;
+  float* const ext = Aligned64(scratch.ext, kPlanes * batch * en);
+  double* const ext_d = Aligned64(scratch.ext_d, kPlanes * batch * edn);
+  float* const out_rows = Aligned64(scratch.out, kPlanes * on);
   auto slot = [&](const Window& w, int p, int j) {
-    return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * n;
+    return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * rn;
   };
-  auto ext_row = [&](int p, int b) {
-    return scratch.ext.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
-  };
+  auto ext_row = [&](int p, int b) { return ext + (static_cast<size_t>(p) * batch + b) * en; };
   auto ext_d_row = [&](int p, int b) {
-    return scratch.ext_d.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
+    return ext_d + (static_cast<size_t>(p) * batch + b) * edn;
   };
   // The row sums of bordered rows (count of them, from the batch's row `first`) of window w,
   // whose rows start `shift` values into the large window's bordered rows.
@@ -829,7 +841,7 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
       for (; cn == 1 && b + 8 <= first + count; b += 8) {
         double* h[8];
         for (int r = 0; r < 8; ++r) h[r] = slot(w, p, w.produced + b - first + r);
-        BoxRunning8Gray(ext_d_row(p, b) + shift, ext_n, h, w.k, cols - 1);
+        BoxRunning8Gray(ext_d_row(p, b) + shift, edn, h, w.k, cols - 1);
       }
       for (; b + 4 <= first + count; b += 4) {
         const int j = w.produced + b - first;
@@ -847,16 +859,15 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   auto columns = [&](Window& w, auto& consume, auto& first_plane) {
     while (w.accumulated < w.k - 1 && w.accumulated < w.produced) {
       for (int p = 0; p < kPlanes; ++p)
-        BoxAccumulateRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, w.accumulated), n);
+        BoxAccumulateRow(w.sum + p * rn, slot(w, p, w.accumulated), n);
       ++w.accumulated;
     }
     while (w.accumulated == w.k - 1 && w.emitted < rows && w.emitted + w.k - 1 < w.produced) {
       const int y = w.emitted;
       const float* outs[kPlanes];
       for (int p = 0; p < kPlanes; ++p) {
-        float* o = p == 0 ? first_plane(y) : scratch.out.data() + static_cast<size_t>(p) * n;
-        BoxColumnRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, y + w.k - 1), slot(w, p, y), o,
-                     n);
+        float* o = p == 0 ? first_plane(y) : out_rows + p * on;
+        BoxColumnRow(w.sum + p * rn, slot(w, p, y + w.k - 1), slot(w, p, y), o, n);
         outs[p] = o;
       }
       consume(y, outs);
