@@ -237,7 +237,10 @@ void ForRows(const cv::Mat& shape, Fn fn, Mats&... mats) {
   for (int y = 0; y < shape.rows; ++y) fn(n, mats.template ptr<float>(y)...);
 }
 
-// Every true parameter of a render, as image-sized maps in the image's channel order.
+// Every true parameter of a render: the range (and the blur model) as images, and the per-pixel
+// maps t, E, veil and snow in the image's channel order, either as images (ResolveTruth's
+// `planes`) or made a row at a time by Rows() where they are read (OracleEnhance's data-term
+// stream: no full-size maps written and read back).
 struct Truth {
   RenderOptions render;
   int channels = 1;
@@ -248,10 +251,58 @@ struct Truth {
   cv::Mat snow;          // marine snow layer (zeros when none or not removed)
   BlurModel blur;
   std::vector<std::string> steps;
+
+  // The row pass's inputs (Rows).
+  const Scene* scene = nullptr;
+  int width = 0;
+  bool zero_beta = false, backscatter = false, draw_snow = false;
+  std::vector<double> beta;
+  float neg_beta[3] = {0, 0, 0}, ambient_f[3] = {0, 0, 0}, backscatter_f[3] = {0, 0, 0};
+  cv::Mat normals;
+  std::optional<internal::LightRowContext> context;
+  std::vector<internal::LightRowConstants> lights;
+  internal::SnowSplats splats;
+
+  // Row y of E, t, the veil and the snow layer (width * channels values each) into e, t, veil and
+  // snow: the lights' irradiance E_L (IrradianceMap's row kernels: each light's distance and
+  // geometric factor, accumulated onto zeros), E = E_L + E_A, t (TransmissionMap's row kernel,
+  // from the range; with beta = 0, t is read from the transmission image, not written), the veil
+  // (1 - t)(E_L [+ B_inf]) and the snow layer's row drawn onto zeros (RenderMarineSnow's splats),
+  // with the float operations of the whole-image functions and of cv::add with a scalar (the
+  // scalar in float); E_L, the lights' geometry and E_L + B_inf exist only as rows.
+  void Rows(int y, float* e, float* t, float* v, float* sn) const {
+    const int w = width, ch = channels, n = w * ch;
+    thread_local std::vector<float> rows;
+    rows.resize(std::max<size_t>(rows.size(), static_cast<size_t>(2 * n + 7 * w)));
+    float* e_l = rows.data();
+    float* source = e_l + n;
+    float* l_row = source + n;
+    float* g_row = l_row + w;
+    float* cos_scratch = g_row + w;
+    std::fill(e_l, e_l + n, 0.0f);
+    for (const internal::LightRowConstants& light : lights) {
+      internal::LightGeometryRow(*context, light, context->RayY(scene->camera, y),
+                                 scene->depth_m.ptr<float>(y), normals.ptr<cv::Vec3f>(y), w, l_row,
+                                 g_row, cos_scratch);
+      internal::AccumulateLightRow(l_row, g_row, w, ch, neg_beta, light.color, false, e_l);
+    }
+    AddPerChannelRow(e_l, ambient_f, ch, e, w);
+    if (!zero_beta) TransmissionRows(range_m.ptr<float>(y), w, beta, t);
+    const float* src = e_l;
+    if (backscatter) {
+      AddPerChannelRow(e_l, backscatter_f, ch, source, w);
+      src = source;
+    }
+    VeilRow(t, src, v, n);
+    std::fill(sn, sn + n, 0.0f);
+    if (draw_snow) internal::AddSnowRow(splats, y, w, source, sn);
+  }
 };
 
+// The truth of a render. planes: also t, E, the veil and the snow layer as images (always with
+// beta = 0, whose t is made as a whole image).
 Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene& scene,
-                   const nlohmann::json& sidecar, bool remove_snow) {
+                   const nlohmann::json& sidecar, bool remove_snow, bool planes) {
   ValidateEnhanceImage(image, method);
   if (!sidecar.is_object() || !sidecar.contains("options")) {
     throw Error(method + ": the sidecar has no \"options\" object (not a turbid render sidecar?)");
@@ -267,17 +318,26 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   const RenderOptions& ro = truth.render;
   const WaterOptions water = ResolveWater(ro.water);
   const int ch = truth.channels = image.channels();
+  truth.scene = &scene;
+  truth.width = image.cols;
   const std::vector<double> beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, ch);
+  truth.beta = beta;
   const std::vector<double> ambient = ChannelValues(water.ambient_rgb, water.ambient_gray, ch);
-  const bool zero_beta = std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
-  // The range: RangeFromDepth's rows, made in the row pass below (its values, one read of the
-  // depth) except on the beta = 0 path, which needs the whole image first.
+  const bool zero_beta = truth.zero_beta =
+      std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
+  planes = planes || zero_beta;
+  // The range: RangeFromDepth's rows (its values), into a pooled image first (the snow and the
+  // rows' transmission read it).
   CV_Assert(scene.depth_m.type() == CV_32FC1);
-  const std::vector<double> range_dx = RangeColumnTable(scene.camera, scene.depth_m.cols);
   if (zero_beta) {
     truth.range_m = RangeFromDepth(scene.camera, scene.depth_m);
   } else {
+    const std::vector<double> range_dx = RangeColumnTable(scene.camera, scene.depth_m.cols);
     truth.range_m = internal::PooledMat(scene.depth_m.size(), CV_32FC1);
+    for (int y = 0; y < image.rows; ++y) {
+      RangeFromDepthRow(scene.camera, range_dx, scene.depth_m.ptr<float>(y), y,
+                        truth.range_m.ptr<float>(y));
+    }
   }
 
   if (zero_beta) {
@@ -285,89 +345,53 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
     cv::Mat valid = truth.range_m == truth.range_m;  // 255 where not NaN
     cv::Mat t1;
     valid.convertTo(t1, CV_32F, 1.0 / 255.0);
-    std::vector<cv::Mat> planes(ch, t1);
-    cv::merge(planes, truth.transmission);
-  } else {
+    std::vector<cv::Mat> t_planes(ch, t1);
+    cv::merge(t_planes, truth.transmission);
+  } else if (planes) {
     truth.transmission = NewLike(image);
   }
   cv::Scalar backscatter = cv::Scalar::all(0);
+  truth.backscatter = water.backscatter;
   if (water.backscatter) {
     backscatter = ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
     truth.steps.push_back("veil: (1 - t)(E_L + B_inf)");
   } else {
     truth.steps.push_back("veil: (1 - t) E_L");
   }
-  // One pass over the rows: the lights' irradiance E_L (IrradianceMap's row kernels: each light's
-  // distance and geometric factor, accumulated onto zeros), E = E_L + E_A, t (TransmissionMap's
-  // row kernel) and the veil (1 - t)(E_L [+ B_inf]), with the float operations of the whole-image
-  // functions and of cv::add with a scalar (the scalar in float); E_L, the lights' geometry and
-  // E_L + B_inf exist only as rows.
-  const int w = image.cols, n = w * ch;
-  cv::Mat normals;
-  std::optional<internal::LightRowContext> context;
-  std::vector<internal::LightRowConstants> lights;
+  const int w = image.cols;
   if (!ro.light.lights.empty()) {
     ThrowIfInvalid(ro.light, "light");
-    normals = scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
-    CV_Assert(scene.depth_m.type() == CV_32FC1 && normals.type() == CV_32FC3 &&
-              normals.size() == scene.depth_m.size());
-    context = internal::LightContextFor(ro.light, scene.camera, w);
-    lights = internal::LightConstantsFor(ro.light, ch);
+    truth.normals =
+        scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
+    CV_Assert(scene.depth_m.type() == CV_32FC1 && truth.normals.type() == CV_32FC3 &&
+              truth.normals.size() == scene.depth_m.size());
+    truth.context = internal::LightContextFor(ro.light, scene.camera, w);
+    truth.lights = internal::LightConstantsFor(ro.light, ch);
   }
-  float neg_beta[3] = {0, 0, 0}, ambient_f[3] = {0, 0, 0}, backscatter_f[3] = {0, 0, 0};
   for (int c = 0; c < ch; ++c) {
-    neg_beta[c] = -static_cast<float>(beta[c]);
-    ambient_f[c] = static_cast<float>(ambient[c]);
-    backscatter_f[c] = static_cast<float>(backscatter[c]);
+    truth.neg_beta[c] = -static_cast<float>(beta[c]);
+    truth.ambient_f[c] = static_cast<float>(ambient[c]);
+    truth.backscatter_f[c] = static_cast<float>(backscatter[c]);
   }
-  thread_local std::vector<float> rows;
-  rows.resize(std::max<size_t>(rows.size(), static_cast<size_t>(2 * n + 7 * w)));
-  float* e_l = rows.data();
-  float* source = e_l + n;
-  float* l_row = source + n;
-  float* g_row = l_row + w;
-  float* cos_scratch = g_row + w;
-  truth.irradiance = NewLike(image);
-  truth.veil = NewLike(image);
-  for (int y = 0; y < image.rows; ++y) {
-    std::fill(e_l, e_l + n, 0.0f);
-    for (const internal::LightRowConstants& light : lights) {
-      internal::LightGeometryRow(*context, light, context->RayY(scene.camera, y),
-                                 scene.depth_m.ptr<float>(y), normals.ptr<cv::Vec3f>(y), w, l_row,
-                                 g_row, cos_scratch);
-      internal::AccumulateLightRow(l_row, g_row, w, ch, neg_beta, light.color, false, e_l);
-    }
-    float* e = truth.irradiance.ptr<float>(y);
-    float* t = truth.transmission.ptr<float>(y);
-    AddPerChannelRow(e_l, ambient_f, ch, e, w);
-    if (!zero_beta) {
-      float* range = truth.range_m.ptr<float>(y);
-      RangeFromDepthRow(scene.camera, range_dx, scene.depth_m.ptr<float>(y), y, range);
-      TransmissionRows(range, w, beta, t);
-    }
-    const float* src = e_l;
-    if (water.backscatter) {
-      AddPerChannelRow(e_l, backscatter_f, ch, source, w);
-      src = source;
-    }
-    VeilRow(t, src, truth.veil.ptr<float>(y), n);
-  }
-  truth.snow = NewLike(image);
   if (remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
-    // RenderMarineSnow's layer (its particles drawn row by row onto zeros), into a pooled image.
-    const internal::SnowSplats splats = internal::DrawMarineSnow(
-        ro.snow, ro.light, scene.camera, truth.range_m, beta, ambient, ro.seed);
-    CV_Assert(splats.channels == ch);
-    for (int y = 0; y < image.rows; ++y) {
-      float* row = truth.snow.ptr<float>(y);
-      std::fill(row, row + n, 0.0f);
-      internal::AddSnowRow(splats, y, w, source, row);
-    }
-    truth.steps.push_back("snow: " + std::to_string(splats.visible) +
+    // RenderMarineSnow's layer (its particles drawn row by row onto zeros).
+    truth.splats = internal::DrawMarineSnow(ro.snow, ro.light, scene.camera, truth.range_m, beta,
+                                            ambient, ro.seed);
+    CV_Assert(truth.splats.channels == ch);
+    truth.draw_snow = true;
+    truth.steps.push_back("snow: " + std::to_string(truth.splats.visible) +
                           " particles re-rendered from the seed and subtracted");
   } else {
-    truth.snow.setTo(cv::Scalar::all(0));
     truth.steps.push_back("snow: none subtracted");
+  }
+  if (planes) {
+    truth.irradiance = NewLike(image);
+    truth.veil = NewLike(image);
+    truth.snow = NewLike(image);
+    for (int y = 0; y < image.rows; ++y) {
+      truth.Rows(y, truth.irradiance.ptr<float>(y), truth.transmission.ptr<float>(y),
+                 truth.veil.ptr<float>(y), truth.snow.ptr<float>(y));
+    }
   }
   truth.blur = MakeBlurModel(ro.psf, truth.range_m, beta);
   if (!truth.blur.active) {
@@ -689,15 +713,13 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
     return ring + p * ring_n + static_cast<size_t>(j % capacity) * rn;
   };
   auto ext_row = [&](int p, int b) { return ext + (static_cast<size_t>(p) * batch + b) * en; };
-  auto ext_d_row = [&](int p, int b) {
-    return ext_d + (static_cast<size_t>(p) * batch + b) * edn;
-  };
+  auto ext_d_row = [&](int p, int b) { return ext_d + (static_cast<size_t>(p) * batch + b) * edn; };
   int produced = 0;  // bordered rows whose row sums are in the rings
   auto produce_batch = [&](int count) {
     for (int b = 0; b < count; ++b) {
       const int j = produced + b;
-      ProduceBorderedRow<kPlanes>(produce, [&](int p) { return ext_row(p, b); }, j, rows, cols,
-                                  cn, radius, xofs);
+      ProduceBorderedRow<kPlanes>(
+          produce, [&](int p) { return ext_row(p, b); }, j, rows, cols, cn, radius, xofs);
       for (int p = 0; p < kPlanes; ++p) {
         float* e = ext_row(p, b);
         double* h = slot(p, j);
@@ -814,9 +836,7 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
     return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * rn;
   };
   auto ext_row = [&](int p, int b) { return ext + (static_cast<size_t>(p) * batch + b) * en; };
-  auto ext_d_row = [&](int p, int b) {
-    return ext_d + (static_cast<size_t>(p) * batch + b) * edn;
-  };
+  auto ext_d_row = [&](int p, int b) { return ext_d + (static_cast<size_t>(p) * batch + b) * edn; };
   // The row sums of bordered rows (count of them, from the batch's row `first`) of window w,
   // whose rows start `shift` values into the large window's bordered rows.
   auto row_sums = [&](Window& w, int first, int count, int shift) {
@@ -878,8 +898,8 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   for (int j0 = 0; j0 < total; j0 += batch) {
     const int count = std::min(batch, total - j0);
     for (int b = 0; b < count; ++b) {
-      ProduceBorderedRow<kPlanes>(produce, [&](int p) { return ext_row(p, b); }, j0 + b, rows,
-                                  cols, cn, large, xofs);
+      ProduceBorderedRow<kPlanes>(
+          produce, [&](int p) { return ext_row(p, b); }, j0 + b, rows, cols, cn, large, xofs);
       for (int p = 0; p < kPlanes; ++p) WidenRow(ext_row(p, b), ext_d_row(p, b), ext_n);
     }
     row_sums(win[0], 0, count, 0);
@@ -1434,7 +1454,21 @@ void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& mas
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
-                            double floor_var, double clip_level_d, bool with_detail) {
+                            double floor_var, double clip_level, bool with_detail) {
+  return OracleMmse(
+      o, image,
+      [&](int y, const float*& t, const float*& e, const float*& sn, const float*& ve) {
+        t = transmission.ptr<float>(y);
+        e = irradiance.ptr<float>(y);
+        sn = snow.ptr<float>(y);
+        ve = veil.ptr<float>(y);
+      },
+      shot_gain, floor_var, clip_level, with_detail);
+}
+
+OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
+                            const TruthRowFn& truth_row, double shot_gain, double floor_var,
+                            double clip_level_d, bool with_detail) {
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,
@@ -1464,10 +1498,8 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
     float* var = variance_row.data();
     NoiseVarianceRow(mean[0], var, gain_f, floor_f, n);
     const float* in = image.ptr<float>(y);
-    const float* t = transmission.ptr<float>(y);
-    const float* e = irradiance.ptr<float>(y);
-    const float* sn = snow.ptr<float>(y);
-    const float* ve = veil.ptr<float>(y);
+    const float *t = nullptr, *e = nullptr, *sn = nullptr, *ve = nullptr;
+    truth_row(y, t, e, sn, ve);
     float* uu = u.ptr<float>(y);
     float* aa = a.ptr<float>(y);
     uchar* mk = const_cast<cv::Mat&>(masked).ptr<uchar>(y);
@@ -1577,7 +1609,7 @@ cv::Mat DeconvolveReflect101(const cv::Mat& image, const cv::Mat& kernel, double
 OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& image,
                                 const Scene& scene, const nlohmann::json& sidecar) {
   ThrowIfInvalid(o, "oracle_exact");
-  Truth truth = ResolveTruth("oracle_exact", image, scene, sidecar, o.remove_snow);
+  Truth truth = ResolveTruth("oracle_exact", image, scene, sidecar, o.remove_snow, true);
   OracleResult result;
   result.steps = truth.steps;
   const cv::Mat masked = MaskBelow(truth.transmission, o.min_transmission);
@@ -1624,7 +1656,10 @@ OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& imag
 OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const Scene& scene,
                            const nlohmann::json& sidecar) {
   ThrowIfInvalid(o, "oracle");
-  Truth truth = ResolveTruth("oracle", image, scene, sidecar, o.remove_snow);
+  // The truth maps as rows made where the data term reads them (E also as an image for target
+  // lit, whose last step multiplies by it).
+  const bool lit = o.target == "lit";
+  Truth truth = ResolveTruth("oracle", image, scene, sidecar, o.remove_snow, false);
   OracleResult result;
   result.steps = truth.steps;
   const RenderOptions& ro = truth.render;
@@ -1642,9 +1677,31 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   // mean low.
   const double half_step = bits == 32 ? 0.0 : 0.5 * step;
   const BlurModel& blur = truth.blur;
+  if (lit && truth.irradiance.empty()) truth.irradiance = NewLike(image);
+  const int n = image.cols * image.channels();
+  thread_local std::vector<float> truth_rows;
+  truth_rows.resize(std::max<size_t>(truth_rows.size(), 4 * static_cast<size_t>(n)));
+  auto truth_row = [&](int y, const float*& t, const float*& e, const float*& sn,
+                       const float*& ve) {
+    if (!truth.transmission.empty()) {  // the images (beta = 0)
+      t = truth.transmission.ptr<float>(y);
+      e = truth.irradiance.ptr<float>(y);
+      sn = truth.snow.ptr<float>(y);
+      ve = truth.veil.ptr<float>(y);
+      return;
+    }
+    float* e_row = lit ? truth.irradiance.ptr<float>(y) : truth_rows.data();
+    float* t_row = truth_rows.data() + n;
+    float* sn_row = t_row + n;
+    float* ve_row = sn_row + n;
+    truth.Rows(y, e_row, t_row, ve_row, sn_row);
+    t = t_row;
+    e = e_row;
+    sn = sn_row;
+    ve = ve_row;
+  };
   oracle_internal::OracleMmseResult mmse = oracle_internal::OracleMmse(
-      o, image, truth.transmission, truth.irradiance, truth.snow, truth.veil, gain, floor_var,
-      1.0 - half_step - 1e-7, blur.active && o.deblur);
+      o, image, truth_row, gain, floor_var, 1.0 - half_step - 1e-7, blur.active && o.deblur);
   result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
                          " + read^2 + step^2 / 12" + (sensor ? "" : " (sensor off)"));
   result.masked_pixels = mmse.masked_pixels;
@@ -1686,12 +1743,13 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     d.nsr = result.deblur_nsr;
     // est = prior + the deblurred detail, the prior where masked, then the target and the clamp:
     // one pass, fed by the streamed deconvolution where it has one (one kernel, spatial path).
-    const Finisher finish{truth.channels, true, o.target == "lit"};
+    const Finisher finish{truth.channels, true, lit};
     cv::Mat out = NewLike(est);
     int negative_zeros = 0;
     auto emit = [&](int y, const float* row) {
-      negative_zeros += finish(prior.ptr<float>(y), row, masked.ptr<uchar>(y),
-                               truth.irradiance.ptr<float>(y), out.ptr<float>(y), out.cols);
+      negative_zeros +=
+          finish(prior.ptr<float>(y), row, masked.ptr<uchar>(y),
+                 lit ? truth.irradiance.ptr<float>(y) : nullptr, out.ptr<float>(y), out.cols);
     };
     if (blur.Count() != 1 || blur.depth_dependent ||
         !DeconvolveRows(d, detail, blur.Kernel(0), emit)) {
@@ -1706,8 +1764,7 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     result.image = out;
     return result;
   }
-  oracle_internal::FinishImage(est, cv::Mat(), masked,
-                               o.target == "lit" ? truth.irradiance : cv::Mat(), est);
+  oracle_internal::FinishImage(est, cv::Mat(), masked, lit ? truth.irradiance : cv::Mat(), est);
   result.image = est;
   return result;
 }
