@@ -1205,12 +1205,12 @@ class BoxCount {
 
 // Row buffers of HierarchicalMmse's streams (per thread, kept between calls).
 struct MmseRows {
-  std::vector<float> has, s, e;
+  std::vector<float> has, s, e, post, est;
 };
 
 MmseRows& ThreadMmseRows(int n) {
   thread_local MmseRows rows;
-  for (std::vector<float>* v : {&rows.has, &rows.s, &rows.e})
+  for (std::vector<float>* v : {&rows.has, &rows.s, &rows.e, &rows.post, &rows.est})
     v->resize(std::max<size_t>(v->size(), static_cast<size_t>(n)));
   return rows;
 }
@@ -1264,7 +1264,8 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
 // masked), under a hierarchical local Gaussian prior (docs/methods.md, "oracle"). Writes the
 // prior mean of the finest level to *prior and the posterior variance to *posterior.
 // au = a u; a_no_data: how many values of a have a > 0 false; censored (may be null): the
-// censoring step applied to the estimate and the prior (OracleMmse).
+// censoring step applied to the estimate and the prior (OracleMmse). images false: the estimate
+// and the posterior variance only as rows (for the detail and its sums; both returned empty).
 //
 // Level 0 is a per-channel constant (the weighted global mean), level 1 (coarse) shrinks it
 // towards the coarse local means with one per-channel signal variance (whole-image sums), level
@@ -1274,7 +1275,7 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
 // written to a new image, since the stream that reads it re-reads rows for the bottom border).
 cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a,
                          const cv::Mat& au, long long a_no_data, const Censored* censored,
-                         cv::Mat* prior, cv::Mat* posterior, DetailOut* detail) {
+                         cv::Mat* prior, cv::Mat* posterior, DetailOut* detail, bool images) {
   const int ch = u.channels();
   const int n = u.cols * ch;
   const size_t bytes = sizeof(float) * n;
@@ -1343,24 +1344,28 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
       });
   // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
   // S v / (S + v) = S / (S a + 1), S where masked.
-  cv::Mat post = NewLike(u), est = NewLike(u);
+  cv::Mat post, est;
+  if (images) {
+    post = NewLike(u);
+    est = NewLike(u);
+  }
+  auto post_row = [&](int y) { return images ? post.ptr<float>(y) : rows.post.data(); };
+  auto est_row = [&](int y) { return images ? est.ptr<float>(y) : rows.est.data(); };
   cv::Mat prior_out = censored != nullptr ? NewLike(u) : p2;
   LocalSignalVariance(
-      u, a, [&](int y) { return p2.ptr<float>(y); }, o.pixel_radius, a_no_data,
-      [&](int y) { return post.ptr<float>(y); },
+      u, a, [&](int y) { return p2.ptr<float>(y); }, o.pixel_radius, a_no_data, post_row,
       [&](int y) {
-        float* s = post.ptr<float>(y);
+        float* s = post_row(y);
         if (censored == nullptr) {
-          EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est.ptr<float>(y), n);
+          EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est_row(y), n);
         } else {
           EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, rows.e.data(), n);
-          CensorRow(*censored, y, rows.e.data(), est.ptr<float>(y), n);
+          CensorRow(*censored, y, rows.e.data(), est_row(y), n);
           CensorRow(*censored, y, p2.ptr<float>(y), prior_out.ptr<float>(y), n);
         }
         if (detail != nullptr) {
-          DetailStatsRow(est.ptr<float>(y), prior_out.ptr<float>(y), s,
-                         detail->masked.ptr<uchar>(y), detail->detail.ptr<float>(y), u.cols, ch,
-                         detail->sums);
+          DetailStatsRow(est_row(y), prior_out.ptr<float>(y), s, detail->masked.ptr<uchar>(y),
+                         detail->detail.ptr<float>(y), u.cols, ch, detail->sums);
         }
       });
   *prior = prior_out;
@@ -1468,7 +1473,7 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
 
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const TruthRowFn& truth_row, double shot_gain, double floor_var,
-                            double clip_level_d, bool with_detail) {
+                            double clip_level_d, bool with_detail, bool keep_estimate) {
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,
@@ -1524,7 +1529,8 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
     detail_out.detail = NewLike(image);
   }
   r.estimate = HierarchicalMmse(o, u, a, au, a_no_data, censored > 0 ? &clipped : nullptr, &r.prior,
-                                &r.posterior, with_detail ? &detail_out : nullptr);
+                                &r.posterior, with_detail ? &detail_out : nullptr,
+                                !with_detail || keep_estimate);
   if (with_detail) {
     r.detail = detail_out.detail;
     r.detail_sums = detail_out.sums;
@@ -1701,12 +1707,13 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     ve = ve_row;
   };
   oracle_internal::OracleMmseResult mmse = oracle_internal::OracleMmse(
-      o, image, truth_row, gain, floor_var, 1.0 - half_step - 1e-7, blur.active && o.deblur);
+      o, image, truth_row, gain, floor_var, 1.0 - half_step - 1e-7, blur.active && o.deblur,
+      /*keep_estimate=*/false);
   result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
                          " + read^2 + step^2 / 12" + (sensor ? "" : " (sensor off)"));
   result.masked_pixels = mmse.masked_pixels;
   const cv::Mat& masked = mmse.masked;
-  cv::Mat est = mmse.estimate, prior = mmse.prior, posterior = mmse.posterior;
+  cv::Mat est = mmse.estimate, prior = mmse.prior;  // est: empty on the deblur path
   if (mmse.censored_pixels > 0) {
     result.steps.push_back("censored: " + std::to_string(mmse.censored_pixels) +
                            " pixels clipped at 0 or 1 in some channel: no weight");
@@ -1744,7 +1751,7 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     // est = prior + the deblurred detail, the prior where masked, then the target and the clamp:
     // one pass, fed by the streamed deconvolution where it has one (one kernel, spatial path).
     const Finisher finish{truth.channels, true, lit};
-    cv::Mat out = NewLike(est);
+    cv::Mat out = NewLike(image);
     int negative_zeros = 0;
     auto emit = [&](int y, const float* row) {
       negative_zeros +=

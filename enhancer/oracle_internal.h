@@ -58,8 +58,11 @@ using TruthRowFn = std::function<void(int y, const float*& t, const float*& e, c
                                       const float*& veil)>;
 
 // OracleMmse with the truth maps as rows (OracleEnhance makes them there: no full-size maps).
+// keep_estimate false (with_detail only): the estimate and the posterior variance are made as
+// rows for the detail and its sums but not kept (returned empty; OracleEnhance's deblur reads
+// only the prior, the detail and the sums).
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const TruthRowFn& truth_row, double shot_gain, double floor_var,
-                            double clip_level, bool with_detail = false);
+                            double clip_level, bool with_detail = false, bool keep_estimate = true);
 
 }  // namespace turbid::oracle_internal
