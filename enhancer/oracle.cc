@@ -930,15 +930,23 @@ TURBID_ROW_KERNEL void DataTermRowN(const float* __restrict in, const float* __r
                                     const float* __restrict ve, const float* __restrict var,
                                     const uchar* __restrict mk, float clip_level, int cols,
                                     float* __restrict uu, float* __restrict aa) {
+  // The selects as bit masks (max(p, 1e-12) as p < 1e-12 ? 1e-12 : p, the masked values' +0), so
+  // that both quotients are formed for every value and the loop has no branch: GCC split sc * sc /
+  // var into the two cases of the max, and under trapping math does not form a division that only
+  // one branch uses, so it left this loop scalar (two scalar divisions per value).
+  constexpr uint32_t kFloor = std::bit_cast<uint32_t>(1e-12f);
   for (int x = 0; x < cols; ++x) {
+    const uint32_t keep = mk[x] != 0 ? 0u : ~0u;
     for (int c = 0; c < kChannels; ++c) {
       const int i = x * kChannels + c;
-      const float sc = std::max(t[i] * e[i], 1e-12f);
+      const float te = t[i] * e[i];
+      const uint32_t low = te < 1e-12f ? ~0u : 0u;  // std::max(te, 1e-12f)
+      const float sc = std::bit_cast<float>((kFloor & low) | (std::bit_cast<uint32_t>(te) & ~low));
       const float ui = ((in[i] - sn[i]) - ve[i]) / sc;
       const float ai = (sc * sc) / var[i];
       const float high = in[i] > clip_level ? 1.0f : 0.0f;
-      uu[i] = mk[x] != 0 ? 0.0f : ui;
-      aa[i] = (mk[x] != 0 ? 0.0f : ai) * (1.0f - high);
+      uu[i] = std::bit_cast<float>(std::bit_cast<uint32_t>(ui) & keep);
+      aa[i] = std::bit_cast<float>(std::bit_cast<uint32_t>(ai) & keep) * (1.0f - high);
     }
   }
 }
