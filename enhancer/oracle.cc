@@ -1338,16 +1338,24 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   // The middle level's signal variance over coarse windows around p1, the coarse shrink p1 = p0 +
   // S w / (S w + 1) (m - p0) (w = 0 keeps p), made as the stream first asks for its rows (again
   // for the reflected border: the same values); then the middle shrink into p2.
-  const cv::Mat p1 = NewLike(u), p2 = NewLike(u);
+  // p1 only as a ring of rows (slot y mod ring_rows): the stream asks for source rows at most
+  // coarse_radius + its batch (8) rows ahead of the output row it emits, and again near the borders
+  // (the same values, made again), so a ring of 2 coarse_radius + 17 rows keeps every row until
+  // its output row has read it.
+  const cv::Mat p2 = NewLike(u);
+  const int ring_rows = 2 * o.coarse_radius + 17;
+  thread_local std::vector<float> p1_ring;
+  p1_ring.resize(std::max(p1_ring.size(), static_cast<size_t>(ring_rows) * n));
+  auto p1_slot = [&](int y) { return p1_ring.data() + static_cast<size_t>(y % ring_rows) * n; };
   auto p1_row = [&](int y) {
-    float* row = const_cast<cv::Mat&>(p1).ptr<float>(y);
+    float* row = p1_slot(y);
     ShrinkRowTo(s0.data(), wc.ptr<float>(y), mc.ptr<float>(y), p0.data(), row, n);
     return row;
   };
   LocalSignalVariance(
       mm, wm, p1_row, o.coarse_radius, wm_none, [&](int) { return rows.s.data(); },
       [&](int y) {
-        ShrinkRowTo(rows.s.data(), wm.ptr<float>(y), mm.ptr<float>(y), p1.ptr<float>(y),
+        ShrinkRowTo(rows.s.data(), wm.ptr<float>(y), mm.ptr<float>(y), p1_slot(y),
                     const_cast<cv::Mat&>(p2).ptr<float>(y), n);
       });
   // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
