@@ -208,16 +208,67 @@ TURBID_ROW_KERNEL void NoiseVarianceRow(const float* __restrict mean, float* __r
   for (int i = 0; i < n; ++i) v[i] = std::max(mean[i], 0.0f) * gain + floor_var;
 }
 
-// LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30).
-TURBID_ROW_KERNEL void SignalVarianceRow(const float* __restrict sum, const float* __restrict w,
-                                         const float* __restrict count, float* __restrict o,
-                                         int n) {
-  for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - count[i], 0.0f) / std::max(w[i], 1e-30f);
+// LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30), with the maxima as
+// the vector loop of cv::max(image, scalar) takes them, x > floor ? x : floor (NaN gives the
+// floor; std::max keeps it). The numerator's box sums are NaN once a (z - p)^2 overflowed (inf -
+// inf in the running sums: z = m, the level mean, reaches ~1e21 where t E is at the 1e-12 floor
+// and a window's sum of a is a negative rounding residue). Returns how many values had a NaN
+// sum - count or sum a: cv::max's scalar loop (ScalarLoopValues) keeps those (FixScalarLoopNans).
+TURBID_ROW_KERNEL int SignalVarianceRow(const float* __restrict sum, const float* __restrict w,
+                                        const float* __restrict count, float* __restrict o, int n) {
+  int nans = 0;
+  for (int i = 0; i < n; ++i) {
+    const float v = sum[i] - count[i];
+    nans += (v != v) | (w[i] != w[i]);
+    o[i] = (v > 0.0f ? v : 0.0f) / (w[i] > 1e-30f ? w[i] : 1e-30f);
+  }
+  return nans;
 }
 
-TURBID_ROW_KERNEL void SignalVarianceRowFull(const float* __restrict sum, const float* __restrict w,
-                                             float full, float* __restrict o, int n) {
-  for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - full, 0.0f) / std::max(w[i], 1e-30f);
+TURBID_ROW_KERNEL int SignalVarianceRowFull(const float* __restrict sum, const float* __restrict w,
+                                            float full, float* __restrict o, int n) {
+  int nans = 0;
+  for (int i = 0; i < n; ++i) {
+    const float v = sum[i] - full;
+    nans += (v != v) | (w[i] != w[i]);
+    o[i] = (v > 0.0f ? v : 0.0f) / (w[i] > 1e-30f ? w[i] : 1e-30f);
+  }
+  return nans;
+}
+
+// The values (flat indices, ascending) of a continuous rows x cols float image of ch channels
+// that cv::max(image, cv::Scalar) leaves to its scalar loop, where a NaN stays NaN (std::max)
+// instead of becoming the scalar (its vector loop): the last values of each block it splits the
+// image into, which depend on OpenCV's block size and vector width, so found by asking cv::max
+// (on NaNs) once per shape, only when a NaN is met. Per thread, the last shape's.
+const std::vector<int>& ScalarLoopValues(int rows, int cols, int ch) {
+  thread_local int shape[3] = {-1, -1, -1};
+  thread_local std::vector<int> values;
+  if (shape[0] != rows || shape[1] != cols || shape[2] != ch) {
+    cv::Mat probe(rows, cols, CV_32FC(ch),
+                  cv::Scalar::all(std::numeric_limits<double>::quiet_NaN()));
+    cv::max(probe, cv::Scalar::all(0.0), probe);
+    values.clear();
+    const float* p = probe.ptr<float>(0);
+    for (size_t k = 0; k < probe.total() * ch; ++k)
+      if (std::isnan(p[k])) values.push_back(static_cast<int>(k));
+    shape[0] = rows, shape[1] = cols, shape[2] = ch;
+  }
+  return values;
+}
+
+// Row y (n values) of SignalVarianceRow's output where it met NaNs: the values in cv::max's scalar
+// loop get std::max's maxima (a NaN sum - count or sum a stays NaN). count null: full.
+void FixScalarLoopNans(int rows, int cols, int ch, int y, const float* sum, const float* w,
+                       const float* count, float full, float* o) {
+  const int n = cols * ch;
+  const std::vector<int>& values = ScalarLoopValues(rows, cols, ch);
+  const auto first = std::lower_bound(values.begin(), values.end(), y * n);
+  for (auto it = first; it != values.end() && *it < (y + 1) * n; ++it) {
+    const int i = *it - y * n;
+    const float v = sum[i] - (count != nullptr ? count[i] : full);
+    o[i] = std::max(v, 0.0f) / std::max(w[i], 1e-30f);
+  }
 }
 
 // Values of a row with no data (a > 0 false: 0, negative or NaN).
@@ -1267,7 +1318,9 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
           NumeratorOnlyRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], n);
         },
         [&](int y, const float* const* o) {
-          SignalVarianceRowFull(o[1], o[0], full, s_row(y), n);
+          float* s = s_row(y);
+          if (SignalVarianceRowFull(o[1], o[0], full, s, n) > 0)
+            FixScalarLoopNans(z.rows, z.cols, z.channels(), y, o[1], o[0], nullptr, full, s);
           consume(y);
         });
   } else {
@@ -1283,7 +1336,9 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
         },
         [&](int y, const float* const* o) {
           count.Output(y, rows.has.data());
-          SignalVarianceRow(o[1], o[0], rows.has.data(), s_row(y), n);
+          float* s = s_row(y);
+          if (SignalVarianceRow(o[1], o[0], rows.has.data(), s, n) > 0)
+            FixScalarLoopNans(z.rows, z.cols, z.channels(), y, o[1], o[0], rows.has.data(), 0, s);
           consume(y);
         });
   }
