@@ -234,24 +234,39 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
     if (captured >= (1.0 - 1e-7) * total) break;
   }
   const int c = channels, n = w * c;  // values per row
-  std::vector<float> ext(static_cast<size_t>(w + 2 * rx) * c), acc(n);
+  const int terms = static_cast<int>(cols.size());
+  const size_t ext_n = static_cast<size_t>(w + 2 * rx) * c;
+  std::vector<float> ext(ext_n * terms), acc(n);  // one bordered row per term
   std::vector<int> col_src(w + 2 * rx);
   for (int x = 0; x < w + 2 * rx; ++x) col_src[x] = Reflect101(x - rx, w);
-  std::vector<const float*> in_rows(kr);
+  std::vector<const float*> in_rows(kr), strip_rows(kr);
+  // The vertical passes of all terms strip by strip of kStrip values: the kr input rows' strip
+  // stays in L1 for every term (whole rows, term after term, were read again from L2). Each
+  // value's sum is VerticalTaps's, wherever the strips start.
+  constexpr int kStrip = 512;
   for (int y = 0; y < h; ++y) {
     for (int j = 0; j < kr; ++j) in_rows[j] = source(Reflect101(y + j - ry, h));
+    for (int x0 = 0; x0 < n; x0 += kStrip) {
+      const int len = std::min(kStrip, n - x0);
+      for (int j = 0; j < kr; ++j) strip_rows[j] = in_rows[j] + x0;
+      for (int t = 0; t < terms; ++t) {
+        float* mid = ext.data() + t * ext_n + static_cast<size_t>(rx) * c + x0;
+        if (!TapsUpTo<25>(kr, strip_rows.data(), cols[t].data(), mid, len)) {
+          VerticalTapsAny(strip_rows.data(), cols[t].data(), mid, len, kr);
+        }
+      }
+    }
+    // Then per term its border and its horizontal pass, added into acc in order of the terms.
     std::fill(acc.begin(), acc.end(), 0.0f);
-    for (size_t t = 0; t < cols.size(); ++t) {
-      float* mid = ext.data() + static_cast<size_t>(rx) * c;
-      if (!TapsUpTo<25>(kr, in_rows.data(), cols[t].data(), mid, n)) {
-        VerticalTapsAny(in_rows.data(), cols[t].data(), mid, n, kr);
-      }
-      for (int x = 0; x < rx; ++x) std::copy_n(mid + col_src[x] * c, c, ext.data() + x * c);
+    for (int t = 0; t < terms; ++t) {
+      float* e = ext.data() + t * ext_n;
+      const float* mid = e + static_cast<size_t>(rx) * c;
+      for (int x = 0; x < rx; ++x) std::copy_n(mid + col_src[x] * c, c, e + x * c);
       for (int x = w + rx; x < w + 2 * rx; ++x) {
-        std::copy_n(mid + col_src[x] * c, c, ext.data() + static_cast<size_t>(x) * c);
+        std::copy_n(mid + col_src[x] * c, c, e + static_cast<size_t>(x) * c);
       }
-      if (!HTapsUpTo<25>(kc, c, ext.data(), rows[t].data(), acc.data(), n)) {
-        HorizontalTapsAny(ext.data(), rows[t].data(), acc.data(), n, kc, c);
+      if (!HTapsUpTo<25>(kc, c, e, rows[t].data(), acc.data(), n)) {
+        HorizontalTapsAny(e, rows[t].data(), acc.data(), n, kc, c);
       }
     }
     emit(y, acc.data());
@@ -355,6 +370,12 @@ cv::Mat WienerInverseKernel(const cv::Mat& psf, double nsr) {
     }
   }
   return k;
+}
+
+cv::Mat ApplySeparableKernel(const cv::Mat& image, const cv::Mat& kernel) {
+  CV_Assert(image.depth() == CV_32F && (image.channels() == 1 || image.channels() == 3) &&
+            kernel.type() == CV_32FC1 && kernel.rows == kernel.cols && kernel.rows % 2 == 1);
+  return ApplySeparable(image, kernel);
 }
 
 cv::Mat ConvolveMirrored(const cv::Mat& image, const cv::Mat& psf) {

@@ -63,6 +63,12 @@ bool DeconvolveRowsFrom(const DeconvolutionOptions& options, cv::Size size, int 
 // |w| < 1e-4 max|w| (exposed for tests).
 cv::Mat WienerInverseKernel(const cv::Mat& psf, double nsr);
 
+// How the spatial Wiener path applies its inverse filter: `kernel` (odd square CV_32FC1) as the
+// sum of its SVD's separable terms until they hold 1 - 1e-7 of its energy, mirrored borders
+// (BORDER_REFLECT_101), on an image of 1 or 3 interleaved channels (each channel alone); exposed
+// for tests.
+cv::Mat ApplySeparableKernel(const cv::Mat& image, const cv::Mat& kernel);
+
 // Circular-free convolution helper used by tests: image * psf with mirrored borders.
 cv::Mat ConvolveMirrored(const cv::Mat& image, const cv::Mat& psf);
 

@@ -208,16 +208,67 @@ TURBID_ROW_KERNEL void NoiseVarianceRow(const float* __restrict mean, float* __r
   for (int i = 0; i < n; ++i) v[i] = std::max(mean[i], 0.0f) * gain + floor_var;
 }
 
-// LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30).
-TURBID_ROW_KERNEL void SignalVarianceRow(const float* __restrict sum, const float* __restrict w,
-                                         const float* __restrict count, float* __restrict o,
-                                         int n) {
-  for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - count[i], 0.0f) / std::max(w[i], 1e-30f);
+// LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30), with the maxima as
+// the vector loop of cv::max(image, scalar) takes them, x > floor ? x : floor (NaN gives the
+// floor; std::max keeps it). The numerator's box sums are NaN once a (z - p)^2 overflowed (inf -
+// inf in the running sums: z = m, the level mean, reaches ~1e21 where t E is at the 1e-12 floor
+// and a window's sum of a is a negative rounding residue). Returns how many values had a NaN
+// sum - count or sum a: cv::max's scalar loop (ScalarLoopValues) keeps those (FixScalarLoopNans).
+TURBID_ROW_KERNEL int SignalVarianceRow(const float* __restrict sum, const float* __restrict w,
+                                        const float* __restrict count, float* __restrict o, int n) {
+  int nans = 0;
+  for (int i = 0; i < n; ++i) {
+    const float v = sum[i] - count[i];
+    nans += (v != v) | (w[i] != w[i]);
+    o[i] = (v > 0.0f ? v : 0.0f) / (w[i] > 1e-30f ? w[i] : 1e-30f);
+  }
+  return nans;
 }
 
-TURBID_ROW_KERNEL void SignalVarianceRowFull(const float* __restrict sum, const float* __restrict w,
-                                             float full, float* __restrict o, int n) {
-  for (int i = 0; i < n; ++i) o[i] = std::max(sum[i] - full, 0.0f) / std::max(w[i], 1e-30f);
+TURBID_ROW_KERNEL int SignalVarianceRowFull(const float* __restrict sum, const float* __restrict w,
+                                            float full, float* __restrict o, int n) {
+  int nans = 0;
+  for (int i = 0; i < n; ++i) {
+    const float v = sum[i] - full;
+    nans += (v != v) | (w[i] != w[i]);
+    o[i] = (v > 0.0f ? v : 0.0f) / (w[i] > 1e-30f ? w[i] : 1e-30f);
+  }
+  return nans;
+}
+
+// The values (flat indices, ascending) of a continuous rows x cols float image of ch channels
+// that cv::max(image, cv::Scalar) leaves to its scalar loop, where a NaN stays NaN (std::max)
+// instead of becoming the scalar (its vector loop): the last values of each block it splits the
+// image into, which depend on OpenCV's block size and vector width, so found by asking cv::max
+// (on NaNs) once per shape, only when a NaN is met. Per thread, the last shape's.
+const std::vector<int>& ScalarLoopValues(int rows, int cols, int ch) {
+  thread_local int shape[3] = {-1, -1, -1};
+  thread_local std::vector<int> values;
+  if (shape[0] != rows || shape[1] != cols || shape[2] != ch) {
+    cv::Mat probe(rows, cols, CV_32FC(ch),
+                  cv::Scalar::all(std::numeric_limits<double>::quiet_NaN()));
+    cv::max(probe, cv::Scalar::all(0.0), probe);
+    values.clear();
+    const float* p = probe.ptr<float>(0);
+    for (size_t k = 0; k < probe.total() * ch; ++k)
+      if (std::isnan(p[k])) values.push_back(static_cast<int>(k));
+    shape[0] = rows, shape[1] = cols, shape[2] = ch;
+  }
+  return values;
+}
+
+// Row y (n values) of SignalVarianceRow's output where it met NaNs: the values in cv::max's scalar
+// loop get std::max's maxima (a NaN sum - count or sum a stays NaN). count null: full.
+void FixScalarLoopNans(int rows, int cols, int ch, int y, const float* sum, const float* w,
+                       const float* count, float full, float* o) {
+  const int n = cols * ch;
+  const std::vector<int>& values = ScalarLoopValues(rows, cols, ch);
+  const auto first = std::lower_bound(values.begin(), values.end(), y * n);
+  for (auto it = first; it != values.end() && *it < (y + 1) * n; ++it) {
+    const int i = *it - y * n;
+    const float v = sum[i] - (count != nullptr ? count[i] : full);
+    o[i] = std::max(v, 0.0f) / std::max(w[i], 1e-30f);
+  }
 }
 
 // Values of a row with no data (a > 0 false: 0, negative or NaN).
@@ -237,7 +288,10 @@ void ForRows(const cv::Mat& shape, Fn fn, Mats&... mats) {
   for (int y = 0; y < shape.rows; ++y) fn(n, mats.template ptr<float>(y)...);
 }
 
-// Every true parameter of a render, as image-sized maps in the image's channel order.
+// Every true parameter of a render: the range (and the blur model) as images, and the per-pixel
+// maps t, E, veil and snow in the image's channel order, either as images (ResolveTruth's
+// `planes`) or made a row at a time by Rows() where they are read (OracleEnhance's data-term
+// stream: no full-size maps written and read back).
 struct Truth {
   RenderOptions render;
   int channels = 1;
@@ -248,10 +302,58 @@ struct Truth {
   cv::Mat snow;          // marine snow layer (zeros when none or not removed)
   BlurModel blur;
   std::vector<std::string> steps;
+
+  // The row pass's inputs (Rows).
+  const Scene* scene = nullptr;
+  int width = 0;
+  bool zero_beta = false, backscatter = false, draw_snow = false;
+  std::vector<double> beta;
+  float neg_beta[3] = {0, 0, 0}, ambient_f[3] = {0, 0, 0}, backscatter_f[3] = {0, 0, 0};
+  cv::Mat normals;
+  std::optional<internal::LightRowContext> context;
+  std::vector<internal::LightRowConstants> lights;
+  internal::SnowSplats splats;
+
+  // Row y of E, t, the veil and the snow layer (width * channels values each) into e, t, veil and
+  // snow: the lights' irradiance E_L (IrradianceMap's row kernels: each light's distance and
+  // geometric factor, accumulated onto zeros), E = E_L + E_A, t (TransmissionMap's row kernel,
+  // from the range; with beta = 0, t is read from the transmission image, not written), the veil
+  // (1 - t)(E_L [+ B_inf]) and the snow layer's row drawn onto zeros (RenderMarineSnow's splats),
+  // with the float operations of the whole-image functions and of cv::add with a scalar (the
+  // scalar in float); E_L, the lights' geometry and E_L + B_inf exist only as rows.
+  void Rows(int y, float* e, float* t, float* v, float* sn) const {
+    const int w = width, ch = channels, n = w * ch;
+    thread_local std::vector<float> rows;
+    rows.resize(std::max<size_t>(rows.size(), static_cast<size_t>(2 * n + 7 * w)));
+    float* e_l = rows.data();
+    float* source = e_l + n;
+    float* l_row = source + n;
+    float* g_row = l_row + w;
+    float* cos_scratch = g_row + w;
+    std::fill(e_l, e_l + n, 0.0f);
+    for (const internal::LightRowConstants& light : lights) {
+      internal::LightGeometryRow(*context, light, context->RayY(scene->camera, y),
+                                 scene->depth_m.ptr<float>(y), normals.ptr<cv::Vec3f>(y), w, l_row,
+                                 g_row, cos_scratch);
+      internal::AccumulateLightRow(l_row, g_row, w, ch, neg_beta, light.color, false, e_l);
+    }
+    AddPerChannelRow(e_l, ambient_f, ch, e, w);
+    if (!zero_beta) TransmissionRows(range_m.ptr<float>(y), w, beta, t);
+    const float* src = e_l;
+    if (backscatter) {
+      AddPerChannelRow(e_l, backscatter_f, ch, source, w);
+      src = source;
+    }
+    VeilRow(t, src, v, n);
+    std::fill(sn, sn + n, 0.0f);
+    if (draw_snow) internal::AddSnowRow(splats, y, w, source, sn);
+  }
 };
 
+// The truth of a render. planes: also t, E, the veil and the snow layer as images (always with
+// beta = 0, whose t is made as a whole image).
 Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene& scene,
-                   const nlohmann::json& sidecar, bool remove_snow) {
+                   const nlohmann::json& sidecar, bool remove_snow, bool planes) {
   ValidateEnhanceImage(image, method);
   if (!sidecar.is_object() || !sidecar.contains("options")) {
     throw Error(method + ": the sidecar has no \"options\" object (not a turbid render sidecar?)");
@@ -267,17 +369,26 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   const RenderOptions& ro = truth.render;
   const WaterOptions water = ResolveWater(ro.water);
   const int ch = truth.channels = image.channels();
+  truth.scene = &scene;
+  truth.width = image.cols;
   const std::vector<double> beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, ch);
+  truth.beta = beta;
   const std::vector<double> ambient = ChannelValues(water.ambient_rgb, water.ambient_gray, ch);
-  const bool zero_beta = std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
-  // The range: RangeFromDepth's rows, made in the row pass below (its values, one read of the
-  // depth) except on the beta = 0 path, which needs the whole image first.
+  const bool zero_beta = truth.zero_beta =
+      std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
+  planes = planes || zero_beta;
+  // The range: RangeFromDepth's rows (its values), into a pooled image first (the snow and the
+  // rows' transmission read it).
   CV_Assert(scene.depth_m.type() == CV_32FC1);
-  const std::vector<double> range_dx = RangeColumnTable(scene.camera, scene.depth_m.cols);
   if (zero_beta) {
     truth.range_m = RangeFromDepth(scene.camera, scene.depth_m);
   } else {
+    const std::vector<double> range_dx = RangeColumnTable(scene.camera, scene.depth_m.cols);
     truth.range_m = internal::PooledMat(scene.depth_m.size(), CV_32FC1);
+    for (int y = 0; y < image.rows; ++y) {
+      RangeFromDepthRow(scene.camera, range_dx, scene.depth_m.ptr<float>(y), y,
+                        truth.range_m.ptr<float>(y));
+    }
   }
 
   if (zero_beta) {
@@ -285,89 +396,53 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
     cv::Mat valid = truth.range_m == truth.range_m;  // 255 where not NaN
     cv::Mat t1;
     valid.convertTo(t1, CV_32F, 1.0 / 255.0);
-    std::vector<cv::Mat> planes(ch, t1);
-    cv::merge(planes, truth.transmission);
-  } else {
+    std::vector<cv::Mat> t_planes(ch, t1);
+    cv::merge(t_planes, truth.transmission);
+  } else if (planes) {
     truth.transmission = NewLike(image);
   }
   cv::Scalar backscatter = cv::Scalar::all(0);
+  truth.backscatter = water.backscatter;
   if (water.backscatter) {
     backscatter = ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
     truth.steps.push_back("veil: (1 - t)(E_L + B_inf)");
   } else {
     truth.steps.push_back("veil: (1 - t) E_L");
   }
-  // One pass over the rows: the lights' irradiance E_L (IrradianceMap's row kernels: each light's
-  // distance and geometric factor, accumulated onto zeros), E = E_L + E_A, t (TransmissionMap's
-  // row kernel) and the veil (1 - t)(E_L [+ B_inf]), with the float operations of the whole-image
-  // functions and of cv::add with a scalar (the scalar in float); E_L, the lights' geometry and
-  // E_L + B_inf exist only as rows.
-  const int w = image.cols, n = w * ch;
-  cv::Mat normals;
-  std::optional<internal::LightRowContext> context;
-  std::vector<internal::LightRowConstants> lights;
+  const int w = image.cols;
   if (!ro.light.lights.empty()) {
     ThrowIfInvalid(ro.light, "light");
-    normals = scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
-    CV_Assert(scene.depth_m.type() == CV_32FC1 && normals.type() == CV_32FC3 &&
-              normals.size() == scene.depth_m.size());
-    context = internal::LightContextFor(ro.light, scene.camera, w);
-    lights = internal::LightConstantsFor(ro.light, ch);
+    truth.normals =
+        scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
+    CV_Assert(scene.depth_m.type() == CV_32FC1 && truth.normals.type() == CV_32FC3 &&
+              truth.normals.size() == scene.depth_m.size());
+    truth.context = internal::LightContextFor(ro.light, scene.camera, w);
+    truth.lights = internal::LightConstantsFor(ro.light, ch);
   }
-  float neg_beta[3] = {0, 0, 0}, ambient_f[3] = {0, 0, 0}, backscatter_f[3] = {0, 0, 0};
   for (int c = 0; c < ch; ++c) {
-    neg_beta[c] = -static_cast<float>(beta[c]);
-    ambient_f[c] = static_cast<float>(ambient[c]);
-    backscatter_f[c] = static_cast<float>(backscatter[c]);
+    truth.neg_beta[c] = -static_cast<float>(beta[c]);
+    truth.ambient_f[c] = static_cast<float>(ambient[c]);
+    truth.backscatter_f[c] = static_cast<float>(backscatter[c]);
   }
-  thread_local std::vector<float> rows;
-  rows.resize(std::max<size_t>(rows.size(), static_cast<size_t>(2 * n + 7 * w)));
-  float* e_l = rows.data();
-  float* source = e_l + n;
-  float* l_row = source + n;
-  float* g_row = l_row + w;
-  float* cos_scratch = g_row + w;
-  truth.irradiance = NewLike(image);
-  truth.veil = NewLike(image);
-  for (int y = 0; y < image.rows; ++y) {
-    std::fill(e_l, e_l + n, 0.0f);
-    for (const internal::LightRowConstants& light : lights) {
-      internal::LightGeometryRow(*context, light, context->RayY(scene.camera, y),
-                                 scene.depth_m.ptr<float>(y), normals.ptr<cv::Vec3f>(y), w, l_row,
-                                 g_row, cos_scratch);
-      internal::AccumulateLightRow(l_row, g_row, w, ch, neg_beta, light.color, false, e_l);
-    }
-    float* e = truth.irradiance.ptr<float>(y);
-    float* t = truth.transmission.ptr<float>(y);
-    AddPerChannelRow(e_l, ambient_f, ch, e, w);
-    if (!zero_beta) {
-      float* range = truth.range_m.ptr<float>(y);
-      RangeFromDepthRow(scene.camera, range_dx, scene.depth_m.ptr<float>(y), y, range);
-      TransmissionRows(range, w, beta, t);
-    }
-    const float* src = e_l;
-    if (water.backscatter) {
-      AddPerChannelRow(e_l, backscatter_f, ch, source, w);
-      src = source;
-    }
-    VeilRow(t, src, truth.veil.ptr<float>(y), n);
-  }
-  truth.snow = NewLike(image);
   if (remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
-    // RenderMarineSnow's layer (its particles drawn row by row onto zeros), into a pooled image.
-    const internal::SnowSplats splats = internal::DrawMarineSnow(
-        ro.snow, ro.light, scene.camera, truth.range_m, beta, ambient, ro.seed);
-    CV_Assert(splats.channels == ch);
-    for (int y = 0; y < image.rows; ++y) {
-      float* row = truth.snow.ptr<float>(y);
-      std::fill(row, row + n, 0.0f);
-      internal::AddSnowRow(splats, y, w, source, row);
-    }
-    truth.steps.push_back("snow: " + std::to_string(splats.visible) +
+    // RenderMarineSnow's layer (its particles drawn row by row onto zeros).
+    truth.splats = internal::DrawMarineSnow(ro.snow, ro.light, scene.camera, truth.range_m, beta,
+                                            ambient, ro.seed);
+    CV_Assert(truth.splats.channels == ch);
+    truth.draw_snow = true;
+    truth.steps.push_back("snow: " + std::to_string(truth.splats.visible) +
                           " particles re-rendered from the seed and subtracted");
   } else {
-    truth.snow.setTo(cv::Scalar::all(0));
     truth.steps.push_back("snow: none subtracted");
+  }
+  if (planes) {
+    truth.irradiance = NewLike(image);
+    truth.veil = NewLike(image);
+    truth.snow = NewLike(image);
+    for (int y = 0; y < image.rows; ++y) {
+      truth.Rows(y, truth.irradiance.ptr<float>(y), truth.transmission.ptr<float>(y),
+                 truth.veil.ptr<float>(y), truth.snow.ptr<float>(y));
+    }
   }
   truth.blur = MakeBlurModel(ro.psf, truth.range_m, beta);
   if (!truth.blur.active) {
@@ -609,6 +684,24 @@ BoxScratch& ThreadBoxScratch() {
   return scratch;
 }
 
+// At least `count` values of v from a 64-byte line on (std::vector's data of these sizes starts
+// 16 bytes past a line, so every other 32-byte access would split one); v grows as needed.
+template <typename T>
+T* Aligned64(std::vector<T>& v, size_t count) {
+  constexpr size_t kPad = 64 / sizeof(T);
+  v.resize(std::max(v.size(), count + kPad));
+  const uintptr_t p = reinterpret_cast<uintptr_t>(v.data());
+  return v.data() + ((64 - p % 64) % 64) / sizeof(T);
+}
+
+// Values per buffer row: n rounded up to whole 64-byte lines (rows of an aligned block stay
+// aligned).
+template <typename T>
+size_t LineStride(size_t n) {
+  constexpr size_t kLine = 64 / sizeof(T);
+  return (n + kLine - 1) / kLine * kLine;
+}
+
 // Box sums of kPlanes images of the same shape (rows x cols, cn channels) streamed a row at a
 // time: produce(source_row, float* const* in) writes that row of each plane into in[p] (cols cn
 // values; it may be asked for a row more than once, for the reflected border); consume(y, const
@@ -655,36 +748,29 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   std::vector<int> xofs(cols + k - 1);
   for (int j = 0; j < cols + k - 1; ++j)
     xofs[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
+  // Every buffer row starts on a 64-byte line (rows padded to whole lines).
   BoxScratch& scratch = ThreadBoxScratch();
-  std::vector<double>& ring_store = scratch.ring;
-  std::vector<double>& sum_store = scratch.sum;
-  std::vector<float>& ext_store = scratch.ext;
-  std::vector<float>& out_store = scratch.out;
-  const size_t ring_n = static_cast<size_t>(capacity) * n;
-  ring_store.resize(std::max(ring_store.size(), kPlanes * ring_n));
-  sum_store.assign(static_cast<size_t>(kPlanes) * n, 0.0);
-  ext_store.resize(std::max(ext_store.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
+  const size_t rn = LineStride<double>(n), on = LineStride<float>(n);
+  const size_t en = LineStride<float>(ext_n), edn = LineStride<double>(ext_n);
+  const size_t ring_n = static_cast<size_t>(capacity) * rn;
+  double* const ring = Aligned64(scratch.ring, kPlanes * ring_n);
+  double* const sums = Aligned64(scratch.sum, kPlanes * rn);
+  std::fill(sums, sums + kPlanes * rn, 0.0);
+  float* const ext = Aligned64(scratch.ext, kPlanes * batch * en);
   const bool running = k != 3 && k != 5;
-  std::vector<double>& ext_d_store = scratch.ext_d;
-  if (running) {
-    ext_d_store.resize(std::max(ext_d_store.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
-  }
-  out_store.resize(std::max(out_store.size(), static_cast<size_t>(kPlanes) * n));
+  double* const ext_d = running ? Aligned64(scratch.ext_d, kPlanes * batch * edn) : nullptr;
+  float* const outs = Aligned64(scratch.out, kPlanes * on);
   auto slot = [&](int p, int j) {
-    return ring_store.data() + p * ring_n + static_cast<size_t>(j % capacity) * n;
+    return ring + p * ring_n + static_cast<size_t>(j % capacity) * rn;
   };
-  auto ext_row = [&](int p, int b) {
-    return ext_store.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
-  };
-  auto ext_d_row = [&](int p, int b) {
-    return ext_d_store.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
-  };
+  auto ext_row = [&](int p, int b) { return ext + (static_cast<size_t>(p) * batch + b) * en; };
+  auto ext_d_row = [&](int p, int b) { return ext_d + (static_cast<size_t>(p) * batch + b) * edn; };
   int produced = 0;  // bordered rows whose row sums are in the rings
   auto produce_batch = [&](int count) {
     for (int b = 0; b < count; ++b) {
       const int j = produced + b;
-      ProduceBorderedRow<kPlanes>(produce, [&](int p) { return ext_row(p, b); }, j, rows, cols,
-                                  cn, radius, xofs);
+      ProduceBorderedRow<kPlanes>(
+          produce, [&](int p) { return ext_row(p, b); }, j, rows, cols, cn, radius, xofs);
       for (int p = 0; p < kPlanes; ++p) {
         float* e = ext_row(p, b);
         double* h = slot(p, j);
@@ -709,7 +795,7 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
           const int j = produced + b;
           double* h[8];
           for (int r = 0; r < 8; ++r) h[r] = slot(p, j + r);
-          BoxRunning8Gray(ext_d_row(p, b), ext_n, h, k, cols - 1);
+          BoxRunning8Gray(ext_d_row(p, b), edn, h, k, cols - 1);
         }
         for (; b + 4 <= count; b += 4) {
           const int j = produced + b;
@@ -727,15 +813,15 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   };
   for (int j = 0; j < k - 1; ++j) {
     need(j);
-    for (int p = 0; p < kPlanes; ++p) BoxAccumulateRow(sum_store.data() + p * n, slot(p, j), n);
+    for (int p = 0; p < kPlanes; ++p) BoxAccumulateRow(sums + p * rn, slot(p, j), n);
   }
   const float* out[kPlanes];
-  for (int p = 0; p < kPlanes; ++p) out[p] = out_store.data() + static_cast<size_t>(p) * n;
+  for (int p = 0; p < kPlanes; ++p) out[p] = outs + p * on;
   for (int y = 0; y < rows; ++y) {
     need(y + k - 1);
     for (int p = 0; p < kPlanes; ++p) {
-      double* sum = sum_store.data() + p * n;
-      float* o = out_store.data() + static_cast<size_t>(p) * n;
+      double* sum = sums + p * rn;
+      float* o = outs + p * on;
       if (scale != 1.0) {
         BoxColumnRowScaled(sum, slot(p, y + k - 1), slot(p, y), o, scale, n);
       } else {
@@ -779,32 +865,29 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   Window win[2];
   win[0].k = kl;
   win[1].k = 2 * small + 1;
+  // Every buffer row starts on a 64-byte line (rows padded to whole lines).
   BoxScratch& scratch = ThreadBoxScratch();
+  const size_t rn = LineStride<double>(n), on = LineStride<float>(n);
+  const size_t en = LineStride<float>(ext_n), edn = LineStride<double>(ext_n);
   size_t ring_total = 0;
   for (Window& w : win) {
     w.capacity = w.k + batch;
     w.total = rows + w.k - 1;
-    ring_total += static_cast<size_t>(kPlanes) * w.capacity * n;
+    ring_total += static_cast<size_t>(kPlanes) * w.capacity * rn;
   }
-  scratch.ring.resize(std::max(scratch.ring.size(), ring_total));
-  scratch.sum.assign(static_cast<size_t>(2) * kPlanes * n, 0.0);
-  scratch.ext.resize(std::max(scratch.ext.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
-  scratch.ext_d.resize(
-      std::max(scratch.ext_d.size(), static_cast<size_t>(kPlanes) * batch * ext_n));
-  scratch.out.resize(std::max(scratch.out.size(), static_cast<size_t>(kPlanes) * n));
-  win[0].ring = scratch.ring.data();
-  win[1].ring = win[0].ring + static_cast<size_t>(kPlanes) * win[0].capacity * n;
-  win[0].sum = scratch.sum.data();
-  win[1].sum = win[0].sum + static_cast<size_t>(kPlanes) * n;
+  win[0].ring = Aligned64(scratch.ring, ring_total);
+  win[1].ring = win[0].ring + static_cast<size_t>(kPlanes) * win[0].capacity * rn;
+  win[0].sum = Aligned64(scratch.sum, 2 * kPlanes * rn);
+  std::fill(win[0].sum, win[0].sum + 2 * kPlanes * rn, 0.0);
+  win[1].sum = win[0].sum + kPlanes * rn;
+  float* const ext = Aligned64(scratch.ext, kPlanes * batch * en);
+  double* const ext_d = Aligned64(scratch.ext_d, kPlanes * batch * edn);
+  float* const out_rows = Aligned64(scratch.out, kPlanes * on);
   auto slot = [&](const Window& w, int p, int j) {
-    return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * n;
+    return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * rn;
   };
-  auto ext_row = [&](int p, int b) {
-    return scratch.ext.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
-  };
-  auto ext_d_row = [&](int p, int b) {
-    return scratch.ext_d.data() + (static_cast<size_t>(p) * batch + b) * ext_n;
-  };
+  auto ext_row = [&](int p, int b) { return ext + (static_cast<size_t>(p) * batch + b) * en; };
+  auto ext_d_row = [&](int p, int b) { return ext_d + (static_cast<size_t>(p) * batch + b) * edn; };
   // The row sums of bordered rows (count of them, from the batch's row `first`) of window w,
   // whose rows start `shift` values into the large window's bordered rows.
   auto row_sums = [&](Window& w, int first, int count, int shift) {
@@ -829,7 +912,7 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
       for (; cn == 1 && b + 8 <= first + count; b += 8) {
         double* h[8];
         for (int r = 0; r < 8; ++r) h[r] = slot(w, p, w.produced + b - first + r);
-        BoxRunning8Gray(ext_d_row(p, b) + shift, ext_n, h, w.k, cols - 1);
+        BoxRunning8Gray(ext_d_row(p, b) + shift, edn, h, w.k, cols - 1);
       }
       for (; b + 4 <= first + count; b += 4) {
         const int j = w.produced + b - first;
@@ -847,16 +930,15 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   auto columns = [&](Window& w, auto& consume, auto& first_plane) {
     while (w.accumulated < w.k - 1 && w.accumulated < w.produced) {
       for (int p = 0; p < kPlanes; ++p)
-        BoxAccumulateRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, w.accumulated), n);
+        BoxAccumulateRow(w.sum + p * rn, slot(w, p, w.accumulated), n);
       ++w.accumulated;
     }
     while (w.accumulated == w.k - 1 && w.emitted < rows && w.emitted + w.k - 1 < w.produced) {
       const int y = w.emitted;
       const float* outs[kPlanes];
       for (int p = 0; p < kPlanes; ++p) {
-        float* o = p == 0 ? first_plane(y) : scratch.out.data() + static_cast<size_t>(p) * n;
-        BoxColumnRow(w.sum + static_cast<size_t>(p) * n, slot(w, p, y + w.k - 1), slot(w, p, y), o,
-                     n);
+        float* o = p == 0 ? first_plane(y) : out_rows + p * on;
+        BoxColumnRow(w.sum + p * rn, slot(w, p, y + w.k - 1), slot(w, p, y), o, n);
         outs[p] = o;
       }
       consume(y, outs);
@@ -867,8 +949,8 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   for (int j0 = 0; j0 < total; j0 += batch) {
     const int count = std::min(batch, total - j0);
     for (int b = 0; b < count; ++b) {
-      ProduceBorderedRow<kPlanes>(produce, [&](int p) { return ext_row(p, b); }, j0 + b, rows,
-                                  cols, cn, large, xofs);
+      ProduceBorderedRow<kPlanes>(
+          produce, [&](int p) { return ext_row(p, b); }, j0 + b, rows, cols, cn, large, xofs);
       for (int p = 0; p < kPlanes; ++p) WidenRow(ext_row(p, b), ext_d_row(p, b), ext_n);
     }
     row_sums(win[0], 0, count, 0);
@@ -899,15 +981,23 @@ TURBID_ROW_KERNEL void DataTermRowN(const float* __restrict in, const float* __r
                                     const float* __restrict ve, const float* __restrict var,
                                     const uchar* __restrict mk, float clip_level, int cols,
                                     float* __restrict uu, float* __restrict aa) {
+  // The selects as bit masks (max(p, 1e-12) as p < 1e-12 ? 1e-12 : p, the masked values' +0), so
+  // that both quotients are formed for every value and the loop has no branch: GCC split sc * sc /
+  // var into the two cases of the max, and under trapping math does not form a division that only
+  // one branch uses, so it left this loop scalar (two scalar divisions per value).
+  constexpr uint32_t kFloor = std::bit_cast<uint32_t>(1e-12f);
   for (int x = 0; x < cols; ++x) {
+    const uint32_t keep = mk[x] != 0 ? 0u : ~0u;
     for (int c = 0; c < kChannels; ++c) {
       const int i = x * kChannels + c;
-      const float sc = std::max(t[i] * e[i], 1e-12f);
+      const float te = t[i] * e[i];
+      const uint32_t low = te < 1e-12f ? ~0u : 0u;  // std::max(te, 1e-12f)
+      const float sc = std::bit_cast<float>((kFloor & low) | (std::bit_cast<uint32_t>(te) & ~low));
       const float ui = ((in[i] - sn[i]) - ve[i]) / sc;
       const float ai = (sc * sc) / var[i];
       const float high = in[i] > clip_level ? 1.0f : 0.0f;
-      uu[i] = mk[x] != 0 ? 0.0f : ui;
-      aa[i] = (mk[x] != 0 ? 0.0f : ai) * (1.0f - high);
+      uu[i] = std::bit_cast<float>(std::bit_cast<uint32_t>(ui) & keep);
+      aa[i] = std::bit_cast<float>(std::bit_cast<uint32_t>(ai) & keep) * (1.0f - high);
     }
   }
 }
@@ -1115,8 +1205,7 @@ class BoxCount {
       WindowSumsDirect(e, h, cn_, k_, n_);
     } else {
       int32_t* prefix = prefix_.data();
-      prefix[0] = 0;
-      for (int i = 0; i < ext_n; ++i) prefix[i + 1] = prefix[i] + e[i];
+      PrefixSums(e, prefix, ext_n);
       // Per channel c the window of value i = x cn + c is i, i + cn, ..., i + (k - 1) cn; with
       // one channel the prefix sums give it directly.
       if (cn_ == 1) {
@@ -1149,6 +1238,28 @@ class BoxCount {
     for (int j = 0; j < k; ++j)
       for (int i = 0; i < n; ++i) h[i] += e[i + j * cn];
   }
+  // prefix[0] = 0, prefix[i + 1] = prefix[i] + e[i]: eight values per step as an in-register
+  // scan (shifts by 1, 2 and 4 lanes, plus the running total; integers, so the same sums as the
+  // serial loop, which ran at about one value per cycle).
+  TURBID_ROW_KERNEL static void PrefixSums(const int32_t* __restrict e, int32_t* __restrict prefix,
+                                           int n) {
+    using V8i = int32_t __attribute__((vector_size(32)));
+    const V8i zero = {0, 0, 0, 0, 0, 0, 0, 0};
+    V8i total = zero;
+    prefix[0] = 0;
+    int i = 0;
+    for (; i + 8 <= n; i += 8) {
+      V8i v;
+      std::memcpy(&v, e + i, sizeof(v));
+      v += __builtin_shufflevector(zero, v, 0, 8, 9, 10, 11, 12, 13, 14);
+      v += __builtin_shufflevector(zero, v, 0, 1, 8, 9, 10, 11, 12, 13);
+      v += __builtin_shufflevector(zero, v, 0, 1, 2, 3, 8, 9, 10, 11);
+      v += total;
+      std::memcpy(prefix + i + 1, &v, sizeof(v));
+      total = __builtin_shufflevector(v, v, 7, 7, 7, 7, 7, 7, 7, 7);
+    }
+    for (; i < n; ++i) prefix[i + 1] = prefix[i] + e[i];
+  }
   TURBID_ROW_KERNEL static void WindowSumsPrefix(const int32_t* __restrict prefix,
                                                  int32_t* __restrict h, int k, int n) {
     for (int i = 0; i < n; ++i) h[i] = prefix[i + k] - prefix[i];
@@ -1174,12 +1285,12 @@ class BoxCount {
 
 // Row buffers of HierarchicalMmse's streams (per thread, kept between calls).
 struct MmseRows {
-  std::vector<float> has, s, e;
+  std::vector<float> has, s, e, post, est;
 };
 
 MmseRows& ThreadMmseRows(int n) {
   thread_local MmseRows rows;
-  for (std::vector<float>* v : {&rows.has, &rows.s, &rows.e})
+  for (std::vector<float>* v : {&rows.has, &rows.s, &rows.e, &rows.post, &rows.est})
     v->resize(std::max<size_t>(v->size(), static_cast<size_t>(n)));
   return rows;
 }
@@ -1207,7 +1318,9 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
           NumeratorOnlyRow(z.ptr<float>(y), a.ptr<float>(y), p_row(y), in[1], n);
         },
         [&](int y, const float* const* o) {
-          SignalVarianceRowFull(o[1], o[0], full, s_row(y), n);
+          float* s = s_row(y);
+          if (SignalVarianceRowFull(o[1], o[0], full, s, n) > 0)
+            FixScalarLoopNans(z.rows, z.cols, z.channels(), y, o[1], o[0], nullptr, full, s);
           consume(y);
         });
   } else {
@@ -1223,7 +1336,9 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
         },
         [&](int y, const float* const* o) {
           count.Output(y, rows.has.data());
-          SignalVarianceRow(o[1], o[0], rows.has.data(), s_row(y), n);
+          float* s = s_row(y);
+          if (SignalVarianceRow(o[1], o[0], rows.has.data(), s, n) > 0)
+            FixScalarLoopNans(z.rows, z.cols, z.channels(), y, o[1], o[0], rows.has.data(), 0, s);
           consume(y);
         });
   }
@@ -1233,7 +1348,8 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
 // masked), under a hierarchical local Gaussian prior (docs/methods.md, "oracle"). Writes the
 // prior mean of the finest level to *prior and the posterior variance to *posterior.
 // au = a u; a_no_data: how many values of a have a > 0 false; censored (may be null): the
-// censoring step applied to the estimate and the prior (OracleMmse).
+// censoring step applied to the estimate and the prior (OracleMmse). images false: the estimate
+// and the posterior variance only as rows (for the detail and its sums; both returned empty).
 //
 // Level 0 is a per-channel constant (the weighted global mean), level 1 (coarse) shrinks it
 // towards the coarse local means with one per-channel signal variance (whole-image sums), level
@@ -1243,7 +1359,7 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
 // written to a new image, since the stream that reads it re-reads rows for the bottom border).
 cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a,
                          const cv::Mat& au, long long a_no_data, const Censored* censored,
-                         cv::Mat* prior, cv::Mat* posterior, DetailOut* detail) {
+                         cv::Mat* prior, cv::Mat* posterior, DetailOut* detail, bool images) {
   const int ch = u.channels();
   const int n = u.cols * ch;
   const size_t bytes = sizeof(float) * n;
@@ -1298,38 +1414,50 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
   // The middle level's signal variance over coarse windows around p1, the coarse shrink p1 = p0 +
   // S w / (S w + 1) (m - p0) (w = 0 keeps p), made as the stream first asks for its rows (again
   // for the reflected border: the same values); then the middle shrink into p2.
-  const cv::Mat p1 = NewLike(u), p2 = NewLike(u);
+  // p1 only as a ring of rows (slot y mod ring_rows): the stream asks for source rows at most
+  // coarse_radius + its batch (8) rows ahead of the output row it emits, and again near the borders
+  // (the same values, made again), so a ring of 2 coarse_radius + 17 rows keeps every row until
+  // its output row has read it.
+  const cv::Mat p2 = NewLike(u);
+  const int ring_rows = 2 * o.coarse_radius + 17;
+  thread_local std::vector<float> p1_ring;
+  p1_ring.resize(std::max(p1_ring.size(), static_cast<size_t>(ring_rows) * n));
+  auto p1_slot = [&](int y) { return p1_ring.data() + static_cast<size_t>(y % ring_rows) * n; };
   auto p1_row = [&](int y) {
-    float* row = const_cast<cv::Mat&>(p1).ptr<float>(y);
+    float* row = p1_slot(y);
     ShrinkRowTo(s0.data(), wc.ptr<float>(y), mc.ptr<float>(y), p0.data(), row, n);
     return row;
   };
   LocalSignalVariance(
       mm, wm, p1_row, o.coarse_radius, wm_none, [&](int) { return rows.s.data(); },
       [&](int y) {
-        ShrinkRowTo(rows.s.data(), wm.ptr<float>(y), mm.ptr<float>(y), p1.ptr<float>(y),
+        ShrinkRowTo(rows.s.data(), wm.ptr<float>(y), mm.ptr<float>(y), p1_slot(y),
                     const_cast<cv::Mat&>(p2).ptr<float>(y), n);
       });
   // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
   // S v / (S + v) = S / (S a + 1), S where masked.
-  cv::Mat post = NewLike(u), est = NewLike(u);
+  cv::Mat post, est;
+  if (images) {
+    post = NewLike(u);
+    est = NewLike(u);
+  }
+  auto post_row = [&](int y) { return images ? post.ptr<float>(y) : rows.post.data(); };
+  auto est_row = [&](int y) { return images ? est.ptr<float>(y) : rows.est.data(); };
   cv::Mat prior_out = censored != nullptr ? NewLike(u) : p2;
   LocalSignalVariance(
-      u, a, [&](int y) { return p2.ptr<float>(y); }, o.pixel_radius, a_no_data,
-      [&](int y) { return post.ptr<float>(y); },
+      u, a, [&](int y) { return p2.ptr<float>(y); }, o.pixel_radius, a_no_data, post_row,
       [&](int y) {
-        float* s = post.ptr<float>(y);
+        float* s = post_row(y);
         if (censored == nullptr) {
-          EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est.ptr<float>(y), n);
+          EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, est_row(y), n);
         } else {
           EstimateRow(a.ptr<float>(y), u.ptr<float>(y), p2.ptr<float>(y), s, rows.e.data(), n);
-          CensorRow(*censored, y, rows.e.data(), est.ptr<float>(y), n);
+          CensorRow(*censored, y, rows.e.data(), est_row(y), n);
           CensorRow(*censored, y, p2.ptr<float>(y), prior_out.ptr<float>(y), n);
         }
         if (detail != nullptr) {
-          DetailStatsRow(est.ptr<float>(y), prior_out.ptr<float>(y), s,
-                         detail->masked.ptr<uchar>(y), detail->detail.ptr<float>(y), u.cols, ch,
-                         detail->sums);
+          DetailStatsRow(est_row(y), prior_out.ptr<float>(y), s, detail->masked.ptr<uchar>(y),
+                         detail->detail.ptr<float>(y), u.cols, ch, detail->sums);
         }
       });
   *prior = prior_out;
@@ -1423,7 +1551,21 @@ void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& mas
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
-                            double floor_var, double clip_level_d, bool with_detail) {
+                            double floor_var, double clip_level, bool with_detail) {
+  return OracleMmse(
+      o, image,
+      [&](int y, const float*& t, const float*& e, const float*& sn, const float*& ve) {
+        t = transmission.ptr<float>(y);
+        e = irradiance.ptr<float>(y);
+        sn = snow.ptr<float>(y);
+        ve = veil.ptr<float>(y);
+      },
+      shot_gain, floor_var, clip_level, with_detail);
+}
+
+OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
+                            const TruthRowFn& truth_row, double shot_gain, double floor_var,
+                            double clip_level_d, bool with_detail, bool keep_estimate) {
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,
@@ -1453,10 +1595,8 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
     float* var = variance_row.data();
     NoiseVarianceRow(mean[0], var, gain_f, floor_f, n);
     const float* in = image.ptr<float>(y);
-    const float* t = transmission.ptr<float>(y);
-    const float* e = irradiance.ptr<float>(y);
-    const float* sn = snow.ptr<float>(y);
-    const float* ve = veil.ptr<float>(y);
+    const float *t = nullptr, *e = nullptr, *sn = nullptr, *ve = nullptr;
+    truth_row(y, t, e, sn, ve);
     float* uu = u.ptr<float>(y);
     float* aa = a.ptr<float>(y);
     uchar* mk = const_cast<cv::Mat&>(masked).ptr<uchar>(y);
@@ -1481,7 +1621,8 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
     detail_out.detail = NewLike(image);
   }
   r.estimate = HierarchicalMmse(o, u, a, au, a_no_data, censored > 0 ? &clipped : nullptr, &r.prior,
-                                &r.posterior, with_detail ? &detail_out : nullptr);
+                                &r.posterior, with_detail ? &detail_out : nullptr,
+                                !with_detail || keep_estimate);
   if (with_detail) {
     r.detail = detail_out.detail;
     r.detail_sums = detail_out.sums;
@@ -1566,7 +1707,7 @@ cv::Mat DeconvolveReflect101(const cv::Mat& image, const cv::Mat& kernel, double
 OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& image,
                                 const Scene& scene, const nlohmann::json& sidecar) {
   ThrowIfInvalid(o, "oracle_exact");
-  Truth truth = ResolveTruth("oracle_exact", image, scene, sidecar, o.remove_snow);
+  Truth truth = ResolveTruth("oracle_exact", image, scene, sidecar, o.remove_snow, true);
   OracleResult result;
   result.steps = truth.steps;
   const cv::Mat masked = MaskBelow(truth.transmission, o.min_transmission);
@@ -1613,7 +1754,10 @@ OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& imag
 OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const Scene& scene,
                            const nlohmann::json& sidecar) {
   ThrowIfInvalid(o, "oracle");
-  Truth truth = ResolveTruth("oracle", image, scene, sidecar, o.remove_snow);
+  // The truth maps as rows made where the data term reads them (E also as an image for target
+  // lit, whose last step multiplies by it).
+  const bool lit = o.target == "lit";
+  Truth truth = ResolveTruth("oracle", image, scene, sidecar, o.remove_snow, false);
   OracleResult result;
   result.steps = truth.steps;
   const RenderOptions& ro = truth.render;
@@ -1631,14 +1775,37 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   // mean low.
   const double half_step = bits == 32 ? 0.0 : 0.5 * step;
   const BlurModel& blur = truth.blur;
+  if (lit && truth.irradiance.empty()) truth.irradiance = NewLike(image);
+  const int n = image.cols * image.channels();
+  thread_local std::vector<float> truth_rows;
+  truth_rows.resize(std::max<size_t>(truth_rows.size(), 4 * static_cast<size_t>(n)));
+  auto truth_row = [&](int y, const float*& t, const float*& e, const float*& sn,
+                       const float*& ve) {
+    if (!truth.transmission.empty()) {  // the images (beta = 0)
+      t = truth.transmission.ptr<float>(y);
+      e = truth.irradiance.ptr<float>(y);
+      sn = truth.snow.ptr<float>(y);
+      ve = truth.veil.ptr<float>(y);
+      return;
+    }
+    float* e_row = lit ? truth.irradiance.ptr<float>(y) : truth_rows.data();
+    float* t_row = truth_rows.data() + n;
+    float* sn_row = t_row + n;
+    float* ve_row = sn_row + n;
+    truth.Rows(y, e_row, t_row, ve_row, sn_row);
+    t = t_row;
+    e = e_row;
+    sn = sn_row;
+    ve = ve_row;
+  };
   oracle_internal::OracleMmseResult mmse = oracle_internal::OracleMmse(
-      o, image, truth.transmission, truth.irradiance, truth.snow, truth.veil, gain, floor_var,
-      1.0 - half_step - 1e-7, blur.active && o.deblur);
+      o, image, truth_row, gain, floor_var, 1.0 - half_step - 1e-7, blur.active && o.deblur,
+      /*keep_estimate=*/false);
   result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
                          " + read^2 + step^2 / 12" + (sensor ? "" : " (sensor off)"));
   result.masked_pixels = mmse.masked_pixels;
   const cv::Mat& masked = mmse.masked;
-  cv::Mat est = mmse.estimate, prior = mmse.prior, posterior = mmse.posterior;
+  cv::Mat est = mmse.estimate, prior = mmse.prior;  // est: empty on the deblur path
   if (mmse.censored_pixels > 0) {
     result.steps.push_back("censored: " + std::to_string(mmse.censored_pixels) +
                            " pixels clipped at 0 or 1 in some channel: no weight");
@@ -1675,12 +1842,13 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     d.nsr = result.deblur_nsr;
     // est = prior + the deblurred detail, the prior where masked, then the target and the clamp:
     // one pass, fed by the streamed deconvolution where it has one (one kernel, spatial path).
-    const Finisher finish{truth.channels, true, o.target == "lit"};
-    cv::Mat out = NewLike(est);
+    const Finisher finish{truth.channels, true, lit};
+    cv::Mat out = NewLike(image);
     int negative_zeros = 0;
     auto emit = [&](int y, const float* row) {
-      negative_zeros += finish(prior.ptr<float>(y), row, masked.ptr<uchar>(y),
-                               truth.irradiance.ptr<float>(y), out.ptr<float>(y), out.cols);
+      negative_zeros +=
+          finish(prior.ptr<float>(y), row, masked.ptr<uchar>(y),
+                 lit ? truth.irradiance.ptr<float>(y) : nullptr, out.ptr<float>(y), out.cols);
     };
     if (blur.Count() != 1 || blur.depth_dependent ||
         !DeconvolveRows(d, detail, blur.Kernel(0), emit)) {
@@ -1695,8 +1863,7 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     result.image = out;
     return result;
   }
-  oracle_internal::FinishImage(est, cv::Mat(), masked,
-                               o.target == "lit" ? truth.irradiance : cv::Mat(), est);
+  oracle_internal::FinishImage(est, cv::Mat(), masked, lit ? truth.irradiance : cv::Mat(), est);
   result.image = est;
   return result;
 }

@@ -1,6 +1,7 @@
 // Internals of the MMSE oracle (enhancer/oracle.cc), exposed for the tests; not part of the API.
 #pragma once
 
+#include <functional>
 #include <opencv2/core.hpp>
 
 #include "enhancer/oracle.h"
@@ -49,5 +50,19 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
                             double floor_var, double clip_level, bool with_detail = false);
+
+// Row y of the truth maps: t, e, snow and veil set to that row of the transmission, irradiance,
+// snow and veil (the image's cols * channels values each, valid until the next call). OracleMmse
+// asks for each row once, in order of y.
+using TruthRowFn = std::function<void(int y, const float*& t, const float*& e, const float*& snow,
+                                      const float*& veil)>;
+
+// OracleMmse with the truth maps as rows (OracleEnhance makes them there: no full-size maps).
+// keep_estimate false (with_detail only): the estimate and the posterior variance are made as
+// rows for the detail and its sums but not kept (returned empty; OracleEnhance's deblur reads
+// only the prior, the detail and the sums).
+OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
+                            const TruthRowFn& truth_row, double shot_gain, double floor_var,
+                            double clip_level, bool with_detail = false, bool keep_estimate = true);
 
 }  // namespace turbid::oracle_internal

@@ -176,9 +176,11 @@ TEST(Oracle, FinishImageEqualsOpenCvSteps) {
 
 // Today's fused data term and MMSE give the pre-optimisation values bit for bit (the same float
 // operations in the same order): gray and colour, odd and tiny sizes, masked pixels (t below the
-// floor), clipped samples (censored), sensor noise on and off, random images and noisy 8-bit
-// renders of the built-in scenes (with random truth maps: the step is arithmetic on the maps);
-// radii giving running and direct row sums at each level.
+// floor), t E at and below the data term's floor 1e-12 (NaN box sums in the signal variances with
+// variant 3's windows), an image value of -1e30 (NaN sums everywhere), clipped samples (censored),
+// sensor noise on and off, random images and noisy 8-bit renders of the built-in scenes (with
+// random truth maps: the step is arithmetic on the maps); radii giving running and direct row sums
+// at each level.
 TEST(Oracle, MmseEqualsPreOptimisationImplementation) {
   auto check = [](const std::string& what, const OracleOptions& o, const cv::Mat& image,
                   const cv::Mat& t, const cv::Mat& e, const cv::Mat& snow, const cv::Mat& veil,
@@ -224,6 +226,43 @@ TEST(Oracle, MmseEqualsPreOptimisationImplementation) {
         if (k == 1) v = std::nextafter(0.7f, 0.0f);
         if (k == 2) v = std::nextafter(0.7f, 1.0f);
       });
+      // Irradiances that put t E at, beside and below the data term's floor 1e-12 where t is not
+      // masked (max(t E, 1e-12) is a select on bit masks in the vectorised data term). With
+      // variant 3's windows (some middle windows with no data: a box count of [w > 0]) the middle
+      // level's signal variance meets NaN box sums there: its mean reaches ~1e21 where a window's
+      // sum of a is a negative rounding residue, so w (m - p)^2 overflows and the running sums
+      // give inf - inf. The reference's cv::max(v, 0) turns those NaNs into 0 in its vector loop
+      // and keeps them in its scalar loop (the last values of its blocks: the image's last value
+      // in gray, two of every 258 in colour); from ffe737c to d4dca5d std::max kept them all,
+      // and the NaNs spread to almost every value.
+      cv::Mat t_floor = t.clone(), e_floor = e.clone();
+      for (int y = 0; y < size.height; ++y) {
+        for (int i = 0; i < size.width * ch; ++i) {
+          float& tv = t_floor.ptr<float>(y)[i];
+          float& ev = e_floor.ptr<float>(y)[i];
+          const int k = (y * 5 + i * 3) % 13;
+          if (k == 4) ev = 1e-14f;
+          if (k == 5) ev = 4e-13f;
+          if (k == 6) ev = 9e-13f;
+          if (k == 7) ev = 1.5e-12f;
+          if (k == 8) tv = 1.0f, ev = 1e-12f;
+          if (k == 9) tv = 1.0f, ev = std::nextafter(1e-12f, 0.0f);
+        }
+      }
+      // One value of -1e30 in an image with no clipped samples and t above every variant's mask
+      // (every value has data: the signal variances' sums of a full window): u = -inf there, so
+      // every box sum downstream is NaN and the signal variances take cv::max's NaN handling at
+      // every value, the scalar loop's included, in the path with data everywhere too.
+      cv::Mat image_inf = image.clone(), t_inf = t.clone();
+      for (int y = 0; y < size.height; ++y) {
+        for (int i = 0; i < size.width * ch; ++i) {
+          float& iv = image_inf.ptr<float>(y)[i];
+          float& tv = t_inf.ptr<float>(y)[i];
+          iv = std::min(iv, 0.85f);
+          tv = std::max(tv, 0.75f);
+        }
+      }
+      image_inf.ptr<float>(size.height / 2)[size.width * ch / 3] = -1e30f;
       for (int variant = 0; variant < 5; ++variant) {
         OracleOptions o;
         if (variant == 1) o.coarse_radius = 9, o.middle_radius = 3, o.pixel_radius = 1;
@@ -239,6 +278,12 @@ TEST(Oracle, MmseEqualsPreOptimisationImplementation) {
         check(std::to_string(size.width) + "x" + std::to_string(size.height) + " ch " +
                   std::to_string(ch) + " variant " + std::to_string(variant),
               o, image, t, e, snow, veil, gain, floor_var, clip);
+        check(std::to_string(size.width) + "x" + std::to_string(size.height) + " ch " +
+                  std::to_string(ch) + " variant " + std::to_string(variant) + " t E floor",
+              o, image, t_floor, e_floor, snow, veil, gain, floor_var, clip);
+        check(std::to_string(size.width) + "x" + std::to_string(size.height) + " ch " +
+                  std::to_string(ch) + " variant " + std::to_string(variant) + " -1e30",
+              o, image_inf, t_inf, e, snow, veil, gain, floor_var, clip);
       }
     }
   }

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -19,6 +21,124 @@
 
 namespace turbid {
 namespace {
+
+// ApplySeparableKernel as it was before its vertical passes went strip by strip for all terms
+// (the pre-optimisation implementation of commit be04b57, enhancer/deconvolution.cc
+// ApplySeparableRowsFrom, as plain loops): per output row and SVD term, the vertical pass over
+// the whole row, its mirrored border, then the horizontal pass added into the row (kernels wider
+// than 25: each product added on its own).
+cv::Mat ReferenceApplySeparable(const cv::Mat& image, const cv::Mat& kernel) {
+  cv::Mat k64;
+  kernel.convertTo(k64, CV_64F);
+  cv::SVD svd(k64, cv::SVD::FULL_UV);
+  const double total = cv::sum(svd.w.mul(svd.w))[0];
+  const int kr = kernel.rows, kc = kernel.cols, ry = kr / 2, rx = kc / 2;
+  std::vector<std::vector<float>> cols, rows;
+  double captured = 0.0;
+  for (int i = 0; i < svd.w.rows; ++i) {
+    const double s = svd.w.at<double>(i);
+    captured += s * s;
+    std::vector<float> c(kr), r(kc);
+    for (int j = 0; j < kr; ++j) c[j] = static_cast<float>(svd.u.at<double>(j, i) * std::sqrt(s));
+    for (int j = 0; j < kc; ++j) r[j] = static_cast<float>(svd.vt.at<double>(i, j) * std::sqrt(s));
+    cols.push_back(c);
+    rows.push_back(r);
+    if (captured >= (1.0 - 1e-7) * total) break;
+  }
+  auto reflect = [](int i, int n) {
+    if (n == 1) return 0;
+    const int period = 2 * n - 2;
+    i %= period;
+    if (i < 0) i += period;
+    return i < n ? i : period - i;
+  };
+  const int h = image.rows, w = image.cols, c = image.channels(), n = w * c;
+  cv::Mat out(image.size(), image.type());
+  std::vector<float> ext(static_cast<size_t>(w + 2 * rx) * c);
+  for (int y = 0; y < h; ++y) {
+    float* acc = out.ptr<float>(y);
+    std::fill(acc, acc + n, 0.0f);
+    for (size_t t = 0; t < cols.size(); ++t) {
+      float* mid = ext.data() + rx * c;
+      for (int x = 0; x < n; ++x) {
+        float s = cols[t][0] * image.ptr<float>(reflect(y - ry, h))[x];
+        for (int j = 1; j < kr; ++j) s += cols[t][j] * image.ptr<float>(reflect(y + j - ry, h))[x];
+        mid[x] = s;
+      }
+      for (int x = 0; x < w + 2 * rx; ++x) {
+        if (x >= rx && x < w + rx) continue;
+        for (int ch = 0; ch < c; ++ch) ext[x * c + ch] = mid[reflect(x - rx, w) * c + ch];
+      }
+      for (int x = 0; x < n; ++x) {
+        if (kc <= 25) {
+          float s = rows[t][0] * ext[x];
+          for (int i = 1; i < kc; ++i) s += rows[t][i] * ext[x + c * i];
+          acc[x] += s;
+        } else {
+          for (int i = 0; i < kc; ++i) acc[x] += rows[t][i] * ext[x + c * i];
+        }
+      }
+    }
+  }
+  return out;
+}
+
+// Every bit equal (any NaN equals any NaN).
+bool SameBits(const cv::Mat& a, const cv::Mat& b) {
+  if (a.size() != b.size() || a.type() != b.type()) return false;
+  for (int y = 0; y < a.rows; ++y) {
+    const float* pa = a.ptr<float>(y);
+    const float* pb = b.ptr<float>(y);
+    for (int x = 0; x < a.cols * a.channels(); ++x) {
+      if (std::isnan(pa[x]) && std::isnan(pb[x])) continue;
+      if (std::memcmp(&pa[x], &pb[x], sizeof(float)) != 0) return false;
+    }
+  }
+  return true;
+}
+
+TEST(StreamedPaths, SeparableKernelEqualsPreOptimisationImplementation) {
+  // Kernels of rank 1 to 5 (2 to 4 terms share the strips) and of full rank (every term), 3 to
+  // 27 wide (27: the loops for kernels wider than 25), the Wiener inverse of the default PSF;
+  // images smaller than the kernel, odd sizes, rows shorter and longer than a strip (512 values)
+  // and not a multiple of it, gray and colour.
+  cv::RNG rng(11);
+  std::vector<cv::Mat> kernels;
+  for (int k : {3, 5, 9, 15, 27}) {
+    for (int rank : {1, 2, 3, 4, 5}) {
+      if (rank > k) continue;
+      cv::Mat kernel(k, k, CV_32F, cv::Scalar(0));
+      for (int t = 0; t < rank; ++t) {
+        cv::Mat a(k, 1, CV_32F), b(1, k, CV_32F);
+        rng.fill(a, cv::RNG::UNIFORM, -1.0, 1.0);
+        rng.fill(b, cv::RNG::UNIFORM, -1.0, 1.0);
+        kernel += a * b;
+      }
+      kernels.push_back(kernel);
+    }
+    cv::Mat full(k, k, CV_32F);
+    rng.fill(full, cv::RNG::UNIFORM, -1.0, 1.0);
+    kernels.push_back(full);
+  }
+  kernels.push_back(WienerInverseKernel(PsfKernel(PsfOptions{}).kernel, 1e-3));
+  const std::vector<cv::Size> sizes = {{1, 1},   {3, 2},    {7, 5},     {23, 37},
+                                       {83, 61}, {517, 19}, {1030, 13}, {171, 9}};
+  int compared = 0;
+  for (const cv::Mat& kernel : kernels) {
+    for (const cv::Size& size : sizes) {
+      for (int channels : {1, 3}) {
+        cv::Mat img(size, CV_32FC(channels));
+        rng.fill(img, cv::RNG::UNIFORM, -2.0, 2.0);
+        const cv::Mat got = ApplySeparableKernel(img, kernel);
+        const cv::Mat want = ReferenceApplySeparable(img, kernel);
+        ASSERT_TRUE(SameBits(got, want))
+            << "kernel " << kernel.rows << " size " << size << " channels " << channels;
+        ++compared;
+      }
+    }
+  }
+  EXPECT_EQ(compared, static_cast<int>(kernels.size() * sizes.size() * 2));
+}
 
 TEST(StreamedPaths, DeconvolveRowsEqualsDeconvolveAndDirectFilter) {
   cv::Mat img(61, 83, CV_32F);
