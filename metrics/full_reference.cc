@@ -91,6 +91,57 @@ cv::Mat Luminance(const cv::Mat& image) {
   return y;
 }
 
+namespace {
+
+// Mean and standard deviation of y over `signal` (mask != 0) and over its complement, in double,
+// two passes; each sum adds its region's values in row-major order. A region without pixels keeps
+// the result's defaults.
+void ComplementaryStats(const cv::Mat& y, const cv::Mat& signal, CnrResult* result) {
+  // Branch-free (noisy images have ragged regions): a pixel adds +0.0 to the other region's sum,
+  // which leaves it unchanged (a sum starting at +0.0 never becomes -0.0).
+  long long n_signal = 0, n_total = 0;
+  double sum_signal = 0.0, sum_background = 0.0;
+  for (int i = 0; i < y.rows; ++i) {
+    const float* py = y.ptr<float>(i);
+    const uint8_t* pm = signal.ptr<uint8_t>(i);
+    for (int j = 0; j < y.cols; ++j) {
+      const bool in = pm[j] != 0;
+      const double v = py[j];
+      sum_signal += in ? v : 0.0;
+      sum_background += in ? 0.0 : v;
+      n_signal += in;
+    }
+    n_total += y.cols;
+  }
+  const long long n_background = n_total - n_signal;
+  const double mean_signal = n_signal > 0 ? sum_signal / static_cast<double>(n_signal) : 0.0;
+  const double mean_background =
+      n_background > 0 ? sum_background / static_cast<double>(n_background) : 0.0;
+  double ss_signal = 0.0, ss_background = 0.0;
+  for (int i = 0; i < y.rows; ++i) {
+    const float* py = y.ptr<float>(i);
+    const uint8_t* pm = signal.ptr<uint8_t>(i);
+    for (int j = 0; j < y.cols; ++j) {
+      const bool in = pm[j] != 0;
+      const double ds = py[j] - mean_signal, db = py[j] - mean_background;
+      ss_signal += in ? ds * ds : 0.0;
+      ss_background += in ? 0.0 : db * db;
+    }
+  }
+  result->signal_pixels = n_signal;
+  result->background_pixels = n_background;
+  if (n_signal > 0) {
+    result->signal_mean = mean_signal;
+    result->signal_std = std::sqrt(ss_signal / static_cast<double>(n_signal));
+  }
+  if (n_background > 0) {
+    result->background_mean = mean_background;
+    result->background_std = std::sqrt(ss_background / static_cast<double>(n_background));
+  }
+}
+
+}  // namespace
+
 CnrResult Cnr(const CnrOptions& options, const cv::Mat& image) {
   ThrowIfInvalid(options, "cnr");
   CheckMetricImage(image, "cnr");
@@ -139,8 +190,15 @@ CnrResult Cnr(const CnrOptions& options, const cv::Mat& image) {
     *stddev = std::sqrt(ss / static_cast<double>(n));
     return n;
   };
-  result.signal_pixels = stats(signal, &result.signal_mean, &result.signal_std);
-  result.background_pixels = stats(background, &result.background_mean, &result.background_std);
+  if (options.signal_mask.empty()) {
+    // The Otsu regions split the image (background = not signal): one pass per statistic for both
+    // regions, each region's sum still taking its terms in pixel order (the same values as two
+    // calls of stats).
+    ComplementaryStats(y, signal, &result);
+  } else {
+    result.signal_pixels = stats(signal, &result.signal_mean, &result.signal_std);
+    result.background_pixels = stats(background, &result.background_mean, &result.background_std);
+  }
   if (result.signal_pixels == 0 || result.background_pixels == 0) {
     result.cnr = 0.0;  // one region only: no contrast to measure
     return result;

@@ -4,11 +4,14 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "metrics/image_checks.h"
 #include "scenes/error.h"
@@ -177,6 +180,56 @@ TEST(MetricImageCheck, NamesTheFirstNonFiniteElementAsCheckRange) {
     }
   }
   EXPECT_EQ(cases, 36);
+}
+
+}  // namespace
+}  // namespace turbid
+
+namespace turbid {
+namespace {
+
+// The Otsu path sums both regions in one pass per statistic; the mask path (given masks, the code
+// of both paths before that change) is the reference: the Otsu regions passed as masks must give
+// the same bits. Noisy (ragged regions), smooth colour, 8-bit, odd sizes, one region only.
+TEST(Cnr, OtsuPathGivesTheSameBitsAsItsRegionsGivenAsMasks) {
+  cv::RNG rng(18);
+  std::vector<cv::Mat> images;
+  cv::Mat noisy(97, 131, CV_32F);
+  rng.fill(noisy, cv::RNG::UNIFORM, 0.0, 1.0);
+  images.push_back(noisy);
+  cv::Mat smooth(61, 83, CV_32FC3);
+  for (int y = 0; y < smooth.rows; ++y)
+    for (int x = 0; x < smooth.cols; ++x)
+      smooth.at<cv::Vec3f>(y, x) = {x / 83.0f, 0.3f + y / 200.0f, 0.5f * std::sin(0.1f * (x + y)) + 0.5f};
+  images.push_back(smooth);
+  cv::Mat eight(40, 33, CV_8UC1);
+  rng.fill(eight, cv::RNG::UNIFORM, 0, 256);
+  images.push_back(eight);
+  images.push_back(cv::Mat(9, 7, CV_32F, cv::Scalar(0.25)));  // one region
+  cv::Mat negative(23, 17, CV_32F);
+  rng.fill(negative, cv::RNG::UNIFORM, -0.5, 0.5);  // sums through zero and below
+  images.push_back(negative);
+  for (size_t k = 0; k < images.size(); ++k) {
+    SCOPED_TRACE(k);
+    const cv::Mat& image = images[k];
+    const CnrResult otsu = Cnr({}, image);
+    const double range = image.depth() == CV_8U ? 255.0 : 1.0;
+    cv::Mat y8, above;
+    Luminance(image).convertTo(y8, CV_8U, 255.0 / range);
+    cv::threshold(y8, above, otsu.otsu_threshold, 255, cv::THRESH_BINARY);
+    CnrOptions masks;
+    masks.signal_mask = above;
+    cv::bitwise_not(above, masks.background_mask);
+    const CnrResult given = Cnr(masks, image);
+    auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof(double)) == 0; };
+    EXPECT_TRUE(same(otsu.cnr, given.cnr)) << otsu.cnr << " vs " << given.cnr;
+    EXPECT_TRUE(same(otsu.signal_mean, given.signal_mean));
+    EXPECT_TRUE(same(otsu.background_mean, given.background_mean));
+    EXPECT_TRUE(same(otsu.signal_std, given.signal_std));
+    EXPECT_TRUE(same(otsu.background_std, given.background_std));
+    EXPECT_EQ(otsu.signal_pixels, given.signal_pixels);
+    EXPECT_EQ(otsu.background_pixels, given.background_pixels);
+  }
 }
 
 }  // namespace
