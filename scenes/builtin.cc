@@ -14,6 +14,7 @@
 #include <limits>
 #include <memory>
 
+#include "scenes/builtin_internal.h"
 #include "scenes/error.h"
 
 namespace turbid {
@@ -858,19 +859,6 @@ bool BuiltinSceneOptions::Check(std::string* why) const {
 
 std::vector<std::string> BuiltinSceneNames() { return {"hull", "seafloor", "room"}; }
 
-void SetBuiltinVectorTextures(bool enabled) { g_vector_textures.store(enabled); }
-
-void BuiltinHullNoiseForTest(const double* u, const double* v, int n, double* out) {
-  std::vector<HullNoise> noise(n);
-  HullNoiseBatch(u, v, n, noise.data());
-  for (int k = 0; k < n; ++k) {
-    out[4 * k] = noise[k].paint;
-    out[4 * k + 1] = noise[k].speckle;
-    out[4 * k + 2] = noise[k].streaks;
-    out[4 * k + 3] = noise[k].fouling_patch;
-  }
-}
-
 CameraIntrinsics BuiltinSceneCamera(const std::string& name) { return ModelFor(name).camera; }
 
 CameraIntrinsics ScaleIntrinsics(const CameraIntrinsics& camera, double scale) {
@@ -971,5 +959,22 @@ Scene MakeBuiltinScene(const std::string& name, const BuiltinSceneOptions& optio
   scene.Validate();
   return scene;
 }
+
+namespace builtin_internal {
+
+void SetBuiltinVectorTextures(bool enabled) { g_vector_textures.store(enabled); }
+
+void BuiltinHullNoiseForTest(const double* u, const double* v, int n, double* out) {
+  std::vector<HullNoise> noise(n);
+  HullNoiseBatch(u, v, n, noise.data());
+  for (int k = 0; k < n; ++k) {
+    out[4 * k] = noise[k].paint;
+    out[4 * k + 1] = noise[k].speckle;
+    out[4 * k + 2] = noise[k].streaks;
+    out[4 * k + 3] = noise[k].fouling_patch;
+  }
+}
+
+}  // namespace builtin_internal
 
 }  // namespace turbid

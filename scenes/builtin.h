@@ -33,14 +33,6 @@ std::vector<std::string> BuiltinSceneNames();
 // whatever the number of threads.
 Scene MakeBuiltinScene(const std::string& name, const BuiltinSceneOptions& options = {});
 
-// For tests: false makes the textures that have a vectorised version (the hull's) use their scalar
-// code instead; both give the same bytes. Default true. Process-wide.
-void SetBuiltinVectorTextures(bool enabled);
-// For tests: the hull texture's four fractal sums at n plate points (u[k], v[k]), metres, as the
-// texture computes them (vectorised unless switched off): out[4k .. 4k + 3] = paint, speckle,
-// streaks, fouling patch.
-void BuiltinHullNoiseForTest(const double* u, const double* v, int n, double* out);
-
 // Native (scale 1) intrinsics of a built-in scene; throws Error for an unknown name.
 CameraIntrinsics BuiltinSceneCamera(const std::string& name);
 

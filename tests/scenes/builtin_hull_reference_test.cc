@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 
 #include "scenes/builtin.h"
+#include "scenes/builtin_internal.h"
 
 namespace turbid {
 namespace {
@@ -185,8 +186,8 @@ int DifferingPixels(const cv::Mat& a, const cv::Mat& b) {
 }
 
 struct VectorTextures {  // switches the vectorised path for one scope
-  explicit VectorTextures(bool on) { SetBuiltinVectorTextures(on); }
-  ~VectorTextures() { SetBuiltinVectorTextures(true); }
+  explicit VectorTextures(bool on) { builtin_internal::SetBuiltinVectorTextures(on); }
+  ~VectorTextures() { builtin_internal::SetBuiltinVectorTextures(true); }
 };
 
 // The fractal sums as doubles (the image, in float, hides most last-bit differences): random
@@ -209,7 +210,7 @@ TEST(BuiltinHullReference, FractalSumsAreBitIdentical) {
     SCOPED_TRACE(vector ? "vector" : "scalar");
     const VectorTextures mode(vector);
     std::vector<double> got(4 * static_cast<size_t>(n));
-    BuiltinHullNoiseForTest(u.data(), v.data(), n, got.data());
+    builtin_internal::BuiltinHullNoiseForTest(u.data(), v.data(), n, got.data());
     int differing = 0;
     for (int k = 0; k < n; ++k) {
       const double want[4] = {ReferenceFbm2(u[k] * 3.0, v[k] * 3.0, 5, 11u),
