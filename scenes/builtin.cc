@@ -975,6 +975,12 @@ void BuiltinHullNoiseForTest(const double* u, const double* v, int n, double* ou
   }
 }
 
+void Cellular2ForTest(double x, double y, uint32_t seed, double* distance, double* id) {
+  const Cell cell = Cellular2(x, y, seed);
+  *distance = cell.distance;
+  *id = cell.id;
+}
+
 }  // namespace builtin_internal
 
 }  // namespace turbid

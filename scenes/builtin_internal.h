@@ -1,6 +1,8 @@
 // Internals of the built-in scenes (scenes/builtin.cc), exposed for the tests; not part of the API.
 #pragma once
 
+#include <cstdint>
+
 namespace turbid::builtin_internal {
 
 // false makes the textures that have a vectorised version (the hull's) use their scalar code
@@ -11,5 +13,9 @@ void SetBuiltinVectorTextures(bool enabled);
 // computes them (vectorised unless switched off): out[4k .. 4k + 3] = paint, speckle, streaks,
 // fouling patch.
 void BuiltinHullNoiseForTest(const double* u, const double* v, int n, double* out);
+
+// The cellular noise of the textures (hull barnacles, seafloor pebbles): the distance from (x, y)
+// to the nearest of the 3 x 3 cells' feature points (std::hypot) and that point's id.
+void Cellular2ForTest(double x, double y, uint32_t seed, double* distance, double* id);
 
 }  // namespace turbid::builtin_internal

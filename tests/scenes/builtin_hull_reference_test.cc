@@ -11,8 +11,9 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <vector>
 #include <opencv2/core.hpp>
+#include <utility>
+#include <vector>
 
 #include "scenes/builtin.h"
 #include "scenes/builtin_internal.h"
@@ -33,8 +34,9 @@ uint32_t ReferenceMix(uint32_t h) {
 }
 
 double ReferenceLattice(int64_t x, int64_t y, int64_t z, uint32_t seed) {
-  const uint32_t h = ReferenceMix(static_cast<uint32_t>(x) * 0x8da6b343u + static_cast<uint32_t>(y) * 0xd8163841u +
-                                  static_cast<uint32_t>(z) * 0xcb1ab31fu + seed * 0x9e3779b9u);
+  const uint32_t h =
+      ReferenceMix(static_cast<uint32_t>(x) * 0x8da6b343u + static_cast<uint32_t>(y) * 0xd8163841u +
+                   static_cast<uint32_t>(z) * 0xcb1ab31fu + seed * 0x9e3779b9u);
   return h * (1.0 / 4294967296.0);
 }
 
@@ -50,9 +52,10 @@ double ReferenceNoise2(double x, double y, uint32_t seed) {
   const double fx = std::floor(x), fy = std::floor(y);
   const auto ix = static_cast<int64_t>(fx), iy = static_cast<int64_t>(fy);
   const double tx = ReferenceFade(x - fx), ty = ReferenceFade(y - fy);
-  const double a = ReferenceLerp(ReferenceLattice(ix, iy, 0, seed), ReferenceLattice(ix + 1, iy, 0, seed), tx);
-  const double b =
-      ReferenceLerp(ReferenceLattice(ix, iy + 1, 0, seed), ReferenceLattice(ix + 1, iy + 1, 0, seed), tx);
+  const double a =
+      ReferenceLerp(ReferenceLattice(ix, iy, 0, seed), ReferenceLattice(ix + 1, iy, 0, seed), tx);
+  const double b = ReferenceLerp(ReferenceLattice(ix, iy + 1, 0, seed),
+                                 ReferenceLattice(ix + 1, iy + 1, 0, seed), tx);
   return ReferenceLerp(a, b, ty);
 }
 
@@ -77,7 +80,8 @@ ReferenceCell ReferenceCellular2(double x, double y, uint32_t seed) {
   ReferenceCell best{1e9, 0.0};
   for (int64_t j = iy - 1; j <= iy + 1; ++j) {
     for (int64_t i = ix - 1; i <= ix + 1; ++i) {
-      const double px = i + ReferenceLattice(i, j, 1, seed), py = j + ReferenceLattice(i, j, 2, seed);
+      const double px = i + ReferenceLattice(i, j, 1, seed),
+                   py = j + ReferenceLattice(i, j, 2, seed);
       const double d = std::hypot(px - x, py - y);
       if (d < best.distance) best = {d, ReferenceLattice(i, j, 3, seed)};
     }
@@ -104,7 +108,8 @@ double ReferenceHullTexture(double u, double v) {
   auto rivet = [&](double across, double along_pos, uint32_t seed) {
     const double k = std::round(along_pos / 0.09);
     const double r = std::hypot(across, along_pos - k * 0.09);
-    if (r < 0.011 && ReferenceLattice(static_cast<int64_t>(k), static_cast<int64_t>(strake), 5, seed) > 0.12) {
+    if (r < 0.011 &&
+        ReferenceLattice(static_cast<int64_t>(k), static_cast<int64_t>(strake), 5, seed) > 0.12) {
       const double x = r / 0.011;
       value = x > 0.8 ? 0.15 : 0.78 - 0.35 * x * x;
     }
@@ -223,6 +228,45 @@ TEST(BuiltinHullReference, FractalSumsAreBitIdentical) {
   }
 }
 
+// The cellular noise (the hull's barnacles and the seafloor's pebbles use it) takes std::hypot only
+// for the feature points whose squared distance is within 1e-9 of the least: the same nearest
+// distance and id as the reference's nine hypot calls, on random points, points on cell edges and
+// on feature points themselves, points midway between two feature points (near ties),
+// and far from the origin.
+TEST(BuiltinHullReference, CellularNoiseIsBitIdentical) {
+  cv::RNG rng(17);
+  std::vector<std::pair<double, double>> points;
+  for (int k = 0; k < 40000; ++k) {
+    const double range = k < 30000 ? 200.0 : 1e9;
+    points.emplace_back(rng.uniform(-range, range), rng.uniform(-range, range));
+  }
+  for (int i = -3; i <= 3; ++i) {
+    for (int j = -3; j <= 3; ++j) {
+      points.emplace_back(i, j);
+      points.emplace_back(i + 0.5, j);
+      // The feature points of cell (i, j) and the midpoint towards cell (i + 1, j)'s.
+      const double px = i + ReferenceLattice(i, j, 1, 36u), py = j + ReferenceLattice(i, j, 2, 36u);
+      const double qx = i + 1 + ReferenceLattice(i + 1, j, 1, 36u);
+      const double qy = j + ReferenceLattice(i + 1, j, 2, 36u);
+      points.emplace_back(px, py);
+      points.emplace_back(0.5 * (px + qx), 0.5 * (py + qy));
+    }
+  }
+  int differing = 0;
+  for (const uint32_t seed : {17u, 36u}) {
+    for (const auto& [x, y] : points) {
+      const ReferenceCell want = ReferenceCellular2(x, y, seed);
+      double distance = 0.0, id = 0.0;
+      builtin_internal::Cellular2ForTest(x, y, seed, &distance, &id);
+      if (std::memcmp(&want.distance, &distance, sizeof(double)) != 0 ||
+          std::memcmp(&want.id, &id, sizeof(double)) != 0) {
+        ++differing;
+      }
+    }
+  }
+  EXPECT_EQ(differing, 0) << "of " << 2 * points.size();
+}
+
 // Native size (the one sweeps use), half and quarter size, 1 and 3 samples per side; the
 // vectorised texture path (the default) and the scalar one.
 TEST(BuiltinHullReference, SameBytesAsThePreOptimisationCode) {
@@ -231,8 +275,8 @@ TEST(BuiltinHullReference, SameBytesAsThePreOptimisationCode) {
     int ss;
     bool vector;
   };
-  const Case cases[] = {{1.0, 2, true}, {0.5, 2, true}, {0.25, 2, true}, {0.23, 3, true},
-                        {0.3, 2, false}, {0.25, 1, false}};
+  const Case cases[] = {{1.0, 2, true},  {0.5, 2, true},  {0.25, 2, true},
+                        {0.23, 3, true}, {0.3, 2, false}, {0.25, 1, false}};
   for (const Case& c : cases) {
     SCOPED_TRACE(::testing::Message() << "scale " << c.scale << ", supersampling " << c.ss
                                       << (c.vector ? ", vector" : ", scalar"));
