@@ -18,7 +18,8 @@ bool IsSafeFileComponent(const std::string& name, std::string* why) {
   if (name.size() > 200) return fail("is longer than 200 bytes");
   for (const char c : name) {
     const auto byte = static_cast<unsigned char>(c);
-    if (c == '/' || c == '\\') return fail("holds a path separator ('/' or '\\'); give a plain name");
+    if (c == '/' || c == '\\')
+      return fail("holds a path separator ('/' or '\\'); give a plain name");
     if (byte < 0x20 || byte == 0x7f) return fail("holds a control character");
   }
   if (name == "." || name == "..") return fail("is '.' or '..'; give a plain name");
@@ -66,8 +67,10 @@ bool IsSymlink(const std::string& path) {
 
 void RefuseSymlink(const std::string& path, const std::string& doing) {
   if (IsSymlink(path)) {
-    throw Error(path, "is a symbolic link; turbid " + doing +
-                          " only in folders it created (remove the link, or use another --out)");
+    throw Error(
+        path,
+        "is a symbolic link; turbid " + doing +
+            " only what it created, never through a link (remove the link, or use another --out)");
   }
 }
 

@@ -28,8 +28,9 @@ std::string PrintableName(const std::string& text);
 // Whether `path` itself is a symbolic link (lstat; false when it does not exist).
 bool IsSymlink(const std::string& path);
 
-// Throws Error("<path>: is a symbolic link; <doing> only in real folders (remove the link ...)")
-// when `path` is a symbolic link. For the folders turbid creates and later cleans or writes into.
+// Throws Error("<path>: is a symbolic link; turbid <doing> only what it created, never through a
+// link (...)") when `path` is a symbolic link. For the files and folders turbid creates and later
+// cleans or writes into.
 void RefuseSymlink(const std::string& path, const std::string& doing);
 
 }  // namespace turbid

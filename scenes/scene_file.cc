@@ -319,7 +319,8 @@ void ParseMultiFrame(ObjectReader& reader, const json& root, const fs::path& fol
   // A frame's key becomes part of its scene's name, and with it of file names.
   for (const std::string& key : spec.frames) {
     std::string why;
-    if (!IsSafeFileComponent(key, &why)) reader.Fail("frame key '" + PrintableName(key) + "' " + why);
+    if (!IsSafeFileComponent(key, &why))
+      reader.Fail("frame key '" + PrintableName(key) + "' " + why);
   }
   if (!frame_suffix.empty()) {
     if (std::find(keys.begin(), keys.end(), frame_suffix) == keys.end())

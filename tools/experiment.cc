@@ -710,7 +710,14 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
       throw Error(file, "method label '" + method.label +
                             "' is used twice (give the variants distinct 'label's)");
     }
-    // Labels name files (thumbs/<id>/<label>.png) and folders (external/<label>/).
+    // Labels name files (thumbs/<id>/<label>.png) and folders (external/<label>/); the item's
+    // own thumbnails are degraded.png, lit.png and clean.png.
+    for (const char* reserved : {"degraded", "lit", "clean"}) {
+      if (FileNameKey(method.label) == reserved) {
+        throw Error(file, "method label '" + method.label + "' is reserved (thumbs/<id>/" +
+                              reserved + ".png is the item's own thumbnail; set another 'label')");
+      }
+    }
     const auto [it, inserted] = label_keys.emplace(FileNameKey(method.label), method.label);
     if (!inserted) {
       throw Error(file, "method labels '" + it->second + "' and '" + method.label +

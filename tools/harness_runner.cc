@@ -152,8 +152,8 @@ void CheckCommandsAllowed(const Experiment& experiment, bool allowed, const std:
     const json& command = method.external.at("command");
     const std::string program = command.empty() ? "" : command[0].get<std::string>();
     throw Error(experiment.source_path.empty() ? "experiment" : experiment.source_path,
-                "method '" + method.label + "' runs an external command (" +
-                    json(program).dump() + "); an experiment's commands run only with " + how +
+                "method '" + method.label + "' runs an external command (" + json(program).dump() +
+                    "); an experiment's commands run only with " + how +
                     " (nothing in the experiment file can allow them)");
   }
 }
@@ -164,13 +164,13 @@ std::vector<std::string> DescribeCommands(const Experiment& experiment) {
     if (!IsCommandMethod(method)) continue;
     const json& spec = method.external;
     const ProcessOptions process = ProcessFor(method);
-    std::string line = "method '" + method.label + "' (" +
-                       (spec.value("batch", false)
-                            ? "one process per batch of up to " +
-                                  std::to_string(spec.value("batch_size", 32)) + " items"
-                            : std::string("one process per image")) +
-                       "): command " + spec.at("command").dump() + ", cwd " +
-                       json(process.cwd).dump() + ", env " + spec.at("env").dump();
+    std::string line =
+        "method '" + method.label + "' (" +
+        (spec.value("batch", false) ? "one process per batch of up to " +
+                                          std::to_string(spec.value("batch_size", 32)) + " items"
+                                    : std::string("one process per image")) +
+        "): command " + spec.at("command").dump() + ", cwd " + json(process.cwd).dump() + ", env " +
+        spec.at("env").dump();
     lines.push_back(line);
   }
   return lines;

@@ -155,12 +155,15 @@ void CopyThumbnails(const std::string& from, const std::string& to) {
   for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
     const fs::path relative = it->path().lexically_relative(from);
     const fs::path target = fs::path(to) / relative;
-    if (it->is_directory(ec)) {
+    // Links are never followed: a link in a shard's thumbs/ would copy (and `report` would then
+    // publish) a file from outside the shard.
+    const fs::file_type type = it->symlink_status(ec).type();
+    if (type == fs::file_type::directory) {
       fs::create_directories(target, ec);
       if (ec) throw Error(target.string(), "cannot create the thumbnail folder: " + ec.message());
       continue;
     }
-    if (!it->is_regular_file(ec) || IsTemporaryName(relative.filename().string())) continue;
+    if (type != fs::file_type::regular || IsTemporaryName(relative.filename().string())) continue;
     if (fs::exists(target, ec)) continue;
     AtomicWriteText(target.string(), ReadAll(it->path().string()), true);
   }
@@ -560,6 +563,7 @@ int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& option
                 std::to_string(specs.size()) + " items are missing (first: " + first_missing +
                 "); run the missing shards or pass --allow-partial");
   }
+  for (const std::string& dir : dirs) RefuseSymlink(dir + "/thumbs", "copies thumbnails");
   const FolderLock lock(options.out_dir, "sweep or merge");
   RemoveLeftovers(options.out_dir);
   ClaimDir(experiment, options.out_dir, options.force);

@@ -11,8 +11,8 @@ namespace turbid {
 namespace {
 
 TEST(SafeName, PlainNamesPass) {
-  for (const std::string name : {std::string("hull"), std::string("room.v2"), std::string("a-b_c"),
-                                 std::string("Reef 1"), std::string(200, 'x')}) {
+  for (const std::string& name : {std::string("hull"), std::string("room.v2"), std::string("a-b_c"),
+                                  std::string("Reef 1"), std::string(200, 'x')}) {
     std::string why;
     EXPECT_TRUE(IsSafeFileComponent(name, &why)) << name << ": " << why;
     EXPECT_EQ(SafeFileComponent("scene name", name), name);
@@ -21,7 +21,7 @@ TEST(SafeName, PlainNamesPass) {
 
 TEST(SafeName, PathsControlCharactersAndHiddenNamesAreRefused) {
   const std::string nul("a\0b", 3);
-  for (const std::string name :
+  for (const std::string& name :
        {std::string(""), std::string("."), std::string(".."), std::string("../x"),
         std::string("a/../../x"), std::string("/abs/x"), std::string("a\\b"), std::string("a\nb"),
         nul, std::string("\x7f"), std::string(".hidden"), std::string(".x.png.tmp12ab.png"),

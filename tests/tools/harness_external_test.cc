@@ -153,7 +153,8 @@ TEST(HarnessExternal, BatchAndPerImageCopiesScoreLikeTheDegradedInput) {
   const std::string exp = WriteFile(
       dir.path(), "exp.json",
       TinyExperiment(std::string("\"clahe\", ") + kCopyBatch + ", " + kCopyOne));
-  const CliRun run = RunTurbid({"sweep", exp, "--out", dir.File("out"), "--threads", "2", "--allow-commands"});
+  const CliRun run =
+      RunTurbid({"sweep", exp, "--out", dir.File("out"), "--threads", "2", "--allow-commands"});
   ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
   const auto rows = ReadItems(dir.File("out/items.csv"));
   ExpectSameMetrics(rows, "copy_batch");
@@ -232,7 +233,8 @@ TEST(HarnessExternal, FailuresMarkOnlyTheirCellsAndTheSweepGoesOn) {
     {"name": "nan", "command": ["python3", "bad.py", "nan", "{input}", "{output}"], "input": {"format": "pfm"}})";
   const std::string exp = WriteFile(dir.path(), "exp.json", TinyExperiment(methods));
   const auto start = std::chrono::steady_clock::now();
-  const CliRun run = RunTurbid({"sweep", exp, "--out", dir.File("out"), "--threads", "2", "--allow-commands"});
+  const CliRun run =
+      RunTurbid({"sweep", exp, "--out", dir.File("out"), "--threads", "2", "--allow-commands"});
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
@@ -288,7 +290,8 @@ TEST(HarnessExternal, ResumeKeepsFailedCellsUntilRetryFailed) {
   const std::string exp = WriteFile(dir.path(), "exp.json",
                                     TinyExperiment(std::string(kCopyBatch) + ", " + kCopyOne));
   const std::string out = dir.File("out");
-  const CliRun first = RunTurbid({"sweep", exp, "--out", out, "--threads", "1", "--allow-commands"});
+  const CliRun first =
+      RunTurbid({"sweep", exp, "--out", out, "--threads", "1", "--allow-commands"});
   ASSERT_EQ(first.exit_code, 0) << first.err;
   auto rows = ReadItems(out + "/items.csv");
   EXPECT_NE(rows.at("hull-c0000 copy_one").at("error").find("fail_flag is set"),
@@ -302,7 +305,8 @@ TEST(HarnessExternal, ResumeKeepsFailedCellsUntilRetryFailed) {
   EXPECT_NE(ReadItems(out + "/items.csv").at("hull-c0001 copy_one").at("error"), "");
   // --retry-failed runs the failed cells only: the batch method does not run again.
   const std::string items_before = ReadFileText(out + "/items.csv");
-  const CliRun retry = RunTurbid({"sweep", exp, "--out", out, "--retry-failed", "--allow-commands"});
+  const CliRun retry =
+      RunTurbid({"sweep", exp, "--out", out, "--retry-failed", "--allow-commands"});
   ASSERT_EQ(retry.exit_code, 0) << retry.err;
   EXPECT_NE(retry.out.find("2 items run (2 retried)"), std::string::npos) << retry.out;
   EXPECT_EQ(ReadFileText(dir.File("batch_runs.txt")), "2\n");
@@ -323,7 +327,8 @@ TEST(HarnessExternal, ResultsFolderIsScoredWithoutRunningAndMissingFilesFailPerI
   keeper.replace(keeper.find("\"EXT_TOKEN\": \"abc\""), 18,
                  "\"EXT_TOKEN\": \"abc\", \"EXT_KEEP\": \"results/theirs\"");
   const std::string first = WriteFile(dir.path(), "first.json", TinyExperiment(keeper));
-  ASSERT_EQ(RunTurbid({"sweep", first, "--out", dir.File("first"), "--allow-commands"}).exit_code, 0);
+  ASSERT_EQ(RunTurbid({"sweep", first, "--out", dir.File("first"), "--allow-commands"}).exit_code,
+            0);
   ASSERT_TRUE(fs::exists(dir.File("results/theirs/hull-c0001.pfm")));
   fs::remove(dir.File("results/theirs/hull-c0001.pfm"));
   const std::string exp = WriteFile(

@@ -34,7 +34,8 @@ std::string TinyExperiment(const std::string& methods, const std::string& extra 
   "grid": {"water.beta_gray_per_m": [0.4]},
   "methods": ["clahe")" +
          (methods.empty() ? "" : ", " + methods) + R"(],
-  "metrics": ["psnr"],)" + extra +
+  "metrics": ["psnr"],)" +
+         extra +
          R"(
   "thumbnails": 32
 })";
@@ -94,8 +95,8 @@ TEST(TrustCli, DryRunListsEveryCommandAndItsEnvironment) {
   EXPECT_EQ(refused.exit_code, 1);
   EXPECT_NE(refused.out.find("needs --allow-commands"), std::string::npos) << refused.out;
   EXPECT_NE(refused.err.find("--allow-commands"), std::string::npos) << refused.err;
-  for (const CliRun& run : {refused, RunTurbid({"sweep", exp, "--out", dir.File("out"),
-                                                "--dry-run", "--allow-commands"})}) {
+  for (const CliRun& run : {refused, RunTurbid({"sweep", exp, "--out", dir.File("out"), "--dry-run",
+                                                "--allow-commands"})}) {
     EXPECT_NE(run.out.find("method 'toucher' (one process per image): command [\"touch\",\"" +
                            marker + "\",\"{input}\",\"{output}\"]"),
               std::string::npos)
@@ -125,8 +126,8 @@ TEST(TrustCli, AllowCommandsRunsThem) {
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(fs::exists(marker));
   // Results methods run nothing: no flag needed.
-  const std::string results = dir.Write(
-      "results.json", TinyExperiment(R"({"name": "theirs", "results": "r/{id}.png"})"));
+  const std::string results =
+      dir.Write("results.json", TinyExperiment(R"({"name": "theirs", "results": "r/{id}.png"})"));
   EXPECT_EQ(RunTurbid({"sweep", results, "--out", dir.File("out2")}).exit_code, 0);
 }
 
@@ -139,10 +140,16 @@ std::string SceneFile(const std::string& name) {
 TEST(TrustCli, SceneNamesThatAreNotOneFileNameAreRefused) {
   TempDir dir;
   fs::create_directories(dir.File("a/b"));
-  const std::vector<std::string> bad = {
-      R"("../../escaped")", R"("a/../../escaped")", "\"" + dir.File("escaped") + "\"",
-      R"("..")", R"(".")", R"(".hidden")", R"("")", R"("tab\there")", R"("nul\u0000x")",
-      R"("back\\slash")"};
+  const std::vector<std::string> bad = {R"("../../escaped")",
+                                        R"("a/../../escaped")",
+                                        "\"" + dir.File("escaped") + "\"",
+                                        R"("..")",
+                                        R"(".")",
+                                        R"(".hidden")",
+                                        R"("")",
+                                        R"("tab\there")",
+                                        R"("nul\u0000x")",
+                                        R"("back\\slash")"};
   for (const std::string& name : bad) {
     const std::string scene = dir.Write("a/b/scene.json", SceneFile(name));
     const CliRun run = RunTurbid({"scene", scene, "--out", dir.File("a/b/out")});
@@ -153,9 +160,9 @@ TEST(TrustCli, SceneNamesThatAreNotOneFileNameAreRefused) {
     EXPECT_FALSE(fs::exists(dir.File("escaped"))) << name;
     EXPECT_FALSE(fs::exists(dir.File("a/escaped"))) << name;
     // generate: the degraded image and its ground truth must never be one file.
-    const std::string config = dir.Write(
-        "a/b/gen.json", R"({"scenes": [")" + dir.File("a/b/scene.json") +
-                            R"("], "grid": {"water.beta_gray_per_m": [0.5]}})");
+    const std::string config =
+        dir.Write("a/b/gen.json", R"({"scenes": [")" + dir.File("a/b/scene.json") +
+                                      R"("], "grid": {"water.beta_gray_per_m": [0.5]}})");
     const CliRun gen = RunTurbid({"generate", config, "--out", dir.File("a/b/gen")});
     EXPECT_EQ(gen.exit_code, 1) << name;
     EXPECT_NE(gen.err.find("scene name"), std::string::npos) << name << " -> " << gen.err;
@@ -189,6 +196,19 @@ TEST(TrustCli, NamesDifferingOnlyInCaseAreRefused) {
   const CliRun label = RunTurbid({"sweep", labels, "--out", dir.File("out"), "--dry-run"});
   EXPECT_EQ(label.exit_code, 1);
   EXPECT_NE(label.err.find("differ only in case"), std::string::npos) << label.err;
+}
+
+TEST(TrustCli, MethodLabelsCannotTakeTheItemsOwnThumbnailNames) {
+  TempDir dir;
+  for (const std::string& label :
+       {std::string("degraded"), std::string("Lit"), std::string("clean")}) {
+    const std::string exp =
+        dir.Write("exp.json", TinyExperiment(R"({"name": "clahe", "label": ")" + label + R"("})"));
+    const CliRun run = RunTurbid({"sweep", exp, "--out", dir.File("out"), "--dry-run"});
+    EXPECT_EQ(run.exit_code, 1) << label;
+    EXPECT_NE(run.err.find("method label '" + label + "' is reserved"), std::string::npos)
+        << run.err;
+  }
 }
 
 TEST(TrustCli, TamperedResolvedExperimentCannotNameFilesOutsideTheFolder) {
@@ -256,10 +276,29 @@ TEST(TrustCli, SweepCleanUpNeverFollowsLinks) {
   EXPECT_TRUE(victim_intact());
 }
 
+TEST(TrustCli, MergeNeverCopiesThroughLinks) {
+  TempDir dir;
+  const std::string exp = dir.Write("exp.json", TinyExperiment(""));
+  const std::string out = dir.File("out");
+  ASSERT_EQ(RunTurbid({"sweep", exp, "--out", out}).exit_code, 0);
+  std::ofstream(dir.File("secret.txt")) << "private";
+  fs::create_symlink(dir.File("secret.txt"), out + "/thumbs/hull-c0000/secret.png");
+  const CliRun merge = RunTurbid({"merge", out, "--out", dir.File("merged")});
+  ASSERT_EQ(merge.exit_code, 0) << merge.err;
+  EXPECT_TRUE(fs::exists(dir.File("merged/thumbs/hull-c0000/degraded.png")));
+  EXPECT_FALSE(fs::exists(fs::symlink_status(dir.File("merged/thumbs/hull-c0000/secret.png"))));
+  // A shard whose thumbs/ is a link is refused before anything is written.
+  fs::rename(out + "/thumbs", dir.File("thumbs-real"));
+  fs::create_directory_symlink(dir.File("thumbs-real"), out + "/thumbs");
+  const CliRun linked = RunTurbid({"merge", out, "--out", dir.File("merged2")});
+  EXPECT_EQ(linked.exit_code, 1);
+  EXPECT_NE(linked.err.find("thumbs: is a symbolic link"), std::string::npos) << linked.err;
+  EXPECT_FALSE(fs::exists(dir.File("merged2")));
+}
+
 TEST(TrustCli, GenerateCleanUpNeverFollowsLinks) {
   TempDir dir;
-  const std::string config = dir.Write(
-      "gen.json", R"({"scenes": ["builtin:seafloor"], "scale": 0.1,
+  const std::string config = dir.Write("gen.json", R"({"scenes": ["builtin:seafloor"], "scale": 0.1,
                       "grid": {"water.beta_gray_per_m": [0.5]}})");
   const std::string victim = dir.File("victim");
   fs::create_directories(victim);
