@@ -151,14 +151,17 @@ note "slurm is up: slurmctld :$ctld_port, slurmd :$slurmd_port, node $host with 
 cp "$here/test_experiment.json" "$here/slow_copy.py" "$tmp/work/"
 exp="$tmp/work/test_experiment.json"
 out="$tmp/work/results"
-total=$("$bin" sweep "$exp" --out "$tmp/work/none" --dry-run | grep -o '= [0-9]* items' | cut -d' ' -f2)
+# Its external method runs only with --allow-commands (TURBID_ALLOW_COMMANDS=1 for the scripts).
+"$bin" sweep "$exp" --out "$tmp/work/none" --dry-run >/dev/null 2>&1 &&
+  fail "turbid sweep --dry-run accepted an external command without --allow-commands"
+total=$("$bin" sweep "$exp" --out "$tmp/work/none" --dry-run --allow-commands | grep -o '= [0-9]* items' | cut -d' ' -f2)
 [[ -n "$total" ]] || fail "turbid sweep --dry-run does not print the item count"
 # The unsharded reference, outside Slurm, first: its summary is the merge job's regress baseline.
-timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet >"$tmp/log/whole.out" 2>&1 ||
+timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet --allow-commands >"$tmp/log/whole.out" 2>&1 ||
   fail "the unsharded sweep failed: $(tail -n 1 "$tmp/log/whole.out")"
 note "unsharded sweep done"
 ids=$(cd "$tmp/work" && TURBID_BIN="$bin" TURBID_BASELINE="$tmp/work/whole/summary.csv" \
-  bash "$here/submit.sh" "$exp" "$out" "$shards") ||
+  TURBID_ALLOW_COMMANDS=1 bash "$here/submit.sh" "$exp" "$out" "$shards") ||
   fail "submit.sh failed"
 read -r array merge <<<"$ids"
 note "submitted array job $array (shards 0-$((shards - 1)) of $total items) and merge job $merge"
