@@ -51,7 +51,8 @@ json ParseParams(const std::vector<std::string>& items) {
       throw Error("--param '" + item + "': expected key=value");
     }
     const std::string key = item.substr(0, eq), text = item.substr(eq + 1);
-    std::optional<json> value = ParseJsonIfValid(text, "--param '" + item + "'");
+    const std::string shown = item.size() > 60 ? item.substr(0, 57) + "..." : item;
+    std::optional<json> value = ParseJsonIfValid(text, "--param '" + shown + "'");
     params[key] = value ? std::move(*value) : json(text);
   }
   return params;
