@@ -19,6 +19,7 @@
 #include <system_error>
 
 #include "scenes/error.h"
+#include "scenes/input_file.h"
 
 namespace turbid {
 namespace fs = std::filesystem;
@@ -323,6 +324,7 @@ std::string Sha256Bytes(const std::string& bytes) {
 }
 
 std::string Sha256File(const std::string& path) {
+  CheckInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open for reading");
   Sha256 hash;

@@ -16,6 +16,7 @@
 #include "scenes/error.h"
 #include "scenes/folder_dataset.h"
 #include "scenes/image_io.h"
+#include "scenes/json_io.h"
 #include "scenes/limits.h"
 #include "scenes/normals.h"
 #include "scenes/nyu_depth_v2.h"
@@ -381,18 +382,8 @@ cv::Mat DepthFromDisparity(const cv::Mat& disparity_px, double fx_px, double bas
 SceneFileSpec ParseSceneFile(const std::string& spec_path) {
   const auto [json_path, frame_suffix] = SplitFrameSuffix(spec_path);
   std::error_code ec;
-  if (!fs::exists(json_path, ec)) throw Error(json_path, "file not found");
   if (fs::is_directory(json_path, ec)) throw Error(json_path, "is a folder, not a scene file");
-  std::ifstream in(json_path, std::ios::binary);
-  if (!in) throw Error(json_path, "cannot open for reading");
-  json root;
-  try {
-    root = json::parse(in);
-  } catch (const json::exception& e) {  // parse errors and number overflow (1e999)
-    std::string what = e.what();
-    const size_t cut = what.find("] ");
-    throw Error(json_path, "invalid JSON: " + (cut == std::string::npos ? what : what.substr(cut + 2)));
-  }
+  const json root = ReadJsonFile(json_path);  // regular file, strict (depth, duplicate keys)
   ObjectReader reader(json_path, "", root);
   SceneFileSpec spec;
   spec.source = json_path;

@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "scenes/error.h"
+#include "scenes/input_file.h"
 #include "tools/cli.h"
 #include "tools/experiment.h"
 #include "tools/harness_runner.h"
@@ -141,6 +142,7 @@ void RunRegressCommand(const RegressArgs& args) {
     // The baseline's kind from its header (a summary.csv starts "level,method,metric"), else
     // from its name.
     std::string header;
+    CheckInputFile(args.baseline);
     std::ifstream baseline_in(args.baseline);
     std::getline(baseline_in, header);
     const bool summary_baseline =

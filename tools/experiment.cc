@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "scenes/error.h"
+#include "scenes/json_io.h"
 #include "scenes/limits.h"
 #include "scenes/safe_name.h"
 #include "tools/external_method.h"
@@ -800,16 +801,7 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
 }
 
 Experiment LoadExperimentFile(const std::string& path, const HarnessCatalog& catalog) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open the experiment file");
-  json parsed;
-  try {
-    parsed = json::parse(in);
-  } catch (const json::parse_error& error) {
-    std::string message = error.what();
-    throw Error(path, "invalid JSON: " + message.substr(message.find(']') + 2));
-  }
-  return ParseExperiment(parsed, path, catalog);
+  return ParseExperiment(ReadJsonFile(path), path, catalog);
 }
 
 std::vector<ItemSpec> ExpandItems(const Experiment& e) {

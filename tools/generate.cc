@@ -12,12 +12,14 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/json_io.h"
 #include "scenes/limits.h"
 #include "scenes/safe_name.h"
 #include "scenes/scene_loader.h"
@@ -29,12 +31,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-json ReadSidecar(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw Error(path, "cannot open");
-  return json::parse(file);
-}
 
 // Sets a dotted path ("psf.forward_scatter", "light.lights.0.power") in a JSON object.
 void SetPath(json& root, const std::string& path, const json& value) {
@@ -132,13 +128,10 @@ void ApplyRenderSet(json& params, const std::string& assignment) {
   if (eq == std::string::npos || eq == 0)
     throw Error("--set '" + assignment + "': expected KEY=VALUE");
   const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
-  json value;
-  try {
-    value = json::parse(text);
-  } catch (const json::exception&) {
-    value = text;
-  }
-  SetRenderParam(params, key, value);
+  // The flag as the error names it (a long value shortened: the message stays one short line).
+  const std::string shown = assignment.size() > 60 ? assignment.substr(0, 57) + "..." : assignment;
+  std::optional<json> value = ParseJsonIfValid(text, "--set '" + shown + "'");
+  SetRenderParam(params, key, value ? std::move(*value) : json(text));
 }
 
 json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::string& path) {
@@ -396,7 +389,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
     for (int i = 0; i < 3; ++i)
       if (!fs::exists(p[i])) return false;
     try {
-      return ReadSidecar(p[3]).at("options") == item.params;
+      return ReadJsonFile(p[3]).at("options") == item.params;
     } catch (...) {
       return false;
     }

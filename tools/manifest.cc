@@ -5,12 +5,15 @@
 #include <nlohmann/json.hpp>
 
 #include "scenes/error.h"
+#include "scenes/input_file.h"
+#include "scenes/json_io.h"
 #include "tools/tables.h"
 
 namespace turbid {
 namespace fs = std::filesystem;
 
 std::vector<ManifestRecord> ReadManifest(const std::string& path) {
+  CheckInputFile(path);
   std::ifstream in(path);
   if (!in) throw Error(path, "cannot open manifest");
   std::vector<ManifestRecord> records;
@@ -24,9 +27,10 @@ std::vector<ManifestRecord> ReadManifest(const std::string& path) {
       if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
       nlohmann::json row;
       try {
-        row = nlohmann::json::parse(line);
-      } catch (const std::exception&) {
-        throw Error(path, "line " + std::to_string(number) + " is not valid JSON");
+        row = ParseJson(line, path);
+      } catch (const JsonError& e) {
+        throw Error(path,
+                    "line " + std::to_string(number) + " is not valid JSON (" + e.problem() + ")");
       }
       if (!row.is_object())
         throw Error(path, "line " + std::to_string(number) + " is not a JSON object");

@@ -4,10 +4,12 @@
 #include <fstream>
 
 #include "scenes/image_io.h"
+#include "scenes/input_file.h"
 
 namespace turbid {
 
 int IntegerBitDepth(const std::string& path) {
+  CheckInputFile(path);
   std::ifstream in(path, std::ios::binary);
   unsigned char header[26] = {};
   in.read(reinterpret_cast<char*>(header), sizeof(header));

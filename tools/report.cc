@@ -12,6 +12,7 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
+#include "scenes/input_file.h"
 #include "tools/sweep.h"
 #include "tools/tables.h"
 
@@ -21,6 +22,7 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string ReadAll(const std::string& path) {
+  if (!InputFileProblem(path).empty()) return "";  // missing, or a FIFO / device planted there
   std::ifstream in(path, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();

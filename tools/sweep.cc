@@ -24,6 +24,8 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
+#include "scenes/input_file.h"
+#include "scenes/json_io.h"
 #include "scenes/safe_name.h"
 #include "tools/item_scheduler.h"
 
@@ -33,13 +35,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+std::string ReadAll(const std::string& path) { return ReadInputFile(path); }
 
 std::string ExperimentText(const Experiment& experiment) {
   return experiment.ToJson().dump(2) + "\n";
@@ -190,6 +186,9 @@ bool SweepOptions::Check(std::string* why) const {
 
 std::map<std::string, json> Journal::Load(bool repair) {
   std::map<std::string, json> entries;
+  std::error_code ec;
+  if (!fs::exists(path_, ec)) return entries;
+  CheckInputFile(path_);  // a FIFO or device planted as the journal would block or never end
   std::ifstream in(path_, std::ios::binary);
   if (!in) return entries;
   std::ostringstream buffer;
@@ -206,11 +205,10 @@ std::map<std::string, json> Journal::Load(bool repair) {
     if (!line.empty()) {
       json entry;
       try {
-        entry = json::parse(line);
-      } catch (const json::exception&) {  // parse_error, or out_of_range for a number like 1e999
-        throw Error(path_, "line " + std::to_string(line_number) +
-                               " is corrupt (not a partial "
-                               "last line); move the file away to start over");
+        entry = ParseJson(line, path_);
+      } catch (const JsonError& e) {  // syntax, depth, duplicate key, 1e999
+        throw Error(path_, "line " + std::to_string(line_number) + " is corrupt (" + e.problem() +
+                               "; not a partial last line); move the file away to start over");
       }
       const json* id = entry.is_object() && entry.contains("id") ? &entry["id"] : nullptr;
       if (!id || !id->is_string() || id->get<std::string>().empty())
@@ -506,11 +504,7 @@ SweepDir LoadSweepDir(const std::string& dir) {
   const std::string path = dir + "/experiment.json";
   if (!fs::exists(path)) throw Error(dir, "not a sweep folder (no experiment.json)");
   SweepDir out;
-  try {
-    out.experiment_json = json::parse(ReadAll(path));
-  } catch (const json::parse_error& error) {
-    throw Error(path, std::string("invalid JSON: ") + error.what());
-  }
+  out.experiment_json = ReadJsonFile(path);
   out.experiment = ExperimentFromResolvedJson(out.experiment_json, path);
   Journal journal(dir + "/journal.jsonl");
   const std::map<std::string, json> entries = journal.Load(/*repair=*/false);

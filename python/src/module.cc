@@ -29,6 +29,8 @@
 #include "metrics/registry.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/input_file.h"
+#include "scenes/json_io.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/experiment.h"
@@ -63,21 +65,17 @@ bool LooksLikeIo(const std::string& m) {
   return false;
 }
 
+// The strict parse of scenes/json_io.h (depth, duplicate keys, numbers in range).
 json ParseJsonText(const std::string& text, const std::string& what) {
-  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) throw Error(what + ": not valid JSON");
-  return j;
+  return ParseJson(text, what);
 }
 
-// The CLI's reading of JSON files (tools/cmd_render.cc), with its messages.
-json ReadJsonFile(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw IoError(path, "cannot open");
-  try {
-    return json::parse(file);
-  } catch (const json::exception& e) {
-    throw Error(path, std::string("not valid JSON: ") + e.what());
-  }
+// The CLI's reading of JSON files (scenes/json_io.h); a path that is not a readable regular file
+// is an OSError.
+json ReadConfigFile(const std::string& path) {
+  const std::string problem = InputFileProblem(path);
+  if (!problem.empty()) throw IoError(path, problem);
+  return ReadJsonFile(path);
 }
 
 // ---- arrays ------------------------------------------------------------------------------------
@@ -446,7 +444,7 @@ InProcessMethod PythonCallable(py::handle fn) {
 json ConfigFrom(const py::object& config, std::string* source) {
   if (py::isinstance<py::str>(config) || py::hasattr(config, "__fspath__")) {
     *source = py::str(py::module_::import("os").attr("fspath")(config));
-    return ReadJsonFile(*source);
+    return ReadConfigFile(*source);
   }
   *source = "<dict>";
   return ParseJsonText(py::module_::import("json").attr("dumps")(config).cast<std::string>(),
