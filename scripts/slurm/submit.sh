@@ -7,35 +7,60 @@
 #          --cpus-per-task=8 --time=02:00:00 --partition=cpu
 # Environment: TURBID_BIN (default ./build/turbid), TURBID_SWEEP_ARGS, TURBID_BASELINE (see the
 # .sbatch files), TURBID_ARRAY_THROTTLE (k: at most k tasks at once), TURBID_MERGE_SBATCH_ARGS.
-# Paths are made absolute, so the jobs may start in any folder.
+# TURBID_SWEEP_ARGS and TURBID_MERGE_SBATCH_ARGS are split at whitespace (spaces, tabs, newlines)
+# and nothing else: no quotes, no globbing, no expansion, so one argument cannot hold a space.
+#
+# Paths may hold any character (spaces, commas, '%', quotes, backslashes, newlines): they reach
+# the jobs as environment variables of this process (sbatch --export=ALL), never inside an sbatch
+# option, and the logs are named relative to RESULTS_DIR/logs, the jobs' working folder. Paths
+# are made absolute, so the jobs may start on any node.
 set -euo pipefail
 if (($# < 3)); then
   echo "usage: $0 EXP.json RESULTS_DIR N [sbatch options for the array...]" >&2
   exit 2
 fi
 here=$(cd "$(dirname "$0")" && pwd)
-exp=$(realpath "$1")
-out=$(realpath -m "$2")
+exp=$(realpath -- "$1")
+out=$(realpath -m -- "$2")
 n=$3
 shift 3
 if ! [[ "$n" =~ ^[1-9][0-9]*$ ]]; then
   echo "submit.sh: N must be a positive integer, got '$n'" >&2
   exit 2
 fi
+if [[ -n "${TURBID_ARRAY_THROTTLE:-}" && ! "$TURBID_ARRAY_THROTTLE" =~ ^[1-9][0-9]*$ ]]; then
+  echo "submit.sh: TURBID_ARRAY_THROTTLE must be a positive integer, got '$TURBID_ARRAY_THROTTLE'" >&2
+  exit 2
+fi
 [[ -f "$exp" ]] || { echo "submit.sh: no experiment file $exp" >&2; exit 2; }
-bin=$(realpath "${TURBID_BIN:-./build/turbid}")
+bin=$(realpath -- "${TURBID_BIN:-./build/turbid}")
 [[ -x "$bin" ]] || { echo "submit.sh: $bin is not executable (set TURBID_BIN)" >&2; exit 2; }
+# Whitespace-separated lists of arguments, without glob or any other expansion.
+split_words() {  # split_words ARRAY_NAME TEXT
+  local -n words=$1
+  words=()
+  [[ -n "$2" ]] || return 0
+  read -r -d '' -a words <<<"$2" || true
+}
+split_words sweep_args "${TURBID_SWEEP_ARGS:-}"
+split_words merge_args "${TURBID_MERGE_SBATCH_ARGS:-}"
 # Validate before queueing anything: a bad experiment fails here, not in N tasks.
-"$bin" sweep "$exp" --out "$out/shard-0" --shard "0/$n" --dry-run >/dev/null
+"$bin" sweep "$exp" --out "$out/shard-0" --shard "0/$n" --dry-run "${sweep_args[@]}" >/dev/null
 mkdir -p "$out/logs"
 range="0-$((n - 1))${TURBID_ARRAY_THROTTLE:+%$TURBID_ARRAY_THROTTLE}"
-vars="ALL,TURBID_EXP=$exp,TURBID_OUT=$out,TURBID_BIN=$bin,TURBID_SHARDS=$n"
-array=$(sbatch --parsable --array="$range" --export="$vars" \
-  --output="$out/logs/sweep-%A_%a.out" "$@" "$here/sweep.sbatch")
+# What the jobs read (sweep.sbatch, merge.sbatch): exported here, passed on by --export=ALL.
+export TURBID_EXP="$exp" TURBID_OUT="$out" TURBID_BIN="$bin" TURBID_SHARDS="$n"
+if [[ -n "${TURBID_BASELINE:-}" ]]; then
+  TURBID_BASELINE=$(realpath -- "$TURBID_BASELINE")  # the merge job starts in RESULTS_DIR/logs
+  export TURBID_BASELINE
+fi
+# sbatch runs in RESULTS_DIR/logs: the jobs start there, and their log names are relative to it.
+# --export=ALL comes after the user's options so that it is the one in effect.
+array=$(cd "$out/logs" && sbatch --parsable --array="$range" --output=sweep-%A_%a.out "$@" \
+  --export=ALL "$here/sweep.sbatch")
 array=${array%%;*}
-# shellcheck disable=SC2086  # TURBID_MERGE_SBATCH_ARGS is a list of options
-merge=$(sbatch --parsable --dependency="afterok:$array" --kill-on-invalid-dep=yes \
-  --export="$vars" --output="$out/logs/merge-%j.out" ${TURBID_MERGE_SBATCH_ARGS:-} \
-  "$here/merge.sbatch")
+[[ "$array" =~ ^[0-9]+$ ]] || { echo "submit.sh: sbatch returned no job id ('$array')" >&2; exit 1; }
+merge=$(cd "$out/logs" && sbatch --parsable --dependency="afterok:$array" --kill-on-invalid-dep=yes \
+  --output=merge-%j.out "${merge_args[@]}" --export=ALL "$here/merge.sbatch")
 merge=${merge%%;*}
 echo "$array $merge"

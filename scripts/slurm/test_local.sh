@@ -147,18 +147,26 @@ done
   skip "the node did not come up (state '$state'): $(grep -h error "$tmp"/log/*.log | grep -v -i pmix | tail -n 1)"
 note "slurm is up: slurmctld :$ctld_port, slurmd :$slurmd_port, node $host with $cpus CPUs"
 
-# The experiment and its external method, copied so that the run writes nothing into the repository.
-cp "$here/test_experiment.json" "$here/slow_copy.py" "$tmp/work/"
-exp="$tmp/work/test_experiment.json"
-out="$tmp/work/results"
-total=$("$bin" sweep "$exp" --out "$tmp/work/none" --dry-run | grep -o '= [0-9]* items' | cut -d' ' -f2)
+# The experiment and its external method, copied so that the run writes nothing into the
+# repository. The experiment's and the results' folders hold a space, commas (a naive
+# --export=...,TURBID_OUT=... would start a new variable at each), '%' (a pattern in --output),
+# quotes and a backslash: the jobs must find them unchanged.
+wdir="$tmp/work/exp a b,LD_PRELOAD=/x,TURBID_SHARDS=9 100%j 'q' \"d\" \\"
+mkdir -p "$wdir" || fail "cannot create $wdir"
+cp "$here/test_experiment.json" "$here/slow_copy.py" "$wdir/"
+exp="$wdir/test_experiment.json"
+out="$tmp/work/results, 100%A_%a 'q' \"d\" \\ x"
+# The experiment runs an external program: a turbid that asks for the opt-in gets it here.
+sweep_args=()
+if "$bin" sweep --help 2>&1 | grep -q -- --allow-commands; then sweep_args=(--allow-commands); fi
+total=$("$bin" sweep "$exp" --out "$tmp/work/none" --dry-run "${sweep_args[@]}" | grep -o '= [0-9]* items' | cut -d' ' -f2)
 [[ -n "$total" ]] || fail "turbid sweep --dry-run does not print the item count"
 # The unsharded reference, outside Slurm, first: its summary is the merge job's regress baseline.
-timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet >"$tmp/log/whole.out" 2>&1 ||
+timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet "${sweep_args[@]}" >"$tmp/log/whole.out" 2>&1 ||
   fail "the unsharded sweep failed: $(tail -n 1 "$tmp/log/whole.out")"
 note "unsharded sweep done"
 ids=$(cd "$tmp/work" && TURBID_BIN="$bin" TURBID_BASELINE="$tmp/work/whole/summary.csv" \
-  bash "$here/submit.sh" "$exp" "$out" "$shards") ||
+  TURBID_SWEEP_ARGS="${sweep_args[*]}" bash "$here/submit.sh" "$exp" "$out" "$shards") ||
   fail "submit.sh failed"
 read -r array merge <<<"$ids"
 note "submitted array job $array (shards 0-$((shards - 1)) of $total items) and merge job $merge"
@@ -220,5 +228,7 @@ for f in experiment.json items.csv items.jsonl summary.md summary.csv; do
 done
 diff -r -q "$out/merged/thumbs" "$tmp/work/whole/thumbs" >/dev/null ||
   fail "merged thumbnails differ from the unsharded run's"
+[[ ! -e "$tmp/work/results" && -z "$(find "$tmp/work" -maxdepth 1 -name '*LD_PRELOAD*' ! -name 'exp a b*')" ]] ||
+  fail "a path was split: $(ls "$tmp/work")"
 passed=1
-note "PASS: $shards shards (task $victim requeued mid-run) merged equal the unsharded run byte for byte (experiment.json, items.csv, items.jsonl, summary.md, summary.csv, thumbs/)"
+note "PASS: $shards shards (task $victim requeued mid-run), experiment and results paths with spaces, commas, %, quotes and a backslash, merged equal the unsharded run byte for byte (experiment.json, items.csv, items.jsonl, summary.md, summary.csv, thumbs/)"
