@@ -201,9 +201,8 @@ struct Plotter {
     std::error_code ec;
     fs::remove(svg, ec);
     // A gnuplot named by a relative path still works after the cd.
-    const std::string program = gnuplot.find('/') == std::string::npos
-                                    ? gnuplot
-                                    : fs::absolute(gnuplot, ec).string();
+    const std::string program =
+        gnuplot.find('/') == std::string::npos ? gnuplot : fs::absolute(gnuplot, ec).string();
     const std::string command = "cd " + ShellQuote(dir) + " && " + ShellQuote(program) + " " +
                                 ShellQuote(name + ".gp") + " 2>" + ShellQuote(name + ".log") +
                                 " </dev/null";
@@ -348,7 +347,8 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   {
     const HarnessMetricInfo& primary = e.metrics.front();
     std::ostringstream data;
-    data << "# mean_time_ms mean_" << primary.name << " (each row after a comment naming its method)\n";
+    data << "# mean_time_ms mean_" << primary.name
+         << " (each row after a comment naming its method)\n";
     std::ostringstream labels;  // one `set label` per point: the method names stay in the script
     int points = 0;
     for (const ExperimentMethod& m : e.methods) {
@@ -366,11 +366,11 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
       if (t.n == 0 || q.n == 0 || !std::isfinite(q.mean)) continue;
       const double time_ms = std::max(t.mean, 1e-3);  // > 0 for the log-scale axis
       const std::string label = batch_share ? m.label + " (batch)" : m.label;
-      data << "# " << OneLine(label) << "\n" << FormatValue(time_ms) << " " << FormatValue(q.mean) << "\n";
+      data << "# " << OneLine(label) << "\n"
+           << FormatValue(time_ms) << " " << FormatValue(q.mean) << "\n";
       ++points;
       labels << "set label " << points << " " << GpString(label) << " at first "
-             << FormatValue(time_ms) << ", first " << FormatValue(q.mean)
-             << " center offset 0,1\n";
+             << FormatValue(time_ms) << ", first " << FormatValue(q.mean) << " center offset 0,1\n";
     }
     if (points > 0) {
       AtomicWriteText(report_dir + "/time_vs_metric.dat", data.str(), true);

@@ -47,7 +47,8 @@ std::string JsonString(const std::string& text) {
 // Files the payloads created (none expected).
 std::string Created(const std::string& pwned) {
   std::string names;
-  for (const auto& entry : fs::directory_iterator(pwned)) names += entry.path().filename().string() + " ";
+  for (const auto& entry : fs::directory_iterator(pwned))
+    names += entry.path().filename().string() + " ";
   return names;
 }
 
@@ -77,8 +78,7 @@ class ReportInjection : public ::testing::Test {
               ", \"water.beta_gray_per_m\": " + std::to_string(beta) + "}";
       beta += 0.5;
     }
-    return "{\"name\": " +
-           JsonString("inj <script>alert(1)</script> `" + Touch("name_bq") + "`") +
+    return "{\"name\": " + JsonString("inj <script>alert(1)</script> `" + Touch("name_bq") + "`") +
            ",\n\"description\": " +
            JsonString("</pre><script>alert(2)</script> & 'q' \"dq\" `" + Touch("desc_bq") + "`") +
            ",\n\"seed\": 5, \"scale\": 0.1, \"scenes\": [\"builtin:hull\"],\n\"grid\": {" +
@@ -102,8 +102,8 @@ TEST_F(ReportInjection, PayloadRunsInADoubleQuotedGnuplotString) {
 
 TEST_F(ReportInjection, HostileLabelsAxisAndFolderRunNothingAndStillPlot) {
   if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) GTEST_SKIP() << "no gnuplot";
-  const std::string axis = "@turb`" + Touch("axis_bq") + "`$(" + Touch("axis_dollar") +
-                           ") 'sq' \"dq\" \\\" @x %s %%";
+  const std::string axis =
+      "@turb`" + Touch("axis_bq") + "`$(" + Touch("axis_dollar") + ") 'sq' \"dq\" \\\" @x %s %%";
   const std::vector<std::string> levels = {
       "low`" + Touch("level_bq") + "`",
       "mid\"; system(\"" + Touch("level_dq") + "\"); \"",
