@@ -82,6 +82,14 @@ std::string GpString(const std::string& text) {
   return out + "'";
 }
 
+// A label of `set xtics ("label" x, ...)`: gnuplot reads it as a format for the tic's value, so a
+// '%' is written twice.
+std::string GpTicLabel(const std::string& text) {
+  std::string escaped;
+  for (char c : text) escaped += c == '%' ? std::string("%%") : std::string(1, c);
+  return GpString(escaped);
+}
+
 // Text for a comment line of a gnuplot data file: control characters become spaces.
 std::string OneLine(std::string text) {
   for (char& c : text) {
@@ -301,7 +309,7 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     xtics = "set xtics (";
     for (size_t i = 0; i < levels.size(); ++i) {
       if (!level_x.count(levels[i])) continue;
-      xtics += (xtics.back() == '(' ? "" : ", ") + GpString(levels[i]) + " " +
+      xtics += (xtics.back() == '(' ? "" : ", ") + GpTicLabel(levels[i]) + " " +
                FormatValue(level_x[levels[i]]);
     }
     xtics += ")\n";

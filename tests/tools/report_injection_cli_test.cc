@@ -133,6 +133,8 @@ TEST_F(ReportInjection, HostileLabelsAxisAndFolderRunNothingAndStillPlot) {
   EXPECT_NE(ssim.find("hi'; system('cd $TURBID_PWNED; touch level_sq'); '"), std::string::npos);
   EXPECT_NE(ssim.find("turb`cd $TURBID_PWNED; touch axis_bq`"), std::string::npos);
   EXPECT_NE(ssim.find("@x $(cd $TURBID_PWNED; touch method_dollar)"), std::string::npos);
+  // A tic label is a format for gnuplot: its '%' is shown once.
+  EXPECT_NE(ssim.find("touch level_dollar) @axis 100% &lt;b>&amp;amp;"), std::string::npos);
   // The page: only turbid's own script element and image tags, every data string escaped.
   const std::string html = ReadFileText(out + "/report.html");
   EXPECT_EQ(Count(html, "<script"), 1) << "markup from the experiment reached the page";
