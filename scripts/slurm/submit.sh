@@ -11,9 +11,11 @@
 # and nothing else: no quotes, no globbing, no expansion, so one argument cannot hold a space.
 #
 # Paths may hold any character (spaces, commas, '%', quotes, backslashes, newlines): they reach
-# the jobs as environment variables of this process (sbatch --export=ALL), never inside an sbatch
-# option, and the logs are named relative to RESULTS_DIR/logs, the jobs' working folder. Paths
-# are made absolute, so the jobs may start on any node.
+# the jobs as environment variables of this process (sbatch --export=ALL), never in --export's
+# comma-separated list. Logs go to RESULTS_DIR/logs; Slurm's --output names that folder only when
+# it holds no '%' and no '\' (Slurm reads both as patterns); otherwise the jobs write their logs
+# there themselves (TURBID_SELF_LOG=1) and Slurm's own output goes to /dev/null. Paths are made
+# absolute, so the jobs may start on any node.
 set -euo pipefail
 if (($# < 3)); then
   echo "usage: $0 EXP.json RESULTS_DIR N [sbatch options for the array...]" >&2
@@ -51,16 +53,26 @@ range="0-$((n - 1))${TURBID_ARRAY_THROTTLE:+%$TURBID_ARRAY_THROTTLE}"
 # What the jobs read (sweep.sbatch, merge.sbatch): exported here, passed on by --export=ALL.
 export TURBID_EXP="$exp" TURBID_OUT="$out" TURBID_BIN="$bin" TURBID_SHARDS="$n"
 if [[ -n "${TURBID_BASELINE:-}" ]]; then
-  TURBID_BASELINE=$(realpath -- "$TURBID_BASELINE")  # the merge job starts in RESULTS_DIR/logs
+  TURBID_BASELINE=$(realpath -- "$TURBID_BASELINE")
   export TURBID_BASELINE
 fi
-# sbatch runs in RESULTS_DIR/logs: the jobs start there, and their log names are relative to it.
+# Slurm's --output is a pattern: '%' starts a field and any '\' turns the fields off. A folder
+# free of both is named as it is; otherwise the jobs write their logs themselves.
+if [[ "$out" == *[%\\]* ]]; then
+  export TURBID_SELF_LOG=1
+  sweep_log=/dev/null merge_log=/dev/null
+  echo "submit.sh: RESULTS_DIR holds '%' or '\\', which Slurm's --output cannot name: the jobs" \
+    "write their logs to RESULTS_DIR/logs themselves (Slurm's own messages are not kept)" >&2
+else
+  unset TURBID_SELF_LOG
+  sweep_log="$out/logs/sweep-%A_%a.out" merge_log="$out/logs/merge-%j.out"
+fi
 # --export=ALL comes after the user's options so that it is the one in effect.
-array=$(cd "$out/logs" && sbatch --parsable --array="$range" --output=sweep-%A_%a.out "$@" \
-  --export=ALL "$here/sweep.sbatch")
+array=$(sbatch --parsable --array="$range" --output="$sweep_log" "$@" --export=ALL \
+  "$here/sweep.sbatch")
 array=${array%%;*}
 [[ "$array" =~ ^[0-9]+$ ]] || { echo "submit.sh: sbatch returned no job id ('$array')" >&2; exit 1; }
-merge=$(cd "$out/logs" && sbatch --parsable --dependency="afterok:$array" --kill-on-invalid-dep=yes \
-  --output=merge-%j.out "${merge_args[@]}" --export=ALL "$here/merge.sbatch")
+merge=$(sbatch --parsable --dependency="afterok:$array" --kill-on-invalid-dep=yes \
+  --output="$merge_log" "${merge_args[@]}" --export=ALL "$here/merge.sbatch")
 merge=${merge%%;*}
 echo "$array $merge"

@@ -1,8 +1,8 @@
 #!/bin/bash
 # Quoting test of the Slurm scripts, without Slurm: paths with spaces, commas, '%', quotes,
 # backslashes, '$(...)' and a newline must reach the jobs unchanged and never inside an sbatch
-# option (a comma in --export=...,VAR=value starts a new variable; '%' and '\' are patterns in
-# --output). A fake `sbatch` first on PATH records each call (arguments, working folder,
+# option (a comma in --export=...,VAR=value starts a new variable); Slurm's --output names
+# RESULTS_DIR/logs only when it holds no '%' or '\' (patterns there), else the jobs log themselves. A fake `sbatch` first on PATH records each call (arguments, working folder,
 # environment); then sweep.sbatch and merge.sbatch run as Slurm would start them (array tasks
 # 0 and 1 of 2, then the merge + report + regress) with the real turbid on a tiny experiment,
 # and the merged tables must equal an unsharded run's.
@@ -90,17 +90,19 @@ env_of() {  # env_of CALL NAME: the value of NAME in that call's environment
 [[ ! -d "$FAKE_SBATCH_LOG/call-3" ]] || fail "sbatch was called more than twice"
 args_of array_args call-1
 args_of merge_args call-2
-expected_array=(--parsable --array=0-1%2 --output=sweep-%A_%a.out --time=00:10:00 --export=ALL
+# RESULTS_DIR holds '%' and '\': Slurm's --output cannot name it, the jobs log by themselves.
+expected_array=(--parsable --array=0-1%2 --output=/dev/null --time=00:10:00 --export=ALL
   "$here/sweep.sbatch")
-expected_merge=(--parsable --dependency=afterok:1001 --kill-on-invalid-dep=yes --output=merge-%j.out
+expected_merge=(--parsable --dependency=afterok:1001 --kill-on-invalid-dep=yes --output=/dev/null
   "--comment=glob-*" --mem=1G --export=ALL "$here/merge.sbatch")
 [[ "${array_args[*]@Q}" == "${expected_array[*]@Q}" ]] ||
   fail "array sbatch arguments: ${array_args[*]@Q}; expected ${expected_array[*]@Q}"
 [[ "${merge_args[*]@Q}" == "${expected_merge[*]@Q}" ]] ||
   fail "merge sbatch arguments: ${merge_args[*]@Q}; expected ${expected_merge[*]@Q}"
 for call in call-1 call-2; do
-  [[ "$(cat "$FAKE_SBATCH_LOG/$call/pwd")" == "$out/logs" ]] ||
-    fail "sbatch ($call) ran in '$(cat "$FAKE_SBATCH_LOG/$call/pwd")', expected RESULTS_DIR/logs"
+  [[ "$(cat "$FAKE_SBATCH_LOG/$call/pwd")" == "$tmp/submit" ]] ||
+    fail "sbatch ($call) ran in '$(cat "$FAKE_SBATCH_LOG/$call/pwd")', expected the submit folder"
+  [[ "$(env_of $call TURBID_SELF_LOG)" == 1 ]] || fail "TURBID_SELF_LOG ($call) is not 1"
   [[ "$(env_of $call TURBID_EXP)" == "$exp" ]] || fail "TURBID_EXP ($call) is '$(env_of $call TURBID_EXP)'"
   [[ "$(env_of $call TURBID_OUT)" == "$out" ]] || fail "TURBID_OUT ($call) is '$(env_of $call TURBID_OUT)'"
   [[ "$(env_of $call TURBID_SHARDS)" == 2 ]] || fail "TURBID_SHARDS ($call) is '$(env_of $call TURBID_SHARDS)'"
@@ -111,28 +113,54 @@ for call in call-1 call-2; do
 done
 [[ -d "$out/logs" ]] || fail "submit.sh did not create RESULTS_DIR/logs"
 
-# The jobs, started as Slurm starts them: in RESULTS_DIR/logs with the recorded environment.
+# The jobs, started as Slurm starts them: in the submit folder with the recorded environment.
 run_job() {  # run_job CALL SCRIPT [VAR=value...]
   local call=$1 script=$2
   shift 2
-  (cd "$out/logs" && env -i PATH="$PATH" HOME="${HOME:-/tmp}" \
+  (cd "$tmp/submit" && env -i TURBID_SELF_LOG="$(env_of "$call" TURBID_SELF_LOG)" PATH="$PATH" HOME="${HOME:-/tmp}" \
     TURBID_EXP="$(env_of "$call" TURBID_EXP)" TURBID_OUT="$(env_of "$call" TURBID_OUT)" \
     TURBID_BIN="$(env_of "$call" TURBID_BIN)" TURBID_SHARDS="$(env_of "$call" TURBID_SHARDS)" \
     TURBID_BASELINE="$(env_of "$call" TURBID_BASELINE)" TURBID_SWEEP_ARGS="$(env_of "$call" TURBID_SWEEP_ARGS)" \
     TURBID_PWNED="$TURBID_PWNED" "$@" bash "$script")
 }
 for i in 0 1; do
-  run_job call-1 "$here/sweep.sbatch" SLURM_ARRAY_TASK_ID=$i SLURM_ARRAY_TASK_COUNT=2 \
-    >"$tmp/sweep-$i.log" 2>&1 || fail "sweep.sbatch task $i failed: $(tail -n 2 "$tmp/sweep-$i.log")"
+  log="$out/logs/sweep-1001_$i.out"
+  run_job call-1 "$here/sweep.sbatch" SLURM_ARRAY_JOB_ID=1001 SLURM_ARRAY_TASK_ID=$i \
+    SLURM_ARRAY_TASK_COUNT=2 >"$tmp/sweep-$i.log" 2>&1 ||
+    fail "sweep.sbatch task $i failed: $(tail -n 2 "$log" "$tmp/sweep-$i.log")"
   [[ -s "$out/shard-$i/journal.jsonl" ]] || fail "task $i wrote no journal in RESULTS_DIR/shard-$i"
+  grep -q "shard $i/2" "$log" || fail "task $i did not log to RESULTS_DIR/logs/sweep-1001_$i.out"
 done
-run_job call-2 "$here/merge.sbatch" >"$tmp/merge.log" 2>&1 ||
-  fail "merge.sbatch failed: $(tail -n 2 "$tmp/merge.log")"
-grep -q "regress: OK" "$tmp/merge.log" || fail "the merge job's regress did not pass: $(tail -n 2 "$tmp/merge.log")"
+log="$out/logs/merge-1002.out"
+run_job call-2 "$here/merge.sbatch" SLURM_JOB_ID=1002 >"$tmp/merge.log" 2>&1 ||
+  fail "merge.sbatch failed: $(tail -n 2 "$log" "$tmp/merge.log")"
+grep -q "regress: OK" "$log" || fail "the merge job's regress did not pass: $(tail -n 2 "$log")"
 [[ -s "$out/merged/report.html" ]] || fail "the merge job wrote no report"
 for f in items.csv summary.csv summary.md; do
   cmp -s "$out/merged/$f" "$work/whole/$f" || fail "merged $f differs from the unsharded run's"
 done
+# A results folder with spaces, commas, quotes, $(...) and a newline but no '%' or '\': Slurm
+# writes the logs there itself, named by one --output argument each.
+safe="$tmp/work/r a,LD_PRELOAD=x 'q' \"d\" \$(cd \$TURBID_PWNED; touch s)
+x"
+rm -rf "$FAKE_SBATCH_LOG" && mkdir -p "$FAKE_SBATCH_LOG"
+(cd "$tmp/submit" && PATH="$tmp/bin:$PATH" TURBID_BIN="$bin" bash "$here/submit.sh" "$exp" "$safe" 3 \
+  >/dev/null 2>"$tmp/submit.err") || fail "submit.sh failed: $(cat "$tmp/submit.err")"
+[[ ! -s "$tmp/submit.err" ]] || fail "submit.sh printed: $(cat "$tmp/submit.err")"
+args_of array_args call-1
+args_of merge_args call-2
+expected_array=(--parsable --array=0-2 "--output=$safe/logs/sweep-%A_%a.out" --export=ALL
+  "$here/sweep.sbatch")
+expected_merge=(--parsable --dependency=afterok:1001 --kill-on-invalid-dep=yes
+  "--output=$safe/logs/merge-%j.out" --export=ALL "$here/merge.sbatch")
+[[ "${array_args[*]@Q}" == "${expected_array[*]@Q}" ]] ||
+  fail "array sbatch arguments: ${array_args[*]@Q}; expected ${expected_array[*]@Q}"
+[[ "${merge_args[*]@Q}" == "${expected_merge[*]@Q}" ]] ||
+  fail "merge sbatch arguments: ${merge_args[*]@Q}; expected ${expected_merge[*]@Q}"
+[[ "$(env_of call-1 TURBID_OUT)" == "$safe" ]] || fail "TURBID_OUT is '$(env_of call-1 TURBID_OUT)'"
+! env_of call-1 TURBID_SELF_LOG >/dev/null || fail "TURBID_SELF_LOG set for a folder Slurm can name"
+[[ -d "$safe/logs" ]] || fail "submit.sh did not create RESULTS_DIR/logs"
+
 # Nothing else was created: no folder from a split path, no payload ran.
 [[ -z "$(ls -A "$TURBID_PWNED")" ]] || fail "a payload ran: $(ls "$TURBID_PWNED")"
 [[ "$(ls -A "$tmp/submit")" == $'glob-match-1\nglob-match-2' ]] || fail "files appeared in the submit folder"
