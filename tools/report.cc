@@ -2,6 +2,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -355,8 +356,7 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   {
     const HarnessMetricInfo& primary = e.metrics.front();
     std::ostringstream data;
-    data << "# mean_time_ms mean_" << primary.name
-         << " (each row after a comment naming its method)\n";
+    data << "# mean_time_ms mean_" << primary.name << " method\n";
     std::ostringstream labels;  // one `set label` per point: the method names stay in the script
     int points = 0;
     for (const ExperimentMethod& m : e.methods) {
@@ -374,8 +374,11 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
       if (t.n == 0 || q.n == 0 || !std::isfinite(q.mean)) continue;
       const double time_ms = std::max(t.mean, 1e-3);  // > 0 for the log-scale axis
       const std::string label = batch_share ? m.label + " (batch)" : m.label;
-      data << "# " << OneLine(label) << "\n"
-           << FormatValue(time_ms) << " " << FormatValue(q.mean) << "\n";
+      // The method's name as a quoted data-file column, for readers of the file; the plot takes
+      // its labels from the script.
+      std::string quoted = OneLine(label);
+      std::replace(quoted.begin(), quoted.end(), '"', '\'');
+      data << FormatValue(time_ms) << " " << FormatValue(q.mean) << " \"" << quoted << "\"\n";
       ++points;
       labels << "set label " << points << " " << GpString(label) << " at first "
              << FormatValue(time_ms) << ", first " << FormatValue(q.mean) << " center offset 0,1\n";
