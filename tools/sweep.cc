@@ -24,6 +24,7 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
+#include "scenes/safe_name.h"
 #include "tools/item_scheduler.h"
 
 namespace turbid {
@@ -49,20 +50,38 @@ std::string ExperimentText(const Experiment& experiment) {
 // got in a killed run are scratch. `turbid report` writes report.html and report/ without the lock:
 // left alone.
 // Only the folder itself and the subfolders the sweep writes are visited (an --out that happens to
-// be some other folder keeps everything below it).
+// be some other folder keeps everything below it). Clean-up never follows a symbolic link: a link
+// planted where the sweep keeps its own folders (thumbs/, thumbs/<id>/, external/,
+// external/<label>/) would aim the clean-up, and the writes after it, at another folder, so the
+// sweep refuses it with one line; links found deeper are never followed.
 void RemoveLeftovers(const std::string& dir) {
+  for (const char* name : {"thumbs", "external", "journal.jsonl"}) {
+    RefuseSymlink(dir + "/" + name, "cleans and writes");
+  }
+  std::error_code ec;
+  const auto is_real_folder = [](const std::string& path) {
+    std::error_code type_ec;
+    return fs::symlink_status(path, type_ec).type() == fs::file_type::directory;
+  };
+  for (const char* sub : {"/thumbs", "/external"}) {
+    if (!is_real_folder(dir + sub)) continue;
+    for (const fs::directory_entry& entry : fs::directory_iterator(dir + sub, ec)) {
+      RefuseSymlink(entry.path().string(), "cleans and writes");
+    }
+  }
   RemoveStaleTemporaries(dir, /*recursive=*/false, {"report.html"});
   RemoveStaleTemporaries(dir + "/thumbs", /*recursive=*/true);
   RemoveStaleTemporaries(dir + "/external", /*recursive=*/true);
-  std::error_code ec;
-  if (!fs::is_directory(dir + "/external", ec)) return;
+  if (!is_real_folder(dir + "/external")) return;
   for (const fs::directory_entry& method : fs::directory_iterator(dir + "/external", ec)) {
-    if (!method.is_directory(ec)) continue;
+    if (method.symlink_status(ec).type() != fs::file_type::directory) continue;
     std::vector<fs::path> work;
     for (const fs::directory_entry& entry : fs::directory_iterator(method.path(), ec)) {
-      if (entry.is_directory(ec) && entry.path().filename().string().rfind("work-", 0) == 0)
+      if (entry.symlink_status(ec).type() == fs::file_type::directory &&
+          entry.path().filename().string().rfind("work-", 0) == 0)
         work.push_back(entry.path());
     }
+    // remove_all does not follow the links inside a work folder (it removes the links).
     for (const fs::path& folder : work) fs::remove_all(folder, ec);
   }
 }
@@ -136,12 +155,15 @@ void CopyThumbnails(const std::string& from, const std::string& to) {
   for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
     const fs::path relative = it->path().lexically_relative(from);
     const fs::path target = fs::path(to) / relative;
-    if (it->is_directory(ec)) {
+    // Links are never followed: a link in a shard's thumbs/ would copy (and `report` would then
+    // publish) a file from outside the shard.
+    const fs::file_type type = it->symlink_status(ec).type();
+    if (type == fs::file_type::directory) {
       fs::create_directories(target, ec);
       if (ec) throw Error(target.string(), "cannot create the thumbnail folder: " + ec.message());
       continue;
     }
-    if (!it->is_regular_file(ec) || IsTemporaryName(relative.filename().string())) continue;
+    if (type != fs::file_type::regular || IsTemporaryName(relative.filename().string())) continue;
     if (fs::exists(target, ec)) continue;
     AtomicWriteText(target.string(), ReadAll(it->path().string()), true);
   }
@@ -541,6 +563,7 @@ int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& option
                 std::to_string(specs.size()) + " items are missing (first: " + first_missing +
                 "); run the missing shards or pass --allow-partial");
   }
+  for (const std::string& dir : dirs) RefuseSymlink(dir + "/thumbs", "copies thumbnails");
   const FolderLock lock(options.out_dir, "sweep or merge");
   RemoveLeftovers(options.out_dir);
   ClaimDir(experiment, options.out_dir, options.force);

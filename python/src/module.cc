@@ -643,11 +643,13 @@ PYBIND11_MODULE(_turbid, m) {
   });
   m.def("sweep", [](const py::object& experiment_obj, const std::string& out, int threads,
                     const std::string& shard, bool force, bool reuse, bool retry_failed,
-                    const py::dict& methods) {
+                    const py::dict& methods, bool allow_commands) {
     std::string source;
     json doc = ConfigFrom(experiment_obj, &source);
     HarnessRunnerOptions ro;
     ro.reuse = reuse;
+    ro.allow_commands = allow_commands;
+    ro.allow_commands_how = "allow_commands=True";
     std::set<std::string> keys;
     for (const auto& [key_obj, fn] : methods) {
       if (!py::isinstance<py::str>(key_obj)) throw Error("methods: keys must be strings");
@@ -664,6 +666,7 @@ PYBIND11_MODULE(_turbid, m) {
     doc = BindPythonMethods(std::move(doc), keys);
     py::gil_scoped_release release;
     const Experiment experiment = ParseExperiment(doc, source, RegistryCatalog());
+    CheckCommandsAllowed(experiment, allow_commands, "allow_commands=True");  // before any work
     SweepOptions options;
     options.out_dir = out;
     options.threads = threads;
@@ -679,7 +682,7 @@ PYBIND11_MODULE(_turbid, m) {
                  {"failed_rows", s.failed_rows}, {"tables_written", s.tables_written}}).dump();
   }, py::arg("experiment"), py::arg("out"), py::arg("threads"), py::arg("shard"),
      py::arg("force"), py::arg("reuse"), py::arg("retry_failed") = false,
-     py::arg("methods") = py::dict());
+     py::arg("methods") = py::dict(), py::arg("allow_commands") = false);
 
   py::class_<GeneratePlan, std::shared_ptr<GeneratePlan>>(m, "GeneratePlan")
       .def(py::init(&PlanFrom))

@@ -5,7 +5,8 @@
 # Usage: scripts/slurm/submit.sh EXP.json RESULTS_DIR N [sbatch options for the array...]
 #   e.g. scripts/slurm/submit.sh scenes/experiments/table1.json results/table1 32 \
 #          --cpus-per-task=8 --time=02:00:00 --partition=cpu
-# Environment: TURBID_BIN (default ./build/turbid), TURBID_SWEEP_ARGS, TURBID_BASELINE (see the
+# Environment: TURBID_BIN (default ./build/turbid), TURBID_SWEEP_ARGS, TURBID_ALLOW_COMMANDS=1
+# (run the experiment's external commands: --allow-commands), TURBID_BASELINE (see the
 # .sbatch files), TURBID_ARRAY_THROTTLE (k: at most k tasks at once), TURBID_MERGE_SBATCH_ARGS.
 # TURBID_SWEEP_ARGS and TURBID_MERGE_SBATCH_ARGS are split at whitespace (spaces, tabs, newlines)
 # and nothing else: no quotes, no globbing, no expansion, so one argument cannot hold a space.
@@ -47,11 +48,19 @@ split_words() {  # split_words ARRAY_NAME TEXT
 split_words sweep_args "${TURBID_SWEEP_ARGS:-}"
 split_words merge_args "${TURBID_MERGE_SBATCH_ARGS:-}"
 # Validate before queueing anything: a bad experiment fails here, not in N tasks.
-"$bin" sweep "$exp" --out "$out/shard-0" --shard "0/$n" --dry-run "${sweep_args[@]}" >/dev/null
+allow=()
+[[ "${TURBID_ALLOW_COMMANDS:-}" == 1 ]] && allow=(--allow-commands)
+"$bin" sweep "$exp" --out "$out/shard-0" --shard "0/$n" --dry-run "${allow[@]}" "${sweep_args[@]}" \
+  >/dev/null || {
+  echo "submit.sh: the experiment does not validate (see above); if it names external commands" \
+    "you trust, set TURBID_ALLOW_COMMANDS=1" >&2
+  exit 2
+}
 mkdir -p "$out/logs"
 range="0-$((n - 1))${TURBID_ARRAY_THROTTLE:+%$TURBID_ARRAY_THROTTLE}"
 # What the jobs read (sweep.sbatch, merge.sbatch): exported here, passed on by --export=ALL.
 export TURBID_EXP="$exp" TURBID_OUT="$out" TURBID_BIN="$bin" TURBID_SHARDS="$n"
+export TURBID_ALLOW_COMMANDS="${TURBID_ALLOW_COMMANDS:-0}"
 if [[ -n "${TURBID_BASELINE:-}" ]]; then
   TURBID_BASELINE=$(realpath -- "$TURBID_BASELINE")
   export TURBID_BASELINE

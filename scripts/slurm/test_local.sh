@@ -162,17 +162,17 @@ out="$tmp/work/results, a b,LD_PRELOAD=x 'q' \"d\""
 # With --pattern-results the results folder holds '%' and '\' too: Slurm's --output cannot name
 # it, and the jobs write their logs there themselves (submit.sh sets TURBID_SELF_LOG).
 ((pattern_results)) && out="$out 100%A_%a \\ x"
-# The experiment runs an external program: a turbid that asks for the opt-in gets it here.
-sweep_args=()
-if "$bin" sweep --help 2>&1 | grep -q -- --allow-commands; then sweep_args=(--allow-commands); fi
-total=$("$bin" sweep "$exp" --out "$tmp/work/none" --dry-run "${sweep_args[@]}" | grep -o '= [0-9]* items' | cut -d' ' -f2)
+# Its external method runs only with --allow-commands (TURBID_ALLOW_COMMANDS=1 for the scripts).
+"$bin" sweep "$exp" --out "$tmp/work/none" --dry-run >/dev/null 2>&1 &&
+  fail "turbid sweep --dry-run accepted an external command without --allow-commands"
+total=$("$bin" sweep "$exp" --out "$tmp/work/none" --dry-run --allow-commands | grep -o '= [0-9]* items' | cut -d' ' -f2)
 [[ -n "$total" ]] || fail "turbid sweep --dry-run does not print the item count"
 # The unsharded reference, outside Slurm, first: its summary is the merge job's regress baseline.
-timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet "${sweep_args[@]}" >"$tmp/log/whole.out" 2>&1 ||
+timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet --allow-commands >"$tmp/log/whole.out" 2>&1 ||
   fail "the unsharded sweep failed: $(tail -n 1 "$tmp/log/whole.out")"
 note "unsharded sweep done"
 ids=$(cd "$tmp/work" && TURBID_BIN="$bin" TURBID_BASELINE="$tmp/work/whole/summary.csv" \
-  TURBID_SWEEP_ARGS="${sweep_args[*]}" bash "$here/submit.sh" "$exp" "$out" "$shards") ||
+  TURBID_ALLOW_COMMANDS=1 bash "$here/submit.sh" "$exp" "$out" "$shards") ||
   fail "submit.sh failed"
 read -r array merge <<<"$ids"
 note "submitted array job $array (shards 0-$((shards - 1)) of $total items) and merge job $merge"

@@ -103,6 +103,7 @@ for call in call-1 call-2; do
   [[ "$(cat "$FAKE_SBATCH_LOG/$call/pwd")" == "$tmp/submit" ]] ||
     fail "sbatch ($call) ran in '$(cat "$FAKE_SBATCH_LOG/$call/pwd")', expected the submit folder"
   [[ "$(env_of $call TURBID_SELF_LOG)" == 1 ]] || fail "TURBID_SELF_LOG ($call) is not 1"
+  [[ "$(env_of $call TURBID_ALLOW_COMMANDS)" == 0 ]] || fail "TURBID_ALLOW_COMMANDS ($call) is not 0"
   [[ "$(env_of $call TURBID_EXP)" == "$exp" ]] || fail "TURBID_EXP ($call) is '$(env_of $call TURBID_EXP)'"
   [[ "$(env_of $call TURBID_OUT)" == "$out" ]] || fail "TURBID_OUT ($call) is '$(env_of $call TURBID_OUT)'"
   [[ "$(env_of $call TURBID_SHARDS)" == 2 ]] || fail "TURBID_SHARDS ($call) is '$(env_of $call TURBID_SHARDS)'"
