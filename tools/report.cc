@@ -187,6 +187,22 @@ std::string MarkdownToHtml(const std::string& markdown, int heading_offset) {
   return out.str();
 }
 
+// True when `path` (a file below `root`) is a regular file and neither it nor any folder between
+// `root` and it is a symbolic link.
+bool IsPlainFileBelow(const std::string& root, const std::string& path) {
+  const fs::path base = fs::path(root).lexically_normal();
+  const fs::path relative = fs::path(path).lexically_normal().lexically_relative(base);
+  if (relative.empty() || *relative.begin() == "..") return false;
+  fs::path at = base;
+  std::error_code ec;
+  for (const fs::path& part : relative) {
+    at /= part;
+    const fs::file_status status = fs::symlink_status(at, ec);
+    if (ec || fs::is_symlink(status)) return false;
+  }
+  return fs::is_regular_file(fs::symlink_status(at, ec)) && !ec;
+}
+
 std::string DataUri(const std::string& path, const std::string& mime) {
   return "data:" + mime + ";base64," + Base64(ReadAll(path));
 }
@@ -447,8 +463,10 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   html << "</tr>\n";
   std::set<std::pair<std::string, std::string>> shown;
   int rows = 0;
+  // Only files the sweep wrote are embedded: a symbolic link planted anywhere below DIR (a
+  // downloaded folder) could otherwise copy any readable file of the user's into a shared page.
   const auto image_cell = [&](const std::string& path, const std::string& alt) {
-    if (!fs::exists(path)) return std::string("<td>–</td>");
+    if (!IsPlainFileBelow(dir, path)) return std::string("<td>–</td>");
     ++summary.images;
     return "<td><img class=\"thumb\" alt=\"" + Html(alt) + "\" src=\"" +
            DataUri(path, "image/png") + "\"></td>";

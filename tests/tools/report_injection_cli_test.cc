@@ -6,6 +6,7 @@
 // HTML page holds no markup from the data.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <regex>
@@ -174,6 +175,40 @@ TEST_F(ReportInjection, NewlinesInLabelsDoNotBreakOutOfTheScript) {
   std::string line;
   const std::regex command("^(set|unset|plot) .*");
   while (std::getline(gp, line)) EXPECT_TRUE(std::regex_match(line, command)) << line;
+}
+
+// A downloaded sweep folder may hold symbolic links where thumbnails belong; the report embeds
+// images as data URIs, so following one would copy any readable file into the shared page.
+TEST_F(ReportInjection, ThumbnailsThatAreLinksAreNotEmbedded) {
+  const std::string exp = dir_.Write("exp.json", Experiment("@turbidity", {"low", "high"}, "dcp_x"));
+  const std::string out = dir_.File("out");
+  const CliRun sweep = RunTurbid({"sweep", exp, "--out", out, "--quiet"});
+  ASSERT_EQ(sweep.exit_code, 0) << sweep.err;
+  const std::string secret = dir_.Write("secret.txt", "SECRET-CONTENT-0123456789");
+  // One thumbnail replaced by a link to the secret, and a whole item folder replaced by a link
+  // to a folder of look-alike files.
+  std::vector<fs::path> items;
+  for (const auto& entry : fs::directory_iterator(out + "/thumbs"))
+    if (fs::exists(entry.path() / "degraded.png")) items.push_back(entry.path());
+  ASSERT_GE(items.size(), 2u);
+  std::sort(items.begin(), items.end());
+  fs::remove(items[0] / "dcp_x.png");
+  fs::create_symlink(secret, items[0] / "dcp_x.png");
+  const std::string decoy = dir_.File("decoy");
+  fs::copy(items[1], decoy, fs::copy_options::recursive);
+  for (const auto& entry : fs::directory_iterator(decoy)) {
+    fs::remove(entry.path());
+    fs::create_symlink(secret, entry.path());
+  }
+  fs::remove_all(items[1]);
+  fs::create_directory_symlink(decoy, items[1]);
+  const CliRun report = RunTurbid({"report", out});
+  ASSERT_EQ(report.exit_code, 0) << report.err;
+  const std::string html = ReadFileText(out + "/report.html");
+  // "SECRET-CONTENT-0123456789" in base64 (any alignment would show this run of it).
+  EXPECT_EQ(html.find("U0VDUkVULUNPTlRFTlQtMDEyMzQ1Njc4OQ"), std::string::npos);
+  // The other thumbnails are still there.
+  EXPECT_GE(Count(html, "data:image/png;base64,"), 2);
 }
 
 }  // namespace
