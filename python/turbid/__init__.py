@@ -158,8 +158,8 @@ def _array(value, what, color=True, float_only=False):
     elif dtype.kind == "u" and dtype.itemsize in (1, 2) and not float_only:
         pass
     else:
-        accepted = ("float32 (float16 and float64 are converted)" if float_only else
-                    "uint8, uint16 or float32 (float16 and float64 are converted)")
+        accepted = ("float32; float16 and float64 are converted" if float_only else
+                    "uint8, uint16 or float32; float16 and float64 are converted")
         raise TypeError("%s: dtype %s is not supported (%s)" % (what, dtype.name, accepted))
     channels = (1, 3) if color else (1,)
     if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] in channels)):
