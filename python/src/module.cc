@@ -12,16 +12,22 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <pthread.h>
 #include <time.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <set>
 #include <string>
+#include <thread>
+#include <utility>
 #include <vector>
 
 #include "enhancer/registry.h"
@@ -31,6 +37,7 @@
 #include "scenes/image_io.h"
 #include "scenes/input_file.h"
 #include "scenes/json_io.h"
+#include "scenes/limits.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/experiment.h"
@@ -52,6 +59,91 @@ double ProcessCpuSeconds() {
   return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
+// ---- threads -----------------------------------------------------------------------------------
+
+// OpenCV runs every parallel_for_ (ours and its own, cvtColor included) in one process-wide TBB
+// arena, and cv::setNumThreads terminates and re-creates that arena: done while another thread is
+// inside it, the process crashes. So the count changes only while no turbid call does work without
+// the GIL: every such stretch is a WorkScope (it replaces py::gil_scoped_release), and a change
+// asked for while one is open waits for the last to close, which applies it holding the GIL (no
+// GIL-holding code runs OpenCV meanwhile). Enter and leave happen holding the GIL, never waiting.
+class ThreadCount {
+ public:
+  static ThreadCount& Get() {
+    static ThreadCount* const instance = new ThreadCount();  // never destroyed (atexit order)
+    return *instance;
+  }
+  void Enter() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++active_;
+  }
+  void Leave() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (--active_ == 0 && pending_) {
+      cv::setNumThreads(*pending_);
+      pending_.reset();
+    }
+  }
+  // Applies `n` (OpenCV's meaning: > 0 threads, -1 its default) now when nothing runs, else when
+  // the last running call returns.
+  void Request(int n) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (active_ == 0) {
+      cv::setNumThreads(n);
+      pending_.reset();
+    } else {
+      pending_ = n;
+    }
+  }
+  // The child of fork() has one thread, which is in no WorkScope of its own.
+  static void AfterForkInChild() { Get().active_ = 0; }
+
+ private:
+  ThreadCount() { pthread_atfork(nullptr, nullptr, &ThreadCount::AfterForkInChild); }
+  std::mutex mutex_;
+  int active_ = 0;
+  std::optional<int> pending_;
+};
+
+// Releases the GIL for C++ work, as py::gil_scoped_release, and holds the thread count still.
+class WorkScope {
+ public:
+  WorkScope() {
+    ThreadCount::Get().Enter();  // holding the GIL
+    release_.emplace();
+  }
+  WorkScope(const WorkScope&) = delete;
+  WorkScope& operator=(const WorkScope&) = delete;
+  ~WorkScope() {
+    release_.reset();  // the GIL first: a pending change is applied holding it
+    ThreadCount::Get().Leave();
+  }
+
+ private:
+  std::optional<py::gil_scoped_release> release_;
+};
+
+// set_num_threads accepts 0 (all cores) up to this many threads: more only adds overhead (TBB
+// starts no more workers than cores anyway), and an arena of 10^5 slots (cv::setNumThreads(1e5))
+// segfaults in TBB 2021.8 at the next parallel_for_ (3 x 10^4 still ran).
+int64_t MaxNumThreads() {
+  return 4 * static_cast<int64_t>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
+void SetNumThreads(const py::int_& value) {
+  int overflow = 0;
+  const long long n = PyLong_AsLongLongAndOverflow(value.ptr(), &overflow);
+  if (n == -1 && PyErr_Occurred()) throw py::error_already_set();
+  const int64_t limit = MaxNumThreads();
+  if (overflow < 0 || (overflow == 0 && n < 0))
+    throw Error("set_num_threads: n must be >= 0 (0: all cores), not " +
+                py::repr(value).cast<std::string>());
+  if (overflow > 0 || n > limit)
+    throw Error("set_num_threads: n=" + py::repr(value).cast<std::string>() + " is more than " +
+                std::to_string(limit) + " (4 per core; 0: all cores)");
+  ThreadCount::Get().Request(n == 0 ? -1 : static_cast<int>(n));  // OpenCV: -1 is its default
+}
+
 // turbid::Error is raised as ValueError, except the messages of failed file access (OSError).
 class IoError : public Error {
  public:
@@ -63,6 +155,55 @@ bool LooksLikeIo(const std::string& m) {
                         "exists (use --force", "already exists", ": is a folder", ": empty file"})
     if (m.find(s) != std::string::npos) return true;
   return false;
+}
+
+// A library message in Python's words: the CLI flags it names become the keyword arguments that
+// stand for them (`--force` -> `force=True`, `--sidecar` -> `sidecar=`). Only whole flags of the
+// table are rewritten; anything else (a method's own command line, say) is left as it is.
+std::string PythonSpelling(std::string message) {
+  static const std::pair<const char*, const char*> kFlags[] = {
+      {"--force", "force=True"},
+      {"--retry-failed", "retry_failed=True"},
+      {"--allow-commands", "allow_commands=True"},
+      {"--allow-partial", "allow_partial=True"},
+      {"--sidecar", "sidecar="},
+      {"--scene", "scene="},
+      {"--ref", "ref="},
+      {"--original", "original="},
+      {"--metrics", "metrics="},
+      {"--maps", "maps="},
+      {"--out", "out="},
+      {"--shard", "shard="},
+      {"--threads", "threads="},
+      {"--seed", "seed="},
+      {"--scale", "scale="},
+      {"--params", "params="},
+      {"--set", "params="},
+      {"--method", "method="},
+      {"--encoding", "encoding="},
+  };
+  const auto is_name_char = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_';
+  };
+  for (const auto& [flag, keyword] : kFlags) {
+    const std::string f = flag;
+    for (size_t at = message.find(f); at != std::string::npos; at = message.find(f, at)) {
+      const size_t end = at + f.size();
+      const bool whole = (at == 0 || !is_name_char(message[at - 1])) &&
+                         (end == message.size() || !is_name_char(message[end]));
+      if (!whole) {
+        at = end;
+        continue;
+      }
+      // A quoted value after a keyword joins it: "--shard '3/2'" -> "shard='3/2'".
+      const bool joins_value = keyword[std::strlen(keyword) - 1] == '=' &&
+                               end + 1 < message.size() && message[end] == ' ' &&
+                               (message[end + 1] == '\'' || message[end + 1] == '"');
+      message.replace(at, f.size() + (joins_value ? 1 : 0), keyword);
+      at += std::strlen(keyword);
+    }
+  }
+  return message;
 }
 
 // The strict parse of scenes/json_io.h (depth, duplicate keys, numbers in range).
@@ -115,6 +256,9 @@ ArrayView ViewArray(const py::array& a, const std::string& what, bool allow_colo
     throw Error(what + ": shape " + shape + ") is not H x W" + (allow_color ? " or H x W x 3" : ""));
   }
   if (a.shape(0) < 1 || a.shape(1) < 1) throw Error(what + ": array is empty");
+  // As files are (scenes/limits.h): nothing is converted or copied for an array over the limit.
+  const std::string size_problem = ImageSizeProblem(a.shape(1), a.shape(0));
+  if (!size_problem.empty()) throw Error(what + ": " + size_problem);
   if (!(a.flags() & py::array::c_style))
     throw Error(what + ": array is not C-contiguous (use numpy.ascontiguousarray)");
   ArrayView v;
@@ -178,7 +322,7 @@ py::array ToNumpy(const cv::Mat& mat) {
   py::array_t<float> out({m.rows, m.cols, c});
   cv::Mat dst(m.rows, m.cols, m.type(), out.mutable_data());
   {
-    py::gil_scoped_release release;
+    WorkScope release;
     if (c == 3)
       cv::cvtColor(m, dst, cv::COLOR_BGR2RGB);
     else
@@ -200,7 +344,7 @@ PyScene SceneFromSpec(const std::string& spec, double scale) {
   PyScene s;
   s.spec = spec;
   s.scale = scale;
-  py::gil_scoped_release release;
+  WorkScope release;
   LoadSceneOptions options;
   options.builtin_scale = scale;
   ThrowIfInvalid(options, "scale");
@@ -228,7 +372,7 @@ PyScene SceneFromArrays(const py::array& image, const py::array& depth_m, double
       throw Error("normals: must be float32 H x W x 3 (camera-frame x, y, z) like the image");
   }
   PyScene s;
-  py::gil_scoped_release release;
+  WorkScope release;
   Scene scene;
   scene.name = name;
   scene.camera = {fx, fy, cx, cy, iv.mat.cols, iv.mat.rows};
@@ -259,7 +403,7 @@ PyRenderResult RenderScene(const PyScene& scene, const std::string& params_text,
     params["seed"] = static_cast<uint64_t>(*seed);
   }
   PyRenderResult out;
-  py::gil_scoped_release release;
+  WorkScope release;
   RenderOptions options = RenderOptionsFromJson(params);
   options.maps = MapSelection::FromList(maps);
   options.rgb_image = true;  // written in NumPy's order by the render's last pass: no copy later
@@ -283,7 +427,7 @@ py::array EnhanceArray(const py::array& image, const std::string& method,
   if (sidecar_text) sidecar = ParseJsonText(*sidecar_text, "sidecar");
   cv::Mat out;
   {
-    py::gil_scoped_release release;
+    WorkScope release;
     const MethodInfo& info = FindMethod(method);
     EnhanceInput input;
     input.image = ToInternal(iv, enc, "image", /*keep_rgb=*/true);
@@ -301,7 +445,7 @@ py::array EnhanceArray(const py::array& image, const std::string& method,
       input.scene = &*loaded;
     }
     if (info.needs_sidecar && !input.sidecar)
-      throw Error("enhance: method '" + method + "' needs --sidecar");
+      throw Error("enhance: method '" + method + "' needs sidecar=");
     out = Enhance(method, params, input);
   }
   return WrapNumpy(out);  // R, G, B already
@@ -330,7 +474,7 @@ std::map<std::string, double> ScoreArrays(const py::array& image, const std::opt
   img = MetricFromArray(image, "image");
   if (ref) r = MetricFromArray(*ref, "ref");
   if (original) o = MetricFromArray(*original, "original");
-  py::gil_scoped_release release;
+  WorkScope release;
   const std::string list = metric_list.empty() ? (ref ? "ssim,psnr" : "cnr") : metric_list;
   const std::vector<std::string> metrics = ParseMetricList(list, bool(ref), bool(original));
   MetricInputs in;
@@ -343,7 +487,7 @@ std::map<std::string, double> ScoreArrays(const py::array& image, const std::opt
 
 std::string MatchArrays(const py::array& a, const py::array& b, const std::string& detector) {
   const MetricImage ia = MetricFromArray(a, "a"), ib = MetricFromArray(b, "b");
-  py::gil_scoped_release release;
+  WorkScope release;
   FeatureMatchOptions options;
   options.detector = ParseFeatureDetector(detector);
   cv::Mat a01, b01;  // each with its own data range, as `turbid score --pairs`
@@ -393,8 +537,12 @@ std::string PythonErrorLine(const py::error_already_set& e) {
 // like (a torch tensor on the CPU too) and float64 are accepted.
 cv::Mat FromCallable(const py::handle& value, Encoding encoding, const std::string& what) {
   py::module_ np = py::module_::import("numpy");
-  py::object a = np.attr("ascontiguousarray")(value);
-  py::array arr = a.cast<py::array>();
+  py::array arr = np.attr("asarray")(value).cast<py::array>();
+  if (arr.ndim() >= 2) {  // over the size limit: refused before a copy or a conversion
+    const std::string problem = ImageSizeProblem(arr.shape(1), arr.shape(0));
+    if (!problem.empty()) throw Error(what + ": " + problem);
+  }
+  arr = np.attr("ascontiguousarray")(arr).cast<py::array>();
   if (arr.dtype().kind() == 'f' && arr.itemsize() != 4)
     arr = np.attr("ascontiguousarray")(arr.attr("astype")("float32")).cast<py::array>();
   else if (arr.dtype().kind() == 'b')
@@ -468,7 +616,7 @@ std::shared_ptr<GeneratePlan> PlanFrom(const py::object& config_obj) {
     plan->scenes.push_back(SceneFromSpec(spec, plan->config.scale));
     names.push_back(plan->scenes.back().scene().name);
   }
-  py::gil_scoped_release release;
+  WorkScope release;
   plan->items = ExpandGenerateItems(plan->config, names);
   return plan;
 }
@@ -496,9 +644,10 @@ PYBIND11_MODULE(_turbid, m) {
     try {
       if (p) std::rethrow_exception(p);
     } catch (const IoError& e) {
-      PyErr_SetString(PyExc_OSError, e.what());
+      PyErr_SetString(PyExc_OSError, PythonSpelling(e.what()).c_str());
     } catch (const Error& e) {
-      PyErr_SetString(LooksLikeIo(e.what()) ? PyExc_OSError : PyExc_ValueError, e.what());
+      PyErr_SetString(LooksLikeIo(e.what()) ? PyExc_OSError : PyExc_ValueError,
+                      PythonSpelling(e.what()).c_str());
     } catch (const std::filesystem::filesystem_error& e) {
       PyErr_SetString(PyExc_OSError, e.what());
     } catch (const nlohmann::json::exception& e) {
@@ -603,7 +752,7 @@ PYBIND11_MODULE(_turbid, m) {
     o.transfer = ParseEncoding(encoding) == Encoding::kSrgb ? Transfer::kSrgb : Transfer::kLinear;
     cv::Mat image;
     {
-      py::gil_scoped_release release;
+      WorkScope release;
       image = ReadImage(path, o);
     }
     return ToNumpy(image);
@@ -612,7 +761,7 @@ PYBIND11_MODULE(_turbid, m) {
                           const std::string& encoding, bool overwrite) {
     const ArrayView v = ViewArray(image, "image");
     if (v.mat.depth() != CV_32F) throw Error("image: write_image takes float32 [0, 1]");
-    py::gil_scoped_release release;
+    WorkScope release;
     // A new Mat for the BGR copy: converting into v.mat's header would swap the caller's array.
     cv::Mat m;
     if (v.channels == 3) {
@@ -624,19 +773,34 @@ PYBIND11_MODULE(_turbid, m) {
     o.bit_depth = bit_depth;
     o.transfer = ParseEncoding(encoding) == Encoding::kSrgb ? Transfer::kSrgb : Transfer::kLinear;
     o.overwrite = overwrite;
-    WriteImage(path, m, o);
+    try {
+      WriteImage(path, m, o);
+    } catch (const Error& e) {  // write_image's keyword is overwrite=, not the CLI's --force
+      std::string message = e.what();
+      const size_t at = message.find("--force");
+      if (at != std::string::npos) message.replace(at, 7, "overwrite=True");
+      if (LooksLikeIo(e.what())) throw IoError(message);
+      throw Error(message);
+    }
   }, py::arg("path"), py::arg("image"), py::arg("bit_depth"), py::arg("encoding"),
      py::arg("overwrite"));
-  m.def("set_num_threads", [](int n) {
-    if (n < 0) throw Error("set_num_threads: n must be >= 0 (0: all cores)");
-    cv::setNumThreads(n == 0 ? -1 : n);  // OpenCV: a negative count restores its default
-  }, py::arg("n"));
+  m.def("set_num_threads", &SetNumThreads, py::arg("n"));
   m.def("get_num_threads", [] { return cv::getNumThreads(); });
+  m.def("_max_num_threads", &MaxNumThreads);
+  // The limit files obey (TURBID_MAX_PIXELS), checked by the Python half before it converts.
+  m.def("_check_image_size", [](const std::string& what, int64_t width, int64_t height) {
+    const std::string problem = ImageSizeProblem(width, height);
+    if (!problem.empty()) throw Error(what + ": " + problem);
+  });
   m.def("generate", [](const py::object& config_obj, const std::string& out, int threads) {
+    // `turbid generate --threads` accepts [1, 256]; each is a std::thread of its own.
+    if (threads < 1 || threads > 256)
+      throw Error("generate: threads must be in [1, 256] (None: all cores), not " +
+                  std::to_string(threads));
     std::string source;
     const json config = ConfigFrom(config_obj, &source);
     const GenerateConfig parsed = ParseGenerateConfig(config, source);
-    py::gil_scoped_release release;
+    WorkScope release;
     RunGenerate(parsed, out, threads);
   });
   m.def("sweep", [](const py::object& experiment_obj, const std::string& out, int threads,
@@ -662,7 +826,7 @@ PYBIND11_MODULE(_turbid, m) {
       ro.in_process[key] = PythonCallable(fn);
     }
     doc = BindPythonMethods(std::move(doc), keys);
-    py::gil_scoped_release release;
+    WorkScope release;
     const Experiment experiment = ParseExperiment(doc, source, RegistryCatalog());
     CheckCommandsAllowed(experiment, allow_commands, "allow_commands=True");  // before any work
     SweepOptions options;
@@ -697,7 +861,7 @@ PYBIND11_MODULE(_turbid, m) {
   // For python/benchmarks/bench.py: the C++ time alone (no conversion, no Python), seconds of
   // process CPU time per call (all threads; time spent waiting for a busy core is not counted).
   m.def("_cpp_render_seconds", [](const PyScene& scene, const std::string& params_text, int n) {
-    py::gil_scoped_release release;
+    WorkScope release;
     const RenderOptions options = RenderOptionsFromJson(ParseJsonText(params_text, "params"));
     const double t0 = ProcessCpuSeconds();
     for (int i = 0; i < n; ++i) scene.renderer->Render(options);
@@ -705,7 +869,7 @@ PYBIND11_MODULE(_turbid, m) {
   });
   m.def("_cpp_enhance_seconds", [](const py::array& image, const std::string& method, int n) {
     const ArrayView v = ViewArray(image, "image");
-    py::gil_scoped_release release;
+    WorkScope release;
     EnhanceInput input;
     input.image = ToInternal(v, Encoding::kNone, "image");
     const double t0 = ProcessCpuSeconds();

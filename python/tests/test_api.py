@@ -151,11 +151,10 @@ def test_errors_carry_the_cli_message(cli):
 
 
 def test_bad_arrays_raise_value_error():
+    # (Strided and float64 arrays are accepted: test_hardening.py::test_dtypes_and_layouts.)
     img = np.random.default_rng(0).random((48, 64, 3), dtype=np.float32)
-    with pytest.raises(ValueError, match="C-contiguous"):
-        turbid.enhance(img[:, ::2], "clahe")
-    with pytest.raises(ValueError, match="dtype"):
-        turbid.enhance(img.astype(np.float64), "clahe")
+    with pytest.raises(TypeError, match="dtype"):
+        turbid.enhance(img.astype(np.int32), "clahe")
     with pytest.raises(ValueError, match="shape"):
         turbid.enhance(img[None], "clahe")
     with pytest.raises(ValueError, match="shape"):

@@ -11,7 +11,10 @@ one-line message. The GIL is released while C++ runs. Reference: docs/python.md.
 """
 
 import json as _json
+import operator as _operator
 import os as _os
+
+import numpy as _np
 
 from . import _turbid
 
@@ -58,8 +61,10 @@ class Scene:
         """A scene from arrays: ``image`` RGB (float32 linear, or uint8/uint16 with ``encoding``),
         ``depth_m`` float32 H x W z-depth in metres (NaN where unknown), pinhole intrinsics in
         pixels; ``normals`` (optional, float32 H x W x 3, camera frame) else derived from depth."""
-        return Scene(_turbid.Scene.from_arrays(image, depth_m, float(fx), float(fy), float(cx),
-                                               float(cy), normals, str(name), encoding))
+        return Scene(_turbid.Scene.from_arrays(
+            _array(image, "image"), _array(depth_m, "depth_m", color=False, float_only=True),
+            float(fx), float(fy), float(cx), float(cy),
+            _optional_array(normals, "normals", float_only=True), str(name), encoding))
 
     name = property(lambda self: self._core.name)
     spec = property(lambda self: self._core.spec)
@@ -100,6 +105,94 @@ class RenderResult:
     plan = property(lambda self: self._core.plan())
 
 
+def _first_line(error):
+    text = str(error).strip().splitlines()
+    text = text[0] if text else type(error).__name__
+    return text if len(text) <= 160 else text[:157] + "..."
+
+
+def _to_numpy(value, what):
+    """``value`` as a NumPy array, sharing its memory where it can, or one short TypeError."""
+    if isinstance(value, _np.ndarray):
+        return value
+    kind = type(value).__name__
+    if value is None or isinstance(value, (str, bytes, dict, set, int, float, complex)):
+        raise TypeError("%s: an array (numpy.ndarray, a CPU torch tensor or anything "
+                        "numpy.asarray takes), not %s" % (what, kind))
+    if type(value).__module__.split(".")[0] == "torch":  # without importing torch
+        device = getattr(value, "device", None)
+        if device is not None and getattr(device, "type", "cpu") != "cpu":
+            raise TypeError("%s: a torch tensor on %s; move it to the CPU first (tensor.cpu())"
+                            % (what, device))
+        if getattr(value, "requires_grad", False):
+            value = value.detach()  # turbid's results carry no gradient
+        if str(getattr(value, "dtype", "")) == "torch.bfloat16":
+            value = value.float()   # NumPy has no bfloat16
+    try:
+        if any(hasattr(value, a) for a in ("__array__", "__array_interface__",
+                                           "__array_struct__")):
+            array = _np.asarray(value)
+        elif hasattr(value, "__dlpack__"):
+            array = _np.from_dlpack(value)
+        else:
+            array = _np.asarray(value)  # the buffer protocol, nested sequences
+    except Exception as e:  # noqa: BLE001 (any failure of a foreign type becomes one line)
+        raise TypeError("%s: a %s cannot be read as an array (%s)"
+                        % (what, kind, _first_line(e))) from None
+    if not isinstance(array, _np.ndarray) or array.dtype.kind in "OUSV":
+        raise TypeError("%s: a %s is not an array of numbers" % (what, kind))
+    return array
+
+
+def _array(value, what, color=True, float_only=False):
+    """``value`` (an ndarray, a CPU torch tensor, anything with ``__array__``, ``__dlpack__`` or
+    the buffer protocol) as the array the C++ half takes: H x W (x 3 with ``color``; x 1 too),
+    within TURBID_MAX_PIXELS, C-contiguous, native byte order, dtype uint8, uint16 or float32
+    (other float types converted; ``float_only``: float32). Shares the memory when nothing needs
+    converting. Raises one short TypeError (not an array, wrong dtype) or ValueError (shape,
+    size)."""
+    a = _to_numpy(value, what)
+    dtype = a.dtype
+    if dtype.kind == "f":
+        pass
+    elif dtype.kind == "u" and dtype.itemsize in (1, 2) and not float_only:
+        pass
+    else:
+        accepted = ("float32; float16 and float64 are converted" if float_only else
+                    "uint8, uint16 or float32; float16 and float64 are converted")
+        raise TypeError("%s: dtype %s is not supported (%s)" % (what, dtype.name, accepted))
+    channels = (1, 3) if color else (1,)
+    if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] in channels)):
+        hint = ""
+        if a.ndim == 3 and a.shape[0] in channels:
+            hint = " (channels first? use .transpose(1, 2, 0), or .permute(1, 2, 0) for torch)"
+        raise ValueError("%s: shape %s is not H x W%s%s"
+                         % (what, tuple(a.shape), " or H x W x 3" if color else "", hint))
+    if a.shape[0] < 1 or a.shape[1] < 1:
+        raise ValueError("%s: array is empty" % what)
+    _turbid._check_image_size(what, int(a.shape[1]), int(a.shape[0]))  # before any copy
+    if dtype.kind == "f" and dtype.itemsize != 4:
+        a = a.astype(_np.float32)
+    elif not dtype.isnative:
+        a = a.astype(dtype.newbyteorder("="))
+    return _np.require(a, requirements=["C_CONTIGUOUS", "ALIGNED"])
+
+
+def _optional_array(value, what, **kw):
+    return None if value is None else _array(value, what, **kw)
+
+
+def _int(value, what, low=-2**63, high=2**63 - 1):
+    """An integer argument (anything with ``__index__``), in [low, high] unless low is None."""
+    try:
+        n = _operator.index(value)
+    except TypeError:
+        raise TypeError("%s: an integer, not %s" % (what, type(value).__name__)) from None
+    if low is not None and not low <= n <= high:
+        raise ValueError("%s: %d is out of range [%d, %d]" % (what, n, low, high))
+    return n
+
+
 def _dumps(value, what):
     if value is None:
         return "{}"
@@ -130,7 +223,7 @@ def render(scene, params=None, seed=None, maps=None):
         raise ValueError("scene: a turbid.Scene, not a %s" % type(scene).__name__)
     names = _map_list(maps)
     core = _turbid.render(scene._core, _dumps(params, "params"),
-                          None if seed is None else int(seed), ",".join(names))
+                          None if seed is None else _int(seed, "seed", 0), ",".join(names))
     return RenderResult(core, names)
 
 
@@ -141,7 +234,7 @@ def enhance(image, method, params=None, sidecar=None, scene=None, encoding=None)
     geometry (else the one the sidecar names, for methods that need geometry). Returns float32."""
     if scene is not None and not isinstance(scene, Scene):
         raise ValueError("scene: a turbid.Scene, not a %s" % type(scene).__name__)
-    return _turbid.enhance(image, str(method), _dumps(params, "params"),
+    return _turbid.enhance(_array(image, "image"), str(method), _dumps(params, "params"),
                            None if sidecar is None else _dumps(sidecar, "sidecar"),
                            None if scene is None else scene._core, encoding)
 
@@ -164,7 +257,8 @@ def score(image, ref=None, original=None, metrics=None):
         text = metrics
     else:
         text = ",".join(str(m) for m in metrics)
-    return dict(_turbid.score(image, ref, original, text))
+    return dict(_turbid.score(_array(image, "image"), _optional_array(ref, "ref"),
+                              _optional_array(original, "original"), text))
 
 
 def metrics():
@@ -177,25 +271,30 @@ def match_features(a, b, detector="orb"):
     """Feature matching between two images (the paper's criterion, as ``turbid score --pairs``):
     detector "orb", "akaze" or "sift". Returns dict keypoints_a, keypoints_b, correspondences,
     inliers, active."""
-    return _json.loads(_turbid.match_features(a, b, str(detector)))
+    return _json.loads(_turbid.match_features(_array(a, "a"), _array(b, "b"), str(detector)))
 
 
 def set_num_threads(n):
     """Threads one call (render, enhance, score) may use inside C++; 0 restores the default (all
-    cores). Results do not depend on it. Set 1 in DataLoader workers or when running several
-    Python threads, so that the processes or threads do not oversubscribe the cores."""
-    _turbid.set_num_threads(int(n))
+    cores), at most 4 per core (more raises ValueError). Results do not depend on it. Set 1 in
+    DataLoader workers or when running several Python threads, so that the processes or threads
+    do not oversubscribe the cores. Safe while other threads run turbid calls: the change takes
+    effect when none is running (at once when none is)."""
+    _turbid.set_num_threads(_int(n, "set_num_threads: n", None))  # any size: checked in C++
 
 
 def get_num_threads():
-    """Threads one call may use inside C++ (see :func:`set_num_threads`)."""
+    """Threads one call may use inside C++ now (see :func:`set_num_threads`)."""
     return _turbid.get_num_threads()
 
 
 def generate(config, out, threads=None):
     """``turbid generate``: render a dataset (config dict or JSON path; docs/cli/render.md) into
-    folder ``out`` (resumable). ``threads``: default all cores; the bytes do not depend on it."""
-    threads = (_os.cpu_count() or 1) if threads is None else int(threads)
+    folder ``out`` (resumable). ``threads``: 1 to 256, None or 0 for all cores (the default);
+    the bytes do not depend on it."""
+    threads = 0 if threads is None else _int(threads, "generate: threads", 0, 256)
+    if threads == 0:
+        threads = min(_os.cpu_count() or 1, 256)
     _turbid.generate(config, _os.fspath(out), threads)
 
 
@@ -227,6 +326,7 @@ def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True, meth
     ``allow_commands=True`` lets the experiment's ``"command"`` methods run (external programs,
     with their ``env``); without it a sweep that names one raises before any work. An experiment
     file is data: nothing in it can allow its commands."""
+    threads = _int(threads, "threads", -2**31, 2**31 - 1)  # the range is checked by the sweep
     return _json.loads(_turbid.sweep(experiment, _os.fspath(out), int(threads), str(shard),
                                      bool(force), bool(reuse), bool(retry_failed),
                                      dict(methods or {}), allow_commands=bool(allow_commands)))
@@ -250,7 +350,9 @@ def read_image(path, encoding="linear"):
 
 def write_image(path, image, bit_depth=8, encoding="linear", overwrite=False):
     """Write a float32 RGB/gray image: .png (8/16-bit), .exr or .pfm, as the CLI writes them."""
-    _turbid.write_image(_os.fspath(path), image, int(bit_depth), str(encoding), bool(overwrite))
+    bits = _int(bit_depth, "bit_depth", 0, 64)  # which depths a format takes: checked in C++
+    _turbid.write_image(_os.fspath(path), _array(image, "image"), bits, str(encoding),
+                        bool(overwrite))
 
 
 from . import data  # noqa: E402,F401  (turbid.data: on-the-fly training data)

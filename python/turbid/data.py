@@ -18,7 +18,7 @@ import json as _json
 import numpy as _np
 
 from . import _turbid
-from . import Scene, RenderResult, _dumps
+from . import Scene, RenderResult, _dumps, _int
 
 __all__ = ["DegradeTransform", "RenderDataset", "draw_params"]
 
@@ -32,9 +32,11 @@ def draw_params(random, index, base=None, seed=0):
     if unknown:
         raise ValueError("random: unknown key %s (params, seed)" % sorted(unknown)[0])
     params = random.get("params", {})
-    random_seed = int(random.get("seed", seed))
+    u64 = dict(low=0, high=2**64 - 1)
+    random_seed = _int(random.get("seed", seed), "random.seed", **u64)
     return _json.loads(_turbid.draw_params(_dumps(base, "base"), _dumps(params, "random.params"),
-                                           random_seed, int(seed), int(index)))
+                                           random_seed, _int(seed, "seed", **u64),
+                                           _int(index, "index", **u64)))
 
 
 def _intrinsics(k):
@@ -65,7 +67,7 @@ class DegradeTransform:
             raise ValueError("ground_truth: 'clean' or 'lit'")
         self.random = dict(random or {})
         self.base = dict(base or {})
-        self.seed = int(seed)
+        self.seed = _int(seed, "seed", 0, 2**64 - 1)
         self.encoding = encoding
         self.ground_truth = ground_truth
         draw_params(self.random, 0, self.base, self.seed)  # fail early on a bad sampler
@@ -110,15 +112,18 @@ class RenderDataset:
 
     def item_id(self, index):
         """generate's id of item ``index`` ("<scene>_<index, 6 digits>")."""
-        return self._plan.item(int(index))[0]
+        return self._plan.item(self._index(index))[0]
+
+    def _index(self, index):
+        n = _int(index, "RenderDataset index", None)
+        if not -len(self) <= n < len(self):
+            raise IndexError("RenderDataset index %d out of range (%d items)" % (n, len(self)))
+        return n + len(self) if n < 0 else n
 
     def __getitem__(self, index):
         if isinstance(index, slice) or not isinstance(index, (int, _np.integer)):
             raise TypeError("RenderDataset index must be an int")
-        index = int(index)
-        if index < 0:
-            index += len(self)
-        _, scene_index, params_text = self._plan.item(index)
+        _, scene_index, params_text = self._plan.item(self._index(index))
         scene = self._plan.scene(scene_index)
         params = _json.loads(params_text)
         render_params = params
