@@ -18,7 +18,7 @@ import json as _json
 import numpy as _np
 
 from . import _turbid
-from . import Scene, RenderResult, _dumps
+from . import Scene, RenderResult, _dumps, _seed
 
 __all__ = ["DegradeTransform", "RenderDataset", "draw_params"]
 
@@ -32,9 +32,9 @@ def draw_params(random, index, base=None, seed=0):
     if unknown:
         raise ValueError("random: unknown key %s (params, seed)" % sorted(unknown)[0])
     params = random.get("params", {})
-    random_seed = int(random.get("seed", seed))
+    random_seed = _seed(random.get("seed", seed), "random.seed" if "seed" in random else "seed")
     return _json.loads(_turbid.draw_params(_dumps(base, "base"), _dumps(params, "random.params"),
-                                           random_seed, int(seed), int(index)))
+                                           random_seed, _seed(seed), int(index)))
 
 
 def _intrinsics(k):
@@ -65,7 +65,7 @@ class DegradeTransform:
             raise ValueError("ground_truth: 'clean' or 'lit'")
         self.random = dict(random or {})
         self.base = dict(base or {})
-        self.seed = int(seed)
+        self.seed = _seed(seed)
         self.encoding = encoding
         self.ground_truth = ground_truth
         draw_params(self.random, 0, self.base, self.seed)  # fail early on a bad sampler
