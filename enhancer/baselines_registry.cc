@@ -21,13 +21,15 @@ void BindDcp(ParamBinder& b, DcpOptions* o) {
 std::vector<MethodParam> DcpParams(const DcpOptions& d, const std::string& prior) {
   return {
       Param("patch_size", d.patch_size,
-            "side of the square " + prior + " window, pixels, odd >= 1 (He 2011: 15)"),
+            "side of the square " + prior + " window, pixels, odd >= 1 (He 2011: 15)",
+            SizeBound::kWindow),
       Param("omega", d.omega, "fraction of haze removed, (0,1] (He 2011 eq. 12: 0.95)"),
       Param("t0", d.t0, "lower bound on transmission in the recovery, (0,1] (He 2011: 0.1)"),
       Param("airlight_fraction", d.airlight_fraction,
             "fraction of brightest dark-channel pixels searched for A, (0,1] (He 2011: 0.001)"),
       Param("refine", d.refine, "guided-filter refinement of the transmission (He 2013)"),
-      Param("guided_radius", d.guided_radius, "guided-filter radius, pixels >= 1 (He 2013: 60)"),
+      Param("guided_radius", d.guided_radius, "guided-filter radius, pixels >= 1 (He 2013: 60)",
+            SizeBound::kRadius),
       Param("guided_eps", d.guided_eps, "guided-filter epsilon on [0,1] data, > 0 (He 2013: 1e-4)"),
   };
 }
@@ -41,8 +43,10 @@ void BindClahe(ParamBinder& b, const std::string& prefix, ClaheBaselineOptions* 
 
 std::vector<MethodParam> ClaheParams(const ClaheBaselineOptions& d, const std::string& prefix) {
   return {
-      Param(prefix + "tiles_x", d.tiles_x, "contextual regions along x, >= 2 (adapthisteq: 8)"),
-      Param(prefix + "tiles_y", d.tiles_y, "contextual regions along y, >= 2 (adapthisteq: 8)"),
+      Param(prefix + "tiles_x", d.tiles_x, "contextual regions along x, >= 2 (adapthisteq: 8)",
+            SizeBound::kPerAxis),
+      Param(prefix + "tiles_y", d.tiles_y, "contextual regions along y, >= 2 (adapthisteq: 8)",
+            SizeBound::kPerAxis),
       Param(prefix + "clip_limit", d.clip_limit,
             "clip limit as a fraction, [0,1] (adapthisteq: 0.01)"),
       Param(prefix + "bins", d.bins, "histogram bins, [2, 65536] (adapthisteq: 256)"),
@@ -109,7 +113,8 @@ MethodEntry CapEntry() {
       Param("theta0", d.theta0, "depth model intercept (Zhu 2015: 0.121779)"),
       Param("theta1", d.theta1, "depth model HSV-value coefficient (Zhu 2015: 0.959710)"),
       Param("theta2", d.theta2, "depth model HSV-saturation coefficient (Zhu 2015: -0.780245)"),
-      Param("patch_size", d.patch_size, "minimum-filter side, pixels, odd >= 1 (Zhu 2015: 15)"),
+      Param("patch_size", d.patch_size, "minimum-filter side, pixels, odd >= 1 (Zhu 2015: 15)",
+            SizeBound::kWindow),
       Param("beta", d.beta, "scattering coefficient in t = exp(-beta d), > 0 (Zhu 2015: 1)"),
       Param("t_min", d.t_min, "lower transmission clamp, (0, t_max) (Zhu 2015: 0.05)"),
       Param("t_max", d.t_max, "upper transmission clamp, (t_min, 1] (Zhu 2015: 1)"),
@@ -117,7 +122,8 @@ MethodEntry CapEntry() {
             "fraction of farthest pixels searched for A, (0,1] (Zhu 2015: 0.001)"),
       Param("refine", d.refine, "guided-filter refinement of the depth"),
       Param("guided_radius", d.guided_radius,
-            "guided-filter radius, pixels >= 1 (Zhu's code: 60x60 window, radius 30)"),
+            "guided-filter radius, pixels >= 1 (Zhu's code: 60x60 window, radius 30)",
+            SizeBound::kRadius),
       Param("guided_eps", d.guided_eps, "guided-filter epsilon on [0,1] data (Zhu's code: 1e-3)"),
   };
   e.run = [](const nlohmann::json& params, const EnhanceInput& input) {
@@ -148,7 +154,8 @@ MethodEntry TarelEntry() {
   e.info.source = "Tarel, Hautiere, ICCV 2009, and the authors' reference code";
   e.info.params = {
       Param("p", d.p, "fraction of the veil removed, (0,1) (Tarel 2009: 0.95)"),
-      Param("sv", d.sv, "median window side (largest white object), pixels, odd >= 1 (Tarel: 11)"),
+      Param("sv", d.sv, "median window side (largest white object), pixels, odd >= 1 (Tarel: 11)",
+            SizeBound::kWindow),
       Param("balance", d.balance,
             "white balance: < 0 none, 0 global, > 0 local strength (reference code values)"),
       Param("tone_map", d.tone_map, "final gamma correction and tone mapping (reference code)"),

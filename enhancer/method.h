@@ -69,9 +69,10 @@ class ParamBinder {
   std::set<std::string> bound_;
 };
 
-// Helper for MethodInfo::params: {name, default (as JSON), doc}.
-inline MethodParam Param(std::string name, nlohmann::json default_value, std::string doc) {
-  return MethodParam{std::move(name), std::move(default_value), std::move(doc)};
+// Helper for MethodInfo::params: {name, default (as JSON), doc, how the image bounds it}.
+inline MethodParam Param(std::string name, nlohmann::json default_value, std::string doc,
+                         SizeBound bound = SizeBound::kNone) {
+  return MethodParam{std::move(name), std::move(default_value), std::move(doc), bound};
 }
 
 // Shared input validation for methods: non-empty CV_32F, 1 or 3 channels, all finite. Throws

@@ -1930,9 +1930,12 @@ MethodEntry OracleEntry() {
       Param("remove_snow", d.remove_snow, "re-render the marine snow from the seed and subtract"),
       Param("mask_transmission", d.mask_transmission,
             "pixels with t below this are masked (prior mean), (0, 1)"),
-      Param("coarse_radius", d.coarse_radius, "prior's coarse window radius, px"),
-      Param("middle_radius", d.middle_radius, "prior's middle window radius, px (< coarse)"),
-      Param("pixel_radius", d.pixel_radius, "window of the per-pixel prior variance, px"),
+      Param("coarse_radius", d.coarse_radius, "prior's coarse window radius, px",
+            SizeBound::kRadius),
+      Param("middle_radius", d.middle_radius, "prior's middle window radius, px (< coarse)",
+            SizeBound::kRadius),
+      Param("pixel_radius", d.pixel_radius, "window of the per-pixel prior variance, px",
+            SizeBound::kRadius),
       Param("deblur", d.deblur, "Wiener deconvolution of the true PSF after the MMSE estimate"),
   };
   e.run = [](const nlohmann::json& params, const EnhanceInput& in) {

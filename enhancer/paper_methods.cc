@@ -1785,8 +1785,10 @@ void BindClahe(ParamBinder& b, const std::string& prefix, ClaheOptions* c, std::
 
 std::vector<MethodParam> ClahePar(const std::string& prefix, const ClaheOptions& c) {
   return {
-      Param(prefix + "tiles_x", c.tiles_x, "CLAHE tiles along x, >= 2 (adapthisteq: 8)"),
-      Param(prefix + "tiles_y", c.tiles_y, "CLAHE tiles along y, >= 2 (adapthisteq: 8)"),
+      Param(prefix + "tiles_x", c.tiles_x, "CLAHE tiles along x, >= 2 (adapthisteq: 8)",
+            SizeBound::kPerAxis),
+      Param(prefix + "tiles_y", c.tiles_y, "CLAHE tiles along y, >= 2 (adapthisteq: 8)",
+            SizeBound::kPerAxis),
       Param(prefix + "clip_limit", c.clip_limit, "CLAHE clip limit as a fraction, [0,1] (0.01)"),
       Param(prefix + "bins", c.bins, "CLAHE histogram bins, [2, 65536] (256)"),
       Param(prefix + "distribution", ClaheDistributionName(c.distribution),
@@ -1934,7 +1936,8 @@ MethodEntry FullEntry(const std::string& variant) {
   e.info.inputs = FullInputs(d);
   e.info.params = {
       Param("denoise", d.denoise, "step 1: guided-filter denoise (eq. 4)"),
-      Param("denoise_radius", d.denoise_radius, "guided filter k, pixels (paper: 4)"),
+      Param("denoise_radius", d.denoise_radius, "guided filter k, pixels (paper: 4)",
+            SizeBound::kRadius),
       Param("denoise_eps", d.denoise_eps, "guided filter epsilon on [0,1] data (paper: 0.1^2)"),
       Param("denoise_adaptive", d.denoise_adaptive,
             "epsilon scaled by t_med^2, floored at (factor * noise sigma)^2 (false: as given)"),
@@ -1996,9 +1999,9 @@ MethodEntry SimplifiedEntry() {
   e.info.source = "the reproduced paper §III-B, eqs. 8-9 (after He et al. TPAMI 2013 §4.2)";
   e.info.inputs = "";  // the image alone
   e.info.params = {
-      Param("fine_radius", d.fine_radius, "k_f, pixels (paper: 2)"),
+      Param("fine_radius", d.fine_radius, "k_f, pixels (paper: 2)", SizeBound::kRadius),
       Param("fine_eps", d.fine_eps, "sigma_f on [0,1] data (paper: 0.1^2)"),
-      Param("coarse_radius", d.coarse_radius, "k_g, pixels (paper: 8)"),
+      Param("coarse_radius", d.coarse_radius, "k_g, pixels (paper: 8)", SizeBound::kRadius),
       Param("coarse_eps", d.coarse_eps, "sigma_g on [0,1] data (paper: 0.4^2)"),
       Param("coarse_subsample", d.coarse_subsample, "fast guided filter ratio for I_g, 1 = exact"),
       Param("alpha", d.alpha, "detail amplification (paper: 5)"),

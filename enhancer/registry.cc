@@ -3,6 +3,7 @@
 #include "enhancer/registry.h"
 
 #include <algorithm>
+#include <cstdint>
 #include <map>
 #include <mutex>
 #include <opencv2/imgproc.hpp>
@@ -58,12 +59,46 @@ bool IsPrivileged(const std::string& name, const nlohmann::json& params) {
   return entry.privileged_with(params.is_null() ? nlohmann::json::object() : params);
 }
 
+int64_t SizeBoundLimit(SizeBound bound, cv::Size size) {
+  const int64_t side = std::max<int64_t>(1, std::max(size.width, size.height));
+  switch (bound) {
+    case SizeBound::kWindow:
+      return 2 * side + 1;
+    case SizeBound::kRadius:
+    case SizeBound::kPerAxis:
+      return side;
+    case SizeBound::kNone:
+      break;
+  }
+  return INT64_MAX;
+}
+
+void CheckSizeParams(const MethodInfo& info, const nlohmann::json& params, cv::Size image_size) {
+  for (const MethodParam& p : info.params) {
+    if (p.bound == SizeBound::kNone) continue;
+    const nlohmann::json* value = &p.default_value;
+    if (params.is_object() && params.contains(p.name)) value = &params[p.name];
+    if (!value->is_number() || !p.default_value.is_number()) continue;  // the binder says why
+    const double v = value->get<double>();
+    const int64_t limit =
+        std::max(SizeBoundLimit(p.bound, image_size), p.default_value.get<int64_t>());
+    if (!(v > static_cast<double>(limit))) continue;
+    const char* rule = p.bound == SizeBound::kWindow   ? "2 x its larger side + 1"
+                       : p.bound == SizeBound::kRadius ? "its larger side"
+                                                       : "its larger side (regions per axis)";
+    throw Error(info.name + ": parameter '" + p.name + "' = " + value->dump() + " exceeds " +
+                std::to_string(limit) + ", the bound for a " + std::to_string(image_size.width) +
+                "x" + std::to_string(image_size.height) + " image (" + rule + ")");
+  }
+}
+
 cv::Mat Enhance(const std::string& name, const nlohmann::json& params, const EnhanceInput& input) {
   const MethodEntry& entry = FindEntry(name);
   if (!params.is_null() && !params.is_object()) {
     throw Error(name + ": parameters must be a JSON object");
   }
   ValidateEnhanceImage(input.image, name);
+  CheckSizeParams(entry.info, params, input.image.size());
   const nlohmann::json empty = nlohmann::json::object();
   const bool reorder = input.rgb && input.image.channels() == 3 && !entry.rgb_native;
   cv::Mat out;

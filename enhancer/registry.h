@@ -2,6 +2,7 @@
 // this one table. Contract used by tools/; extend, do not break.
 #pragma once
 
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
@@ -22,10 +23,22 @@ struct EnhanceInput {
   bool rgb = false;
 };
 
+// How a size-like parameter is bounded by the image a method runs on. Enhance refuses a larger
+// value with one line naming the method, the parameter, its value and the bound (docs/methods.md,
+// "Size parameters"); the method's default is always accepted, so tiny images keep working.
+enum class SizeBound {
+  kNone,
+  kWindow,   // a window's side, pixels: at most 2 x the image's larger side + 1 (such a window
+             // centred on any pixel already covers the whole image)
+  kRadius,   // a window's radius, pixels: at most the image's larger side
+  kPerAxis,  // regions along one axis (CLAHE tiles): at most the image's larger side
+};
+
 struct MethodParam {
   std::string name;
   nlohmann::json default_value;
   std::string doc;  // meaning, units, valid range, source of the default
+  SizeBound bound = SizeBound::kNone;
 };
 
 struct MethodInfo {
@@ -43,6 +56,15 @@ struct MethodInfo {
   std::string inputs;
   std::vector<MethodParam> params;
 };
+
+// The largest value `bound` allows on an image of `size` (INT64_MAX for kNone).
+int64_t SizeBoundLimit(SizeBound bound, cv::Size size);
+
+// Throws Error("<method>: parameter '<name>' = <value> exceeds <limit>, ...") when a size-like
+// parameter of `info` (an override in `params`, else its default) is larger than SizeBoundLimit
+// for `image_size` and than its default. Enhance calls it; so do callers that run a method's
+// options directly (turbid enhance --dump-steps).
+void CheckSizeParams(const MethodInfo& info, const nlohmann::json& params, cv::Size image_size);
 
 const std::vector<MethodInfo>& ListMethods();
 const MethodInfo& FindMethod(const std::string& name);  // throws Error for unknown names

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 
@@ -19,11 +20,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace turbid;
   static const HarnessCatalog catalog = RegistryCatalog();
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  const nlohmann::json json = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (json.is_discarded()) {
+  const std::optional<nlohmann::json> parsed = fuzz::ParseStrictJson(text, "experiment.json");
+  if (!parsed) {
     fuzz::ExpectOnlyErrors([&] { ParseShard(std::string(fuzz::SplitAt(text, "\n").first)); });
-    return 0;  // LoadExperimentFile reports "not valid JSON" before parsing
+    return 0;  // LoadExperimentFile reports "invalid JSON" before parsing
   }
+  const nlohmann::json& json = *parsed;
   fuzz::ExpectOnlyErrors([&] {
     const Experiment experiment =
         ParseExperiment(json, fuzz::ScratchPath("experiment.json"), catalog);

@@ -8,11 +8,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <utility>
 
 #include "scenes/error.h"
+#include "scenes/json_io.h"
 
 namespace turbid::fuzz {
 
@@ -46,6 +49,15 @@ void ExpectOnlyErrors(Body&& body) {
     std::fprintf(stderr, "fuzz: a non-turbid::Error exception escaped: %s\n", e.what());
     std::abort();
   }
+}
+
+// The input as the commands read JSON (scenes/json_io.h: strict, depth-limited), or nullopt when
+// they would refuse it with their "invalid JSON" line. The parse itself must end only in Error.
+inline std::optional<nlohmann::json> ParseStrictJson(std::string_view text,
+                                                     const std::string& source) {
+  std::optional<nlohmann::json> json;
+  ExpectOnlyErrors([&] { json = turbid::ParseJson(text, source); });
+  return json;
 }
 
 }  // namespace turbid::fuzz

@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -13,8 +14,9 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace turbid;
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  const nlohmann::json json = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (json.is_discarded()) return 0;  // the command reports "not valid JSON" before parsing
+  const std::optional<nlohmann::json> parsed = fuzz::ParseStrictJson(text, "generate.json");
+  if (!parsed) return 0;  // the command reports "invalid JSON" before parsing
+  const nlohmann::json& json = *parsed;
   fuzz::ExpectOnlyErrors([&] {
     const GenerateConfig config = ParseGenerateConfig(json, fuzz::ScratchPath("generate.json"));
     // Names as the loaded scenes would have them; the bound keeps one input fast (the config's

@@ -9,8 +9,10 @@
 #include <cstdlib>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 
 #include "fuzz/fuzz_support.h"
 #include "scenes/builtin.h"
@@ -35,9 +37,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view input(reinterpret_cast<const char*>(data), size);
   const auto parts = fuzz::SplitAt(input, std::string_view("\0", 1));
   const std::string_view sets = parts.second;
-  nlohmann::json params = nlohmann::json::parse(parts.first, nullptr, /*allow_exceptions=*/false);
-  if (params.is_discarded()) return 0;  // `turbid render` reports "not valid JSON" before this
-  if (!params.is_object()) return 0;    // and "parameters must be a JSON object"
+  std::optional<nlohmann::json> parsed = fuzz::ParseStrictJson(parts.first, "params.json");
+  if (!parsed) return 0;               // `turbid render` reports "invalid JSON" before this
+  if (!parsed->is_object()) return 0;  // and "parameters must be a JSON object"
+  nlohmann::json params = std::move(*parsed);
   fuzz::ExpectOnlyErrors([&] {
     std::string_view rest = sets;
     while (!rest.empty()) {

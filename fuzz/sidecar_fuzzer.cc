@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string_view>
 
 #include "enhancer/registry.h"
@@ -32,8 +33,9 @@ struct Fixture {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const Fixture fixture;
   const std::string_view text(reinterpret_cast<const char*>(data), size);
-  const nlohmann::json sidecar = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (sidecar.is_discarded()) return 0;  // ReadJsonFile reports "not valid JSON" before this
+  const std::optional<nlohmann::json> parsed = fuzz::ParseStrictJson(text, "sidecar.json");
+  if (!parsed) return 0;  // ReadJsonFile reports "invalid JSON" before this
+  const nlohmann::json& sidecar = *parsed;
   fuzz::ExpectOnlyErrors([&] { SidecarEncoding(sidecar); });
   EnhanceInput input;
   input.image = fixture.image;

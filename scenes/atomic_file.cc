@@ -19,6 +19,7 @@
 #include <system_error>
 
 #include "scenes/error.h"
+#include "scenes/input_file.h"
 
 namespace turbid {
 namespace fs = std::filesystem;
@@ -165,7 +166,8 @@ int RemoveStaleTemporaries(const std::string& folder, bool recursive,
   // Errors on single entries (a file gone meanwhile, no permission) skip that entry only.
   const auto visit = [&](const fs::directory_entry& entry) {
     std::error_code entry_ec;
-    if (!entry.is_regular_file(entry_ec)) return;
+    // A regular file itself, not a link (a link is not a temporary turbid wrote).
+    if (entry.symlink_status(entry_ec).type() != fs::file_type::regular) return;
     const std::string target = TemporaryTarget(entry.path().filename().string());
     // A temporary of a skipped file is skipped too: its writer may be alive.
     if (target.empty() || skipped(entry.path().parent_path() / target)) return;
@@ -322,6 +324,7 @@ std::string Sha256Bytes(const std::string& bytes) {
 }
 
 std::string Sha256File(const std::string& path) {
+  CheckInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open for reading");
   Sha256 hash;

@@ -20,6 +20,7 @@
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_codecs.h"
+#include "scenes/input_file.h"
 #include "scenes/limits.h"
 
 namespace turbid {
@@ -62,11 +63,7 @@ std::string ReadAllBytes(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error(path, "file not found");
   if (fs::is_directory(path, ec)) throw Error(path, "is a folder, not an image file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open for reading");
-  std::ostringstream bytes;
-  bytes << in.rdbuf();
-  return bytes.str();
+  return ReadInputFile(path);  // a FIFO or device: "not a regular file", before any read
 }
 
 ImageFormat FormatFromMagic(const std::string& head) {
@@ -300,6 +297,7 @@ std::string EncodeExr(const std::string& path, const cv::Mat& data) {
 ImageFormat DetectImageFormat(const std::string& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) throw Error(path, "file not found");
+  CheckInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open for reading");
   std::string head(8, '\0');

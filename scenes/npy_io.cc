@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "scenes/error.h"
+#include "scenes/input_file.h"
 #include "scenes/limits.h"
 
 namespace turbid {
@@ -122,6 +123,7 @@ void ConvertRows(const std::vector<char>& bytes, cv::Mat& out) {
 }  // namespace
 
 bool IsNpyFile(const std::string& path) {
+  if (!InputFileProblem(path).empty()) return false;  // never open a FIFO or device
   std::ifstream in(path, std::ios::binary);
   char head[kMagicSize] = {};
   if (!in.read(head, kMagicSize)) return false;
@@ -136,7 +138,7 @@ NpyArray ReadNpy(const std::string& path) {
   if (first_byte != 1) throw Error(path, ".npy reading needs a little-endian host");
 
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw Error(path, "file not found");
+  CheckInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open for reading");
   const uintmax_t file_size = std::filesystem::file_size(path, ec);

@@ -12,6 +12,7 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
+#include "scenes/input_file.h"
 #include "scenes/plugin/hdf5_plugin.h"
 #include "scenes/plugin_loader.h"
 
@@ -33,7 +34,7 @@ int ReadWithPlugin(const std::string& path, const NyuFrameOptions& options, int 
                    uint8_t* codes, float* depth) {
   std::error_code ec;
   if (!std::filesystem::exists(path, ec)) throw Error(path, "file not found");
-  if (!std::filesystem::is_regular_file(path, ec)) throw Error(path, "is not a regular file");
+  CheckInputFile(path);
   std::string why;
   auto* read = reinterpret_cast<TurbidHdf5ReadNyuFn*>(
       plugins::LoadPluginSymbol(kTurbidHdf5PluginFileName, kTurbidHdf5ReadNyuSymbol, "HDF5", &why));

@@ -16,9 +16,11 @@
 #include "scenes/error.h"
 #include "scenes/folder_dataset.h"
 #include "scenes/image_io.h"
+#include "scenes/json_io.h"
 #include "scenes/limits.h"
 #include "scenes/normals.h"
 #include "scenes/nyu_depth_v2.h"
+#include "scenes/safe_name.h"
 #include "scenes/scene_loader.h"
 
 namespace turbid {
@@ -315,6 +317,12 @@ void ParseMultiFrame(ObjectReader& reader, const json& root, const fs::path& fol
   reader.Allow("frames");
   spec.frames = SelectFrames(reader, root.contains("frames") ? &root.at("frames") : nullptr, keys,
                              spec.type == "folder");
+  // A frame's key becomes part of its scene's name, and with it of file names.
+  for (const std::string& key : spec.frames) {
+    std::string why;
+    if (!IsSafeFileComponent(key, &why))
+      reader.Fail("frame key '" + PrintableName(key) + "' " + why);
+  }
   if (!frame_suffix.empty()) {
     if (std::find(keys.begin(), keys.end(), frame_suffix) == keys.end())
       reader.Fail("'#" + frame_suffix + "': no such frame (" +
@@ -374,18 +382,8 @@ cv::Mat DepthFromDisparity(const cv::Mat& disparity_px, double fx_px, double bas
 SceneFileSpec ParseSceneFile(const std::string& spec_path) {
   const auto [json_path, frame_suffix] = SplitFrameSuffix(spec_path);
   std::error_code ec;
-  if (!fs::exists(json_path, ec)) throw Error(json_path, "file not found");
   if (fs::is_directory(json_path, ec)) throw Error(json_path, "is a folder, not a scene file");
-  std::ifstream in(json_path, std::ios::binary);
-  if (!in) throw Error(json_path, "cannot open for reading");
-  json root;
-  try {
-    root = json::parse(in);
-  } catch (const json::exception& e) {  // parse errors and number overflow (1e999)
-    std::string what = e.what();
-    const size_t cut = what.find("] ");
-    throw Error(json_path, "invalid JSON: " + (cut == std::string::npos ? what : what.substr(cut + 2)));
-  }
+  const json root = ReadJsonFile(json_path);  // regular file, strict (depth, duplicate keys)
   ObjectReader reader(json_path, "", root);
   SceneFileSpec spec;
   spec.source = json_path;
@@ -394,7 +392,10 @@ SceneFileSpec ParseSceneFile(const std::string& spec_path) {
   if (!types.count(spec.type))
     reader.Fail("'type' must be one of " + Join(types) + ", got '" + spec.type + "'");
   spec.name = reader.Has("name") ? reader.String("name") : fs::path(json_path).stem().string();
-  if (spec.name.empty()) reader.Fail("'name' must not be empty");
+  // The name becomes a folder (`turbid scene --out`) and part of file names (generate, sweep).
+  std::string why;
+  if (!IsSafeFileComponent(spec.name, &why))
+    reader.Fail("scene name '" + PrintableName(spec.name) + "' " + why);
   const fs::path folder = fs::path(json_path).parent_path();
   const bool multi_frame = spec.type == "nyu_v2" || spec.type == "folder";
   if (!frame_suffix.empty() && !multi_frame)

@@ -1013,7 +1013,9 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
             row_a(halo_rows[i], scratch_a, e_scratch.data(), halo.data() + i * per_row);
         }
         auto j_row = [&](int source) -> const float* {
-          if (source >= y0 && source < y1) return lit.ptr<float>(source);
+          // Without streaming pass A has computed every row of J (a kernel 2R + 1 >= the height
+          // reads rows of other bands, reflected as often as it needs).
+          if (!stream || (source >= y0 && source < y1)) return lit.ptr<float>(source);
           const size_t i =
               std::find(halo_rows.begin(), halo_rows.end(), source) - halo_rows.begin();
           return halo.data() + i * per_row;

@@ -46,11 +46,12 @@ int TypeIndex(const std::string& type) {
 }
 
 // UWCNN's N_lambda (R, G, B) per Jerlov type, kTypeNames order: Li, Anwar & Porikli, Pattern
-// Recognition 98 (2020) 107038, as the public synthesis scripts list them ([B, G, R] there, e.g.
-// deepxzy/underwater-image-synthesis-algorithm utils.py @22dd0a9; provenance and the data file
-// tests check against: shared/data/jerlov/uwcnn_nlambda.csv and its SOURCE.md).
+// Recognition 98 (2020) 107038, as the authors' synthesis scripts list them ([B, G, R] there).
+// Types I and IA red are 0.85 / 0.84 as in those scripts (an earlier port's 0.805 / 0.804 made red
+// non-monotone across I, IA, IB); provenance and the data file tests check against:
+// shared/data/jerlov/uwcnn_nlambda.csv and its SOURCE.md.
 const double kUwcnnN[kTypes][3] = {
-    {0.805, 0.961, 0.982}, {0.804, 0.955, 0.975}, {0.830, 0.950, 0.968}, {0.800, 0.925, 0.940},
+    {0.850, 0.961, 0.982}, {0.840, 0.955, 0.975}, {0.830, 0.950, 0.968}, {0.800, 0.925, 0.940},
     {0.750, 0.885, 0.890}, {0.750, 0.885, 0.875}, {0.710, 0.820, 0.800}, {0.670, 0.730, 0.670},
     {0.620, 0.610, 0.500}, {0.550, 0.460, 0.290},
 };

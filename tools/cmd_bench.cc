@@ -65,6 +65,7 @@ struct BenchArgs {
   bool warm_allocator = false;  // keep freed memory in the heap (no fresh pages per call)
   std::string sweep;            // --sweep EXPERIMENT: time a whole sweep by stage instead
   std::string out;              // the sweep's folder (default: a temporary one, removed after)
+  bool allow_commands = false;  // --allow-commands: the experiment's "command" methods may run
   bool threads_given = false;
 };
 
@@ -466,6 +467,7 @@ void RunBench(const BenchArgs& args) {
 // most N x the wall time; the rest is threads waiting (the last items, locks) or untimed glue.
 void RunSweepBench(const BenchArgs& args) {
   const Experiment experiment = LoadExperimentFile(args.sweep, RegistryCatalog());
+  CheckCommandsAllowed(experiment, args.allow_commands, "--allow-commands");
   const int threads = args.threads_given
                           ? args.threads
                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
@@ -490,6 +492,7 @@ void RunSweepBench(const BenchArgs& args) {
   options.profile = &profile;
   HarnessRunnerOptions runner_options;
   runner_options.profile = &profile;
+  runner_options.allow_commands = args.allow_commands;
   std::cerr << "bench: sweep " << experiment.name << " (" << experiment.ItemCount() << " items, "
             << experiment.methods.size() << " methods, " << experiment.metrics.size()
             << " metrics) on " << threads << " thread(s) into " << dir << "\n";
@@ -570,7 +573,11 @@ void AddBenchCommand(CLI::App& app) {
   PathOption(cmd->add_option(
       "--out", args->out,
       "with --sweep: the sweep's output folder (default: a temporary folder, removed)"));
+  cmd->add_flag("--allow-commands", args->allow_commands,
+                "with --sweep: run the experiment's external \"command\" methods (as sweep)");
   cmd->callback([args, threads] {
+    if (args->allow_commands && args->sweep.empty())
+      throw Error("bench", "--allow-commands needs --sweep");
     args->threads_given = threads->count() > 0;
     if (!args->sweep.empty()) {
       RunSweepBench(*args);

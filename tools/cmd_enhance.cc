@@ -16,6 +16,7 @@
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/json_io.h"
 #include "scenes/scene_loader.h"
 #include "tools/cli.h"
 #include "tools/file_context.h"
@@ -51,9 +52,9 @@ json ParseParams(const std::vector<std::string>& items) {
       throw Error("--param '" + item + "': expected key=value");
     }
     const std::string key = item.substr(0, eq), text = item.substr(eq + 1);
-    json value = json::parse(text, nullptr, /*allow_exceptions=*/false);
-    if (value.is_discarded()) value = text;
-    params[key] = value;
+    const std::string shown = item.size() > 60 ? item.substr(0, 57) + "..." : item;
+    std::optional<json> value = ParseJsonIfValid(text, "--param '" + shown + "'");
+    params[key] = value ? std::move(*value) : json(text);
   }
   return params;
 }
@@ -92,11 +93,9 @@ void PrintList(bool as_json) {
   }
 }
 
-json ReadJsonFile(const std::string& path) {
-  std::ifstream f(path);
-  if (!f) throw Error(path, "cannot open");
-  json j = json::parse(f, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded() || !j.is_object()) throw Error(path, "not a JSON object");
+json ReadJsonObjectFile(const std::string& path) {
+  json j = ReadJsonFile(path);
+  if (!j.is_object()) throw Error(path, "not a JSON object");
   return j;
 }
 
@@ -116,7 +115,7 @@ void Run(const EnhanceArgs& a) {
   if (!a.force && fs::exists(a.out)) throw Error(a.out, "exists (use --force to replace it)");
 
   std::optional<json> sidecar;
-  if (!a.sidecar.empty()) sidecar = ReadJsonFile(a.sidecar);
+  if (!a.sidecar.empty()) sidecar = ReadJsonObjectFile(a.sidecar);
   // How the input's integer values are coded: --transfer, else what the sidecar (given, or the
   // render's OUT.json / scene.json beside the input) records, else sRGB as a camera writes.
   // Every method works on the decoded, linear image.
@@ -189,6 +188,7 @@ void Run(const EnhanceArgs& a) {
     dump("00_input", input.image);
     if (a.method.rfind("full", 0) == 0) {
       // Same binding and same result as Enhance(a.method, ...), with every intermediate.
+      CheckSizeParams(info, params, input.image.size());
       FullResult r = FullEnhanceDetailed(FullOptionsFromJson(params, a.method), input.image,
                                          input.scene, input.sidecar);
       dump("01_denoised", r.denoised);

@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "scenes/error.h"
+#include "scenes/input_file.h"
 #include "tools/cli.h"
 #include "tools/experiment.h"
 #include "tools/harness_runner.h"
@@ -29,6 +30,7 @@ struct SweepArgs {
   bool dry_run = false;
   bool no_reuse = false;
   bool retry_failed = false;
+  bool allow_commands = false;
 };
 
 void RunSweepCommand(const SweepArgs& args) {
@@ -42,6 +44,15 @@ void RunSweepCommand(const SweepArgs& args) {
   options.retry_failed = args.retry_failed;
   options.progress = !args.quiet && ShouldShowProgress();
   ThrowIfInvalid(options, "sweep");
+  // An experiment file is data: its external commands run only when the user says so.
+  const std::vector<std::string> commands = DescribeCommands(experiment);
+  if (args.dry_run && !commands.empty() && !args.allow_commands) {
+    std::cout << experiment.name << ": the sweep would run these external commands (each needs "
+              << "--allow-commands):\n";
+    for (const std::string& line : commands) std::cout << "  " << line << "\n";
+    std::cout << std::flush;
+  }
+  CheckCommandsAllowed(experiment, args.allow_commands, "--allow-commands");
   if (args.dry_run) {
     int in_shard = 0;
     for (const ItemSpec& item : ExpandItems(experiment))
@@ -51,10 +62,15 @@ void RunSweepCommand(const SweepArgs& args) {
               << " items (" << in_shard << " in shard " << args.shard << "), "
               << experiment.methods.size() << " methods, " << experiment.metrics.size()
               << " metrics\n";
+    if (!commands.empty()) {
+      std::cout << "external commands it runs (allowed by --allow-commands):\n";
+      for (const std::string& line : commands) std::cout << "  " << line << "\n";
+    }
     return;
   }
   HarnessRunnerOptions runner_options;
   runner_options.reuse = !args.no_reuse;
+  runner_options.allow_commands = args.allow_commands;
   HarnessRunner runner(experiment, args.out, runner_options);
   const SweepSummary summary = RunSweep(experiment, options, runner.Hooks());
   if (summary.ran == 0 && !summary.tables_written) {
@@ -132,6 +148,7 @@ void RunRegressCommand(const RegressArgs& args) {
     // The baseline's kind from its header (a summary.csv starts "level,method,metric"), else
     // from its name.
     std::string header;
+    CheckInputFile(args.baseline);
     std::ifstream baseline_in(args.baseline);
     std::getline(baseline_in, header);
     const bool summary_baseline =
@@ -182,6 +199,9 @@ void AddHarnessCommands(CLI::App& app) {
   sweep->add_flag("--force", sweep_args->force,
                   "start over when --out holds a different experiment");
   sweep->add_flag("--dry-run", sweep_args->dry_run, "validate and count the items, run nothing");
+  sweep->add_flag("--allow-commands", sweep_args->allow_commands,
+                  "run the experiment's external \"command\" methods (programs it names, with "
+                  "their env); without it a sweep that names one refuses to start");
   sweep->add_flag("--retry-failed", sweep_args->retry_failed,
                   "run again the method cells that failed in journaled items");
   sweep->add_flag("--no-reuse", sweep_args->no_reuse,

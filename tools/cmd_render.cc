@@ -12,6 +12,7 @@
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/json_io.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/cli.h"
@@ -23,16 +24,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-json ReadJsonFile(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw Error(path, "cannot open");
-  try {
-    return json::parse(file);
-  } catch (const json::exception& e) {
-    throw Error(path, std::string("not valid JSON: ") + e.what());
-  }
-}
 
 std::string Extension(const std::string& path) {
   std::string ext = fs::path(path).extension().string();

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <set>
 #include <sstream>
@@ -18,6 +19,7 @@
 #include "scenes/camera_encoding.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/safe_name.h"
 #include "scenes/scene_loader.h"
 #include "scenes/scene_summary.h"
 #include "tools/cli.h"
@@ -194,6 +196,7 @@ void RunScene(const SceneArgs& args) {
   std::vector<Scene> scenes;
   std::vector<std::string> sources;
   std::set<std::string> names;
+  std::map<std::string, std::string> folder_names;  // FileNameKey -> scene name
   for (const std::string& spec : specs) {
     if (spec.rfind("builtin:", 0) == 0) {
       const std::string name = spec.substr(8);
@@ -210,6 +213,18 @@ void RunScene(const SceneArgs& args) {
       if (args.out_dir.empty()) continue;  // the same scene twice: nothing to write twice
       throw Error(spec, "scene name '" + scene.name +
                             "' is used twice; outputs would collide (set a different \"name\")");
+    }
+    if (!args.out_dir.empty()) {
+      // The name is the scene's folder under --out: one plain component, one folder per scene.
+      std::string why;
+      if (!IsSafeFileComponent(scene.name, &why))
+        throw Error(spec, "scene name '" + PrintableName(scene.name) + "' " + why);
+      const auto [it, inserted] = folder_names.emplace(FileNameKey(scene.name), scene.name);
+      if (!inserted) {
+        throw Error(spec, "scene names '" + it->second + "' and '" + scene.name +
+                              "' differ only in case; their folders would collide on a "
+                              "case-insensitive file system (set a different \"name\")");
+      }
     }
     scenes.push_back(std::move(scene));
     sources.push_back(spec);

@@ -23,6 +23,8 @@
 #include "metrics/registry.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/input_file.h"
+#include "scenes/json_io.h"
 #include "tools/cli.h"
 #include "tools/experiment.h"
 #include "tools/external_method.h"
@@ -223,9 +225,7 @@ void ScoreAgainstReference(const ScoreArgs& args) {
   // compare stored values, so differently coded images get a warning.
   std::optional<KnownEncoding> given;
   if (!args.sidecar.empty()) {
-    std::ifstream in(args.sidecar);
-    if (!in) throw Error(args.sidecar, "cannot open");
-    const nlohmann::json j = nlohmann::json::parse(in, nullptr, /*allow_exceptions=*/false);
+    const nlohmann::json j = ReadJsonFile(args.sidecar);
     const std::optional<std::string> name = SidecarEncoding(j);
     if (!name) throw Error(args.sidecar, "not a turbid render sidecar (no encoding recorded)");
     given = KnownEncoding{*name, args.sidecar};
@@ -523,6 +523,7 @@ void ScoreResults(const ScoreArgs& args) {
 // Pairs file: one pair per line, "A,B" or "A B"; '#' comments; an optional header line whose
 // first field is a non-file word like "a", "first", "image_a".
 std::vector<std::pair<std::string, std::string>> ReadPairs(const std::string& path) {
+  CheckInputFile(path);
   std::ifstream in(path);
   if (!in) throw Error(path, "cannot open pairs file");
   std::vector<std::pair<std::string, std::string>> pairs;

@@ -10,7 +10,9 @@
 #include <sstream>
 
 #include "scenes/error.h"
+#include "scenes/json_io.h"
 #include "scenes/limits.h"
+#include "scenes/safe_name.h"
 #include "tools/external_method.h"
 
 namespace turbid {
@@ -451,6 +453,18 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     e.ground_truth = in.at("ground_truth").get<std::string>();
     e.best_excludes = in.at("best_excludes").get<std::vector<std::string>>();
     e.thumbnail_width = in.at("thumbnail_width").get<int>();
+    // Scene names and method labels become file names (thumbs/<scene>-c<n>/<label>.png,
+    // external/<label>/): a resolved file holds only the names a sweep accepts.
+    const auto check_name = [&](const char* what, const std::string& name) {
+      if (!IsSafeName(name) || name.find('.') != std::string::npos) {
+        throw Error(source, std::string(what) + " '" + PrintableName(name) +
+                                "' must be 1-64 characters of [A-Za-z0-9_-] (the file was not "
+                                "written by turbid, or was edited)");
+      }
+    };
+    for (const ExperimentScene& scene : e.scenes) check_name("scene name", scene.name);
+    for (const ExperimentMethod& method : e.methods) check_name("method label", method.label);
+    for (const HarnessMetricInfo& metric : e.metrics) check_name("metric name", metric.name);
     return e;
   } catch (const json::exception& error) {
     throw Error(source, std::string("malformed resolved experiment: ") + error.what());
@@ -492,6 +506,7 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
   }
   const fs::path base_dir = fs::path(file).parent_path();
   std::set<std::string> scene_names;
+  std::map<std::string, std::string> scene_keys;  // FileNameKey -> scene name
   for (const json& entry : in["scenes"]) {
     ExperimentScene scene;
     scene.scale = default_scale;
@@ -524,6 +539,13 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
                      : default_name;
     if (!IsSafeName(scene.name) || scene.name.find('.') != std::string::npos) {
       throw Error(file, "scene name '" + scene.name + "' must be 1-64 characters of [A-Za-z0-9_-]");
+    }
+    // A folder on a case-insensitive file system holds one of thumbs/Reef-c0 and thumbs/reef-c0.
+    if (const auto [it, inserted] = scene_keys.emplace(FileNameKey(scene.name), scene.name);
+        !inserted && it->second != scene.name) {
+      throw Error(file, "scene names '" + it->second + "' and '" + scene.name +
+                            "' differ only in case; their files would collide on a "
+                            "case-insensitive file system");
     }
     if (!scene_names.insert(scene.name).second) {
       throw Error(file,
@@ -712,10 +734,25 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
     }
   }
   std::set<std::string> labels;
+  std::map<std::string, std::string> label_keys;  // FileNameKey -> label
   for (const ExperimentMethod& method : e.methods) {
     if (!labels.insert(method.label).second) {
       throw Error(file, "method label '" + method.label +
                             "' is used twice (give the variants distinct 'label's)");
+    }
+    // Labels name files (thumbs/<id>/<label>.png) and folders (external/<label>/); the item's
+    // own thumbnails are degraded.png, lit.png and clean.png.
+    for (const char* reserved : {"degraded", "lit", "clean"}) {
+      if (FileNameKey(method.label) == reserved) {
+        throw Error(file, "method label '" + method.label + "' is reserved (thumbs/<id>/" +
+                              reserved + ".png is the item's own thumbnail; set another 'label')");
+      }
+    }
+    const auto [it, inserted] = label_keys.emplace(FileNameKey(method.label), method.label);
+    if (!inserted) {
+      throw Error(file, "method labels '" + it->second + "' and '" + method.label +
+                            "' differ only in case; their files would collide on a "
+                            "case-insensitive file system");
     }
   }
 
@@ -793,16 +830,7 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
 }
 
 Experiment LoadExperimentFile(const std::string& path, const HarnessCatalog& catalog) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open the experiment file");
-  json parsed;
-  try {
-    parsed = json::parse(in);
-  } catch (const json::parse_error& error) {
-    std::string message = error.what();
-    throw Error(path, "invalid JSON: " + message.substr(message.find(']') + 2));
-  }
-  return ParseExperiment(parsed, path, catalog);
+  return ParseExperiment(ReadJsonFile(path), path, catalog);
 }
 
 std::vector<ItemSpec> ExpandItems(const Experiment& e) {

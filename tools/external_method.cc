@@ -161,7 +161,7 @@ ProcessResult RunProcess(const ProcessOptions& options) {
   std::error_code ec;
   fs::create_directories(fs::path(options.log_path).parent_path(), ec);
   const int log_fd =
-      ::open(options.log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+      ::open(options.log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0644);
   if (log_fd < 0) {
     throw Error(options.log_path, std::string("cannot open the log: ") + std::strerror(errno));
   }

@@ -4,6 +4,8 @@
 #include <fstream>
 #include <iostream>
 
+#include "scenes/json_io.h"
+
 namespace turbid {
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -13,10 +15,12 @@ namespace {
 std::optional<json> ReadJsonQuietly(const fs::path& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) return std::nullopt;
-  std::ifstream in(path);
-  json j = json::parse(in, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded() || !j.is_object()) return std::nullopt;
-  return j;
+  try {
+    json j = ReadJsonFile(path.string());
+    if (j.is_object()) return j;
+  } catch (const Error&) {  // unreadable or invalid: no sidecar
+  }
+  return std::nullopt;
 }
 
 bool IsEncodingName(const json& v) {

@@ -9,15 +9,19 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/json_io.h"
 #include "scenes/limits.h"
+#include "scenes/safe_name.h"
 #include "scenes/scene_loader.h"
 #include "simulator/noise.h"
 #include "simulator/render.h"
@@ -28,12 +32,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-json ReadSidecar(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw Error(path, "cannot open");
-  return json::parse(file);
-}
 
 // Sets a dotted path ("psf.forward_scatter", "light.lights.0.power") in a JSON object.
 void SetPath(json& root, const std::string& path, const json& value) {
@@ -131,13 +129,10 @@ void ApplyRenderSet(json& params, const std::string& assignment) {
   if (eq == std::string::npos || eq == 0)
     throw Error("--set '" + assignment + "': expected KEY=VALUE");
   const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
-  json value;
-  try {
-    value = json::parse(text);
-  } catch (const json::exception&) {
-    value = text;
-  }
-  SetRenderParam(params, key, value);
+  // The flag as the error names it (a long value shortened: the message stays one short line).
+  const std::string shown = assignment.size() > 60 ? assignment.substr(0, 57) + "..." : assignment;
+  std::optional<json> value = ParseJsonIfValid(text, "--set '" + shown + "'");
+  SetRenderParam(params, key, value ? std::move(*value) : json(text));
 }
 
 json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::string& path) {
@@ -307,6 +302,12 @@ uint64_t GenerateItemSeed(uint64_t seed, uint64_t index) {
 
 std::vector<GenerateItem> ExpandGenerateItems(const GenerateConfig& config,
                                               const std::vector<std::string>& scene_names) {
+  // Scene names become file names (images/<name>_<index>.png, ...): one plain component each.
+  for (const std::string& name : scene_names) {
+    std::string why;
+    if (!IsSafeFileComponent(name, &why))
+      throw Error(config.source, "scene name '" + PrintableName(name) + "' " + why);
+  }
   // Items and their fully resolved parameters (validated before any rendering starts).
   std::vector<GenerateItem> items;
   for (size_t s = 0; s < config.scene_specs.size(); ++s)
@@ -350,14 +351,6 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   const std::string& format = config.format;
   const double scale = config.scale;
   using Item = GenerateItem;
-  // One generate per folder at a time; holding the lock, the temporaries that killed earlier runs
-  // left (".NAME.tmpXXXX") are removed: their items are rendered again below.
-  const FolderLock lock(out_dir, "generate");
-  RemoveStaleTemporaries(out_dir, /*recursive=*/false);
-  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"}) {
-    RemoveStaleTemporaries((fs::path(out_dir) / sub).string(), /*recursive=*/true);
-    fs::create_directories(fs::path(out_dir) / sub);
-  }
   const std::string ext = "." + format;
   auto paths = [&](const Item& item) {
     const fs::path dir(out_dir);
@@ -366,6 +359,30 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
                                       (dir / "lit" / (item.id + ".pfm")).string(),
                                       (dir / "sidecars" / (item.id + ".json")).string()};
   };
+  // Two outputs never share a file (on a case-insensitive file system either), e.g. an item's
+  // degraded image and its ground truth.
+  {
+    std::map<std::string, std::string> owners;  // FileNameKey(path) -> item id
+    for (const Item& item : items) {
+      for (const std::string& path : paths(item)) {
+        const auto [it, inserted] = owners.emplace(FileNameKey(path), item.id);
+        if (!inserted) {
+          throw Error(path, "would be written twice (items '" + it->second + "' and '" + item.id +
+                                "'); give the scenes distinct names");
+        }
+      }
+    }
+  }
+  // One generate per folder at a time; holding the lock, the temporaries that killed earlier runs
+  // left (".NAME.tmpXXXX") are removed: their items are rendered again below.
+  const FolderLock lock(out_dir, "generate");
+  RemoveStaleTemporaries(out_dir, /*recursive=*/false);
+  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"}) {
+    // Clean-up never follows a link: a planted link would aim it at another folder.
+    RefuseSymlink((fs::path(out_dir) / sub).string(), "cleans and writes");
+    RemoveStaleTemporaries((fs::path(out_dir) / sub).string(), /*recursive=*/true);
+    fs::create_directories(fs::path(out_dir) / sub);
+  }
   // An item is complete when its sidecar (written last) exists and names the same parameters.
   auto complete = [&](const Item& item) {
     const auto p = paths(item);
@@ -373,7 +390,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
     for (int i = 0; i < 3; ++i)
       if (!fs::exists(p[i])) return false;
     try {
-      return ReadSidecar(p[3]).at("options") == item.params;
+      return ReadJsonFile(p[3]).at("options") == item.params;
     } catch (...) {
       return false;
     }

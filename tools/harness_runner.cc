@@ -14,6 +14,7 @@
 #include "scenes/builtin.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/safe_name.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/external_method.h"
@@ -56,6 +57,18 @@ cv::Mat ReadOutput(const std::string& path, const std::string& shown, const std:
     if (message.rfind(path, 0) == 0) message = shown + message.substr(path.size());
     throw Error(message);
   }
+}
+
+// "" when the external method's folders under OUT are real folders (or absent); otherwise why the
+// method cannot run: its work folder is removed and recreated, which must never go through a link.
+std::string ExternalFolderProblem(const std::string& out_dir, const std::string& folder) {
+  try {
+    RefuseSymlink(out_dir + "/external", "cleans and writes");
+    RefuseSymlink(folder, "cleans and writes");
+  } catch (const Error& error) {
+    return error.what();
+  }
+  return "";
 }
 
 // Working directory, environment and timeout of an external command method.
@@ -124,6 +137,45 @@ HarnessCatalog RegistryCatalog() {
 
 bool HarnessRunnerOptions::Check(std::string* /*why*/) const { return true; }
 
+namespace {
+
+bool IsCommandMethod(const ExperimentMethod& method) {
+  return method.IsExternal() && method.external.value("kind", "") == "command";
+}
+
+}  // namespace
+
+void CheckCommandsAllowed(const Experiment& experiment, bool allowed, const std::string& how) {
+  if (allowed) return;
+  for (const ExperimentMethod& method : experiment.methods) {
+    if (!IsCommandMethod(method)) continue;
+    const json& command = method.external.at("command");
+    const std::string program = command.empty() ? "" : command[0].get<std::string>();
+    throw Error(experiment.source_path.empty() ? "experiment" : experiment.source_path,
+                "method '" + method.label + "' runs an external command (" + json(program).dump() +
+                    "); an experiment's commands run only with " + how +
+                    " (nothing in the experiment file can allow them)");
+  }
+}
+
+std::vector<std::string> DescribeCommands(const Experiment& experiment) {
+  std::vector<std::string> lines;
+  for (const ExperimentMethod& method : experiment.methods) {
+    if (!IsCommandMethod(method)) continue;
+    const json& spec = method.external;
+    const ProcessOptions process = ProcessFor(method);
+    std::string line =
+        "method '" + method.label + "' (" +
+        (spec.value("batch", false) ? "one process per batch of up to " +
+                                          std::to_string(spec.value("batch_size", 32)) + " items"
+                                    : std::string("one process per image")) +
+        "): command " + spec.at("command").dump() + ", cwd " + json(process.cwd).dump() + ", env " +
+        spec.at("env").dump();
+    lines.push_back(line);
+  }
+  return lines;
+}
+
 struct HarnessRunner::Pending {
   cv::Mat degraded;
   cv::Mat reference;
@@ -150,6 +202,7 @@ HarnessRunner::HarnessRunner(const Experiment& experiment, std::string out_dir,
   for (size_t i = 0; i < experiment_.scenes.size(); ++i) {
     contexts_.push_back(std::make_unique<SceneContext>());
   }
+  CheckCommandsAllowed(experiment_, options_.allow_commands, options_.allow_commands_how);
   for (const ExperimentMethod& method : experiment_.methods) {
     if (!method.IsExternal() || method.external.at("kind") != "python") continue;
     const std::string key = method.external.at("python").get<std::string>();
@@ -389,6 +442,9 @@ cv::Mat HarnessRunner::RunExternal(const ExperimentMethod& method, const std::st
   }
   const std::string folder = out_dir_ + "/external/" + method.label;
   const std::string work = fs::absolute(folder + "/work-" + id).string();
+  if (const std::string link = ExternalFolderProblem(out_dir_, folder); !link.empty()) {
+    throw Error(link);
+  }
   std::error_code ec;
   fs::remove_all(work, ec);
   fs::create_directories(work + "/in", ec);
@@ -502,11 +558,13 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
     const std::string work = fs::absolute(folder + "/work-" + first_id).string();
     const std::string log_name = "batch-" + first_id + ".log";
     std::error_code ec;
-    fs::remove_all(work, ec);
-    fs::create_directories(work + "/in", ec);
-    fs::create_directories(work + "/out", ec);
-    std::string batch_problem;
-    if (ec) batch_problem = work + ": cannot create the work folder: " + ec.message();
+    std::string batch_problem = ExternalFolderProblem(out_dir_, folder);
+    if (batch_problem.empty()) {
+      fs::remove_all(work, ec);
+      fs::create_directories(work + "/in", ec);
+      fs::create_directories(work + "/out", ec);
+      if (ec) batch_problem = work + ": cannot create the work folder: " + ec.message();
+    }
     for (size_t k : members) {
       if (!batch_problem.empty()) break;
       try {
@@ -554,7 +612,7 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
         row.metrics = NanMetrics(metric_names_);
       }
     }
-    fs::remove_all(work, ec);
+    if (ExternalFolderProblem(out_dir_, folder).empty()) fs::remove_all(work, ec);
   }
   std::lock_guard<std::mutex> lock(pending_mutex_);
   for (const ItemTask& task : tasks) pending_.erase(task.spec->id);

@@ -42,10 +42,27 @@ struct HarnessRunnerOptions {
   // The callables of the experiment's "python" methods, by their key; the runner refuses an
   // experiment whose Python method has none here (the CLI passes none).
   std::map<std::string, InProcessMethod> in_process;
+  // Whether the experiment's "command" methods (external programs, with their env) may run:
+  // `turbid sweep --allow-commands`, turbid.sweep(..., allow_commands=True). Nothing in an
+  // experiment file can grant it; without it the runner refuses an experiment with a command
+  // method (CheckCommandsAllowed). `allow_commands_how` names the opt-in in the caller's language.
+  bool allow_commands = false;
+  std::string allow_commands_how = "--allow-commands";
   // Where the time goes (`turbid bench --sweep`): stage totals over all threads; null = off.
   StageProfile* profile = nullptr;
   bool Check(std::string* why) const;
 };
+
+// An experiment file is data unless the user says otherwise: throws Error("<experiment file>:
+// method '<label>' runs an external command ...; ... only with <how>") for its first "command"
+// method when !allowed. `how` is the opt-in as the caller spells it ("--allow-commands",
+// "allow_commands=True"). Call it before any work (the output folder is not touched).
+void CheckCommandsAllowed(const Experiment& experiment, bool allowed, const std::string& how);
+
+// What the experiment's "command" methods would run, one line each (for --dry-run): the label,
+// per image or batch, the command line and its working directory and environment as JSON strings
+// (control characters escaped, so a line cannot pose as another).
+std::vector<std::string> DescribeCommands(const Experiment& experiment);
 
 class HarnessRunner {
  public:

@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 
 #include "scenes/error.h"
+#include "scenes/input_file.h"
+#include "scenes/json_io.h"
 #include "tools/tables.h"
 
 namespace turbid {
@@ -27,6 +29,7 @@ void CheckNoControlCharacters(const std::string& path, int number, const std::st
 }  // namespace
 
 std::vector<ManifestRecord> ReadManifest(const std::string& path, std::vector<int>* line_numbers) {
+  CheckInputFile(path);
   std::ifstream in(path);
   if (!in) throw Error(path, "cannot open manifest");
   std::vector<ManifestRecord> records;
@@ -42,9 +45,9 @@ std::vector<ManifestRecord> ReadManifest(const std::string& path, std::vector<in
       if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
       nlohmann::json row;
       try {
-        row = nlohmann::json::parse(line);
-      } catch (const std::exception&) {
-        throw Error(path, LineName(number) + " is not valid JSON");
+        row = ParseJson(line, path);
+      } catch (const JsonError& e) {
+        throw Error(path, LineName(number) + " is not valid JSON (" + e.problem() + ")");
       }
       if (!row.is_object()) throw Error(path, LineName(number) + " is not a JSON object");
       ManifestRecord record;

@@ -4,11 +4,13 @@
 #include <fstream>
 
 #include "scenes/image_io.h"
+#include "scenes/input_file.h"
 #include "tools/file_context.h"
 
 namespace turbid {
 
 int IntegerBitDepth(const std::string& path) {
+  CheckInputFile(path);
   std::ifstream in(path, std::ios::binary);
   unsigned char header[26] = {};
   in.read(reinterpret_cast<char*>(header), sizeof(header));

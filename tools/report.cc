@@ -2,6 +2,7 @@
 
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -12,6 +13,7 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
+#include "scenes/input_file.h"
 #include "tools/sweep.h"
 #include "tools/tables.h"
 
@@ -21,6 +23,7 @@ namespace {
 namespace fs = std::filesystem;
 
 std::string ReadAll(const std::string& path) {
+  if (!InputFileProblem(path).empty()) return "";  // missing, or a FIFO / device planted there
   std::ifstream in(path, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();
@@ -43,6 +46,9 @@ std::string Html(const std::string& text) {
       case '"':
         out += "&quot;";
         break;
+      case '\'':
+        out += "&#39;";
+        break;
       default:
         out += c;
     }
@@ -61,14 +67,39 @@ std::string ShellQuote(const std::string& arg) {
   return quoted + "'";
 }
 
-// Gnuplot string literal (double-quoted, escapes for backslash and quote).
+// A gnuplot string literal for any text: single-quoted, where gnuplot performs no backquote
+// command substitution, no macro (@name) expansion and no backslash escapes; a quote is written
+// twice. Control characters (a newline would end the command) become spaces. The terminal is
+// `noenhanced`, so '@', '^', '_' and braces are shown as they are.
 std::string GpString(const std::string& text) {
-  std::string out = "\"";
+  std::string out = "'";
   for (char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
+    const unsigned char u = static_cast<unsigned char>(c);
+    if (c == '\'')
+      out += "''";
+    else if (u < 0x20 || u == 0x7f)
+      out += ' ';
+    else
+      out += c;
   }
-  return out + "\"";
+  return out + "'";
+}
+
+// A label of `set xtics ("label" x, ...)`: gnuplot reads it as a format for the tic's value, so a
+// '%' is written twice.
+std::string GpTicLabel(const std::string& text) {
+  std::string escaped;
+  for (char c : text) escaped += c == '%' ? std::string("%%") : std::string(1, c);
+  return GpString(escaped);
+}
+
+// Text for a comment line of a gnuplot data file: control characters become spaces.
+std::string OneLine(std::string text) {
+  for (char& c : text) {
+    const unsigned char u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7f) c = ' ';
+  }
+  return text;
 }
 
 // Inline formatting of summary.md cells: **bold** -> <b>, the rest escaped.
@@ -160,6 +191,8 @@ std::string DataUri(const std::string& path, const std::string& mime) {
   return "data:" + mime + ";base64," + Base64(ReadAll(path));
 }
 
+// Runs gnuplot in DIR/report on scripts that name only files in that folder, by relative names
+// made of [A-Za-z0-9_-] (SafeFileName): no path of the user's reaches a script.
 struct Plotter {
   std::string dir;  // DIR/report
   std::string gnuplot;
@@ -174,12 +207,16 @@ struct Plotter {
     AtomicWriteText(gp,
                     "set terminal svg size 640,400 fixed noenhanced font 'sans,11' "
                     "background rgb 'white'\nset output " +
-                        GpString(svg) + "\n" + script,
+                        GpString(name + ".svg") + "\n" + script,
                     true);
     std::error_code ec;
     fs::remove(svg, ec);
-    const std::string command = ShellQuote(gnuplot) + " " + ShellQuote(gp) + " 2>" +
-                                ShellQuote(dir + "/" + name + ".log") + " </dev/null";
+    // A gnuplot named by a relative path still works after the cd.
+    const std::string program =
+        gnuplot.find('/') == std::string::npos ? gnuplot : fs::absolute(gnuplot, ec).string();
+    const std::string command = "cd " + ShellQuote(dir) + " && " + ShellQuote(program) + " " +
+                                ShellQuote(name + ".gp") + " 2>" + ShellQuote(name + ".log") +
+                                " </dev/null";
     const int status = std::system(command.c_str());
     if (status != 0 || !fs::exists(svg) || fs::file_size(svg) == 0) {
       if (WIFEXITED(status) && WEXITSTATUS(status) == 127) {
@@ -275,7 +312,7 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     xtics = "set xtics (";
     for (size_t i = 0; i < levels.size(); ++i) {
       if (!level_x.count(levels[i])) continue;
-      xtics += (xtics.back() == '(' ? "" : ", ") + GpString(levels[i]) + " " +
+      xtics += (xtics.back() == '(' ? "" : ", ") + GpTicLabel(levels[i]) + " " +
                FormatValue(level_x[levels[i]]);
     }
     xtics += ")\n";
@@ -283,7 +320,7 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   for (const HarnessMetricInfo& metric : e.metrics) {
     std::ostringstream data;
     data << "# level_x";
-    for (const ExperimentMethod& m : e.methods) data << " " << m.label;
+    for (const ExperimentMethod& m : e.methods) data << " " << OneLine(m.label);
     data << "\n";
     int points = 0;
     for (const std::string& level : levels) {
@@ -309,7 +346,7 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
        << "\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n"
        << xtics << "plot ";
     for (size_t m = 0; m < e.methods.size(); ++m) {
-      gp << (m ? ", " : "") << GpString(report_dir + "/" + name + ".dat") << " using 1:" << m + 2
+      gp << (m ? ", " : "") << GpString(name + ".dat") << " using 1:" << m + 2
          << " with linespoints lw 2 pt " << (m % 12) + 1 << " dt " << (m / 8) + 1 << " title "
          << GpString(e.methods[m].label);
     }
@@ -322,6 +359,7 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     const HarnessMetricInfo& primary = e.metrics.front();
     std::ostringstream data;
     data << "# mean_time_ms mean_" << primary.name << " method\n";
+    std::ostringstream labels;  // one `set label` per point: the method names stay in the script
     int points = 0;
     for (const ExperimentMethod& m : e.methods) {
       std::vector<double> times;
@@ -337,9 +375,15 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
       const Stats& q = lookup[{"all", m.label, primary.name}];
       if (t.n == 0 || q.n == 0 || !std::isfinite(q.mean)) continue;
       const double time_ms = std::max(t.mean, 1e-3);  // > 0 for the log-scale axis
-      data << FormatValue(time_ms) << " " << FormatValue(q.mean) << " "
-           << GpString(batch_share ? m.label + " (batch)" : m.label) << "\n";
+      const std::string label = batch_share ? m.label + " (batch)" : m.label;
+      // The method's name as a quoted data-file column, for readers of the file; the plot takes
+      // its labels from the script.
+      std::string quoted = OneLine(label);
+      std::replace(quoted.begin(), quoted.end(), '"', '\'');
+      data << FormatValue(time_ms) << " " << FormatValue(q.mean) << " \"" << quoted << "\"\n";
       ++points;
+      labels << "set label " << points << " " << GpString(label) << " at first "
+             << FormatValue(time_ms) << ", first " << FormatValue(q.mean) << " center offset 0,1\n";
     }
     if (points > 0) {
       AtomicWriteText(report_dir + "/time_vs_metric.dat", data.str(), true);
@@ -349,9 +393,8 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
          << GpString(primary.name +
                      (primary.higher_is_better ? " (higher is better)" : " (lower is better)"))
          << "\nset title " << GpString("run time vs " + primary.name + " per method (all items)")
-         << "\nset offsets graph 0.1, graph 0.2, graph 0.1, graph 0.1\nunset key\nplot "
-         << GpString(report_dir + "/time_vs_metric.dat")
-         << " using 1:2 with points pt 7 ps 1.5, '' using 1:2:3 with labels offset 0,1\n";
+         << "\nset offsets graph 0.1, graph 0.2, graph 0.1, graph 0.1\nunset key\n"
+         << labels.str() << "plot 'time_vs_metric.dat' using 1:2 with points pt 7 ps 1.5\n";
       const std::string svg = plotter.Run("time_vs_metric", gp.str());
       if (!svg.empty()) plots.push_back({"run time against " + primary.name, svg});
     }

@@ -24,6 +24,9 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
+#include "scenes/input_file.h"
+#include "scenes/json_io.h"
+#include "scenes/safe_name.h"
 #include "tools/item_scheduler.h"
 
 namespace turbid {
@@ -32,13 +35,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-std::string ReadAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
+std::string ReadAll(const std::string& path) { return ReadInputFile(path); }
 
 std::string ExperimentText(const Experiment& experiment) {
   return experiment.ToJson().dump(2) + "\n";
@@ -49,20 +46,38 @@ std::string ExperimentText(const Experiment& experiment) {
 // got in a killed run are scratch. `turbid report` writes report.html and report/ without the lock:
 // left alone.
 // Only the folder itself and the subfolders the sweep writes are visited (an --out that happens to
-// be some other folder keeps everything below it).
+// be some other folder keeps everything below it). Clean-up never follows a symbolic link: a link
+// planted where the sweep keeps its own folders (thumbs/, thumbs/<id>/, external/,
+// external/<label>/) would aim the clean-up, and the writes after it, at another folder, so the
+// sweep refuses it with one line; links found deeper are never followed.
 void RemoveLeftovers(const std::string& dir) {
+  for (const char* name : {"thumbs", "external", "journal.jsonl"}) {
+    RefuseSymlink(dir + "/" + name, "cleans and writes");
+  }
+  std::error_code ec;
+  const auto is_real_folder = [](const std::string& path) {
+    std::error_code type_ec;
+    return fs::symlink_status(path, type_ec).type() == fs::file_type::directory;
+  };
+  for (const char* sub : {"/thumbs", "/external"}) {
+    if (!is_real_folder(dir + sub)) continue;
+    for (const fs::directory_entry& entry : fs::directory_iterator(dir + sub, ec)) {
+      RefuseSymlink(entry.path().string(), "cleans and writes");
+    }
+  }
   RemoveStaleTemporaries(dir, /*recursive=*/false, {"report.html"});
   RemoveStaleTemporaries(dir + "/thumbs", /*recursive=*/true);
   RemoveStaleTemporaries(dir + "/external", /*recursive=*/true);
-  std::error_code ec;
-  if (!fs::is_directory(dir + "/external", ec)) return;
+  if (!is_real_folder(dir + "/external")) return;
   for (const fs::directory_entry& method : fs::directory_iterator(dir + "/external", ec)) {
-    if (!method.is_directory(ec)) continue;
+    if (method.symlink_status(ec).type() != fs::file_type::directory) continue;
     std::vector<fs::path> work;
     for (const fs::directory_entry& entry : fs::directory_iterator(method.path(), ec)) {
-      if (entry.is_directory(ec) && entry.path().filename().string().rfind("work-", 0) == 0)
+      if (entry.symlink_status(ec).type() == fs::file_type::directory &&
+          entry.path().filename().string().rfind("work-", 0) == 0)
         work.push_back(entry.path());
     }
+    // remove_all does not follow the links inside a work folder (it removes the links).
     for (const fs::path& folder : work) fs::remove_all(folder, ec);
   }
 }
@@ -136,12 +151,15 @@ void CopyThumbnails(const std::string& from, const std::string& to) {
   for (; !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
     const fs::path relative = it->path().lexically_relative(from);
     const fs::path target = fs::path(to) / relative;
-    if (it->is_directory(ec)) {
+    // Links are never followed: a link in a shard's thumbs/ would copy (and `report` would then
+    // publish) a file from outside the shard.
+    const fs::file_type type = it->symlink_status(ec).type();
+    if (type == fs::file_type::directory) {
       fs::create_directories(target, ec);
       if (ec) throw Error(target.string(), "cannot create the thumbnail folder: " + ec.message());
       continue;
     }
-    if (!it->is_regular_file(ec) || IsTemporaryName(relative.filename().string())) continue;
+    if (type != fs::file_type::regular || IsTemporaryName(relative.filename().string())) continue;
     if (fs::exists(target, ec)) continue;
     AtomicWriteText(target.string(), ReadAll(it->path().string()), true);
   }
@@ -168,6 +186,9 @@ bool SweepOptions::Check(std::string* why) const {
 
 std::map<std::string, json> Journal::Load(bool repair) {
   std::map<std::string, json> entries;
+  std::error_code ec;
+  if (!fs::exists(path_, ec)) return entries;
+  CheckInputFile(path_);  // a FIFO or device planted as the journal would block or never end
   std::ifstream in(path_, std::ios::binary);
   if (!in) return entries;
   std::ostringstream buffer;
@@ -184,11 +205,10 @@ std::map<std::string, json> Journal::Load(bool repair) {
     if (!line.empty()) {
       json entry;
       try {
-        entry = json::parse(line);
-      } catch (const json::exception&) {  // parse_error, or out_of_range for a number like 1e999
-        throw Error(path_, "line " + std::to_string(line_number) +
-                               " is corrupt (not a partial "
-                               "last line); move the file away to start over");
+        entry = ParseJson(line, path_);
+      } catch (const JsonError& e) {  // syntax, depth, duplicate key, 1e999
+        throw Error(path_, "line " + std::to_string(line_number) + " is corrupt (" + e.problem() +
+                               "; not a partial last line); move the file away to start over");
       }
       const json* id = entry.is_object() && entry.contains("id") ? &entry["id"] : nullptr;
       if (!id || !id->is_string() || id->get<std::string>().empty())
@@ -484,11 +504,7 @@ SweepDir LoadSweepDir(const std::string& dir) {
   const std::string path = dir + "/experiment.json";
   if (!fs::exists(path)) throw Error(dir, "not a sweep folder (no experiment.json)");
   SweepDir out;
-  try {
-    out.experiment_json = json::parse(ReadAll(path));
-  } catch (const json::parse_error& error) {
-    throw Error(path, std::string("invalid JSON: ") + error.what());
-  }
+  out.experiment_json = ReadJsonFile(path);
   out.experiment = ExperimentFromResolvedJson(out.experiment_json, path);
   Journal journal(dir + "/journal.jsonl");
   const std::map<std::string, json> entries = journal.Load(/*repair=*/false);
@@ -541,6 +557,7 @@ int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& option
                 std::to_string(specs.size()) + " items are missing (first: " + first_missing +
                 "); run the missing shards or pass --allow-partial");
   }
+  for (const std::string& dir : dirs) RefuseSymlink(dir + "/thumbs", "copies thumbnails");
   const FolderLock lock(options.out_dir, "sweep or merge");
   RemoveLeftovers(options.out_dir);
   ClaimDir(experiment, options.out_dir, options.force);

@@ -9,6 +9,8 @@
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
+#include "scenes/input_file.h"
+#include "scenes/json_io.h"
 
 namespace turbid {
 namespace {
@@ -100,6 +102,7 @@ struct CsvTable {
 };
 
 CsvTable ReadCsv(const std::string& path) {
+  CheckInputFile(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open");
   CsvTable table;
@@ -640,14 +643,7 @@ RegressReport Regress(const std::string& baseline_csv, const std::string& result
 }
 
 void LoadTolerances(const std::string& path, RegressOptions* options) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path, "cannot open the tolerance file");
-  json parsed;
-  try {
-    parsed = json::parse(in);
-  } catch (const json::parse_error& error) {
-    throw Error(path, std::string("invalid JSON: ") + error.what());
-  }
+  const json parsed = ReadJsonFile(path);
   const auto read = [&](const json& object, Tolerance* tolerance, const std::string& where) {
     if (!object.is_object()) throw Error(path, where + " must be an object {abs, rel}");
     for (const auto& [key, value] : object.items()) {

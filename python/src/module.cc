@@ -29,6 +29,8 @@
 #include "metrics/registry.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
+#include "scenes/input_file.h"
+#include "scenes/json_io.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/experiment.h"
@@ -63,21 +65,17 @@ bool LooksLikeIo(const std::string& m) {
   return false;
 }
 
+// The strict parse of scenes/json_io.h (depth, duplicate keys, numbers in range).
 json ParseJsonText(const std::string& text, const std::string& what) {
-  json j = json::parse(text, nullptr, /*allow_exceptions=*/false);
-  if (j.is_discarded()) throw Error(what + ": not valid JSON");
-  return j;
+  return ParseJson(text, what);
 }
 
-// The CLI's reading of JSON files (tools/cmd_render.cc), with its messages.
-json ReadJsonFile(const std::string& path) {
-  std::ifstream file(path);
-  if (!file) throw IoError(path, "cannot open");
-  try {
-    return json::parse(file);
-  } catch (const json::exception& e) {
-    throw Error(path, std::string("not valid JSON: ") + e.what());
-  }
+// The CLI's reading of JSON files (scenes/json_io.h); a path that is not a readable regular file
+// is an OSError.
+json ReadConfigFile(const std::string& path) {
+  const std::string problem = InputFileProblem(path);
+  if (!problem.empty()) throw IoError(path, problem);
+  return ReadJsonFile(path);
 }
 
 // ---- arrays ------------------------------------------------------------------------------------
@@ -443,7 +441,7 @@ InProcessMethod PythonCallable(py::handle fn) {
 json ConfigFrom(const py::object& config, std::string* source) {
   if (py::isinstance<py::str>(config) || py::hasattr(config, "__fspath__")) {
     *source = py::str(py::module_::import("os").attr("fspath")(config));
-    return ReadJsonFile(*source);
+    return ReadConfigFile(*source);
   }
   *source = "<dict>";
   return ParseJsonText(py::module_::import("json").attr("dumps")(config).cast<std::string>(),
@@ -640,11 +638,13 @@ PYBIND11_MODULE(_turbid, m) {
   });
   m.def("sweep", [](const py::object& experiment_obj, const std::string& out, int threads,
                     const std::string& shard, bool force, bool reuse, bool retry_failed,
-                    const py::dict& methods) {
+                    const py::dict& methods, bool allow_commands) {
     std::string source;
     json doc = ConfigFrom(experiment_obj, &source);
     HarnessRunnerOptions ro;
     ro.reuse = reuse;
+    ro.allow_commands = allow_commands;
+    ro.allow_commands_how = "allow_commands=True";
     std::set<std::string> keys;
     for (const auto& [key_obj, fn] : methods) {
       if (!py::isinstance<py::str>(key_obj)) throw Error("methods: keys must be strings");
@@ -661,6 +661,7 @@ PYBIND11_MODULE(_turbid, m) {
     doc = BindPythonMethods(std::move(doc), keys);
     py::gil_scoped_release release;
     const Experiment experiment = ParseExperiment(doc, source, RegistryCatalog());
+    CheckCommandsAllowed(experiment, allow_commands, "allow_commands=True");  // before any work
     SweepOptions options;
     options.out_dir = out;
     options.threads = threads;
@@ -676,7 +677,7 @@ PYBIND11_MODULE(_turbid, m) {
                  {"failed_rows", s.failed_rows}, {"tables_written", s.tables_written}}).dump();
   }, py::arg("experiment"), py::arg("out"), py::arg("threads"), py::arg("shard"),
      py::arg("force"), py::arg("reuse"), py::arg("retry_failed") = false,
-     py::arg("methods") = py::dict());
+     py::arg("methods") = py::dict(), py::arg("allow_commands") = false);
 
   py::class_<GeneratePlan, std::shared_ptr<GeneratePlan>>(m, "GeneratePlan")
       .def(py::init(&PlanFrom))

@@ -212,7 +212,7 @@ def generate(config, out, threads=None):
 
 
 def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True, methods=None,
-          retry_failed=False):
+          retry_failed=False, allow_commands=False):
     """``turbid sweep``: run an experiment (dict or JSON path; docs/experiments.md) into ``out``
     (rerun to resume). Returns the summary dict (items_total, ran, already_done, retried,
     failed_rows, ...).
@@ -234,10 +234,14 @@ def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True, meth
     wall time per image is recorded (a batch's time divided by its items, flagged). The
     experiment.json records the method's key, not the callable: resuming with another function
     under the same key mixes results, so change the key (or the output folder) when the method
-    changes. ``turbid sweep`` (the CLI) refuses an experiment with Python methods."""
+    changes. ``turbid sweep`` (the CLI) refuses an experiment with Python methods.
+
+    ``allow_commands=True`` lets the experiment's ``"command"`` methods run (external programs,
+    with their ``env``); without it a sweep that names one raises before any work. An experiment
+    file is data: nothing in it can allow its commands."""
     return _json.loads(_turbid.sweep(experiment, _os.fspath(out), int(threads), str(shard),
                                      bool(force), bool(reuse), bool(retry_failed),
-                                     dict(methods or {})))
+                                     dict(methods or {}), allow_commands=bool(allow_commands)))
 
 
 def default_params():

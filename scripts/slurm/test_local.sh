@@ -8,6 +8,7 @@
 # whatever happens.
 #
 # Usage: scripts/slurm/test_local.sh [--bin PATH/turbid] [--shards N] [--keep] [--limit SECONDS]
+#                                   [--pattern-results]
 # Exit status: 0 passed, 1 failed, 77 skipped (Slurm cannot start here; the reason is printed).
 # Needs: root (slurmd starts job steps as the submitting user), Debian's slurm-wlm and munge
 # (scripts/install_deps.sh --slurm), python3.
@@ -19,13 +20,15 @@ bin="$root/build/turbid"
 shards=3
 keep=0
 limit=300
+pattern_results=0
 while (($#)); do
   case "$1" in
     --bin) bin=$2; shift 2 ;;
     --shards) shards=$2; shift 2 ;;
     --keep) keep=1; shift ;;
     --limit) limit=$2; shift 2 ;;
-    *) echo "usage: $0 [--bin PATH] [--shards N] [--keep] [--limit SECONDS]" >&2; exit 2 ;;
+    --pattern-results) pattern_results=1; shift ;;
+    *) echo "usage: $0 [--bin PATH] [--shards N] [--keep] [--limit SECONDS] [--pattern-results]" >&2; exit 2 ;;
   esac
 done
 start_s=$SECONDS
@@ -147,18 +150,29 @@ done
   skip "the node did not come up (state '$state'): $(grep -h error "$tmp"/log/*.log | grep -v -i pmix | tail -n 1)"
 note "slurm is up: slurmctld :$ctld_port, slurmd :$slurmd_port, node $host with $cpus CPUs"
 
-# The experiment and its external method, copied so that the run writes nothing into the repository.
-cp "$here/test_experiment.json" "$here/slow_copy.py" "$tmp/work/"
-exp="$tmp/work/test_experiment.json"
-out="$tmp/work/results"
-total=$("$bin" sweep "$exp" --out "$tmp/work/none" --dry-run | grep -o '= [0-9]* items' | cut -d' ' -f2)
+# The experiment and its external method, copied so that the run writes nothing into the
+# repository. The experiment's and the results' folders hold a space, commas (a naive
+# --export=...,TURBID_OUT=... would start a new variable at each) and quotes, the experiment's
+# also '%' and a backslash: the jobs must find them unchanged.
+wdir="$tmp/work/exp a b,LD_PRELOAD=x,TURBID_SHARDS=9 100%j 'q' \"d\" \\"
+mkdir -p "$wdir" || fail "cannot create $wdir"
+cp "$here/test_experiment.json" "$here/slow_copy.py" "$wdir/"
+exp="$wdir/test_experiment.json"
+out="$tmp/work/results, a b,LD_PRELOAD=x 'q' \"d\""
+# With --pattern-results the results folder holds '%' and '\' too: Slurm's --output cannot name
+# it, and the jobs write their logs there themselves (submit.sh sets TURBID_SELF_LOG).
+((pattern_results)) && out="$out 100%A_%a \\ x"
+# Its external method runs only with --allow-commands (TURBID_ALLOW_COMMANDS=1 for the scripts).
+"$bin" sweep "$exp" --out "$tmp/work/none" --dry-run >/dev/null 2>&1 &&
+  fail "turbid sweep --dry-run accepted an external command without --allow-commands"
+total=$("$bin" sweep "$exp" --out "$tmp/work/none" --dry-run --allow-commands | grep -o '= [0-9]* items' | cut -d' ' -f2)
 [[ -n "$total" ]] || fail "turbid sweep --dry-run does not print the item count"
 # The unsharded reference, outside Slurm, first: its summary is the merge job's regress baseline.
-timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet >"$tmp/log/whole.out" 2>&1 ||
+timeout "$(left)" "$bin" sweep "$exp" --out "$tmp/work/whole" --quiet --allow-commands >"$tmp/log/whole.out" 2>&1 ||
   fail "the unsharded sweep failed: $(tail -n 1 "$tmp/log/whole.out")"
 note "unsharded sweep done"
 ids=$(cd "$tmp/work" && TURBID_BIN="$bin" TURBID_BASELINE="$tmp/work/whole/summary.csv" \
-  bash "$here/submit.sh" "$exp" "$out" "$shards") ||
+  TURBID_ALLOW_COMMANDS=1 bash "$here/submit.sh" "$exp" "$out" "$shards") ||
   fail "submit.sh failed"
 read -r array merge <<<"$ids"
 note "submitted array job $array (shards 0-$((shards - 1)) of $total items) and merge job $merge"
@@ -220,5 +234,6 @@ for f in experiment.json items.csv items.jsonl summary.md summary.csv; do
 done
 diff -r -q "$out/merged/thumbs" "$tmp/work/whole/thumbs" >/dev/null ||
   fail "merged thumbnails differ from the unsharded run's"
+[[ ! -e "$tmp/work/results" && ! -e "$tmp/work/exp a b" ]] || fail "a path was split: $(ls "$tmp/work")"
 passed=1
-note "PASS: $shards shards (task $victim requeued mid-run) merged equal the unsharded run byte for byte (experiment.json, items.csv, items.jsonl, summary.md, summary.csv, thumbs/)"
+note "PASS: $shards shards (task $victim requeued mid-run), experiment and results paths with spaces, commas, quotes (and %, a backslash), merged equal the unsharded run byte for byte (experiment.json, items.csv, items.jsonl, summary.md, summary.csv, thumbs/)"

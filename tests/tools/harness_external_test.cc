@@ -153,7 +153,8 @@ TEST(HarnessExternal, BatchAndPerImageCopiesScoreLikeTheDegradedInput) {
   const std::string exp = WriteFile(
       dir.path(), "exp.json",
       TinyExperiment(std::string("\"clahe\", ") + kCopyBatch + ", " + kCopyOne));
-  const CliRun run = RunTurbid({"sweep", exp, "--out", dir.File("out"), "--threads", "2"});
+  const CliRun run =
+      RunTurbid({"sweep", exp, "--out", dir.File("out"), "--threads", "2", "--allow-commands"});
   ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
   const auto rows = ReadItems(dir.File("out/items.csv"));
   ExpectSameMetrics(rows, "copy_batch");
@@ -232,7 +233,8 @@ TEST(HarnessExternal, FailuresMarkOnlyTheirCellsAndTheSweepGoesOn) {
     {"name": "nan", "command": ["python3", "bad.py", "nan", "{input}", "{output}"], "input": {"format": "pfm"}})";
   const std::string exp = WriteFile(dir.path(), "exp.json", TinyExperiment(methods));
   const auto start = std::chrono::steady_clock::now();
-  const CliRun run = RunTurbid({"sweep", exp, "--out", dir.File("out"), "--threads", "2"});
+  const CliRun run =
+      RunTurbid({"sweep", exp, "--out", dir.File("out"), "--threads", "2", "--allow-commands"});
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_EQ(run.exit_code, 0) << run.err << run.out;
@@ -288,7 +290,8 @@ TEST(HarnessExternal, ResumeKeepsFailedCellsUntilRetryFailed) {
   const std::string exp = WriteFile(dir.path(), "exp.json",
                                     TinyExperiment(std::string(kCopyBatch) + ", " + kCopyOne));
   const std::string out = dir.File("out");
-  const CliRun first = RunTurbid({"sweep", exp, "--out", out, "--threads", "1"});
+  const CliRun first =
+      RunTurbid({"sweep", exp, "--out", out, "--threads", "1", "--allow-commands"});
   ASSERT_EQ(first.exit_code, 0) << first.err;
   auto rows = ReadItems(out + "/items.csv");
   EXPECT_NE(rows.at("hull-c0000 copy_one").at("error").find("fail_flag is set"),
@@ -296,13 +299,14 @@ TEST(HarnessExternal, ResumeKeepsFailedCellsUntilRetryFailed) {
   EXPECT_EQ(rows.at("hull-c0000 copy_batch").at("error"), "");
   fs::remove(dir.File("fail_flag"));
   // A plain rerun resumes: everything is journaled, so nothing runs and the failure stays.
-  const CliRun again = RunTurbid({"sweep", exp, "--out", out});
+  const CliRun again = RunTurbid({"sweep", exp, "--out", out, "--allow-commands"});
   ASSERT_EQ(again.exit_code, 0) << again.err;
   EXPECT_NE(again.out.find("nothing to do"), std::string::npos) << again.out;
   EXPECT_NE(ReadItems(out + "/items.csv").at("hull-c0001 copy_one").at("error"), "");
   // --retry-failed runs the failed cells only: the batch method does not run again.
   const std::string items_before = ReadFileText(out + "/items.csv");
-  const CliRun retry = RunTurbid({"sweep", exp, "--out", out, "--retry-failed"});
+  const CliRun retry =
+      RunTurbid({"sweep", exp, "--out", out, "--retry-failed", "--allow-commands"});
   ASSERT_EQ(retry.exit_code, 0) << retry.err;
   EXPECT_NE(retry.out.find("2 items run (2 retried)"), std::string::npos) << retry.out;
   EXPECT_EQ(ReadFileText(dir.File("batch_runs.txt")), "2\n");
@@ -311,7 +315,7 @@ TEST(HarnessExternal, ResumeKeepsFailedCellsUntilRetryFailed) {
   ExpectSameMetrics(rows, "copy_batch");
   EXPECT_NE(ReadFileText(out + "/items.csv"), items_before);
   // Retrying again finds nothing failed.
-  const CliRun done = RunTurbid({"sweep", exp, "--out", out, "--retry-failed"});
+  const CliRun done = RunTurbid({"sweep", exp, "--out", out, "--retry-failed", "--allow-commands"});
   EXPECT_NE(done.out.find("nothing to do"), std::string::npos) << done.out;
 }
 
@@ -323,7 +327,8 @@ TEST(HarnessExternal, ResultsFolderIsScoredWithoutRunningAndMissingFilesFailPerI
   keeper.replace(keeper.find("\"EXT_TOKEN\": \"abc\""), 18,
                  "\"EXT_TOKEN\": \"abc\", \"EXT_KEEP\": \"results/theirs\"");
   const std::string first = WriteFile(dir.path(), "first.json", TinyExperiment(keeper));
-  ASSERT_EQ(RunTurbid({"sweep", first, "--out", dir.File("first")}).exit_code, 0);
+  ASSERT_EQ(RunTurbid({"sweep", first, "--out", dir.File("first"), "--allow-commands"}).exit_code,
+            0);
   ASSERT_TRUE(fs::exists(dir.File("results/theirs/hull-c0001.pfm")));
   fs::remove(dir.File("results/theirs/hull-c0001.pfm"));
   const std::string exp = WriteFile(
@@ -489,9 +494,18 @@ TEST(HarnessExternal, ShippedExampleExperimentIsValid) {
   const std::string exp = (fs::path(__FILE__).parent_path().parent_path().parent_path() /
                            "scenes/experiments/examples/external.json")
                               .string();
-  const CliRun run = RunTurbid({"sweep", exp, "--out", "/nonexistent/never", "--dry-run"});
+  const CliRun run =
+      RunTurbid({"sweep", exp, "--out", "/nonexistent/never", "--dry-run", "--allow-commands"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.out.find("4 items"), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("method 'grayworld' (one process per batch of up to 16 items)"),
+            std::string::npos)
+      << run.out;
+  // Its commands run only with --allow-commands: without it the dry run lists them and fails.
+  const CliRun refused = RunTurbid({"sweep", exp, "--out", "/nonexistent/never", "--dry-run"});
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_NE(refused.err.find("method 'grayworld' runs an external command"), std::string::npos)
+      << refused.err;
 }
 
 }  // namespace
