@@ -92,11 +92,28 @@ cv::Ptr<cv::Feature2D> MakeDetector(const FeatureMatchOptions& options) {
 
 }  // namespace
 
+int MinimumFeatureImageSide(FeatureDetector detector) {
+  return detector == FeatureDetector::kSift ? 1 : 2;
+}
+
+void CheckFeatureImageSize(FeatureDetector detector, const cv::Mat& image,
+                           const std::string& what) {
+  const int side = MinimumFeatureImageSide(detector);
+  if (image.cols < side || image.rows < side) {
+    throw Error(what + ": image is " + std::to_string(image.cols) + "x" +
+                std::to_string(image.rows) + ", feature matching with " +
+                FeatureDetectorName(detector) + " needs at least " + std::to_string(side) + "x" +
+                std::to_string(side) + " pixels");
+  }
+}
+
 PairMatchResult MatchFeatures(const FeatureMatchOptions& options, const cv::Mat& a,
                               const cv::Mat& b, double data_range) {
   ThrowIfInvalid(options, "feature matching");
   CheckMetricImage(a, "feature matching: first image");
   CheckMetricImage(b, "feature matching: second image");
+  CheckFeatureImageSize(options.detector, a, "feature matching: first image");
+  CheckFeatureImageSize(options.detector, b, "feature matching: second image");
   const cv::Mat gray_a = ToGray8(a, data_range);
   const cv::Mat gray_b = ToGray8(b, data_range);
 

@@ -22,6 +22,14 @@ enum class FeatureDetector { kOrb, kAkaze, kSift };
 std::string FeatureDetectorName(FeatureDetector detector);  // "orb" | "akaze" | "sift"
 FeatureDetector ParseFeatureDetector(const std::string& name);  // throws Error for unknown names
 
+// The smallest width and height `detector` takes: OpenCV's ORB and AKAZE fail an assertion on an
+// image 1 pixel wide or tall (their pyramid and scale space), SIFT finds no keypoint there.
+int MinimumFeatureImageSide(FeatureDetector detector);
+
+// Throws Error("<what>: image is WxH, feature matching with <detector> needs at least NxN pixels")
+// for an image below MinimumFeatureImageSide (MatchFeatures checks both images with it).
+void CheckFeatureImageSize(FeatureDetector detector, const cv::Mat& image, const std::string& what);
+
 struct FeatureMatchOptions {
   // Keypoint detector and descriptor. The paper does not name one; ORB is the cheapest.
   FeatureDetector detector = FeatureDetector::kOrb;

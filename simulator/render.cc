@@ -391,9 +391,10 @@ RenderOptions RenderOptionsFromJson(const json& j) {
   }
   if (j.contains("seed")) {
     const json& s = j.at("seed");
-    if (!s.is_number_integer() ||
-        (s.is_number_integer() && !s.is_number_unsigned() && s.get<int64_t>() < 0))
-      throw Error("render options: seed: must be a non-negative integer");
+    // Parsed text gives non-negative integers as unsigned, but a json built in code may hold a
+    // signed one; negative ones and floats (also integers beyond 2^64 - 1) are refused.
+    if (!s.is_number_unsigned() && !(s.is_number_integer() && s.get<int64_t>() >= 0))
+      throw Error("render options: seed: must be an integer in [0, 18446744073709551615]");
     o.seed = s.get<uint64_t>();
   }
   if (j.contains("water")) {

@@ -561,16 +561,18 @@ void AddBenchCommand(CLI::App& app) {
       "OpenCV / worker threads for ours and the peer (default 1: the goals are single-core; >1 "
       "reports wall time); with --sweep the sweep's threads (default: all cores)");
   cmd->add_option("--scale", args->scale, "input size scale in (0, 1] (1 = 1360x1024)");
-  cmd->add_option("--json", args->json_path, "also write the results as JSON");
+  PathOption(cmd->add_option("--json", args->json_path, "also write the results as JSON"));
   cmd->add_flag("--force", args->force, "replace an existing --json file");
   cmd->add_flag("--list", args->list, "list the cases and exit");
   cmd->add_flag("--warm-allocator", args->warm_allocator,
                 "keep freed memory for reuse (no page faults per call; default: glibc defaults)");
-  cmd->add_option("--sweep", args->sweep,
-                  "time a whole sweep of this experiment JSON end to end and by stage (render, "
-                  "each method, each metric, I/O, tables) instead of the kernel cases");
-  cmd->add_option("--out", args->out,
-                  "with --sweep: the sweep's output folder (default: a temporary folder, removed)");
+  PathOption(
+      cmd->add_option("--sweep", args->sweep,
+                      "time a whole sweep of this experiment JSON end to end and by stage (render, "
+                      "each method, each metric, I/O, tables) instead of the kernel cases"));
+  PathOption(cmd->add_option(
+      "--out", args->out,
+      "with --sweep: the sweep's output folder (default: a temporary folder, removed)"));
   cmd->add_flag("--allow-commands", args->allow_commands,
                 "with --sweep: run the experiment's external \"command\" methods (as sweep)");
   cmd->callback([args, threads] {

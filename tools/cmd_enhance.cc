@@ -19,6 +19,7 @@
 #include "scenes/json_io.h"
 #include "scenes/scene_loader.h"
 #include "tools/cli.h"
+#include "tools/file_context.h"
 #include "tools/file_encoding.h"
 
 namespace turbid {
@@ -133,7 +134,7 @@ void Run(const EnhanceArgs& a) {
   ReadImageOptions ro;
   ro.transfer = transfer == "srgb" ? Transfer::kSrgb : Transfer::kLinear;
   EnhanceInput input;
-  input.image = ReadImage(a.in, ro);
+  input.image = WithFileContext(a.in, "reading it", [&] { return ReadImage(a.in, ro); });
   input.sidecar = sidecar ? &*sidecar : nullptr;
   // The scene: --scene, else the one the sidecar names (turbid render records its spec).
   std::string spec = a.scene;
@@ -246,19 +247,26 @@ void AddEnhanceCommand(CLI::App& app) {
   cmd->add_flag("--list", args->list, "list the methods with their parameters and defaults");
   cmd->add_flag("--json", args->json_list, "with --list: print JSON");
   cmd->add_option("--method,-m", args->method, "method name (see --list)");
-  cmd->add_option("IN", args->in, "degraded image");
-  cmd->add_option("OUT", args->out, "output image (.png, .exr, .pfm)");
-  cmd->add_option("--sidecar", args->sidecar, "the render's sidecar JSON (oracle; lights for full)");
-  cmd->add_option("--scene", args->scene, "scene spec (builtin:NAME or scene JSON) for geometry");
+  PathOption(cmd->add_option("IN", args->in, "degraded image"));
+  PathOption(cmd->add_option("OUT", args->out, "output image (.png, .exr, .pfm)"));
+  PathOption(cmd->add_option("--sidecar", args->sidecar,
+                             "the render's sidecar JSON (oracle; lights for full)"));
+  PathOption(cmd->add_option("--scene", args->scene,
+                             "scene spec (builtin:NAME or scene JSON) for geometry"));
   cmd->add_option("--scale", args->scale, "built-in scene scale (default: the sidecar's, else 1)");
   cmd->add_option("--param,-p", args->params, "parameter override key=value (repeatable)")
       ->allow_extra_args(false);  // one value per -p, so positionals may follow
-  cmd->add_option("--dump-steps", args->dump_steps, "write every intermediate into this folder");
+  PathOption(cmd->add_option("--dump-steps", args->dump_steps,
+                             "write every intermediate into this folder"));
   cmd->add_option("--transfer", args->transfer,
                   "input/output coding: auto (the sidecar's encoding, else srgb), srgb or linear");
   cmd->add_option("--bit-depth", args->bit_depth, "PNG output bits: 8 or 16");
   cmd->add_flag("--force", args->force, "replace existing outputs");
-  cmd->callback([args] { Run(*args); });
+  cmd->callback([args] {
+    if (args->list || args->in.empty()) return Run(*args);
+    // Out of memory or an OpenCV failure in a method names the input and the method.
+    WithFileContext(args->in, "enhancing it with '" + args->method + "'", [&] { Run(*args); });
+  });
 }
 
 }  // namespace turbid

@@ -1,5 +1,6 @@
 // `turbid sweep`, `turbid merge`, `turbid regress`, `turbid report`: the experiment harness.
 // Reference: docs/cli/harness.md; experiment files: docs/experiments.md.
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -127,11 +128,16 @@ void RunRegressCommand(const RegressArgs& args) {
     tolerance.rel = 0.0;
     const std::string value = spec.substr(eq + 1);
     const size_t colon = value.find(':');
+    // ParseValue reads '' and 'nan' as NaN (empty table cells); a tolerance must be a number.
     try {
       tolerance.abs = ParseValue(value.substr(0, colon));
       if (colon != std::string::npos) tolerance.rel = ParseValue(value.substr(colon + 1));
     } catch (const Error&) {
-      throw Error("--tol '" + spec + "': tolerances must be numbers");
+      tolerance.abs = std::nan("");
+    }
+    if (!(tolerance.abs >= 0.0) || !(tolerance.rel >= 0.0) || std::isinf(tolerance.abs) ||
+        std::isinf(tolerance.rel)) {
+      throw UsageError("--tol '" + spec + "': tolerances must be finite numbers >= 0");
     }
     options.tolerances[spec.substr(0, eq)] = tolerance;
   }
@@ -181,11 +187,13 @@ void AddHarnessCommands(CLI::App& app) {
   auto sweep_args = std::make_shared<SweepArgs>();
   CLI::App* sweep = app.add_subcommand(
       "sweep", "run an experiment file: scenes x turbidity grid x methods x metrics");
-  sweep->add_option("experiment", sweep_args->experiment, "experiment JSON (docs/experiments.md)")
+  PathOption(sweep->add_option("experiment", sweep_args->experiment,
+                               "experiment JSON (docs/experiments.md)"))
       ->required();
-  sweep->add_option("--out", sweep_args->out, "output folder (rerun to resume)")->required();
-  sweep->add_option("--threads", sweep_args->threads, "worker threads (0 = all cores)")
-      ->check(CLI::Range(0, 1024));
+  PathOption(sweep->add_option("--out", sweep_args->out, "output folder (rerun to resume)"))
+      ->required();
+  InRange(sweep->add_option("--threads", sweep_args->threads, "worker threads (0 = all cores)"), 0,
+          1024);
   sweep->add_option("--shard", sweep_args->shard, "run slice i of N (0 <= i < N), e.g. 2/8");
   sweep->add_flag("--quiet", sweep_args->quiet, "no progress bar and no hints");
   sweep->add_flag("--force", sweep_args->force,
@@ -204,8 +212,9 @@ void AddHarnessCommands(CLI::App& app) {
   auto merge_dirs = std::make_shared<std::vector<std::string>>();
   auto merge_options = std::make_shared<MergeOptions>();
   CLI::App* merge = app.add_subcommand("merge", "combine shard outputs into the unsharded result");
-  merge->add_option("dirs", *merge_dirs, "shard output folders")->required();
-  merge->add_option("--out", merge_options->out_dir, "merged output folder")->required();
+  PathOption(merge->add_option("dirs", *merge_dirs, "shard output folders"))->required();
+  PathOption(merge->add_option("--out", merge_options->out_dir, "merged output folder"))
+      ->required();
   merge->add_flag("--allow-partial", merge_options->allow_partial,
                   "write tables even when some items are missing");
   merge->add_flag("--force", merge_options->force,
@@ -219,15 +228,18 @@ void AddHarnessCommands(CLI::App& app) {
   auto regress_args = std::make_shared<RegressArgs>();
   CLI::App* regress = app.add_subcommand(
       "regress", "compare results with a baseline table; exit 1 when a metric regressed");
-  regress->add_option("--baseline", regress_args->baseline, "baseline items.csv or summary.csv")
+  PathOption(regress->add_option("--baseline", regress_args->baseline,
+                                 "baseline items.csv or summary.csv"))
       ->required();
-  regress->add_option("results", regress_args->results, "sweep folder or CSV of the same kind")
+  PathOption(
+      regress->add_option("results", regress_args->results, "sweep folder or CSV of the same kind"))
       ->required();
   regress->add_option("--tol", regress_args->tolerances,
                       "per-metric tolerance METRIC=ABS[:REL] (repeatable)")
       ->allow_extra_args(false);
-  regress->add_option("--tolerances", regress_args->tolerance_file,
-                      "tolerance JSON (default: BASELINE with .tolerances.json, if present)");
+  PathOption(
+      regress->add_option("--tolerances", regress_args->tolerance_file,
+                          "tolerance JSON (default: BASELINE with .tolerances.json, if present)"));
   regress->add_flag("--strict", regress_args->strict, "improvements beyond tolerance fail too");
   regress->callback([regress_args] { RunRegressCommand(*regress_args); });
 
@@ -235,9 +247,10 @@ void AddHarnessCommands(CLI::App& app) {
   auto report_options = std::make_shared<ReportOptions>();
   CLI::App* report =
       app.add_subcommand("report", "a static HTML report of a sweep (tables, images, plots)");
-  report->add_option("dir", *report_dir, "sweep output folder")->required();
-  report->add_option("--out", report_options->out_file, "HTML file (default: DIR/report.html)");
-  report->add_option("--gnuplot", report_options->gnuplot, "gnuplot executable");
+  PathOption(report->add_option("dir", *report_dir, "sweep output folder"))->required();
+  PathOption(report->add_option("--out", report_options->out_file,
+                                "HTML file (default: DIR/report.html)"));
+  PathOption(report->add_option("--gnuplot", report_options->gnuplot, "gnuplot executable"));
   report->callback([report_dir, report_options] {
     const ReportSummary summary = WriteReport(*report_dir, *report_options);
     if (!summary.warning.empty()) std::cerr << "turbid: warning: " << summary.warning << "\n";

@@ -5,6 +5,7 @@
 #include <fstream>
 #include <iostream>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -15,6 +16,7 @@
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/cli.h"
+#include "tools/file_context.h"
 #include "tools/generate.h"
 
 namespace turbid {
@@ -54,9 +56,9 @@ struct RenderOutputs {
 struct RenderArgs {
   std::string scene, params, out, maps, water;
   std::vector<std::string> sets;
-  std::vector<double> beta;
+  std::string beta;  // "B" or "R,G,B" (split here: CLI11's delimiter drops empty items)
   double scale = 1.0;
-  int64_t seed = -1;
+  std::optional<uint64_t> seed;  // any uint64; '-1' or 2^64 are refused when parsed
   int bit_depth = 0;
   bool explain = false, force = false;
 };
@@ -66,22 +68,33 @@ void RunRender(const RenderArgs& args) {
   if (!params.is_object()) throw Error(args.params, "parameters must be a JSON object");
   if (!args.water.empty()) SetRenderParam(params, "water.type", args.water);
   if (!args.beta.empty()) {
-    if (args.beta.size() != 1 && args.beta.size() != 3)
-      throw Error("--beta: give 1 value or 3 (R,G,B)");
-    const double r = args.beta[0], g = args.beta.size() == 3 ? args.beta[1] : r,
-                 b = args.beta.back();
+    std::vector<double> beta;
+    std::stringstream items(args.beta + ",");
+    for (std::string item; std::getline(items, item, ',');) {
+      if (item.empty())
+        throw UsageError("--beta '" + args.beta + "': empty item (give B or R,G,B)");
+      beta.push_back(ParseDecimalOption("--beta", item));
+    }
+    if (beta.size() != 1 && beta.size() != 3) throw Error("--beta: give 1 value or 3 (R,G,B)");
+    const double r = beta[0], g = beta.size() == 3 ? beta[1] : r, b = beta.back();
     SetRenderParam(params, "water.type", "custom");
     SetRenderParam(params, "water.beta_rgb_per_m", json::array({r, g, b}));
-    if (args.beta.size() == 1) SetRenderParam(params, "water.beta_gray_per_m", r);
+    if (beta.size() == 1) SetRenderParam(params, "water.beta_gray_per_m", r);
   }
   for (const std::string& s : args.sets) ApplyRenderSet(params, s);
-  if (args.seed >= 0) params["seed"] = static_cast<uint64_t>(args.seed);
+  if (args.seed) params["seed"] = *args.seed;
   if (args.bit_depth) SetRenderParam(params, "camera.bit_depth", args.bit_depth);
   const std::string ext = args.out.empty() ? "" : Extension(args.out);
   if (!args.out.empty() && ext != ".png" && ext != ".exr")
     throw Error(args.out, "output must end in .png or .exr");
   if (ext == ".exr" && !params.contains("camera")) SetRenderParam(params, "camera.bit_depth", 32);
-  RenderOptions options = RenderOptionsFromJson(params);
+  RenderOptions options;
+  try {
+    options = RenderOptionsFromJson(params);
+  } catch (const Error& e) {  // name the file the parameters came from
+    if (args.params.empty()) throw;
+    throw Error(args.params, e.what());
+  }
   options.maps = MapSelection::FromList(args.maps);
   if (ext == ".png" && options.camera.bit_depth == 32)
     throw Error(args.out, "camera.bit_depth 32 (float) needs an .exr output");
@@ -149,21 +162,21 @@ void AddRenderCommands(CLI::App& app) {
   auto render_args = std::make_shared<RenderArgs>();
   CLI::App* render =
       app.add_subcommand("render", "degrade one scene with the forward model (paper eq. 2)");
-  render
-      ->add_option("--scene", render_args->scene,
-                   "scene spec: builtin:NAME, a built-in name or a scene JSON file")
+  PathOption(render->add_option("--scene", render_args->scene,
+                                "scene spec: builtin:NAME, a built-in name or a scene JSON file"))
       ->required();
-  render->add_option("--params", render_args->params, "JSON render parameters (docs/model.md)");
-  render->add_option("--out", render_args->out,
-                     "output image (.png: 8/16-bit, .exr: float) ; OUT.json is the sidecar");
+  PathOption(render->add_option("--params", render_args->params,
+                                "JSON render parameters (docs/model.md)"));
+  PathOption(
+      render->add_option("--out", render_args->out,
+                         "output image (.png: 8/16-bit, .exr: float) ; OUT.json is the sidecar"));
   render->add_option("--maps", render_args->maps, "extra maps: transmission,light,veil,psf,noise");
-  render->add_option("--seed", render_args->seed, "random seed (overrides the parameters' seed)");
+  render->add_option("--seed", render_args->seed,
+                     "random seed in [0, 2^64 - 1] (overrides the parameters' seed)");
   render->add_option("--water", render_args->water,
                      "water type: custom, I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C");
-  render
-      ->add_option("--beta", render_args->beta,
-                   "attenuation 1/m: one value for all channels or R,G,B")
-      ->delimiter(',');
+  render->add_option("--beta", render_args->beta,
+                     "attenuation 1/m: one value for all channels or R,G,B");
   render->add_option("--bit-depth", render_args->bit_depth, "camera output: 8, 16 or 32 (float)");
   render->add_option("--set", render_args->sets,
                      "KEY=VALUE on the JSON parameters, e.g. psf.forward_scatter=0.5 (repeatable)")
@@ -175,7 +188,8 @@ void AddRenderCommands(CLI::App& app) {
   render->callback([render_args] {
     if (render_args->out.empty() && !render_args->explain)
       throw Error("render: --out is required (or --explain)");
-    RunRender(*render_args);
+    // Out of memory or an OpenCV failure while rendering names the scene.
+    WithFileContext(render_args->scene, "rendering it", [&] { RunRender(*render_args); });
   });
 
   auto config = std::make_shared<std::string>();
@@ -184,11 +198,14 @@ void AddRenderCommands(CLI::App& app) {
       std::make_shared<int>(static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
   CLI::App* generate =
       app.add_subcommand("generate", "render a dataset: scenes x parameter grid / random samples");
-  generate->add_option("config", *config, "dataset config JSON (docs/cli/render.md)")->required();
-  generate->add_option("--out", *out, "output folder (resumes when it holds a previous run)")
+  PathOption(generate->add_option("config", *config, "dataset config JSON (docs/cli/render.md)"))
       ->required();
-  generate->add_option("--threads", *threads, "worker threads (output bytes do not depend on it)")
-      ->check(CLI::Range(1, 256));
+  PathOption(
+      generate->add_option("--out", *out, "output folder (resumes when it holds a previous run)"))
+      ->required();
+  InRange(generate->add_option("--threads", *threads,
+                               "worker threads (output bytes do not depend on it)"),
+          1, 256);
   generate->callback([config, out, threads] {
     RunGenerate(ParseGenerateConfig(ReadJsonFile(*config), *config), *out, *threads);
   });

@@ -282,12 +282,14 @@ void AddSceneCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "scene",
       "Load and validate scenes; write clean image, depth and normals; print a summary");
-  cmd->add_option("specs", args->specs,
-                  "scenes: builtin:NAME, a built-in name (hull, seafloor, room) or a scene JSON file");
+  PathOption(cmd->add_option(
+      "specs", args->specs,
+      "scenes: builtin:NAME, a built-in name (hull, seafloor, room) or a scene JSON file"));
   cmd->add_option("--builtin", args->builtins, "a built-in scene to add, or 'all' (repeatable)")
       ->allow_extra_args(false);
-  cmd->add_option("--out", args->out_dir,
-                  "output folder (one sub-folder per scene); without it nothing is written");
+  PathOption(
+      cmd->add_option("--out", args->out_dir,
+                      "output folder (one sub-folder per scene); without it nothing is written"));
   cmd->add_flag("--force", args->force, "overwrite existing outputs");
   cmd->add_option("--depth-format", args->depth_format,
                   "exr: float32 metres, NaN = invalid; png16: 16-bit, 5000 per metre, 0 = invalid")

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "metrics/feature_matching.h"
+#include "metrics/image_checks.h"
 #include "metrics/registry.h"
 #include "scenes/error.h"
 #include "scenes/image_io.h"
@@ -27,6 +28,7 @@
 #include "tools/cli.h"
 #include "tools/experiment.h"
 #include "tools/external_method.h"
+#include "tools/file_context.h"
 #include "tools/file_encoding.h"
 #include "tools/manifest.h"
 #include "tools/metric_image.h"
@@ -158,6 +160,19 @@ std::string ResolvePath(const std::string& manifest, const std::string& value) {
   return (fs::path(manifest).parent_path() / p).lexically_normal().string();
 }
 
+// The reference and the original are checked (NaN, inf, empty) under their own names before the
+// metrics run: the metrics' own checks would be reported against the scored image.
+void CheckSideImage(const std::vector<std::string>& metrics, bool reference,
+                    const std::string& path, const cv::Mat& pixels) {
+  for (const std::string& name : metrics) {
+    const MetricInfo& info = FindMetric(name);
+    if (reference ? info.needs_reference : info.needs_original) {
+      CheckMetricImage(pixels, path);
+      return;
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 
 struct ScoreArgs {
@@ -204,6 +219,8 @@ void ScoreAgainstReference(const ScoreArgs& args) {
   MetricImage ref, orig;
   if (has_ref) ref = LoadMetricImage(args.ref);
   if (has_orig) orig = LoadMetricImage(args.original);
+  CheckSideImage(metrics, true, args.ref, ref.pixels);
+  CheckSideImage(metrics, false, args.original, orig.pixels);
   // Encodings as recorded (--sidecar for the scored images, else beside each file): the metrics
   // compare stored values, so differently coded images get a warning.
   std::optional<KnownEncoding> given;
@@ -229,9 +246,10 @@ void ScoreAgainstReference(const ScoreArgs& args) {
     ScoreRow row;
     row.label = path;
     try {
-      row.values = ComputeMetrics(metrics, in);
+      row.values = WithFileContext(path, "scoring it", [&] { return ComputeMetrics(metrics, in); });
     } catch (const Error& e) {
-      throw Error(path, e.what());
+      const std::string message = e.what();
+      throw message.rfind(path + ": ", 0) == 0 ? e : Error(path, message);
     }
     rows.push_back(row);
   }
@@ -241,7 +259,8 @@ void ScoreAgainstReference(const ScoreArgs& args) {
 }
 
 void ScoreManifest(const ScoreArgs& args) {
-  const std::vector<Record> records = ReadManifest(args.manifest);
+  std::vector<int> lines;
+  const std::vector<Record> records = ReadManifest(args.manifest, &lines);
   if (records.empty()) throw Error(args.manifest, "manifest has no rows");
   std::vector<std::string> keys;
   for (const auto& [k, v] : records.front()) keys.push_back(k);
@@ -288,10 +307,15 @@ void ScoreManifest(const ScoreArgs& args) {
     return std::nullopt;
   };
   std::vector<ScoreRow> rows;
-  for (const Record& record : records) {
+  for (size_t k = 0; k < records.size(); ++k) {
+    const Record& record = records[k];
     auto get = [&](const std::string& col) {
       auto it = record.find(col);
-      return it == record.end() ? std::string() : it->second;
+      const std::string value = it == record.end() ? std::string() : it->second;
+      // An empty path would name the manifest's folder (or no reference at all).
+      if (value.empty())
+        throw Error(args.manifest, "line " + std::to_string(lines[k]) + ": empty '" + col + "'");
+      return value;
     };
     const std::string image_path = ResolvePath(args.manifest, get(image_col));
     if (has_ref) {
@@ -304,14 +328,18 @@ void ScoreManifest(const ScoreArgs& args) {
     }
     MetricImage img = LoadMetricImage(image_path), ref, orig;
     ScoreRow row;
-    row.label = id_col.empty() ? get(image_col) : get(id_col);
+    row.label = id_col.empty() ? get(image_col) : record.at(id_col);
     if (!id_col.empty()) row.extra["path"] = get(image_col);
     if (has_ref) {
-      ref = LoadMetricImage(ResolvePath(args.manifest, get(ref_col)));
+      const std::string ref_path = ResolvePath(args.manifest, get(ref_col));
+      ref = LoadMetricImage(ref_path);
+      CheckSideImage(metrics, true, ref_path, ref.pixels);
       row.extra["reference"] = get(ref_col);
     }
     if (has_orig) {
-      orig = LoadMetricImage(ResolvePath(args.manifest, get(orig_col)));
+      const std::string orig_path = ResolvePath(args.manifest, get(orig_col));
+      orig = LoadMetricImage(orig_path);
+      CheckSideImage(metrics, false, orig_path, orig.pixels);
       row.extra["original"] = get(orig_col);
     }
     MetricInputs in;
@@ -320,9 +348,11 @@ void ScoreManifest(const ScoreArgs& args) {
     in.image = img.pixels;
     in.original = orig.pixels;
     try {
-      row.values = ComputeMetrics(metrics, in);
+      row.values =
+          WithFileContext(image_path, "scoring it", [&] { return ComputeMetrics(metrics, in); });
     } catch (const Error& e) {
-      throw Error(image_path, e.what());
+      const std::string message = e.what();
+      throw message.rfind(image_path + ": ", 0) == 0 ? e : Error(image_path, message);
     }
     rows.push_back(row);
   }
@@ -535,12 +565,16 @@ void ScorePairs(const ScoreArgs& args) {
     std::vector<PairMatchResult> results;
     for (const auto& [a, b] : pairs) {
       const MetricImage ia = LoadMetricImage(a), ib = LoadMetricImage(b);
+      // Checked here to name the file (MatchFeatures would say "first image").
+      CheckFeatureImageSize(d, ia.pixels, a);
+      CheckFeatureImageSize(d, ib.pixels, b);
       try {
         // Each image is converted with its own data range: pairs need not share a bit depth.
         cv::Mat a01, b01;
         ia.pixels.convertTo(a01, CV_32F, 1.0 / ia.data_range);
         ib.pixels.convertTo(b01, CV_32F, 1.0 / ib.data_range);
-        results.push_back(MatchFeatures(options, a01, b01, 1.0));
+        results.push_back(WithFileContext(a + " / " + b, "matching features",
+                                          [&] { return MatchFeatures(options, a01, b01, 1.0); }));
       } catch (const Error& e) {
         throw Error(a + " / " + b, e.what());
       }
@@ -589,24 +623,26 @@ void AddScoreCommand(CLI::App& app) {
   auto args = std::make_shared<ScoreArgs>();
   CLI::App* cmd = app.add_subcommand(
       "score", "Score images against a reference (or without one), a generate manifest, or pairs");
-  cmd->add_option("images", args->images, "Images to score (PNG/JPEG/TIFF/EXR/PFM)");
-  cmd->add_option("--ref", args->ref, "Ground-truth image for full-reference metrics");
-  cmd->add_option("--original", args->original,
-                  "Degraded input the restoration started from (visible-edge metrics)");
+  PathOption(cmd->add_option("images", args->images, "Images to score (PNG/JPEG/TIFF/EXR/PFM)"));
+  PathOption(cmd->add_option("--ref", args->ref, "Ground-truth image for full-reference metrics"));
+  PathOption(cmd->add_option("--original", args->original,
+                             "Degraded input the restoration started from (visible-edge metrics)"));
   cmd->add_option("--metrics", args->metrics,
                   "Comma-separated metric names or 'all' (default: ssim,psnr with --ref, else cnr)");
-  cmd->add_option("--manifest", args->manifest,
-                  "Batch: manifest.csv / .jsonl from `turbid generate` (paths relative to it)");
+  PathOption(cmd->add_option(
+      "--manifest", args->manifest,
+      "Batch: manifest.csv / .jsonl from `turbid generate` (paths relative to it)"));
   cmd->add_option("--image-column", args->image_column, "Manifest column of the image to score");
   cmd->add_option("--ref-column", args->ref_column, "Manifest column of the ground truth");
   cmd->add_option("--original-column", args->original_column,
                   "Manifest column of the original degraded image");
-  cmd->add_option("--results", args->results,
-                  "With --manifest: a folder of enhanced images named by item id, scored against "
-                  "the dataset into a sweep's tables");
+  PathOption(cmd->add_option(
+      "--results", args->results,
+      "With --manifest: a folder of enhanced images named by item id, scored against "
+      "the dataset into a sweep's tables"));
   cmd->add_option("--name", args->name, "With --results: the method's name (default: the folder's)");
-  cmd->add_option("--out", args->out,
-                  "With --results: folder for the tables (default: RESULTS/turbid-score)");
+  PathOption(cmd->add_option(
+      "--out", args->out, "With --results: folder for the tables (default: RESULTS/turbid-score)"));
   cmd->add_option("--level", args->level,
                   "With --results: manifest column that is the tables' level (default beta_gray)");
   cmd->add_option("--encoding", args->encoding,
@@ -615,14 +651,15 @@ void AddScoreCommand(CLI::App& app) {
                   "on their stored codes, as score --manifest does");
   cmd->add_option("--ground-truth", args->ground_truth,
                   "With --results: clean (rho, default) | lit (J, clipped to [0, 1])");
-  cmd->add_option("--threads", args->threads, "With --results: worker threads (0 = all cores)")
-      ->check(CLI::Range(0, 1024));
-  cmd->add_option("--pairs", args->pairs,
-                  "Feature matching over a file of image pairs (one 'A,B' per line)");
+  InRange(
+      cmd->add_option("--threads", args->threads, "With --results: worker threads (0 = all cores)"),
+      0, 1024);
+  PathOption(cmd->add_option("--pairs", args->pairs,
+                             "Feature matching over a file of image pairs (one 'A,B' per line)"));
   cmd->add_option("--detector", args->detector, "orb | akaze | sift | all (with --pairs)");
-  cmd->add_option("--sidecar", args->sidecar,
-                  "the render sidecar of the scored images (their encoding; default: OUT.json "
-                  "beside each image)");
+  PathOption(cmd->add_option("--sidecar", args->sidecar,
+                             "the render sidecar of the scored images (their encoding; default: "
+                             "OUT.json beside each image)"));
   cmd->add_flag("--json", args->json, "JSON on stdout");
   cmd->add_flag("--csv", args->csv, "CSV on stdout");
   cmd->add_flag("--list", args->list, "List the metrics and exit");

@@ -22,6 +22,12 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 constexpr const char* kFormat = "turbid-experiment/1";
+// nlohmann reads non-negative integers up to 2^64 - 1 as unsigned, negative ones as signed and
+// larger ones as floats (a json built in code may hold a signed non-negative one).
+const std::string kSeedRange = "must be an integer in [0, 18446744073709551615]";
+bool IsSeed(const json& value) {
+  return value.is_number_unsigned() || (value.is_number_integer() && value.get<int64_t>() >= 0);
+}
 
 bool IsSafeName(const std::string& name) {
   if (name.empty() || name.size() > 64) return false;
@@ -45,6 +51,26 @@ void CheckKeys(const json& object, const std::set<std::string>& allowed, const s
   }
 }
 
+// Axis names and level labels reach the tables (CSV, Markdown), the plots and `regress` as text:
+// a control character (a newline above all) would split their rows and lines. Shown JSON-quoted
+// so that the message stays one line.
+void CheckLabelText(const std::string& file, const std::string& what, const std::string& text) {
+  for (const char c : text) {
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {
+      throw Error(file, what + " " +
+                            json(text).dump(-1, ' ', false, json::error_handler_t::replace) +
+                            " holds a control character (newline, tab, ...)");
+    }
+  }
+}
+
+// Level labels a grid or choice value gives: strings as they are, a named axis's 'label'.
+void CheckValueLabel(const std::string& file, const std::string& what, const json& value) {
+  if (value.is_string()) CheckLabelText(file, what, value.get<std::string>());
+  if (value.is_object() && value.contains("label") && value["label"].is_string())
+    CheckLabelText(file, what + " label", value["label"].get<std::string>());
+}
+
 double FiniteNumber(const json& value, const std::string& file, const std::string& what) {
   if (!value.is_number()) throw Error(file, what + " must be a number, got " + value.dump());
   const double number = value.get<double>();
@@ -54,6 +80,7 @@ double FiniteNumber(const json& value, const std::string& file, const std::strin
 
 // Grid values: an array, or {"linspace": [lo, hi, n]} / {"logspace": [lo, hi, n]}.
 std::vector<json> GridValues(const json& spec, const std::string& file, const std::string& path) {
+  CheckLabelText(file, "grid axis", path);
   const std::string what = "grid '" + path + "'";
   std::vector<json> values;
   if (path.rfind('@', 0) == 0) {
@@ -66,8 +93,10 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
     std::set<std::string> labels;
     for (const json& value : spec) {
       if (!value.is_object()) throw Error(file, what + " values must be objects {path: value}");
+      CheckValueLabel(file, what, value);
       int paths = 0;
       for (const auto& [key, v] : value.items()) {
+        CheckLabelText(file, what + " key", key);
         if (key == "label") {
           if (!v.is_string() || v.get<std::string>().empty()) {
             throw Error(file, what + " 'label' must be a non-empty string");
@@ -92,6 +121,7 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
     if (spec.empty()) throw Error(file, what + " has no values (empty grid)");
     for (const json& value : spec) {
       if (value.is_null()) throw Error(file, what + " holds a null value");
+      CheckValueLabel(file, what + " value", value);
       if (value.is_number()) FiniteNumber(value, file, what + " value");
       values.push_back(value);
     }
@@ -127,6 +157,7 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
 }
 
 SampledParam ParseSampled(const std::string& path, const json& spec, const std::string& file) {
+  CheckLabelText(file, "samples param", path);
   const std::string what = "samples param '" + path + "'";
   if (!spec.is_object() || spec.size() != 1) {
     throw Error(file, what +
@@ -140,6 +171,7 @@ SampledParam ParseSampled(const std::string& path, const json& spec, const std::
   if (param.distribution == "choice") {
     if (!args.is_array() || args.empty())
       throw Error(file, what + " choice needs a non-empty array");
+    for (const json& choice : args) CheckValueLabel(file, what + " choice", choice);
     param.choices = args;
     return param;
   }
@@ -459,9 +491,7 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
   }
   e.description = get_string("description", "");
   if (in.contains("seed")) {
-    if (!in["seed"].is_number_integer() || in["seed"].get<int64_t>() < 0) {
-      throw Error(file, "'seed' must be an integer >= 0");
-    }
+    if (!IsSeed(in["seed"])) throw Error(file, "'seed' " + kSeedRange);
     e.seed = in["seed"].get<uint64_t>();
   }
 
@@ -558,9 +588,7 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
     }
     e.sample_count = samples["count"].get<int>();
     if (samples.contains("seed")) {
-      if (!samples["seed"].is_number_integer() || samples["seed"].get<int64_t>() < 0) {
-        throw Error(file, "'samples.seed' must be an integer >= 0");
-      }
+      if (!IsSeed(samples["seed"])) throw Error(file, "'samples.seed' " + kSeedRange);
       e.sample_seed = samples["seed"].get<uint64_t>();
     } else {
       e.sample_seed = e.seed;
@@ -592,6 +620,7 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
   e.level_path = in.contains("level")
                      ? get_string("level", "")
                      : (e.grid.empty() ? e.sampled.front().path : e.grid.front().first);
+  CheckLabelText(file, "'level'", e.level_path);
   if (!swept.count(e.level_path)) {
     throw Error(file, "'level' '" + e.level_path + "' is not a parameter of 'grid' or 'samples'");
   }

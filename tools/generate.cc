@@ -25,6 +25,7 @@
 #include "scenes/scene_loader.h"
 #include "simulator/noise.h"
 #include "simulator/render.h"
+#include "tools/tables.h"
 
 namespace turbid {
 namespace {
@@ -96,7 +97,7 @@ uint64_t ConfigSeed(const json& object, const char* key, uint64_t fallback,
   if (!object.contains(key)) return fallback;
   const json& v = object[key];
   if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<int64_t>() >= 0))
-    throw Error(file, where + key + ": must be an integer >= 0");
+    throw Error(file, where + key + ": must be an integer in [0, 18446744073709551615]");
   return v.get<uint64_t>();
 }
 
@@ -463,12 +464,12 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
     const json& o = item.params;
     const json& b = o["water"]["beta_rgb_per_m"];
     std::ostringstream row;
-    row << item.index << "," << item.id << "," << specs[item.scene] << ",images/" << item.id << ext
-        << ",ground_truth/" << item.id << ext << ",lit/" << item.id << ".pfm,sidecars/" << item.id
-        << ".json," << o["seed"].get<uint64_t>() << "," << b[0].dump() << "," << b[1].dump() << ","
-        << b[2].dump() << "," << o["water"]["beta_gray_per_m"].dump() << ","
-        << o["psf"]["optical_thickness"].dump() << "," << o["psf"]["forward_scatter"].dump()
-        << "," << FileEncodingName(o, format) << "\n";
+    row << item.index << "," << item.id << "," << CsvEscape(specs[item.scene]) << ",images/"
+        << item.id << ext << ",ground_truth/" << item.id << ext << ",lit/" << item.id
+        << ".pfm,sidecars/" << item.id << ".json," << o["seed"].get<uint64_t>() << ","
+        << b[0].dump() << "," << b[1].dump() << "," << b[2].dump() << ","
+        << o["water"]["beta_gray_per_m"].dump() << "," << o["psf"]["optical_thickness"].dump()
+        << "," << o["psf"]["forward_scatter"].dump() << "," << FileEncodingName(o, format) << "\n";
     csv += row.str();
     jsonl += json({{"index", item.index},
                    {"id", item.id},

@@ -5,6 +5,7 @@
 
 #include "scenes/image_io.h"
 #include "scenes/input_file.h"
+#include "tools/file_context.h"
 
 namespace turbid {
 
@@ -25,7 +26,7 @@ MetricImage LoadMetricImage(const std::string& path) {
   const int bits = IntegerBitDepth(path);
   ReadImageOptions options;
   options.keep_raw = bits != 0;
-  out.pixels = ReadImage(path, options);
+  out.pixels = WithFileContext(path, "reading it", [&] { return ReadImage(path, options); });
   out.data_range = bits == 16 ? 65535.0 : (bits == 8 ? 255.0 : 1.0);
   return out;
 }

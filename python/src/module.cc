@@ -395,13 +395,10 @@ struct PyRenderResult {
 };
 
 PyRenderResult RenderScene(const PyScene& scene, const std::string& params_text,
-                           std::optional<int64_t> seed, const std::string& maps) {
+                           std::optional<uint64_t> seed, const std::string& maps) {
   json params = ParseJsonText(params_text, "params");
   if (!params.is_object()) throw Error("params: parameters must be a JSON object");
-  if (seed) {
-    if (*seed < 0) throw Error("seed: must be >= 0");
-    params["seed"] = static_cast<uint64_t>(*seed);
-  }
+  if (seed) params["seed"] = *seed;  // turbid.render checked it (turbid._seed)
   PyRenderResult out;
   WorkScope release;
   RenderOptions options = RenderOptionsFromJson(params);

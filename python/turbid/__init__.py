@@ -11,6 +11,7 @@ one-line message. The GIL is released while C++ runs. Reference: docs/python.md.
 """
 
 import json as _json
+import numbers as _numbers
 import operator as _operator
 import os as _os
 
@@ -212,6 +213,20 @@ def _map_list(maps):
     return [str(m) for m in maps]
 
 
+_SEED_MAX = 2**64 - 1
+
+
+def _seed(value, what="seed"):
+    """``value`` as a seed: an integer in [0, 2**64 - 1], the CLI's range (TypeError for a value
+    that is not an integer, ValueError outside the range)."""
+    message = "%s: must be an integer in [0, %d], not %r" % (what, _SEED_MAX, value)
+    if isinstance(value, bool) or not isinstance(value, _numbers.Integral):
+        raise TypeError(message)
+    if not 0 <= int(value) <= _SEED_MAX:
+        raise ValueError(message)
+    return int(value)
+
+
 def render(scene, params=None, seed=None, maps=None):
     """Degrade ``scene`` with the forward model (paper eq. 2), as ``turbid render``.
 
@@ -223,7 +238,7 @@ def render(scene, params=None, seed=None, maps=None):
         raise ValueError("scene: a turbid.Scene, not a %s" % type(scene).__name__)
     names = _map_list(maps)
     core = _turbid.render(scene._core, _dumps(params, "params"),
-                          None if seed is None else _int(seed, "seed", 0), ",".join(names))
+                          None if seed is None else _seed(seed), ",".join(names))
     return RenderResult(core, names)
 
 

@@ -18,7 +18,7 @@ import json as _json
 import numpy as _np
 
 from . import _turbid
-from . import Scene, RenderResult, _dumps, _int
+from . import Scene, RenderResult, _dumps, _int, _seed
 
 __all__ = ["DegradeTransform", "RenderDataset", "draw_params"]
 
@@ -32,11 +32,10 @@ def draw_params(random, index, base=None, seed=0):
     if unknown:
         raise ValueError("random: unknown key %s (params, seed)" % sorted(unknown)[0])
     params = random.get("params", {})
-    u64 = dict(low=0, high=2**64 - 1)
-    random_seed = _int(random.get("seed", seed), "random.seed", **u64)
+    random_seed = _seed(random.get("seed", seed), "random.seed" if "seed" in random else "seed")
     return _json.loads(_turbid.draw_params(_dumps(base, "base"), _dumps(params, "random.params"),
-                                           random_seed, _int(seed, "seed", **u64),
-                                           _int(index, "index", **u64)))
+                                           random_seed, _seed(seed),
+                                           _int(index, "index", 0, 2**64 - 1)))
 
 
 def _intrinsics(k):
@@ -67,7 +66,7 @@ class DegradeTransform:
             raise ValueError("ground_truth: 'clean' or 'lit'")
         self.random = dict(random or {})
         self.base = dict(base or {})
-        self.seed = _int(seed, "seed", 0, 2**64 - 1)
+        self.seed = _seed(seed)
         self.encoding = encoding
         self.ground_truth = ground_truth
         draw_params(self.random, 0, self.base, self.seed)  # fail early on a bad sampler

@@ -59,13 +59,15 @@ TEST(FuzzFindings, GenerateConfigWrongTypesAreErrorsNamingTheKey) {
       // generate_fuzzer: {"scenes": [...], "scale": {"count": 2, ...}} escaped as a JSON
       // library type_error without the file or the key.
       {"scale", json::object(), "gen.json: scale: must be a number"},
-      {"seed", -1, "gen.json: seed: must be an integer >= 0"},
-      {"seed", 1.5, "gen.json: seed: must be an integer >= 0"},
+      {"seed", -1, "gen.json: seed: must be an integer in [0, 18446744073709551615]"},
+      {"seed", 1.5, "gen.json: seed: must be an integer in [0, 18446744073709551615]"},
       {"format", 3, "gen.json: format: png or exr"},
       {"base", json::array(), "gen.json: base: must be an object"},
       {"random", {{"count", 1e300}}, "gen.json: random.count: must be an integer in [1, 1e6]"},
       {"random", {{"count", "2"}}, "gen.json: random.count: must be an integer in [1, 1e6]"},
-      {"random", {{"seed", "x"}}, "gen.json: random.seed: must be an integer >= 0"},
+      {"random",
+       {{"seed", "x"}},
+       "gen.json: random.seed: must be an integer in [0, 18446744073709551615]"},
       {"random", {{"params", json::array({1, 2})}}, "gen.json: random.params: must be an object"},
   };
   for (const auto& c : cases) {
