@@ -314,6 +314,8 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
         options_.profile->Add("method " + method.label, row.time_ms);
       Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
             reference, render.image, &row, original_cache.get());
+    } catch (const OutputError&) {
+      throw;  // our own write failed (full disk...): not the method's failure; the sweep stops
     } catch (const std::exception& error) {
       if (row.time_ms == 0.0) row.time_ms = MillisecondsSince(start);
       row.error = error.what();
@@ -392,8 +394,8 @@ cv::Mat HarnessRunner::RunExternal(const ExperimentMethod& method, const std::st
   std::error_code ec;
   fs::remove_all(work, ec);
   fs::create_directories(work + "/in", ec);
-  fs::create_directories(work + "/out", ec);
-  if (ec) throw Error(work, "cannot create the work folder: " + ec.message());
+  if (!ec) fs::create_directories(work + "/out", ec);
+  if (ec) throw OutputError(work, "cannot create the work folder: " + ec.message());
   const std::string input = work + "/in/" + id + InputExtension(spec);
   const std::string output = work + "/out/" + id + OutputExtension(spec);
   WriteMethodInput(input, degraded, spec.at("input"));
@@ -473,6 +475,8 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
       const auto start = Clock::now();
       try {
         outputs = RunInProcess(method, degraded, ids);
+      } catch (const OutputError&) {
+        throw;
       } catch (const std::exception& error) {
         problem = error.what();
       }
@@ -490,6 +494,8 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
           const Pending& pending = pending_of(members[m]);
           Score(ids[m], method.label, outputs[m], pending.reference, pending.degraded, &row);
           row.error.clear();
+        } catch (const OutputError&) {
+          throw;
         } catch (const std::exception& error) {
           row.error = error.what();
           row.metrics = NanMetrics(metric_names_);
@@ -504,14 +510,16 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
     std::error_code ec;
     fs::remove_all(work, ec);
     fs::create_directories(work + "/in", ec);
-    fs::create_directories(work + "/out", ec);
+    if (!ec) fs::create_directories(work + "/out", ec);
+    if (ec) throw OutputError(work, "cannot create the work folder: " + ec.message());
     std::string batch_problem;
-    if (ec) batch_problem = work + ": cannot create the work folder: " + ec.message();
     for (size_t k : members) {
       if (!batch_problem.empty()) break;
       try {
         WriteMethodInput(work + "/in/" + tasks[k].spec->id + InputExtension(spec),
                          pending_of(k).degraded, spec.at("input"));
+      } catch (const OutputError&) {
+        throw;
       } catch (const Error& error) {
         batch_problem = std::string("cannot write the inputs: ") + error.what();
       }
@@ -549,6 +557,8 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
                        spec.at("output").at("encoding").get<std::string>(), pending.degraded);
         Score(id, method.label, enhanced, pending.reference, pending.degraded, &row);
         row.error.clear();
+      } catch (const OutputError&) {
+        throw;
       } catch (const std::exception& error) {
         row.error = error.what();
         row.metrics = NanMetrics(metric_names_);
@@ -593,7 +603,7 @@ SweepHooks HarnessRunner::Hooks() const {
 void WriteThumbnail(const std::string& path, const cv::Mat& linear, int width) {
   std::error_code ec;
   fs::create_directories(fs::path(path).parent_path(), ec);
-  if (ec) throw Error(path, "cannot create the thumbnail folder: " + ec.message());
+  if (ec) throw OutputError(path, "cannot create the thumbnail folder: " + ec.message());
   cv::Mat small = linear;
   if (linear.cols > width) {
     const int height = std::max(
