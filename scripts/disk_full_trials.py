@@ -95,15 +95,14 @@ def free_bytes(path):
 
 
 def write_ballast(path, size):
-    """Writes `size` bytes (tmpfs stores zero pages too); stops quietly when the disk is full."""
+    """Writes `size` bytes (tmpfs stores zero pages too), unbuffered; stops quietly when the disk
+    is full (the last page may not fit)."""
     chunk = bytes(1 << 20)
-    with open(path, "wb") as f:
+    with open(path, "wb", buffering=0) as f:
         left = size
         while left > 0:
-            n = min(left, len(chunk))
             try:
-                f.write(chunk[:n])
-                f.flush()
+                n = f.write(chunk[:min(left, len(chunk))])
             except OSError:
                 break
             left -= n

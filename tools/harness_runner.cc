@@ -360,7 +360,12 @@ std::vector<cv::Mat> HarnessRunner::RunInProcess(const ExperimentMethod& method,
                                                  const std::vector<std::string>& ids) const {
   const InProcessMethod& run =
       options_.in_process.at(method.external.at("python").get<std::string>());
-  std::vector<cv::Mat> outputs = run(method.external, degraded, ids);
+  std::vector<cv::Mat> outputs;
+  try {
+    outputs = run(method.external, degraded, ids);
+  } catch (const OutputError& error) {
+    throw Error(error.what());  // the method's own write failed: a failure of the method
+  }
   if (outputs.size() != degraded.size()) {
     throw Error("returned " + std::to_string(outputs.size()) + " images for " +
                 std::to_string(degraded.size()) + " inputs");

@@ -28,6 +28,8 @@
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
 #include "tests/support/test_support.h"
+#include "tools/experiment.h"
+#include "tools/harness_runner.h"
 #include "tools/sweep.h"
 #include "tools/tables.h"
 
@@ -163,6 +165,56 @@ TEST(DiskFullCli, AThumbnailWriteFailureStopsTheSweepInsteadOfFailingTheMethod) 
     const CliRun rerun = RunTurbid({"sweep", exp, "--out", out, "--quiet"});
     ASSERT_EQ(rerun.exit_code, 0) << rerun.err;
     EXPECT_TRUE(DeterministicFiles(out) == DeterministicFiles(dir.File("ref")));
+  }
+}
+
+// The same through the batch path (FinishBatch), with an in-process batch method: our thumbnail
+// write stops the sweep, while the method's own exceptions, an OutputError included (its own
+// write), stay failures of its cells.
+TEST(DiskFull, InTheBatchPathOurWriteStopsTheSweepAndTheMethodsOwnErrorsFailItsCells) {
+  TempDir dir;
+  const json doc = json::parse(R"({
+    "name": "batch", "seed": 2, "scale": 0.05, "scenes": ["builtin:seafloor"],
+    "grid": {"water.type": ["I", "II", "3C", "5C"]},
+    "methods": [{"name": "mine", "python": "mine", "batch": true, "batch_size": 2}],
+    "metrics": ["psnr"], "thumbnails": 16
+  })");
+  const Experiment experiment = ParseExperiment(doc, dir.File("exp.json"), RegistryCatalog());
+  const std::vector<ItemSpec> specs = ExpandItems(experiment);
+  const auto run = [&](const std::string& out, const InProcessMethod& method) {
+    HarnessRunnerOptions options;
+    options.in_process["mine"] = method;
+    const HarnessRunner runner(experiment, out, options);
+    SweepOptions sweep;
+    sweep.out_dir = out;
+    sweep.threads = 1;
+    return RunSweep(experiment, sweep, runner.Hooks());
+  };
+  const InProcessMethod identity = [](const json&, const std::vector<cv::Mat>& images,
+                                      const std::vector<std::string>&) { return images; };
+  // Our write: the batch's thumbnail of item 2 cannot be renamed into place.
+  const std::string blocked = dir.File("out/thumbs/" + specs[2].id + "/mine.png");
+  fs::create_directories(blocked);
+  EXPECT_THROW(run(dir.File("out"), identity), OutputError);
+  const std::vector<json> journaled = JournalEntries(dir.File("out/journal.jsonl"));
+  ASSERT_EQ(journaled.size(), 2u) << "the first batch only";
+  for (const json& entry : journaled) EXPECT_FALSE(entry.at("methods")[0].contains("error"));
+  fs::remove(blocked);
+  const SweepSummary resumed = run(dir.File("out"), identity);
+  EXPECT_EQ(resumed.ran, 2);
+  EXPECT_EQ(resumed.failed_rows, 0);
+  // The method's own errors: every cell fails, the sweep completes.
+  for (const bool output_error : {false, true}) {
+    const InProcessMethod failing = [&](const json&, const std::vector<cv::Mat>&,
+                                        const std::vector<std::string>&) -> std::vector<cv::Mat> {
+      if (output_error) throw OutputError("/its/own/file.png", "cannot write: disk full");
+      throw Error("out of GPU memory");
+    };
+    const std::string out = dir.File(output_error ? "own_write" : "own_error");
+    const SweepSummary summary = run(out, failing);
+    EXPECT_EQ(summary.ran, 4);
+    EXPECT_EQ(summary.failed_rows, 4);
+    EXPECT_TRUE(summary.tables_written);
   }
 }
 
