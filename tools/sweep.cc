@@ -135,7 +135,7 @@ std::string EntryProblem(const json& entry, const ItemSpec& spec, const Experime
     return "condition " + std::to_string(item.condition) + " is not the item's";
   if (item.seed != spec.seed) return "seed " + std::to_string(item.seed) + " is not the item's";
   if (item.methods.size() != experiment.methods.size()) {
-    return std::to_string(item.methods.size()) + " method rows for the experiment's " +
+    return "it holds " + std::to_string(item.methods.size()) + " method rows, the experiment " +
            std::to_string(experiment.methods.size());
   }
   std::set<std::string> metrics, reference_only;
