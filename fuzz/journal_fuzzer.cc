@@ -1,7 +1,8 @@
 // Sweep journals as a resume, `turbid merge` and `turbid report` read them: the input is
 // DIR/journal.jsonl beside a fixed DIR/experiment.json (journal_experiment.h: seafloor, 3
 // turbidity levels, clahe, psnr). Journal::Load with the repair a resume does, every entry through
-// ItemResultFromJson, and LoadSweepDir (which checks entries against the experiment's items).
+// ItemResultFromJson, and LoadSweepDir (which checks entries against the experiment's items and
+// refuses an incomplete entry: method rows or metrics missing, another item's fields).
 #include <cstddef>
 #include <cstdint>
 #include <filesystem>

@@ -10,6 +10,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -102,10 +103,12 @@ void RemoveTemporaryFilesOnSignal() {
 namespace {
 
 // Creates `file` (the temporary of `path`) and writes `bytes` with checked write() calls, then
-// close(); errors name `path` and the reason.
+// fsync() and close(), both checked: a write error the kernel reports late (an I/O error on
+// write-back, a quota or a network file system that allocates on flush) fails the write instead of
+// leaving a short or empty file under the final name. Errors are OutputError naming `path`.
 void WriteFileBytes(const std::string& path, const std::string& file, const std::string& bytes) {
   const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(path, std::string("cannot create: ") + std::strerror(errno));
+  if (fd < 0) throw OutputError(path, std::string("cannot create: ") + std::strerror(errno));
   size_t written = 0;
   while (written < bytes.size()) {
     const ssize_t n = ::write(fd, bytes.data() + written, bytes.size() - written);
@@ -114,16 +117,22 @@ void WriteFileBytes(const std::string& path, const std::string& file, const std:
       // n == 0 cannot make progress either; report it as the disk being full.
       const int err = n < 0 ? errno : ENOSPC;
       ::close(fd);
-      throw Error(path, std::string("cannot write: ") + std::strerror(err) + " (after " +
-                            std::to_string(written) + " of " + std::to_string(bytes.size()) +
-                            " bytes; nothing was written under this name)");
+      throw OutputError(path, std::string("cannot write: ") + std::strerror(err) + " (after " +
+                                  std::to_string(written) + " of " + std::to_string(bytes.size()) +
+                                  " bytes; nothing was written under this name)");
     }
     written += static_cast<size_t>(n);
   }
+  if (FsyncOutputs() && ::fsync(fd) != 0 && errno != EINVAL && errno != EROFS) {
+    const int err = errno;  // EINVAL/EROFS: a file that cannot be synced (nothing to report)
+    ::close(fd);
+    throw OutputError(path, std::string("cannot write: ") + std::strerror(err) +
+                                " (on fsync; nothing was written under this name)");
+  }
   // close() reports delayed write errors on some file systems (NFS): checked too.
   if (::close(fd) != 0)
-    throw Error(path, std::string("cannot write: ") + std::strerror(errno) +
-                          " (on close; nothing was written under this name)");
+    throw OutputError(path, std::string("cannot write: ") + std::strerror(errno) +
+                                " (on close; nothing was written under this name)");
 }
 
 // The destination's file name of a temporary file name, "" when `name` is not one: "." + NAME +
@@ -148,6 +157,14 @@ std::string TemporaryTarget(const std::string& name) {
 }
 
 }  // namespace
+
+bool FsyncOutputs() {
+  static const bool flush = [] {
+    const char* value = std::getenv("TURBID_FSYNC");
+    return value == nullptr || std::string(value) != "0";
+  }();
+  return flush;
+}
 
 bool IsTemporaryName(const std::string& name) { return !TemporaryTarget(name).empty(); }
 
@@ -192,10 +209,11 @@ int RemoveStaleTemporaries(const std::string& folder, bool recursive,
 FolderLock::FolderLock(const std::string& folder, const std::string& what) {
   std::error_code ec;
   fs::create_directories(folder, ec);
-  if (ec) throw Error(folder, "cannot create the output folder: " + ec.message());
+  if (ec) throw OutputError(folder, "cannot create the output folder: " + ec.message());
   const std::string path = folder + "/.turbid.lock";
   fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-  if (fd_ < 0) throw Error(path, std::string("cannot open the lock file: ") + std::strerror(errno));
+  if (fd_ < 0)
+    throw OutputError(path, std::string("cannot open the lock file: ") + std::strerror(errno));
   if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
     ::close(fd_);
@@ -218,7 +236,7 @@ void AtomicWrite(const std::string& path, bool overwrite,
   }
   const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
   if (!fs::is_directory(parent, ec)) {
-    throw Error(path, "folder " + parent.string() + " does not exist");
+    throw OutputError(path, "folder " + parent.string() + " does not exist");
   }
   const std::string temp = TemporaryNameFor(target);
   const RegisteredTemp registered(temp);
@@ -231,7 +249,7 @@ void AtomicWrite(const std::string& path, bool overwrite,
   fs::rename(temp, target, ec);
   if (ec) {
     fs::remove(temp, ec);
-    throw Error(path, "cannot rename temporary file into place: " + ec.message());
+    throw OutputError(path, "cannot rename temporary file into place: " + ec.message());
   }
 }
 

@@ -23,11 +23,17 @@ void AtomicWrite(const std::string& path, bool overwrite,
 // and one clear error instead of killing the program with a core dump.
 void RemoveTemporaryFilesOnSignal();
 
-// Writes bytes atomically, with checked write() calls and close(): a full disk, a file-size limit
-// or an I/O error throws Error("<path>: cannot write: <reason> (after N of M bytes; nothing was
-// written under this name)") and removes the temporary. Image writers encode into memory and call
-// this, so every output goes through the same checks.
+// Writes bytes atomically, with checked write(), fsync() and close() calls: a full disk, a quota,
+// a file-size limit or an I/O error throws OutputError("<path>: cannot write: <reason> (after N of
+// M bytes; nothing was written under this name)") and removes the temporary. Image writers encode
+// into memory and call this, so every output goes through the same checks. A failure to create,
+// rename or find the folder of the file is an OutputError too.
 void AtomicWriteText(const std::string& path, const std::string& bytes, bool overwrite);
+
+// Whether writers fsync() a file before renaming it into place (and the journal after each line):
+// yes unless the environment sets TURBID_FSYNC=0 (for a file system where fsync is slow; the
+// errors it would report late are then only seen when close() reports them).
+bool FsyncOutputs();
 
 // True for the names AtomicWrite gives its temporaries: ".NAME.tmpHEX" or ".NAME.tmpHEX.EXT"
 // where NAME ends with .EXT.

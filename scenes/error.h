@@ -15,6 +15,17 @@ class Error : public std::runtime_error {
       : std::runtime_error(file + ": " + problem) {}
 };
 
+// A failure of one of turbid's own output writes (a file, image, map, thumbnail, journal line or
+// table could not be created, written, flushed, closed or renamed into place: a full disk, a
+// quota, a file-size limit, an I/O error, a missing permission). Not a failure of the data or of
+// a method: the sweep does not record it as a method failure but stops (what is journaled is
+// complete), so that a plain rerun after freeing space finishes the work. The message names the
+// file and the reason (strerror).
+class OutputError : public Error {
+ public:
+  using Error::Error;
+};
+
 // Throws Error(why) when `check` fails; used to turn an Options::Check failure into an exception.
 template <typename Options>
 void ThrowIfInvalid(const Options& options, const std::string& context) {

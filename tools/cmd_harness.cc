@@ -73,6 +73,7 @@ void RunSweepCommand(const SweepArgs& args) {
   runner_options.allow_commands = args.allow_commands;
   HarnessRunner runner(experiment, args.out, runner_options);
   const SweepSummary summary = RunSweep(experiment, options, runner.Hooks());
+  for (const std::string& note : summary.notes) std::cerr << "turbid: note: " << note << "\n";
   if (summary.ran == 0 && !summary.tables_written) {
     std::cout << "sweep: nothing to do: all " << summary.items_in_shard << " items of "
               << (options.shard.count > 1 ? "shard " + args.shard : std::string("the sweep"))

@@ -163,7 +163,8 @@ ProcessResult RunProcess(const ProcessOptions& options) {
   const int log_fd =
       ::open(options.log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC | O_NOFOLLOW, 0644);
   if (log_fd < 0) {
-    throw Error(options.log_path, std::string("cannot open the log: ") + std::strerror(errno));
+    throw OutputError(options.log_path,
+                      std::string("cannot open the log: ") + std::strerror(errno));
   }
 
   // Environment: the caller's, with the method's names added or replaced.

@@ -381,7 +381,9 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
     // Clean-up never follows a link: a planted link would aim it at another folder.
     RefuseSymlink((fs::path(out_dir) / sub).string(), "cleans and writes");
     RemoveStaleTemporaries((fs::path(out_dir) / sub).string(), /*recursive=*/true);
-    fs::create_directories(fs::path(out_dir) / sub);
+    std::error_code ec;
+    fs::create_directories(fs::path(out_dir) / sub, ec);
+    if (ec) throw OutputError((fs::path(out_dir) / sub).string(), "cannot create: " + ec.message());
   }
   // An item is complete when its sidecar (written last) exists and names the same parameters.
   auto complete = [&](const Item& item) {
@@ -400,6 +402,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   std::atomic<bool> progress_shown{false};
   std::mutex error_mutex;
   std::string first_error;
+  bool output_error = false;
   auto worker = [&] {
     for (;;) {
       const int i = next.fetch_add(1);
@@ -442,6 +445,15 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
           std::cerr << "generate: " << n << "/" << items.size() << " items\r" << std::flush;
           progress_shown = true;
         }
+      } catch (const OutputError& e) {
+        // A write of ours failed (a full disk...): the message names the file; the complete
+        // items stay, so a rerun after freeing space finishes the same bytes.
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (first_error.empty()) {
+          first_error = std::string(e.what()) +
+                        "; generate stopped (complete items are kept: run it again to continue)";
+          output_error = true;
+        }
       } catch (const std::exception& e) {
         std::lock_guard<std::mutex> lock(error_mutex);
         if (first_error.empty()) first_error = item.id + ": " + e.what();
@@ -453,6 +465,7 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   for (int t = 0; t < count; ++t) pool.emplace_back(worker);
   for (auto& t : pool) t.join();
   if (progress_shown) std::cerr << "\n";  // an error after it starts a line of its own
+  if (output_error) throw OutputError(first_error);
   if (!first_error.empty()) throw Error("generate: " + first_error);
 
   // Manifest in item order: the same bytes whatever the thread count or interruption history.

@@ -367,6 +367,8 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
         options_.profile->Add("method " + method.label, row.time_ms);
       Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
             reference, render.image, &row, original_cache.get());
+    } catch (const OutputError&) {
+      throw;  // our own write failed (full disk...): not the method's failure; the sweep stops
     } catch (const std::exception& error) {
       if (row.time_ms == 0.0) row.time_ms = MillisecondsSince(start);
       row.error = error.what();
@@ -411,7 +413,12 @@ std::vector<cv::Mat> HarnessRunner::RunInProcess(const ExperimentMethod& method,
                                                  const std::vector<std::string>& ids) const {
   const InProcessMethod& run =
       options_.in_process.at(method.external.at("python").get<std::string>());
-  std::vector<cv::Mat> outputs = run(method.external, degraded, ids);
+  std::vector<cv::Mat> outputs;
+  try {
+    outputs = run(method.external, degraded, ids);
+  } catch (const OutputError& error) {
+    throw Error(error.what());  // the method's own write failed: a failure of the method
+  }
   if (outputs.size() != degraded.size()) {
     throw Error("returned " + std::to_string(outputs.size()) + " images for " +
                 std::to_string(degraded.size()) + " inputs");
@@ -448,8 +455,8 @@ cv::Mat HarnessRunner::RunExternal(const ExperimentMethod& method, const std::st
   std::error_code ec;
   fs::remove_all(work, ec);
   fs::create_directories(work + "/in", ec);
-  fs::create_directories(work + "/out", ec);
-  if (ec) throw Error(work, "cannot create the work folder: " + ec.message());
+  if (!ec) fs::create_directories(work + "/out", ec);
+  if (ec) throw OutputError(work, "cannot create the work folder: " + ec.message());
   const std::string input = work + "/in/" + id + InputExtension(spec);
   const std::string output = work + "/out/" + id + OutputExtension(spec);
   WriteMethodInput(input, degraded, spec.at("input"));
@@ -529,6 +536,8 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
       const auto start = Clock::now();
       try {
         outputs = RunInProcess(method, degraded, ids);
+      } catch (const OutputError&) {
+        throw;
       } catch (const std::exception& error) {
         problem = error.what();
       }
@@ -546,6 +555,8 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
           const Pending& pending = pending_of(members[m]);
           Score(ids[m], method.label, outputs[m], pending.reference, pending.degraded, &row);
           row.error.clear();
+        } catch (const OutputError&) {
+          throw;
         } catch (const std::exception& error) {
           row.error = error.what();
           row.metrics = NanMetrics(metric_names_);
@@ -562,14 +573,16 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
     if (batch_problem.empty()) {
       fs::remove_all(work, ec);
       fs::create_directories(work + "/in", ec);
-      fs::create_directories(work + "/out", ec);
-      if (ec) batch_problem = work + ": cannot create the work folder: " + ec.message();
+      if (!ec) fs::create_directories(work + "/out", ec);
+      if (ec) throw OutputError(work, "cannot create the work folder: " + ec.message());
     }
     for (size_t k : members) {
       if (!batch_problem.empty()) break;
       try {
         WriteMethodInput(work + "/in/" + tasks[k].spec->id + InputExtension(spec),
                          pending_of(k).degraded, spec.at("input"));
+      } catch (const OutputError&) {
+        throw;
       } catch (const Error& error) {
         batch_problem = std::string("cannot write the inputs: ") + error.what();
       }
@@ -607,6 +620,8 @@ void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
                        spec.at("output").at("encoding").get<std::string>(), pending.degraded);
         Score(id, method.label, enhanced, pending.reference, pending.degraded, &row);
         row.error.clear();
+      } catch (const OutputError&) {
+        throw;
       } catch (const std::exception& error) {
         row.error = error.what();
         row.metrics = NanMetrics(metric_names_);
@@ -651,7 +666,7 @@ SweepHooks HarnessRunner::Hooks() const {
 void WriteThumbnail(const std::string& path, const cv::Mat& linear, int width) {
   std::error_code ec;
   fs::create_directories(fs::path(path).parent_path(), ec);
-  if (ec) throw Error(path, "cannot create the thumbnail folder: " + ec.message());
+  if (ec) throw OutputError(path, "cannot create the thumbnail folder: " + ec.message());
   cv::Mat small = linear;
   if (linear.cols > width) {
     const int height = std::max(

@@ -304,7 +304,9 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   ReportSummary summary;
   summary.html_path = options.out_file.empty() ? dir + "/report.html" : options.out_file;
   const std::string report_dir = dir + "/report";
-  fs::create_directories(report_dir);
+  std::error_code create_error;
+  fs::create_directories(report_dir, create_error);
+  if (create_error) throw OutputError(report_dir, "cannot create: " + create_error.message());
 
   // ---- Plots ----
   Plotter plotter{report_dir, options.gnuplot, "", true};

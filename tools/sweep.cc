@@ -21,6 +21,7 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#include <utility>
 
 #include "scenes/atomic_file.h"
 #include "scenes/error.h"
@@ -86,7 +87,7 @@ void RemoveLeftovers(const std::string& dir) {
 void ClaimDir(const Experiment& experiment, const std::string& dir, bool force) {
   std::error_code ec;
   fs::create_directories(dir, ec);
-  if (ec) throw Error(dir, "cannot create the output folder: " + ec.message());
+  if (ec) throw OutputError(dir, "cannot create the output folder: " + ec.message());
   const std::string path = dir + "/experiment.json";
   const std::string text = ExperimentText(experiment);
   if (fs::exists(path)) {
@@ -129,6 +130,77 @@ void CheckEntries(const std::map<std::string, json>& entries, const std::vector<
   }
 }
 
+// Why a journaled entry cannot stand for its item ("" when it can). A complete entry is a
+// well-formed result of this very item (index, scene, condition, level, seed) holding exactly one
+// row per method of the experiment, in the experiment's order, each with a value (NaN when the cell
+// failed) for exactly the experiment's metrics, and the ground truth's no-reference scores (none
+// when the render failed). A journal only ever receives complete entries; anything else was cut,
+// edited or written by another tool, and its item must not be taken as done.
+std::string EntryProblem(const json& entry, const ItemSpec& spec, const Experiment& experiment) {
+  ItemResult item;
+  try {
+    item = ItemResultFromJson(entry);
+  } catch (const Error& error) {
+    return error.what();
+  }
+  if (item.index != spec.index) return "index " + std::to_string(item.index) + " is not the item's";
+  if (item.scene != experiment.scenes.at(static_cast<size_t>(spec.scene_index)).name)
+    return "scene '" + item.scene + "' is not the item's";
+  if (item.condition != spec.condition || item.level != spec.level)
+    return "condition " + std::to_string(item.condition) + " is not the item's";
+  if (item.seed != spec.seed) return "seed " + std::to_string(item.seed) + " is not the item's";
+  if (item.methods.size() != experiment.methods.size()) {
+    return "it holds " + std::to_string(item.methods.size()) + " method rows, the experiment " +
+           std::to_string(experiment.methods.size());
+  }
+  std::set<std::string> metrics, reference_only;
+  for (const HarnessMetricInfo& metric : experiment.metrics) {
+    metrics.insert(metric.name);
+    if (!metric.needs_reference && !metric.needs_original) reference_only.insert(metric.name);
+  }
+  const auto names = [](const std::map<std::string, double>& values) {
+    std::set<std::string> out;
+    for (const auto& [name, value] : values) out.insert(name);
+    return out;
+  };
+  for (size_t m = 0; m < item.methods.size(); ++m) {
+    const MethodResult& row = item.methods[m];
+    const std::string& label = experiment.methods[m].label;
+    if (row.label != label)
+      return "method row " + std::to_string(m + 1) + " is '" + row.label + "', not '" + label + "'";
+    if (names(row.metrics) != metrics) return "the row of method '" + label + "' lacks metrics";
+  }
+  const std::set<std::string> reference = names(item.reference_metrics);
+  if (item.error.empty() ? reference != reference_only
+                         : !std::includes(reference_only.begin(), reference_only.end(),
+                                          reference.begin(), reference.end()))
+    return "its reference_metrics are not the experiment's no-reference metrics";
+  return "";
+}
+
+// The id and problem of the first incomplete entry of `entries` (in item order), or {"", ""}.
+std::pair<std::string, std::string> FirstIncompleteEntry(const std::map<std::string, json>& entries,
+                                                         const std::vector<ItemSpec>& specs,
+                                                         const Experiment& experiment) {
+  for (const ItemSpec& spec : specs) {
+    const auto it = entries.find(spec.id);
+    if (it == entries.end()) continue;
+    const std::string problem = EntryProblem(it->second, spec, experiment);
+    if (!problem.empty()) return {spec.id, problem};
+  }
+  return {"", ""};
+}
+
+// Refuses (Error naming `journal` and the item) a set of entries with an incomplete one.
+void RefuseIncompleteEntries(const std::map<std::string, json>& entries,
+                             const std::vector<ItemSpec>& specs, const Experiment& experiment,
+                             const std::string& journal, const std::string& advice) {
+  const auto [id, problem] = FirstIncompleteEntry(entries, specs, experiment);
+  if (!id.empty())
+    throw Error(journal,
+                "the entry of item '" + id + "' is incomplete (" + problem + "); " + advice);
+}
+
 std::string FormatDuration(double seconds) {
   if (!std::isfinite(seconds) || seconds < 0) return "--:--";
   const long total = static_cast<long>(seconds + 0.5);
@@ -156,7 +228,8 @@ void CopyThumbnails(const std::string& from, const std::string& to) {
     const fs::file_type type = it->symlink_status(ec).type();
     if (type == fs::file_type::directory) {
       fs::create_directories(target, ec);
-      if (ec) throw Error(target.string(), "cannot create the thumbnail folder: " + ec.message());
+      if (ec)
+        throw OutputError(target.string(), "cannot create the thumbnail folder: " + ec.message());
       continue;
     }
     if (type != fs::file_type::regular || IsTemporaryName(relative.filename().string())) continue;
@@ -220,7 +293,8 @@ std::map<std::string, json> Journal::Load(bool repair) {
   }
   if (repair && good_end < text.size()) {
     if (::truncate(path_.c_str(), static_cast<off_t>(good_end)) != 0) {
-      throw Error(path_, std::string("cannot drop the partial last line: ") + std::strerror(errno));
+      throw OutputError(path_,
+                        std::string("cannot drop the partial last line: ") + std::strerror(errno));
     }
   }
   return entries;
@@ -231,7 +305,8 @@ void Journal::Append(const json& entry) {
   const std::string line = entry.dump() + "\n";
   std::lock_guard<std::mutex> lock(mutex);
   const int fd = ::open(path_.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_CLOEXEC, 0644);
-  if (fd < 0) throw Error(path_, std::string("cannot open the journal: ") + std::strerror(errno));
+  if (fd < 0)
+    throw OutputError(path_, std::string("cannot open the journal: ") + std::strerror(errno));
   // The journal's length before this line: a failed append (full disk, file-size limit) cuts the
   // file back to it, so the partial line cannot end up in the middle of the journal when another
   // thread appends after it.
@@ -239,7 +314,7 @@ void Journal::Append(const json& entry) {
   if (::fstat(fd, &before) != 0) {
     const std::string why = std::strerror(errno);
     ::close(fd);
-    throw Error(path_, "cannot append to the journal: " + why);
+    throw OutputError(path_, "cannot append to the journal: " + why);
   }
   // One write() for the whole line: a kill leaves either the full line or a partial last line
   // (never interleaved lines); a short write on a full disk is completed by further writes.
@@ -253,12 +328,23 @@ void Journal::Append(const json& entry) {
         // Left as a partial last line, which the next run drops (Load(repair)).
       }
       ::close(fd);
-      throw Error(path_, "cannot append to the journal: " + why);
+      throw OutputError(path_, "cannot append to the journal: " + why);
     }
     written += static_cast<size_t>(n);
   }
+  // A line the kernel could not store after all (an I/O error on write-back) is cut off again, so
+  // the item is not taken as done; fsync and close are both checked.
+  if (FsyncOutputs() && ::fsync(fd) != 0 && errno != EINVAL && errno != EROFS) {
+    const std::string why = std::strerror(errno);
+    if (::ftruncate(fd, before.st_size) != 0) {
+      // Left for Load to judge (a partial or incomplete line is dropped on resume).
+    }
+    ::close(fd);
+    throw OutputError(path_, "cannot append to the journal: " + why + " (on fsync)");
+  }
   if (::close(fd) != 0)
-    throw Error(path_, std::string("cannot append to the journal: ") + std::strerror(errno));
+    throw OutputError(path_, std::string("cannot append to the journal: ") + std::strerror(errno) +
+                                 " (on close)");
 }
 
 std::string ProgressLine(int done, int total, double elapsed_s, int width) {
@@ -328,6 +414,21 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
   CheckEntries(done, specs, journal.path());
 
   SweepSummary summary;
+  // Incomplete entries (e.g. method rows missing) do not count as done: their items run again,
+  // and the new entry, appended after them, is the one read from then on.
+  for (const ItemSpec& spec : specs) {
+    const auto it = done.find(spec.id);
+    if (it == done.end()) continue;
+    const std::string problem = EntryProblem(it->second, spec, experiment);
+    if (problem.empty()) continue;
+    done.erase(it);
+    summary.notes.push_back(journal.path() + ": the entry of item '" + spec.id +
+                            "' is incomplete (" + problem + ")" +
+                            (options.shard.Contains(spec.index)
+                                 ? "; the item is run again"
+                                 : "; left out of the tables (the item is in another shard)"));
+  }
+
   summary.items_total = static_cast<int>(specs.size());
   std::vector<ItemTask> pending;
   std::map<std::string, ItemResult> previous;  // journaled results of retried items
@@ -490,11 +591,30 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
   }
   summary.ran = finished.load();
   summary.failed_rows = failed_rows.load();
-  if (first_error) std::rethrow_exception(first_error);
+  if (first_error) {
+    try {
+      std::rethrow_exception(first_error);
+    } catch (const OutputError& error) {
+      // Not a failure of the experiment: the item being written is not journaled, so a plain
+      // rerun (after freeing space) runs it and completes the same results.
+      throw OutputError(std::string(error.what()) + "; the sweep stopped (" +
+                        std::to_string(summary.ran) +
+                        " items journaled now are kept: run it again to continue)");
+    }
+  }
 
   // Tables from everything journaled in this folder (the shard, or the whole sweep).
   const ScopedStage timed(options.profile, "tables");
   done = journal.Load(/*repair=*/false);
+  for (const ItemSpec& spec : specs) {  // only out-of-shard entries can be incomplete now
+    const auto it = done.find(spec.id);
+    if (it != done.end() && !EntryProblem(it->second, spec, experiment).empty()) done.erase(it);
+  }
+  // The mark of complete tables goes first, so that tables left half-written by a failed write
+  // (or a kill) are written again by the next run rather than taken as finished.
+  std::error_code ec;
+  fs::remove(options.out_dir + "/summary.md", ec);
+  if (ec) throw OutputError(options.out_dir + "/summary.md", "cannot remove: " + ec.message());
   WriteTables(experiment, SortedResults(done), options.out_dir);
   summary.tables_written = true;
   return summary;
@@ -508,7 +628,10 @@ SweepDir LoadSweepDir(const std::string& dir) {
   out.experiment = ExperimentFromResolvedJson(out.experiment_json, path);
   Journal journal(dir + "/journal.jsonl");
   const std::map<std::string, json> entries = journal.Load(/*repair=*/false);
-  CheckEntries(entries, ExpandItems(out.experiment), journal.path());
+  const std::vector<ItemSpec> specs = ExpandItems(out.experiment);
+  CheckEntries(entries, specs, journal.path());
+  RefuseIncompleteEntries(entries, specs, out.experiment, journal.path(),
+                          "run the sweep into this folder again to rerun the item");
   out.items = SortedResults(entries);
   return out;
 }
@@ -518,19 +641,25 @@ int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& option
   if (options.out_dir.empty()) throw Error("merge: --out is required");
   std::string experiment_text;
   Experiment experiment;
+  std::vector<ItemSpec> specs;
   std::map<std::string, json> merged;
   for (const std::string& dir : dirs) {
     const std::string text = ReadAll(dir + "/experiment.json");
     if (experiment_text.empty()) {
       experiment_text = text;
       experiment = LoadSweepDir(dir).experiment;
+      specs = ExpandItems(experiment);
     } else if (text != experiment_text) {
       throw Error(dir, "is a different experiment from " + dirs.front() +
                            " (experiment.json "
                            "differs)");
     }
     Journal journal(dir + "/journal.jsonl");
-    for (auto& [id, entry] : journal.Load(/*repair=*/false)) {
+    const std::map<std::string, json> entries = journal.Load(/*repair=*/false);
+    CheckEntries(entries, specs, journal.path());
+    RefuseIncompleteEntries(entries, specs, experiment, journal.path(),
+                            "run the sweep into " + dir + " again to rerun the item, then merge");
+    for (auto& [id, entry] : entries) {
       const auto it = merged.find(id);
       if (it == merged.end()) {
         merged.emplace(id, entry);
@@ -543,7 +672,6 @@ int MergeSweeps(const std::vector<std::string>& dirs, const MergeOptions& option
       }
     }
   }
-  const std::vector<ItemSpec> specs = ExpandItems(experiment);
   CheckEntries(merged, specs, "merge");
   if (!options.allow_partial && merged.size() != specs.size()) {
     std::string first_missing;

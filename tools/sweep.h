@@ -73,6 +73,9 @@ struct SweepSummary {
   int retried = 0;         // journaled items whose failed cells were run again
   int failed_rows = 0;     // method rows with an error among the items run now (not fatal)
   bool tables_written = false;
+  // One line per journal entry found incomplete (method rows or metrics missing, another item's
+  // fields): the entry was not taken as done and its item was run again.
+  std::vector<std::string> notes;
 };
 
 SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,

@@ -539,14 +539,16 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
     timings_md << "\n";
   }
 
+  // summary.md last: a sweep takes it as the mark of complete tables (a write that fails before it
+  // leaves the tables to be written again by the next run).
   AtomicWriteText(dir + "/items.csv", csv.str(), true);
   AtomicWriteText(dir + "/items.jsonl", jsonl.str(), true);
   AtomicWriteText(dir + "/summary.csv", summary_csv.str(), true);
-  AtomicWriteText(dir + "/summary.md", md.str(), true);
   if (with_timings) {
     AtomicWriteText(dir + "/timings.csv", timings_csv.str(), true);
     AtomicWriteText(dir + "/timings.md", timings_md.str(), true);
   }
+  AtomicWriteText(dir + "/summary.md", md.str(), true);
 }
 
 // ---- Regression ---------------------------------------------------------------------------

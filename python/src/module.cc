@@ -836,9 +836,15 @@ PYBIND11_MODULE(_turbid, m) {
     ThrowIfInvalid(options, "sweep");
     HarnessRunner r2(experiment, out, ro);
     const SweepSummary s = RunSweep(experiment, options, r2.Hooks());
-    return json({{"items_total", s.items_total}, {"items_in_shard", s.items_in_shard},
-                 {"ran", s.ran}, {"already_done", s.already_done}, {"retried", s.retried},
-                 {"failed_rows", s.failed_rows}, {"tables_written", s.tables_written}}).dump();
+    return json({{"items_total", s.items_total},
+                 {"items_in_shard", s.items_in_shard},
+                 {"ran", s.ran},
+                 {"already_done", s.already_done},
+                 {"retried", s.retried},
+                 {"failed_rows", s.failed_rows},
+                 {"tables_written", s.tables_written},
+                 {"notes", s.notes}})
+        .dump();
   }, py::arg("experiment"), py::arg("out"), py::arg("threads"), py::arg("shard"),
      py::arg("force"), py::arg("reuse"), py::arg("retry_failed") = false,
      py::arg("methods") = py::dict(), py::arg("allow_commands") = false);
