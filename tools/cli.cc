@@ -81,6 +81,20 @@ void CheckEveryOption(CLI::App& app) {
   for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) CheckEveryOption(*sub);
 }
 
+// An option that takes one value each time it is given (repeatable, allow_extra_args(false)) is
+// shown as "--set KEY=VALUE", not CLI11's "--set TEXT ...", which reads as several values.
+void ShowOneValuePerFlag(CLI::App& app) {
+  for (CLI::Option* option : app.get_options()) {
+    if (!option->nonpositional() || option->get_allow_extra_args() ||
+        option->get_expected_max() < CLI::detail::expected_max_vector_size ||
+        !option->get_option_text().empty())
+      continue;
+    option->option_text(option->get_type_name() + (option->get_required() ? " REQUIRED" : ""));
+  }
+  for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
+    ShowOneValuePerFlag(*sub);
+}
+
 // "turbid score" for messages about the command that was running.
 std::string RunningCommand(CLI::App& app) {
   std::string command = "turbid";
@@ -146,17 +160,20 @@ int RunCli(int argc, const char* const* argv) {
   CLI::App app{"turbid: underwater image degradation simulator, enhancers, metrics and sweeps"};
   app.set_version_flag("--version", std::string("turbid ") + TURBID_VERSION);
   app.require_subcommand(1);
+  // `turbid --help` lists the subcommands in this order: the order a newcomer uses them.
   AddSceneCommand(app);
-  AddRenderCommands(app);
+  AddRenderCommand(app);
   AddEnhanceCommand(app);
   AddScoreCommand(app);
   AddHarnessCommands(app);
+  AddGenerateCommand(app);
   AddBenchLauncher(app);
   return RunApp(app, argc, argv);
 }
 
 int RunApp(CLI::App& app, int argc, const char* const* argv) {
   CheckEveryOption(app);
+  ShowOneValuePerFlag(app);
   // Usage errors are one line too (CLI11 adds a second, "Run with --help ...").
   app.failure_message([](const CLI::App*, const CLI::Error& e) {
     return "turbid: error: " + OneLine(e.what()) + " (see --help)\n";

@@ -47,7 +47,8 @@ struct ExitStatus {
 
 // Each subcommand family adds itself to the app; defined in tools/cmd_<family>.cc.
 void AddSceneCommand(CLI::App& app);
-void AddRenderCommands(CLI::App& app);  // render, generate
+void AddRenderCommand(CLI::App& app);
+void AddGenerateCommand(CLI::App& app);  // also in tools/cmd_render.cc
 void AddEnhanceCommand(CLI::App& app);
 void AddScoreCommand(CLI::App& app);
 void AddHarnessCommands(CLI::App& app);  // sweep, merge, regress, report

@@ -575,6 +575,7 @@ void AddBenchCommand(CLI::App& app) {
       "with --sweep: the sweep's output folder (default: a temporary folder, removed)"));
   cmd->add_flag("--allow-commands", args->allow_commands,
                 "with --sweep: run the experiment's external \"command\" methods (as sweep)");
+  cmd->footer("Example: turbid bench --list");
   cmd->callback([args, threads] {
     if (args->allow_commands && args->sweep.empty())
       throw Error("bench", "--allow-commands needs --sweep");

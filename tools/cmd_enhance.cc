@@ -254,7 +254,8 @@ void AddEnhanceCommand(CLI::App& app) {
   PathOption(cmd->add_option("--scene", args->scene,
                              "scene spec (builtin:NAME or scene JSON) for geometry"));
   cmd->add_option("--scale", args->scale, "built-in scene scale (default: the sidecar's, else 1)");
-  cmd->add_option("--param,-p", args->params, "parameter override key=value (repeatable)")
+  cmd->add_option("--param,-p", args->params, "parameter override KEY=VALUE (repeatable)")
+      ->type_name("KEY=VALUE")
       ->allow_extra_args(false);  // one value per -p, so positionals may follow
   PathOption(cmd->add_option("--dump-steps", args->dump_steps,
                              "write every intermediate into this folder"));
@@ -267,6 +268,7 @@ void AddEnhanceCommand(CLI::App& app) {
     // Out of memory or an OpenCV failure in a method names the input and the method.
     WithFileContext(args->in, "enhancing it with '" + args->method + "'", [&] { Run(*args); });
   });
+  cmd->footer("Example: turbid enhance -m dcp sea.png sea_dcp.png");
 }
 
 }  // namespace turbid

@@ -209,6 +209,7 @@ void AddHarnessCommands(CLI::App& app) {
                   "recompute scene loading, renderer caches and ground-truth scores per item "
                   "(for benchmarks)");
   sweep->callback([sweep_args] { RunSweepCommand(*sweep_args); });
+  sweep->footer("Example: turbid sweep scenes/experiments/demo.json --out demo");
 
   auto merge_dirs = std::make_shared<std::vector<std::string>>();
   auto merge_options = std::make_shared<MergeOptions>();
@@ -225,6 +226,7 @@ void AddHarnessCommands(CLI::App& app) {
     std::cout << "merge: " << items << " items from " << merge_dirs->size() << " folders into "
               << merge_options->out_dir << "\n";
   });
+  merge->footer("Example: turbid merge demo_shard0 demo_shard1 --out demo_merged");
 
   auto regress_args = std::make_shared<RegressArgs>();
   CLI::App* regress = app.add_subcommand(
@@ -235,14 +237,17 @@ void AddHarnessCommands(CLI::App& app) {
   PathOption(
       regress->add_option("results", regress_args->results, "sweep folder or CSV of the same kind"))
       ->required();
-  regress->add_option("--tol", regress_args->tolerances,
-                      "per-metric tolerance METRIC=ABS[:REL] (repeatable)")
+  regress
+      ->add_option("--tol", regress_args->tolerances,
+                   "per-metric tolerance METRIC=ABS[:REL] (repeatable)")
+      ->type_name("METRIC=ABS[:REL]")
       ->allow_extra_args(false);
   PathOption(
       regress->add_option("--tolerances", regress_args->tolerance_file,
                           "tolerance JSON (default: BASELINE with .tolerances.json, if present)"));
   regress->add_flag("--strict", regress_args->strict, "improvements beyond tolerance fail too");
   regress->callback([regress_args] { RunRegressCommand(*regress_args); });
+  regress->footer("Example: turbid regress --baseline demo/items.csv demo_merged");
 
   auto report_dir = std::make_shared<std::string>();
   auto report_options = std::make_shared<ReportOptions>();
@@ -258,6 +263,7 @@ void AddHarnessCommands(CLI::App& app) {
     std::cout << "report: " << summary.html_path << " (" << summary.plots << " plots, "
               << summary.images << " images)\n";
   });
+  report->footer("Example: turbid report demo");
 }
 
 }  // namespace turbid

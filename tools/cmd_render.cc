@@ -158,7 +158,7 @@ void RunRender(const RenderArgs& args) {
 
 }  // namespace
 
-void AddRenderCommands(CLI::App& app) {
+void AddRenderCommand(CLI::App& app) {
   auto render_args = std::make_shared<RenderArgs>();
   CLI::App* render =
       app.add_subcommand("render", "degrade one scene with the forward model (paper eq. 2)");
@@ -178,8 +178,10 @@ void AddRenderCommands(CLI::App& app) {
   render->add_option("--beta", render_args->beta,
                      "attenuation 1/m: one value for all channels or R,G,B");
   render->add_option("--bit-depth", render_args->bit_depth, "camera output: 8, 16 or 32 (float)");
-  render->add_option("--set", render_args->sets,
-                     "KEY=VALUE on the JSON parameters, e.g. psf.forward_scatter=0.5 (repeatable)")
+  render
+      ->add_option("--set", render_args->sets,
+                   "KEY=VALUE on the JSON parameters, e.g. psf.forward_scatter=0.5 (repeatable)")
+      ->type_name("KEY=VALUE")
       ->allow_extra_args(false);
   render->add_option("--scale", render_args->scale, "size scale in (0, 1] for built-in scenes");
   render->add_flag("--explain", render_args->explain,
@@ -191,7 +193,11 @@ void AddRenderCommands(CLI::App& app) {
     // Out of memory or an OpenCV failure while rendering names the scene.
     WithFileContext(render_args->scene, "rendering it", [&] { RunRender(*render_args); });
   });
+  render->footer(
+      "Example: turbid render --scene builtin:seafloor --water 3C --seed 1 --out sea.png");
+}
 
+void AddGenerateCommand(CLI::App& app) {
   auto config = std::make_shared<std::string>();
   auto out = std::make_shared<std::string>();
   auto threads =
@@ -209,6 +215,7 @@ void AddRenderCommands(CLI::App& app) {
   generate->callback([config, out, threads] {
     RunGenerate(ParseGenerateConfig(ReadJsonFile(*config), *config), *out, *threads);
   });
+  generate->footer("Example: turbid generate dataset.json --out dataset");
 }
 
 }  // namespace turbid

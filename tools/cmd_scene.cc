@@ -280,12 +280,12 @@ void RunScene(const SceneArgs& args) {
 void AddSceneCommand(CLI::App& app) {
   auto args = std::make_shared<SceneArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "scene",
-      "Load and validate scenes; write clean image, depth and normals; print a summary");
+      "scene", "load and validate scenes; write clean image, depth and normals; print a summary");
   PathOption(cmd->add_option(
       "specs", args->specs,
       "scenes: builtin:NAME, a built-in name (hull, seafloor, room) or a scene JSON file"));
   cmd->add_option("--builtin", args->builtins, "a built-in scene to add, or 'all' (repeatable)")
+      ->type_name("NAME")
       ->allow_extra_args(false);
   PathOption(
       cmd->add_option("--out", args->out_dir,
@@ -308,6 +308,7 @@ void AddSceneCommand(CLI::App& app) {
       ->check(CLI::IsMember({"srgb", "linear"}))
       ->capture_default_str();
   cmd->callback([args]() { RunScene(*args); });
+  cmd->footer("Example: turbid scene builtin:seafloor --out clean");
 }
 
 }  // namespace turbid

@@ -200,12 +200,26 @@ struct ScoreArgs {
   int threads = 0;
 };
 
+// Aligned columns as wide as their longest entry, two spaces apart (a fixed width ran "--original"
+// into the summary).
 void ListMetricsCommand() {
-  std::cout << std::left << std::setw(24) << "metric" << std::setw(10) << "needs" << "summary\n";
-  for (const MetricInfo& info : ListMetrics()) {
-    std::string needs = info.needs_reference ? "--ref" : (info.needs_original ? "--original" : "-");
-    std::cout << std::left << std::setw(24) << info.name << std::setw(10) << needs << info.summary
-              << (info.higher_is_better ? "" : " (lower is better)") << "\n";
+  const std::vector<MetricInfo> metrics = ListMetrics();
+  const auto needs = [](const MetricInfo& info) -> std::string {
+    return info.needs_reference ? "--ref" : (info.needs_original ? "--original" : "-");
+  };
+  size_t name_width = std::string("metric").size(), needs_width = std::string("needs").size();
+  for (const MetricInfo& info : metrics) {
+    name_width = std::max(name_width, info.name.size());
+    needs_width = std::max(needs_width, needs(info).size());
+  }
+  const int name_column = static_cast<int>(name_width + 2);
+  const int needs_column = static_cast<int>(needs_width + 2);
+  std::cout << std::left << std::setw(name_column) << "metric" << std::setw(needs_column) << "needs"
+            << "summary\n";
+  for (const MetricInfo& info : metrics) {
+    std::cout << std::left << std::setw(name_column) << info.name << std::setw(needs_column)
+              << needs(info) << info.summary << (info.higher_is_better ? "" : " (lower is better)")
+              << "\n";
   }
 }
 
@@ -622,47 +636,49 @@ void ScorePairs(const ScoreArgs& args) {
 void AddScoreCommand(CLI::App& app) {
   auto args = std::make_shared<ScoreArgs>();
   CLI::App* cmd = app.add_subcommand(
-      "score", "Score images against a reference (or without one), a generate manifest, or pairs");
-  PathOption(cmd->add_option("images", args->images, "Images to score (PNG/JPEG/TIFF/EXR/PFM)"));
-  PathOption(cmd->add_option("--ref", args->ref, "Ground-truth image for full-reference metrics"));
+      "score", "score images against a reference (or without one), a generate manifest, or pairs");
+  PathOption(cmd->add_option("images", args->images, "images to score (PNG/JPEG/TIFF/EXR/PFM)"));
+  PathOption(cmd->add_option("--ref", args->ref, "ground-truth image for full-reference metrics"));
   PathOption(cmd->add_option("--original", args->original,
-                             "Degraded input the restoration started from (visible-edge metrics)"));
-  cmd->add_option("--metrics", args->metrics,
-                  "Comma-separated metric names or 'all' (default: ssim,psnr with --ref, else cnr)");
+                             "degraded input the restoration started from (visible-edge metrics)"));
+  cmd->add_option(
+      "--metrics", args->metrics,
+      "comma-separated metric names or 'all' (default: ssim,psnr with --ref, else cnr)");
   PathOption(cmd->add_option(
       "--manifest", args->manifest,
-      "Batch: manifest.csv / .jsonl from `turbid generate` (paths relative to it)"));
-  cmd->add_option("--image-column", args->image_column, "Manifest column of the image to score");
-  cmd->add_option("--ref-column", args->ref_column, "Manifest column of the ground truth");
+      "batch: manifest.csv / .jsonl from `turbid generate` (paths relative to it)"));
+  cmd->add_option("--image-column", args->image_column, "manifest column of the image to score");
+  cmd->add_option("--ref-column", args->ref_column, "manifest column of the ground truth");
   cmd->add_option("--original-column", args->original_column,
-                  "Manifest column of the original degraded image");
+                  "manifest column of the original degraded image");
   PathOption(cmd->add_option(
       "--results", args->results,
-      "With --manifest: a folder of enhanced images named by item id, scored against "
+      "with --manifest: a folder of enhanced images named by item id, scored against "
       "the dataset into a sweep's tables"));
-  cmd->add_option("--name", args->name, "With --results: the method's name (default: the folder's)");
+  cmd->add_option("--name", args->name,
+                  "with --results: the method's name (default: the folder's)");
   PathOption(cmd->add_option(
-      "--out", args->out, "With --results: folder for the tables (default: RESULTS/turbid-score)"));
+      "--out", args->out, "with --results: folder for the tables (default: RESULTS/turbid-score)"));
   cmd->add_option("--level", args->level,
-                  "With --results: manifest column that is the tables' level (default beta_gray)");
+                  "with --results: manifest column that is the tables' level (default beta_gray)");
   cmd->add_option("--encoding", args->encoding,
-                  "With --results: srgb | linear; srgb decodes the result files (only them) "
+                  "with --results: srgb | linear; srgb decodes the result files (only them) "
                   "to linear. Default linear: results, ground truth and inputs are all scored "
                   "on their stored codes, as score --manifest does");
   cmd->add_option("--ground-truth", args->ground_truth,
-                  "With --results: clean (rho, default) | lit (J, clipped to [0, 1])");
+                  "with --results: clean (rho, default) | lit (J, clipped to [0, 1])");
   InRange(
-      cmd->add_option("--threads", args->threads, "With --results: worker threads (0 = all cores)"),
+      cmd->add_option("--threads", args->threads, "with --results: worker threads (0 = all cores)"),
       0, 1024);
   PathOption(cmd->add_option("--pairs", args->pairs,
-                             "Feature matching over a file of image pairs (one 'A,B' per line)"));
+                             "feature matching over a file of image pairs (one 'A,B' per line)"));
   cmd->add_option("--detector", args->detector, "orb | akaze | sift | all (with --pairs)");
   PathOption(cmd->add_option("--sidecar", args->sidecar,
                              "the render sidecar of the scored images (their encoding; default: "
                              "OUT.json beside each image)"));
   cmd->add_flag("--json", args->json, "JSON on stdout");
   cmd->add_flag("--csv", args->csv, "CSV on stdout");
-  cmd->add_flag("--list", args->list, "List the metrics and exit");
+  cmd->add_flag("--list", args->list, "list the metrics and exit");
   cmd->callback([args]() {
     if (args->list) return ListMetricsCommand();
     if (!args->results.empty() && args->manifest.empty())
@@ -676,6 +692,7 @@ void AddScoreCommand(CLI::App& app) {
     if (!args->pairs.empty()) return ScorePairs(*args);
     ScoreAgainstReference(*args);
   });
+  cmd->footer("Example: turbid score sea.png sea_dcp.png");
 }
 
 }  // namespace turbid
