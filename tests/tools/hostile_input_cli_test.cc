@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "tests/support/asan.h"
 #include "tests/support/test_support.h"
 
 namespace turbid {
@@ -23,15 +24,8 @@ namespace fs = std::filesystem;
 using testing::CliRun;
 using testing::TempDir;
 
-// AddressSanitizer reserves terabytes of address space: under it `ulimit -v` stops the process
-// from starting, so the cap is ASan's own (malloc_limit_mb, hard_rss_limit_mb: a report, a failure).
-#if defined(__SANITIZE_ADDRESS__)
-#define TURBID_TEST_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TURBID_TEST_ASAN 1
-#endif
-#endif
+// Under AddressSanitizer (TURBID_TEST_ASAN) `ulimit -v` stops the process from starting, so the
+// cap is ASan's own (malloc_limit_mb, hard_rss_limit_mb: a report, a failure).
 
 #ifdef TURBID_TEST_ASAN
 constexpr const char* kMemoryCap =

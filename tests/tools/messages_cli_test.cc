@@ -20,17 +20,10 @@
 #include <string>
 #include <vector>
 
+#include "tests/support/asan.h"
 #include "tests/support/test_support.h"
 #include "tools/cli.h"
 
-// AddressSanitizer reserves terabytes of address space: `ulimit -v` stops it from starting.
-#if defined(__SANITIZE_ADDRESS__)
-#define TURBID_TEST_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define TURBID_TEST_ASAN 1
-#endif
-#endif
 
 namespace turbid {
 namespace {
