@@ -1,5 +1,8 @@
 #include "scenes/json_io.h"
 
+#include <cmath>
+#include <cstdint>
+#include <limits>
 #include <unordered_set>
 #include <vector>
 
@@ -93,5 +96,44 @@ std::optional<json> ParseJsonIfValid(std::string_view text, const std::string& s
 }
 
 json ReadJsonFile(const std::string& path) { return Parse(ReadInputFile(path), path); }
+
+}  // namespace turbid
+
+namespace turbid {
+
+std::optional<int64_t> JsonInteger(const nlohmann::json& value, int64_t lo, int64_t hi) {
+  int64_t v = 0;
+  if (value.is_number_unsigned()) {
+    const uint64_t u = value.get<uint64_t>();
+    if (u > static_cast<uint64_t>(std::numeric_limits<int64_t>::max())) return std::nullopt;
+    v = static_cast<int64_t>(u);
+  } else if (value.is_number_integer()) {
+    v = value.get<int64_t>();
+  } else if (value.is_number_float()) {
+    // 3.0 is accepted as 3 (JSON does not distinguish); the range check comes before the cast.
+    const double d = value.get<double>();
+    if (!(d >= -9.2e18 && d <= 9.2e18) || d != std::trunc(d)) return std::nullopt;
+    v = static_cast<int64_t>(d);
+  } else {
+    return std::nullopt;
+  }
+  if (v < lo || v > hi) return std::nullopt;
+  return v;
+}
+
+std::optional<uint64_t> JsonUnsigned(const nlohmann::json& value) {
+  if (value.is_number_unsigned()) return value.get<uint64_t>();
+  if (value.is_number_integer()) {
+    const int64_t v = value.get<int64_t>();
+    if (v < 0) return std::nullopt;
+    return static_cast<uint64_t>(v);
+  }
+  if (value.is_number_float()) {
+    const double d = value.get<double>();
+    if (!(d >= 0.0 && d < 1.8e19) || d != std::trunc(d)) return std::nullopt;
+    return static_cast<uint64_t>(d);
+  }
+  return std::nullopt;
+}
 
 }  // namespace turbid

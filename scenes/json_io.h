@@ -11,6 +11,7 @@
 //   "<source>: invalid JSON: <problem>".
 #pragma once
 
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
@@ -49,5 +50,17 @@ std::optional<nlohmann::json> ParseJsonIfValid(std::string_view text, const std:
 
 // Reads and parses a JSON file (a regular file: scenes/input_file.h). Throws Error naming `path`.
 nlohmann::json ReadJsonFile(const std::string& path);
+
+}  // namespace turbid
+
+namespace turbid {
+
+// The integer a JSON value holds, when it is an integral number in [lo, hi]; std::nullopt for
+// anything else (a string, null, a fraction, a number out of range). nlohmann's get<int>() casts a
+// float such as 1e300 to int, which is undefined behaviour: every integer a user file holds is
+// read through this.
+std::optional<int64_t> JsonInteger(const nlohmann::json& value, int64_t lo, int64_t hi);
+// The same for unsigned 64-bit values (seeds): a non-negative integral number up to 2^64 - 1.
+std::optional<uint64_t> JsonUnsigned(const nlohmann::json& value);
 
 }  // namespace turbid

@@ -16,6 +16,8 @@
 #include <exception>
 #include <filesystem>
 #include <fstream>
+#include <limits>
+#include <optional>
 #include <iostream>
 #include <mutex>
 #include <set>
@@ -124,7 +126,10 @@ void CheckEntries(const std::map<std::string, json>& entries, const std::vector<
   for (const ItemSpec& spec : specs) index_of[spec.id] = spec.index;
   for (const auto& [id, entry] : entries) {
     const auto it = index_of.find(id);
-    if (it == index_of.end() || entry.value("index", -1) != it->second) {
+    const auto index = entry.is_object() && entry.contains("index")
+                           ? JsonInteger(entry["index"], 0, std::numeric_limits<int>::max())
+                           : std::nullopt;
+    if (it == index_of.end() || index != std::optional<int64_t>(it->second)) {
       throw Error(where, "journal entry '" + id + "' is not an item of this experiment");
     }
   }

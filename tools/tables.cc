@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -261,19 +263,31 @@ json ItemResultToJson(const ItemResult& item, bool with_timing) {
   return out;
 }
 
+namespace {
+// An int field of a journaled item (index, condition, width, height): an integral number in
+// [0, INT_MAX]; anything else is a malformed entry (never a cast of 1e300 or of a string).
+int ItemInt(const json& in, const char* key) {
+  const std::optional<int64_t> v = JsonInteger(in.at(key), 0, std::numeric_limits<int>::max());
+  if (!v) throw Error(std::string("malformed item result: ") + key + " is not an integer >= 0");
+  return static_cast<int>(*v);
+}
+}  // namespace
+
 ItemResult ItemResultFromJson(const json& in) {
   try {
     ItemResult item;
-    item.index = in.at("index").get<int>();
+    item.index = ItemInt(in, "index");
     item.id = in.at("id").get<std::string>();
     item.scene = in.at("scene").get<std::string>();
-    item.condition = in.at("condition").get<int>();
+    item.condition = ItemInt(in, "condition");
     item.level = in.at("level").get<std::string>();
     item.level_value = in.at("level_value").get<double>();
     item.params = in.at("params");
-    item.seed = in.at("seed").get<uint64_t>();
-    item.width = in.at("width").get<int>();
-    item.height = in.at("height").get<int>();
+    const std::optional<uint64_t> seed = JsonUnsigned(in.at("seed"));
+    if (!seed) throw Error("malformed item result: seed is not an unsigned 64-bit integer");
+    item.seed = *seed;
+    item.width = ItemInt(in, "width");
+    item.height = ItemInt(in, "height");
     item.error = in.value("error", "");
     for (const json& row : in.at("methods")) {
       MethodResult m;
