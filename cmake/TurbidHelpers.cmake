@@ -7,10 +7,12 @@ function(turbid_set_warnings target)
 endfunction()
 
 # turbid_add_module(NAME <module> DEPS <targets...>)
-# Builds library turbid_<module> from every .cc file in the calling folder.
+# Builds library turbid_<module> from every .cc file in the calling folder and its subfolders
+# (enhancer/blocks/, enhancer/paper/, ...), except those under plugin/ (scenes' dlopen plugins).
 function(turbid_add_module)
   cmake_parse_arguments(ARG "" "NAME" "DEPS" ${ARGN})
-  file(GLOB sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cc")
+  file(GLOB_RECURSE sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cc")
+  list(FILTER sources EXCLUDE REGEX "/plugin/[^/]*\\.cc$")
   if(NOT sources)  # a module with headers only so far
     add_library(turbid_${ARG_NAME} INTERFACE)
     target_link_libraries(turbid_${ARG_NAME} INTERFACE ${ARG_DEPS})
@@ -28,7 +30,7 @@ endfunction()
 # <module>/<Suite>.<Test>.
 function(turbid_add_test_suite)
   cmake_parse_arguments(ARG "" "NAME" "DEPS" ${ARGN})
-  file(GLOB sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cc")
+  file(GLOB_RECURSE sources CONFIGURE_DEPENDS "${CMAKE_CURRENT_SOURCE_DIR}/*.cc")
   if(NOT sources)
     return()
   endif()

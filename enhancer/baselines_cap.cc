@@ -5,8 +5,8 @@
 
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
-#include "scenes/error.h"
-#include "scenes/row_kernel.h"
+#include "core/error.h"
+#include "core/row_kernel.h"
 #include "simulator/image_pool.h"
 
 namespace turbid {

@@ -6,7 +6,7 @@
 
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace baselines_internal {

@@ -8,8 +8,8 @@
 #include "enhancer/clahe.h"
 #include "enhancer/guided_filter.h"
 #include "enhancer/method.h"
-#include "scenes/error.h"
-#include "scenes/row_kernel.h"
+#include "core/error.h"
+#include "core/row_kernel.h"
 #include "simulator/image_pool.h"
 
 namespace turbid::baselines_internal {

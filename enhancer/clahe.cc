@@ -7,8 +7,8 @@
 #include <limits>
 
 #include "enhancer/simd_switch.h"
-#include "scenes/error.h"
-#include "scenes/row_kernel.h"
+#include "core/error.h"
+#include "core/row_kernel.h"
 
 #if defined(__x86_64__)
 #include <immintrin.h>

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "enhancer/simd_switch.h"
-#include "scenes/error.h"
-#include "scenes/row_kernel.h"
+#include "core/error.h"
+#include "core/row_kernel.h"
 #include "simulator/image_pool.h"
 
 #if defined(__x86_64__)

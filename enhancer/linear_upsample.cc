@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "scenes/row_kernel.h"
+#include "core/row_kernel.h"
 
 namespace turbid::enhancer_internal {
 namespace {

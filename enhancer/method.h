@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "enhancer/registry.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

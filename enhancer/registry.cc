@@ -12,7 +12,7 @@
 #include "enhancer/method.h"
 #include "enhancer/oracle.h"
 #include "enhancer/paper_methods.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -14,8 +14,8 @@
 #include <string_view>
 #include <utility>
 
-#include "scenes/error.h"
-#include "scenes/json_io.h"
+#include "core/error.h"
+#include "core/json_io.h"
 
 namespace turbid::fuzz {
 
@@ -51,7 +51,7 @@ void ExpectOnlyErrors(Body&& body) {
   }
 }
 
-// The input as the commands read JSON (scenes/json_io.h: strict, depth-limited), or nullopt when
+// The input as the commands read JSON (core/json_io.h: strict, depth-limited), or nullopt when
 // they would refuse it with their "invalid JSON" line. The parse itself must end only in Error.
 inline std::optional<nlohmann::json> ParseStrictJson(std::string_view text,
                                                      const std::string& source) {

@@ -7,7 +7,7 @@
 
 #include "metrics/full_reference.h"
 #include "metrics/image_checks.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

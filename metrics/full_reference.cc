@@ -6,7 +6,7 @@
 
 #include "metrics/image_checks.h"
 #include "metrics/simd_dispatch.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

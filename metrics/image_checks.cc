@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <sstream>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -14,7 +14,7 @@
 #include "metrics/image_checks.h"
 #include "metrics/no_reference.h"
 #include "metrics/ssim.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

@@ -9,7 +9,7 @@
 #include "metrics/image_checks.h"
 #include "metrics/simd_dispatch.h"
 #include "metrics/ssim_double_kernel.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

@@ -18,7 +18,7 @@
 #include "metrics/opencv_lab.h"
 #include "metrics/simd_dispatch.h"
 #include "metrics/visible_edges.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

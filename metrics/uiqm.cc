@@ -20,7 +20,7 @@
 #include <vector>
 
 #include "metrics/visible_edges.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -39,7 +39,7 @@
 
 #include "metrics/simd_dispatch.h"
 #include "metrics/visible_edge_search.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

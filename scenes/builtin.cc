@@ -15,7 +15,7 @@
 #include <memory>
 
 #include "scenes/builtin_internal.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -7,7 +7,7 @@
 #include <map>
 #include <set>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 #include "scenes/npy_io.h"
 

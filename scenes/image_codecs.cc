@@ -20,8 +20,8 @@
 #include <set>
 #include <vector>
 
-#include "scenes/error.h"
-#include "scenes/limits.h"
+#include "core/error.h"
+#include "core/limits.h"
 #include "scenes/plugin/image_plugin.h"
 #include "scenes/plugin_loader.h"
 
@@ -240,7 +240,7 @@ cv::Mat DecodeJpeg(const std::string& path, const std::string& bytes, int* max_v
   } cleanup{&cinfo};
   const int header = JpegReadHeader(&cinfo, &error, &bytes);
   if (header == 0) throw Error(path, std::string("cannot decode JPEG: ") + error.message);
-  // The pixel limit (scenes/limits.h) from the header, for the plugin's variants too.
+  // The pixel limit (core/limits.h) from the header, for the plugin's variants too.
   CheckImageSize(path, cinfo.image_width, cinfo.image_height);
   if (header == 2) return cv::Mat();
   const int channels = cinfo.num_components > 1 ? 3 : 1;

@@ -17,11 +17,11 @@
 #include <sstream>
 #include <vector>
 
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "scenes/image_codecs.h"
-#include "scenes/input_file.h"
-#include "scenes/limits.h"
+#include "core/input_file.h"
+#include "core/limits.h"
 
 namespace turbid {
 namespace fs = std::filesystem;
@@ -119,7 +119,7 @@ class HeaderReader {
   size_t pos_ = 0;
 };
 
-// Header sides are parsed up to this, then checked against the pixel limit (scenes/limits.h).
+// Header sides are parsed up to this, then checked against the pixel limit (core/limits.h).
 constexpr long kMaxHeaderSide = 2147483647L;
 
 // Portable Float Map: "PF" (RGB) or "Pf" (gray), width height, scale (< 0: little-endian), then

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <limits>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

@@ -9,9 +9,9 @@
 #include <map>
 #include <vector>
 
-#include "scenes/error.h"
-#include "scenes/input_file.h"
-#include "scenes/limits.h"
+#include "core/error.h"
+#include "core/input_file.h"
+#include "core/limits.h"
 
 namespace turbid {
 namespace {

@@ -10,9 +10,9 @@
 #include <sstream>
 #include <vector>
 
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
-#include "scenes/input_file.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/input_file.h"
 #include "scenes/plugin/hdf5_plugin.h"
 #include "scenes/plugin_loader.h"
 

@@ -8,7 +8,7 @@
 #include <immintrin.h>
 #endif
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

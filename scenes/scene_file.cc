@@ -11,16 +11,16 @@
 #include <set>
 #include <sstream>
 
-#include "scenes/atomic_file.h"
+#include "core/atomic_file.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/folder_dataset.h"
 #include "scenes/image_io.h"
-#include "scenes/json_io.h"
-#include "scenes/limits.h"
+#include "core/json_io.h"
+#include "core/limits.h"
 #include "scenes/normals.h"
 #include "scenes/nyu_depth_v2.h"
-#include "scenes/safe_name.h"
+#include "core/safe_name.h"
 #include "scenes/scene_loader.h"
 
 namespace turbid {

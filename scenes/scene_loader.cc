@@ -4,7 +4,7 @@
 #include <filesystem>
 
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace fs = std::filesystem;

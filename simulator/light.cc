@@ -5,8 +5,8 @@
 #include <cstdint>
 #include <limits>
 
-#include "scenes/error.h"
-#include "scenes/row_kernel.h"
+#include "core/error.h"
+#include "core/row_kernel.h"
 #include "simulator/fast_math.h"
 #include "simulator/kernels.h"
 

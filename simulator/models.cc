@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/fast_math.h"
 
 namespace turbid {

@@ -5,8 +5,8 @@
 #include <cstring>
 #include <opencv2/core.hpp>
 
-#include "scenes/error.h"
-#include "scenes/row_kernel.h"
+#include "core/error.h"
+#include "core/row_kernel.h"
 #include "simulator/kernels.h"
 
 namespace turbid {

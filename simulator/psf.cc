@@ -6,8 +6,8 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "scenes/error.h"
-#include "scenes/row_kernel.h"
+#include "core/error.h"
+#include "core/row_kernel.h"
 #include "simulator/fast_math.h"
 
 namespace turbid {

@@ -11,8 +11,8 @@
 #include <set>
 #include <sstream>
 
-#include "scenes/error.h"
-#include "scenes/row_kernel.h"
+#include "core/error.h"
+#include "core/row_kernel.h"
 #include "simulator/image_pool.h"
 #include "simulator/kernels.h"
 #include "turbid_version.h"

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "scenes/error.h"
-#include "scenes/row_kernel.h"
+#include "core/error.h"
+#include "core/row_kernel.h"
 #include "simulator/fast_math.h"
 
 namespace turbid {

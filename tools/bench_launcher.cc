@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tools/cli.h"
 
 extern char** environ;

@@ -2,7 +2,7 @@
 // for `turbid bench ARGS` as `turbid_bench ARGS` (tools/bench_launcher.cc).
 #include <vector>
 
-#include "scenes/atomic_file.h"
+#include "core/atomic_file.h"
 #include "tools/cli.h"
 
 int main(int argc, char** argv) {

@@ -8,7 +8,7 @@
 #include <iostream>
 #include <new>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tools/file_context.h"
 #include "turbid_version.h"
 

@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

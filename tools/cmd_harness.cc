@@ -6,8 +6,8 @@
 #include <iostream>
 #include <memory>
 
-#include "scenes/error.h"
-#include "scenes/input_file.h"
+#include "core/error.h"
+#include "core/input_file.h"
 #include "tools/cli.h"
 #include "tools/experiment.h"
 #include "tools/harness_runner.h"

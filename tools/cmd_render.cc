@@ -9,10 +9,10 @@
 #include <sstream>
 #include <thread>
 
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
-#include "scenes/json_io.h"
+#include "core/json_io.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/cli.h"

@@ -14,12 +14,12 @@
 #include <string>
 #include <vector>
 
-#include "scenes/atomic_file.h"
+#include "core/atomic_file.h"
 #include "scenes/builtin.h"
 #include "scenes/camera_encoding.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
-#include "scenes/safe_name.h"
+#include "core/safe_name.h"
 #include "scenes/scene_loader.h"
 #include "scenes/scene_summary.h"
 #include "tools/cli.h"

@@ -9,10 +9,10 @@
 #include <set>
 #include <sstream>
 
-#include "scenes/error.h"
-#include "scenes/json_io.h"
-#include "scenes/limits.h"
-#include "scenes/safe_name.h"
+#include "core/error.h"
+#include "core/json_io.h"
+#include "core/limits.h"
+#include "core/safe_name.h"
 #include "tools/external_method.h"
 
 namespace turbid {

@@ -17,7 +17,7 @@
 #include <set>
 #include <thread>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 
 extern char** environ;

@@ -7,7 +7,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

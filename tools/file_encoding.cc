@@ -4,7 +4,7 @@
 #include <fstream>
 #include <iostream>
 
-#include "scenes/json_io.h"
+#include "core/json_io.h"
 
 namespace turbid {
 namespace fs = std::filesystem;

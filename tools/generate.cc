@@ -16,12 +16,12 @@
 #include <sstream>
 #include <thread>
 
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
-#include "scenes/json_io.h"
-#include "scenes/limits.h"
-#include "scenes/safe_name.h"
+#include "core/json_io.h"
+#include "core/limits.h"
+#include "core/safe_name.h"
 #include "scenes/scene_loader.h"
 #include "simulator/noise.h"
 #include "simulator/render.h"

@@ -1,4 +1,4 @@
-#include "scenes/atomic_file.h"
+#include "core/atomic_file.h"
 #include "tools/cli.h"
 
 int main(int argc, char** argv) {

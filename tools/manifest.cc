@@ -4,9 +4,9 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "scenes/error.h"
-#include "scenes/input_file.h"
-#include "scenes/json_io.h"
+#include "core/error.h"
+#include "core/input_file.h"
+#include "core/json_io.h"
 #include "tools/tables.h"
 
 namespace turbid {

@@ -4,7 +4,7 @@
 #include <fstream>
 
 #include "scenes/image_io.h"
-#include "scenes/input_file.h"
+#include "core/input_file.h"
 #include "tools/file_context.h"
 
 namespace turbid {

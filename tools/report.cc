@@ -11,9 +11,9 @@
 #include <set>
 #include <sstream>
 
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
-#include "scenes/input_file.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/input_file.h"
 #include "tools/sweep.h"
 #include "tools/tables.h"
 

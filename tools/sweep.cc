@@ -25,11 +25,11 @@
 #include <thread>
 #include <utility>
 
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
-#include "scenes/input_file.h"
-#include "scenes/json_io.h"
-#include "scenes/safe_name.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/input_file.h"
+#include "core/json_io.h"
+#include "core/safe_name.h"
 #include "tools/item_scheduler.h"
 
 namespace turbid {

@@ -9,10 +9,10 @@
 #include <set>
 #include <sstream>
 
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
-#include "scenes/input_file.h"
-#include "scenes/json_io.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/input_file.h"
+#include "core/json_io.h"
 
 namespace turbid {
 namespace {

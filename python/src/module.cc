@@ -33,11 +33,11 @@
 #include "enhancer/registry.h"
 #include "metrics/feature_matching.h"
 #include "metrics/registry.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
-#include "scenes/input_file.h"
-#include "scenes/json_io.h"
-#include "scenes/limits.h"
+#include "core/input_file.h"
+#include "core/json_io.h"
+#include "core/limits.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/experiment.h"
@@ -206,12 +206,12 @@ std::string PythonSpelling(std::string message) {
   return message;
 }
 
-// The strict parse of scenes/json_io.h (depth, duplicate keys, numbers in range).
+// The strict parse of core/json_io.h (depth, duplicate keys, numbers in range).
 json ParseJsonText(const std::string& text, const std::string& what) {
   return ParseJson(text, what);
 }
 
-// The CLI's reading of JSON files (scenes/json_io.h); a path that is not a readable regular file
+// The CLI's reading of JSON files (core/json_io.h); a path that is not a readable regular file
 // is an OSError.
 json ReadConfigFile(const std::string& path) {
   const std::string problem = InputFileProblem(path);
@@ -256,7 +256,7 @@ ArrayView ViewArray(const py::array& a, const std::string& what, bool allow_colo
     throw Error(what + ": shape " + shape + ") is not H x W" + (allow_color ? " or H x W x 3" : ""));
   }
   if (a.shape(0) < 1 || a.shape(1) < 1) throw Error(what + ": array is empty");
-  // As files are (scenes/limits.h): nothing is converted or copied for an array over the limit.
+  // As files are (core/limits.h): nothing is converted or copied for an array over the limit.
   const std::string size_problem = ImageSizeProblem(a.shape(1), a.shape(0));
   if (!size_problem.empty()) throw Error(what + ": " + size_problem);
   if (!(a.flags() & py::array::c_style))

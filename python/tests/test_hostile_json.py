@@ -1,5 +1,5 @@
 """Issue 28 items 6, 7 and 9 through Python: wide PSF kernels on tiny scenes, JSON nested past the
-limit (scenes/json_io.h: 64 levels), config paths that are not regular files."""
+limit (core/json_io.h: 64 levels), config paths that are not regular files."""
 import os
 
 import numpy as np

@@ -14,7 +14,7 @@
 #include <type_traits>
 #include <vector>
 
-#include "scenes/limits.h"
+#include "core/limits.h"
 #include "scenes/plugin/image_plugin.h"
 
 namespace {
@@ -35,7 +35,7 @@ cv::Mat ReadWithOiio(const std::string& path, int* max_value) {
     throw std::runtime_error(OneLine(why));
   }
   const OIIO::ImageSpec spec = input->spec();
-  // The pixel limit (scenes/limits.h) before anything is allocated, for every path below.
+  // The pixel limit (core/limits.h) before anything is allocated, for every path below.
   const std::string size_problem = turbid::ImageSizeProblem(spec.width, spec.height);
   if (!size_problem.empty()) throw std::runtime_error(size_problem);
   // OpenImageIO hands SGI LogLuv TIFFs (what OpenCV writes for float data) over as 8-bit

@@ -4,7 +4,7 @@
 
 #include "enhancer/baselines.h"
 #include "enhancer/guided_filter.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/enhancer/baselines_reference.h"
 #include "tests/enhancer/baselines_test_images.h"
 

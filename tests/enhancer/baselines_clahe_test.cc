@@ -5,7 +5,7 @@
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
 #include "enhancer/clahe.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -9,7 +9,7 @@
 
 #include "enhancer/baselines.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -7,7 +7,7 @@
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 #include "simulator/render.h"
 #include "tests/enhancer/baselines_test_images.h"

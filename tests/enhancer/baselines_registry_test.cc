@@ -3,7 +3,7 @@
 #include <set>
 
 #include "enhancer/baselines.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/enhancer/baselines_test_images.h"
 
 namespace turbid {

@@ -12,7 +12,7 @@
 #include "enhancer/baselines_common.h"
 #include "enhancer/simd_switch.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 #include "simulator/render.h"
 #include "tests/support/test_support.h"

@@ -9,7 +9,7 @@
 #include "enhancer/clahe.h"
 #include "enhancer/deconvolution.h"
 #include "enhancer/plane_fit.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/psf.h"
 
 namespace turbid {

@@ -20,7 +20,7 @@
 #include "enhancer/select.h"
 #include "enhancer/simd_switch.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"

@@ -13,7 +13,7 @@
 #include "enhancer/registry.h"
 #include "metrics/registry.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tests/support/test_support.h"

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "enhancer/simd_switch.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

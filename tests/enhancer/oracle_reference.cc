@@ -11,7 +11,7 @@
 
 #include "enhancer/deconvolution.h"
 #include "enhancer/method.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/light.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"

@@ -16,7 +16,7 @@
 #include "metrics/full_reference.h"
 #include "metrics/ssim.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
 #include "tests/enhancer/oracle_reference.h"

@@ -10,7 +10,7 @@
 #include "enhancer/guided_filter.h"
 #include "enhancer/registry.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/render.h"
 
 namespace turbid {

@@ -10,7 +10,7 @@
 #include <string>
 
 #include "enhancer/registry.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/render.h"
 #include "tests/simulator/test_scenes.h"
 #include "tests/support/random_images.h"

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "enhancer/registry.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -15,7 +15,7 @@
 #include "enhancer/guided_filter.h"
 #include "enhancer/paper_methods.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
 

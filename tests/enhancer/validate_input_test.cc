@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "enhancer/method.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "metrics/image_checks.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/metrics/reference_files.h"
 
 namespace turbid {

@@ -16,8 +16,8 @@
 #include <string>
 
 #include "metrics/no_reference.h"
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 
 namespace turbid {

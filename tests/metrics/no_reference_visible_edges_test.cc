@@ -19,7 +19,7 @@
 #include <string>
 
 #include "metrics/no_reference.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 
 namespace turbid {

@@ -10,7 +10,7 @@
 
 #include "metrics/no_reference.h"
 #include "metrics/registry.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/metrics/expect_visible_edges.h"
 
 namespace turbid {

@@ -15,7 +15,7 @@
 #include "metrics/registry.h"
 #include "metrics/ssim.h"
 #include "metrics/visible_edges.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/support/random_images.h"
 
 namespace turbid {

@@ -10,7 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/metrics/reference_pre_optimisation.h"
 
 namespace turbid::reference {

@@ -8,7 +8,7 @@
 #include <limits>
 #include <vector>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/metrics/reference_pre_optimisation.h"
 
 namespace turbid::reference {

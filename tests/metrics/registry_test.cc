@@ -10,7 +10,7 @@
 #include "metrics/full_reference.h"
 #include "metrics/no_reference.h"
 #include "metrics/ssim.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -11,7 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "metrics/simd_dispatch.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/metrics/reference_files.h"
 
 namespace turbid {

@@ -10,7 +10,7 @@
 
 #include "metrics/simd_dispatch.h"
 #include "metrics/visible_edges.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -9,7 +9,7 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

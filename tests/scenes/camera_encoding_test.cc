@@ -7,7 +7,7 @@
 #include <cmath>
 #include <random>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/support/test_support.h"
 
 namespace turbid {

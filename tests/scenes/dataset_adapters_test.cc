@@ -14,7 +14,7 @@
 #include <functional>
 #include <limits>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/folder_dataset.h"
 #include "scenes/image_io.h"
 #include "scenes/npy_io.h"

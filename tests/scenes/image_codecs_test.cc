@@ -26,7 +26,7 @@
 #include <tuple>
 #include <vector>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 #include "tests/support/test_support.h"
 

@@ -18,8 +18,8 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "tests/support/test_support.h"
 
 namespace turbid {

@@ -7,7 +7,7 @@
 #include <limits>
 
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

@@ -8,9 +8,9 @@
 #include <fstream>
 #include <limits>
 
-#include "scenes/atomic_file.h"
+#include "core/atomic_file.h"
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 #include "scenes/scene_loader.h"
 #include "tests/support/test_support.h"

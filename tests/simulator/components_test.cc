@@ -6,7 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/light.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"

@@ -9,7 +9,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/render.h"
 #include "tests/support/test_support.h"
 #include "test_scenes.h"

@@ -14,7 +14,7 @@
 #include <thread>
 
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "test_scenes.h"
 
 namespace turbid {

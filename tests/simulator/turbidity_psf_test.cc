@@ -16,7 +16,7 @@
 #include <vector>
 
 #include "scenes/builtin.h"
-#include "scenes/error.h"
+#include "core/error.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
 #include "tests/simulator/test_scenes.h"

@@ -25,8 +25,8 @@
 #include <string>
 #include <vector>
 
-#include "scenes/atomic_file.h"
-#include "scenes/error.h"
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "tests/support/test_support.h"
 #include "tools/experiment.h"
 #include "tools/harness_runner.h"

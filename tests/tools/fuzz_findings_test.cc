@@ -9,7 +9,7 @@
 #include <functional>
 #include <string>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/support/test_support.h"
 #include "simulator/render.h"
 #include "tools/generate.h"

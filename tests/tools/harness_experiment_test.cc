@@ -4,7 +4,7 @@
 
 #include <set>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/support/test_support.h"
 #include "tests/tools/harness_fakes.h"
 #include "tools/experiment.h"

@@ -19,7 +19,7 @@
 #include <sstream>
 #include <thread>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/support/test_support.h"
 #include "tools/experiment.h"
 #include "tools/external_method.h"

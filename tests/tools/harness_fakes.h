@@ -10,7 +10,7 @@
 #include <string>
 #include <thread>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tools/experiment.h"
 #include "tools/sweep.h"
 #include "tools/tables.h"

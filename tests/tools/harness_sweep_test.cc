@@ -18,7 +18,7 @@
 #include <mutex>
 #include <thread>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/support/test_support.h"
 #include "tests/tools/harness_fakes.h"
 #include "tools/sweep.h"

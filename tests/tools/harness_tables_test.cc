@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/support/test_support.h"
 #include "tests/tools/harness_fakes.h"
 #include "tools/tables.h"

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "scenes/atomic_file.h"
+#include "core/atomic_file.h"
 #include "tests/support/test_support.h"
 
 namespace turbid {

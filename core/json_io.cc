@@ -1,4 +1,4 @@
-#include "scenes/json_io.h"
+#include "core/json_io.h"
 
 #include <cmath>
 #include <cstdint>
@@ -6,7 +6,7 @@
 #include <unordered_set>
 #include <vector>
 
-#include "scenes/input_file.h"
+#include "core/input_file.h"
 
 namespace turbid {
 namespace {

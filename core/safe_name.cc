@@ -1,9 +1,9 @@
-#include "scenes/safe_name.h"
+#include "core/safe_name.h"
 
 #include <cstdio>
 #include <filesystem>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

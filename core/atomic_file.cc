@@ -1,4 +1,4 @@
-#include "scenes/atomic_file.h"
+#include "core/atomic_file.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -19,8 +19,8 @@
 #include <sstream>
 #include <system_error>
 
-#include "scenes/error.h"
-#include "scenes/input_file.h"
+#include "core/error.h"
+#include "core/input_file.h"
 
 namespace turbid {
 namespace fs = std::filesystem;

@@ -1,4 +1,4 @@
-#include "scenes/input_file.h"
+#include "core/input_file.h"
 
 #include <sys/stat.h>
 
@@ -7,7 +7,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 

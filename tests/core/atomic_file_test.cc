@@ -2,7 +2,7 @@
 // ignored as the CLI does): one clear error naming the reason, the destination untouched (absent,
 // or its previous bytes), no temporary left. Temporaries of killed writers are recognised and
 // removed by the folder's owner; the folder lock is exclusive.
-#include "scenes/atomic_file.h"
+#include "core/atomic_file.h"
 
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -16,7 +16,7 @@
 #include <iostream>
 #include <string>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 #include "tests/support/test_support.h"
 

@@ -1,13 +1,13 @@
-// The one strict JSON parse (scenes/json_io.h): nesting limited at parse time, duplicate keys and
+// The one strict JSON parse (core/json_io.h): nesting limited at parse time, duplicate keys and
 // numbers beyond a double refused, every error one line naming the source.
-#include "scenes/json_io.h"
+#include "core/json_io.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <string>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "tests/support/test_support.h"
 
 namespace turbid {

@@ -1,11 +1,11 @@
-// File names from data (scenes/safe_name.h): one plain component, or a one-line error.
-#include "scenes/safe_name.h"
+// File names from data (core/safe_name.h): one plain component, or a one-line error.
+#include "core/safe_name.h"
 
 #include <gtest/gtest.h>
 
 #include <string>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 namespace {

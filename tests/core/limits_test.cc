@@ -1,8 +1,8 @@
-// Resource limits (scenes/limits.h): tiny crafted files whose headers claim 10^5 x 10^5 pixels (or
+// Resource limits (core/limits.h): tiny crafted files whose headers claim 10^5 x 10^5 pixels (or
 // 10^9 frames) in every format turbid decodes are refused from the header, before any allocation,
 // with one line naming TURBID_MAX_PIXELS / TURBID_MAX_ITEMS; raising the variable lets a file
 // through; a bad value of the variable is one clear error.
-#include "scenes/limits.h"
+#include "core/limits.h"
 
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfHeader.h>
@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
 #include "scenes/npy_io.h"
 #include "scenes/scene_loader.h"

@@ -17,7 +17,7 @@
 #include <string>
 #include <string_view>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 
@@ -48,7 +48,7 @@ nlohmann::json ParseJson(std::string_view text, const std::string& source);
 // key, number out of range).
 std::optional<nlohmann::json> ParseJsonIfValid(std::string_view text, const std::string& source);
 
-// Reads and parses a JSON file (a regular file: scenes/input_file.h). Throws Error naming `path`.
+// Reads and parses a JSON file (a regular file: core/input_file.h). Throws Error naming `path`.
 nlohmann::json ReadJsonFile(const std::string& path);
 
 }  // namespace turbid

@@ -1,6 +1,6 @@
 // Inputs that are not regular files (a FIFO, /dev/zero, a folder) are refused before they are
-// opened or read; symbolic links to regular files keep working (scenes/input_file.h).
-#include "scenes/input_file.h"
+// opened or read; symbolic links to regular files keep working (core/input_file.h).
+#include "core/input_file.h"
 
 #include <gtest/gtest.h>
 #include <sys/stat.h>
@@ -9,9 +9,9 @@
 #include <functional>
 #include <string>
 
-#include "scenes/error.h"
+#include "core/error.h"
 #include "scenes/image_io.h"
-#include "scenes/json_io.h"
+#include "core/json_io.h"
 #include "scenes/npy_io.h"
 #include "scenes/scene_loader.h"
 #include "tests/support/test_support.h"

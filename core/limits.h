@@ -14,7 +14,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "scenes/error.h"
+#include "core/error.h"
 
 namespace turbid {
 
