@@ -1,0 +1,178 @@
+#include "core/fields.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+namespace turbid {
+namespace {
+
+using nlohmann::json;
+
+enum class Shape { kRound, kSquare };
+
+struct Inner {
+  int bins = 256;
+  double alpha = 0.4;
+};
+
+struct Example {
+  double beta = 0.1;
+  int tiles = 8;
+  uint64_t seed = 7;
+  bool denoise = true;
+  std::string name = "x";
+  Shape shape = Shape::kRound;
+  Inner inner;
+};
+
+const Fields<Inner>& InnerFields() {
+  static const Fields<Inner> fields =
+      Fields<Inner>()
+          .Integer("bins", &Inner::bins, "histogram bins", 2, 65536)
+          .Number("alpha", &Inner::alpha, "distribution parameter", NumberRange::Above(0));
+  return fields;
+}
+
+const Fields<Example>& ExampleFields() {
+  static const Fields<Example> fields =
+      Fields<Example>()
+          .Number("beta", &Example::beta, "attenuation, 1/m", NumberRange::AtLeast(0))
+          .Integer("tiles", &Example::tiles, "tiles", 2, 1024)
+          .Unsigned("seed", &Example::seed, "seed")
+          .Boolean("denoise", &Example::denoise, "denoise first")
+          .String("name", &Example::name, "a name")
+          .Choice("shape", &Example::shape, {{"round", Shape::kRound}, {"square", Shape::kSquare}},
+                  "the shape")
+          .Nested("clahe_", &Example::inner, InnerFields());
+  return fields;
+}
+
+std::string ReadError(const json& in) {
+  Example e;
+  try {
+    ExampleFields().Read(in, &e, "f.json", "params");
+  } catch (const Error& error) {
+    return error.what();
+  }
+  return "";
+}
+
+TEST(Fields, ReadsEveryKindAndKeepsAbsentKeys) {
+  Example e;
+  ExampleFields().Read(json::parse(R"({"beta": 0.5, "tiles": 4.0, "seed": 18446744073709551615,
+      "denoise": false, "name": "y", "shape": "square", "clahe_bins": 64})"),
+                       &e, "f.json");
+  EXPECT_EQ(e.beta, 0.5);
+  EXPECT_EQ(e.tiles, 4);  // 4.0 is the integer 4 (JSON does not tell them apart)
+  EXPECT_EQ(e.seed, 18446744073709551615ull);
+  EXPECT_FALSE(e.denoise);
+  EXPECT_EQ(e.name, "y");
+  EXPECT_EQ(e.shape, Shape::kSquare);
+  EXPECT_EQ(e.inner.bins, 64);
+  EXPECT_EQ(e.inner.alpha, 0.4);  // absent: kept
+  ExampleFields().Read(json(nullptr), &e, "f.json");  // null reads nothing
+  EXPECT_EQ(e.beta, 0.5);
+}
+
+TEST(Fields, ToJsonWritesEveryKeyInDeclarationOrderAndReadsBack) {
+  Example e;
+  e.shape = Shape::kSquare;
+  e.inner.bins = 17;
+  const json out = ExampleFields().ToJson(e);
+  std::vector<std::string> keys;
+  for (auto it = out.begin(); it != out.end(); ++it) keys.push_back(it.key());
+  // nlohmann::json sorts object keys; the declaration order is the order of Keys().
+  EXPECT_EQ(ExampleFields().Keys(),
+            (std::vector<std::string>{"beta", "tiles", "seed", "denoise", "name", "shape",
+                                      "clahe_bins", "clahe_alpha"}));
+  EXPECT_EQ(out.size(), 8u);
+  EXPECT_EQ(out["shape"], "square");
+  EXPECT_EQ(out["clahe_bins"], 17);
+  Example back;
+  ExampleFields().Read(out, &back, "round trip");
+  EXPECT_EQ(ExampleFields().ToJson(back), out);
+}
+
+TEST(Fields, ErrorsNameTheSourceTheKeyAndTheProblem) {
+  EXPECT_EQ(ReadError(json::parse(R"({"beta": "x"})")),
+            "f.json: 'params.beta': expected a number, got \"x\"");
+  EXPECT_EQ(ReadError(json::parse(R"({"beta": -1})")),
+            "f.json: 'params.beta': must be >= 0, got -1");
+  EXPECT_EQ(ReadError(json::parse(R"({"tiles": 2.5})")),
+            "f.json: 'params.tiles': expected an integer, got 2.5");
+  EXPECT_EQ(ReadError(json::parse(R"({"tiles": 1e300})")),
+            "f.json: 'params.tiles': expected an integer, got 1e+300");
+  EXPECT_EQ(ReadError(json::parse(R"({"tiles": 1})")),
+            "f.json: 'params.tiles': must be in [2, 1024], got 1");
+  EXPECT_EQ(ReadError(json::parse(R"({"seed": -1})")),
+            "f.json: 'params.seed': expected an integer in [0, 2^64 - 1], got -1");
+  EXPECT_EQ(ReadError(json::parse(R"({"denoise": 1})")),
+            "f.json: 'params.denoise': expected true or false, got 1");
+  EXPECT_EQ(ReadError(json::parse(R"({"shape": "oval"})")),
+            "f.json: 'params.shape': expected one of round, square, got \"oval\"");
+  EXPECT_EQ(ReadError(json::parse(R"({"clahe_alpha": 0})")),
+            "f.json: 'params.clahe_alpha': must be > 0, got 0");
+  EXPECT_EQ(ReadError(json::parse(R"({"parms": 1})")),
+            "f.json: unknown key 'params.parms' (known: beta, tiles, seed, denoise, name, shape, "
+            "clahe_bins, clahe_alpha)");
+  EXPECT_EQ(ReadError(json::parse("[1]")), "f.json: 'params' must be a JSON object, got [1]");
+}
+
+TEST(Fields, ALongValueIsCutInTheMessage) {
+  json big = json::array();
+  for (int i = 0; i < 1000; ++i) big.push_back(i);
+  const std::string message = ReadError(json{{"name", big}});
+  EXPECT_LT(message.size(), 140u) << message;
+  EXPECT_NE(message.find("..."), std::string::npos);
+}
+
+TEST(Fields, AFailedReadLeavesTheFieldAsItWas) {
+  Example e;
+  EXPECT_NE(ReadError(json{{"tiles", 5000}}), "");
+  ExampleFields().Read(json{{"tiles", 16}}, &e, "f");
+  try {
+    ExampleFields().Read(json{{"tiles", 5000}}, &e, "f");
+  } catch (const Error&) {
+  }
+  EXPECT_EQ(e.tiles, 16);
+}
+
+TEST(Fields, InfoCarriesTypesRangesDefaultsAndDocs) {
+  Example defaults;
+  defaults.beta = 0.25;
+  const std::vector<FieldInfo> rows = ExampleFields().Info(defaults);
+  ASSERT_EQ(rows.size(), 8u);
+  EXPECT_EQ(rows[0].key, "beta");
+  EXPECT_EQ(rows[0].type, "number");
+  EXPECT_EQ(rows[0].range, ">= 0");
+  EXPECT_EQ(rows[0].default_value, 0.25);
+  EXPECT_EQ(rows[0].doc, "attenuation, 1/m");
+  EXPECT_EQ(rows[1].range, "in [2, 1024]");
+  EXPECT_EQ(rows[5].type, "one of: round, square");
+  EXPECT_EQ(rows[7].key, "clahe_alpha");
+  EXPECT_EQ(rows[7].range, "> 0");
+  const std::string table = FieldsMarkdown(rows);
+  EXPECT_NE(table.find("| `beta` | number, >= 0 | `0.25` | attenuation, 1/m |"), std::string::npos)
+      << table;
+}
+
+TEST(Fields, DeclaringAKeyTwiceIsAProgrammingError) {
+  EXPECT_THROW(Fields<Inner>().Integer("bins", &Inner::bins, "a").Integer("bins", &Inner::bins, "b"),
+               std::logic_error);
+}
+
+TEST(NumberRange, TextAndContains) {
+  EXPECT_EQ(NumberRange::Any().Text(), "");
+  EXPECT_EQ(NumberRange::Between(0, 1).Text(), "in [0, 1]");
+  EXPECT_EQ(NumberRange::AboveUpTo(0, 1).Text(), "in (0, 1]");
+  EXPECT_EQ(NumberRange::Above(0.5).Text(), "> 0.5");
+  EXPECT_TRUE(NumberRange::AboveUpTo(0, 1).Contains(1));
+  EXPECT_FALSE(NumberRange::AboveUpTo(0, 1).Contains(0));
+  EXPECT_FALSE(NumberRange::Any().Contains(NAN));
+  EXPECT_FALSE(NumberRange::Any().Contains(INFINITY));
+}
+
+}  // namespace
+}  // namespace turbid
