@@ -3,7 +3,8 @@
 # Usage: scripts/install_deps.sh [--test] [--slurm]
 #   --test   adds what the test suite needs: chromium, python3-torch for the DataLoader test of
 #            the Python package, python3-h5py to write NYU-layout HDF5 files independently of our
-#            reader, slurm-wlm + munge for the single-node Slurm test, and clang-14 with its
+#            reader, python3-pip + python3-venv for the wheel test (scripts/test_wheel.sh: pip install
+#            into a fresh venv), slurm-wlm + munge for the single-node Slurm test, and clang-14 with its
 #            sanitizer runtimes and libFuzzer for the hardening pass (build-san, fuzz/)
 #   --slurm  adds only slurm-wlm and munge (scripts/slurm/test_local.sh, ctest slurm/local_array;
 #            the test skips, saying why, when they are missing or it cannot start the daemons)
@@ -20,7 +21,7 @@ packages=(
 )
 for flag in "$@"; do
   case "$flag" in
-    --test) packages+=(chromium python3-torch python3-h5py slurm-wlm munge clang-14 libclang-rt-14-dev
+    --test) packages+=(chromium python3-torch python3-h5py python3-pip python3-venv slurm-wlm munge clang-14 libclang-rt-14-dev
                        libfuzzer-14-dev) ;;
     --slurm) packages+=(slurm-wlm munge) ;;
     *) echo "usage: $0 [--test] [--slurm]" >&2; exit 2 ;;
