@@ -112,15 +112,15 @@ std::string StringProblem(const nlohmann::json& v, std::string* out) {
   return "";
 }
 
-std::string Quoted(const std::string& where, const std::string& key) {
-  return "'" + (where.empty() ? key : where + "." + key) + "'";
+std::string Quoted(const std::string& noun, const std::string& where, const std::string& key) {
+  return (noun.empty() ? "" : noun + " ") + "'" + (where.empty() ? key : where + "." + key) + "'";
 }
 
-void ThrowUnknownKey(const std::string& source, const std::string& where, const std::string& key,
-                     const std::vector<std::string>& known) {
+void ThrowUnknownKey(const std::string& source, const std::string& noun, const std::string& where,
+                     const std::string& key, const std::vector<std::string>& known) {
   std::string list;
   for (const std::string& k : known) list += (list.empty() ? "" : ", ") + k;
-  throw Error(source, "unknown key " + Quoted(where, key) +
+  throw Error(source, "unknown " + Quoted(noun, where, key) +
                           " (known: " + (list.empty() ? "none" : list) + ")");
 }
 

@@ -19,6 +19,7 @@
 #include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
@@ -56,6 +57,7 @@ struct FieldInfo {
   std::string range;  // "" or ">= 0", "in [2, 1024]"
   nlohmann::json default_value;
   std::string doc;
+  int tag = 0;  // a label the caller gives (Fields::Tag), e.g. the enhancer's SizeBound
 };
 
 namespace fields_detail {
@@ -66,9 +68,10 @@ std::string UnsignedProblem(const nlohmann::json& v, uint64_t* out);
 std::string BooleanProblem(const nlohmann::json& v, bool* out);
 std::string StringProblem(const nlohmann::json& v, std::string* out);
 std::string IntegerRangeText(int64_t lo, int64_t hi);
-std::string Quoted(const std::string& where, const std::string& key);
-[[noreturn]] void ThrowUnknownKey(const std::string& source, const std::string& where,
-                                  const std::string& key, const std::vector<std::string>& known);
+std::string Quoted(const std::string& noun, const std::string& where, const std::string& key);
+[[noreturn]] void ThrowUnknownKey(const std::string& source, const std::string& noun,
+                                  const std::string& where, const std::string& key,
+                                  const std::vector<std::string>& known);
 [[noreturn]] void ThrowNotAnObject(const std::string& source, const std::string& where,
                                    const nlohmann::json& value);
 }  // namespace fields_detail
@@ -170,6 +173,12 @@ class Fields {
     }
     return *this;
   }
+  // Labels the field declared last with `tag` (FieldInfo::tag), e.g. how an image bounds it.
+  Fields& Tag(int tag) {
+    if (fields_.empty()) throw std::logic_error("Fields::Tag before any field");
+    fields_.back().info.tag = tag;
+    return *this;
+  }
   // A field with its own reading and writing (vectors, presets, ...).
   Fields& Custom(std::string key, std::string type, std::string range, std::string doc, Reader read,
                  Writer write) {
@@ -179,17 +188,20 @@ class Fields {
 
   // Reads every key of `object` (a JSON object; null reads nothing) into *out; absent keys keep
   // *out's values. Throws Error "<source>: '<where>.<key>': <problem>" for a wrong type or range,
-  // "<source>: unknown key '<where>.<key>' (known: ...)" for a key no field declares.
-  void Read(const Json& object, T* out, const std::string& source,
-            const std::string& where = "") const {
+  // "<source>: unknown key '<where>.<key>' (known: ...)" for a key no field declares. `noun`
+  // names the keys in messages ("parameter": "dcp: parameter 'omega': ...", "dcp: unknown
+  // parameter 'x' (known: ...)").
+  void Read(const Json& object, T* out, const std::string& source, const std::string& where = "",
+            const std::string& noun = "key") const {
     if (object.is_null()) return;
     if (!object.is_object()) fields_detail::ThrowNotAnObject(source, where, object);
     for (auto it = object.begin(); it != object.end(); ++it) {
       const Field* field = Find(it.key());
-      if (field == nullptr) fields_detail::ThrowUnknownKey(source, where, it.key(), Keys());
+      if (field == nullptr) fields_detail::ThrowUnknownKey(source, noun, where, it.key(), Keys());
       const std::string problem = field->read(it.value(), *out);
       if (!problem.empty()) {
-        throw Error(source, fields_detail::Quoted(where, it.key()) + ": " + problem);
+        const std::string named = noun == "key" ? "" : noun;
+        throw Error(source, fields_detail::Quoted(named, where, it.key()) + ": " + problem);
       }
     }
   }
@@ -227,7 +239,7 @@ class Fields {
               Writer write) {
     if (Find(key) != nullptr) throw std::logic_error("Fields: key '" + key + "' declared twice");
     fields_.push_back(Field{FieldInfo{std::move(key), std::move(type), std::move(range), nullptr,
-                                      std::move(doc)},
+                                      std::move(doc), 0},
                             std::move(read), std::move(write)});
     return *this;
   }

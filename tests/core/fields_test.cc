@@ -120,6 +120,30 @@ TEST(Fields, ErrorsNameTheSourceTheKeyAndTheProblem) {
   EXPECT_EQ(ReadError(json::parse("[1]")), "f.json: 'params' must be a JSON object, got [1]");
 }
 
+TEST(Fields, ANounNamesTheKeysInMessages) {
+  Inner inner;
+  try {
+    InnerFields().Read(json{{"bins", "many"}}, &inner, "clahe", "", "parameter");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "clahe: parameter 'bins': expected an integer, got \"many\"");
+  }
+  try {
+    InnerFields().Read(json{{"bns", 3}}, &inner, "clahe", "", "parameter");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "clahe: unknown parameter 'bns' (known: bins, alpha)");
+  }
+}
+
+TEST(Fields, TagsLabelTheLastField) {
+  const Fields<Inner> fields = Fields<Inner>().Integer("bins", &Inner::bins, "b").Tag(3).Number(
+      "alpha", &Inner::alpha, "a");
+  EXPECT_EQ(fields.Info()[0].tag, 3);
+  EXPECT_EQ(fields.Info()[1].tag, 0);
+  EXPECT_THROW(Fields<Inner>().Tag(1), std::logic_error);
+}
+
 TEST(Fields, ALongValueIsCutInTheMessage) {
   json big = json::array();
   for (int i = 0; i < 1000; ++i) big.push_back(i);
