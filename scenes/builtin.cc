@@ -15,6 +15,7 @@
 #include <memory>
 
 #include "scenes/builtin_internal.h"
+#include "core/cpu.h"
 #include "core/error.h"
 
 namespace turbid {
@@ -491,7 +492,7 @@ void HullNoiseAvx2(const double* u, const double* v, int n,
 // HullNoiseAt for n points: the AVX2 version where the CPU has it (same values).
 void HullNoiseBatch(const double* u, const double* v, int n, HullNoise* out) {
 #ifdef TURBID_BUILTIN_AVX2
-  static const bool avx2 = __builtin_cpu_supports("avx2");
+  static const bool avx2 = CpuHas(CpuLevel::kAvx2);
   if (avx2 && BuiltinVectorTexturesEnabled()) {
     HullNoiseAvx2(u, v, n, out);
     return;
