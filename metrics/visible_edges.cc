@@ -37,10 +37,10 @@
 #include <immintrin.h>
 #endif
 
+#include "core/error.h"
 #include "metrics/simd_dispatch.h"
 #include "metrics/visible_edge_search.h"
 #include "metrics/visible_edges_mask8.h"
-#include "core/error.h"
 
 namespace turbid {
 namespace {
@@ -282,8 +282,8 @@ bool EightBitRowAvx2(const float* src, int n, uint8_t* dst) {
           _mm256_floor_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_cvtps_pd(four), scale), half));
       return _mm256_cvttpd_epi32(_mm256_max_pd(_mm256_min_pd(scaled, hi), lo));
     };
-    const __m128i words = _mm_packs_epi32(quantise(_mm256_castps256_ps128(v)),
-                                          quantise(_mm256_extractf128_ps(v, 1)));
+    const __m128i words =
+        _mm_packs_epi32(quantise(_mm256_castps256_ps128(v)), quantise(_mm256_extractf128_ps(v, 1)));
     _mm_storel_epi64(reinterpret_cast<__m128i*>(dst + j), _mm_packus_epi16(words, words));
   }
   for (; j < n; ++j) {
@@ -351,6 +351,100 @@ cv::Mat ToGray255(const cv::Mat& image, const std::string& what) {
   return gray;
 }
 
+namespace {
+
+// Per-threshold sums of one window of the double path (indices [s_min, s_max] in use).
+struct WindowSums {
+  std::array<double, kMaxThreshold + 1> vertical{};
+  std::array<double, kMaxThreshold + 1> horizontal{};
+  std::array<int, kMaxThreshold + 1> count{};
+};
+
+// The window at (r0, c0) of the double path: its threshold s0 (first argmax of C over s), or -1
+// when C(s0) does not exceed half_threshold.
+int SearchWindow(const PaddedMaps& maps, int r0, int c0, double half_threshold, WindowSums* sums) {
+  double lo_value = std::numeric_limits<double>::infinity();
+  double hi_value = -lo_value;
+  for (int nn = 0; nn < kWindow; ++nn) {
+    const double* row = &maps.value[static_cast<size_t>(r0 + nn) * maps.cols + c0];
+    for (int mm = 0; mm < kWindow; ++mm) {
+      lo_value = std::min(lo_value, row[mm]);
+      hi_value = std::max(hi_value, row[mm]);
+    }
+  }
+  // Thresholds clamped to [1, 256] as in the code (s = 0 would only add zero contrasts).
+  const int s_min = static_cast<int>(std::clamp(RoundHalfAway(lo_value), 1.0, 256.0));
+  const int s_max = static_cast<int>(std::clamp(RoundHalfAway(hi_value), 1.0, 256.0));
+  auto& sum_vertical = sums->vertical;
+  auto& sum_horizontal = sums->horizontal;
+  auto& count = sums->count;
+  std::fill(sum_vertical.begin() + s_min, sum_vertical.begin() + s_max + 1, 0.0);
+  std::fill(sum_horizontal.begin() + s_min, sum_horizontal.begin() + s_max + 1, 0.0);
+  std::fill(count.begin() + s_min, count.begin() + s_max + 1, 0);
+
+  for (int nn = 1; nn < kWindow; ++nn) {
+    const int r = r0 + nn;
+    for (int mm = 1; mm < kWindow; ++mm) {
+      const int c = c0 + mm;
+      const size_t k = static_cast<size_t>(r) * maps.cols + c;
+      const double p = maps.value[k];
+      const Interval v = maps.vertical[k];
+      const double left = maps.value[k - 1];
+      for (int s = std::max(v.lo, s_min), last = std::min(v.hi, s_max); s <= last; ++s) {
+        sum_vertical[s] += std::min(Weber(s, p), Weber(s, left));
+        ++count[s];
+      }
+      const Interval h = maps.horizontal[k];
+      const double up = maps.value[k - maps.cols];
+      for (int s = std::max(h.lo, s_min), last = std::min(h.hi, s_max); s <= last; ++s) {
+        sum_horizontal[s] += std::min(Weber(s, p), Weber(s, up));
+        ++count[s];
+      }
+    }
+  }
+
+  // First argmax of C over s (C is 0 below s_min and where no pair is separated).
+  double best = 0.0;
+  int s0 = s_min;
+  for (int s = s_min; s <= s_max; ++s) {
+    if (count[s] == 0) continue;
+    const double contrast = (1.0 / count[s]) * (sum_vertical[s] + sum_horizontal[s]);
+    if (contrast > best) {
+      best = contrast;
+      s0 = s;
+    }
+  }
+  // The code tests C(s0) > percentage/2: the paper's visibility 2·C(s0) > 5 %.
+  return best > half_threshold ? s0 : -1;
+}
+
+// Marks both pixels of every pair of the window at (r0, c0) that s0 separates.
+void MarkWindow(const PaddedMaps& maps, int r0, int c0, int s0, cv::Mat* mask) {
+  const int nl = mask->rows, nc = mask->cols;
+  auto mark = [&](int r, int c) {
+    if (r < nl && c < nc) mask->at<uint8_t>(r, c) = 255;
+  };
+  for (int nn = 1; nn < kWindow; ++nn) {
+    const int r = r0 + nn;
+    for (int mm = 1; mm < kWindow; ++mm) {
+      const int c = c0 + mm;
+      const size_t k = static_cast<size_t>(r) * maps.cols + c;
+      const Interval v = maps.vertical[k];
+      if (v.lo <= s0 && s0 <= v.hi) {
+        mark(r, c);
+        mark(r, c - 1);
+      }
+      const Interval h = maps.horizontal[k];
+      if (h.lo <= s0 && s0 <= h.hi) {
+        mark(r, c);
+        mark(r - 1, c);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 cv::Mat VisibleEdgeMask(const VisibleEdgeOptions& options, const cv::Mat& gray255) {
   ThrowIfInvalid(options, "visible edges");
   CheckGray255(gray255);
@@ -361,83 +455,11 @@ cv::Mat VisibleEdgeMask(const VisibleEdgeOptions& options, const cv::Mat& gray25
   const double half_threshold = options.visibility_threshold / 2.0;
 
   cv::Mat mask = cv::Mat::zeros(nl, nc, CV_8UC1);
-  std::array<double, kMaxThreshold + 1> sum_vertical{};
-  std::array<double, kMaxThreshold + 1> sum_horizontal{};
-  std::array<int, kMaxThreshold + 1> count{};
-
+  WindowSums sums;
   for (int r0 = 0; r0 < nl; r0 += kStep) {
     for (int c0 = 0; c0 < nc; c0 += kStep) {
-      double lo_value = std::numeric_limits<double>::infinity();
-      double hi_value = -lo_value;
-      for (int nn = 0; nn < kWindow; ++nn) {
-        const double* row = &maps.value[static_cast<size_t>(r0 + nn) * maps.cols + c0];
-        for (int mm = 0; mm < kWindow; ++mm) {
-          lo_value = std::min(lo_value, row[mm]);
-          hi_value = std::max(hi_value, row[mm]);
-        }
-      }
-      // Thresholds clamped to [1, 256] as in the code (s = 0 would only add zero contrasts).
-      const int s_min = static_cast<int>(std::clamp(RoundHalfAway(lo_value), 1.0, 256.0));
-      const int s_max = static_cast<int>(std::clamp(RoundHalfAway(hi_value), 1.0, 256.0));
-      std::fill(sum_vertical.begin() + s_min, sum_vertical.begin() + s_max + 1, 0.0);
-      std::fill(sum_horizontal.begin() + s_min, sum_horizontal.begin() + s_max + 1, 0.0);
-      std::fill(count.begin() + s_min, count.begin() + s_max + 1, 0);
-
-      for (int nn = 1; nn < kWindow; ++nn) {
-        const int r = r0 + nn;
-        for (int mm = 1; mm < kWindow; ++mm) {
-          const int c = c0 + mm;
-          const size_t k = static_cast<size_t>(r) * maps.cols + c;
-          const double p = maps.value[k];
-          const Interval v = maps.vertical[k];
-          const double left = maps.value[k - 1];
-          for (int s = std::max(v.lo, s_min), last = std::min(v.hi, s_max); s <= last; ++s) {
-            sum_vertical[s] += std::min(Weber(s, p), Weber(s, left));
-            ++count[s];
-          }
-          const Interval h = maps.horizontal[k];
-          const double up = maps.value[k - maps.cols];
-          for (int s = std::max(h.lo, s_min), last = std::min(h.hi, s_max); s <= last; ++s) {
-            sum_horizontal[s] += std::min(Weber(s, p), Weber(s, up));
-            ++count[s];
-          }
-        }
-      }
-
-      // First argmax of C over s (C is 0 below s_min and where no pair is separated).
-      double best = 0.0;
-      int s0 = s_min;
-      for (int s = s_min; s <= s_max; ++s) {
-        if (count[s] == 0) continue;
-        const double contrast = (1.0 / count[s]) * (sum_vertical[s] + sum_horizontal[s]);
-        if (contrast > best) {
-          best = contrast;
-          s0 = s;
-        }
-      }
-      // The code tests C(s0) > percentage/2: the paper's visibility 2·C(s0) > 5 %.
-      if (!(best > half_threshold)) continue;
-
-      auto mark = [&](int r, int c) {
-        if (r < nl && c < nc) mask.at<uint8_t>(r, c) = 255;
-      };
-      for (int nn = 1; nn < kWindow; ++nn) {
-        const int r = r0 + nn;
-        for (int mm = 1; mm < kWindow; ++mm) {
-          const int c = c0 + mm;
-          const size_t k = static_cast<size_t>(r) * maps.cols + c;
-          const Interval v = maps.vertical[k];
-          if (v.lo <= s0 && s0 <= v.hi) {
-            mark(r, c);
-            mark(r, c - 1);
-          }
-          const Interval h = maps.horizontal[k];
-          if (h.lo <= s0 && s0 <= h.hi) {
-            mark(r, c);
-            mark(r - 1, c);
-          }
-        }
-      }
+      const int s0 = SearchWindow(maps, r0, c0, half_threshold, &sums);
+      if (s0 >= 0) MarkWindow(maps, r0, c0, s0, &mask);
     }
   }
   return mask;
@@ -478,41 +500,14 @@ bool SameBytes(const cv::Mat& a, const cv::Mat& b) {
   return true;
 }
 
-}  // namespace
-
-VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
-                               const VisibleEdgeOriginal& original, const cv::Mat& restored) {
-  ThrowIfInvalid(options, "visible edges");
-  if (original.options.variant != options.variant ||
-      original.options.visibility_threshold != options.visibility_threshold ||
-      original.gray8.empty())
-    throw Error("visible edges: the original was analysed with other options");
-  CheckAccepted(restored, "visible edges: restored");
-  const cv::Mat& gray_o = original.gray8;
-  if (gray_o.size() != restored.size()) {
-    throw Error("visible edges: original is " + std::to_string(gray_o.cols) + "x" +
-                std::to_string(gray_o.rows) + " but restored is " + std::to_string(restored.cols) +
-                "x" + std::to_string(restored.rows));
-  }
-  const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
-  const cv::Mat mask_r =
-      SameBytes(gray_r, gray_o) ? original.mask : VisibleEdgeMask8(options, gray_r);
+// r̄'s sum: log ratios summed in MATLAB's column-major order; non-finite terms (a zero gradient on
+// either side) are dropped from the sum (and not counted in *finite) but the mean still divides by
+// n_r, as the code does. The terms are computed in row order at the mask pixels only and bucketed
+// by column (row order kept within a column), then summed bucket after bucket: column-major order.
+double LogRatioSum(const cv::Mat& mask_r, const cv::Mat& gray_o, const cv::Mat& gray_r,
+                   int64_t* finite) {
   const int nl = gray_r.rows;
   const int nc = gray_r.cols;
-
-  VisibleEdgeResult result;
-  result.variant = VisibleEdgeVariantName(options.variant);
-  result.pixels = static_cast<int64_t>(nl) * nc;
-  result.visible_original = original.visible;
-  result.visible_restored = cv::countNonZero(mask_r);
-  // IEEE semantics on purpose: n_o = 0 gives +inf (or NaN when n_r = 0 too), as the code does.
-  result.e = static_cast<double>(result.visible_restored - result.visible_original) /
-             static_cast<double>(result.visible_original);
-
-  // r̄: log ratios summed in MATLAB's column-major order; non-finite terms (a zero gradient on
-  // either side) are dropped from the sum but the mean still divides by n_r, as the code does.
-  // The terms are computed in row order at the mask pixels only and bucketed by column (row
-  // order kept within a column), then summed bucket after bucket: column-major order.
   const MirroredGray8 at_o(gray_o, 1), at_r(gray_r, 1);
   std::vector<int> column_start(nc + 1, 0);
   for (int i = 0; i < nl; ++i) {
@@ -549,14 +544,17 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
   for (const double term : terms) {
     if (std::isfinite(term)) {
       log_sum += term;
-      ++result.finite_log_ratios;
+      ++*finite;
     }
   }
-  result.r_mean = result.visible_restored > 0
-                      ? std::exp((1.0 / static_cast<double>(result.visible_restored)) * log_sum)
-                      : std::numeric_limits<double>::quiet_NaN();
+  return log_sum;
+}
 
-  // Counted in locals (a store to `result` per pixel would keep the loop from vectorising).
+// Black (0) and white (255) pixels of an 8-bit gray image. Counted in locals (a store through a
+// pointer per pixel would keep the loop from vectorising).
+void CountSaturated(const cv::Mat& gray_r, int64_t* black_out, int64_t* white_out) {
+  const int nl = gray_r.rows;
+  const int nc = gray_r.cols;
   int64_t black = 0, white = 0;
   for (int i = 0; i < nl; ++i) {
     const uint8_t* row = gray_r.ptr<uint8_t>(i);
@@ -568,6 +566,48 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
     black += row_black;
     white += row_white;
   }
+  *black_out = black;
+  *white_out = white;
+}
+
+}  // namespace
+
+VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
+                               const VisibleEdgeOriginal& original, const cv::Mat& restored) {
+  ThrowIfInvalid(options, "visible edges");
+  if (original.options.variant != options.variant ||
+      original.options.visibility_threshold != options.visibility_threshold ||
+      original.gray8.empty())
+    throw Error("visible edges: the original was analysed with other options");
+  CheckAccepted(restored, "visible edges: restored");
+  const cv::Mat& gray_o = original.gray8;
+  if (gray_o.size() != restored.size()) {
+    throw Error("visible edges: original is " + std::to_string(gray_o.cols) + "x" +
+                std::to_string(gray_o.rows) + " but restored is " + std::to_string(restored.cols) +
+                "x" + std::to_string(restored.rows));
+  }
+  const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
+  const cv::Mat mask_r =
+      SameBytes(gray_r, gray_o) ? original.mask : VisibleEdgeMask8(options, gray_r);
+  const int nl = gray_r.rows;
+  const int nc = gray_r.cols;
+
+  VisibleEdgeResult result;
+  result.variant = VisibleEdgeVariantName(options.variant);
+  result.pixels = static_cast<int64_t>(nl) * nc;
+  result.visible_original = original.visible;
+  result.visible_restored = cv::countNonZero(mask_r);
+  // IEEE semantics on purpose: n_o = 0 gives +inf (or NaN when n_r = 0 too), as the code does.
+  result.e = static_cast<double>(result.visible_restored - result.visible_original) /
+             static_cast<double>(result.visible_original);
+
+  const double log_sum = LogRatioSum(mask_r, gray_o, gray_r, &result.finite_log_ratios);
+  result.r_mean = result.visible_restored > 0
+                      ? std::exp((1.0 / static_cast<double>(result.visible_restored)) * log_sum)
+                      : std::numeric_limits<double>::quiet_NaN();
+
+  int64_t black = 0, white = 0;
+  CountSaturated(gray_r, &black, &white);
   result.black_pixels = black;
   result.white_pixels = white;
   const double pixels = static_cast<double>(result.pixels);
