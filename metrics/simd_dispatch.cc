@@ -239,7 +239,6 @@ void SsimHorizontalFormulaFast(const float* const* moments, const float* weights
   }
 }
 
-
 // Four pixels per step: the chroma and l² gathered from tables, the division and the square
 // root in 4-lane double (each correctly rounded, as the scalar ones).
 void UciqeSaturationFast(const uint8_t* lab, int n, const double* chroma, double* out,
