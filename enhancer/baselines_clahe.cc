@@ -6,6 +6,7 @@
 
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
+#include "core/cpu.h"
 #include "core/error.h"
 
 namespace turbid {
@@ -29,7 +30,7 @@ __attribute__((target("avx2,fma"))) void LuminanceRowFma(const float* px, float*
 // values spread over [0, 1] and beyond).
 bool RgbLuminanceMatchesOpenCv() {
   static const bool matches = [] {
-    if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma")) return false;
+    if (!CpuHas(CpuLevel::kAvx2Fma)) return false;
     cv::Mat bgr(64, 67, CV_32FC3);
     cv::RNG rng(20261125);
     rng.fill(bgr, cv::RNG::UNIFORM, -0.25, 1.25);

@@ -153,8 +153,7 @@ __attribute__((target("avx2,fma"))) void AddWeightedRowFma(const float* i_g, con
   }
 }
 bool CpuHasFma() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("fma") && __builtin_cpu_supports("avx2");
+  return CpuHas(CpuLevel::kAvx2Fma);
 }
 #else
 void AddWeightedRowFma(const float*, const float*, double, double, float*, int) {}

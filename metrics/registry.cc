@@ -10,54 +10,13 @@
 #include <optional>
 #include <sstream>
 
+#include "core/error.h"
 #include "metrics/full_reference.h"
 #include "metrics/image_checks.h"
 #include "metrics/no_reference.h"
 #include "metrics/ssim.h"
-#include "core/error.h"
 
 namespace turbid {
-
-const std::vector<MetricInfo>& ListMetrics() {
-  // {name, summary, needs_reference, needs_original, higher_is_better}
-  static const std::vector<MetricInfo> metrics = {
-      {"ssim", "SSIM, Wang 2004 Gaussian 11x11 s=1.5; = scikit-image 0.19 to 1e-6", true, false,
-       true},
-      {"psnr", "PSNR in dB over all pixels and channels; = scikit-image to 1e-9 rel; inf if equal",
-       true, false, true},
-      {"mse", "mean squared error on the [0,1] scale (x data_range^2 on raw scale)", true, false,
-       false},
-      {"cnr", "contrast-to-noise ratio between Otsu classes of the luma (docs/metrics.md)", false,
-       false, true},
-      {"hautiere_e", "Hautiere 2008 rate of new visible edges e (paper variant)", false, true,
-       true},
-      {"hautiere_r", "Hautiere 2008 geometric mean gradient ratio r (paper variant)", false, true,
-       true},
-      {"hautiere_sigma", "Hautiere 2008 saturated fraction sigma, black+white (paper variant)",
-       false, true, false},
-      {"hautiere_m", "source paper's Table I 'm': black-pixel fraction as the IFSTTAR code", false,
-       true, true},
-      {"hautiere_e_ifsttar", "e as the published IFSTTAR MATLAB code", false, true, true},
-      {"hautiere_r_ifsttar", "r as the published IFSTTAR MATLAB code", false, true, true},
-      {"hautiere_sigma_ifsttar", "sigma as the IFSTTAR code (black only on 8-bit)", false, true,
-       false},
-      {"uiqm", "UIQM, Panetta 2016; = FUnIE-GAN uqim_utils.py", false, false, true},
-      {"uicm", "UIQM colourfulness term (FUnIE-GAN)", false, false, true},
-      {"uism", "UIQM sharpness term (FUnIE-GAN)", false, false, true},
-      {"uiconm", "UIQM contrast term (FUnIE-GAN)", false, false, true},
-      {"uiqm_corrected", "UIQM with the trimmed-mean and lambda_B bugs fixed", false, false, true},
-      {"uciqe", "UCIQE, Yang & Sowmya 2015; = JOU-UIP UCIQE.py", false, false, true},
-  };
-  return metrics;
-}
-
-const MetricInfo& FindMetric(const std::string& name) {
-  for (const MetricInfo& info : ListMetrics())
-    if (info.name == name) return info;
-  std::string known;
-  for (const MetricInfo& info : ListMetrics()) known += (known.empty() ? "" : ", ") + info.name;
-  throw Error("unknown metric '" + name + "' (known: " + known + ")");
-}
 
 struct OriginalCache {
   std::mutex mutex;
@@ -205,32 +164,89 @@ class SharedWork {
   cv::Mat image8_, original8_, reference8_;
 };
 
-double ComputeOne(const std::string& name, SharedWork& work) {
-  using V = VisibleEdgeVariant;
-  if (name == "ssim") return work.SsimMean();
-  if (name == "mse") {
-    const double scale = work.Range();
-    return work.Mse() / (scale * scale);  // on the [0,1] scale whatever the input scale
-  }
-  if (name == "psnr") return PsnrFromMse(work.Mse(), work.Range());
-  if (name == "cnr") return work.CnrValue();
-  if (name == "hautiere_e") return work.Edges(V::kPaper).e;
-  if (name == "hautiere_r") return work.Edges(V::kPaper).r_mean;
-  if (name == "hautiere_sigma") return work.Edges(V::kPaper).sigma;
-  if (name == "hautiere_m") return work.Edges(V::kPaper).m;
-  if (name == "hautiere_e_ifsttar") return work.Edges(V::kIfsttar).e;
-  if (name == "hautiere_r_ifsttar") return work.Edges(V::kIfsttar).r_mean;
-  if (name == "hautiere_sigma_ifsttar") return work.Edges(V::kIfsttar).sigma;
-  if (name == "uiqm") return work.UiqmOf(UiqmVariant::kFunieGanCompat).uiqm;
-  if (name == "uicm") return work.UiqmOf(UiqmVariant::kFunieGanCompat).uicm;
-  if (name == "uism") return work.UiqmOf(UiqmVariant::kFunieGanCompat).uism;
-  if (name == "uiconm") return work.UiqmOf(UiqmVariant::kFunieGanCompat).uiconm;
-  if (name == "uiqm_corrected") return work.UiqmOf(UiqmVariant::kCorrected).uiqm;
-  if (name == "uciqe") return work.UciqeValue();
-  throw Error("metric '" + name + "' is listed but has no implementation (bug)");
+// The one metrics table: each entry carries its description and its compute, which reads the
+// shared work (so metrics that share an analysis compute it once).
+struct MetricEntry {
+  MetricInfo info;  // {name, summary, needs_reference, needs_original, higher_is_better}
+  double (*compute)(SharedWork& work);
+};
+
+using V = VisibleEdgeVariant;
+constexpr UiqmVariant kFunie = UiqmVariant::kFunieGanCompat;
+
+const std::vector<MetricEntry>& MetricTable() {
+  static const std::vector<MetricEntry> table = {
+      {{"ssim", "SSIM, Wang 2004 Gaussian 11x11 s=1.5; = scikit-image 0.19 to 1e-6", true, false,
+        true},
+       [](SharedWork& w) { return w.SsimMean(); }},
+      {{"psnr", "PSNR in dB over all pixels and channels; = scikit-image to 1e-9 rel; inf if equal",
+        true, false, true},
+       [](SharedWork& w) { return PsnrFromMse(w.Mse(), w.Range()); }},
+      {{"mse", "mean squared error on the [0,1] scale (x data_range^2 on raw scale)", true, false,
+        false},
+       // On the [0,1] scale whatever the input scale.
+       [](SharedWork& w) { return w.Mse() / (w.Range() * w.Range()); }},
+      {{"cnr", "contrast-to-noise ratio between Otsu classes of the luma (docs/metrics.md)", false,
+        false, true},
+       [](SharedWork& w) { return w.CnrValue(); }},
+      {{"hautiere_e", "Hautiere 2008 rate of new visible edges e (paper variant)", false, true,
+        true},
+       [](SharedWork& w) { return w.Edges(V::kPaper).e; }},
+      {{"hautiere_r", "Hautiere 2008 geometric mean gradient ratio r (paper variant)", false, true,
+        true},
+       [](SharedWork& w) { return w.Edges(V::kPaper).r_mean; }},
+      {{"hautiere_sigma", "Hautiere 2008 saturated fraction sigma, black+white (paper variant)",
+        false, true, false},
+       [](SharedWork& w) { return w.Edges(V::kPaper).sigma; }},
+      {{"hautiere_m", "source paper's Table I 'm': black-pixel fraction as the IFSTTAR code", false,
+        true, true},
+       [](SharedWork& w) { return w.Edges(V::kPaper).m; }},
+      {{"hautiere_e_ifsttar", "e as the published IFSTTAR MATLAB code", false, true, true},
+       [](SharedWork& w) { return w.Edges(V::kIfsttar).e; }},
+      {{"hautiere_r_ifsttar", "r as the published IFSTTAR MATLAB code", false, true, true},
+       [](SharedWork& w) { return w.Edges(V::kIfsttar).r_mean; }},
+      {{"hautiere_sigma_ifsttar", "sigma as the IFSTTAR code (black only on 8-bit)", false, true,
+        false},
+       [](SharedWork& w) { return w.Edges(V::kIfsttar).sigma; }},
+      {{"uiqm", "UIQM, Panetta 2016; = FUnIE-GAN uqim_utils.py", false, false, true},
+       [](SharedWork& w) { return w.UiqmOf(kFunie).uiqm; }},
+      {{"uicm", "UIQM colourfulness term (FUnIE-GAN)", false, false, true},
+       [](SharedWork& w) { return w.UiqmOf(kFunie).uicm; }},
+      {{"uism", "UIQM sharpness term (FUnIE-GAN)", false, false, true},
+       [](SharedWork& w) { return w.UiqmOf(kFunie).uism; }},
+      {{"uiconm", "UIQM contrast term (FUnIE-GAN)", false, false, true},
+       [](SharedWork& w) { return w.UiqmOf(kFunie).uiconm; }},
+      {{"uiqm_corrected", "UIQM with the trimmed-mean and lambda_B bugs fixed", false, false, true},
+       [](SharedWork& w) { return w.UiqmOf(UiqmVariant::kCorrected).uiqm; }},
+      {{"uciqe", "UCIQE, Yang & Sowmya 2015; = JOU-UIP UCIQE.py", false, false, true},
+       [](SharedWork& w) { return w.UciqeValue(); }},
+  };
+  return table;
+}
+
+const MetricEntry& FindEntry(const std::string& name) {
+  for (const MetricEntry& entry : MetricTable())
+    if (entry.info.name == name) return entry;
+  std::string known;
+  for (const MetricEntry& entry : MetricTable())
+    known += (known.empty() ? "" : ", ") + entry.info.name;
+  throw Error("unknown metric '" + name + "' (known: " + known + ")");
 }
 
 }  // namespace
+
+const std::vector<MetricInfo>& ListMetrics() {
+  static const std::vector<MetricInfo> metrics = [] {
+    std::vector<MetricInfo> out;
+    for (const MetricEntry& entry : MetricTable()) out.push_back(entry.info);
+    return out;
+  }();
+  return metrics;
+}
+
+const MetricInfo& FindMetric(const std::string& name) {
+  return ListMetrics()[&FindEntry(name) - MetricTable().data()];  // the listed entry itself
+}
 
 std::map<std::string, double> ComputeMetrics(const std::vector<std::string>& names,
                                              const MetricInputs& inputs,
@@ -244,11 +260,11 @@ std::map<std::string, double> ComputeMetrics(const std::vector<std::string>& nam
   for (const std::string& name : names) {
     if (values.count(name)) continue;
     if (elapsed_ms == nullptr) {
-      values[name] = ComputeOne(name, work);
+      values[name] = FindEntry(name).compute(work);
       continue;
     }
     const auto start = std::chrono::steady_clock::now();
-    values[name] = ComputeOne(name, work);
+    values[name] = FindEntry(name).compute(work);
     (*elapsed_ms)[name] =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   }

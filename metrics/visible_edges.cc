@@ -37,25 +37,20 @@
 #include <immintrin.h>
 #endif
 
+#include "core/error.h"
 #include "metrics/simd_dispatch.h"
 #include "metrics/visible_edge_search.h"
-#include "core/error.h"
+#include "metrics/visible_edges_mask8.h"
 
 namespace turbid {
 namespace {
 
-constexpr int kWindow = 7;  // S in the code, the paper's 7×7 sub-windows
-constexpr int kStep = 4;    // round(S/2): windows overlap by 3 pixels
 using visible_edges::kMaxThreshold;
-
-// MATLAB padarray(..., 'symmetric') index: mirror including the edge pixel, periodic beyond.
-int Reflect(int i, int n) {
-  if (n == 1) return 0;
-  const int period = 2 * n;
-  int k = i % period;
-  if (k < 0) k += period;
-  return k < n ? k : period - 1 - k;
-}
+using visible_edges::kStep;
+using visible_edges::kWindow;
+using visible_edges::MirroredGray8;
+using visible_edges::Reflect;
+using visible_edges::VisibleEdgeMask8;
 
 // MATLAB/Octave round: half away from zero.
 double RoundHalfAway(double v) { return std::round(v); }
@@ -186,282 +181,6 @@ void CheckGray255(const cv::Mat& gray255) {
   }
 }
 
-// ---- 8-bit fast path -------------------------------------------------------------------------
-
-// The 8-bit image mirrored by `pad` on every side.
-class MirroredGray8 {
- public:
-  MirroredGray8(const cv::Mat& gray8, int pad)
-      : pad_(pad),
-        cols_(gray8.cols + 2 * pad),
-        data_(static_cast<size_t>(gray8.rows + 2 * pad) * cols_) {
-    for (int r = 0; r < gray8.rows + 2 * pad; ++r) {
-      const uint8_t* src = gray8.ptr<uint8_t>(Reflect(r - pad, gray8.rows));
-      uint8_t* dst = &data_[static_cast<size_t>(r) * cols_];
-      std::copy(src, src + gray8.cols, dst + pad);
-      for (int c = 0; c < pad; ++c) {
-        dst[c] = src[Reflect(c - pad, gray8.cols)];
-        dst[pad + gray8.cols + c] = src[Reflect(gray8.cols + c, gray8.cols)];
-      }
-    }
-  }
-  int operator()(int i, int j) const {
-    return data_[static_cast<size_t>(i + pad_) * cols_ + (j + pad_)];
-  }
-  const uint8_t* Row(int i) const { return &data_[static_cast<size_t>(i + pad_) * cols_ + pad_]; }
-  int cols() const { return cols_; }
-
- private:
-  int pad_;
-  int cols_;
-  std::vector<uint8_t> data_;
-};
-
-// Which pair tests of the paper variant can reach the visibility threshold τ at all. A pair's
-// term at threshold s is min(W(s, lo), W(s, hi)) for its two values lo < hi, and the paper
-// variant sums it for s in [lo, hi − 1] only, where it is min((s − lo)/s, (hi − s)/hi) <=
-// 1 − √(lo/hi) (the two meet at s = √(lo·hi)). A window none of whose pairs can exceed τ has
-// every C(s) <= τ (a mean of such terms, up to a relative rounding of ~1e-14; the table keeps a
-// 1e-9 margin) and is not visible. The ifsttar variant sums each pair over an interval set by
-// other pixels; its bound is simd::IfsttarStrongRow() (proof at visible_edges::StrongLimits),
-// which prunes about a quarter of the windows searched on the bench pair.
-class WeakPairTest {
- public:
-  explicit WeakPairTest(double tau) : k_(visible_edges::StrongPairLimits(tau)) {}
-  // False when a paper-variant pair test [lo, hi) cannot exceed τ (may be true for empty ones).
-  bool Strong(int lo, int hi) const { return lo * 256 < hi * k_.k; }
-  const visible_edges::StrongLimits& limits() const { return k_; }
-
- private:
-  visible_edges::StrongLimits k_;
-};
-
-// The mask is read and written 8 bytes at a time as one uint64_t (here and in the r-bar scan):
-// byte k of the word is mask column j0 + k only on a little-endian machine.
-static_assert(std::endian::native == std::endian::little,
-              "the mask's 8-byte words assume little-endian byte order");
-
-// Byte k of kByteMasks[bits] is 255 when bit k of bits is set (bits < 128).
-constexpr std::array<uint64_t, 128> MakeByteMasks() {
-  std::array<uint64_t, 128> m{};
-  for (unsigned bits = 0; bits < 128; ++bits)
-    for (int k = 0; k < 7; ++k)
-      if (bits >> k & 1) m[bits] |= uint64_t{0xFF} << (8 * k);
-  return m;
-}
-constexpr std::array<uint64_t, 128> kByteMasks = MakeByteMasks();
-
-// The pair tests of one image row (see BuildMaps()) as {vertical first, vertical end,
-// horizontal first, horizontal end} per pixel j < n: `row` is the row, `up` and `up2` the two
-// above it (all readable from index −2). Two branch-free loops, so that each vectorises.
-void PairTestRow(const uint8_t* up2, const uint8_t* up, const uint8_t* row, int n, bool ifsttar,
-                 uint8_t* __restrict out) {
-  if (ifsttar) {
-    for (int j = 0; j < n; ++j) {
-      out[4 * j] = std::min(up[j - 2], up[j - 1]);
-      out[4 * j + 1] = std::max(up[j - 1], up[j]);
-      out[4 * j + 2] = std::min(up2[j - 1], up[j - 1]);
-      out[4 * j + 3] = std::max(up[j - 1], row[j - 1]);
-    }
-  } else {
-    for (int j = 0; j < n; ++j) {
-      out[4 * j] = std::min(row[j], row[j - 1]);
-      out[4 * j + 1] = std::max(row[j], row[j - 1]);
-      out[4 * j + 2] = std::min(row[j], up[j]);
-      out[4 * j + 3] = std::max(row[j], up[j]);
-    }
-  }
-}
-
-// strong[c] for c in [1, n): whether pixel c of a row of pair tests has a strong pair.
-void StrongRow(const WeakPairTest& weak, const uint8_t* __restrict tests, int n,
-               uint8_t* __restrict strong) {
-  const WeakPairTest test = weak;
-  for (int c = 1; c < n; ++c) {
-    // Both tests always run (no branch): | on their 0/1 values, not ||.
-    strong[c] = static_cast<uint8_t>(
-        static_cast<uint8_t>(test.Strong(tests[4 * c], tests[4 * c + 1])) |
-        static_cast<uint8_t>(test.Strong(tests[4 * c + 2], tests[4 * c + 3])));
-  }
-}
-
-// Per column c < n, the extremes of rows r0 .. r0 + rows − 1 of `at`.
-void ColumnExtremes(const MirroredGray8& at, int r0, int rows, int n, uint8_t* __restrict lo,
-                    uint8_t* __restrict hi) {
-  std::copy(at.Row(r0), at.Row(r0) + n, lo);
-  std::copy(at.Row(r0), at.Row(r0) + n, hi);
-  for (int nn = 1; nn < rows; ++nn) {
-    const uint8_t* row = at.Row(r0 + nn);
-    for (int c = 0; c < n; ++c) {
-      lo[c] = std::min(lo[c], row[c]);
-      hi[c] = std::max(hi[c], row[c]);
-    }
-  }
-}
-
-// In place, for c < n − 6: lo[c] = min(lo[c .. c + 6]) and hi[c] = max(hi[c .. c + 6]) (the
-// extremes of the 7 columns of the window from c), in three passes that vectorise: spans 2, 4, 7.
-void SpanExtremes7(int n, uint8_t* __restrict lo, uint8_t* __restrict hi) {
-  for (const int offset : {1, 2, 3}) {
-    for (int c = 0; c + offset < n; ++c) {
-      lo[c] = std::min(lo[c], lo[c + offset]);
-      hi[c] = std::max(hi[c], hi[c + offset]);
-    }
-  }
-}
-
-// VisibleEdgeMask() on CV_8UC1 gray: the same windows, thresholds, sums and decisions. Windows
-// go in bands of rows (step 4): each band computes the pair tests of its 6 pair rows (the maps of
-// BuildMaps(): [ceil(a), ceil(b) − 1] = [a, b − 1] on integers, stored as {vertical first,
-// vertical end, horizontal first, horizontal end} with exclusive ends, the layout
-// simd::WeberWindowSums() reads) and which pixels have a strong pair, so that everything a band
-// touches stays in cache.
-cv::Mat VisibleEdgeMask8(const VisibleEdgeOptions& options, const cv::Mat& gray8) {
-  const int nl = gray8.rows;
-  const int nc = gray8.cols;
-  const bool ifsttar = options.variant == VisibleEdgeVariant::kIfsttar;
-  const double half_threshold = options.visibility_threshold / 2.0;
-  const WeakPairTest weak(half_threshold);
-  visible_edges::ThresholdSearch search(half_threshold);
-  // Padded values: row r, column c of the maps is at(r, c) (mirrored beyond the image).
-  const MirroredGray8 at(gray8, kWindow);
-  const int stride = at.cols();
-  constexpr int kPairRows = kWindow - 1;
-  const int n_windows = (nc + kStep - 1) / kStep;
-  // One band of windows (rows r0 .. r0 + 6): its pair tests in the stride of `at` (column c at
-  // index c; columns up to nc + 5 are used, 8 more are readable), which pixels have a strong
-  // pair, and its windows (value nullptr: not searched). Two bands are kept, the one searched and
-  // the one below it, which shares two pair rows with it.
-  struct Band {
-    std::vector<uint8_t> tests;  // 4 bytes per pixel
-    std::vector<uint8_t> strong;
-    std::vector<visible_edges::Window> windows;
-  };
-  Band bands[2];
-  for (Band& b : bands) {
-    b.tests.resize(4 * (static_cast<size_t>(kPairRows) * stride + 8));
-    b.strong.resize(static_cast<size_t>(kPairRows) * stride + 8);
-    b.windows.resize(n_windows);
-  }
-  std::vector<uint8_t> column_lo(stride), column_hi(stride), column_strong(stride + 8);
-  // Every Weber term of a window is at most (hi − lo) / hi, and so is every C(s) up to a relative
-  // rounding of ~1e-14: no threshold can be visible when that bound (with a 1e-9 margin) is below
-  // the threshold. The bound grows with hi − lo, so per hi the test is hi − lo <= skip_up_to[hi]:
-  // the largest difference it passes, found with the same double expression (no division per
-  // window).
-  auto below_threshold = [&](int difference, int hi) {
-    const double bound = static_cast<double>(difference) / hi;
-    return bound * (1.0 + 1e-9) <= half_threshold;
-  };
-  std::array<int, 256> skip_up_to{};
-  for (int hi = 1; hi < 256; ++hi) {
-    int d = std::clamp(static_cast<int>(half_threshold * hi), 0, hi);
-    while (d >= 0 && !below_threshold(d, hi)) --d;
-    while (d < hi && below_threshold(d + 1, hi)) ++d;
-    skip_up_to[hi] = d;  // −1: no window with this hi is skipped
-  }
-
-  // `above`: the band of r0 − 4 when it was prepared last, else nullptr.
-  auto prepare = [&](int r0, Band& band, const Band* above) {
-    uint8_t* tests = band.tests.data();
-    std::vector<uint8_t>& strong = band.strong;
-    // Pair tests of padded rows r0 + 1 .. r0 + 6 (image row Reflect(r)), mirrored columns. They
-    // depend on the padded row alone, so the two rows the band shares with the band above (its
-    // rows 5 and 6) are copied from there.
-    int first_row = 1;
-    if (above != nullptr) {
-      constexpr int kShared = kPairRows - kStep;
-      std::memcpy(tests, above->tests.data() + 4 * static_cast<size_t>(kStep) * stride,
-                  4 * static_cast<size_t>(kShared) * stride);
-      std::memcpy(strong.data(), above->strong.data() + static_cast<size_t>(kStep) * stride,
-                  static_cast<size_t>(kShared) * stride);
-      first_row += kShared;
-    }
-    for (int nn = first_row; nn < kWindow; ++nn) {
-      const int i = Reflect(r0 + nn, nl);
-      const uint8_t* up2 = at.Row(i - 2);
-      const uint8_t* up = at.Row(i - 1);
-      const uint8_t* row = at.Row(i);
-      uint8_t* tb = tests + 4 * static_cast<size_t>(nn - 1) * stride;
-      PairTestRow(up2, up, row, nc, ifsttar, tb);
-      for (int c = nc; c < nc + kWindow - 1; ++c)
-        std::memcpy(tb + 4 * c, tb + 4 * Reflect(c, nc), 4);
-      // Which pixels of the row have a pair that can reach the threshold (the ifsttar variant's
-      // with the values the window sums use: rows r0 + nn and r0 + nn − 1 of `at`).
-      uint8_t* strong_row = &strong[static_cast<size_t>(nn - 1) * stride];
-      if (ifsttar)
-        simd::IfsttarStrongRow(tb, at.Row(r0 + nn), at.Row(r0 + nn - 1), nc + kWindow - 1,
-                               weak.limits().k, weak.limits().k_ratio, strong_row);
-      else
-        StrongRow(weak, tb, nc + kWindow - 1, strong_row);
-    }
-
-    // Extremes of the band's 7 rows per column, then of each window's 7 columns, for the
-    // windows' ranges.
-    const int n = nc + kWindow - 1;
-    ColumnExtremes(at, r0, kWindow, n, column_lo.data(), column_hi.data());
-    SpanExtremes7(n, column_lo.data(), column_hi.data());
-    // Per column, whether any of the band's 6 pair rows has a strong pair there; a window's six
-    // columns from c0 + 1 are then read as one 8-byte word.
-    std::copy(strong.begin(), strong.begin() + n, column_strong.begin());
-    for (int nn = 1; nn < kPairRows; ++nn) {
-      const uint8_t* row = &strong[static_cast<size_t>(nn) * stride];
-      uint8_t* __restrict any = column_strong.data();
-      for (int c = 1; c < n; ++c) any[c] |= row[c];
-    }
-    // Which windows of the band are searched, and their threshold ranges.
-    for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
-      band.windows[w] = {};
-      uint64_t any_strong;
-      std::memcpy(&any_strong, &column_strong[c0 + 1], 8);
-      if ((any_strong & 0xFFFF'FFFF'FFFFu) == 0) continue;  // bytes 0-5: columns c0 + 1 .. c0 + 6
-      const int lo_value = column_lo[c0], hi_value = column_hi[c0];
-      // An all-black window has no separated pair at all; see skip_up_to for the bound.
-      if (hi_value == 0 || hi_value - lo_value <= skip_up_to[hi_value]) continue;
-      band.windows[w] = {at.Row(r0 + 1) + c0 + 1,
-                         tests + 4 * (c0 + 1),
-                         stride,
-                         std::max(lo_value, 1),
-                         hi_value,
-                         !ifsttar && r0 + kWindow - 1 < nl && c0 + kWindow - 1 < nc};
-    }
-  };
-
-  // The mask with 7 spare rows and 8 spare columns that windows at the borders may mark.
-  cv::Mat padded = cv::Mat::zeros(nl + kWindow, nc + 8, CV_8UC1);
-  std::vector<visible_edges::Choice> choices(n_windows);
-  const std::vector<visible_edges::Window> no_band;
-
-  prepare(0, bands[0], nullptr);
-  for (int r0 = 0, b = 0; r0 < nl; r0 += kStep, b = 1 - b) {
-    const bool has_below = r0 + kStep < nl;
-    if (has_below) prepare(r0 + kStep, bands[1 - b], &bands[b]);
-    search.SearchBand(bands[b].windows, has_below ? bands[1 - b].windows : no_band, &choices);
-    const uint8_t* tests = bands[b].tests.data();
-    for (int c0 = 0, w = 0; c0 < nc; c0 += kStep, ++w) {
-      if (!choices[w].visible) continue;
-      const int s0 = choices[w].s0;
-      // Pairs separated by s0 mark both pixels: bit k of rows[nn] is column c0 + k of row r0 + nn,
-      // each row written as 8 bytes into the padded mask (no bounds tests).
-      // s0 >= 255 separates no pair (every interval ends at 255 or before).
-      if (s0 >= 255) continue;
-      unsigned rows[kWindow] = {};  // bits of rows r0 .. r0 + 6
-      simd::SeparatedPairRows(tests + 4 * static_cast<size_t>(c0 + 1), stride, s0, rows);
-      uint8_t* corner = padded.ptr<uint8_t>(r0) + c0;
-      const size_t step = padded.step;
-      for (int nn = 0; nn < kWindow; ++nn) {
-        uint64_t word;
-        std::memcpy(&word, corner + nn * step, 8);
-        word |= kByteMasks[rows[nn]];
-        std::memcpy(corner + nn * step, &word, 8);
-      }
-    }
-  }
-  cv::Mat mask;
-  padded(cv::Rect(0, 0, nc, nl)).copyTo(mask);
-  return mask;
-}
-
 // The CV_8UC1 copy of a CV_64FC1 gray image when every value is an integer in [0, 255].
 bool AsGray8(const cv::Mat& gray255, cv::Mat* gray8) {
   gray8->create(gray255.size(), CV_8UC1);
@@ -563,8 +282,8 @@ bool EightBitRowAvx2(const float* src, int n, uint8_t* dst) {
           _mm256_floor_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_cvtps_pd(four), scale), half));
       return _mm256_cvttpd_epi32(_mm256_max_pd(_mm256_min_pd(scaled, hi), lo));
     };
-    const __m128i words = _mm_packs_epi32(quantise(_mm256_castps256_ps128(v)),
-                                          quantise(_mm256_extractf128_ps(v, 1)));
+    const __m128i words =
+        _mm_packs_epi32(quantise(_mm256_castps256_ps128(v)), quantise(_mm256_extractf128_ps(v, 1)));
     _mm_storel_epi64(reinterpret_cast<__m128i*>(dst + j), _mm_packus_epi16(words, words));
   }
   for (; j < n; ++j) {
@@ -632,6 +351,100 @@ cv::Mat ToGray255(const cv::Mat& image, const std::string& what) {
   return gray;
 }
 
+namespace {
+
+// Per-threshold sums of one window of the double path (indices [s_min, s_max] in use).
+struct WindowSums {
+  std::array<double, kMaxThreshold + 1> vertical{};
+  std::array<double, kMaxThreshold + 1> horizontal{};
+  std::array<int, kMaxThreshold + 1> count{};
+};
+
+// The window at (r0, c0) of the double path: its threshold s0 (first argmax of C over s), or -1
+// when C(s0) does not exceed half_threshold.
+int SearchWindow(const PaddedMaps& maps, int r0, int c0, double half_threshold, WindowSums* sums) {
+  double lo_value = std::numeric_limits<double>::infinity();
+  double hi_value = -lo_value;
+  for (int nn = 0; nn < kWindow; ++nn) {
+    const double* row = &maps.value[static_cast<size_t>(r0 + nn) * maps.cols + c0];
+    for (int mm = 0; mm < kWindow; ++mm) {
+      lo_value = std::min(lo_value, row[mm]);
+      hi_value = std::max(hi_value, row[mm]);
+    }
+  }
+  // Thresholds clamped to [1, 256] as in the code (s = 0 would only add zero contrasts).
+  const int s_min = static_cast<int>(std::clamp(RoundHalfAway(lo_value), 1.0, 256.0));
+  const int s_max = static_cast<int>(std::clamp(RoundHalfAway(hi_value), 1.0, 256.0));
+  auto& sum_vertical = sums->vertical;
+  auto& sum_horizontal = sums->horizontal;
+  auto& count = sums->count;
+  std::fill(sum_vertical.begin() + s_min, sum_vertical.begin() + s_max + 1, 0.0);
+  std::fill(sum_horizontal.begin() + s_min, sum_horizontal.begin() + s_max + 1, 0.0);
+  std::fill(count.begin() + s_min, count.begin() + s_max + 1, 0);
+
+  for (int nn = 1; nn < kWindow; ++nn) {
+    const int r = r0 + nn;
+    for (int mm = 1; mm < kWindow; ++mm) {
+      const int c = c0 + mm;
+      const size_t k = static_cast<size_t>(r) * maps.cols + c;
+      const double p = maps.value[k];
+      const Interval v = maps.vertical[k];
+      const double left = maps.value[k - 1];
+      for (int s = std::max(v.lo, s_min), last = std::min(v.hi, s_max); s <= last; ++s) {
+        sum_vertical[s] += std::min(Weber(s, p), Weber(s, left));
+        ++count[s];
+      }
+      const Interval h = maps.horizontal[k];
+      const double up = maps.value[k - maps.cols];
+      for (int s = std::max(h.lo, s_min), last = std::min(h.hi, s_max); s <= last; ++s) {
+        sum_horizontal[s] += std::min(Weber(s, p), Weber(s, up));
+        ++count[s];
+      }
+    }
+  }
+
+  // First argmax of C over s (C is 0 below s_min and where no pair is separated).
+  double best = 0.0;
+  int s0 = s_min;
+  for (int s = s_min; s <= s_max; ++s) {
+    if (count[s] == 0) continue;
+    const double contrast = (1.0 / count[s]) * (sum_vertical[s] + sum_horizontal[s]);
+    if (contrast > best) {
+      best = contrast;
+      s0 = s;
+    }
+  }
+  // The code tests C(s0) > percentage/2: the paper's visibility 2·C(s0) > 5 %.
+  return best > half_threshold ? s0 : -1;
+}
+
+// Marks both pixels of every pair of the window at (r0, c0) that s0 separates.
+void MarkWindow(const PaddedMaps& maps, int r0, int c0, int s0, cv::Mat* mask) {
+  const int nl = mask->rows, nc = mask->cols;
+  auto mark = [&](int r, int c) {
+    if (r < nl && c < nc) mask->at<uint8_t>(r, c) = 255;
+  };
+  for (int nn = 1; nn < kWindow; ++nn) {
+    const int r = r0 + nn;
+    for (int mm = 1; mm < kWindow; ++mm) {
+      const int c = c0 + mm;
+      const size_t k = static_cast<size_t>(r) * maps.cols + c;
+      const Interval v = maps.vertical[k];
+      if (v.lo <= s0 && s0 <= v.hi) {
+        mark(r, c);
+        mark(r, c - 1);
+      }
+      const Interval h = maps.horizontal[k];
+      if (h.lo <= s0 && s0 <= h.hi) {
+        mark(r, c);
+        mark(r - 1, c);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 cv::Mat VisibleEdgeMask(const VisibleEdgeOptions& options, const cv::Mat& gray255) {
   ThrowIfInvalid(options, "visible edges");
   CheckGray255(gray255);
@@ -642,83 +455,11 @@ cv::Mat VisibleEdgeMask(const VisibleEdgeOptions& options, const cv::Mat& gray25
   const double half_threshold = options.visibility_threshold / 2.0;
 
   cv::Mat mask = cv::Mat::zeros(nl, nc, CV_8UC1);
-  std::array<double, kMaxThreshold + 1> sum_vertical{};
-  std::array<double, kMaxThreshold + 1> sum_horizontal{};
-  std::array<int, kMaxThreshold + 1> count{};
-
+  WindowSums sums;
   for (int r0 = 0; r0 < nl; r0 += kStep) {
     for (int c0 = 0; c0 < nc; c0 += kStep) {
-      double lo_value = std::numeric_limits<double>::infinity();
-      double hi_value = -lo_value;
-      for (int nn = 0; nn < kWindow; ++nn) {
-        const double* row = &maps.value[static_cast<size_t>(r0 + nn) * maps.cols + c0];
-        for (int mm = 0; mm < kWindow; ++mm) {
-          lo_value = std::min(lo_value, row[mm]);
-          hi_value = std::max(hi_value, row[mm]);
-        }
-      }
-      // Thresholds clamped to [1, 256] as in the code (s = 0 would only add zero contrasts).
-      const int s_min = static_cast<int>(std::clamp(RoundHalfAway(lo_value), 1.0, 256.0));
-      const int s_max = static_cast<int>(std::clamp(RoundHalfAway(hi_value), 1.0, 256.0));
-      std::fill(sum_vertical.begin() + s_min, sum_vertical.begin() + s_max + 1, 0.0);
-      std::fill(sum_horizontal.begin() + s_min, sum_horizontal.begin() + s_max + 1, 0.0);
-      std::fill(count.begin() + s_min, count.begin() + s_max + 1, 0);
-
-      for (int nn = 1; nn < kWindow; ++nn) {
-        const int r = r0 + nn;
-        for (int mm = 1; mm < kWindow; ++mm) {
-          const int c = c0 + mm;
-          const size_t k = static_cast<size_t>(r) * maps.cols + c;
-          const double p = maps.value[k];
-          const Interval v = maps.vertical[k];
-          const double left = maps.value[k - 1];
-          for (int s = std::max(v.lo, s_min), last = std::min(v.hi, s_max); s <= last; ++s) {
-            sum_vertical[s] += std::min(Weber(s, p), Weber(s, left));
-            ++count[s];
-          }
-          const Interval h = maps.horizontal[k];
-          const double up = maps.value[k - maps.cols];
-          for (int s = std::max(h.lo, s_min), last = std::min(h.hi, s_max); s <= last; ++s) {
-            sum_horizontal[s] += std::min(Weber(s, p), Weber(s, up));
-            ++count[s];
-          }
-        }
-      }
-
-      // First argmax of C over s (C is 0 below s_min and where no pair is separated).
-      double best = 0.0;
-      int s0 = s_min;
-      for (int s = s_min; s <= s_max; ++s) {
-        if (count[s] == 0) continue;
-        const double contrast = (1.0 / count[s]) * (sum_vertical[s] + sum_horizontal[s]);
-        if (contrast > best) {
-          best = contrast;
-          s0 = s;
-        }
-      }
-      // The code tests C(s0) > percentage/2: the paper's visibility 2·C(s0) > 5 %.
-      if (!(best > half_threshold)) continue;
-
-      auto mark = [&](int r, int c) {
-        if (r < nl && c < nc) mask.at<uint8_t>(r, c) = 255;
-      };
-      for (int nn = 1; nn < kWindow; ++nn) {
-        const int r = r0 + nn;
-        for (int mm = 1; mm < kWindow; ++mm) {
-          const int c = c0 + mm;
-          const size_t k = static_cast<size_t>(r) * maps.cols + c;
-          const Interval v = maps.vertical[k];
-          if (v.lo <= s0 && s0 <= v.hi) {
-            mark(r, c);
-            mark(r, c - 1);
-          }
-          const Interval h = maps.horizontal[k];
-          if (h.lo <= s0 && s0 <= h.hi) {
-            mark(r, c);
-            mark(r - 1, c);
-          }
-        }
-      }
+      const int s0 = SearchWindow(maps, r0, c0, half_threshold, &sums);
+      if (s0 >= 0) MarkWindow(maps, r0, c0, s0, &mask);
     }
   }
   return mask;
@@ -759,41 +500,14 @@ bool SameBytes(const cv::Mat& a, const cv::Mat& b) {
   return true;
 }
 
-}  // namespace
-
-VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
-                               const VisibleEdgeOriginal& original, const cv::Mat& restored) {
-  ThrowIfInvalid(options, "visible edges");
-  if (original.options.variant != options.variant ||
-      original.options.visibility_threshold != options.visibility_threshold ||
-      original.gray8.empty())
-    throw Error("visible edges: the original was analysed with other options");
-  CheckAccepted(restored, "visible edges: restored");
-  const cv::Mat& gray_o = original.gray8;
-  if (gray_o.size() != restored.size()) {
-    throw Error("visible edges: original is " + std::to_string(gray_o.cols) + "x" +
-                std::to_string(gray_o.rows) + " but restored is " + std::to_string(restored.cols) +
-                "x" + std::to_string(restored.rows));
-  }
-  const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
-  const cv::Mat mask_r =
-      SameBytes(gray_r, gray_o) ? original.mask : VisibleEdgeMask8(options, gray_r);
+// r̄'s sum: log ratios summed in MATLAB's column-major order; non-finite terms (a zero gradient on
+// either side) are dropped from the sum (and not counted in *finite) but the mean still divides by
+// n_r, as the code does. The terms are computed in row order at the mask pixels only and bucketed
+// by column (row order kept within a column), then summed bucket after bucket: column-major order.
+double LogRatioSum(const cv::Mat& mask_r, const cv::Mat& gray_o, const cv::Mat& gray_r,
+                   int64_t* finite) {
   const int nl = gray_r.rows;
   const int nc = gray_r.cols;
-
-  VisibleEdgeResult result;
-  result.variant = VisibleEdgeVariantName(options.variant);
-  result.pixels = static_cast<int64_t>(nl) * nc;
-  result.visible_original = original.visible;
-  result.visible_restored = cv::countNonZero(mask_r);
-  // IEEE semantics on purpose: n_o = 0 gives +inf (or NaN when n_r = 0 too), as the code does.
-  result.e = static_cast<double>(result.visible_restored - result.visible_original) /
-             static_cast<double>(result.visible_original);
-
-  // r̄: log ratios summed in MATLAB's column-major order; non-finite terms (a zero gradient on
-  // either side) are dropped from the sum but the mean still divides by n_r, as the code does.
-  // The terms are computed in row order at the mask pixels only and bucketed by column (row
-  // order kept within a column), then summed bucket after bucket: column-major order.
   const MirroredGray8 at_o(gray_o, 1), at_r(gray_r, 1);
   std::vector<int> column_start(nc + 1, 0);
   for (int i = 0; i < nl; ++i) {
@@ -830,14 +544,17 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
   for (const double term : terms) {
     if (std::isfinite(term)) {
       log_sum += term;
-      ++result.finite_log_ratios;
+      ++*finite;
     }
   }
-  result.r_mean = result.visible_restored > 0
-                      ? std::exp((1.0 / static_cast<double>(result.visible_restored)) * log_sum)
-                      : std::numeric_limits<double>::quiet_NaN();
+  return log_sum;
+}
 
-  // Counted in locals (a store to `result` per pixel would keep the loop from vectorising).
+// Black (0) and white (255) pixels of an 8-bit gray image. Counted in locals (a store through a
+// pointer per pixel would keep the loop from vectorising).
+void CountSaturated(const cv::Mat& gray_r, int64_t* black_out, int64_t* white_out) {
+  const int nl = gray_r.rows;
+  const int nc = gray_r.cols;
   int64_t black = 0, white = 0;
   for (int i = 0; i < nl; ++i) {
     const uint8_t* row = gray_r.ptr<uint8_t>(i);
@@ -849,6 +566,48 @@ VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
     black += row_black;
     white += row_white;
   }
+  *black_out = black;
+  *white_out = white;
+}
+
+}  // namespace
+
+VisibleEdgeResult VisibleEdges(const VisibleEdgeOptions& options,
+                               const VisibleEdgeOriginal& original, const cv::Mat& restored) {
+  ThrowIfInvalid(options, "visible edges");
+  if (original.options.variant != options.variant ||
+      original.options.visibility_threshold != options.visibility_threshold ||
+      original.gray8.empty())
+    throw Error("visible edges: the original was analysed with other options");
+  CheckAccepted(restored, "visible edges: restored");
+  const cv::Mat& gray_o = original.gray8;
+  if (gray_o.size() != restored.size()) {
+    throw Error("visible edges: original is " + std::to_string(gray_o.cols) + "x" +
+                std::to_string(gray_o.rows) + " but restored is " + std::to_string(restored.cols) +
+                "x" + std::to_string(restored.rows));
+  }
+  const cv::Mat gray_r = ToGray8(restored, "visible edges: restored");
+  const cv::Mat mask_r =
+      SameBytes(gray_r, gray_o) ? original.mask : VisibleEdgeMask8(options, gray_r);
+  const int nl = gray_r.rows;
+  const int nc = gray_r.cols;
+
+  VisibleEdgeResult result;
+  result.variant = VisibleEdgeVariantName(options.variant);
+  result.pixels = static_cast<int64_t>(nl) * nc;
+  result.visible_original = original.visible;
+  result.visible_restored = cv::countNonZero(mask_r);
+  // IEEE semantics on purpose: n_o = 0 gives +inf (or NaN when n_r = 0 too), as the code does.
+  result.e = static_cast<double>(result.visible_restored - result.visible_original) /
+             static_cast<double>(result.visible_original);
+
+  const double log_sum = LogRatioSum(mask_r, gray_o, gray_r, &result.finite_log_ratios);
+  result.r_mean = result.visible_restored > 0
+                      ? std::exp((1.0 / static_cast<double>(result.visible_restored)) * log_sum)
+                      : std::numeric_limits<double>::quiet_NaN();
+
+  int64_t black = 0, white = 0;
+  CountSaturated(gray_r, &black, &white);
   result.black_pixels = black;
   result.white_pixels = white;
   const double pixels = static_cast<double>(result.pixels);

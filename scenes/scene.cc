@@ -8,6 +8,7 @@
 #include <immintrin.h>
 #endif
 
+#include "core/cpu.h"
 #include "core/error.h"
 
 namespace turbid {
@@ -113,7 +114,7 @@ void RangeFromDepthRow(const CameraIntrinsics& camera, const std::vector<double>
   const double dy = (y - camera.cy) / camera.fy;
   const double dy2 = dy * dy;
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-  if (__builtin_cpu_supports("avx2")) {
+  if (CpuHas(CpuLevel::kAvx2)) {
     RangeRowAvx2(z, dx.data(), dy2, cols, r);
     return;
   }

@@ -99,30 +99,6 @@ double LambertianOrder(double half_power_angle_deg) {
   return -std::log(2.0) / std::log(c);
 }
 
-cv::Mat NormalsFromDepth(const CameraIntrinsics& camera, const cv::Mat& depth_m) {
-  CV_Assert(depth_m.type() == CV_32FC1);
-  const int w = depth_m.cols, h = depth_m.rows;
-  cv::Mat normals(depth_m.size(), CV_32FC3, cv::Scalar::all(std::nanf("")));
-  auto point = [&](int x, int y) { return camera.BackProject(x, y, depth_m.at<float>(y, x)); };
-  for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) {
-      if (std::isnan(depth_m.at<float>(y, x))) continue;
-      const int x0 = std::max(x - 1, 0), x1 = std::min(x + 1, w - 1);
-      const int y0 = std::max(y - 1, 0), y1 = std::min(y + 1, h - 1);
-      if (x0 == x1 || y0 == y1) continue;
-      const cv::Vec3d dx = point(x1, y) - point(x0, y);
-      const cv::Vec3d dy = point(x, y1) - point(x, y0);
-      cv::Vec3d n = dx.cross(dy);
-      const double len = cv::norm(n);
-      if (!Finite3(n) || len < 1e-12) continue;
-      n /= len;
-      if (n.dot(point(x, y)) > 0.0) n = -n;  // face the camera
-      normals.at<cv::Vec3f>(y, x) = cv::Vec3f(n[0], n[1], n[2]);
-    }
-  }
-  return normals;
-}
-
 namespace internal {
 
 std::vector<LightRowConstants> LightConstantsFor(const IrradianceOptions& options, int channels) {

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "scenes/normals.h"  // NormalsFromDepth: normals of scenes that have none
 #include "scenes/scene.h"
 #include "simulator/water.h"
 
@@ -63,11 +64,6 @@ struct IrradianceOptions {
 
 // m = -ln 2 / ln(cos Phi_half), Phi_half in degrees in (0, 90).
 double LambertianOrder(double half_power_angle_deg);
-
-// Unit surface normals (CV_32FC3, camera frame, facing the camera) from z-depth by central
-// differences of back-projected points; NaN where a neighbour is invalid. Used when a scene has no
-// normals.
-cv::Mat NormalsFromDepth(const CameraIntrinsics& camera, const cv::Mat& depth_m);
 
 // The beta-independent part of E_L for every light: distance l (metres, clamped as above) and the
 // geometric factor U0 cos^m(phi) f(psi) / l^2. Computed once per scene and reused across beta.

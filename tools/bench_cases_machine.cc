@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/cpu.h"
 #include "tools/bench_cases.h"
 
 namespace turbid::bench {
@@ -151,8 +152,8 @@ void AddMachineCases(std::vector<BenchCase>& cases, const InputsFn& /*in*/) {
     c.goal = {0.0, 0.0, "the last-level cache's bandwidth (docs/performance.md, roofline)"};
     cases.push_back(c);
   }
-  const bool avx512 = __builtin_cpu_supports("avx512f");
-  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) {
+  const bool avx512 = CpuHas(CpuLevel::kAvx512);
+  if (CpuHas(CpuLevel::kAvx2Fma)) {
     for (int width : {256, 512}) {
       if (width == 512 && !avx512) continue;
       BenchCase c;
