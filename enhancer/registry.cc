@@ -1,4 +1,4 @@
-// The one method table: the paper's methods (paper_methods.h), the oracles (oracle.h) and the
+// The one method table: the paper's methods (paper/entries.h), the oracles (oracle.h) and the
 // baselines (baselines.h), in that order.
 #include "enhancer/registry.h"
 
@@ -11,7 +11,7 @@
 #include "enhancer/baselines.h"
 #include "enhancer/method.h"
 #include "enhancer/oracle.h"
-#include "enhancer/paper_methods.h"
+#include "enhancer/paper/entries.h"
 #include "core/error.h"
 
 namespace turbid {

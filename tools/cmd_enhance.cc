@@ -10,7 +10,7 @@
 #include <optional>
 #include <sstream>
 
-#include "enhancer/paper_methods.h"
+#include "enhancer/paper/full.h"
 #include "enhancer/registry.h"
 #include "metrics/registry.h"
 #include "core/atomic_file.h"
