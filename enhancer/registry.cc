@@ -1,5 +1,5 @@
 // The one method table: the paper's methods (paper/entries.h), the oracles (oracle.h) and the
-// baselines (baselines.h), in that order.
+// baselines (baselines/registry.h), in that order.
 #include "enhancer/registry.h"
 
 #include <algorithm>
@@ -8,7 +8,7 @@
 #include <mutex>
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/baselines.h"
+#include "enhancer/baselines/registry.h"
 #include "enhancer/method.h"
 #include "enhancer/oracle.h"
 #include "enhancer/paper/entries.h"

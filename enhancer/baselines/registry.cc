@@ -2,7 +2,12 @@
 // JSON binding through ParamBinder (enhancer/method.h).
 #include <nlohmann/json.hpp>
 
-#include "enhancer/baselines.h"
+#include "enhancer/baselines/cap.h"
+#include "enhancer/baselines/clahe.h"
+#include "enhancer/baselines/dcp.h"
+#include "enhancer/baselines/fusion.h"
+#include "enhancer/baselines/registry.h"
+#include "enhancer/baselines/tarel.h"
 #include "enhancer/method.h"
 
 namespace turbid {
