@@ -95,7 +95,12 @@ MethodEntry FullEntry(const std::string& variant) {
   };
   for (MethodParam& p : ClahePar("clahe_", d.clahe)) e.info.params.push_back(p);
   e.run = [variant](const nlohmann::json& params, const EnhanceInput& in) {
-    return FullEnhance(FullOptionsFromJson(params, variant), in.image, in.scene, in.sidecar);
+    const FullOptions o = FullOptionsFromJson(params, variant);
+    if (in.steps == nullptr) return FullEnhance(o, in.image, in.scene, in.sidecar);
+    // Inspected: the whole-image pipeline, which keeps every intermediate (the same output).
+    const FullResult r = FullEnhanceDetailed(o, in.image, in.scene, in.sidecar);
+    ReportFullSteps(r, *in.steps);
+    return r.image;
   };
   e.privileged_with = [variant](const nlohmann::json& params) {
     return FullOptionsArePrivileged(FullOptionsFromJson(params, variant));
@@ -123,6 +128,7 @@ MethodEntry SimplifiedEntry() {
   e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
     SimplifiedOptions o = BindSimplified(params);
     o.clahe.rgb = in.rgb;  // the guided filters and the detail boost are per channel
+    if (in.steps != nullptr) ReportSimplifiedSteps(o, in.image, *in.steps);
     return SimplifiedEnhance(o, in.image);
   };
   e.rgb_native = true;

@@ -132,4 +132,34 @@ cv::Mat FullEnhance(const FullOptions& o, const cv::Mat& image, const Scene* sce
   return FullEnhanceImpl(o, image, scene, sidecar, false).image;
 }
 
+void ReportFullSteps(const FullResult& r, StepSink& sink) {
+  const auto image = [&](const std::string& name, const cv::Mat& m, bool comparable) {
+    if (!m.empty()) sink.Image(name, m, comparable);
+  };
+  image("01_denoised", r.denoised, true);
+  image("02_light", r.light, false);
+  if (!r.light.empty() && !r.transmission.empty()) {
+    // The light step's effect: I_de - (1 - t) E_L, the veil removed before dividing by t.
+    cv::Mat t = r.transmission;
+    if (t.channels() != r.light.channels()) {
+      std::vector<cv::Mat> planes(r.light.channels(), t);
+      cv::merge(planes, t);
+    }
+    image("02_veil_removed", r.denoised - (1.0 - t).mul(r.light), true);
+  }
+  image("03_range_m", r.range_m, false);
+  image("03_transmission", r.transmission, false);
+  image("04_dehazed", r.dehazed, true);
+  image("05_deblurred", r.deblurred, true);
+  sink.Note("steps", r.steps);
+  sink.Note("light_scale", r.light_scale);
+  sink.Note("exposure_scale", r.exposure_scale);
+  sink.Note("clahe_alpha", r.clahe_alpha);
+  if (r.plane) {
+    sink.Note("plane", {{"normal", {r.plane->normal[0], r.plane->normal[1], r.plane->normal[2]}},
+                        {"offset_m", r.plane->offset_m},
+                        {"source", r.plane_source}});
+  }
+}
+
 }  // namespace turbid

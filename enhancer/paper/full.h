@@ -17,6 +17,7 @@
 
 #include "enhancer/clahe.h"
 #include "enhancer/deconvolution.h"
+#include "enhancer/registry.h"
 #include "scenes/scene.h"
 #include "simulator/light.h"
 
@@ -162,6 +163,12 @@ FullResult FullEnhanceDetailed(const FullOptions& options, const cv::Mat& image,
                                const nlohmann::json* sidecar);
 cv::Mat FullEnhance(const FullOptions& options, const cv::Mat& image, const Scene* scene,
                     const nlohmann::json* sidecar);
+
+// Reports FullEnhanceDetailed's intermediates to `sink` under the names `turbid enhance
+// --dump-steps` writes: 01_denoised, 02_light, 02_veil_removed (I_de - (1 - t) E_L, the veil
+// removed before dividing by t), 03_range_m, 03_transmission, 04_dehazed, 05_deblurred; and the
+// notes steps, light_scale, exposure_scale, clahe_alpha and plane.
+void ReportFullSteps(const FullResult& r, StepSink& sink);
 
 // Strict binding of a JSON params object (registry keys, `turbid enhance --list`) onto FullOptions
 // (starting from the defaults of `variant`, "full" unless said); throws Error naming the key.

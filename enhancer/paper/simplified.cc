@@ -169,4 +169,21 @@ cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
   return out;
 }
 
+void ReportSimplifiedSteps(const SimplifiedOptions& o, const cv::Mat& image, StepSink& sink) {
+  GuidedFilterOptions fine, coarse;
+  fine.radius = o.fine_radius;
+  fine.eps = o.fine_eps;
+  coarse.radius = o.coarse_radius;
+  coarse.eps = o.coarse_eps;
+  coarse.subsample = o.coarse_subsample;
+  const cv::Mat i_f = GuidedFilterSelf(fine, image);
+  const cv::Mat i_g = GuidedFilterSelf(coarse, image);
+  sink.Image("01_fine", i_f, true);
+  sink.Image("02_coarse", i_g, true);
+  cv::Mat boosted;
+  cv::addWeighted(i_g, 1.0 - o.alpha, i_f, o.alpha, 0.0, boosted);  // I_g + alpha (I_f - I_g)
+  ClampUnit(boosted);
+  sink.Image("03_boosted", boosted, true);
+}
+
 }  // namespace turbid

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "enhancer/clahe.h"
+#include "enhancer/registry.h"
 
 namespace turbid {
 
@@ -23,5 +24,9 @@ struct SimplifiedOptions {
   bool Check(std::string* why) const;
 };
 cv::Mat SimplifiedEnhance(const SimplifiedOptions& options, const cv::Mat& image);
+// Reports `simplified`'s intermediates to `sink` (computed whole-image, only when asked; the
+// streamed SimplifiedEnhance keeps none): 01_fine (I_f), 02_coarse (I_g) and 03_boosted
+// (I_g + alpha (I_f - I_g), clamped to [0, 1], before CLAHE).
+void ReportSimplifiedSteps(const SimplifiedOptions& options, const cv::Mat& image, StepSink& sink);
 
 }  // namespace turbid
