@@ -25,6 +25,17 @@ std::string FullInputs(const FullOptions& d) {
   return inputs;
 }
 
+// `full` (variant) on an input: FullEnhance, or with a step sink the whole-image pipeline, which
+// keeps every intermediate (the same output).
+cv::Mat RunFull(const std::string& variant, const nlohmann::json& params, const EnhanceInput& in) {
+  const FullOptions o = FullOptionsFromJson(params, variant);
+  if (in.steps == nullptr) return FullEnhance(o, in.image, in.scene, in.sidecar);
+  // Inspected: the whole-image pipeline, which keeps every intermediate (the same output).
+  const FullResult r = FullEnhanceDetailed(o, in.image, in.scene, in.sidecar);
+  ReportFullSteps(r, *in.steps);
+  return r.image;
+}
+
 MethodEntry FullEntry(const std::string& variant) {
   const FullOptions d = FullVariantDefaults(variant);
   MethodEntry e;
@@ -95,12 +106,7 @@ MethodEntry FullEntry(const std::string& variant) {
   };
   for (MethodParam& p : ClahePar("clahe_", d.clahe)) e.info.params.push_back(p);
   e.run = [variant](const nlohmann::json& params, const EnhanceInput& in) {
-    const FullOptions o = FullOptionsFromJson(params, variant);
-    if (in.steps == nullptr) return FullEnhance(o, in.image, in.scene, in.sidecar);
-    // Inspected: the whole-image pipeline, which keeps every intermediate (the same output).
-    const FullResult r = FullEnhanceDetailed(o, in.image, in.scene, in.sidecar);
-    ReportFullSteps(r, *in.steps);
-    return r.image;
+    return RunFull(variant, params, in);
   };
   e.privileged_with = [variant](const nlohmann::json& params) {
     return FullOptionsArePrivileged(FullOptionsFromJson(params, variant));
