@@ -1,6 +1,6 @@
 // The registry's internal entry type and the strict JSON -> Options binder every method uses.
 // enhancer/registry.h is the public contract (ListMethods, FindMethod, Enhance); this header is
-// for method implementers (enhancer/*.cc, including enhancer/baselines*.cc).
+// for method implementers (enhancer/*.cc, including enhancer/paper/ and enhancer/baselines/).
 #pragma once
 
 #include <functional>

@@ -1,5 +1,5 @@
-// The one method table: the paper's methods (paper_methods.h), the oracles (oracle.h) and the
-// baselines (baselines.h), in that order.
+// The one method table: the paper's methods (paper/entries.h), the oracles (oracle.h) and the
+// baselines (baselines/registry.h), in that order.
 #include "enhancer/registry.h"
 
 #include <algorithm>
@@ -8,10 +8,10 @@
 #include <mutex>
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/baselines.h"
+#include "enhancer/baselines/registry.h"
 #include "enhancer/method.h"
 #include "enhancer/oracle.h"
-#include "enhancer/paper_methods.h"
+#include "enhancer/paper/entries.h"
 #include "core/error.h"
 
 namespace turbid {

@@ -1,11 +1,10 @@
-// Enhancement methods by name: the CLI (`turbid enhance`, `--list`), the sweep and the docs all read
-// this one table. Contract used by tools/; extend, do not break.
+// Enhancement methods by name: the CLI (`turbid enhance`, `--list`), the sweep and the docs all
+// read this one table. Contract used by tools/; extend, do not break.
 #pragma once
 
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-
 #include <string>
 #include <vector>
 
@@ -13,14 +12,30 @@
 
 namespace turbid {
 
+// Receives a method's named intermediate steps (`turbid enhance --dump-steps`). A method reports
+// them only when EnhanceInput::steps is set: without a sink it does no extra work and keeps no
+// extra copies. Steps come in the method's working channel order (B, G, R for colour).
+class StepSink {
+ public:
+  virtual ~StepSink() = default;
+  // An intermediate image named for the file it is dumped to ("01_denoised", sorted by name);
+  // valid only during the call. `comparable`: a picture of the scene, comparable with the input
+  // (the visible-edge measure applies); false for maps (transmission, range, weights). Empty
+  // images are not steps: methods skip them.
+  virtual void Image(const std::string& name, const cv::Mat& image, bool comparable) = 0;
+  // A fact about the run for steps.json, e.g. "steps" (what ran and why), "light_scale", "plane".
+  virtual void Note(const std::string& key, const nlohmann::json& value) = 0;
+};
+
 struct EnhanceInput {
-  cv::Mat image;                             // degraded image, float32 linear [0,1], 1 or 3 channels
-  const Scene* scene = nullptr;              // geometry (camera, depth, plane, DVL) when known
-  const nlohmann::json* sidecar = nullptr;   // the render's sidecar (true parameters) when known
+  cv::Mat image;                            // degraded image, float32 linear [0,1], 1 or 3 channels
+  const Scene* scene = nullptr;             // geometry (camera, depth, plane, DVL) when known
+  const nlohmann::json* sidecar = nullptr;  // the render's sidecar (true parameters) when known
   // A 3-channel image in R, G, B order (the Python boundary) rather than turbid's B, G, R; the
   // result comes back in the same order. Methods that read the order natively (MethodEntry::
   // rgb_native) take it as it is; Enhance reorders for the others.
   bool rgb = false;
+  StepSink* steps = nullptr;  // named intermediate steps go here when set (StepSink above)
 };
 
 // How a size-like parameter is bounded by the image a method runs on. Enhance refuses a larger
@@ -42,9 +57,9 @@ struct MethodParam {
 };
 
 struct MethodInfo {
-  std::string name;      // registry key, e.g. "full", "dcp"
-  std::string summary;   // one line
-  std::string source;    // paper / reference the method follows
+  std::string name;             // registry key, e.g. "full", "dcp"
+  std::string summary;          // one line
+  std::string source;           // paper / reference the method follows
   bool needs_geometry = false;  // needs EnhanceInput::scene
   bool needs_sidecar = false;   // needs EnhanceInput::sidecar (oracle)
   // Privileged (SPEC "Fair comparisons"): receives true simulation parameters (water, light, PSF,

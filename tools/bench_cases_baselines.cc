@@ -5,7 +5,9 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/baselines.h"
+#include "enhancer/baselines/fusion.h"
+#include "enhancer/baselines/median.h"
+#include "enhancer/baselines/tarel.h"
 #include "tools/bench_cases.h"
 
 namespace turbid::bench {

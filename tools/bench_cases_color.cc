@@ -10,7 +10,8 @@
 
 #include "enhancer/clahe.h"
 #include "enhancer/guided_filter.h"
-#include "enhancer/paper_methods.h"
+#include "enhancer/paper/full.h"
+#include "enhancer/paper/simplified.h"
 #include "tools/bench_cases.h"
 
 namespace turbid::bench {

@@ -11,7 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "enhancer/baselines.h"
+#include "enhancer/baselines/cap.h"
+#include "enhancer/baselines/dcp.h"
 #include "enhancer/guided_filter.h"
 #include "enhancer/oracle.h"
 #include "simulator/render.h"

@@ -28,7 +28,8 @@
 
 #include "enhancer/clahe.h"
 #include "enhancer/guided_filter.h"
-#include "enhancer/paper_methods.h"
+#include "enhancer/paper/full.h"
+#include "enhancer/paper/simplified.h"
 #include "metrics/full_reference.h"
 #include "metrics/ssim.h"
 #include "core/atomic_file.h"

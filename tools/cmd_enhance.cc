@@ -1,22 +1,20 @@
 // `turbid enhance --method M IN OUT [--sidecar S.json] [--scene SPEC] [--param k=v ...]
 //  [--dump-steps DIR] [--force]` and `turbid enhance --list`. docs/cli/enhance.md.
-#include <nlohmann/json.hpp>
-
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <sstream>
 
-#include "enhancer/paper_methods.h"
-#include "enhancer/registry.h"
-#include "metrics/registry.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "scenes/image_io.h"
 #include "core/json_io.h"
+#include "enhancer/registry.h"
+#include "metrics/registry.h"
+#include "scenes/image_io.h"
 #include "scenes/scene_loader.h"
 #include "tools/cli.h"
 #include "tools/file_context.h"
@@ -99,6 +97,69 @@ json ReadJsonObjectFile(const std::string& path) {
   return j;
 }
 
+// --dump-steps: the method's named steps (EnhanceInput::steps) as EXR files in `dir`, with
+// Hautiere's e of each image step against the input (visible edges lost show) printed and
+// collected; the method's notes and the edges go to steps.json.
+class StepDumper : public StepSink {
+ public:
+  StepDumper(std::string dir, const cv::Mat& input, const WriteImageOptions& wo)
+      : dir_(std::move(dir)), input_(input), options_(wo) {
+    options_.bit_depth = 16;
+    options_.overwrite = true;
+  }
+
+  void Image(const std::string& name, const cv::Mat& image, bool comparable) override {
+    if (image.empty()) return;
+    if (name != "00_input" && name != "99_output") names_.push_back(name);
+    WriteImage((fs::path(dir_) / (name + ".exr")).string(), image, options_);
+    if (comparable) EdgeGain(name, image);
+  }
+  void Note(const std::string& key, const json& value) override { notes_[key] = value; }
+
+  void EdgeGain(const std::string& name, const cv::Mat& m) {
+    cv::Mat clamped = cv::min(cv::max(m, 0.0), 1.0);
+    MetricInputs mi;
+    mi.image = clamped;
+    mi.original = input_;
+    const double e = ComputeMetrics({"hautiere_e"}, mi).at("hautiere_e");
+    edges_.push_back({{"step", name}, {"hautiere_e", MetricValueToJson(e)}});
+    std::cout << "  " << name << ": e = " << MetricValueToText(e) << "\n";
+  }
+  const json& notes() const { return notes_; }
+  const json& edges() const { return edges_; }
+  const std::vector<std::string>& names() const { return names_; }
+
+ private:
+  std::string dir_;
+  const cv::Mat& input_;
+  WriteImageOptions options_;
+  json notes_ = json::object();
+  json edges_ = json::array();
+  std::vector<std::string> names_;  // the method's steps, in the order reported
+};
+
+// Enhance with every named step of the method written into a.dump_steps (docs/cli/enhance.md).
+cv::Mat EnhanceDumpingSteps(const EnhanceArgs& a, const MethodInfo& info, const json& params,
+                            EnhanceInput input, const WriteImageOptions& wo) {
+  fs::create_directories(a.dump_steps);
+  StepDumper dumper(a.dump_steps, input.image, wo);
+  dumper.Image("00_input", input.image, false);
+  std::cout << "visible edges against the input (Hautiere e, clamped to [0, 1]):\n";
+  input.steps = &dumper;
+  const cv::Mat out = Enhance(info.name, params, input);
+  dumper.Image("99_output", out, true);
+  json steps = {{"method", a.method}, {"params", params}};
+  for (const auto& [key, value] : dumper.notes().items()) steps[key] = value;
+  // Methods that log no "steps" note: the steps they reported, else one step.
+  if (!steps.contains("steps")) {
+    steps["steps"] =
+        dumper.names().empty() ? json::array({"single step: " + a.method}) : json(dumper.names());
+  }
+  steps["visible_edges"] = dumper.edges();
+  AtomicWriteText((fs::path(a.dump_steps) / "steps.json").string(), steps.dump(2) + "\n", true);
+  return out;
+}
+
 void Run(const EnhanceArgs& a) {
   if (a.list) {
     PrintList(a.json_list);
@@ -165,73 +226,7 @@ void Run(const EnhanceArgs& a) {
   wo.overwrite = a.force;
   cv::Mat out;
   if (!a.dump_steps.empty()) {
-    fs::create_directories(a.dump_steps);
-    WriteImageOptions so = wo;
-    so.bit_depth = 16;
-    so.overwrite = true;
-    const auto dump = [&](const std::string& name, const cv::Mat& m) {
-      if (!m.empty()) WriteImage((fs::path(a.dump_steps) / (name + ".exr")).string(), m, so);
-    };
-    json steps = {{"method", a.method}, {"params", params}};
-    // Hautiere's e of each image step against the input: where visible edges are lost.
-    json edges = json::array();
-    const auto edge_gain = [&](const std::string& name, const cv::Mat& m) {
-      if (m.empty()) return;
-      cv::Mat clamped = cv::min(cv::max(m, 0.0), 1.0);
-      MetricInputs mi;
-      mi.image = clamped;
-      mi.original = input.image;
-      const double e = ComputeMetrics({"hautiere_e"}, mi).at("hautiere_e");
-      edges.push_back({{"step", name}, {"hautiere_e", MetricValueToJson(e)}});
-      std::cout << "  " << name << ": e = " << MetricValueToText(e) << "\n";
-    };
-    dump("00_input", input.image);
-    if (a.method.rfind("full", 0) == 0) {
-      // Same binding and same result as Enhance(a.method, ...), with every intermediate.
-      CheckSizeParams(info, params, input.image.size());
-      FullResult r = FullEnhanceDetailed(FullOptionsFromJson(params, a.method), input.image,
-                                         input.scene, input.sidecar);
-      dump("01_denoised", r.denoised);
-      dump("02_light", r.light);
-      dump("03_range_m", r.range_m);
-      dump("03_transmission", r.transmission);
-      dump("04_dehazed", r.dehazed);
-      dump("05_deblurred", r.deblurred);
-      out = r.image;
-      std::cout << "visible edges against the input (Hautiere e, clamped to [0, 1]):\n";
-      edge_gain("01_denoised", r.denoised);
-      if (!r.light.empty() && !r.transmission.empty()) {
-        // The light step's effect: I_de - (1 - t) E_L, the veil removed before dividing by t.
-        cv::Mat t = r.transmission;
-        if (t.channels() != r.light.channels()) {
-          std::vector<cv::Mat> planes(r.light.channels(), t);
-          cv::merge(planes, t);
-        }
-        const cv::Mat veil_removed = r.denoised - (1.0 - t).mul(r.light);
-        dump("02_veil_removed", veil_removed);
-        edge_gain("02_veil_removed", veil_removed);
-      }
-      edge_gain("04_dehazed", r.dehazed);
-      edge_gain("05_deblurred", r.deblurred);
-      edge_gain("99_output", out);
-      steps["steps"] = r.steps;
-      steps["visible_edges"] = edges;
-      steps["light_scale"] = r.light_scale;
-      steps["exposure_scale"] = r.exposure_scale;
-      steps["clahe_alpha"] = r.clahe_alpha;
-      if (r.plane) {
-        steps["plane"] = {{"normal", {r.plane->normal[0], r.plane->normal[1], r.plane->normal[2]}},
-                          {"offset_m", r.plane->offset_m},
-                          {"source", r.plane_source}};
-      }
-    } else {
-      out = Enhance(a.method, params, input);
-      steps["steps"] = json::array({"single step: " + a.method});
-      edge_gain("99_output", out);
-      steps["visible_edges"] = edges;
-    }
-    dump("99_output", out);
-    AtomicWriteText((fs::path(a.dump_steps) / "steps.json").string(), steps.dump(2) + "\n", true);
+    out = EnhanceDumpingSteps(a, info, params, input, wo);
   } else {
     out = Enhance(a.method, params, input);
   }

@@ -2,7 +2,8 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/baselines.h"
+#include "enhancer/baselines/cap.h"
+#include "enhancer/baselines/dcp.h"
 #include "enhancer/guided_filter.h"
 #include "core/error.h"
 #include "tests/enhancer/baselines_reference.h"

@@ -2,8 +2,8 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/baselines.h"
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/clahe.h"
+#include "enhancer/baselines/common.h"
 #include "enhancer/clahe.h"
 #include "core/error.h"
 

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "enhancer/baselines.h"
+#include "enhancer/baselines/registry.h"
 #include "scenes/builtin.h"
 #include "core/error.h"
 

@@ -4,8 +4,9 @@
 #include <random>
 #include <sstream>
 
-#include "enhancer/baselines.h"
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/clahe.h"
+#include "enhancer/baselines/fusion.h"
+#include "enhancer/baselines/common.h"
 #include "scenes/builtin.h"
 #include "core/error.h"
 #include "scenes/image_io.h"

@@ -2,7 +2,8 @@
 
 #include <set>
 
-#include "enhancer/baselines.h"
+#include "enhancer/baselines/dcp.h"
+#include "enhancer/baselines/registry.h"
 #include "core/error.h"
 #include "tests/enhancer/baselines_test_images.h"
 

@@ -8,8 +8,9 @@
 #include <random>
 #include <vector>
 
-#include "enhancer/baselines.h"
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/median.h"
+#include "enhancer/baselines/tarel.h"
+#include "enhancer/baselines/common.h"
 #include "enhancer/simd_switch.h"
 #include "scenes/builtin.h"
 #include "core/error.h"

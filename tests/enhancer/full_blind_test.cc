@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "enhancer/paper_methods.h"
+#include "enhancer/paper/full.h"
 #include "enhancer/registry.h"
 #include "metrics/registry.h"
 #include "scenes/builtin.h"

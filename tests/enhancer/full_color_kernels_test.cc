@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "enhancer/counted_sample.h"
-#include "enhancer/paper_methods.h"
+#include "enhancer/paper/full.h"
 #include "enhancer/select.h"
 #include "enhancer/simd_switch.h"
 #include "scenes/builtin.h"

@@ -1,6 +1,7 @@
 // full, simplified and the registry (the oracles: oracle_test.cc): strict parameters, finite
 // in-range output on extreme inputs for every registered method.
-#include "enhancer/paper_methods.h"
+#include "enhancer/paper/full.h"
+#include "enhancer/paper/simplified.h"
 
 #include <gtest/gtest.h>
 

@@ -9,7 +9,7 @@
 
 #include "enhancer/clahe.h"
 #include "enhancer/guided_filter.h"
-#include "enhancer/paper_methods.h"
+#include "enhancer/paper/simplified.h"
 
 namespace turbid {
 namespace {

@@ -3,6 +3,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "tests/support/test_support.h"
@@ -26,8 +28,8 @@ TEST(EnhanceCli, OracleFullDumpStepsAndErrors) {
   auto r = RunTurbid({"render", "--scene", "hull", "--scale", "0.2", "--bit-depth", "16", "--out",
                       dir.File("h.png")});
   ASSERT_EQ(r.exit_code, 0) << r.err;
-  r = RunTurbid({"enhance", "--method", "oracle", dir.File("h.png"), dir.File("o.png"),
-                 "--sidecar", dir.File("h.json")});
+  r = RunTurbid({"enhance", "--method", "oracle", dir.File("h.png"), dir.File("o.png"), "--sidecar",
+                 dir.File("h.json")});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(std::filesystem::exists(dir.File("o.png")));
   r = RunTurbid({"enhance", "--method", "full", dir.File("h.png"), dir.File("f.png"), "--sidecar",
@@ -61,8 +63,8 @@ TEST(EnhanceCli, OracleFullDumpStepsAndErrors) {
   }
   r = RunTurbid({"enhance", "--list"});
   EXPECT_NE(r.out.find("full_physical [privileged]"), std::string::npos) << r.out;
-  r = RunTurbid({"enhance", "--method", "full", dir.File("h.png"), dir.File("g2.png"),
-                 "--scene", "hull"});
+  r = RunTurbid(
+      {"enhance", "--method", "full", dir.File("h.png"), dir.File("g2.png"), "--scene", "hull"});
   EXPECT_NE(r.exit_code, 0);  // no sidecar: the scene at scale 1 does not fit the image
   EXPECT_NE(r.err.find("camera"), std::string::npos) << r.err;
   // Existing output without --force, unknown method, bad parameter, oracle without sidecar.
@@ -80,13 +82,48 @@ TEST(EnhanceCli, OracleFullDumpStepsAndErrors) {
   r = RunTurbid({"enhance", "--method", "oracle", dir.File("h.png"), dir.File("x.png")});
   EXPECT_NE(r.exit_code, 0);
   // Each -p takes one value, so the positionals may follow repeated parameters.
-  r = RunTurbid({"enhance", "-m", "clahe", "-p", "clip_limit=0.02", "-p", "tiles_x=4", dir.File("h.png"),
-                 dir.File("c.png")});
+  r = RunTurbid({"enhance", "-m", "clahe", "-p", "clip_limit=0.02", "-p", "tiles_x=4",
+                 dir.File("h.png"), dir.File("c.png")});
   EXPECT_EQ(r.exit_code, 0) << r.err;
   EXPECT_TRUE(std::filesystem::exists(dir.File("c.png")));
   // Usage errors exit 2 (docs/cli.md), bad values 1.
   r = RunTurbid({"enhance", "--no-such-flag"});
   EXPECT_EQ(r.exit_code, 2);
+}
+
+// --dump-steps works for every registered method through EnhanceInput::steps (no special case in
+// the CLI): the input, the output, steps.json and, for every method that reports them, at least
+// one named intermediate. The oracles (enhancer/oracle.cc) report none yet.
+TEST(EnhanceCli, DumpStepsForEveryMethod) {
+  TempDir dir;
+  auto r = RunTurbid({"render", "--scene", "hull", "--scale", "0.1", "--bit-depth", "16", "--out",
+                      dir.File("h.png")});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  r = RunTurbid({"enhance", "--list", "--json"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const nlohmann::json methods = nlohmann::json::parse(r.out);
+  ASSERT_GE(methods.size(), 10u);
+  const std::set<std::string> no_intermediates = {"oracle", "oracle_exact"};
+  for (const nlohmann::json& m : methods) {
+    const std::string name = m["name"], steps = dir.File("steps_" + name);
+    r = RunTurbid({"enhance", "--method", name, dir.File("h.png"), dir.File(name + ".png"),
+                   "--sidecar", dir.File("h.json"), "--dump-steps", steps});
+    ASSERT_EQ(r.exit_code, 0) << name << ": " << r.err;
+    EXPECT_NE(r.out.find("99_output: e = "), std::string::npos) << name << ": " << r.out;
+    int intermediates = 0;
+    for (const auto& entry : std::filesystem::directory_iterator(steps)) {
+      const std::string file = entry.path().filename().string();
+      if (file != "00_input.exr" && file != "99_output.exr" && file != "steps.json") {
+        ++intermediates;
+      }
+    }
+    for (const char* f : {"00_input.exr", "99_output.exr", "steps.json"}) {
+      EXPECT_TRUE(std::filesystem::exists(steps + "/" + f)) << name << ": " << f;
+    }
+    if (!no_intermediates.count(name)) {
+      EXPECT_GE(intermediates, 1) << name;
+    }
+  }
 }
 
 }  // namespace

@@ -1,12 +1,13 @@
 // Underwater enhancement by fusion (Ancuti, Ancuti, Haber, Bekaert, CVPR 2012). See
-// enhancer/baselines.h and docs/methods-baselines.md.
+// enhancer/baselines/fusion.h and docs/methods-baselines.md.
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "enhancer/baselines.h"
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/clahe.h"
+#include "enhancer/baselines/fusion.h"
+#include "enhancer/baselines/common.h"
 #include "core/error.h"
 
 namespace turbid {

@@ -1,5 +1,5 @@
 // Dark channel prior (He, Sun, Tang, TPAMI 2011) and its underwater variant over G and B only
-// (Drews et al., ICCV Workshops 2013). See enhancer/baselines.h.
+// (Drews et al., ICCV Workshops 2013). See enhancer/baselines/dcp.h.
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -8,8 +8,8 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "enhancer/baselines.h"
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/dcp.h"
+#include "enhancer/baselines/common.h"
 #include "core/error.h"
 #include "core/row_kernel.h"
 #include "simulator/image_pool.h"

@@ -1,6 +1,6 @@
 // Fast visibility restoration (Tarel & Hautière, ICCV 2009), with the white balance and the final
 // gamma correction / tone mapping of the authors' reference implementation. See
-// enhancer/baselines.h and docs/methods-baselines.md.
+// enhancer/baselines/tarel.h and docs/methods-baselines.md.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -8,8 +8,9 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "enhancer/baselines.h"
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/median.h"
+#include "enhancer/baselines/tarel.h"
+#include "enhancer/baselines/common.h"
 #include "core/error.h"
 
 namespace turbid {

@@ -1,8 +1,15 @@
 // Registry entries of the baselines: parameter schemas read from the Options defaults, strict
 // JSON binding through ParamBinder (enhancer/method.h).
+#include "enhancer/baselines/registry.h"
+
 #include <nlohmann/json.hpp>
 
-#include "enhancer/baselines.h"
+#include "enhancer/baselines/cap.h"
+#include "enhancer/baselines/clahe.h"
+#include "enhancer/baselines/common.h"
+#include "enhancer/baselines/dcp.h"
+#include "enhancer/baselines/fusion.h"
+#include "enhancer/baselines/tarel.h"
 #include "enhancer/method.h"
 
 namespace turbid {
@@ -53,6 +60,41 @@ std::vector<MethodParam> ClaheParams(const ClaheBaselineOptions& d, const std::s
   };
 }
 
+// Intermediate steps (EnhanceInput::steps), reported only when asked: the Detailed functions
+// return the same image as the plain ones and keep their intermediates.
+cv::Mat ReportDcpSteps(const DcpResult& r, StepSink& sink) {
+  sink.Image("01_dark_channel", r.dark_channel, false);
+  sink.Image("02_raw_transmission", r.raw_transmission, false);
+  sink.Image("03_transmission", r.transmission, false);
+  sink.Note("airlight", {r.airlight[0], r.airlight[1], r.airlight[2]});
+  return r.image;
+}
+
+cv::Mat ReportCapSteps(const CapResult& r, StepSink& sink) {
+  sink.Image("01_raw_depth", r.raw_depth, false);
+  sink.Image("02_depth", r.depth, false);
+  sink.Image("03_transmission", r.transmission, false);
+  sink.Note("airlight", {r.airlight[0], r.airlight[1], r.airlight[2]});
+  return r.image;
+}
+
+cv::Mat ReportTarelSteps(const TarelResult& r, StepSink& sink) {
+  sink.Image("01_balanced", r.balanced, true);
+  sink.Image("02_whiteness", r.whiteness, false);
+  sink.Image("03_veil", r.veil, false);
+  sink.Image("04_restored", r.restored, true);
+  sink.Note("white", {r.white[0], r.white[1], r.white[2]});
+  return r.image;
+}
+
+cv::Mat ReportFusionSteps(const FusionResult& r, StepSink& sink) {
+  for (size_t k = 0; k < r.inputs.size(); ++k) {
+    sink.Image("0" + std::to_string(k + 1) + "_input", r.inputs[k], true);
+    sink.Image("0" + std::to_string(k + 1) + "_weight", r.weights[k], false);
+  }
+  return r.image;
+}
+
 MethodEntry ClaheEntry() {
   MethodEntry e;
   e.info.name = "clahe";
@@ -64,6 +106,10 @@ MethodEntry ClaheEntry() {
     ParamBinder b("clahe", params);
     BindClahe(b, "", &o);
     b.Finish(o);
+    if (input.steps != nullptr) {
+      input.steps->Image("01_luminance", baselines_internal::Luminance(input.image, input.rgb),
+                         input.image.channels() == 1);
+    }
     return ClaheBaseline(o, input.image, input.rgb);
   };
   e.rgb_native = true;  // luminance weights follow the order; the channels share one gain
@@ -82,6 +128,9 @@ MethodEntry DcpEntry() {
     ParamBinder b("dcp", params);
     BindDcp(b, &o);
     b.Finish(o);
+    if (input.steps != nullptr) {
+      return ReportDcpSteps(DarkChannelPriorDetailed(o, input.image), *input.steps);
+    }
     return DarkChannelPrior(o, input.image);
   };
   return e;
@@ -98,6 +147,9 @@ MethodEntry UdcpEntry() {
     ParamBinder b("udcp", params);
     BindDcp(b, &o);
     b.Finish(o);
+    if (input.steps != nullptr) {
+      return ReportDcpSteps(UnderwaterDarkChannelPriorDetailed(o, input.image), *input.steps);
+    }
     return UnderwaterDarkChannelPrior(o, input.image);
   };
   return e;
@@ -141,6 +193,9 @@ MethodEntry CapEntry() {
     b.Bind("guided_radius", &o.guided_radius);
     b.Bind("guided_eps", &o.guided_eps);
     b.Finish(o);
+    if (input.steps != nullptr) {
+      return ReportCapSteps(ColorAttenuationPriorDetailed(o, input.image), *input.steps);
+    }
     return ColorAttenuationPrior(o, input.image);
   };
   return e;
@@ -170,6 +225,8 @@ MethodEntry TarelEntry() {
     b.Bind("tone_map", &o.tone_map);
     b.Bind("gamma_factor", &o.gamma_factor);
     b.Finish(o);
+    if (input.steps != nullptr)
+      return ReportTarelSteps(TarelDetailed(o, input.image), *input.steps);
     return Tarel(o, input.image);
   };
   return e;
@@ -199,6 +256,8 @@ MethodEntry FusionEntry() {
     b.Bind("exposedness_sigma", &o.exposedness_sigma);
     BindClahe(b, "clahe_", &o.clahe);
     b.Finish(o);
+    if (input.steps != nullptr)
+      return ReportFusionSteps(FusionDetailed(o, input.image), *input.steps);
     return Fusion(o, input.image);
   };
   return e;

@@ -1,4 +1,4 @@
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/common.h"
 
 #include <algorithm>
 #include <cmath>

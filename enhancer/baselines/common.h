@@ -1,4 +1,4 @@
-// Internals shared by the baseline methods (enhancer/baselines.h); not part of the public API.
+// Internals shared by the baseline methods (enhancer/baselines/*.h); not part of the public API.
 #pragma once
 
 #include <functional>
@@ -56,7 +56,7 @@ cv::Mat ReplaceLuminance(const cv::Mat& image, const cv::Mat& luminance,
 
 // Exact median over a k x k window (k odd, >= 3) of a CV_32FC1 image, border reflected (as
 // MATLAB's 'symmetric'); comparator networks shared between neighbouring windows
-// (enhancer/baselines_median.cc). MedianFilter (enhancer/baselines.h) calls it. k = 11 runs
+// (enhancer/baselines/median.cc). MedianFilter (enhancer/baselines/median.h) calls it. k = 11 runs
 // networks compiled to straight-line code unless `allow_compiled` is false (tests: the run-time
 // networks, used for every other k, then run for k = 11 too).
 cv::Mat NetworkMedian(const cv::Mat& image, int k, bool allow_compiled = true);

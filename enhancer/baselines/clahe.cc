@@ -1,11 +1,11 @@
-// CLAHE alone (uniform target) as a baseline, on luminance for colour. See enhancer/baselines.h.
+// CLAHE alone (uniform target) as a baseline, on luminance for colour. See enhancer/baselines/clahe.h.
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "enhancer/baselines.h"
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/clahe.h"
+#include "enhancer/baselines/common.h"
 #include "core/cpu.h"
 #include "core/error.h"
 

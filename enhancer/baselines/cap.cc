@@ -1,10 +1,11 @@
-// Colour attenuation prior (Zhu, Mai, Shao, TIP 2015), deterministic. See enhancer/baselines.h.
+// Colour attenuation prior (Zhu, Mai, Shao, TIP 2015), deterministic. See enhancer/baselines/cap.h.
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/baselines.h"
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/cap.h"
+#include "enhancer/baselines/dcp.h"
+#include "enhancer/baselines/common.h"
 #include "core/error.h"
 #include "core/row_kernel.h"
 #include "simulator/image_pool.h"

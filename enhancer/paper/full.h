@@ -1,10 +1,9 @@
-// The paper's enhancement methods (§III) (the oracles: enhancer/oracle.h):
-//   full       — §III-A: guided-filter denoise (eq. 4) -> artificial-light estimate from the light
-//                model (eq. 5, simulator/light.h) on the fitted plane, scaled into [min I, max I]
-//                -> plane-induced dehazing (eq. 6, t = exp(-beta r) clamped) -> PSF deconvolution
-//                (eq. 7, simulator/psf.h) -> CLAHE with a Rayleigh target (§III-A.5);
-//   simplified — §III-B: I_g + alpha (I_f - I_g) (eqs. 8-9), I_f = GIF_{2,0.1^2}(I),
-//                I_g = GIF_{8,0.4^2}(I), then CLAHE;
+// `full`, the paper's full model (§III-A): guided-filter denoise (eq. 4) -> artificial-light
+// estimate from the light model (eq. 5, simulator/light.h) on the fitted plane, scaled into image
+// units -> plane-induced dehazing (eq. 6, t = exp(-beta r) clamped) -> PSF deconvolution (eq. 7,
+// simulator/psf.h) -> CLAHE with a Rayleigh target (§III-A.5). `simplified` (§III-B):
+// enhancer/paper/simplified.h; the registry entries: enhancer/paper/entries.h; the oracles:
+// enhancer/oracle.h.
 // Inputs float32 linear [0,1], 1 or 3 channels; outputs the same size and channels in [0,1].
 // docs/methods.md has formulas, defaults, the geometry fallbacks and the choices the paper leaves
 // open.
@@ -18,12 +17,11 @@
 
 #include "enhancer/clahe.h"
 #include "enhancer/deconvolution.h"
+#include "enhancer/registry.h"
 #include "scenes/scene.h"
 #include "simulator/light.h"
 
 namespace turbid {
-
-struct MethodEntry;
 
 // Where the dehazing plane comes from: "auto" (DVL points if >= 3, else RANSAC on the scene depth,
 // else the scene's dominant plane, else frontal), "dvl", "depth", "scene", "frontal" (a plane
@@ -54,7 +52,7 @@ struct FullOptions {
   // (the paper read literally).
   bool denoise_adaptive = true;
   double denoise_noise_factor = 3.0;  // multiple of the noise estimate (3-sigma rule), [0, 100]
-  bool light = true;          // step 2 (§III-A.2); also skipped when there are no lights
+  bool light = true;                  // step 2 (§III-A.2); also skipped when there are no lights
   // How the light model's units map to pixel values:
   //   "blind"    — E_L = a_c L per channel, a_c estimated from the image as the largest scale the
   //                veil can have where it dominates: a low percentile (light_scale_percentile) of
@@ -119,12 +117,12 @@ struct FullOptions {
 FullOptions FullVariantDefaults(const std::string& variant);
 
 struct FullResult {
-  cv::Mat image;         // final output, [0,1]
-  cv::Mat denoised;      // I_de (eq. 4)
-  double denoise_eps = 0.0;    // the epsilon the denoising used
-  double noise_sigma = 0.0;    // Immerkaer's noise estimate of the input (adaptive denoise)
-  cv::Mat light;         // estimated E_L (scaled), image channels; empty when skipped
-  cv::Mat range_m;       // plane-induced range along the ray, CV_32FC1; empty when skipped
+  cv::Mat image;             // final output, [0,1]
+  cv::Mat denoised;          // I_de (eq. 4)
+  double denoise_eps = 0.0;  // the epsilon the denoising used
+  double noise_sigma = 0.0;  // Immerkaer's noise estimate of the input (adaptive denoise)
+  cv::Mat light;             // estimated E_L (scaled), image channels; empty when skipped
+  cv::Mat range_m;           // plane-induced range along the ray, CV_32FC1; empty when skipped
   cv::Mat transmission;  // exp(-beta r) clamped, CV_32FC1 (one beta) or image channels (beta per
                          // channel differs); empty when skipped
   std::vector<double> beta_per_m;  // beta used per image channel ({gray} or {B, G, R})
@@ -132,17 +130,18 @@ struct FullResult {
   // Per image channel: E_L = light_scale * (light model with the specification's U0); from the
   // blind estimate, or the range fit's slope, or 1 (physical). Empty when the light step is off.
   std::vector<double> light_scale;
-  double exposure_scale = 1.0;     // J_plane was divided by this before deblurring (>= 1)
-  double clahe_alpha = 0.0;        // the CLAHE target parameter used (0 when CLAHE is off)
-  cv::Mat dehazed;                 // J_plane (eq. 6), after the exposure scale
-  cv::Mat deblurred;               // J_deblur
+  double exposure_scale = 1.0;  // J_plane was divided by this before deblurring (>= 1)
+  double clahe_alpha = 0.0;     // the CLAHE target parameter used (0 when CLAHE is off)
+  cv::Mat dehazed;              // J_plane (eq. 6), after the exposure scale
+  cv::Mat deblurred;            // J_deblur
   std::optional<Plane> plane;
   std::string plane_source;        // which source gave the plane
   std::vector<std::string> steps;  // what ran / what was skipped and why
 };
 
 // Blind light scale (docs/methods.md, "Blind light scale"), per channel of `denoised`:
-//   bound — the `percentile` (%) of I_de / w over the pixels where w = (1 - t) L >= support * max w:
+//   bound — the `percentile` (%) of I_de / w over the pixels where w = (1 - t) L >= support * max
+//   w:
 //           the largest scale for which I_de - (1 - t) a L >= 0 holds (J >= 0), robustly;
 //   fit   — a of the least-squares fit I_de = u t + a (1 - t) L + a rho (t L) over every sampled
 //           pixel (eq. 2 with a constant mean reflectance rho and ambient term u), trimmed of its
@@ -165,6 +164,12 @@ FullResult FullEnhanceDetailed(const FullOptions& options, const cv::Mat& image,
 cv::Mat FullEnhance(const FullOptions& options, const cv::Mat& image, const Scene* scene,
                     const nlohmann::json* sidecar);
 
+// Reports FullEnhanceDetailed's intermediates to `sink` under the names `turbid enhance
+// --dump-steps` writes: 01_denoised, 02_light, 02_veil_removed (I_de - (1 - t) E_L, the veil
+// removed before dividing by t), 03_range_m, 03_transmission, 04_dehazed, 05_deblurred; and the
+// notes steps, light_scale, exposure_scale, clahe_alpha and plane.
+void ReportFullSteps(const FullResult& r, StepSink& sink);
+
 // Strict binding of a JSON params object (registry keys, `turbid enhance --list`) onto FullOptions
 // (starting from the defaults of `variant`, "full" unless said); throws Error naming the key.
 FullOptions FullOptionsFromJson(const nlohmann::json& params, const std::string& variant = "full");
@@ -181,21 +186,5 @@ cv::Mat EstimateArtificialLight(const IrradianceOptions& lights, const Plane& pl
                                 const CameraIntrinsics& camera,
                                 const std::vector<double>& beta_per_m, const cv::Mat& reference,
                                 bool range_scaling, int subsample, double max_range_m);
-
-struct SimplifiedOptions {
-  int fine_radius = 2;       // k_f, pixels (paper: 2)
-  double fine_eps = 0.01;    // sigma_f on [0,1] data (paper: 0.1^2)
-  int coarse_radius = 8;     // k_g, pixels (paper: 8)
-  double coarse_eps = 0.16;  // sigma_g (paper: 0.4^2)
-  int coarse_subsample = 1;  // fast guided filter ratio for I_g, [1, 8] (1: exact)
-  double alpha = 5.0;        // detail amplification, [0, 100] (paper: 5)
-  bool contrast = true;      // CLAHE after the detail boost
-  ClaheOptions clahe;        // as in `full` (Rayleigh, alpha 0.4)
-  bool Check(std::string* why) const;
-};
-cv::Mat SimplifiedEnhance(const SimplifiedOptions& options, const cv::Mat& image);
-
-// Registry entries for full and simplified.
-std::vector<MethodEntry> PaperMethodEntries();
 
 }  // namespace turbid

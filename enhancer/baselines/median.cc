@@ -29,8 +29,8 @@
 #include <utility>
 #include <vector>
 
-#include "enhancer/baselines.h"
-#include "enhancer/baselines_common.h"
+#include "enhancer/baselines/median.h"
+#include "enhancer/baselines/common.h"
 #include "enhancer/simd_switch.h"
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
