@@ -2,11 +2,11 @@
 // hand-written AVX2 versions with the arithmetic of the portable ones (enhancer/paper/kernels.h).
 #include "enhancer/paper/kernels.h"
 
-#include "core/cpu.h"
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include "core/cpu.h"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
