@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "enhancer/baselines.h"
-#include "enhancer/guided_filter.h"
-#include "enhancer/oracle.h"
+#include "enhancer/blocks/guided_filter.h"
+#include "enhancer/oracle/oracle.h"
 #include "simulator/render.h"
 #include "tools/bench_cases.h"
 

@@ -4,7 +4,7 @@
 
 #include "enhancer/baselines.h"
 #include "enhancer/baselines_common.h"
-#include "enhancer/clahe.h"
+#include "enhancer/blocks/clahe.h"
 #include "core/error.h"
 
 namespace turbid {

@@ -2,7 +2,7 @@
 // renders (one PSF and the range-dependent one); the MMSE oracle is a ceiling on noisy 8-bit
 // renders (PSNR and SSIM at least those of the input, simplified and clahe); masked open water is
 // counted and does not ring into its neighbours.
-#include "enhancer/oracle.h"
+#include "enhancer/oracle/oracle.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/oracle_internal.h"
+#include "enhancer/oracle/oracle_internal.h"
 #include "enhancer/registry.h"
 #include "metrics/full_reference.h"
 #include "metrics/ssim.h"

@@ -1,4 +1,4 @@
-#include "enhancer/clahe.h"
+#include "enhancer/blocks/clahe.h"
 
 #include <algorithm>
 #include <cmath>

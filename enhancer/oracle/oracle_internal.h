@@ -4,7 +4,7 @@
 #include <functional>
 #include <opencv2/core.hpp>
 
-#include "enhancer/oracle.h"
+#include "enhancer/oracle/oracle.h"
 
 namespace turbid::oracle_internal {
 

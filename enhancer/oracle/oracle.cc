@@ -1,4 +1,4 @@
-#include "enhancer/oracle.h"
+#include "enhancer/oracle/oracle.h"
 
 #include <algorithm>
 #include <bit>
@@ -9,9 +9,9 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
-#include "enhancer/deconvolution.h"
+#include "enhancer/blocks/deconvolution.h"
 #include "enhancer/method.h"
-#include "enhancer/oracle_internal.h"
+#include "enhancer/oracle/oracle_internal.h"
 #include "core/error.h"
 #include "core/row_kernel.h"
 #include "simulator/image_pool.h"
