@@ -27,12 +27,6 @@ struct OracleMmseResult {
   DetailSums detail_sums;
 };
 
-// dst = the sums of src (CV_32F, any channel count) over (2 radius + 1)^2 windows, reflected
-// borders (BORDER_REFLECT), divided by the window's area when `normalize`: the values
-// cv::boxFilter(src, dst, -1, window, anchor (-1, -1), normalize, BORDER_REFLECT) gives, bit for
-// bit (its sums in double, in its order: oracle.cc says which). dst may be src.
-void BoxFilterReflect(const cv::Mat& src, cv::Mat& dst, int radius, bool normalize);
-
 // The oracle's last step: v = prior + detail where masked is 0, prior where it is not (detail
 // empty: v = prior, masked unused), times irradiance (empty: not), then cv::patchNaNs(v, 0),
 // cv::min(v, 1.0) and cv::max(v, 0.0), with their values bit for bit (-0 included: OpenCV's
