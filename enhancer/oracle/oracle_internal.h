@@ -1,4 +1,4 @@
-// Internals of the MMSE oracle (enhancer/oracle.cc), exposed for the tests; not part of the API.
+// Internals of the MMSE oracle (enhancer/oracle/oracle.cc and mmse.cc), exposed for the tests; not part of the API.
 #pragma once
 
 #include <functional>
@@ -26,6 +26,13 @@ struct OracleMmseResult {
   cv::Mat detail;
   DetailSums detail_sums;
 };
+
+// Full-size buffers come from the renderer's recycling pool (simulator/image_pool.h): the
+// oracle needs a few dozen per call, and fresh pages for each cost more than its arithmetic.
+cv::Mat NewLike(const cv::Mat& m);
+
+// Pixels where any channel of t is below `floor` (NaN depth has t = 0): CV_8UC1, 255 = masked.
+cv::Mat MaskBelow(const cv::Mat& t, double floor);
 
 // The oracle's last step: v = prior + detail where masked is 0, prior where it is not (detail
 // empty: v = prior, masked unused), times irradiance (empty: not), then cv::patchNaNs(v, 0),
