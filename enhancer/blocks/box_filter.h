@@ -3,8 +3,8 @@
 //   clipped  — the window is clipped to the image and the mean divides by the number of pixels
 //              inside it (He's guided-filter normalisation, N = boxfilter(ones)); float running
 //              sums, one output row at a time (BoxMeansRows, BoxMean). The guided filter's
-//              colour path and the baselines use it; its one-channel stream fuses the same window
-//              sums into its coefficient kernels (guided_filter.cc).
+//              colour and subsampled paths use it; its one-channel stream fuses the same window
+//              sums into its coefficient kernels (guided_kernels.cc).
 //   reflect  — BORDER_REFLECT, the values of cv::boxFilter on CV_32F bit for bit (its sums in
 //              double, in its order), streamed over several planes and two radii at once
 //              (box_stream.h: BoxStream, BoxStreamTwoRadii, BoxCount). The oracle's MMSE is

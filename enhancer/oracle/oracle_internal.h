@@ -1,4 +1,5 @@
-// Internals of the MMSE oracle (enhancer/oracle/oracle.cc and mmse.cc), exposed for the tests; not part of the API.
+// Internals of the MMSE oracle (enhancer/oracle/oracle.cc and mmse.cc), exposed for the tests;
+// not part of the API.
 #pragma once
 
 #include <functional>

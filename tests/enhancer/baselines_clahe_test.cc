@@ -30,7 +30,7 @@ cv::Mat LowContrastRamp(int rows, int cols) {
   return gray;
 }
 
-// Gray input is exactly adapthisteq-style CLAHE with the uniform target (enhancer/clahe.h).
+// Gray input is exactly adapthisteq-style CLAHE with the uniform target (enhancer/blocks/clahe.h).
 TEST(BaselinesClahe, GrayEqualsUniformClahe) {
   const cv::Mat gray = LowContrastRamp(40, 48);
   const ClaheBaselineOptions options;

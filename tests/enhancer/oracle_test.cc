@@ -1,4 +1,4 @@
-// The oracles (enhancer/oracle.h): oracle_exact reaches float precision on noise-free float
+// The oracles (enhancer/oracle/oracle.h): oracle_exact reaches float precision on noise-free float
 // renders (one PSF and the range-dependent one); the MMSE oracle is a ceiling on noisy 8-bit
 // renders (PSNR and SSIM at least those of the input, simplified and clahe); masked open water is
 // counted and does not ring into its neighbours.
