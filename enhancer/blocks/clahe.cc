@@ -229,7 +229,65 @@ double AlphaForMappedMean(ClaheDistribution d, const std::vector<double>& weight
 
 // Each tile's histogram is counted into eight interleaved sub-histograms (consecutive pixels
 // often share a bin; separate counters keep the increments of one counter eight pixels apart,
-// so their store-to-load chains overlap).
+// so their store-to-load chains overlap), then summed into hist. sub: kTileSubHistograms * bins
+// ints of scratch; row_src / col_src: the padded rows' and columns' source indices.
+constexpr int kTileSubHistograms = 8;
+
+template <typename Index>
+void TileHistogram(const cv::Mat& idx, const Padding& p, const std::vector<int>& row_src,
+                   const std::vector<int>& col_src, int tx, int ty, std::vector<int>& sub,
+                   std::vector<int>& hist) {
+  constexpr int kSub = kTileSubHistograms;
+  constexpr int kAhead = 4;  // rows
+  const int bins = static_cast<int>(hist.size());
+  // One tile at a time: its kSub sub-histograms stay in L1 (the tile's rows are read from
+  // the bin image, a few KiB each).
+  std::fill(sub.begin(), sub.end(), 0);
+  int* h[kSub];
+  for (int j = 0; j < kSub; ++j) h[j] = sub.data() + static_cast<size_t>(j) * bins;
+  const int x0 = tx * p.tile_w, x_end = x0 + p.tile_w;
+  // Columns inside the image are a contiguous run; only padded columns need the table.
+  const int in_lo = std::max(x0, p.pre_x), in_hi = std::min(x_end, p.pre_x + idx.cols);
+  const int n = std::max(in_hi - in_lo, 0);
+  const int y_end = (ty + 1) * p.tile_h;
+  for (int y = ty * p.tile_h; y < y_end; ++y) {
+    const Index* row = idx.ptr<Index>(row_src[y]);
+    if (y + kAhead < y_end && n > 0) {  // the tile's rows are strided: fetch a few ahead
+      const char* ahead =
+          reinterpret_cast<const char*>(idx.ptr<Index>(row_src[y + kAhead]) + (in_lo - p.pre_x));
+      for (int b = 0; b < n * static_cast<int>(sizeof(Index)); b += 64) {
+        __builtin_prefetch(ahead + b, 0, 3);
+      }
+      __builtin_prefetch(ahead + n * sizeof(Index) - 1, 0, 3);
+    }
+    int x = x0;
+    for (; x < in_lo; ++x) ++h[0][row[col_src[x]]];
+    const Index* run = row + (in_lo - p.pre_x);
+    int k = 0;
+    if constexpr (sizeof(Index) == 1) {
+      // Eight 8-bit indices per load, taken apart by shifts, each to its own sub-histogram
+      // (which one a pixel goes to does not matter: they are summed).
+      for (; k + 8 <= n; k += 8) {
+        uint64_t v;
+        std::memcpy(&v, run + k, sizeof(v));
+        for (int j = 0; j < 8; ++j) ++h[j][(v >> (8 * j)) & 0xff];
+      }
+    }
+    for (; k + 8 <= n; k += 8) {
+      for (int j = 0; j < 8; ++j) ++h[j][run[k + j]];
+    }
+    for (; k < n; ++k) ++h[0][run[k]];
+    for (x = std::max(in_hi, in_lo); x < x_end; ++x) ++h[0][row[col_src[x]]];
+  }
+  for (int b = 0; b < bins; ++b) {
+    int c = 0;
+    for (int j = 0; j < kSub; ++j) c += h[j][b];
+    hist[b] = c;
+  }
+}
+
+// The tiles' mappings (one row of bins per tile, tiles in row order); keep_mean chooses alpha
+// from all tiles' clipped histograms first.
 template <typename Index>
 cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, ClaheStats* stats) {
   cv::Mat maps(o.tiles_y * o.tiles_x, o.bins, CV_32F);
@@ -238,9 +296,7 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, C
   for (int x = 0; x < p.padded_w; ++x) col_src[x] = SymmetricIndex(x - p.pre_x, idx.cols);
   const int pixels = p.tile_h * p.tile_w;
   const int bins = o.bins;
-  constexpr int kSub = 8;
-  constexpr int kAhead = 4;  // rows
-  std::vector<int> sub(static_cast<size_t>(kSub) * bins);
+  std::vector<int> sub(static_cast<size_t>(kTileSubHistograms) * bins);
   std::vector<int> hist(bins);
   // keep_mean: the clipped histograms wait for alpha; the pixel counts go onto the fraction grid.
   const bool match = o.keep_mean && o.distribution != ClaheDistribution::kUniform;
@@ -260,50 +316,7 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, C
   double bin_sum = 0.0, mapped_sum = 0.0;
   for (int ty = 0; ty < o.tiles_y; ++ty) {
     for (int tx = 0; tx < o.tiles_x; ++tx) {
-      // One tile at a time: its kSub sub-histograms stay in L1 (the tile's rows are read from
-      // the bin image, a few KiB each).
-      std::fill(sub.begin(), sub.end(), 0);
-      int* h[kSub];
-      for (int j = 0; j < kSub; ++j) h[j] = sub.data() + static_cast<size_t>(j) * bins;
-      const int x0 = tx * p.tile_w, x_end = x0 + p.tile_w;
-      // Columns inside the image are a contiguous run; only padded columns need the table.
-      const int in_lo = std::max(x0, p.pre_x), in_hi = std::min(x_end, p.pre_x + idx.cols);
-      const int n = std::max(in_hi - in_lo, 0);
-      const int y_end = (ty + 1) * p.tile_h;
-      for (int y = ty * p.tile_h; y < y_end; ++y) {
-        const Index* row = idx.ptr<Index>(row_src[y]);
-        if (y + kAhead < y_end && n > 0) {  // the tile's rows are strided: fetch a few ahead
-          const char* ahead = reinterpret_cast<const char*>(idx.ptr<Index>(row_src[y + kAhead]) +
-                                                            (in_lo - p.pre_x));
-          for (int b = 0; b < n * static_cast<int>(sizeof(Index)); b += 64) {
-            __builtin_prefetch(ahead + b, 0, 3);
-          }
-          __builtin_prefetch(ahead + n * sizeof(Index) - 1, 0, 3);
-        }
-        int x = x0;
-        for (; x < in_lo; ++x) ++h[0][row[col_src[x]]];
-        const Index* run = row + (in_lo - p.pre_x);
-        int k = 0;
-        if constexpr (sizeof(Index) == 1) {
-          // Eight 8-bit indices per load, taken apart by shifts, each to its own sub-histogram
-          // (which one a pixel goes to does not matter: they are summed).
-          for (; k + 8 <= n; k += 8) {
-            uint64_t v;
-            std::memcpy(&v, run + k, sizeof(v));
-            for (int j = 0; j < 8; ++j) ++h[j][(v >> (8 * j)) & 0xff];
-          }
-        }
-        for (; k + 8 <= n; k += 8) {
-          for (int j = 0; j < 8; ++j) ++h[j][run[k + j]];
-        }
-        for (; k < n; ++k) ++h[0][run[k]];
-        for (x = std::max(in_hi, in_lo); x < x_end; ++x) ++h[0][row[col_src[x]]];
-      }
-      for (int b = 0; b < bins; ++b) {
-        int c = 0;
-        for (int j = 0; j < kSub; ++j) c += h[j][b];
-        hist[b] = c;
-      }
+      TileHistogram<Index>(idx, p, row_src, col_src, tx, ty, sub, hist);
       if (want_means) {
         double acc = bin_sum;
         for (int b = 0; b < bins; ++b) acc += static_cast<double>(b) * hist[b];
