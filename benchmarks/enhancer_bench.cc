@@ -6,8 +6,8 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ximgproc.hpp>
 
-#include "enhancer/clahe.h"
-#include "enhancer/guided_filter.h"
+#include "enhancer/blocks/clahe.h"
+#include "enhancer/blocks/guided_filter.h"
 #include "enhancer/paper/full.h"
 #include "enhancer/paper/simplified.h"
 

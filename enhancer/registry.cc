@@ -10,7 +10,7 @@
 
 #include "enhancer/baselines/registry.h"
 #include "enhancer/method.h"
-#include "enhancer/oracle.h"
+#include "enhancer/oracle/oracle.h"
 #include "enhancer/paper/entries.h"
 #include "core/error.h"
 

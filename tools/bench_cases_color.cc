@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "enhancer/clahe.h"
-#include "enhancer/guided_filter.h"
+#include "enhancer/blocks/clahe.h"
+#include "enhancer/blocks/guided_filter.h"
 #include "enhancer/paper/full.h"
 #include "enhancer/paper/simplified.h"
 #include "tools/bench_cases.h"

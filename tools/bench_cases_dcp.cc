@@ -13,8 +13,8 @@
 
 #include "enhancer/baselines/cap.h"
 #include "enhancer/baselines/dcp.h"
-#include "enhancer/guided_filter.h"
-#include "enhancer/oracle.h"
+#include "enhancer/blocks/guided_filter.h"
+#include "enhancer/oracle/oracle.h"
 #include "simulator/render.h"
 #include "tools/bench_cases.h"
 

@@ -5,8 +5,8 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
-#include "enhancer/clahe.h"
-#include "enhancer/guided_filter.h"
+#include "enhancer/blocks/clahe.h"
+#include "enhancer/blocks/guided_filter.h"
 #include "enhancer/method.h"
 #include "core/error.h"
 #include "core/row_kernel.h"

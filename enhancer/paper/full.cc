@@ -6,7 +6,7 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 
-#include "enhancer/linear_upsample.h"
+#include "enhancer/blocks/linear_upsample.h"
 #include "enhancer/method.h"
 #include "enhancer/paper/full_internal.h"
 

@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "enhancer/clahe.h"
-#include "enhancer/deconvolution.h"
+#include "enhancer/blocks/clahe.h"
+#include "enhancer/blocks/deconvolution.h"
 #include "enhancer/registry.h"
 #include "scenes/scene.h"
 #include "simulator/light.h"

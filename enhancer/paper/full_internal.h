@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "enhancer/clahe.h"
-#include "enhancer/linear_upsample.h"
+#include "enhancer/blocks/clahe.h"
+#include "enhancer/blocks/linear_upsample.h"
 #include "enhancer/paper/full.h"
 
 namespace turbid::paper_internal {

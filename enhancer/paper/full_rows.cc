@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "core/row_kernel.h"
-#include "enhancer/clahe.h"
+#include "enhancer/blocks/clahe.h"
 #include "enhancer/counted_sample.h"
-#include "enhancer/deconvolution.h"
+#include "enhancer/blocks/deconvolution.h"
 #include "enhancer/paper/full.h"
 #include "enhancer/paper/full_internal.h"
 #include "enhancer/paper/kernels.h"

@@ -8,11 +8,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
-#include "enhancer/guided_filter.h"
+#include "enhancer/blocks/guided_filter.h"
 #include "enhancer/paper/full.h"
 #include "enhancer/paper/full_internal.h"
 #include "enhancer/paper/kernels.h"
-#include "enhancer/plane_fit.h"
+#include "enhancer/blocks/plane_fit.h"
 #include "enhancer/select.h"
 #include "enhancer/simd_switch.h"
 #include "simulator/psf.h"

@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "enhancer/clahe.h"
+#include "enhancer/blocks/clahe.h"
 #include "enhancer/method.h"
 #include "enhancer/paper/simplified.h"
 

@@ -7,7 +7,7 @@
 #include <cstdint>
 
 #include "core/error.h"
-#include "enhancer/guided_filter.h"
+#include "enhancer/blocks/guided_filter.h"
 #include "enhancer/method.h"
 #include "enhancer/paper/full_internal.h"
 #include "enhancer/paper/kernels.h"

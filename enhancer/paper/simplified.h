@@ -7,7 +7,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "enhancer/clahe.h"
+#include "enhancer/blocks/clahe.h"
 #include "enhancer/registry.h"
 
 namespace turbid {

@@ -4,7 +4,7 @@
 
 #include "enhancer/baselines/clahe.h"
 #include "enhancer/baselines/common.h"
-#include "enhancer/clahe.h"
+#include "enhancer/blocks/clahe.h"
 #include "core/error.h"
 
 namespace turbid {
@@ -30,7 +30,7 @@ cv::Mat LowContrastRamp(int rows, int cols) {
   return gray;
 }
 
-// Gray input is exactly adapthisteq-style CLAHE with the uniform target (enhancer/clahe.h).
+// Gray input is exactly adapthisteq-style CLAHE with the uniform target (enhancer/blocks/clahe.h).
 TEST(BaselinesClahe, GrayEqualsUniformClahe) {
   const cv::Mat gray = LowContrastRamp(40, 48);
   const ClaheBaselineOptions options;

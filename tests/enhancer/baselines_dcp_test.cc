@@ -4,7 +4,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "enhancer/baselines/dcp.h"
-#include "enhancer/guided_filter.h"
+#include "enhancer/blocks/guided_filter.h"
 #include "core/error.h"
 #include "tests/enhancer/baselines_reference.h"
 #include "tests/enhancer/baselines_test_images.h"

@@ -6,9 +6,9 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/clahe.h"
-#include "enhancer/deconvolution.h"
-#include "enhancer/plane_fit.h"
+#include "enhancer/blocks/clahe.h"
+#include "enhancer/blocks/deconvolution.h"
+#include "enhancer/blocks/plane_fit.h"
 #include "core/error.h"
 #include "simulator/psf.h"
 

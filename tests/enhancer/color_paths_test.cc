@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "enhancer/clahe.h"
-#include "enhancer/deconvolution.h"
-#include "enhancer/guided_filter.h"
+#include "enhancer/blocks/clahe.h"
+#include "enhancer/blocks/deconvolution.h"
+#include "enhancer/blocks/guided_filter.h"
 #include "enhancer/method.h"
 #include "enhancer/paper/full.h"
 #include "enhancer/paper/simplified.h"

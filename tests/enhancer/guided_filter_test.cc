@@ -1,4 +1,4 @@
-#include "enhancer/guided_filter.h"
+#include "enhancer/blocks/guided_filter.h"
 
 #include <gtest/gtest.h>
 

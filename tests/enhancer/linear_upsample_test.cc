@@ -1,7 +1,7 @@
 // LinearUpsampler (enhancer/linear_upsample.h) against cv::resize INTER_LINEAR: the same float
 // map, bit for bit, row by row, on the sizes `full` upsamples (1/light_subsample of odd and even
 // images) and on random sizes and factors, with -0, infinities and NaN among the values.
-#include "enhancer/linear_upsample.h"
+#include "enhancer/blocks/linear_upsample.h"
 
 #include <gtest/gtest.h>
 

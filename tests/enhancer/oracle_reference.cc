@@ -9,7 +9,7 @@
 #include <optional>
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/deconvolution.h"
+#include "enhancer/blocks/deconvolution.h"
 #include "enhancer/method.h"
 #include "core/error.h"
 #include "simulator/light.h"

@@ -4,8 +4,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "enhancer/oracle.h"
-#include "enhancer/oracle_internal.h"
+#include "enhancer/oracle/oracle.h"
+#include "enhancer/oracle/oracle_internal.h"
 #include "scenes/scene.h"
 
 namespace turbid::oracle_reference {

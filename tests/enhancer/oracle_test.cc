@@ -1,8 +1,9 @@
-// The oracles (enhancer/oracle.h): oracle_exact reaches float precision on noise-free float
+// The oracles (enhancer/oracle/oracle.h): oracle_exact reaches float precision on noise-free float
 // renders (one PSF and the range-dependent one); the MMSE oracle is a ceiling on noisy 8-bit
 // renders (PSNR and SSIM at least those of the input, simplified and clahe); masked open water is
 // counted and does not ring into its neighbours.
-#include "enhancer/oracle.h"
+#include "enhancer/blocks/box_filter.h"
+#include "enhancer/oracle/oracle.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +12,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
-#include "enhancer/oracle_internal.h"
+#include "enhancer/oracle/oracle_internal.h"
 #include "enhancer/registry.h"
 #include "metrics/full_reference.h"
 #include "metrics/ssim.h"
@@ -99,7 +100,7 @@ TEST(Oracle, BoxFilterReflectEqualsOpenCvBitForBit) {
             cv::Mat expected, got;
             cv::boxFilter(src, expected, -1, window, cv::Point(-1, -1), normalize,
                           cv::BORDER_REFLECT);
-            oracle_internal::BoxFilterReflect(src, got, radius, normalize);
+            BoxFilterReflect(src, got, radius, normalize);
             EXPECT_TRUE(SameBits(got, expected))
                 << size << " ch " << ch << " kind " << kind << " radius " << radius
                 << (normalize ? " mean" : " sum") << ": max |diff| " << MaxAbsDiff(got, expected);
@@ -110,7 +111,7 @@ TEST(Oracle, BoxFilterReflectEqualsOpenCvBitForBit) {
         cv::Mat expected, in_place = src.clone();
         cv::boxFilter(src, expected, -1, cv::Size(9, 9), cv::Point(-1, -1), false,
                       cv::BORDER_REFLECT);
-        oracle_internal::BoxFilterReflect(in_place, in_place, 4, false);
+        BoxFilterReflect(in_place, in_place, 4, false);
         EXPECT_TRUE(SameBits(in_place, expected)) << size << " in place";
       }
     }

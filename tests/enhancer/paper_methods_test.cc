@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "enhancer/guided_filter.h"
+#include "enhancer/blocks/guided_filter.h"
 #include "enhancer/registry.h"
 #include "scenes/builtin.h"
 #include "core/error.h"

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "enhancer/plane_fit.h"
+#include "enhancer/blocks/plane_fit.h"
 #include "scenes/builtin.h"
 
 namespace turbid {

@@ -1,10 +1,11 @@
-// Internals of the MMSE oracle (enhancer/oracle.cc), exposed for the tests; not part of the API.
+// Internals of the MMSE oracle (enhancer/oracle/oracle.cc and mmse.cc), exposed for the tests;
+// not part of the API.
 #pragma once
 
 #include <functional>
 #include <opencv2/core.hpp>
 
-#include "enhancer/oracle.h"
+#include "enhancer/oracle/oracle.h"
 
 namespace turbid::oracle_internal {
 
@@ -27,11 +28,12 @@ struct OracleMmseResult {
   DetailSums detail_sums;
 };
 
-// dst = the sums of src (CV_32F, any channel count) over (2 radius + 1)^2 windows, reflected
-// borders (BORDER_REFLECT), divided by the window's area when `normalize`: the values
-// cv::boxFilter(src, dst, -1, window, anchor (-1, -1), normalize, BORDER_REFLECT) gives, bit for
-// bit (its sums in double, in its order: oracle.cc says which). dst may be src.
-void BoxFilterReflect(const cv::Mat& src, cv::Mat& dst, int radius, bool normalize);
+// Full-size buffers come from the renderer's recycling pool (simulator/image_pool.h): the
+// oracle needs a few dozen per call, and fresh pages for each cost more than its arithmetic.
+cv::Mat NewLike(const cv::Mat& m);
+
+// Pixels where any channel of t is below `floor` (NaN depth has t = 0): CV_8UC1, 255 = masked.
+cv::Mat MaskBelow(const cv::Mat& t, double floor);
 
 // The oracle's last step: v = prior + detail where masked is 0, prior where it is not (detail
 // empty: v = prior, masked unused), times irradiance (empty: not), then cv::patchNaNs(v, 0),

@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include "enhancer/blocks/box_filter.h"  // BoxMean: the clipped window of this filter
+
 namespace turbid {
 
 struct GuidedFilterOptions {
@@ -65,8 +67,5 @@ cv::Mat GuidedFilterSelf(const GuidedFilterOptions& options, const cv::Mat& imag
 // GuidedFilter does.
 void GuidedFilterSelfRows(const std::vector<GuidedFilterOptions>& options, const cv::Mat& image,
                           const std::function<void(int, const std::vector<const float*>&)>& emit);
-
-// Box mean over the clipped (2r+1)x(2r+1) window (the normalisation above), CV_32F, any channels.
-cv::Mat BoxMean(const cv::Mat& src, int radius);
 
 }  // namespace turbid

@@ -1,4 +1,4 @@
-#include "enhancer/deconvolution.h"
+#include "enhancer/blocks/deconvolution.h"
 
 #include <algorithm>
 #include <cmath>

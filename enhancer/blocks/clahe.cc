@@ -1,4 +1,4 @@
-#include "enhancer/clahe.h"
+#include "enhancer/blocks/clahe.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,9 +6,10 @@
 #include <cstring>
 #include <limits>
 
-#include "enhancer/simd_switch.h"
 #include "core/error.h"
 #include "core/row_kernel.h"
+#include "enhancer/blocks/clahe_luminance.h"
+#include "enhancer/simd_switch.h"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -16,6 +17,9 @@
 
 namespace turbid {
 namespace {
+
+using clahe_internal::LuminanceRatioRowInPlace;
+using clahe_internal::LuminanceRow;
 
 // MATLAB round: half away from zero.
 double MatlabRound(double v) { return std::round(v); }
@@ -225,7 +229,65 @@ double AlphaForMappedMean(ClaheDistribution d, const std::vector<double>& weight
 
 // Each tile's histogram is counted into eight interleaved sub-histograms (consecutive pixels
 // often share a bin; separate counters keep the increments of one counter eight pixels apart,
-// so their store-to-load chains overlap).
+// so their store-to-load chains overlap), then summed into hist. sub: kTileSubHistograms * bins
+// ints of scratch; row_src / col_src: the padded rows' and columns' source indices.
+constexpr int kTileSubHistograms = 8;
+
+template <typename Index>
+void TileHistogram(const cv::Mat& idx, const Padding& p, const std::vector<int>& row_src,
+                   const std::vector<int>& col_src, int tx, int ty, std::vector<int>& sub,
+                   std::vector<int>& hist) {
+  constexpr int kSub = kTileSubHistograms;
+  constexpr int kAhead = 4;  // rows
+  const int bins = static_cast<int>(hist.size());
+  // One tile at a time: its kSub sub-histograms stay in L1 (the tile's rows are read from
+  // the bin image, a few KiB each).
+  std::fill(sub.begin(), sub.end(), 0);
+  int* h[kSub];
+  for (int j = 0; j < kSub; ++j) h[j] = sub.data() + static_cast<size_t>(j) * bins;
+  const int x0 = tx * p.tile_w, x_end = x0 + p.tile_w;
+  // Columns inside the image are a contiguous run; only padded columns need the table.
+  const int in_lo = std::max(x0, p.pre_x), in_hi = std::min(x_end, p.pre_x + idx.cols);
+  const int n = std::max(in_hi - in_lo, 0);
+  const int y_end = (ty + 1) * p.tile_h;
+  for (int y = ty * p.tile_h; y < y_end; ++y) {
+    const Index* row = idx.ptr<Index>(row_src[y]);
+    if (y + kAhead < y_end && n > 0) {  // the tile's rows are strided: fetch a few ahead
+      const char* ahead =
+          reinterpret_cast<const char*>(idx.ptr<Index>(row_src[y + kAhead]) + (in_lo - p.pre_x));
+      for (int b = 0; b < n * static_cast<int>(sizeof(Index)); b += 64) {
+        __builtin_prefetch(ahead + b, 0, 3);
+      }
+      __builtin_prefetch(ahead + n * sizeof(Index) - 1, 0, 3);
+    }
+    int x = x0;
+    for (; x < in_lo; ++x) ++h[0][row[col_src[x]]];
+    const Index* run = row + (in_lo - p.pre_x);
+    int k = 0;
+    if constexpr (sizeof(Index) == 1) {
+      // Eight 8-bit indices per load, taken apart by shifts, each to its own sub-histogram
+      // (which one a pixel goes to does not matter: they are summed).
+      for (; k + 8 <= n; k += 8) {
+        uint64_t v;
+        std::memcpy(&v, run + k, sizeof(v));
+        for (int j = 0; j < 8; ++j) ++h[j][(v >> (8 * j)) & 0xff];
+      }
+    }
+    for (; k + 8 <= n; k += 8) {
+      for (int j = 0; j < 8; ++j) ++h[j][run[k + j]];
+    }
+    for (; k < n; ++k) ++h[0][run[k]];
+    for (x = std::max(in_hi, in_lo); x < x_end; ++x) ++h[0][row[col_src[x]]];
+  }
+  for (int b = 0; b < bins; ++b) {
+    int c = 0;
+    for (int j = 0; j < kSub; ++j) c += h[j][b];
+    hist[b] = c;
+  }
+}
+
+// The tiles' mappings (one row of bins per tile, tiles in row order); keep_mean chooses alpha
+// from all tiles' clipped histograms first.
 template <typename Index>
 cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, ClaheStats* stats) {
   cv::Mat maps(o.tiles_y * o.tiles_x, o.bins, CV_32F);
@@ -234,9 +296,7 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, C
   for (int x = 0; x < p.padded_w; ++x) col_src[x] = SymmetricIndex(x - p.pre_x, idx.cols);
   const int pixels = p.tile_h * p.tile_w;
   const int bins = o.bins;
-  constexpr int kSub = 8;
-  constexpr int kAhead = 4;  // rows
-  std::vector<int> sub(static_cast<size_t>(kSub) * bins);
+  std::vector<int> sub(static_cast<size_t>(kTileSubHistograms) * bins);
   std::vector<int> hist(bins);
   // keep_mean: the clipped histograms wait for alpha; the pixel counts go onto the fraction grid.
   const bool match = o.keep_mean && o.distribution != ClaheDistribution::kUniform;
@@ -256,50 +316,7 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, C
   double bin_sum = 0.0, mapped_sum = 0.0;
   for (int ty = 0; ty < o.tiles_y; ++ty) {
     for (int tx = 0; tx < o.tiles_x; ++tx) {
-      // One tile at a time: its kSub sub-histograms stay in L1 (the tile's rows are read from
-      // the bin image, a few KiB each).
-      std::fill(sub.begin(), sub.end(), 0);
-      int* h[kSub];
-      for (int j = 0; j < kSub; ++j) h[j] = sub.data() + static_cast<size_t>(j) * bins;
-      const int x0 = tx * p.tile_w, x_end = x0 + p.tile_w;
-      // Columns inside the image are a contiguous run; only padded columns need the table.
-      const int in_lo = std::max(x0, p.pre_x), in_hi = std::min(x_end, p.pre_x + idx.cols);
-      const int n = std::max(in_hi - in_lo, 0);
-      const int y_end = (ty + 1) * p.tile_h;
-      for (int y = ty * p.tile_h; y < y_end; ++y) {
-        const Index* row = idx.ptr<Index>(row_src[y]);
-        if (y + kAhead < y_end && n > 0) {  // the tile's rows are strided: fetch a few ahead
-          const char* ahead =
-              reinterpret_cast<const char*>(idx.ptr<Index>(row_src[y + kAhead]) + (in_lo - p.pre_x));
-          for (int b = 0; b < n * static_cast<int>(sizeof(Index)); b += 64) {
-            __builtin_prefetch(ahead + b, 0, 3);
-          }
-          __builtin_prefetch(ahead + n * sizeof(Index) - 1, 0, 3);
-        }
-        int x = x0;
-        for (; x < in_lo; ++x) ++h[0][row[col_src[x]]];
-        const Index* run = row + (in_lo - p.pre_x);
-        int k = 0;
-        if constexpr (sizeof(Index) == 1) {
-          // Eight 8-bit indices per load, taken apart by shifts, each to its own sub-histogram
-          // (which one a pixel goes to does not matter: they are summed).
-          for (; k + 8 <= n; k += 8) {
-            uint64_t v;
-            std::memcpy(&v, run + k, sizeof(v));
-            for (int j = 0; j < 8; ++j) ++h[j][(v >> (8 * j)) & 0xff];
-          }
-        }
-        for (; k + 8 <= n; k += 8) {
-          for (int j = 0; j < 8; ++j) ++h[j][run[k + j]];
-        }
-        for (; k < n; ++k) ++h[0][run[k]];
-        for (x = std::max(in_hi, in_lo); x < x_end; ++x) ++h[0][row[col_src[x]]];
-      }
-      for (int b = 0; b < bins; ++b) {
-        int c = 0;
-        for (int j = 0; j < kSub; ++j) c += h[j][b];
-        hist[b] = c;
-      }
+      TileHistogram<Index>(idx, p, row_src, col_src, tx, ty, sub, hist);
       if (want_means) {
         double acc = bin_sum;
         for (int b = 0; b < bins; ++b) acc += static_cast<double>(b) * hist[b];
@@ -557,139 +574,6 @@ cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, 
   return out;
 }
 
-// Rec. 709 luminance of an interleaved B, G, R row (kRgb: R, G, B; the same sum in the same
-// order either way, so the same values).
-template <bool kRgb>
-TURBID_ROW_KERNEL void LuminanceRowT(const float* __restrict px, float* __restrict lum, int w) {
-  constexpr int b = kRgb ? 2 : 0, r = kRgb ? 0 : 2;
-  for (int x = 0; x < w; ++x) {
-    lum[x] = 0.0722f * px[3 * x + b] + 0.7152f * px[3 * x + 1] + 0.2126f * px[3 * x + r];
-  }
-}
-
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-// AVX2 twins of LuminanceRowT and LuminanceRatioRow (GCC does not vectorise the stride-3 channel
-// reads). Eight pixels are 24 interleaved floats in three vectors v0 v1 v2; two blends gather one
-// channel's eight values (in the order 0 3 6 1 4 7 2 5 for channel 0, and likewise rotated for 1
-// and 2) and one lane permutation puts them in order. The arithmetic is the portable loops' (the
-// same products and sums in the same order, no FMA: the target does not enable it), so the
-// values are bit-identical.
-struct Channels {
-  __m256 c0, c1, c2;
-};
-__attribute__((target("avx2"))) inline Channels Deinterleave(const float* px) {
-  const __m256 v0 = _mm256_loadu_ps(px), v1 = _mm256_loadu_ps(px + 8),
-               v2 = _mm256_loadu_ps(px + 16);
-  // Lanes taken from v1 (0x92: lanes 1, 4, 7) and v2 (0x24: lanes 2, 5) for channel 0; the other
-  // channels' masks are these rotated by one lane.
-  const __m256 t0 = _mm256_blend_ps(_mm256_blend_ps(v0, v1, 0x92), v2, 0x24);
-  const __m256 t1 = _mm256_blend_ps(_mm256_blend_ps(v0, v1, 0x24), v2, 0x49);
-  const __m256 t2 = _mm256_blend_ps(_mm256_blend_ps(v0, v1, 0x49), v2, 0x92);
-  return {_mm256_permutevar8x32_ps(t0, _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5)),
-          _mm256_permutevar8x32_ps(t1, _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6)),
-          _mm256_permutevar8x32_ps(t2, _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7))};
-}
-
-template <bool kRgb>
-__attribute__((target("avx2"))) inline __m256 Luminance8(const float* px) {
-  const Channels c = Deinterleave(px);
-  const __m256 b = kRgb ? c.c2 : c.c0, r = kRgb ? c.c0 : c.c2;
-  return _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(0.0722f), b),
-                                     _mm256_mul_ps(_mm256_set1_ps(0.7152f), c.c1)),
-                       _mm256_mul_ps(_mm256_set1_ps(0.2126f), r));
-}
-
-template <bool kRgb>
-__attribute__((target("avx2"))) void LuminanceRowAvx2(const float* px, float* lum, int w) {
-  int x = 0;
-  for (; x + 8 <= w; x += 8) _mm256_storeu_ps(lum + x, Luminance8<kRgb>(px + 3 * x));
-  LuminanceRowT<kRgb>(px + 3 * x, lum + x, w - x);
-}
-#define TURBID_HAVE_LUMINANCE_AVX2 1
-#endif
-
-void LuminanceRow(const float* px, float* lum, int w, bool rgb) {
-#ifdef TURBID_HAVE_LUMINANCE_AVX2
-  if (enhancer_internal::UseHandWrittenAvx2()) {
-    if (rgb) {
-      LuminanceRowAvx2<true>(px, lum, w);
-    } else {
-      LuminanceRowAvx2<false>(px, lum, w);
-    }
-    return;
-  }
-#endif
-  if (rgb) {
-    LuminanceRowT<true>(px, lum, w);
-  } else {
-    LuminanceRowT<false>(px, lum, w);
-  }
-}
-
-// The channels scaled by the luminance ratio (hue kept), in place over `bgr` (each value read
-// and then written at the same index; one pointer, so the loop vectorises without an aliasing
-// check). Where the luminance is ~0, gray at the equalised value. Branch-free (the ratio is
-// formed everywhere and dropped where l is ~0).
-TURBID_ROW_KERNEL void LuminanceRatioRow(float* __restrict bgr, const float* __restrict lum,
-                                         const float* __restrict eq, int w) {
-  for (int x = 0; x < w; ++x) {
-    const float l = lum[x], e = eq[x];
-    const float g = e / l;
-    const bool dark = l <= 1e-6f;
-    for (int c = 0; c < 3; ++c) {
-      const float v = std::min(std::max(bgr[3 * x + c] * g, 0.0f), 1.0f);
-      bgr[3 * x + c] = dark ? e : v;
-    }
-  }
-}
-
-#ifdef TURBID_HAVE_LUMINANCE_AVX2
-// The luminance of each pixel (as LuminanceRowT computes it) and the ratio step of
-// LuminanceRatioRow in one pass over the row, in place: per 8 pixels the luminance from the
-// deinterleaved channels, g = e / l, then g, e and the dark test spread back to the three
-// interleaved vectors by lane permutations. Same operations in the same order; std::max(x, 0)
-// and std::min(x, 1) as max_ps(0, x) and min_ps(1, x) (NaN and -0 come out the same).
-template <bool kRgb>
-__attribute__((target("avx2"))) void LuminanceRatioRowAvx2(float* bgr, const float* eq, int w,
-                                                           float* lum_tail, const float* next) {
-  const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f),
-               tiny = _mm256_set1_ps(1e-6f);
-  const __m256i spread0 = _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2);
-  const __m256i spread1 = _mm256_setr_epi32(2, 3, 3, 3, 4, 4, 4, 5);
-  const __m256i spread2 = _mm256_setr_epi32(5, 5, 6, 6, 6, 7, 7, 7);
-  int x = 0;
-  for (; x + 8 <= w; x += 8) {
-    float* p = bgr + 3 * x;
-    if (next != nullptr) {
-      __builtin_prefetch(next + 3 * x, 1, 3);
-      __builtin_prefetch(next + 3 * x + 16, 1, 3);
-    }
-    const __m256 l = Luminance8<kRgb>(p), e = _mm256_loadu_ps(eq + x);
-    const __m256 g = _mm256_div_ps(e, l);
-    const __m256 dark = _mm256_cmp_ps(l, tiny, _CMP_LE_OQ);
-    const __m256i spread[3] = {spread0, spread1, spread2};
-    if (_mm256_movemask_ps(dark) == 0) {  // no dark pixel (the usual case): no blend with e
-      for (int k = 0; k < 3; ++k) {
-        const __m256 gk = _mm256_permutevar8x32_ps(g, spread[k]);
-        const __m256 v = _mm256_mul_ps(_mm256_loadu_ps(p + 8 * k), gk);
-        _mm256_storeu_ps(p + 8 * k, _mm256_min_ps(one, _mm256_max_ps(zero, v)));
-      }
-      continue;
-    }
-    for (int k = 0; k < 3; ++k) {
-      const __m256 gk = _mm256_permutevar8x32_ps(g, spread[k]);
-      const __m256 ek = _mm256_permutevar8x32_ps(e, spread[k]);
-      const __m256 dk = _mm256_permutevar8x32_ps(dark, spread[k]);
-      const __m256 v = _mm256_mul_ps(_mm256_loadu_ps(p + 8 * k), gk);
-      const __m256 c = _mm256_min_ps(one, _mm256_max_ps(zero, v));
-      _mm256_storeu_ps(p + 8 * k, _mm256_blendv_ps(c, ek, dk));
-    }
-  }
-  LuminanceRowT<kRgb>(bgr + 3 * x, lum_tail, w - x);
-  LuminanceRatioRow(bgr + 3 * x, lum_tail, eq + x, w - x);
-}
-#endif
-
 // Colour CLAHE from the luminance bins, in place over `image` (the values the luminance came
 // from): each row's equalised luminance, then the ratio.
 template <typename Index>
@@ -700,20 +584,8 @@ void ClaheColorInPlaceT(const ClaheOptions& o, const cv::Mat& idx, cv::Mat& imag
   ClaheRowsT<Index>(
       o, idx, p, stats, [&eq](int) { return eq.data(); },
       [&](int y, const float* e) {
-        float* row = image.ptr<float>(y);
-#ifdef TURBID_HAVE_LUMINANCE_AVX2
-        if (enhancer_internal::UseHandWrittenAvx2()) {
-          const float* next = y + 1 < image.rows ? image.ptr<float>(y + 1) : nullptr;
-          if (o.rgb) {
-            LuminanceRatioRowAvx2<true>(row, e, idx.cols, lum.data(), next);
-          } else {
-            LuminanceRatioRowAvx2<false>(row, e, idx.cols, lum.data(), next);
-          }
-          return;
-        }
-#endif
-        LuminanceRow(row, lum.data(), idx.cols, o.rgb);
-        LuminanceRatioRow(row, lum.data(), e, idx.cols);
+        const float* next = y + 1 < image.rows ? image.ptr<float>(y + 1) : nullptr;
+        LuminanceRatioRowInPlace(image.ptr<float>(y), e, idx.cols, lum.data(), next, o.rgb);
       });
 }
 

@@ -1,4 +1,4 @@
-#include "enhancer/linear_upsample.h"
+#include "enhancer/blocks/linear_upsample.h"
 
 #include <algorithm>
 #include <cmath>

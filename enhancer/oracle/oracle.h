@@ -58,11 +58,11 @@ struct OracleOptions {
 };
 
 struct OracleResult {
-  cv::Mat image;             // estimate of rho (or J with target "lit"), [0,1]
-  int masked_pixels = 0;     // pixels with t < mask (oracle) / t < min_transmission (exact)
-  int iterations = 0;        // oracle_exact with a range-dependent PSF: fixed-point iterations
-  double residual = 0.0;     // and the max |b - A x| they left
-  double deblur_nsr = 0.0;   // oracle: the Wiener noise-to-signal ratio used for the PSF
+  cv::Mat image;            // estimate of rho (or J with target "lit"), [0,1]
+  int masked_pixels = 0;    // pixels with t < mask (oracle) / t < min_transmission (exact)
+  int iterations = 0;       // oracle_exact with a range-dependent PSF: fixed-point iterations
+  double residual = 0.0;    // and the max |b - A x| they left
+  double deblur_nsr = 0.0;  // oracle: the Wiener noise-to-signal ratio used for the PSF
   std::vector<std::string> steps;  // what ran and what was skipped, in order
 };
 
@@ -76,7 +76,8 @@ OracleResult OracleEnhance(const OracleOptions& options, const cv::Mat& image, c
 // Reflect-101 deconvolution: the x with ConvolveReflect101(x, kernel) = image (cv::filter2D with
 // BORDER_REFLECT_101, as the renderer blurs), found by the DFT of the even periodic extension
 // (period 2N - 2 per axis, where reflect-101 convolution is circular), regularised by nsr
-// (X = B K / (K^2 + nsr); K is real: the kernel is symmetric). Any channel count; exposed for tests.
+// (X = B K / (K^2 + nsr); K is real: the kernel is symmetric). Any channel count; exposed for
+// tests.
 cv::Mat DeconvolveReflect101(const cv::Mat& image, const cv::Mat& kernel, double nsr);
 
 // Registry entries: oracle, oracle_exact.

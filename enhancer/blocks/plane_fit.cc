@@ -1,4 +1,4 @@
-#include "enhancer/plane_fit.h"
+#include "enhancer/blocks/plane_fit.h"
 
 #include <algorithm>
 #include <cmath>
