@@ -11,9 +11,9 @@
 #include <thread>
 
 #include "core/error.h"
-#include "tools/experiment.h"
-#include "tools/sweep.h"
-#include "tools/tables.h"
+#include "tools/harness/experiment.h"
+#include "tools/harness/sweep.h"
+#include "tools/harness/tables.h"
 
 namespace turbid::testing {
 
