@@ -1,5 +1,5 @@
-// Manifests as `turbid score --manifest` reads them (tools/harness/manifest.h): the first byte picks
-// .csv or .jsonl, the rest is the file.
+// Manifests as `turbid score --manifest` reads them (tools/harness/manifest.h): the first byte
+// picks .csv or .jsonl, the rest is the file.
 #include <cstddef>
 #include <cstdint>
 #include <string>

@@ -1,5 +1,5 @@
-// The cases of `turbid bench` (tools/bench/cmd_bench.cc): the shared types and inputs. Each group of
-// cases lives in its own file (tools/bench_cases_*.cc) and MakeCases adds it.
+// The cases of `turbid bench` (tools/bench/cmd_bench.cc): the shared types and inputs. Each group
+// of cases lives in its own file (tools/bench/bench_cases_*.cc) and MakeCases adds it.
 #ifndef TURBID_TOOLS_BENCH_CASES_H_
 #define TURBID_TOOLS_BENCH_CASES_H_
 
@@ -54,7 +54,7 @@ std::string Format(const char* format, double value);
 // max |a - b| at least `border` pixels from the image edge (over the whole image when too small).
 double InteriorMaxDiff(const cv::Mat& a, const cv::Mat& b, int border);
 
-// The groups of cases, one file each (tools/bench_cases_*.cc).
+// The groups of cases, one file each (tools/bench/bench_cases_*.cc).
 void AddColorCases(std::vector<BenchCase>& cases, const InputsFn& in);     // 18.1: full, simplified
 void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);   // 18.2: no-reference
 void AddBaselineCases(std::vector<BenchCase>& cases, const InputsFn& in);  // 18.3: tarel, fusion

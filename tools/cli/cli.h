@@ -53,8 +53,9 @@ void AddEnhanceCommand(CLI::App& app);
 void AddScoreCommand(CLI::App& app);
 void AddHarnessCommands(CLI::App& app);  // sweep, merge, regress, report
 // `turbid bench` runs the turbid_bench executable beside turbid with the arguments that follow
-// `bench` (tools/bench/bench_launcher.cc): only that executable links Google Benchmark and the OpenCV
-// contrib peers. AddBenchCommand (tools/bench/cmd_bench.cc) is the real command, in turbid_bench.
+// `bench` (tools/bench/bench_launcher.cc): only that executable links Google Benchmark and the
+// OpenCV contrib peers. AddBenchCommand (tools/bench/cmd_bench.cc) is the real command, in
+// turbid_bench.
 inline constexpr const char* kBenchDescription =
     "time the speed goals: ours against the peer (OpenCV) in one process";
 inline constexpr const char* kBenchExecutable = "turbid_bench";

@@ -62,8 +62,8 @@ struct ExperimentMethod {
   // Receives true simulation parameters (the registry's IsPrivileged for name + params): marked
   // with a dagger in tables and the report, never marked best.
   bool privileged = false;
-  // An external method (a program or a results folder, tools/harness/external_method.h): its resolved
-  // spec as saved in experiment.json; null for registry methods.
+  // An external method (a program or a results folder, tools/harness/external_method.h): its
+  // resolved spec as saved in experiment.json; null for registry methods.
   nlohmann::json external;
   // The experiment file's folder: relative 'cwd' and 'results' paths resolve against it (not
   // saved: shards on other machines resolve it themselves).

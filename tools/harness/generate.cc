@@ -1,5 +1,5 @@
-// `turbid generate` as a library (tools/harness/generate.h). Moved out of tools/cli/cmd_render.cc unchanged so
-// that the Python package expands and samples items exactly as the CLI does.
+// `turbid generate` as a library (tools/harness/generate.h). Moved out of tools/cli/cmd_render.cc
+// unchanged so that the Python package expands and samples items exactly as the CLI does.
 #include "tools/harness/generate.h"
 
 #include <array>

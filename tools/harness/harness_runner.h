@@ -24,11 +24,11 @@ namespace turbid {
 HarnessCatalog RegistryCatalog();
 
 // A method that runs in this process: a Python callable handed to turbid.sweep (experiment
-// methods of kind "python", tools/harness/external_method.h). Receives the method's resolved spec (batch,
-// encoding) and degraded images as the libraries hold them (float32 linear [0, 1], BGR) with their
-// item ids — one for a per-image method, a batch for a batch method — and returns one image per
-// input (checked like a file output: CheckMethodOutput). Throws to fail those cells; called from
-// the sweep's worker threads.
+// methods of kind "python", tools/harness/external_method.h). Receives the method's resolved spec
+// (batch, encoding) and degraded images as the libraries hold them (float32 linear [0, 1], BGR)
+// with their item ids — one for a per-image method, a batch for a batch method — and returns one
+// image per input (checked like a file output: CheckMethodOutput). Throws to fail those cells;
+// called from the sweep's worker threads.
 using InProcessMethod = std::function<std::vector<cv::Mat>(
     const nlohmann::json& spec, const std::vector<cv::Mat>& degraded,
     const std::vector<std::string>& ids)>;

@@ -40,9 +40,9 @@ struct SweepHooks {
   std::function<void(const std::vector<ItemTask>& tasks, std::vector<ItemResult>* results)>
       finish;
   int batch_items = 0;  // items per batch when finish is set (0: every pending item at once)
-  // Optional scheduling (tools/harness/item_scheduler.h); results do not depend on it. group: the shared
-  // state a task needs (a scene), prepared once by prepare(group) on one worker while the others
-  // run tasks whose group is ready (prepare must not throw: the runner reports a failed
+  // Optional scheduling (tools/harness/item_scheduler.h); results do not depend on it. group: the
+  // shared state a task needs (a scene), prepared once by prepare(group) on one worker while the
+  // others run tasks whose group is ready (prepare must not throw: the runner reports a failed
   // preparation when the group's tasks run); cost: a task's relative cost, asked before its group
   // is prepared (an estimate, 0 = unknown) and again after; the costliest task runs first, so
   // the largest images do not end the sweep on one thread while the others idle. Unset: item order.
