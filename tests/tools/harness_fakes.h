@@ -56,7 +56,7 @@ inline HarnessCatalog FakeCatalog() {
         throw Error("unknown key '" + key + "'");
       }
     }
-    return out;
+    return ResolvedRender{out, nullptr};
   };
   catalog.check_scene = [](const std::string& spec) {
     if (spec != "builtin:a" && spec != "builtin:b" && spec != "a" && spec != "b") {

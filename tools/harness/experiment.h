@@ -10,11 +10,22 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 namespace turbid {
+
+struct RenderOptions;  // simulator/render.h; only the catalog and the item runner look inside
+
+// Render options as the catalog resolves them: parsed once, and as JSON with every default filled
+// in (what experiment.json records).
+struct ResolvedRender {
+  nlohmann::json json;
+  // What a render takes; null from catalogs without a simulator (the tests' fakes).
+  std::shared_ptr<const RenderOptions> options;
+};
 
 // What the harness needs to know about one metric (copied from the metrics registry).
 struct HarnessMetricInfo {
@@ -34,8 +45,8 @@ struct HarnessCatalog {
   std::function<bool(const std::string& method, const nlohmann::json& params)> is_privileged;
   // Returns what the registry says about the metric; throws for unknown names.
   std::function<HarnessMetricInfo(const std::string& metric)> find_metric;
-  // Parses render options strictly and returns them fully resolved (defaults filled in).
-  std::function<nlohmann::json(const nlohmann::json& render_options)> resolve_render;
+  // Parses render options strictly and returns them parsed and fully resolved (defaults filled in).
+  std::function<ResolvedRender(const nlohmann::json& render_options)> resolve_render;
   // Checks a scene spec ("builtin:NAME", a bare built-in name, or a scene JSON path).
   std::function<void(const std::string& spec)> check_scene;
   // Name of the identity row (the degraded input scored as it is); never sent to check_method.
@@ -103,6 +114,9 @@ struct Experiment {
   // Method labels never marked best (floor/identity rows, and every privileged method).
   std::vector<std::string> best_excludes;
   int thumbnail_width = 160;  // thumbnails saved during the sweep for the report (0: none)
+  // Each condition's render options as the catalog parsed them (seed 0 at seed_path), parsed once
+  // by ParseExperiment and handed to its items; not saved (empty when read from a resolved file).
+  std::vector<std::shared_ptr<const RenderOptions>> condition_render;
 
   int ConditionCount() const;  // grid points x max(1, sample_count)
   // > 0: the items are listed, not expanded from the grid (a dataset scored by `turbid score
@@ -134,6 +148,9 @@ struct ItemSpec {
   double level_value = 0.0;       // numeric position for plots (the value, or the level's rank)
   nlohmann::json params;          // {path: value} for every gridded and sampled parameter
   nlohmann::json render_options;  // base render options with params (and seed) applied
+  // The condition's parsed render options (Experiment::condition_render; null when it has none):
+  // render_options without the seed, which the item runner sets from `seed`.
+  std::shared_ptr<const RenderOptions> render;
   uint64_t seed = 0;
 };
 

@@ -91,6 +91,22 @@ Scene LoadExperimentScene(const ExperimentScene& scene) {
   return loaded;
 }
 
+// Where RegistryCatalog puts each item's seed: RenderOptions::seed.
+constexpr const char* kRenderSeedPath = "seed";
+
+// The options an item renders with: its condition's, parsed once by ParseExperiment, with the
+// item's seed. An experiment that writes the seed elsewhere in the options (its own seed_path) or
+// was parsed without them renders from the item's JSON, as it was parsed before.
+RenderOptions ItemRenderOptions(const Experiment& experiment, const ItemSpec& item) {
+  if (item.render != nullptr && experiment.seed_path.empty()) return *item.render;
+  if (item.render != nullptr && experiment.seed_path == kRenderSeedPath) {
+    RenderOptions options = *item.render;
+    options.seed = item.seed;
+    return options;
+  }
+  return RenderOptionsFromJson(item.render_options);
+}
+
 }  // namespace
 
 HarnessCatalog RegistryCatalog() {
@@ -119,7 +135,8 @@ HarnessCatalog RegistryCatalog() {
                              info.needs_original};
   };
   catalog.resolve_render = [](const json& options) {
-    return RenderOptionsToJson(RenderOptionsFromJson(options));
+    auto parsed = std::make_shared<const RenderOptions>(RenderOptionsFromJson(options));
+    return ResolvedRender{RenderOptionsToJson(*parsed), std::move(parsed)};
   };
   catalog.check_scene = [](const std::string& spec) {
     if (IsBuiltinSpec(spec)) {
@@ -131,7 +148,7 @@ HarnessCatalog RegistryCatalog() {
     }
     ParseSceneFile(spec);  // strict schema and referenced files, without reading the images
   };
-  catalog.default_seed_path = "seed";
+  catalog.default_seed_path = kRenderSeedPath;
   return catalog;
 }
 
@@ -302,7 +319,7 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
   const auto start_render = Clock::now();
   RenderResult render;
   try {
-    render = renderer->Render(RenderOptionsFromJson(item.render_options));
+    render = renderer->Render(ItemRenderOptions(experiment_, item));
   } catch (const Error& error) {
     result.error = std::string("render: ") + error.what();
     for (const ExperimentMethod& method : experiment_.methods) {

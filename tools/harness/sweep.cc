@@ -404,45 +404,42 @@ ItemResult MergeRetry(ItemResult previous, const ItemResult& fresh,
   return previous;
 }
 
-}  // namespace
-
-SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
-                      const SweepHooks& hooks) {
-  ThrowIfInvalid(options, "sweep");
-  if (!hooks.run) throw Error("sweep: no item runner");
-  const FolderLock lock(options.out_dir, "sweep or merge");
-  RemoveLeftovers(options.out_dir);
-  ClaimDir(experiment, options.out_dir, options.force);
-  Journal journal(options.out_dir + "/journal.jsonl");
-  const std::vector<ItemSpec> specs = ExpandItems(experiment);
-  std::map<std::string, json> done = journal.Load(/*repair=*/true);
-  CheckEntries(done, specs, journal.path());
-
-  SweepSummary summary;
-  // Incomplete entries (e.g. method rows missing) do not count as done: their items run again,
-  // and the new entry, appended after them, is the one read from then on.
+// Incomplete entries (e.g. method rows missing) do not count as done: their items run again,
+// and the new entry, appended after them, is the one read from then on. One note each.
+void DropIncompleteEntries(const Experiment& experiment, const std::vector<ItemSpec>& specs,
+                           const SweepOptions& options, const std::string& journal_path,
+                           std::map<std::string, json>* done, SweepSummary* summary) {
   for (const ItemSpec& spec : specs) {
-    const auto it = done.find(spec.id);
-    if (it == done.end()) continue;
+    const auto it = done->find(spec.id);
+    if (it == done->end()) continue;
     const std::string problem = EntryProblem(it->second, spec, experiment);
     if (problem.empty()) continue;
-    done.erase(it);
-    summary.notes.push_back(journal.path() + ": the entry of item '" + spec.id +
-                            "' is incomplete (" + problem + ")" +
-                            (options.shard.Contains(spec.index)
-                                 ? "; the item is run again"
-                                 : "; left out of the tables (the item is in another shard)"));
+    done->erase(it);
+    summary->notes.push_back(journal_path + ": the entry of item '" + spec.id +
+                             "' is incomplete (" + problem + ")" +
+                             (options.shard.Contains(spec.index)
+                                  ? "; the item is run again"
+                                  : "; left out of the tables (the item is in another shard)"));
   }
+}
 
-  summary.items_total = static_cast<int>(specs.size());
-  std::vector<ItemTask> pending;
+// The items of this shard still to run (with, when failed cells are retried, the methods to
+// rerun) and the journaled results of the retried ones.
+struct PendingItems {
+  std::vector<ItemTask> tasks;
   std::map<std::string, ItemResult> previous;  // journaled results of retried items
+};
+
+PendingItems PlanPending(const std::vector<ItemSpec>& specs,
+                         const std::map<std::string, json>& done, const SweepOptions& options,
+                         SweepSummary* summary) {
+  PendingItems plan;
   for (const ItemSpec& spec : specs) {
     if (!options.shard.Contains(spec.index)) continue;
-    ++summary.items_in_shard;
+    ++summary->items_in_shard;
     const auto entry = done.find(spec.id);
     if (entry == done.end()) {
-      pending.push_back({&spec, {}});
+      plan.tasks.push_back({&spec, {}});
       continue;
     }
     if (options.retry_failed) {
@@ -451,17 +448,36 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
       std::vector<std::string> labels = FailedLabels(item, &whole_item);
       if (whole_item || !labels.empty()) {
         if (whole_item) labels.clear();  // rerun everything
-        pending.push_back({&spec, labels});
-        previous.emplace(spec.id, std::move(item));
-        ++summary.retried;
+        plan.tasks.push_back({&spec, labels});
+        plan.previous.emplace(spec.id, std::move(item));
+        ++summary->retried;
         continue;
       }
     }
-    ++summary.already_done;
+    ++summary->already_done;
   }
-  const bool tables_exist = fs::exists(options.out_dir + "/summary.md");
-  if (pending.empty() && tables_exist) return summary;  // a finished sweep: nothing to do
+  return plan;
+}
 
+// One run of the pending items on the thread pool: results are journaled as they come (or per
+// batch when the hooks finish batches); the first error stops the run.
+struct SweepExecution {
+  SweepExecution(const Experiment& experiment, const SweepOptions& options,
+                 const SweepHooks& hooks, Journal& journal, const std::vector<ItemTask>& pending,
+                 const std::map<std::string, ItemResult>& previous)
+      : experiment(experiment),
+        options(options),
+        hooks(hooks),
+        journal(journal),
+        pending(pending),
+        previous(previous) {}
+
+  const Experiment& experiment;
+  const SweepOptions& options;
+  const SweepHooks& hooks;
+  Journal& journal;
+  const std::vector<ItemTask>& pending;
+  const std::map<std::string, ItemResult>& previous;
   std::atomic<int> finished{0};
   std::atomic<int> failed_rows{0};
   std::atomic<bool> stop{false};
@@ -469,15 +485,16 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
   std::exception_ptr first_error;
   std::mutex wake_mutex;
   std::condition_variable wake;
-  const auto record_error = [&] {
+
+  void RecordError() {
     std::lock_guard<std::mutex> lock(error_mutex);
     if (!first_error) first_error = std::current_exception();
     stop = true;
-  };
+  }
 
   // Completes a result (identity fields from the spec, journaled rows kept when retrying) and
   // appends it to the journal.
-  const auto journal_result = [&](const ItemTask& task, ItemResult result) {
+  void JournalResult(const ItemTask& task, ItemResult result) {
     const ItemSpec& spec = *task.spec;
     result.index = spec.index;
     result.id = spec.id;
@@ -499,11 +516,11 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
     }
     failed_rows += failures;
     ++finished;
-  };
+  }
 
   // Runs tasks [begin, end) on the thread pool; results are journaled at once, or stored in
   // `out` (indexed from begin) when the batch is finished afterwards.
-  const auto run_range = [&](size_t begin, size_t end, std::vector<ItemResult>* out) {
+  void RunRange(size_t begin, size_t end, std::vector<ItemResult>* out) {
     int threads = options.threads > 0 ? options.threads
                                       : static_cast<int>(std::thread::hardware_concurrency());
     threads = std::max(1, std::min<int>(threads, static_cast<int>(end - begin)));
@@ -524,7 +541,7 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
           try {
             hooks.prepare(next.group);
           } catch (...) {
-            record_error();
+            RecordError();
             scheduler.Stop();
           }
           scheduler.Prepared(next.group);
@@ -536,10 +553,10 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
           if (out != nullptr) {
             (*out)[k - begin] = std::move(result);
           } else {
-            journal_result(pending[k], std::move(result));
+            JournalResult(pending[k], std::move(result));
           }
         } catch (...) {
-          record_error();
+          RecordError();
           scheduler.Stop();
         }
         wake.notify_all();
@@ -549,68 +566,75 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
     std::vector<std::thread> pool;
     for (int t = 0; t < threads; ++t) pool.emplace_back(work);
     for (std::thread& thread : pool) thread.join();
-  };
+  }
 
-  const auto drive = [&] {
+  void Drive() {
     if (!hooks.finish) {
-      run_range(0, pending.size(), nullptr);
+      RunRange(0, pending.size(), nullptr);
     } else {
       const size_t batch = hooks.batch_items > 0 ? static_cast<size_t>(hooks.batch_items)
                                                  : std::max<size_t>(1, pending.size());
       for (size_t begin = 0; begin < pending.size() && !stop.load(); begin += batch) {
         const size_t end = std::min(pending.size(), begin + batch);
         std::vector<ItemResult> results(end - begin);
-        run_range(begin, end, &results);
+        RunRange(begin, end, &results);
         if (stop.load()) break;
         try {
           const std::vector<ItemTask> tasks(pending.begin() + static_cast<long>(begin),
                                             pending.begin() + static_cast<long>(end));
           hooks.finish(tasks, &results);
-          for (size_t k = begin; k < end; ++k) journal_result(pending[k], results[k - begin]);
+          for (size_t k = begin; k < end; ++k) JournalResult(pending[k], results[k - begin]);
         } catch (...) {
-          record_error();
+          RecordError();
         }
       }
     }
     stop = true;  // wakes the progress loop
     wake.notify_all();
-  };
+  }
 
-  const auto start = std::chrono::steady_clock::now();
-  const int total = static_cast<int>(pending.size());
-  std::thread driver(drive);
-  if (options.progress && total > 0) {
-    std::unique_lock<std::mutex> lock(wake_mutex);
-    while (finished.load() < total && !stop.load()) {
+  // Drives the run on its own thread while this one shows progress on stderr (when asked).
+  void Run() {
+    const auto start = std::chrono::steady_clock::now();
+    const int total = static_cast<int>(pending.size());
+    std::thread driver([this] { Drive(); });
+    if (options.progress && total > 0) {
+      std::unique_lock<std::mutex> lock(wake_mutex);
+      while (finished.load() < total && !stop.load()) {
+        const double elapsed =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::cerr << "\r" << ProgressLine(finished.load(), total, elapsed, 30) << std::flush;
+        wake.wait_for(lock, std::chrono::milliseconds(250));
+      }
+    }
+    driver.join();
+    if (options.progress && total > 0) {
       const double elapsed =
           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      std::cerr << "\r" << ProgressLine(finished.load(), total, elapsed, 30) << std::flush;
-      wake.wait_for(lock, std::chrono::milliseconds(250));
+      std::cerr << "\r" << ProgressLine(finished.load(), total, elapsed, 30) << "\n";
     }
   }
-  driver.join();
-  if (options.progress && total > 0) {
-    const double elapsed =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    std::cerr << "\r" << ProgressLine(finished.load(), total, elapsed, 30) << "\n";
-  }
-  summary.ran = finished.load();
-  summary.failed_rows = failed_rows.load();
-  if (first_error) {
-    try {
-      std::rethrow_exception(first_error);
-    } catch (const OutputError& error) {
-      // Not a failure of the experiment: the item being written is not journaled, so a plain
-      // rerun (after freeing space) runs it and completes the same results.
-      throw OutputError(std::string(error.what()) + "; the sweep stopped (" +
-                        std::to_string(summary.ran) +
-                        " items journaled now are kept: run it again to continue)");
-    }
-  }
+};
 
-  // Tables from everything journaled in this folder (the shard, or the whole sweep).
+// Rethrows the first error of a run.
+void RethrowFirstError(const std::exception_ptr& first_error, const SweepSummary& summary) {
+  if (!first_error) return;
+  try {
+    std::rethrow_exception(first_error);
+  } catch (const OutputError& error) {
+    // Not a failure of the experiment: the item being written is not journaled, so a plain
+    // rerun (after freeing space) runs it and completes the same results.
+    throw OutputError(std::string(error.what()) + "; the sweep stopped (" +
+                      std::to_string(summary.ran) +
+                      " items journaled now are kept: run it again to continue)");
+  }
+}
+
+// Tables from everything journaled in this folder (the shard, or the whole sweep).
+void WriteSweepTables(const Experiment& experiment, const std::vector<ItemSpec>& specs,
+                      const SweepOptions& options, Journal& journal) {
   const ScopedStage timed(options.profile, "tables");
-  done = journal.Load(/*repair=*/false);
+  std::map<std::string, json> done = journal.Load(/*repair=*/false);
   for (const ItemSpec& spec : specs) {  // only out-of-shard entries can be incomplete now
     const auto it = done.find(spec.id);
     if (it != done.end() && !EntryProblem(it->second, spec, experiment).empty()) done.erase(it);
@@ -621,6 +645,35 @@ SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
   fs::remove(options.out_dir + "/summary.md", ec);
   if (ec) throw OutputError(options.out_dir + "/summary.md", "cannot remove: " + ec.message());
   WriteTables(experiment, SortedResults(done), options.out_dir);
+}
+
+}  // namespace
+
+SweepSummary RunSweep(const Experiment& experiment, const SweepOptions& options,
+                      const SweepHooks& hooks) {
+  ThrowIfInvalid(options, "sweep");
+  if (!hooks.run) throw Error("sweep: no item runner");
+  const FolderLock lock(options.out_dir, "sweep or merge");
+  RemoveLeftovers(options.out_dir);
+  ClaimDir(experiment, options.out_dir, options.force);
+  Journal journal(options.out_dir + "/journal.jsonl");
+  const std::vector<ItemSpec> specs = ExpandItems(experiment);
+  std::map<std::string, json> done = journal.Load(/*repair=*/true);
+  CheckEntries(done, specs, journal.path());
+
+  SweepSummary summary;
+  DropIncompleteEntries(experiment, specs, options, journal.path(), &done, &summary);
+  summary.items_total = static_cast<int>(specs.size());
+  const PendingItems plan = PlanPending(specs, done, options, &summary);
+  const bool tables_exist = fs::exists(options.out_dir + "/summary.md");
+  if (plan.tasks.empty() && tables_exist) return summary;  // a finished sweep: nothing to do
+
+  SweepExecution run(experiment, options, hooks, journal, plan.tasks, plan.previous);
+  run.Run();
+  summary.ran = run.finished.load();
+  summary.failed_rows = run.failed_rows.load();
+  RethrowFirstError(run.first_error, summary);
+  WriteSweepTables(experiment, specs, options, journal);
   summary.tables_written = true;
   return summary;
 }

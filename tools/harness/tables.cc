@@ -362,15 +362,15 @@ const std::vector<std::string>& DeterministicOutputs() {
   return files;
 }
 
-void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& items,
-                 const std::string& dir, bool with_timings) {
-  // Column sets.
+namespace {
+
+// items.csv and items.jsonl: one row per item and method, one line per item.
+void ItemTables(const Experiment& experiment, const std::vector<ItemResult>& items,
+                std::ostringstream& csv, std::ostringstream& jsonl) {
   std::vector<std::string> param_paths;
   for (const auto& entry : experiment.grid) param_paths.push_back(entry.first);
   for (const SampledParam& p : experiment.sampled) param_paths.push_back(p.path);
 
-  // items.csv and items.jsonl.
-  std::ostringstream csv, jsonl;
   csv << "id,scene,condition,level";
   for (const std::string& path : param_paths) csv << "," << CsvEscape("param:" + path);
   csv << ",method";
@@ -392,9 +392,10 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
       csv << "," << CsvEscape(!row.error.empty() ? row.error : item.error) << "\n";
     }
   }
+}
 
-  // summary.csv (long format) and summary.md (Table I style, one table per level and overall).
-  const std::vector<SummaryCell> cells = Summarize(experiment, items);
+// summary.csv: the summary in long format.
+std::string SummaryCsv(const std::vector<SummaryCell>& cells) {
   std::ostringstream summary_csv;
   summary_csv << "level,method,metric,n,mean,sd,min,max,failed\n";
   for (const SummaryCell& cell : cells) {
@@ -406,34 +407,22 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
                 << (cell.stats.n ? FormatValue(cell.stats.max) : "nan") << "," << cell.failed
                 << "\n";
   }
-  std::map<std::tuple<std::string, std::string, std::string>, Stats> lookup;
-  std::map<std::pair<std::string, std::string>, int> failed_items;  // (level, method)
-  int any_failed = 0;
-  for (const SummaryCell& cell : cells) {
-    lookup[{cell.level, cell.method, cell.metric}] = cell.stats;
-    failed_items[{cell.level, cell.method}] = cell.failed;
-    any_failed += cell.failed;
-  }
+  return summary_csv.str();
+}
 
+// Per method: never marked best.
+std::vector<bool> BestExcluded(const Experiment& experiment) {
   std::vector<bool> excluded;
   for (const ExperimentMethod& m : experiment.methods) {
     excluded.push_back(std::find(experiment.best_excludes.begin(), experiment.best_excludes.end(),
                                  m.label) != experiment.best_excludes.end());
   }
-  // Ground-truth scores of no-reference metrics, per level (computed once per scene).
-  const auto reference_stats = [&](const std::string& level, const std::string& metric) {
-    std::vector<double> values;
-    for (const ItemResult& item : items) {
-      if (level != "all" && item.level != level) continue;
-      const auto it = item.reference_metrics.find(metric);
-      if (it != item.reference_metrics.end()) values.push_back(it->second);
-    }
-    return ComputeStats(values);
-  };
-  bool any_reference = false;
-  for (const ItemResult& item : items) any_reference |= !item.reference_metrics.empty();
+  return excluded;
+}
 
-  std::ostringstream md;
+// summary.md's title and the paragraph that explains the cells.
+void SummaryMarkdownHead(const Experiment& experiment, const std::vector<ItemResult>& items,
+                         std::ostringstream& md) {
   md << "# " << experiment.name << ": summary\n\n";
   if (!experiment.description.empty()) md << experiment.description << "\n\n";
   md << items.size() << " of " << experiment.ItemCount() << " items; ground truth: "
@@ -452,6 +441,36 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
           "exact geometry) that its published version does not have — a reference, not a "
           "competitor (docs/methods.md, \"Which inputs each method sees\").\n";
   }
+}
+
+// summary.md: Table I style, one table per level and overall.
+std::string SummaryMarkdown(const Experiment& experiment, const std::vector<ItemResult>& items,
+                            const std::vector<SummaryCell>& cells) {
+  std::map<std::tuple<std::string, std::string, std::string>, Stats> lookup;
+  std::map<std::pair<std::string, std::string>, int> failed_items;  // (level, method)
+  int any_failed = 0;
+  for (const SummaryCell& cell : cells) {
+    lookup[{cell.level, cell.method, cell.metric}] = cell.stats;
+    failed_items[{cell.level, cell.method}] = cell.failed;
+    any_failed += cell.failed;
+  }
+
+  const std::vector<bool> excluded = BestExcluded(experiment);
+  // Ground-truth scores of no-reference metrics, per level (computed once per scene).
+  const auto reference_stats = [&](const std::string& level, const std::string& metric) {
+    std::vector<double> values;
+    for (const ItemResult& item : items) {
+      if (level != "all" && item.level != level) continue;
+      const auto it = item.reference_metrics.find(metric);
+      if (it != item.reference_metrics.end()) values.push_back(it->second);
+    }
+    return ComputeStats(values);
+  };
+  bool any_reference = false;
+  for (const ItemResult& item : items) any_reference |= !item.reference_metrics.empty();
+
+  std::ostringstream md;
+  SummaryMarkdownHead(experiment, items, md);
   std::vector<std::string> levels = LevelLabels(experiment);
   levels.insert(levels.begin(), "all");
   for (const std::string& level : levels) {
@@ -493,8 +512,14 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
     }
   }
 
+  return md.str();
+}
+
+// timings.csv and timings.md.
+void TimingTables(const Experiment& experiment, const std::vector<ItemResult>& items,
+                  std::ostringstream& timings_csv, std::ostringstream& timings_md) {
+  const std::vector<bool> excluded = BestExcluded(experiment);
   // Timings (not deterministic): per item and method, and a Table I style "time" table per size.
-  std::ostringstream timings_csv, timings_md;
   // timing: "alone" (the method's own wall time), "batch_share" (a batch process's wall time /
   // its items) or "none" (precomputed results: nothing ran).
   timings_csv << "id,method,time_ms,timing\n";
@@ -552,17 +577,30 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
     }
     timings_md << "\n";
   }
+}
+
+}  // namespace
+
+void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& items,
+                 const std::string& dir, bool with_timings) {
+  std::ostringstream csv, jsonl;
+  ItemTables(experiment, items, csv, jsonl);
+  const std::vector<SummaryCell> cells = Summarize(experiment, items);
+  const std::string summary_csv = SummaryCsv(cells);
+  const std::string md = SummaryMarkdown(experiment, items, cells);
+  std::ostringstream timings_csv, timings_md;
+  TimingTables(experiment, items, timings_csv, timings_md);
 
   // summary.md last: a sweep takes it as the mark of complete tables (a write that fails before it
   // leaves the tables to be written again by the next run).
   AtomicWriteText(dir + "/items.csv", csv.str(), true);
   AtomicWriteText(dir + "/items.jsonl", jsonl.str(), true);
-  AtomicWriteText(dir + "/summary.csv", summary_csv.str(), true);
+  AtomicWriteText(dir + "/summary.csv", summary_csv, true);
   if (with_timings) {
     AtomicWriteText(dir + "/timings.csv", timings_csv.str(), true);
     AtomicWriteText(dir + "/timings.md", timings_md.str(), true);
   }
-  AtomicWriteText(dir + "/summary.md", md.str(), true);
+  AtomicWriteText(dir + "/summary.md", md, true);
 }
 
 // ---- Regression ---------------------------------------------------------------------------
