@@ -69,8 +69,8 @@ struct BenchArgs {
   bool threads_given = false;
 };
 
-std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
-  std::vector<BenchCase> cases;
+// SSIM and PSNR against OpenCV.
+void AddMetricPeerCases(std::vector<BenchCase>& cases, const std::function<const Inputs&()>& in) {
   const Goal ssim_goal{5.0, 0.0, "issue 4 item 8"};
   auto ssim_case = [&](const std::string& name, bool color, bool as_float) {
     BenchCase c;
@@ -128,7 +128,10 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
     c.goal = {1.0, 0.0, "issue 4 item 8 (memory-bandwidth speed; bench_metrics has GB/s)"};
     cases.push_back(c);
   }
+}
 
+// The guided filter, CLAHE and the PSF convolution against OpenCV.
+void AddFilterCases(std::vector<BenchCase>& cases, const std::function<const Inputs&()>& in) {
   for (int radius : {2, 8}) {
     BenchCase c;
     c.name = "guided_filter/gray/r" + std::to_string(radius);
@@ -197,7 +200,10 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
     c.goal = {1.0, 0.0, "issue 3 item 7 (PSF convolution against OpenCV)"};
     cases.push_back(c);
   }
+}
 
+// The renderer: eq. 2, the turbidity-dependent PSF and the other models.
+void AddRenderCases(std::vector<BenchCase>& cases, const std::function<const Inputs&()>& in) {
   for (bool color : {true, false}) {
     BenchCase c;
     c.name = color ? "render/color/full" : "render/gray/full";
@@ -256,7 +262,10 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
     c.goal = {0.0, 0.0, "issue 16 item 1 (timed beside render/color/full; no goal set)"};
     cases.push_back(c);
   }
+}
 
+// The paper's methods on the gray hull.
+void AddEnhanceCases(std::vector<BenchCase>& cases, const std::function<const Inputs&()>& in) {
   {
     BenchCase c;
     c.name = "enhance/full";
@@ -278,6 +287,14 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
     c.goal = {0.0, 10.0, "issue 5 item 8 (at 1360x1024 gray, one core)"};
     cases.push_back(c);
   }
+}
+
+std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
+  std::vector<BenchCase> cases;
+  AddMetricPeerCases(cases, in);
+  AddFilterCases(cases, in);
+  AddRenderCases(cases, in);
+  AddEnhanceCases(cases, in);
   bench::AddColorCases(cases, in);
   bench::AddMetricsCases(cases, in);
   bench::AddBaselineCases(cases, in);
