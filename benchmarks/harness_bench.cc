@@ -8,8 +8,8 @@
 
 #include <string>
 
-#include "tools/experiment.h"
-#include "tools/harness_runner.h"
+#include "tools/harness/experiment.h"
+#include "tools/harness/harness_runner.h"
 
 namespace turbid {
 namespace {

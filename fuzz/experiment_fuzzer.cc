@@ -13,8 +13,8 @@
 #include <string_view>
 
 #include "fuzz/fuzz_support.h"
-#include "tools/experiment.h"
-#include "tools/harness_runner.h"
+#include "tools/harness/experiment.h"
+#include "tools/harness/harness_runner.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace turbid;

@@ -12,10 +12,10 @@
 
 #include "fuzz/fuzz_support.h"
 #include "fuzz/journal_experiment.h"
-#include "tools/experiment.h"
-#include "tools/harness_runner.h"
-#include "tools/sweep.h"
-#include "tools/tables.h"
+#include "tools/harness/experiment.h"
+#include "tools/harness/harness_runner.h"
+#include "tools/harness/sweep.h"
+#include "tools/harness/tables.h"
 
 namespace {
 using namespace turbid;

@@ -16,7 +16,7 @@
 #include "fuzz/journal_experiment.h"
 #include "scenes/image_io.h"
 #include "simulator/render.h"
-#include "tools/cli.h"
+#include "tools/cli/cli.h"
 
 namespace {
 namespace fs = std::filesystem;

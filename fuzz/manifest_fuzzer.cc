@@ -1,12 +1,12 @@
-// Manifests as `turbid score --manifest` reads them (tools/manifest.h): the first byte picks
-// .csv or .jsonl, the rest is the file.
+// Manifests as `turbid score --manifest` reads them (tools/harness/manifest.h): the first byte
+// picks .csv or .jsonl, the rest is the file.
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <string_view>
 
 #include "fuzz/fuzz_support.h"
-#include "tools/manifest.h"
+#include "tools/harness/manifest.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;

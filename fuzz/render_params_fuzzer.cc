@@ -17,7 +17,7 @@
 #include "fuzz/fuzz_support.h"
 #include "scenes/builtin.h"
 #include "simulator/render.h"
-#include "tools/generate.h"
+#include "tools/harness/generate.h"
 
 namespace {
 using namespace turbid;

@@ -12,7 +12,7 @@
 #include "fuzz/fuzz_support.h"
 #include "scenes/builtin.h"
 #include "simulator/render.h"
-#include "tools/file_encoding.h"
+#include "tools/harness/file_encoding.h"
 
 namespace {
 using namespace turbid;

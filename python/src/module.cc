@@ -40,11 +40,11 @@
 #include "core/limits.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
-#include "tools/experiment.h"
-#include "tools/generate.h"
-#include "tools/harness_runner.h"
-#include "tools/metric_image.h"
-#include "tools/sweep.h"
+#include "tools/harness/experiment.h"
+#include "tools/harness/generate.h"
+#include "tools/harness/harness_runner.h"
+#include "tools/harness/metric_image.h"
+#include "tools/harness/sweep.h"
 #include "turbid_version.h"
 
 namespace py = pybind11;

@@ -19,7 +19,7 @@
 
 #include "core/atomic_file.h"
 #include "tests/support/test_support.h"
-#include "tools/tables.h"
+#include "tools/harness/tables.h"
 
 namespace turbid {
 namespace {

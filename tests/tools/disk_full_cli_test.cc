@@ -28,10 +28,10 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "tests/support/test_support.h"
-#include "tools/experiment.h"
-#include "tools/harness_runner.h"
-#include "tools/sweep.h"
-#include "tools/tables.h"
+#include "tools/harness/experiment.h"
+#include "tools/harness/harness_runner.h"
+#include "tools/harness/sweep.h"
+#include "tools/harness/tables.h"
 
 namespace turbid {
 namespace {

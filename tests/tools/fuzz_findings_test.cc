@@ -12,9 +12,9 @@
 #include "core/error.h"
 #include "tests/support/test_support.h"
 #include "simulator/render.h"
-#include "tools/generate.h"
-#include "tools/manifest.h"
-#include "tools/sweep.h"
+#include "tools/harness/generate.h"
+#include "tools/harness/manifest.h"
+#include "tools/harness/sweep.h"
 
 namespace turbid {
 namespace {

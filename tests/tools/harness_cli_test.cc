@@ -19,7 +19,7 @@
 #include <thread>
 
 #include "tests/support/test_support.h"
-#include "tools/tables.h"
+#include "tools/harness/tables.h"
 
 namespace turbid {
 namespace {

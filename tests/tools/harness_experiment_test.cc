@@ -7,7 +7,7 @@
 #include "core/error.h"
 #include "tests/support/test_support.h"
 #include "tests/tools/harness_fakes.h"
-#include "tools/experiment.h"
+#include "tools/harness/experiment.h"
 
 namespace turbid {
 namespace {

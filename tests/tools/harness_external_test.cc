@@ -21,9 +21,9 @@
 
 #include "core/error.h"
 #include "tests/support/test_support.h"
-#include "tools/experiment.h"
-#include "tools/external_method.h"
-#include "tools/tables.h"
+#include "tools/harness/experiment.h"
+#include "tools/harness/external_method.h"
+#include "tools/harness/tables.h"
 
 namespace turbid {
 namespace {

@@ -11,9 +11,9 @@
 #include <thread>
 
 #include "core/error.h"
-#include "tools/experiment.h"
-#include "tools/sweep.h"
-#include "tools/tables.h"
+#include "tools/harness/experiment.h"
+#include "tools/harness/sweep.h"
+#include "tools/harness/tables.h"
 
 namespace turbid::testing {
 
@@ -56,7 +56,7 @@ inline HarnessCatalog FakeCatalog() {
         throw Error("unknown key '" + key + "'");
       }
     }
-    return out;
+    return ResolvedRender{out, nullptr};
   };
   catalog.check_scene = [](const std::string& spec) {
     if (spec != "builtin:a" && spec != "builtin:b" && spec != "a" && spec != "b") {

@@ -21,8 +21,8 @@
 #include "core/error.h"
 #include "tests/support/test_support.h"
 #include "tests/tools/harness_fakes.h"
-#include "tools/sweep.h"
-#include "tools/tables.h"
+#include "tools/harness/sweep.h"
+#include "tools/harness/tables.h"
 
 namespace turbid {
 namespace {

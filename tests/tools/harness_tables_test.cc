@@ -6,7 +6,7 @@
 #include "core/error.h"
 #include "tests/support/test_support.h"
 #include "tests/tools/harness_fakes.h"
-#include "tools/tables.h"
+#include "tools/harness/tables.h"
 
 namespace turbid {
 namespace {

@@ -1,6 +1,6 @@
 // The sweep's item scheduler: costliest runnable task first, one worker prepares a group while the
 // others run tasks of prepared groups, every task handed out exactly once, Stop wakes waiters.
-#include "tools/item_scheduler.h"
+#include "tools/harness/item_scheduler.h"
 
 #include <gtest/gtest.h>
 

@@ -22,7 +22,7 @@
 
 #include "tests/support/asan.h"
 #include "tests/support/test_support.h"
-#include "tools/cli.h"
+#include "tools/cli/cli.h"
 
 
 namespace turbid {

@@ -9,7 +9,7 @@
 
 #include "scenes/builtin.h"
 #include "simulator/render.h"
-#include "tools/generate.h"
+#include "tools/harness/generate.h"
 
 namespace turbid {
 namespace {

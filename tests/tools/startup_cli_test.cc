@@ -62,8 +62,8 @@ TEST(StartupCli, TiffInputsReadThroughThePlugin) {
   const auto t = nlohmann::json::parse(tiff.out).at("results")[0];
   const auto p = nlohmann::json::parse(png.out).at("results")[0];
   // The same pixels from either file. `score` keeps the integer codes of PNG/JPEG (range 255) but
-  // reads TIFF scaled to [0, 1] in float32 (tools/metric_image.cc, as before the plugin), so the
-  // two differ by float rounding only: 1e-6 (measured 6e-7 dB and 2e-8).
+  // reads TIFF scaled to [0, 1] in float32 (tools/harness/metric_image.cc, as before the plugin),
+  // so the two differ by float rounding only: 1e-6 (measured 6e-7 dB and 2e-8).
   EXPECT_NEAR(t.at("psnr").get<double>(), p.at("psnr").get<double>(), 1e-6);
   EXPECT_NEAR(t.at("ssim").get<double>(), p.at("ssim").get<double>(), 1e-6);
 }

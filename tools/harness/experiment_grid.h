@@ -1,0 +1,37 @@
+// The parts of experiment parsing that make conditions (tools/harness/experiment_grid.cc): grid
+// values, sampled parameters, and each condition's parameters and render options. Used by
+// experiment.cc; the public API (ExpandItems, LevelLabels, MixSeed, ...) is in experiment.h.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "tools/harness/experiment.h"
+
+namespace turbid {
+
+// Axis names and level labels reach the tables (CSV, Markdown), the plots and `regress` as text:
+// throws Error(file, ...) for a control character (a newline above all) in `text`.
+void CheckLabelText(const std::string& file, const std::string& what, const std::string& text);
+
+// The number `value` holds; throws Error(file, ...) when it is not a finite number.
+double FiniteNumber(const nlohmann::json& value, const std::string& file, const std::string& what);
+
+// Grid values: an array, or {"linspace": [lo, hi, n]} / {"logspace": [lo, hi, n]}, or a named
+// axis ("@name": [{path: value, "label": ...}, ...]).
+std::vector<nlohmann::json> GridValues(const nlohmann::json& spec, const std::string& file,
+                                       const std::string& path);
+
+// One "samples.params" entry: {"uniform"|"log_uniform"|"int_uniform": [lo, hi]} or
+// {"choice": [...]}.
+SampledParam ParseSampled(const std::string& path, const nlohmann::json& spec,
+                          const std::string& file);
+
+// Parameters of one condition (grid point x sample draw), in a fixed order.
+nlohmann::json ConditionParams(const Experiment& experiment, int condition);
+
+// The base render options with a condition's parameters applied.
+nlohmann::json ConditionRenderOptions(const Experiment& experiment, const nlohmann::json& params);
+
+}  // namespace turbid

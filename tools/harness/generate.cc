@@ -1,0 +1,505 @@
+// `turbid generate` as a library (tools/harness/generate.h). Moved out of tools/cli/cmd_render.cc
+// unchanged so that the Python package expands and samples items exactly as the CLI does.
+#include "tools/harness/generate.h"
+
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "scenes/image_io.h"
+#include "core/json_io.h"
+#include "core/limits.h"
+#include "core/safe_name.h"
+#include "scenes/scene_loader.h"
+#include "simulator/noise.h"
+#include "simulator/render.h"
+#include "tools/harness/tables.h"
+
+namespace turbid {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+// Sets a dotted path ("psf.forward_scatter", "light.lights.0.power") in a JSON object.
+void SetPath(json& root, const std::string& path, const json& value) {
+  json* node = &root;
+  std::stringstream stream(path);
+  std::string part;
+  std::vector<std::string> parts;
+  while (std::getline(stream, part, '.')) parts.push_back(part);
+  if (parts.empty()) throw Error("parameter path '" + path + "' is empty");
+  for (size_t i = 0; i < parts.size(); ++i) {
+    const bool last = i + 1 == parts.size();
+    const std::string& key = parts[i];
+    if (node->is_array()) {
+      // An index into the list, or its size to append one entry; nothing further (a huge index
+      // would append entries until memory runs out).
+      const bool digits = !key.empty() && key.size() <= 9 &&
+                          key.find_first_not_of("0123456789") == std::string::npos;
+      if (!digits) throw Error("parameter path '" + path + "': '" + key + "' is not an array index");
+      const size_t index = std::stoul(key);
+      if (index > node->size())
+        throw Error("parameter path '" + path + "': index " + key +
+                    " is past the end of a list of " + std::to_string(node->size()) + " (index " +
+                    std::to_string(node->size()) + " appends one)");
+      if (index == node->size()) node->push_back(json::object());
+      node = &(*node)[index];
+    } else {
+      if (!node->is_object()) *node = json::object();
+      node = &(*node)[key];
+    }
+    if (last) *node = value;
+  }
+}
+
+// Writes an image as PNG (`png_bits`, values coded with `transfer`) or float EXR / PFM (linear).
+void WriteMap(const std::string& path, const cv::Mat& image, int png_bits, bool overwrite,
+              Transfer transfer = Transfer::kLinear) {
+  WriteImageOptions options;
+  options.bit_depth = png_bits;
+  options.overwrite = overwrite;
+  options.transfer = transfer;
+  WriteImage(path, image, options);
+}
+
+// The encoding of an item's image and ground-truth files (linear for EXR datasets).
+std::string FileEncodingName(const json& params, const std::string& format) {
+  if (format == "exr") return "linear";
+  RenderOptions options = RenderOptionsFromJson(params);
+  return CameraEncodingName(options.camera.FileEncoding());
+}
+
+// Typed reads of a config's optional keys: absent gives `fallback`; a value of the wrong type is an
+// Error naming the file and the key (nlohmann's value() throws its own type_error, and converts a
+// float or negative number to an integer silently or with undefined behaviour).
+double ConfigNumber(const json& object, const char* key, double fallback,
+                    const std::string& file, const std::string& where) {
+  if (!object.contains(key)) return fallback;
+  if (!object[key].is_number()) throw Error(file, where + key + ": must be a number");
+  return object[key].get<double>();
+}
+
+uint64_t ConfigSeed(const json& object, const char* key, uint64_t fallback,
+                    const std::string& file, const std::string& where) {
+  if (!object.contains(key)) return fallback;
+  const json& v = object[key];
+  if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<int64_t>() >= 0))
+    throw Error(file, where + key + ": must be an integer in [0, 18446744073709551615]");
+  return v.get<uint64_t>();
+}
+
+const json& ConfigObject(const json& object, const char* key, const json& fallback,
+                         const std::string& file, const std::string& where) {
+  if (!object.contains(key)) return fallback;
+  if (!object[key].is_object()) throw Error(file, where + key + ": must be an object");
+  return object[key];
+}
+
+}  // namespace
+
+// SetPath for render parameters: indexing a light ("light.lights.0.power") starts from the
+// default light list when the parameters name none, so defaults are not written twice.
+void SetRenderParam(json& params, const std::string& path, const json& value) {
+  if (path.rfind("light.lights.", 0) == 0 &&
+      !(params.contains("light") && params["light"].is_object() &&
+        params["light"].contains("lights"))) {
+    // A "light" that is not an object is replaced, as SetPath replaces any non-object on a path.
+    if (!params.contains("light") || !params["light"].is_object()) params["light"] = json::object();
+    params["light"]["lights"] = RenderOptionsToJson(RenderOptions{})["light"]["lights"];
+  }
+  SetPath(params, path, value);
+}
+
+// "--set key=value": value parsed as JSON, else taken as a string.
+void ApplyRenderSet(json& params, const std::string& assignment) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw Error("--set '" + assignment + "': expected KEY=VALUE");
+  const std::string key = assignment.substr(0, eq), text = assignment.substr(eq + 1);
+  // The flag as the error names it (a long value shortened: the message stays one short line).
+  const std::string shown = assignment.size() > 60 ? assignment.substr(0, 57) + "..." : assignment;
+  std::optional<json> value = ParseJsonIfValid(text, "--set '" + shown + "'");
+  SetRenderParam(params, key, value ? std::move(*value) : json(text));
+}
+
+json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::string& path) {
+  if (!spec.is_object() || spec.size() != 1)
+    throw Error("generate: random.params." + path +
+                ": expected {\"uniform\": [lo, hi]}, "
+                "{\"log_uniform\": [lo, hi]} or {\"choice\": [...]}");
+  const std::string kind = spec.begin().key();
+  const json& args = spec.begin().value();
+  const double u = RandomUniform(key, index);
+  if (kind == "choice") {
+    if (!args.is_array() || args.empty())
+      throw Error("generate: random.params." + path + ".choice: non-empty array");
+    return args[std::min<size_t>(static_cast<size_t>(u * args.size()), args.size() - 1)];
+  }
+  if (!args.is_array() || args.size() != 2 || !args[0].is_number() || !args[1].is_number())
+    throw Error("generate: random.params." + path + "." + kind + ": expected [lo, hi]");
+  const double lo = args[0].get<double>(), hi = args[1].get<double>();
+  if (kind == "uniform") return lo + u * (hi - lo);
+  if (kind == "log_uniform") {
+    if (lo <= 0.0 || hi <= 0.0)
+      throw Error("generate: random.params." + path + ".log_uniform: bounds must be > 0");
+    return std::exp(std::log(lo) + u * (std::log(hi) - std::log(lo)));
+  }
+  throw Error("generate: random.params." + path + ": unknown distribution '" + kind + "'");
+}
+
+json GeneratePreset(const std::string& name) {
+  // The UWCNN synthesis recipes (Li, Anwar & Porikli 2020; docs/model.md "Models"): the ten
+  // Jerlov types with equal probability, a distance scale and the background light as published,
+  // no forward scatter, snow or noise (the recipes have none).
+  const json no_extras = {{"psf", {{"enabled", false}}},
+                          {"snow", {{"enabled", false}}},
+                          {"sensor", {{"enabled", false}}}};
+  const json types = json::array({"I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C"});
+  if (name == "uwcnn_nyu") {
+    json base = no_extras;
+    base["model"] = "uwcnn";
+    base["uwcnn"] = {{"backlight_scale", 1.5}};
+    return {{"base", base},
+            {"random_params",
+             {{"uwcnn.type", {{"choice", types}}},
+              {"uwcnn.max_distance_m", {{"uniform", {0.5, 15.0}}}},
+              {"uwcnn.backlight_exponent", {{"uniform", {3.0, 5.0}}}}}}};
+  }
+  if (name == "uwcnn_constant_b") {
+    json base = no_extras;
+    base["model"] = "uwcnn";
+    base["uwcnn"] = {{"backlight_scale", 0.8}, {"backlight_exponent", 0.0}};
+    return {{"base", base},
+            {"random_params",
+             {{"uwcnn.type", {{"choice", types}}},
+              {"uwcnn.max_distance_m", {{"uniform", {0.5, 10.0}}}}}}};
+  }
+  throw Error("generate: preset: unknown preset '" + name + "' (uwcnn_nyu, uwcnn_constant_b)");
+}
+
+GenerateConfig ParseGenerateConfig(const json& config, const std::string& config_path) {
+  if (!config.is_object()) throw Error(config_path, "must be a JSON object");
+  for (auto it = config.begin(); it != config.end(); ++it)
+    if (it.key() != "scenes" && it.key() != "scale" && it.key() != "base" && it.key() != "grid" &&
+        it.key() != "random" && it.key() != "seed" && it.key() != "format" &&
+        it.key() != "preset")
+      throw Error(config_path, it.key() +
+                                   ": unknown key (scenes, scale, base, grid, random, seed, format, "
+                                   "preset)");
+  json preset = {{"base", json::object()}, {"random_params", json::object()}};
+  if (config.contains("preset")) {
+    if (!config["preset"].is_string()) throw Error(config_path, "preset: must be a string");
+    try {
+      preset = GeneratePreset(config["preset"].get<std::string>());
+    } catch (const Error& e) {
+      throw Error(config_path, e.what());
+    }
+  }
+  if (!config.contains("scenes") || !config["scenes"].is_array() || config["scenes"].empty())
+    throw Error(config_path, "scenes: a non-empty array of scene specs is required");
+  GenerateConfig out;
+  out.source = config_path;
+  const json empty = json::object();
+  out.scale = ConfigNumber(config, "scale", 1.0, config_path, "");
+  out.seed = ConfigSeed(config, "seed", 0, config_path, "");
+  if (config.contains("format") && !config["format"].is_string())
+    throw Error(config_path, "format: png or exr");
+  out.format = config.value("format", std::string("png"));
+  if (out.format != "png" && out.format != "exr") throw Error(config_path, "format: png or exr");
+  // A preset's base and random draws come first; the config's own entries override them.
+  out.base = preset["base"];
+  out.base.merge_patch(ConfigObject(config, "base", empty, config_path, ""));
+  RenderOptionsFromJson(out.base);  // fail early on a bad base
+
+  // Grid: cartesian product over dotted parameter paths, in key order. Its size (times the
+  // samples) is checked against the item limit before the product is built.
+  out.combos = {json::object()};
+  if (config.contains("random") && config["random"].is_object()) {
+    const json& count = config["random"].value("count", json(1));
+    if (!count.is_number_integer() || count.get<int64_t>() < 1 || count.get<int64_t>() > 1000000)
+      throw Error(config_path, "random.count: must be an integer in [1, 1e6]");
+  }
+  const int64_t samples = config.contains("random") && config["random"].is_object()
+                              ? config["random"].value("count", json(1)).get<int64_t>()
+                              : 1;
+  if (config.contains("grid")) {
+    const json& grid = config["grid"];
+    if (!grid.is_object())
+      throw Error(config_path, "grid: must be an object of path -> array of values");
+    int64_t points = samples;
+    for (auto it = grid.begin(); it != grid.end(); ++it) {
+      if (!it.value().is_array() || it.value().empty())
+        throw Error(config_path, "grid." + it.key() + ": must be a non-empty array");
+      points = SaturatingProduct(points, static_cast<int64_t>(it.value().size()));
+    }
+    CheckItemCount(config_path, "the dataset (grid points x random.count)", points);
+    for (auto it = grid.begin(); it != grid.end(); ++it) {
+      std::vector<json> next;
+      for (const json& combo : out.combos)
+        for (const json& value : it.value()) {
+          json c = combo;
+          c[it.key()] = value;
+          next.push_back(c);
+        }
+      out.combos = next;
+    }
+  }
+  out.random_seed = out.seed;
+  if (config.contains("random")) {
+    const json& random = config["random"];
+    if (!random.is_object()) throw Error(config_path, "random: must be an object");
+    out.samples = static_cast<int>(samples);  // checked above, before the grid was expanded
+    out.random_seed = ConfigSeed(random, "seed", out.seed, config_path, "random.");
+    out.random_params = ConfigObject(random, "params", empty, config_path, "random.");
+  }
+  if (!preset["random_params"].empty()) {
+    json params = preset["random_params"];
+    for (auto it = out.random_params.begin(); it != out.random_params.end(); ++it)
+      params[it.key()] = it.value();
+    out.random_params = params;
+  }
+  LoadSceneOptions scene_options;
+  scene_options.builtin_scale = out.scale;
+  ThrowIfInvalid(scene_options, config_path + ": scale");
+  for (const json& spec : config["scenes"]) {
+    if (!spec.is_string()) throw Error(config_path, "scenes: entries must be strings");
+    // A multi-frame scene file (nyu_v2, folder) stands for every frame it selects.
+    for (const std::string& one : ExpandSceneSpec(spec.get<std::string>()))
+      out.scene_specs.push_back(one);
+  }
+  CheckItemCount(
+      config_path, "the dataset (scenes x grid points x random.count)",
+      SaturatingProduct(static_cast<int64_t>(out.scene_specs.size()),
+                        SaturatingProduct(static_cast<int64_t>(out.combos.size()), out.samples)));
+  return out;
+}
+
+void ApplyRandomDraw(json& params, const json& random_params, uint64_t random_seed,
+                     uint64_t draw_index) {
+  const uint64_t sample_key = RandomKey(random_seed, 0x5a4d);
+  uint64_t draw = 0;
+  for (auto it = random_params.begin(); it != random_params.end(); ++it, ++draw)
+    SetRenderParam(params, it.key(),
+                   SampleValue(it.value(), sample_key, draw_index * 64 + draw, it.key()));
+}
+
+uint64_t GenerateItemSeed(uint64_t seed, uint64_t index) {
+  return RandomBits(RandomKey(seed, 0x5eed), index) >> 1;
+}
+
+std::vector<GenerateItem> ExpandGenerateItems(const GenerateConfig& config,
+                                              const std::vector<std::string>& scene_names) {
+  // Scene names become file names (images/<name>_<index>.png, ...): one plain component each.
+  for (const std::string& name : scene_names) {
+    std::string why;
+    if (!IsSafeFileComponent(name, &why))
+      throw Error(config.source, "scene name '" + PrintableName(name) + "' " + why);
+  }
+  // Items and their fully resolved parameters (validated before any rendering starts).
+  std::vector<GenerateItem> items;
+  for (size_t s = 0; s < config.scene_specs.size(); ++s)
+    for (size_t g = 0; g < config.combos.size(); ++g)
+      for (int r = 0; r < config.samples; ++r) {
+        GenerateItem item;
+        item.index = static_cast<int>(items.size());
+        item.scene = s;
+        json params = config.base;
+        for (auto it = config.combos[g].begin(); it != config.combos[g].end(); ++it)
+          SetRenderParam(params, it.key(), it.value());
+        // Random samples depend on (random seed, grid point, sample number), not on the scene.
+        ApplyRandomDraw(params, config.random_params, config.random_seed, g * config.samples + r);
+        if (!params.contains("seed")) params["seed"] = GenerateItemSeed(config.seed, item.index);
+        try {
+          params = RenderOptionsToJson(RenderOptionsFromJson(params));
+        } catch (const Error& e) {
+          throw Error(config.source,
+                      std::string("item ") + std::to_string(item.index) + ": " + e.what());
+        }
+        item.params = params;
+        std::ostringstream id;
+        id << scene_names.at(s) << "_" << std::setw(6) << std::setfill('0') << item.index;
+        item.id = id.str();
+        items.push_back(item);
+      }
+  return items;
+}
+
+void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int threads) {
+  LoadSceneOptions scene_options;
+  scene_options.builtin_scale = config.scale;
+  std::vector<std::unique_ptr<Renderer>> renderers;
+  std::vector<std::string> names;
+  for (const std::string& spec : config.scene_specs) {
+    renderers.push_back(std::make_unique<Renderer>(LoadScene(spec, scene_options)));
+    names.push_back(renderers.back()->scene().name);
+  }
+  const std::vector<GenerateItem> items = ExpandGenerateItems(config, names);
+  const std::vector<std::string>& specs = config.scene_specs;
+  const std::string& format = config.format;
+  const double scale = config.scale;
+  using Item = GenerateItem;
+  const std::string ext = "." + format;
+  auto paths = [&](const Item& item) {
+    const fs::path dir(out_dir);
+    return std::array<std::string, 4>{(dir / "images" / (item.id + ext)).string(),
+                                      (dir / "ground_truth" / (item.id + ext)).string(),
+                                      (dir / "lit" / (item.id + ".pfm")).string(),
+                                      (dir / "sidecars" / (item.id + ".json")).string()};
+  };
+  // Two outputs never share a file (on a case-insensitive file system either), e.g. an item's
+  // degraded image and its ground truth.
+  {
+    std::map<std::string, std::string> owners;  // FileNameKey(path) -> item id
+    for (const Item& item : items) {
+      for (const std::string& path : paths(item)) {
+        const auto [it, inserted] = owners.emplace(FileNameKey(path), item.id);
+        if (!inserted) {
+          throw Error(path, "would be written twice (items '" + it->second + "' and '" + item.id +
+                                "'); give the scenes distinct names");
+        }
+      }
+    }
+  }
+  // One generate per folder at a time; holding the lock, the temporaries that killed earlier runs
+  // left (".NAME.tmpXXXX") are removed: their items are rendered again below.
+  const FolderLock lock(out_dir, "generate");
+  RemoveStaleTemporaries(out_dir, /*recursive=*/false);
+  for (const char* sub : {"images", "ground_truth", "lit", "sidecars"}) {
+    // Clean-up never follows a link: a planted link would aim it at another folder.
+    RefuseSymlink((fs::path(out_dir) / sub).string(), "cleans and writes");
+    RemoveStaleTemporaries((fs::path(out_dir) / sub).string(), /*recursive=*/true);
+    std::error_code ec;
+    fs::create_directories(fs::path(out_dir) / sub, ec);
+    if (ec) throw OutputError((fs::path(out_dir) / sub).string(), "cannot create: " + ec.message());
+  }
+  // An item is complete when its sidecar (written last) exists and names the same parameters.
+  auto complete = [&](const Item& item) {
+    const auto p = paths(item);
+    if (!fs::exists(p[3])) return false;
+    for (int i = 0; i < 3; ++i)
+      if (!fs::exists(p[i])) return false;
+    try {
+      return ReadJsonFile(p[3]).at("options") == item.params;
+    } catch (...) {
+      return false;
+    }
+  };
+
+  std::atomic<int> next{0}, done{0}, skipped{0};
+  std::atomic<bool> progress_shown{false};
+  std::mutex error_mutex;
+  std::string first_error;
+  bool output_error = false;
+  auto worker = [&] {
+    for (;;) {
+      const int i = next.fetch_add(1);
+      if (i >= static_cast<int>(items.size())) return;
+      {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!first_error.empty()) return;
+      }
+      const Item& item = items[i];
+      try {
+        if (complete(item)) {
+          ++skipped;
+        } else {
+          const auto p = paths(item);
+          const Renderer& renderer = *renderers[item.scene];
+          RenderOptions options = RenderOptionsFromJson(item.params);
+          if (format == "exr") options.camera.bit_depth = 32;
+          const RenderResult result = renderer.Render(options);
+          const int bits = options.camera.bit_depth == 32 ? 16 : options.camera.bit_depth;
+          // The ground truth goes through the same camera (encoding and bit depth) as the image,
+          // so an identity render scores SSIM 1 against it; lit J is float (PFM), linear.
+          const CameraEncoding encoding = options.camera.FileEncoding();
+          const cv::Mat& clean = renderer.scene().image;
+          WriteMap(p[0], result.image, bits, true, TransferFor(encoding));
+          WriteMap(p[1], format == "exr" ? clean : QuantiseEncoded(clean, encoding, bits), bits,
+                   true, TransferFor(encoding));
+          WriteMap(p[2], result.lit, 16, true);
+          json sidecar = result.sidecar;
+          sidecar["options"] = item.params;
+          sidecar["scene"]["spec"] = specs[item.scene];
+          sidecar["scene"]["builtin_scale"] = scale;
+          sidecar["item"] = {{"index", item.index}, {"id", item.id}};
+          sidecar["outputs"] = {{"image", "images/" + item.id + ext},
+                                {"ground_truth", "ground_truth/" + item.id + ext},
+                                {"lit", "lit/" + item.id + ".pfm"}};
+          AtomicWriteText(p[3], sidecar.dump(2) + "\n", true);
+        }
+        const int n = ++done;
+        if (n % 10 == 0 || n == static_cast<int>(items.size())) {
+          std::cerr << "generate: " << n << "/" << items.size() << " items\r" << std::flush;
+          progress_shown = true;
+        }
+      } catch (const OutputError& e) {
+        // A write of ours failed (a full disk...): the message names the file; the complete
+        // items stay, so a rerun after freeing space finishes the same bytes.
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (first_error.empty()) {
+          first_error = std::string(e.what()) +
+                        "; generate stopped (complete items are kept: run it again to continue)";
+          output_error = true;
+        }
+      } catch (const std::exception& e) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (first_error.empty()) first_error = item.id + ": " + e.what();
+      }
+    }
+  };
+  const int count = std::max(1, threads);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < count; ++t) pool.emplace_back(worker);
+  for (auto& t : pool) t.join();
+  if (progress_shown) std::cerr << "\n";  // an error after it starts a line of its own
+  if (output_error) throw OutputError(first_error);
+  if (!first_error.empty()) throw Error("generate: " + first_error);
+
+  // Manifest in item order: the same bytes whatever the thread count or interruption history.
+  std::string csv =
+      "index,id,scene,image,ground_truth,lit,sidecar,seed,beta_r,beta_g,beta_b,beta_gray,psf_T,psf_"
+      "q,encoding\n";
+  std::string jsonl;
+  for (const Item& item : items) {
+    const json& o = item.params;
+    const json& b = o["water"]["beta_rgb_per_m"];
+    std::ostringstream row;
+    row << item.index << "," << item.id << "," << CsvEscape(specs[item.scene]) << ",images/"
+        << item.id << ext << ",ground_truth/" << item.id << ext << ",lit/" << item.id
+        << ".pfm,sidecars/" << item.id << ".json," << o["seed"].get<uint64_t>() << ","
+        << b[0].dump() << "," << b[1].dump() << "," << b[2].dump() << ","
+        << o["water"]["beta_gray_per_m"].dump() << "," << o["psf"]["optical_thickness"].dump()
+        << "," << o["psf"]["forward_scatter"].dump() << "," << FileEncodingName(o, format) << "\n";
+    csv += row.str();
+    jsonl += json({{"index", item.index},
+                   {"id", item.id},
+                   {"scene", specs[item.scene]},
+                   {"image", "images/" + item.id + ext},
+                   {"ground_truth", "ground_truth/" + item.id + ext},
+                   {"lit", "lit/" + item.id + ".pfm"},
+                   {"sidecar", "sidecars/" + item.id + ".json"},
+                   {"encoding", FileEncodingName(o, format)},
+                   {"options", o}})
+                 .dump() +
+             "\n";
+  }
+  AtomicWriteText((fs::path(out_dir) / "manifest.csv").string(), csv, true);
+  AtomicWriteText((fs::path(out_dir) / "manifest.jsonl").string(), jsonl, true);
+  std::cout << "generate: " << items.size() << " items (" << skipped.load()
+            << " already complete) in " << out_dir << "\n";
+}
+
+}  // namespace turbid

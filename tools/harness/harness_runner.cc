@@ -1,0 +1,699 @@
+#include "tools/harness/harness_runner.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <filesystem>
+#include <mutex>
+#include <opencv2/imgproc.hpp>
+
+#include "enhancer/registry.h"
+#include "metrics/registry.h"
+#include "scenes/builtin.h"
+#include "core/error.h"
+#include "scenes/image_io.h"
+#include "core/safe_name.h"
+#include "scenes/scene_loader.h"
+#include "simulator/render.h"
+#include "tools/harness/external_method.h"
+
+namespace turbid {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+double MillisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::map<std::string, double> NanMetrics(const std::vector<std::string>& names) {
+  std::map<std::string, double> out;
+  for (const std::string& name : names) out[name] = std::nan("");
+  return out;
+}
+
+bool Selected(const ItemTask& task, const std::string& label) {
+  return task.only.empty() || std::find(task.only.begin(), task.only.end(), label) != task.only.end();
+}
+
+// A path of the experiment file (relative to its folder), made absolute.
+std::string ResolveAgainst(const std::string& base_dir, const std::string& path) {
+  const fs::path p(path);
+  if (p.is_absolute()) return path;
+  return fs::absolute(fs::path(base_dir.empty() ? "." : base_dir) / p).lexically_normal().string();
+}
+
+// Reads a method's output; errors name the file as `shown` (work folders are deleted).
+cv::Mat ReadOutput(const std::string& path, const std::string& shown, const std::string& encoding,
+                   const cv::Mat& degraded) {
+  try {
+    return ReadMethodOutput(path, encoding, degraded);
+  } catch (const Error& error) {
+    std::string message = error.what();
+    if (message.rfind(path, 0) == 0) message = shown + message.substr(path.size());
+    throw Error(message);
+  }
+}
+
+// "" when the external method's folders under OUT are real folders (or absent); otherwise why the
+// method cannot run: its work folder is removed and recreated, which must never go through a link.
+std::string ExternalFolderProblem(const std::string& out_dir, const std::string& folder) {
+  try {
+    RefuseSymlink(out_dir + "/external", "cleans and writes");
+    RefuseSymlink(folder, "cleans and writes");
+  } catch (const Error& error) {
+    return error.what();
+  }
+  return "";
+}
+
+// Working directory, environment and timeout of an external command method.
+ProcessOptions ProcessFor(const ExperimentMethod& method) {
+  const nlohmann::json& spec = method.external;
+  ProcessOptions process;
+  process.cwd = ResolveAgainst(method.base_dir, spec.at("cwd").get<std::string>());
+  for (const auto& [name, value] : spec.at("env").items()) {
+    process.env[name] = value.get<std::string>();
+  }
+  process.timeout_s = spec.at("timeout_s").get<double>();
+  return process;
+}
+
+Scene LoadExperimentScene(const ExperimentScene& scene) {
+  LoadSceneOptions options;
+  options.builtin_scale = scene.scale;
+  Scene loaded = LoadScene(scene.load_spec, options);
+  loaded.name = scene.name;
+  return loaded;
+}
+
+// Where RegistryCatalog puts each item's seed: RenderOptions::seed.
+constexpr const char* kRenderSeedPath = "seed";
+
+// The options an item renders with: its condition's, parsed once by ParseExperiment, with the
+// item's seed. An experiment that writes the seed elsewhere in the options (its own seed_path) or
+// was parsed without them renders from the item's JSON, as it was parsed before.
+RenderOptions ItemRenderOptions(const Experiment& experiment, const ItemSpec& item) {
+  if (item.render != nullptr && experiment.seed_path.empty()) return *item.render;
+  if (item.render != nullptr && experiment.seed_path == kRenderSeedPath) {
+    RenderOptions options = *item.render;
+    options.seed = item.seed;
+    return options;
+  }
+  return RenderOptionsFromJson(item.render_options);
+}
+
+}  // namespace
+
+HarnessCatalog RegistryCatalog() {
+  HarnessCatalog catalog;
+  catalog.check_method = [](const std::string& name, const json& params) {
+    const MethodInfo& info = FindMethod(name);
+    for (const auto& [key, value] : params.items()) {
+      bool known = false;
+      std::string list;
+      for (const MethodParam& param : info.params) {
+        known |= param.name == key;
+        list += (list.empty() ? "" : ", ") + param.name;
+      }
+      if (!known) {
+        throw Error("method '" + name + "' has no parameter '" + key + "' (" +
+                    (list.empty() ? "it takes none" : "known: " + list) + ")");
+      }
+    }
+  };
+  catalog.is_privileged = [](const std::string& name, const json& params) {
+    return IsPrivileged(name, params);
+  };
+  catalog.find_metric = [](const std::string& name) {
+    const MetricInfo& info = FindMetric(name);
+    return HarnessMetricInfo{info.name, info.higher_is_better, info.needs_reference,
+                             info.needs_original};
+  };
+  catalog.resolve_render = [](const json& options) {
+    auto parsed = std::make_shared<const RenderOptions>(RenderOptionsFromJson(options));
+    return ResolvedRender{RenderOptionsToJson(*parsed), std::move(parsed)};
+  };
+  catalog.check_scene = [](const std::string& spec) {
+    if (IsBuiltinSpec(spec)) {
+      const std::string name = BuiltinSpecName(spec);
+      for (const std::string& known : BuiltinSceneNames()) {
+        if (known == name) return;
+      }
+      throw Error("unknown built-in scene '" + name + "'");
+    }
+    ParseSceneFile(spec);  // strict schema and referenced files, without reading the images
+  };
+  catalog.default_seed_path = kRenderSeedPath;
+  return catalog;
+}
+
+bool HarnessRunnerOptions::Check(std::string* /*why*/) const { return true; }
+
+namespace {
+
+bool IsCommandMethod(const ExperimentMethod& method) {
+  return method.IsExternal() && method.external.value("kind", "") == "command";
+}
+
+}  // namespace
+
+void CheckCommandsAllowed(const Experiment& experiment, bool allowed, const std::string& how) {
+  if (allowed) return;
+  for (const ExperimentMethod& method : experiment.methods) {
+    if (!IsCommandMethod(method)) continue;
+    const json& command = method.external.at("command");
+    const std::string program = command.empty() ? "" : command[0].get<std::string>();
+    throw Error(experiment.source_path.empty() ? "experiment" : experiment.source_path,
+                "method '" + method.label + "' runs an external command (" + json(program).dump() +
+                    "); an experiment's commands run only with " + how +
+                    " (nothing in the experiment file can allow them)");
+  }
+}
+
+std::vector<std::string> DescribeCommands(const Experiment& experiment) {
+  std::vector<std::string> lines;
+  for (const ExperimentMethod& method : experiment.methods) {
+    if (!IsCommandMethod(method)) continue;
+    const json& spec = method.external;
+    const ProcessOptions process = ProcessFor(method);
+    std::string line =
+        "method '" + method.label + "' (" +
+        (spec.value("batch", false) ? "one process per batch of up to " +
+                                          std::to_string(spec.value("batch_size", 32)) + " items"
+                                    : std::string("one process per image")) +
+        "): command " + spec.at("command").dump() + ", cwd " + json(process.cwd).dump() + ", env " +
+        spec.at("env").dump();
+    lines.push_back(line);
+  }
+  return lines;
+}
+
+struct HarnessRunner::Pending {
+  cv::Mat degraded;
+  cv::Mat reference;
+};
+
+struct HarnessRunner::SceneContext {
+  std::once_flag once;
+  std::exception_ptr error;
+  Scene scene;
+  std::unique_ptr<Renderer> renderer;
+  std::map<std::string, double> reference_metrics;
+  std::atomic<bool> loaded{false};  // scene and renderer are set (Cost reads them)
+};
+
+HarnessRunner::HarnessRunner(const Experiment& experiment, std::string out_dir,
+                             const HarnessRunnerOptions& options)
+    : experiment_(experiment), out_dir_(std::move(out_dir)), options_(options) {
+  for (const HarnessMetricInfo& metric : experiment_.metrics) {
+    metric_names_.push_back(metric.name);
+    if (!metric.needs_reference && !metric.needs_original) {
+      reference_only_metrics_.push_back(metric.name);
+    }
+  }
+  for (size_t i = 0; i < experiment_.scenes.size(); ++i) {
+    contexts_.push_back(std::make_unique<SceneContext>());
+  }
+  CheckCommandsAllowed(experiment_, options_.allow_commands, options_.allow_commands_how);
+  for (const ExperimentMethod& method : experiment_.methods) {
+    if (!method.IsExternal() || method.external.at("kind") != "python") continue;
+    const std::string key = method.external.at("python").get<std::string>();
+    if (!options_.in_process.count(key)) {
+      throw Error("method '" + method.label + "' is a Python callable ('python': '" + key +
+                  "'): run the experiment from Python, turbid.sweep(experiment, out, methods={'" +
+                  key + "': f}) (docs/python.md)");
+    }
+  }
+}
+
+HarnessRunner::~HarnessRunner() = default;
+
+HarnessRunner::SceneContext& HarnessRunner::Context(int scene_index) const {
+  SceneContext& context = *contexts_.at(static_cast<size_t>(scene_index));
+  std::call_once(context.once, [&] {
+    const ScopedStage timed(options_.profile, "scene: load, clean scores, thumbnail");
+    try {
+      const ExperimentScene& spec = experiment_.scenes[static_cast<size_t>(scene_index)];
+      context.scene = LoadExperimentScene(spec);
+      context.renderer = std::make_unique<Renderer>(context.scene);
+      // The clean ground truth does not depend on the swept parameters: score it once.
+      if (experiment_.ground_truth == "clean" && !reference_only_metrics_.empty()) {
+        MetricInputs inputs;
+        inputs.image = context.scene.image;
+        context.reference_metrics = ComputeMetrics(reference_only_metrics_, inputs);
+      }
+      if (experiment_.thumbnail_width > 0) {
+        WriteThumbnail(out_dir_ + "/thumbs/" + spec.name + "/clean.png", context.scene.image,
+                       experiment_.thumbnail_width);
+      }
+      context.loaded = true;
+    } catch (...) {
+      context.error = std::current_exception();
+    }
+  });
+  if (context.error) std::rethrow_exception(context.error);
+  return context;
+}
+
+double HarnessRunner::Cost(const ItemTask& task) const {
+  const ItemSpec& item = *task.spec;
+  double values = 0.0;
+  const SceneContext& context = *contexts_.at(static_cast<size_t>(item.scene_index));
+  if (context.loaded.load()) {
+    values = static_cast<double>(context.scene.image.total()) * context.scene.image.channels();
+  } else {
+    const ExperimentScene& spec = experiment_.scenes[static_cast<size_t>(item.scene_index)];
+    if (IsBuiltinSpec(spec.load_spec)) {
+      try {
+        const CameraIntrinsics camera =
+            ScaleIntrinsics(BuiltinSceneCamera(BuiltinSpecName(spec.load_spec)), spec.scale);
+        values = static_cast<double>(camera.width) * camera.height;
+      } catch (const Error&) {
+        values = 0.0;  // an unknown name fails when the scene is loaded
+      }
+    }
+  }
+  int methods = 0;
+  for (const ExperimentMethod& method : experiment_.methods) methods += Selected(task, method.label);
+  return values * (methods + 1);
+}
+
+ItemResult HarnessRunner::Run(const ItemSpec& item) const { return Run(ItemTask{&item, {}}); }
+
+ItemResult HarnessRunner::Run(const ItemTask& task) const {
+  const ItemSpec& item = *task.spec;
+  const ExperimentScene& scene_spec = experiment_.scenes[static_cast<size_t>(item.scene_index)];
+  // Without reuse every item starts from nothing: load, a fresh renderer, ground-truth scores.
+  std::unique_ptr<SceneContext> fresh;
+  const Scene* scene = nullptr;
+  const Renderer* renderer = nullptr;
+  std::map<std::string, double> reference_metrics;
+  if (options_.reuse) {
+    SceneContext& context = Context(item.scene_index);
+    scene = &context.scene;
+    renderer = context.renderer.get();
+    reference_metrics = context.reference_metrics;
+  } else {
+    const ScopedStage timed(options_.profile, "scene: load, clean scores, thumbnail");
+    fresh = std::make_unique<SceneContext>();
+    fresh->scene = LoadExperimentScene(scene_spec);
+    fresh->renderer = std::make_unique<Renderer>(fresh->scene);
+    scene = &fresh->scene;
+    renderer = fresh->renderer.get();
+    if (experiment_.ground_truth == "clean" && !reference_only_metrics_.empty()) {
+      MetricInputs inputs;
+      inputs.image = scene->image;
+      reference_metrics = ComputeMetrics(reference_only_metrics_, inputs);
+    }
+  }
+
+  ItemResult result;
+  result.width = scene->width();
+  result.height = scene->height();
+  const std::string thumbs = out_dir_ + "/thumbs/" + item.id;
+  const auto start_render = Clock::now();
+  RenderResult render;
+  try {
+    render = renderer->Render(ItemRenderOptions(experiment_, item));
+  } catch (const Error& error) {
+    result.error = std::string("render: ") + error.what();
+    for (const ExperimentMethod& method : experiment_.methods) {
+      if (!Selected(task, method.label)) continue;
+      result.methods.push_back({method.label, NanMetrics(metric_names_), result.error, 0.0});
+    }
+    return result;
+  }
+  result.render_ms = MillisecondsSince(start_render);
+  if (options_.profile) options_.profile->Add("render", result.render_ms);
+
+  // Ground truth: the clean rho, or the lit J clipped to the metrics' [0, 1] range.
+  cv::Mat reference = scene->image;
+  if (experiment_.ground_truth == "lit") {
+    cv::min(cv::max(render.lit, 0.0), 1.0, reference);
+    if (!reference_only_metrics_.empty()) {
+      MetricInputs inputs;
+      inputs.image = reference;
+      reference_metrics = ComputeMetrics(reference_only_metrics_, inputs);
+    }
+  }
+  result.reference_metrics = reference_metrics;
+  if (experiment_.thumbnail_width > 0) {
+    const ScopedStage timed(options_.profile, "I/O: thumbnails");
+    WriteThumbnail(thumbs + "/degraded.png", render.image, experiment_.thumbnail_width);
+    if (experiment_.ground_truth == "lit") {
+      WriteThumbnail(thumbs + "/lit.png", reference, experiment_.thumbnail_width);
+    }
+  }
+
+  bool batch_pending = false;
+  // The degraded image's visible-edge analysis, shared by the scores of every method of the item.
+  const std::shared_ptr<OriginalCache> original_cache = NewOriginalCache();
+  for (const ExperimentMethod& method : experiment_.methods) {
+    if (!Selected(task, method.label)) continue;
+    MethodResult row;
+    row.label = method.label;
+    if (method.IsBatch()) {
+      // Run once for the whole batch by FinishBatch; this row is replaced there.
+      row.metrics = NanMetrics(metric_names_);
+      row.error = "batch method not run";
+      batch_pending = true;
+      result.methods.push_back(std::move(row));
+      continue;
+    }
+    cv::Mat enhanced;
+    const auto start = Clock::now();
+    try {
+      if (method.name == "none" && !method.IsExternal()) {
+        enhanced = render.image;
+      } else if (method.IsExternal()) {
+        enhanced = RunExternal(method, item.id, render.image, &row.time_ms);
+      } else {
+        EnhanceInput input;
+        input.image = render.image;
+        input.scene = scene;
+        input.sidecar = &render.sidecar;
+        enhanced = Enhance(method.name, method.params, input);
+      }
+      if (!method.IsExternal()) row.time_ms = MillisecondsSince(start);
+      if (options_.profile && std::isfinite(row.time_ms))
+        options_.profile->Add("method " + method.label, row.time_ms);
+      Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
+            reference, render.image, &row, original_cache.get());
+    } catch (const OutputError&) {
+      throw;  // our own write failed (full disk...): not the method's failure; the sweep stops
+    } catch (const std::exception& error) {
+      if (row.time_ms == 0.0) row.time_ms = MillisecondsSince(start);
+      row.error = error.what();
+      row.metrics = NanMetrics(metric_names_);
+    }
+    result.methods.push_back(std::move(row));
+  }
+  if (batch_pending) {
+    auto pending = std::make_unique<Pending>();
+    pending->degraded = render.image;
+    pending->reference = reference;
+    std::lock_guard<std::mutex> lock(pending_mutex_);
+    pending_[item.id] = std::move(pending);
+  }
+  return result;
+}
+
+void HarnessRunner::Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,
+                          const cv::Mat& reference, const cv::Mat& degraded, MethodResult* row,
+                          OriginalCache* original_cache) const {
+  MetricInputs inputs;
+  inputs.reference = reference;
+  inputs.image = enhanced;
+  inputs.original = degraded;
+  inputs.original_cache = original_cache;
+  if (options_.profile == nullptr) {
+    row->metrics = ComputeMetrics(metric_names_, inputs);
+  } else {
+    std::map<std::string, double> elapsed;
+    row->metrics = ComputeMetrics(metric_names_, inputs, &elapsed);
+    for (const auto& [name, ms] : elapsed) options_.profile->Add("metric " + name, ms);
+  }
+  if (experiment_.thumbnail_width > 0 && !label.empty()) {
+    const ScopedStage timed(options_.profile, "I/O: thumbnails");
+    WriteThumbnail(out_dir_ + "/thumbs/" + id + "/" + label + ".png", enhanced,
+                   experiment_.thumbnail_width);
+  }
+}
+
+std::vector<cv::Mat> HarnessRunner::RunInProcess(const ExperimentMethod& method,
+                                                 const std::vector<cv::Mat>& degraded,
+                                                 const std::vector<std::string>& ids) const {
+  const InProcessMethod& run =
+      options_.in_process.at(method.external.at("python").get<std::string>());
+  std::vector<cv::Mat> outputs;
+  try {
+    outputs = run(method.external, degraded, ids);
+  } catch (const OutputError& error) {
+    throw Error(error.what());  // the method's own write failed: a failure of the method
+  }
+  if (outputs.size() != degraded.size()) {
+    throw Error("returned " + std::to_string(outputs.size()) + " images for " +
+                std::to_string(degraded.size()) + " inputs");
+  }
+  for (size_t k = 0; k < outputs.size(); ++k) {
+    outputs[k] = CheckMethodOutput(outputs[k], degraded[k],
+                                   degraded.size() > 1 ? "output for " + ids[k] : "");
+  }
+  return outputs;
+}
+
+cv::Mat HarnessRunner::RunExternal(const ExperimentMethod& method, const std::string& id,
+                                   const cv::Mat& degraded, double* time_ms) const {
+  const nlohmann::json& spec = method.external;
+  if (spec.at("kind") == "python") {  // a failed call is timed by Run, as every failed method
+    const auto start = Clock::now();
+    const std::vector<cv::Mat> out = RunInProcess(method, {degraded}, {id});
+    *time_ms = MillisecondsSince(start);
+    return out[0];
+  }
+  if (spec.at("kind") == "results") {
+    *time_ms = std::nan("");  // nothing ran
+    const std::string pattern = spec.at("results").get<std::string>();
+    const std::string written = ExpandCommand(nlohmann::json::array({pattern}), {{"id", id}})[0];
+    const std::string path = ResolveAgainst(method.base_dir, written);
+    if (!fs::exists(path)) throw Error("missing results file " + written);
+    return ReadOutput(path, written, spec.at("encoding").get<std::string>(), degraded);
+  }
+  const std::string folder = out_dir_ + "/external/" + method.label;
+  const std::string work = fs::absolute(folder + "/work-" + id).string();
+  if (const std::string link = ExternalFolderProblem(out_dir_, folder); !link.empty()) {
+    throw Error(link);
+  }
+  std::error_code ec;
+  fs::remove_all(work, ec);
+  fs::create_directories(work + "/in", ec);
+  if (!ec) fs::create_directories(work + "/out", ec);
+  if (ec) throw OutputError(work, "cannot create the work folder: " + ec.message());
+  const std::string input = work + "/in/" + id + InputExtension(spec);
+  const std::string output = work + "/out/" + id + OutputExtension(spec);
+  WriteMethodInput(input, degraded, spec.at("input"));
+  ProcessOptions process = ProcessFor(method);
+  process.argv = ExpandCommand(spec.at("command"),
+                               {{"input", input}, {"output", output}, {"id", id}});
+  process.log_path = folder + "/" + id + ".log";
+  const ProcessResult ran = RunProcess(process);
+  *time_ms = ran.wall_ms;
+  const std::string failure = ran.Failure();
+  cv::Mat enhanced;
+  std::string problem;
+  if (!failure.empty()) {
+    problem = failure + " (log: external/" + method.label + "/" + id + ".log)";
+  } else if (!fs::exists(output)) {
+    const std::string other = FindOutputFile(work + "/out", id);
+    if (other.empty()) {
+      problem = "wrote no output (expected " + id + OutputExtension(spec) + ")";
+    } else {
+      try {
+        enhanced = ReadOutput(other, fs::path(other).filename().string(),
+                              spec.at("output").at("encoding").get<std::string>(), degraded);
+      } catch (const Error& error) {
+        problem = error.what();
+      }
+    }
+  } else {
+    try {
+      enhanced = ReadOutput(output, fs::path(output).filename().string(),
+                            spec.at("output").at("encoding").get<std::string>(), degraded);
+    } catch (const Error& error) {
+      problem = error.what();
+    }
+  }
+  fs::remove_all(work, ec);
+  if (!problem.empty()) throw Error(problem);
+  fs::remove(process.log_path, ec);  // logs are kept for failures only
+  return enhanced;
+}
+
+void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
+                                std::vector<ItemResult>* results) const {
+  for (const ExperimentMethod& method : experiment_.methods) {
+    if (!method.IsBatch()) continue;
+    const nlohmann::json& spec = method.external;
+    // The items of this batch that wait for this method (rendered, selected).
+    std::vector<size_t> members;
+    {
+      std::lock_guard<std::mutex> lock(pending_mutex_);
+      for (size_t k = 0; k < tasks.size(); ++k) {
+        if (Selected(tasks[k], method.label) && pending_.count(tasks[k].spec->id)) {
+          members.push_back(k);
+        }
+      }
+    }
+    if (members.empty()) continue;
+    const auto pending_of = [&](size_t k) -> const Pending& {
+      std::lock_guard<std::mutex> lock(pending_mutex_);
+      return *pending_.at(tasks[k].spec->id);
+    };
+    const auto row_of = [&](size_t k) -> MethodResult& {
+      for (MethodResult& row : (*results)[k].methods) {
+        if (row.label == method.label) return row;
+      }
+      throw Error("internal: no row for " + method.label);
+    };
+    if (spec.at("kind") == "python") {
+      // One call for the batch; outputs are checked and scored per item.
+      std::vector<cv::Mat> degraded;
+      std::vector<std::string> ids;
+      for (size_t k : members) {
+        degraded.push_back(pending_of(k).degraded);
+        ids.push_back(tasks[k].spec->id);
+      }
+      std::vector<cv::Mat> outputs;
+      std::string problem;
+      const auto start = Clock::now();
+      try {
+        outputs = RunInProcess(method, degraded, ids);
+      } catch (const OutputError&) {
+        throw;
+      } catch (const std::exception& error) {
+        problem = error.what();
+      }
+      const double share_ms = MillisecondsSince(start) / static_cast<double>(members.size());
+      if (options_.profile)
+        options_.profile->Add("method " + method.label, share_ms * static_cast<double>(members.size()));
+      for (size_t m = 0; m < members.size(); ++m) {
+        MethodResult& row = row_of(members[m]);
+        row.time_ms = share_ms;
+        row.time_is_batch_share = true;
+        row.metrics = NanMetrics(metric_names_);
+        row.error = problem;
+        if (!problem.empty()) continue;
+        try {
+          const Pending& pending = pending_of(members[m]);
+          Score(ids[m], method.label, outputs[m], pending.reference, pending.degraded, &row);
+          row.error.clear();
+        } catch (const OutputError&) {
+          throw;
+        } catch (const std::exception& error) {
+          row.error = error.what();
+          row.metrics = NanMetrics(metric_names_);
+        }
+      }
+      continue;
+    }
+    const std::string first_id = tasks[members.front()].spec->id;
+    const std::string folder = out_dir_ + "/external/" + method.label;
+    const std::string work = fs::absolute(folder + "/work-" + first_id).string();
+    const std::string log_name = "batch-" + first_id + ".log";
+    std::error_code ec;
+    std::string batch_problem = ExternalFolderProblem(out_dir_, folder);
+    if (batch_problem.empty()) {
+      fs::remove_all(work, ec);
+      fs::create_directories(work + "/in", ec);
+      if (!ec) fs::create_directories(work + "/out", ec);
+      if (ec) throw OutputError(work, "cannot create the work folder: " + ec.message());
+    }
+    for (size_t k : members) {
+      if (!batch_problem.empty()) break;
+      try {
+        WriteMethodInput(work + "/in/" + tasks[k].spec->id + InputExtension(spec),
+                         pending_of(k).degraded, spec.at("input"));
+      } catch (const OutputError&) {
+        throw;
+      } catch (const Error& error) {
+        batch_problem = std::string("cannot write the inputs: ") + error.what();
+      }
+    }
+    double share_ms = 0.0;
+    if (batch_problem.empty()) {
+      ProcessOptions process = ProcessFor(method);
+      process.argv = ExpandCommand(spec.at("command"),
+                                   {{"input_dir", work + "/in"}, {"output_dir", work + "/out"}});
+      process.log_path = folder + "/" + log_name;
+      const ProcessResult ran = RunProcess(process);
+      share_ms = ran.wall_ms / static_cast<double>(members.size());
+      if (options_.profile) options_.profile->Add("method " + method.label, ran.wall_ms);
+      const std::string failure = ran.Failure();
+      if (!failure.empty()) {
+        batch_problem = failure + " (log: external/" + method.label + "/" + log_name + ")";
+      } else {
+        fs::remove(process.log_path, ec);  // logs are kept for failures only
+      }
+    }
+    for (size_t k : members) {
+      MethodResult& row = row_of(k);
+      row.time_ms = share_ms;
+      row.time_is_batch_share = true;
+      row.metrics = NanMetrics(metric_names_);
+      row.error = batch_problem;
+      if (!batch_problem.empty()) continue;
+      const std::string& id = tasks[k].spec->id;
+      try {
+        const std::string path = FindOutputFile(work + "/out", id);
+        if (path.empty()) throw Error("wrote no output for this item (expected " + id + ".*)");
+        const Pending& pending = pending_of(k);
+        const cv::Mat enhanced =
+            ReadOutput(path, fs::path(path).filename().string(),
+                       spec.at("output").at("encoding").get<std::string>(), pending.degraded);
+        Score(id, method.label, enhanced, pending.reference, pending.degraded, &row);
+        row.error.clear();
+      } catch (const OutputError&) {
+        throw;
+      } catch (const std::exception& error) {
+        row.error = error.what();
+        row.metrics = NanMetrics(metric_names_);
+      }
+    }
+    if (ExternalFolderProblem(out_dir_, folder).empty()) fs::remove_all(work, ec);
+  }
+  std::lock_guard<std::mutex> lock(pending_mutex_);
+  for (const ItemTask& task : tasks) pending_.erase(task.spec->id);
+}
+
+SweepHooks HarnessRunner::Hooks() const {
+  SweepHooks hooks;
+  hooks.run = [this](const ItemTask& task) { return Run(task); };
+  hooks.cost = [this](const ItemTask& task) { return Cost(task); };
+  if (options_.reuse) {
+    // One worker builds a scene (the built-in hull takes about a second) while the others run the
+    // items of scenes already built; a failed build is reported by the scene's items.
+    hooks.group = [](const ItemTask& task) { return task.spec->scene_index; };
+    hooks.prepare = [this](int scene_index) {
+      try {
+        Context(scene_index);
+      } catch (...) {
+      }
+    };
+  }
+  int batch = 0;
+  for (const ExperimentMethod& method : experiment_.methods) {
+    if (!method.IsBatch()) continue;
+    const int size = method.external.value("batch_size", 32);
+    batch = batch == 0 ? size : std::min(batch, size);
+  }
+  if (batch > 0) {
+    hooks.finish = [this](const std::vector<ItemTask>& tasks, std::vector<ItemResult>* results) {
+      FinishBatch(tasks, results);
+    };
+    hooks.batch_items = batch;
+  }
+  return hooks;
+}
+
+void WriteThumbnail(const std::string& path, const cv::Mat& linear, int width) {
+  std::error_code ec;
+  fs::create_directories(fs::path(path).parent_path(), ec);
+  if (ec) throw OutputError(path, "cannot create the thumbnail folder: " + ec.message());
+  cv::Mat small = linear;
+  if (linear.cols > width) {
+    const int height = std::max(
+        1, static_cast<int>(std::lround(static_cast<double>(linear.rows) * width / linear.cols)));
+    cv::resize(linear, small, cv::Size(width, height), 0, 0, cv::INTER_AREA);
+  }
+  WriteImageOptions options;
+  options.transfer = Transfer::kSrgb;
+  options.overwrite = true;  // a killed item may have left its thumbnails; they are rewritten
+  WriteImage(path, small, options);
+}
+
+}  // namespace turbid

@@ -1,0 +1,730 @@
+#include "tools/harness/tables.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <optional>
+#include <set>
+#include <sstream>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/input_file.h"
+#include "core/json_io.h"
+
+namespace turbid {
+namespace {
+
+// A method's column header: its label, with a dagger when it is privileged.
+std::string MethodHeader(const ExperimentMethod& m) {
+  return m.privileged ? m.label + " †" : m.label;
+}
+
+
+using nlohmann::json;
+
+json ValueToJson(double value) {
+  if (std::isfinite(value)) return value;
+  return FormatValue(value);
+}
+
+double ValueFromJson(const json& value) {
+  if (value.is_number()) return value.get<double>();
+  if (value.is_string()) return ParseValue(value.get<std::string>());
+  if (value.is_null()) return std::nan("");
+  throw Error("metric value must be a number or inf/-inf/nan, got " + value.dump());
+}
+
+json MetricsToJson(const std::map<std::string, double>& metrics) {
+  json out = json::object();
+  for (const auto& [name, value] : metrics) out[name] = ValueToJson(value);
+  return out;
+}
+
+std::map<std::string, double> MetricsFromJson(const json& in) {
+  std::map<std::string, double> out;
+  for (const auto& [name, value] : in.items()) out[name] = ValueFromJson(value);
+  return out;
+}
+
+std::string ParamText(const json& value) {
+  if (value.is_object() && value.contains("label")) return value["label"].get<std::string>();
+  return value.is_string() ? value.get<std::string>() : value.dump();
+}
+
+// Formats a summary cell "mean ± sd" with 4 significant digits.
+std::string FormatCell(const Stats& stats) {
+  if (stats.n == 0) return "–";
+  char buffer[96];
+  if (!std::isfinite(stats.mean)) return FormatValue(stats.mean);
+  if (stats.n == 1) {
+    std::snprintf(buffer, sizeof buffer, "%.4g", stats.mean);
+  } else {
+    std::snprintf(buffer, sizeof buffer, "%.4g ± %.2g", stats.mean, stats.sd);
+  }
+  return buffer;
+}
+
+// Indices of the best finite means among `stats` (ties all marked); excluded columns skipped.
+std::set<size_t> BestColumns(const std::vector<Stats>& stats, const std::vector<bool>& excluded,
+                             bool higher_is_better) {
+  std::set<size_t> best;
+  double best_value = 0.0;
+  bool any = false;
+  for (size_t i = 0; i < stats.size(); ++i) {
+    if (excluded[i] || stats[i].n == 0 || std::isnan(stats[i].mean)) continue;
+    const double v = stats[i].mean;
+    const bool better = !any || (higher_is_better ? v > best_value : v < best_value);
+    if (better) {
+      best = {i};
+      best_value = v;
+      any = true;
+    } else if (v == best_value) {
+      best.insert(i);
+    }
+  }
+  return best;
+}
+
+std::string SizeLabel(const ItemResult& item) {
+  return std::to_string(item.width) + "x" + std::to_string(item.height);
+}
+
+struct CsvTable {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  int Column(const std::string& name) const {
+    for (size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name) return static_cast<int>(i);
+    }
+    return -1;
+  }
+};
+
+CsvTable ReadCsv(const std::string& path) {
+  CheckInputFile(path);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path, "cannot open");
+  CsvTable table;
+  std::string line;
+  int line_number = 0;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    std::vector<std::string> fields = SplitCsvLine(line);
+    if (table.header.empty()) {
+      table.header = std::move(fields);
+    } else {
+      if (fields.size() != table.header.size()) {
+        throw Error(path, "line " + std::to_string(line_number) + " has " +
+                              std::to_string(fields.size()) + " fields, header has " +
+                              std::to_string(table.header.size()));
+      }
+      table.rows.push_back(std::move(fields));
+    }
+  }
+  if (table.header.empty()) throw Error(path, "empty CSV file");
+  return table;
+}
+
+// A table reduced to key -> metric -> value for the regression check.
+struct KeyedValues {
+  std::vector<std::string> keys;  // in file order
+  std::map<std::string, std::map<std::string, std::string>> values;
+  std::vector<std::string> metrics;  // in file order (items.csv kind)
+};
+
+KeyedValues Keyed(const CsvTable& table, const std::string& path, bool* is_summary) {
+  KeyedValues keyed;
+  const bool summary = table.Column("level") >= 0 && table.Column("metric") >= 0 &&
+                       table.Column("mean") >= 0 && table.Column("method") >= 0;
+  const bool items = table.Column("id") >= 0 && table.Column("method") >= 0;
+  if (!summary && !items) {
+    throw Error(path, "not a sweep table (need items.csv or summary.csv columns)");
+  }
+  *is_summary = summary;
+  const auto add = [&](const std::string& key, const std::string& metric, const std::string& v) {
+    if (!keyed.values.count(key)) keyed.keys.push_back(key);
+    if (keyed.values[key].count(metric)) throw Error(path, "duplicate row '" + key + "'");
+    keyed.values[key][metric] = v;
+  };
+  if (summary) {
+    const int level = table.Column("level"), method = table.Column("method");
+    const int metric = table.Column("metric"), mean = table.Column("mean");
+    for (const auto& row : table.rows) add(row[level] + " " + row[method], row[metric], row[mean]);
+    return keyed;
+  }
+  const int id = table.Column("id"), method = table.Column("method");
+  const std::set<std::string> fixed = {"id", "scene", "condition", "level", "method", "error"};
+  std::vector<int> metric_columns;
+  for (size_t i = 0; i < table.header.size(); ++i) {
+    if (fixed.count(table.header[i]) || table.header[i].rfind("param:", 0) == 0) continue;
+    metric_columns.push_back(static_cast<int>(i));
+    keyed.metrics.push_back(table.header[i]);
+  }
+  for (const auto& row : table.rows) {
+    for (int c : metric_columns) add(row[id] + " " + row[method], table.header[c], row[c]);
+  }
+  return keyed;
+}
+
+}  // namespace
+
+std::string FormatValue(double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.10g", value);
+  return buffer;
+}
+
+double ParseValue(const std::string& text) {
+  if (text == "inf" || text == "+inf") return HUGE_VAL;
+  if (text == "-inf") return -HUGE_VAL;
+  if (text == "nan" || text.empty()) return std::nan("");
+  size_t used = 0;
+  double value = 0.0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != text.size() || used == 0) throw Error("'" + text + "' is not a number");
+  return value;
+}
+
+std::string CsvEscape(const std::string& field) {
+  if (field.find_first_of(",\"\n\r") == std::string::npos) return field;
+  std::string out = "\"";
+  for (char c : field) {
+    if (c == '"') out += '"';
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::vector<std::string> SplitCsvLine(const std::string& line) {
+  std::vector<std::string> fields;
+  std::string field;
+  bool quoted = false;
+  for (size_t i = 0; i < line.size(); ++i) {
+    const char c = line[i];
+    if (quoted) {
+      if (c == '"' && i + 1 < line.size() && line[i + 1] == '"') {
+        field += '"';
+        ++i;
+      } else if (c == '"') {
+        quoted = false;
+      } else {
+        field += c;
+      }
+    } else if (c == '"') {
+      quoted = true;
+    } else if (c == ',') {
+      fields.push_back(std::move(field));
+      field.clear();
+    } else if (c != '\r') {  // CRLF files: a bare CR outside quotes is line-ending residue
+      field += c;
+    }
+  }
+  fields.push_back(std::move(field));
+  return fields;
+}
+
+json ItemResultToJson(const ItemResult& item, bool with_timing) {
+  json out = json::object();
+  out["index"] = item.index;
+  out["id"] = item.id;
+  out["scene"] = item.scene;
+  out["condition"] = item.condition;
+  out["level"] = item.level;
+  out["level_value"] = item.level_value;
+  out["params"] = item.params;
+  out["seed"] = item.seed;
+  out["width"] = item.width;
+  out["height"] = item.height;
+  if (!item.error.empty()) out["error"] = item.error;
+  json methods = json::array();
+  for (const MethodResult& m : item.methods) {
+    json row = {{"method", m.label}, {"metrics", MetricsToJson(m.metrics)}};
+    if (!m.error.empty()) row["error"] = m.error;
+    if (with_timing) {
+      row["time_ms"] = ValueToJson(m.time_ms);
+      if (m.time_is_batch_share) row["time_batch"] = true;
+    }
+    methods.push_back(row);
+  }
+  out["methods"] = methods;
+  out["reference_metrics"] = MetricsToJson(item.reference_metrics);
+  if (with_timing) out["render_ms"] = item.render_ms;
+  return out;
+}
+
+namespace {
+// An int field of a journaled item (index, condition, width, height): an integral number in
+// [0, INT_MAX]; anything else is a malformed entry (never a cast of 1e300 or of a string).
+int ItemInt(const json& in, const char* key) {
+  const std::optional<int64_t> v = JsonInteger(in.at(key), 0, std::numeric_limits<int>::max());
+  if (!v) throw Error(std::string("malformed item result: ") + key + " is not an integer >= 0");
+  return static_cast<int>(*v);
+}
+}  // namespace
+
+ItemResult ItemResultFromJson(const json& in) {
+  try {
+    ItemResult item;
+    item.index = ItemInt(in, "index");
+    item.id = in.at("id").get<std::string>();
+    item.scene = in.at("scene").get<std::string>();
+    item.condition = ItemInt(in, "condition");
+    item.level = in.at("level").get<std::string>();
+    item.level_value = in.at("level_value").get<double>();
+    item.params = in.at("params");
+    const std::optional<uint64_t> seed = JsonUnsigned(in.at("seed"));
+    if (!seed) throw Error("malformed item result: seed is not an unsigned 64-bit integer");
+    item.seed = *seed;
+    item.width = ItemInt(in, "width");
+    item.height = ItemInt(in, "height");
+    item.error = in.value("error", "");
+    for (const json& row : in.at("methods")) {
+      MethodResult m;
+      m.label = row.at("method").get<std::string>();
+      m.metrics = MetricsFromJson(row.at("metrics"));
+      m.error = row.value("error", "");
+      m.time_ms = row.contains("time_ms") ? ValueFromJson(row["time_ms"]) : 0.0;
+      m.time_is_batch_share = row.value("time_batch", false);
+      item.methods.push_back(std::move(m));
+    }
+    item.reference_metrics = MetricsFromJson(in.at("reference_metrics"));
+    item.render_ms = in.value("render_ms", 0.0);
+    return item;
+  } catch (const json::exception& error) {
+    throw Error(std::string("malformed item result: ") + error.what());
+  }
+}
+
+Stats ComputeStats(const std::vector<double>& values) {
+  Stats stats;
+  double sum = 0.0;
+  for (double v : values) {
+    if (std::isnan(v)) continue;
+    if (stats.n == 0) stats.min = stats.max = v;
+    stats.min = std::min(stats.min, v);
+    stats.max = std::max(stats.max, v);
+    sum += v;
+    ++stats.n;
+  }
+  if (stats.n == 0) return stats;
+  stats.mean = sum / stats.n;
+  if (stats.n > 1 && std::isfinite(stats.mean)) {
+    double squares = 0.0;
+    for (double v : values) {
+      if (!std::isnan(v)) squares += (v - stats.mean) * (v - stats.mean);
+    }
+    stats.sd = std::sqrt(squares / (stats.n - 1));
+  }
+  return stats;
+}
+
+std::vector<SummaryCell> Summarize(const Experiment& experiment,
+                                   const std::vector<ItemResult>& items) {
+  std::vector<std::string> levels = LevelLabels(experiment);
+  levels.push_back("all");
+  std::vector<SummaryCell> cells;
+  for (const std::string& level : levels) {
+    for (size_t m = 0; m < experiment.methods.size(); ++m) {
+      const std::string& label = experiment.methods[m].label;
+      for (const HarnessMetricInfo& metric : experiment.metrics) {
+        std::vector<double> values;
+        int failed = 0;
+        for (const ItemResult& item : items) {
+          if (level != "all" && item.level != level) continue;
+          for (const MethodResult& row : item.methods) {
+            if (row.label != label) continue;
+            const auto it = row.metrics.find(metric.name);
+            values.push_back(it == row.metrics.end() ? std::nan("") : it->second);
+            failed += !row.error.empty() || !item.error.empty();
+          }
+        }
+        cells.push_back({level, label, metric.name, ComputeStats(values), failed});
+      }
+    }
+  }
+  return cells;
+}
+
+const std::vector<std::string>& DeterministicOutputs() {
+  static const std::vector<std::string> files = {"experiment.json", "items.csv", "items.jsonl",
+                                                 "summary.md", "summary.csv"};
+  return files;
+}
+
+namespace {
+
+// items.csv and items.jsonl: one row per item and method, one line per item.
+void ItemTables(const Experiment& experiment, const std::vector<ItemResult>& items,
+                std::ostringstream& csv, std::ostringstream& jsonl) {
+  std::vector<std::string> param_paths;
+  for (const auto& entry : experiment.grid) param_paths.push_back(entry.first);
+  for (const SampledParam& p : experiment.sampled) param_paths.push_back(p.path);
+
+  csv << "id,scene,condition,level";
+  for (const std::string& path : param_paths) csv << "," << CsvEscape("param:" + path);
+  csv << ",method";
+  for (const HarnessMetricInfo& metric : experiment.metrics) csv << "," << CsvEscape(metric.name);
+  csv << ",error\n";
+  for (const ItemResult& item : items) {
+    jsonl << ItemResultToJson(item, false).dump() << "\n";
+    for (const MethodResult& row : item.methods) {
+      csv << CsvEscape(item.id) << "," << CsvEscape(item.scene) << "," << item.condition << ","
+          << CsvEscape(item.level);
+      for (const std::string& path : param_paths) {
+        csv << "," << CsvEscape(item.params.contains(path) ? ParamText(item.params[path]) : "");
+      }
+      csv << "," << CsvEscape(row.label);
+      for (const HarnessMetricInfo& metric : experiment.metrics) {
+        const auto it = row.metrics.find(metric.name);
+        csv << "," << (it == row.metrics.end() ? "nan" : FormatValue(it->second));
+      }
+      csv << "," << CsvEscape(!row.error.empty() ? row.error : item.error) << "\n";
+    }
+  }
+}
+
+// summary.csv: the summary in long format.
+std::string SummaryCsv(const std::vector<SummaryCell>& cells) {
+  std::ostringstream summary_csv;
+  summary_csv << "level,method,metric,n,mean,sd,min,max,failed\n";
+  for (const SummaryCell& cell : cells) {
+    summary_csv << CsvEscape(cell.level) << "," << CsvEscape(cell.method) << ","
+                << CsvEscape(cell.metric) << "," << cell.stats.n << ","
+                << (cell.stats.n ? FormatValue(cell.stats.mean) : "nan") << ","
+                << (cell.stats.n ? FormatValue(cell.stats.sd) : "nan") << ","
+                << (cell.stats.n ? FormatValue(cell.stats.min) : "nan") << ","
+                << (cell.stats.n ? FormatValue(cell.stats.max) : "nan") << "," << cell.failed
+                << "\n";
+  }
+  return summary_csv.str();
+}
+
+// Per method: never marked best.
+std::vector<bool> BestExcluded(const Experiment& experiment) {
+  std::vector<bool> excluded;
+  for (const ExperimentMethod& m : experiment.methods) {
+    excluded.push_back(std::find(experiment.best_excludes.begin(), experiment.best_excludes.end(),
+                                 m.label) != experiment.best_excludes.end());
+  }
+  return excluded;
+}
+
+// summary.md's title and the paragraph that explains the cells.
+void SummaryMarkdownHead(const Experiment& experiment, const std::vector<ItemResult>& items,
+                         std::ostringstream& md) {
+  md << "# " << experiment.name << ": summary\n\n";
+  if (!experiment.description.empty()) md << experiment.description << "\n\n";
+  md << items.size() << " of " << experiment.ItemCount() << " items; ground truth: "
+     << (experiment.ground_truth == "lit" ? "lit J = (E_A + E_L) rho" : "clean rho") << "; level: `"
+     << experiment.level_path << "`. Cells: mean ± sample standard deviation "
+     << "over items; **bold** = best per row";
+  if (!experiment.best_excludes.empty()) {
+    md << " (not counting";
+    for (const std::string& label : experiment.best_excludes) md << " " << label;
+    md << ")";
+  }
+  md << "; ↑ higher is better, ↓ lower is better. Run times: timings.md.\n";
+  if (std::any_of(experiment.methods.begin(), experiment.methods.end(),
+                  [](const ExperimentMethod& m) { return m.privileged; })) {
+    md << "\n† privileged: receives true simulation parameters (water, light power, PSF, noise or "
+          "exact geometry) that its published version does not have — a reference, not a "
+          "competitor (docs/methods.md, \"Which inputs each method sees\").\n";
+  }
+}
+
+// summary.md: Table I style, one table per level and overall.
+std::string SummaryMarkdown(const Experiment& experiment, const std::vector<ItemResult>& items,
+                            const std::vector<SummaryCell>& cells) {
+  std::map<std::tuple<std::string, std::string, std::string>, Stats> lookup;
+  std::map<std::pair<std::string, std::string>, int> failed_items;  // (level, method)
+  int any_failed = 0;
+  for (const SummaryCell& cell : cells) {
+    lookup[{cell.level, cell.method, cell.metric}] = cell.stats;
+    failed_items[{cell.level, cell.method}] = cell.failed;
+    any_failed += cell.failed;
+  }
+
+  const std::vector<bool> excluded = BestExcluded(experiment);
+  // Ground-truth scores of no-reference metrics, per level (computed once per scene).
+  const auto reference_stats = [&](const std::string& level, const std::string& metric) {
+    std::vector<double> values;
+    for (const ItemResult& item : items) {
+      if (level != "all" && item.level != level) continue;
+      const auto it = item.reference_metrics.find(metric);
+      if (it != item.reference_metrics.end()) values.push_back(it->second);
+    }
+    return ComputeStats(values);
+  };
+  bool any_reference = false;
+  for (const ItemResult& item : items) any_reference |= !item.reference_metrics.empty();
+
+  std::ostringstream md;
+  SummaryMarkdownHead(experiment, items, md);
+  std::vector<std::string> levels = LevelLabels(experiment);
+  levels.insert(levels.begin(), "all");
+  for (const std::string& level : levels) {
+    int n_items = 0;
+    for (const ItemResult& item : items) n_items += level == "all" || item.level == level;
+    const std::string axis = experiment.level_path.rfind('@', 0) == 0
+                                 ? experiment.level_path.substr(1)
+                                 : experiment.level_path;
+    md << "\n## " << (level == "all" ? "All levels" : axis + " = " + level) << " (" << n_items
+       << " items)\n\n| metric |";
+    for (const ExperimentMethod& m : experiment.methods) md << " " << MethodHeader(m) << " |";
+    if (any_reference) md << " ground truth |";
+    md << "\n|---|";
+    for (size_t i = 0; i < experiment.methods.size(); ++i) md << "---|";
+    if (any_reference) md << "---|";
+    md << "\n";
+    for (const HarnessMetricInfo& metric : experiment.metrics) {
+      std::vector<Stats> row;
+      for (const ExperimentMethod& m : experiment.methods) {
+        row.push_back(lookup[{level, m.label, metric.name}]);
+      }
+      const std::set<size_t> best = BestColumns(row, excluded, metric.higher_is_better);
+      md << "| " << metric.name << (metric.higher_is_better ? " ↑" : " ↓") << " |";
+      for (size_t i = 0; i < row.size(); ++i) {
+        const std::string cell = FormatCell(row[i]);
+        md << " " << (best.count(i) ? "**" + cell + "**" : cell) << " |";
+      }
+      if (any_reference) md << " " << FormatCell(reference_stats(level, metric.name)) << " |";
+      md << "\n";
+    }
+    if (any_failed > 0) {
+      // Items on which a method failed (its metrics are NaN and left out of the cells above).
+      md << "| failed (items) |";
+      for (const ExperimentMethod& m : experiment.methods) {
+        md << " " << failed_items[{level, m.label}] << " |";
+      }
+      if (any_reference) md << " |";
+      md << "\n";
+    }
+  }
+
+  return md.str();
+}
+
+// timings.csv and timings.md.
+void TimingTables(const Experiment& experiment, const std::vector<ItemResult>& items,
+                  std::ostringstream& timings_csv, std::ostringstream& timings_md) {
+  const std::vector<bool> excluded = BestExcluded(experiment);
+  // Timings (not deterministic): per item and method, and a Table I style "time" table per size.
+  // timing: "alone" (the method's own wall time), "batch_share" (a batch process's wall time /
+  // its items) or "none" (precomputed results: nothing ran).
+  timings_csv << "id,method,time_ms,timing\n";
+  std::vector<std::string> sizes;
+  std::set<std::string> batch_share, not_run;
+  for (const ItemResult& item : items) {
+    timings_csv << CsvEscape(item.id) << ",render," << FormatValue(item.render_ms) << ",alone\n";
+    for (const MethodResult& row : item.methods) {
+      const char* timing =
+          row.time_is_batch_share ? "batch_share" : (std::isnan(row.time_ms) ? "none" : "alone");
+      if (row.time_is_batch_share) batch_share.insert(row.label);
+      if (std::isnan(row.time_ms)) not_run.insert(row.label);
+      timings_csv << CsvEscape(item.id) << "," << CsvEscape(row.label) << ","
+                  << FormatValue(row.time_ms) << "," << timing << "\n";
+    }
+    if (std::find(sizes.begin(), sizes.end(), SizeLabel(item)) == sizes.end()) {
+      sizes.push_back(SizeLabel(item));
+    }
+  }
+  timings_md << "# " << experiment.name << ": run time per image (ms, mean ± sd)\n\n"
+             << "Wall time of each method alone on one sweep thread; not deterministic, so kept "
+                "apart from summary.md.";
+  if (!batch_share.empty()) {
+    timings_md << " (batch): the wall time of a process run once per batch of items, divided by "
+                  "the batch's items (input and output files included).";
+  }
+  if (!not_run.empty()) timings_md << " (precomputed): results read from files, nothing ran.";
+  timings_md << "\n\n| size | render |";
+  for (const ExperimentMethod& m : experiment.methods) {
+    timings_md << " " << MethodHeader(m)
+               << (batch_share.count(m.label) ? " (batch)"
+                                              : (not_run.count(m.label) ? " (precomputed)" : ""))
+               << " |";
+  }
+  timings_md << "\n|---|---|";
+  for (size_t i = 0; i < experiment.methods.size(); ++i) timings_md << "---|";
+  timings_md << "\n";
+  for (const std::string& size : sizes) {
+    std::vector<double> render;
+    std::map<std::string, std::vector<double>> per_method;
+    for (const ItemResult& item : items) {
+      if (SizeLabel(item) != size) continue;
+      render.push_back(item.render_ms);
+      for (const MethodResult& row : item.methods) per_method[row.label].push_back(row.time_ms);
+    }
+    std::vector<Stats> row;
+    for (const ExperimentMethod& m : experiment.methods) {
+      row.push_back(ComputeStats(per_method[m.label]));
+    }
+    const std::set<size_t> best = BestColumns(row, excluded, false);
+    timings_md << "| " << size << " | " << FormatCell(ComputeStats(render)) << " |";
+    for (size_t i = 0; i < row.size(); ++i) {
+      const std::string cell = FormatCell(row[i]);
+      timings_md << " " << (best.count(i) ? "**" + cell + "**" : cell) << " |";
+    }
+    timings_md << "\n";
+  }
+}
+
+}  // namespace
+
+void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& items,
+                 const std::string& dir, bool with_timings) {
+  std::ostringstream csv, jsonl;
+  ItemTables(experiment, items, csv, jsonl);
+  const std::vector<SummaryCell> cells = Summarize(experiment, items);
+  const std::string summary_csv = SummaryCsv(cells);
+  const std::string md = SummaryMarkdown(experiment, items, cells);
+  std::ostringstream timings_csv, timings_md;
+  TimingTables(experiment, items, timings_csv, timings_md);
+
+  // summary.md last: a sweep takes it as the mark of complete tables (a write that fails before it
+  // leaves the tables to be written again by the next run).
+  AtomicWriteText(dir + "/items.csv", csv.str(), true);
+  AtomicWriteText(dir + "/items.jsonl", jsonl.str(), true);
+  AtomicWriteText(dir + "/summary.csv", summary_csv, true);
+  if (with_timings) {
+    AtomicWriteText(dir + "/timings.csv", timings_csv.str(), true);
+    AtomicWriteText(dir + "/timings.md", timings_md.str(), true);
+  }
+  AtomicWriteText(dir + "/summary.md", md, true);
+}
+
+// ---- Regression ---------------------------------------------------------------------------
+
+bool RegressOptions::Check(std::string* why) const {
+  const auto bad = [](const Tolerance& t) {
+    return !(t.abs >= 0.0) || !(t.rel >= 0.0) || !std::isfinite(t.abs) || !std::isfinite(t.rel);
+  };
+  if (bad(default_tolerance)) {
+    *why = "default tolerance must be finite and >= 0";
+    return false;
+  }
+  for (const auto& [metric, tolerance] : tolerances) {
+    if (bad(tolerance)) {
+      *why = "tolerance of '" + metric + "' must be finite and >= 0";
+      return false;
+    }
+  }
+  return true;
+}
+
+bool RegressReport::failed() const {
+  if (!missing.empty()) return true;
+  return std::any_of(moves.begin(), moves.end(), [](const RegressMove& m) { return m.regression; });
+}
+
+std::string RegressReport::Format() const {
+  std::ostringstream out;
+  int regressions = 0;
+  for (const RegressMove& move : moves) {
+    regressions += move.regression;
+    char line[512];
+    const double delta = move.result - move.baseline;
+    std::snprintf(line, sizeof line, "%-11s %-32s %-12s %14s -> %-14s (%+.4g)\n",
+                  move.regression ? "REGRESSED" : "improved", move.key.c_str(), move.metric.c_str(),
+                  FormatValue(move.baseline).c_str(), FormatValue(move.result).c_str(), delta);
+    out << line;
+  }
+  for (const std::string& key : missing) out << "MISSING     " << key << "\n";
+  out << compared << " values compared: " << moves.size() << " moved beyond tolerance ("
+      << regressions << " regressed), " << missing.size() << " missing, " << extra.size()
+      << " new rows not in the baseline\n";
+  out << (failed() ? "regress: FAIL\n" : "regress: OK\n");
+  return out.str();
+}
+
+RegressReport Regress(const std::string& baseline_csv, const std::string& results_csv,
+                      const RegressOptions& options) {
+  ThrowIfInvalid(options, "regress");
+  bool baseline_summary = false, results_summary = false;
+  const KeyedValues baseline = Keyed(ReadCsv(baseline_csv), baseline_csv, &baseline_summary);
+  const KeyedValues results = Keyed(ReadCsv(results_csv), results_csv, &results_summary);
+  if (baseline_summary != results_summary) {
+    throw Error(results_csv, std::string("is a ") + (results_summary ? "summary" : "per-item") +
+                                 " table but the baseline " + baseline_csv + " is a " +
+                                 (baseline_summary ? "summary" : "per-item") + " table");
+  }
+  RegressReport report;
+  for (const std::string& key : baseline.keys) {
+    const auto found = results.values.find(key);
+    for (const auto& [metric, base_text] : baseline.values.at(key)) {
+      if (found == results.values.end() || !found->second.count(metric)) {
+        report.missing.push_back(key + " " + metric);
+        continue;
+      }
+      const double base = ParseValue(base_text);
+      const double result = ParseValue(found->second.at(metric));
+      ++report.compared;
+      const auto tol_it = options.tolerances.find(metric);
+      const Tolerance& tol =
+          tol_it == options.tolerances.end() ? options.default_tolerance : tol_it->second;
+      bool same;
+      if (std::isnan(base) || std::isnan(result)) {
+        same = std::isnan(base) && std::isnan(result);
+      } else if (std::isinf(base) || std::isinf(result)) {
+        same = base == result;
+      } else {
+        same = std::fabs(result - base) <= tol.abs + tol.rel * std::fabs(base);
+      }
+      if (same) continue;
+      RegressMove move{key, metric, base, result, true};
+      const auto direction = options.higher_is_better.find(metric);
+      if (direction != options.higher_is_better.end() && !options.fail_on_improvement &&
+          !std::isnan(base) && !std::isnan(result)) {
+        move.regression = direction->second ? result < base : result > base;
+      }
+      report.moves.push_back(move);
+    }
+  }
+  for (const std::string& key : results.keys) {
+    if (!baseline.values.count(key)) report.extra.push_back(key);
+  }
+  return report;
+}
+
+void LoadTolerances(const std::string& path, RegressOptions* options) {
+  const json parsed = ReadJsonFile(path);
+  const auto read = [&](const json& object, Tolerance* tolerance, const std::string& where) {
+    if (!object.is_object()) throw Error(path, where + " must be an object {abs, rel}");
+    for (const auto& [key, value] : object.items()) {
+      if ((key != "abs" && key != "rel") || !value.is_number()) {
+        throw Error(path, where + ": unknown key or non-number '" + key + "'");
+      }
+      (key == "abs" ? tolerance->abs : tolerance->rel) = value.get<double>();
+    }
+  };
+  if (!parsed.is_object()) throw Error(path, "must be an object {default, metrics}");
+  for (const auto& [key, value] : parsed.items()) {
+    if (key == "default") {
+      read(value, &options->default_tolerance, "'default'");
+    } else if (key == "metrics") {
+      if (!value.is_object()) throw Error(path, "'metrics' must be an object");
+      for (const auto& [metric, tolerance] : value.items()) {
+        Tolerance t = options->default_tolerance;
+        if (options->tolerances.count(metric)) t = options->tolerances[metric];
+        read(tolerance, &t, "metric '" + metric + "'");
+        options->tolerances[metric] = t;
+      }
+    } else if (key != "comment") {
+      throw Error(path, "unknown key '" + key + "' (default, metrics, comment)");
+    }
+  }
+  std::string why;
+  if (!options->Check(&why)) throw Error(path, why);
+}
+
+}  // namespace turbid
