@@ -173,6 +173,23 @@ class Fields {
     }
     return *this;
   }
+  // The kind taken from the member's type: double -> Number (any finite value), int -> Integer,
+  // bool -> Boolean, std::string -> String, uint64_t -> Unsigned.
+  Fields& Member(std::string key, double T::*member, std::string doc) {
+    return Number(std::move(key), member, std::move(doc));
+  }
+  Fields& Member(std::string key, int T::*member, std::string doc) {
+    return Integer(std::move(key), member, std::move(doc));
+  }
+  Fields& Member(std::string key, bool T::*member, std::string doc) {
+    return Boolean(std::move(key), member, std::move(doc));
+  }
+  Fields& Member(std::string key, std::string T::*member, std::string doc) {
+    return String(std::move(key), member, std::move(doc));
+  }
+  Fields& Member(std::string key, uint64_t T::*member, std::string doc) {
+    return Unsigned(std::move(key), member, std::move(doc));
+  }
   // Labels the field declared last with `tag` (FieldInfo::tag), e.g. how an image bounds it.
   Fields& Tag(int tag) {
     if (fields_.empty()) throw std::logic_error("Fields::Tag before any field");

@@ -136,6 +136,26 @@ TEST(Fields, ANounNamesTheKeysInMessages) {
   }
 }
 
+struct Derived : Inner {
+  bool extra = false;
+};
+
+TEST(Fields, MemberTakesTheKindFromTheTypeAndBaseMembersWork) {
+  const Fields<Derived> fields = Fields<Derived>()
+                                     .Member("bins", &Inner::bins, "b")
+                                     .Member("alpha", &Inner::alpha, "a")
+                                     .Member("extra", &Derived::extra, "e");
+  const std::vector<FieldInfo> info = fields.Info();
+  EXPECT_EQ(info[0].type, "integer");
+  EXPECT_EQ(info[1].type, "number");
+  EXPECT_EQ(info[2].type, "boolean");
+  Derived d;
+  fields.Read(json{{"bins", 9}, {"alpha", 2.5}, {"extra", true}}, &d, "f");
+  EXPECT_EQ(d.bins, 9);
+  EXPECT_EQ(d.alpha, 2.5);
+  EXPECT_TRUE(d.extra);
+}
+
 TEST(Fields, TagsLabelTheLastField) {
   const Fields<Inner> fields = Fields<Inner>().Integer("bins", &Inner::bins, "b").Tag(3).Number(
       "alpha", &Inner::alpha, "a");
