@@ -20,6 +20,7 @@
 #include "enhancer/deconvolution.h"
 #include "scenes/scene.h"
 #include "simulator/light.h"
+#include "simulator/render_record.h"
 
 namespace turbid {
 
@@ -161,9 +162,9 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
 
 // Geometry: `scene` (may be null), the sidecar's light options and camera (may be null).
 FullResult FullEnhanceDetailed(const FullOptions& options, const cv::Mat& image, const Scene* scene,
-                               const nlohmann::json* sidecar);
+                               const RenderRecord* sidecar);
 cv::Mat FullEnhance(const FullOptions& options, const cv::Mat& image, const Scene* scene,
-                    const nlohmann::json* sidecar);
+                    const RenderRecord* sidecar);
 
 // Strict binding of a JSON params object (registry keys, `turbid enhance --list`) onto FullOptions
 // (starting from the defaults of `variant`, "full" unless said); throws Error naming the key.
