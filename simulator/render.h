@@ -18,7 +18,7 @@ namespace turbid {
 
 struct RenderResult {
   cv::Mat image;  // degraded I, float32 linear in [0, 1] (decoded codes when bit_depth is 8 or 16)
-  cv::Mat lit;           // J = (E_A + E_L) rho: lit, unattenuated, unblurred ground truth (float32)
+  cv::Mat lit;    // J = (E_A + E_L) rho: lit, unattenuated, unblurred ground truth (float32)
   cv::Mat transmission;  // optional maps (empty unless selected in options.maps)
   cv::Mat light;
   cv::Mat veil;
@@ -51,6 +51,7 @@ class Renderer {
 
  private:
   struct Cache;
+  const cv::Mat& Normals() const;  // the scene's, else computed once from its depth
   Scene scene_;
   cv::Mat range_m_;
   std::unique_ptr<Cache> cache_;
