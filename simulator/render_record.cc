@@ -280,7 +280,7 @@ RenderRecord RenderRecord::FromJson(const json& j, const std::string& source) {
     try {
       r.options = RenderOptionsFromJson(*o);
     } catch (const Error& e) {
-      throw Error(source, std::string("sidecar: options: ") + e.what());
+      throw Error(source, e.what());  // "render options: <key path>: <problem>"
     }
   }
   if (auto d = top.Sub("derived")) ReadDerived(*d, &r.derived);
