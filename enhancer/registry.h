@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "scenes/scene.h"
+#include "simulator/render_record.h"
 
 namespace turbid {
 
@@ -30,7 +31,7 @@ class StepSink {
 struct EnhanceInput {
   cv::Mat image;                            // degraded image, float32 linear [0,1], 1 or 3 channels
   const Scene* scene = nullptr;             // geometry (camera, depth, plane, DVL) when known
-  const nlohmann::json* sidecar = nullptr;  // the render's sidecar (true parameters) when known
+  const RenderRecord* sidecar = nullptr;    // the render's record (true parameters) when known
   // A 3-channel image in R, G, B order (the Python boundary) rather than turbid's B, G, R; the
   // result comes back in the same order. Methods that read the order natively (MethodEntry::
   // rgb_native) take it as it is; Enhance reorders for the others.

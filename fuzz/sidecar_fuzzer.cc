@@ -37,10 +37,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!parsed) return 0;  // ReadJsonFile reports "invalid JSON" before this
   const nlohmann::json& sidecar = *parsed;
   fuzz::ExpectOnlyErrors([&] { SidecarEncoding(sidecar); });
+  std::optional<RenderRecord> record;
+  fuzz::ExpectOnlyErrors([&] { record = RenderRecord::FromJson(sidecar, "sidecar.json"); });
+  if (!record) return 0;
+  // What it reads writes back and reads again to the same record.
+  fuzz::ExpectOnlyErrors([&] { RenderRecord::FromJson(record->ToJson(), "again"); });
   EnhanceInput input;
   input.image = fixture.image;
   input.scene = &fixture.scene;
-  input.sidecar = &sidecar;
+  input.sidecar = &*record;
   for (const char* method : {"oracle", "oracle_exact", "full_matched", "full_physical"})
     fuzz::ExpectOnlyErrors([&] { Enhance(method, nlohmann::json::object(), input); });
   return 0;

@@ -1,7 +1,6 @@
 #include "simulator/render.h"
 
 #include <algorithm>
-#include <utility>
 #include <bit>
 #include <cmath>
 #include <cstring>
@@ -10,11 +9,13 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <utility>
 
 #include "core/error.h"
 #include "core/row_kernel.h"
 #include "simulator/image_pool.h"
 #include "simulator/kernels.h"
+#include "simulator/render_plan.h"
 #include "turbid_version.h"
 
 namespace turbid {
@@ -22,93 +23,7 @@ namespace {
 
 using nlohmann::json;
 
-// ---- strict JSON reading ------------------------------------------------------------------------
-
-void RequireObject(const json& j, const std::string& path) {
-  if (!j.is_object())
-    throw Error("render options: " + (path.empty() ? "top level" : path) + ": must be an object");
-}
-
-void RejectUnknown(const json& j, const std::string& path, const std::set<std::string>& allowed) {
-  for (auto it = j.begin(); it != j.end(); ++it)
-    if (!allowed.count(it.key()))
-      throw Error("render options: " + path + it.key() + ": unknown key");
-}
-
-void Read(const json& j, const std::string& key, const std::string& path, double& field) {
-  if (!j.contains(key)) return;
-  const json& v = j.at(key);
-  if (!v.is_number()) throw Error("render options: " + path + key + ": must be a number");
-  field = v.get<double>();
-  if (!std::isfinite(field)) throw Error("render options: " + path + key + ": must be finite");
-}
-
-void Read(const json& j, const std::string& key, const std::string& path, int& field) {
-  if (!j.contains(key)) return;
-  const json& v = j.at(key);
-  if (!v.is_number_integer()) throw Error("render options: " + path + key + ": must be an integer");
-  const int64_t value = v.get<int64_t>();
-  if (value < std::numeric_limits<int>::min() || value > std::numeric_limits<int>::max())
-    throw Error("render options: " + path + key + ": out of range");
-  field = static_cast<int>(value);
-}
-
-void Read(const json& j, const std::string& key, const std::string& path, bool& field) {
-  if (!j.contains(key)) return;
-  const json& v = j.at(key);
-  if (!v.is_boolean()) throw Error("render options: " + path + key + ": must be true or false");
-  field = v.get<bool>();
-}
-
-void Read(const json& j, const std::string& key, const std::string& path, std::string& field) {
-  if (!j.contains(key)) return;
-  const json& v = j.at(key);
-  if (!v.is_string()) throw Error("render options: " + path + key + ": must be a string");
-  field = v.get<std::string>();
-}
-
-template <typename Array>
-void ReadTriple(const json& j, const std::string& key, const std::string& path, Array& field) {
-  if (!j.contains(key)) return;
-  const json& v = j.at(key);
-  if (!v.is_array() || v.size() != 3)
-    throw Error("render options: " + path + key + ": must be an array of 3 numbers");
-  for (int i = 0; i < 3; ++i) {
-    if (!v[i].is_number())
-      throw Error("render options: " + path + key + ": must be an array of 3 numbers");
-    field[i] = v[i].get<double>();
-    if (!std::isfinite(field[i])) throw Error("render options: " + path + key + ": must be finite");
-  }
-}
-
-template <typename Options>
-void CheckSection(const Options& options, const std::string& path) {
-  std::string why;
-  if (!options.Check(&why)) throw Error("render options: " + path + why);
-}
-
-json Triple(const Rgb& v) { return json::array({v[0], v[1], v[2]}); }
-json Triple(const cv::Vec3d& v) { return json::array({v[0], v[1], v[2]}); }
-
-bool SameRgb(const Rgb& a, const Rgb& b) {
-  for (int i = 0; i < 3; ++i)
-    if (std::abs(a[i] - b[i]) > 1e-9) return false;
-  return true;
-}
-
 // ---- rendering helpers --------------------------------------------------------------------------
-
-std::string Format(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
-std::string ListText(const std::vector<double>& values) {
-  std::string s = "[";
-  for (size_t i = 0; i < values.size(); ++i) s += (i ? ", " : "") + Format(values[i]);
-  return s + "]";
-}
 
 // Range along the viewing ray for one row: r = z sqrt(dx^2 + dy^2 + 1) in double, as
 // RangeFromDepth computes it (same bytes), with dx^2 per column precomputed.
@@ -287,361 +202,7 @@ TURBID_ROW_KERNEL void QuantiseRow(float* p, int n, float levels, bool quantise)
 
 }  // namespace
 
-// ---- options ------------------------------------------------------------------------------------
-
-bool CameraOutputOptions::Check(std::string* why) const {
-  if (bit_depth == 8 || bit_depth == 16 || bit_depth == 32) return true;
-  if (why) *why = "bit_depth: must be 8, 16 or 32 (float)";
-  return false;
-}
-
-MapSelection MapSelection::FromList(const std::string& list) {
-  MapSelection maps;
-  std::stringstream stream(list);
-  std::string name;
-  while (std::getline(stream, name, ',')) {
-    if (name.empty()) continue;
-    if (name == "transmission")
-      maps.transmission = true;
-    else if (name == "light")
-      maps.light = true;
-    else if (name == "veil")
-      maps.veil = true;
-    else if (name == "psf")
-      maps.psf = true;
-    else if (name == "noise")
-      maps.noise = true;
-    else
-      throw Error("--maps: unknown map '" + name + "' (transmission, light, veil, psf, noise)");
-  }
-  return maps;
-}
-
-bool RenderOptions::Check(std::string* why) const {
-  auto section = [&](const auto& options, const std::string& name) {
-    std::string inner;
-    if (options.Check(&inner)) return true;
-    if (why) *why = name + "." + inner;
-    return false;
-  };
-  return section(revised, "revised") && section(uwcnn, "uwcnn") && section(water, "water") &&
-         section(light, "light") && section(psf, "psf") &&
-         section(snow, "snow") && section(sensor, "sensor") && section(camera, "camera");
-}
-
-RenderOptions RenderOptionsFromJson(const json& j) {
-  RenderOptions o;
-  RequireObject(j, "");
-  RejectUnknown(j, "",
-                {"model", "revised", "uwcnn", "water", "light", "psf", "snow", "sensor", "camera",
-                 "seed"});
-  if (j.contains("model")) {
-    std::string name;
-    Read(j, "model", "", name);
-    o.model = ImageModelFromName(name);
-  }
-  if (j.contains("revised")) {
-    const json& v = j.at("revised");
-    const std::string p = "revised.";
-    RequireObject(v, "revised");
-    RejectUnknown(v, p,
-                  {"beta_b_rgb_per_m", "beta_b_gray_per_m", "range_dependent", "a_rgb", "b_rgb",
-                   "c_rgb", "d_rgb", "a_gray", "b_gray", "c_gray", "d_gray"});
-    ReadTriple(v, "beta_b_rgb_per_m", p, o.revised.beta_b_rgb_per_m);
-    Read(v, "beta_b_gray_per_m", p, o.revised.beta_b_gray_per_m);
-    Read(v, "range_dependent", p, o.revised.range_dependent);
-    ReadTriple(v, "a_rgb", p, o.revised.a_rgb);
-    ReadTriple(v, "b_rgb", p, o.revised.b_rgb);
-    ReadTriple(v, "c_rgb", p, o.revised.c_rgb);
-    ReadTriple(v, "d_rgb", p, o.revised.d_rgb);
-    Read(v, "a_gray", p, o.revised.a_gray);
-    Read(v, "b_gray", p, o.revised.b_gray);
-    Read(v, "c_gray", p, o.revised.c_gray);
-    Read(v, "d_gray", p, o.revised.d_gray);
-    CheckSection(o.revised, p);
-  }
-  if (j.contains("uwcnn")) {
-    const json& v = j.at("uwcnn");
-    const std::string p = "uwcnn.";
-    RequireObject(v, "uwcnn");
-    RejectUnknown(v, p,
-                  {"type", "n_rgb_per_m", "n_gray_per_m", "backlight_scale", "backlight_exponent",
-                   "max_distance_m"});
-    Read(v, "type", p, o.uwcnn.type);
-    ReadTriple(v, "n_rgb_per_m", p, o.uwcnn.n_rgb_per_m);
-    Read(v, "n_gray_per_m", p, o.uwcnn.n_gray_per_m);
-    Read(v, "backlight_scale", p, o.uwcnn.backlight_scale);
-    Read(v, "backlight_exponent", p, o.uwcnn.backlight_exponent);
-    Read(v, "max_distance_m", p, o.uwcnn.max_distance_m);
-    CheckSection(o.uwcnn, p);
-    if (o.uwcnn.type != "custom") {
-      // As for water.type: a sidecar repeats the preset's N, anything else would be overridden.
-      const UwcnnOptions preset = ResolveUwcnn(o.uwcnn);
-      const bool rgb_conflict =
-          v.contains("n_rgb_per_m") && !SameRgb(o.uwcnn.n_rgb_per_m, preset.n_rgb_per_m);
-      const bool gray_conflict = v.contains("n_gray_per_m") &&
-                                 std::abs(o.uwcnn.n_gray_per_m - preset.n_gray_per_m) > 1e-9;
-      if (rgb_conflict || gray_conflict)
-        throw Error(std::string("render options: uwcnn.") +
-                    (rgb_conflict ? "n_rgb_per_m" : "n_gray_per_m") +
-                    ": conflicts with uwcnn.type '" + o.uwcnn.type +
-                    "' (use type \"custom\" to set N)");
-      o.uwcnn = preset;
-    }
-  }
-  if (j.contains("seed")) {
-    const json& s = j.at("seed");
-    // Parsed text gives non-negative integers as unsigned, but a json built in code may hold a
-    // signed one; negative ones and floats (also integers beyond 2^64 - 1) are refused.
-    if (!s.is_number_unsigned() && !(s.is_number_integer() && s.get<int64_t>() >= 0))
-      throw Error("render options: seed: must be an integer in [0, 18446744073709551615]");
-    o.seed = s.get<uint64_t>();
-  }
-  if (j.contains("water")) {
-    const json& w = j.at("water");
-    const std::string p = "water.";
-    RequireObject(w, "water");
-    RejectUnknown(w, p,
-                  {"type", "beta_rgb_per_m", "beta_gray_per_m", "ambient_rgb", "ambient_gray",
-                   "backscatter", "backscatter_rgb", "backscatter_gray"});
-    Read(w, "type", p, o.water.type);
-    ReadTriple(w, "beta_rgb_per_m", p, o.water.beta_rgb_per_m);
-    Read(w, "beta_gray_per_m", p, o.water.beta_gray_per_m);
-    ReadTriple(w, "ambient_rgb", p, o.water.ambient_rgb);
-    Read(w, "ambient_gray", p, o.water.ambient_gray);
-    Read(w, "backscatter", p, o.water.backscatter);
-    ReadTriple(w, "backscatter_rgb", p, o.water.backscatter_rgb);
-    Read(w, "backscatter_gray", p, o.water.backscatter_gray);
-    CheckSection(o.water, p);
-    if (o.water.type != "custom") {
-      // A sidecar repeats the preset's values; anything else would be silently overridden.
-      const WaterOptions preset = ResolveWater(o.water);
-      const bool rgb_conflict =
-          w.contains("beta_rgb_per_m") && !SameRgb(o.water.beta_rgb_per_m, preset.beta_rgb_per_m);
-      const bool gray_conflict = w.contains("beta_gray_per_m") &&
-                                 std::abs(o.water.beta_gray_per_m - preset.beta_gray_per_m) > 1e-9;
-      if (rgb_conflict || gray_conflict)
-        throw Error(std::string("render options: water.") +
-                    (rgb_conflict ? "beta_rgb_per_m" : "beta_gray_per_m") +
-                    ": conflicts with water.type '" + o.water.type +
-                    "' (use type \"custom\" to set beta)");
-      o.water = preset;
-    }
-  }
-  if (j.contains("light")) {
-    const json& l = j.at("light");
-    const std::string p = "light.";
-    RequireObject(l, "light");
-    RejectUnknown(l, p, {"lights", "incidence", "min_cos_incidence", "min_distance_m"});
-    if (l.contains("lights")) {
-      const json& list = l.at("lights");
-      if (!list.is_array()) throw Error("render options: light.lights: must be an array");
-      o.light.lights.clear();
-      for (size_t i = 0; i < list.size(); ++i) {
-        const std::string lp = p + "lights[" + std::to_string(i) + "].";
-        RequireObject(list[i], lp.substr(0, lp.size() - 1));
-        RejectUnknown(list[i], lp,
-                      {"position_in_camera_m", "axis_in_camera", "power", "half_power_angle_deg",
-                       "color_rgb"});
-        LightOptions light;
-        ReadTriple(list[i], "position_in_camera_m", lp, light.position_in_camera_m);
-        ReadTriple(list[i], "axis_in_camera", lp, light.axis_in_camera);
-        Read(list[i], "power", lp, light.power);
-        Read(list[i], "half_power_angle_deg", lp, light.half_power_angle_deg);
-        ReadTriple(list[i], "color_rgb", lp, light.color_rgb);
-        CheckSection(light, lp);
-        o.light.lights.push_back(light);
-      }
-    }
-    if (l.contains("incidence")) {
-      std::string name;
-      Read(l, "incidence", p, name);
-      if (name != "lambertian" && name != "paper_eq5")
-        throw Error("render options: light.incidence: unknown model '" + name +
-                    "' (lambertian, paper_eq5)");
-      o.light.incidence = IncidenceModelFromName(name);
-    }
-    Read(l, "min_cos_incidence", p, o.light.min_cos_incidence);
-    Read(l, "min_distance_m", p, o.light.min_distance_m);
-    CheckSection(o.light, p);
-  }
-  if (j.contains("psf")) {
-    const json& s = j.at("psf");
-    const std::string p = "psf.";
-    RequireObject(s, "psf");
-    RejectUnknown(s, p,
-                  {"enabled", "optical_thickness", "forward_scatter", "pixels_per_unit",
-                   "tail_mass", "max_radius_px", "delta_tolerance", "depth_dependent",
-                   "reference_range_m", "depth_levels", "turbidity_dependent",
-                   "thickness_levels"});
-    Read(s, "enabled", p, o.psf.enabled);
-    Read(s, "optical_thickness", p, o.psf.optical_thickness);
-    Read(s, "forward_scatter", p, o.psf.forward_scatter);
-    Read(s, "pixels_per_unit", p, o.psf.pixels_per_unit);
-    Read(s, "tail_mass", p, o.psf.tail_mass);
-    Read(s, "max_radius_px", p, o.psf.max_radius_px);
-    Read(s, "delta_tolerance", p, o.psf.delta_tolerance);
-    Read(s, "depth_dependent", p, o.psf.depth_dependent);
-    Read(s, "reference_range_m", p, o.psf.reference_range_m);
-    Read(s, "depth_levels", p, o.psf.depth_levels);
-    Read(s, "turbidity_dependent", p, o.psf.turbidity_dependent);
-    Read(s, "thickness_levels", p, o.psf.thickness_levels);
-    CheckSection(o.psf, p);
-  }
-  if (j.contains("snow")) {
-    const json& s = j.at("snow");
-    const std::string p = "snow.";
-    RequireObject(s, "snow");
-    RejectUnknown(s, p,
-                  {"enabled", "density_per_m3", "near_m", "far_m", "size_min_m", "size_max_m",
-                   "albedo_min", "albedo_max", "blur_px"});
-    Read(s, "enabled", p, o.snow.enabled);
-    Read(s, "density_per_m3", p, o.snow.density_per_m3);
-    Read(s, "near_m", p, o.snow.near_m);
-    Read(s, "far_m", p, o.snow.far_m);
-    Read(s, "size_min_m", p, o.snow.size_min_m);
-    Read(s, "size_max_m", p, o.snow.size_max_m);
-    Read(s, "albedo_min", p, o.snow.albedo_min);
-    Read(s, "albedo_max", p, o.snow.albedo_max);
-    Read(s, "blur_px", p, o.snow.blur_px);
-    CheckSection(o.snow, p);
-  }
-  if (j.contains("sensor")) {
-    const json& s = j.at("sensor");
-    const std::string p = "sensor.";
-    RequireObject(s, "sensor");
-    RejectUnknown(s, p, {"enabled", "photons_at_white", "read_noise"});
-    Read(s, "enabled", p, o.sensor.enabled);
-    Read(s, "photons_at_white", p, o.sensor.photons_at_white);
-    Read(s, "read_noise", p, o.sensor.read_noise);
-    CheckSection(o.sensor, p);
-  }
-  if (j.contains("camera")) {
-    const json& s = j.at("camera");
-    const std::string p = "camera.";
-    RequireObject(s, "camera");
-    RejectUnknown(s, p, {"bit_depth", "encoding"});
-    Read(s, "bit_depth", p, o.camera.bit_depth);
-    if (s.contains("encoding")) {
-      std::string name;
-      Read(s, "encoding", p, name);
-      o.camera.encoding = CameraEncodingFromName(name, "render options: camera.encoding");
-    }
-    CheckSection(o.camera, p);
-  }
-  return o;
-}
-
-json RenderOptionsToJson(const RenderOptions& options) {
-  // A Jerlov type writes the preset's betas, so the JSON reads back without a conflict.
-  RenderOptions o = options;
-  std::string why;
-  if (o.water.type != "custom" && o.water.Check(&why)) o.water = ResolveWater(o.water);
-  if (o.uwcnn.type != "custom" && o.uwcnn.Check(&why)) o.uwcnn = ResolveUwcnn(o.uwcnn);
-  json lights = json::array();
-  for (const LightOptions& l : o.light.lights)
-    lights.push_back({{"position_in_camera_m", Triple(l.position_in_camera_m)},
-                      {"axis_in_camera", Triple(l.axis_in_camera)},
-                      {"power", l.power},
-                      {"half_power_angle_deg", l.half_power_angle_deg},
-                      {"color_rgb", Triple(l.color_rgb)}});
-  json out = {
-      {"model", ImageModelName(o.model)},
-      {"water",
-       {{"type", o.water.type},
-        {"beta_rgb_per_m", Triple(o.water.beta_rgb_per_m)},
-        {"beta_gray_per_m", o.water.beta_gray_per_m},
-        {"ambient_rgb", Triple(o.water.ambient_rgb)},
-        {"ambient_gray", o.water.ambient_gray},
-        {"backscatter", o.water.backscatter},
-        {"backscatter_rgb", Triple(o.water.backscatter_rgb)},
-        {"backscatter_gray", o.water.backscatter_gray}}},
-      {"light",
-       {{"lights", lights},
-        {"incidence", IncidenceModelName(o.light.incidence)},
-        {"min_cos_incidence", o.light.min_cos_incidence},
-        {"min_distance_m", o.light.min_distance_m}}},
-      {"psf",
-       {{"enabled", o.psf.enabled},
-        {"optical_thickness", o.psf.optical_thickness},
-        {"forward_scatter", o.psf.forward_scatter},
-        {"pixels_per_unit", o.psf.pixels_per_unit},
-        {"tail_mass", o.psf.tail_mass},
-        {"max_radius_px", o.psf.max_radius_px},
-        {"delta_tolerance", o.psf.delta_tolerance},
-        {"depth_dependent", o.psf.depth_dependent},
-        {"reference_range_m", o.psf.reference_range_m},
-        {"depth_levels", o.psf.depth_levels},
-        {"turbidity_dependent", o.psf.turbidity_dependent},
-        {"thickness_levels", o.psf.thickness_levels}}},
-      {"snow",
-       {{"enabled", o.snow.enabled},
-        {"density_per_m3", o.snow.density_per_m3},
-        {"near_m", o.snow.near_m},
-        {"far_m", o.snow.far_m},
-        {"size_min_m", o.snow.size_min_m},
-        {"size_max_m", o.snow.size_max_m},
-        {"albedo_min", o.snow.albedo_min},
-        {"albedo_max", o.snow.albedo_max},
-        {"blur_px", o.snow.blur_px}}},
-      {"sensor",
-       {{"enabled", o.sensor.enabled},
-        {"photons_at_white", o.sensor.photons_at_white},
-        {"read_noise", o.sensor.read_noise}}},
-      {"camera",
-       {{"bit_depth", o.camera.bit_depth}, {"encoding", CameraEncodingName(o.camera.encoding)}}},
-      {"seed", o.seed},
-  };
-  // The active model's own section (the others are unused and left out).
-  if (o.model == ImageModel::kRevised)
-    out["revised"] = {{"beta_b_rgb_per_m", Triple(o.revised.beta_b_rgb_per_m)},
-                      {"beta_b_gray_per_m", o.revised.beta_b_gray_per_m},
-                      {"range_dependent", o.revised.range_dependent},
-                      {"a_rgb", Triple(o.revised.a_rgb)},
-                      {"b_rgb", Triple(o.revised.b_rgb)},
-                      {"c_rgb", Triple(o.revised.c_rgb)},
-                      {"d_rgb", Triple(o.revised.d_rgb)},
-                      {"a_gray", o.revised.a_gray},
-                      {"b_gray", o.revised.b_gray},
-                      {"c_gray", o.revised.c_gray},
-                      {"d_gray", o.revised.d_gray}};
-  if (o.model == ImageModel::kUwcnn)
-    out["uwcnn"] = {{"type", o.uwcnn.type},
-                    {"n_rgb_per_m", Triple(o.uwcnn.n_rgb_per_m)},
-                    {"n_gray_per_m", o.uwcnn.n_gray_per_m},
-                    {"backlight_scale", o.uwcnn.backlight_scale},
-                    {"backlight_exponent", o.uwcnn.backlight_exponent},
-                    {"max_distance_m", o.uwcnn.max_distance_m}};
-  return out;
-}
-
-std::string RenderPlan::ToText() const {
-  std::string text = "render plan:\n";
-  for (const std::string& s : steps) text += "  do:   " + s + "\n";
-  for (const std::string& s : skipped) text += "  skip: " + s + "\n";
-  return text;
-}
-
-json RenderPlan::ToJson() const { return {{"steps", steps}, {"skipped", skipped}}; }
-
 // ---- renderer -----------------------------------------------------------------------------------
-
-// Decisions shared by Plan and Render.
-struct Decisions {
-  WaterOptions water;
-  std::vector<double> beta, ambient, backscatter;
-  bool backscatter_on = false;  // the (1 - t) B_inf term
-  // model "revised": beta^B (image channel order) and, when range-dependent, Sea-thru's a, b, c, d.
-  bool revised = false, sea_thru = false;
-  bool lights_used = true;  // false for uwcnn (its recipe has no illumination)
-  std::vector<double> beta_b, sea_a, sea_b, sea_c, sea_d;
-  bool any_light = false;
-  bool zero_beta = false;
-  bool uniform_range = false;
-  bool blur = false;
-  Psf psf;
-  RenderPlan plan;
-};
 
 struct Renderer::Cache {
   std::mutex mutex;
@@ -667,133 +228,13 @@ cv::Mat ThicknessMap(const Decisions& d, const cv::Mat& range_m, int channels) {
   return out;
 }
 
-json TurbidityJson(const TurbidityPsf& plan) {
-  json radii = json::array();
-  for (const Psf& g : plan.glow) radii.push_back(g.radius_px);
-  return {{"levels", plan.thickness.size()},
-          {"exact", plan.exact},
-          {"thickness", plan.thickness},
-          {"radius_px", radii}};
-}
-
-Decisions Decide(const RenderOptions& options, const Scene& scene, double min_range,
-                 double max_range) {
-  ThrowIfInvalid(options, "render options");
-  Decisions d;
-  d.water = ResolveWater(options.water);
-  const int channels = scene.channels();
-  d.beta = ChannelValues(d.water.beta_rgb_per_m, d.water.beta_gray_per_m, channels);
-  d.ambient = ChannelValues(d.water.ambient_rgb, d.water.ambient_gray, channels);
-  d.backscatter = ChannelValues(d.water.backscatter_rgb, d.water.backscatter_gray, channels);
-  d.backscatter_on = options.water.backscatter;
-  RenderPlan& plan = d.plan;
-  bool& lights_used = d.lights_used;
-  if (options.model == ImageModel::kRevised) {
-    const RevisedOptions& v = options.revised;
-    d.revised = true;
-    d.backscatter_on = true;
-    d.beta_b = ChannelValues(v.beta_b_rgb_per_m, v.beta_b_gray_per_m, channels);
-    d.sea_thru = v.range_dependent;
-    if (d.sea_thru) {
-      d.sea_a = ChannelValues(v.a_rgb, v.a_gray, channels);
-      d.sea_b = ChannelValues(v.b_rgb, v.b_gray, channels);
-      d.sea_c = ChannelValues(v.c_rgb, v.c_gray, channels);
-      d.sea_d = ChannelValues(v.d_rgb, v.d_gray, channels);
-    }
-    plan.steps.push_back(
-        "model: revised (Akkaynak & Treibitz 2018): I = [J*h] exp(-beta^D r) + (1 - exp(-beta^B "
-        "r)) (B_inf + E_L), beta^B = " +
-        ListText(d.beta_b) + " 1/m" +
-        (d.sea_thru ? ", beta^D(r) = a exp(b r) + c exp(d r) (Sea-thru)" : ""));
-  } else if (options.model == ImageModel::kUwcnn) {
-    // t = N^d = exp(d ln N): beta = -ln N, scaled when distances are rescaled; J = rho (no
-    // ambient or artificial light in this recipe); B = scale N^exponent.
-    const UwcnnOptions u = ResolveUwcnn(options.uwcnn);
-    const std::vector<double> n = ChannelValues(u.n_rgb_per_m, u.n_gray_per_m, channels);
-    const bool rescale = u.max_distance_m > 0.0 && std::isfinite(max_range) && max_range > 0.0;
-    const double distance_scale = rescale ? u.max_distance_m / max_range : 1.0;
-    for (int c = 0; c < channels; ++c) {
-      d.beta[c] = -std::log(n[c]) * distance_scale;
-      d.ambient[c] = 1.0;
-      d.backscatter[c] = u.backlight_scale * std::pow(n[c], u.backlight_exponent);
-    }
-    d.backscatter_on = true;
-    lights_used = false;
-    plan.steps.push_back("model: uwcnn (Li, Anwar & Porikli 2020): I = rho N^d + B (1 - N^d), " +
-                         std::string("type ") + u.type + ", N = " + ListText(n) + ", B = " +
-                         ListText(d.backscatter) +
-                         (rescale ? ", d = r x " + Format(distance_scale) : ", d = r"));
-    plan.skipped.push_back("uwcnn: no ambient E_A or artificial light (J = rho)");
-  } else {
-    plan.steps.push_back("model: paper (eq. 2): I = [J*h] t + (1 - t) E_L");
-  }
-  const std::string what = channels == 1 ? "1 channel (gray)" : "3 channels (BGR)";
-  plan.steps.push_back("input: " + scene.name + " " + std::to_string(scene.width()) + "x" +
-                       std::to_string(scene.height()) + ", " + what);
-  if (channels == 1) plan.skipped.push_back("colour: gray input, every term computed on 1 channel");
-  for (const LightOptions& l : options.light.lights)
-    d.any_light = d.any_light || (lights_used && l.power > 0.0);
-  if (d.any_light)
-    plan.steps.push_back("light: " + std::to_string(options.light.lights.size()) + " LED(s), " +
-                         IncidenceModelName(options.light.incidence) + " incidence");
-  else
-    plan.skipped.push_back("light: no light (or zero power): E_L = 0, no veiling term");
-  // The revised model always takes the general path (two transmissions, maybe range-dependent).
-  d.zero_beta = !d.revised &&
-                std::all_of(d.beta.begin(), d.beta.end(), [](double b) { return b == 0.0; });
-  d.uniform_range = !d.revised && max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
-  if (d.zero_beta)
-    plan.skipped.push_back(
-        "attenuation: beta = 0, t = 1 (no exp, no veil; t = 0 where depth is invalid)");
-  else if (d.uniform_range)
-    plan.steps.push_back("attenuation: uniform range " + Format(min_range) +
-                         " m, t constant per channel");
-  else
-    plan.steps.push_back(std::string(d.revised ? "attenuation: direct t = exp(-beta^D r)"
-                                               : "attenuation: t = exp(-beta r)") +
-                         ", beta = " + ListText(d.beta) + " 1/m");
-  if (d.backscatter_on && !d.zero_beta)
-    plan.steps.push_back("backscatter: (1 - t) B_inf, B_inf = " + ListText(d.backscatter));
-  if (!options.psf.enabled) {
-    plan.skipped.push_back("psf: disabled");
-  } else {
-    d.psf = PsfKernel(options.psf);
-    if (options.psf.turbidity_dependent) {
-      d.blur = true;
-      plan.steps.push_back(
-          "psf: turbidity-dependent, T = beta r per pixel and channel, h = exp(-T) delta + (1 - "
-          "exp(-T)) g_T (eq. 7 at p = sqrt(T), sigma = " +
-          Format(d.psf.sigma_px) + " px), up to " +
-          std::to_string(options.psf.thickness_levels) + " kernels");
-    } else if (d.psf.is_delta && !options.psf.depth_dependent) {
-      plan.skipped.push_back("psf: kernel is a delta at this pixel scale (sigma " +
-                             Format(d.psf.sigma_px) + " px)");
-    } else {
-      d.blur = true;
-      plan.steps.push_back(std::string("psf: generalized Gaussian p = ") + Format(d.psf.p) +
-                           ", sigma = " + Format(d.psf.sigma_px) + " px, radius " +
-                           std::to_string(d.psf.radius_px) + " px, " +
-                           (d.psf.separable ? "separable (Gaussian)" : "2-D") +
-                           (options.psf.depth_dependent ? ", range-dependent width" : ""));
-    }
-  }
-  if (options.snow.enabled && options.snow.density_per_m3 > 0.0)
-    plan.steps.push_back("snow: " + Format(options.snow.density_per_m3) + " particles/m^3");
-  else
-    plan.skipped.push_back("snow: none");
-  if (options.sensor.enabled &&
-      (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0))
-    plan.steps.push_back("sensor noise: Poisson-Gaussian, " +
-                         Format(options.sensor.photons_at_white) + " e-/full scale, read " +
-                         Format(options.sensor.read_noise));
-  else
-    plan.skipped.push_back("sensor noise: none");
-  plan.steps.push_back(options.camera.bit_depth == 32
-                           ? std::string("camera: clip to [0, 1], float, linear")
-                           : "camera: clip, " + CameraEncodingName(options.camera.encoding) +
-                                 " encoding, quantise to " +
-                                 std::to_string(options.camera.bit_depth) + " bit");
-  return d;
+RenderRecord::Turbidity TurbidityRecord(const TurbidityPsf& plan) {
+  RenderRecord::Turbidity t;
+  t.levels = plan.thickness.size();
+  t.exact = plan.exact;
+  t.thickness = plan.thickness;
+  for (const Psf& g : plan.glow) t.radius_px.push_back(g.radius_px);
+  return t;
 }
 
 }  // namespace
@@ -833,26 +274,137 @@ RenderPlan Renderer::Plan(const RenderOptions& options) const {
   return Decide(options, scene_, cache_->min_range, cache_->max_range).plan;
 }
 
-RenderResult Renderer::Render(const RenderOptions& options) const {
-  Decisions d = Decide(options, scene_, cache_->min_range, cache_->max_range);
-  const int channels = scene_.channels();
-  const cv::Size size = scene_.image.size();
-  const int width = size.width, per_row = width * channels;
-  const int type = scene_.image.type();
-  RenderResult result;
+// The record of a render: everything used, after defaults and preset resolution, and what was
+// derived (the sidecar).
+namespace {
 
-  // Two passes over the rows, each fusing what used to be whole-image steps (docs/model.md has
-  // the model, docs/performance-simulator.md the figures):
-  //   A: light geometry -> E_L -> J = (E_A + E_L) rho, written to result.lit;
-  //   B: J * h -> t -> I = Jb t + (1 - t)(E_L + B_inf) -> snow -> sensor noise -> clip/quantise.
-  // E_L reaches pass B through the output image's own rows (overwritten in place), or through
-  // the light map when that is asked for. Every row is computed from its inputs alone, so the
-  // bytes do not depend on the thread count.
-  const bool backscatter = d.backscatter_on && !d.zero_beta;
-  const bool veil_term = !d.zero_beta && (d.any_light || backscatter);
-  const bool keep_light = d.any_light && veil_term;  // E_L needed again in pass B
-  cv::Mat image = internal::PooledMat(size, type), lit = internal::PooledMat(size, type);
-  cv::Mat light_map, t_map, veil, noise_map;
+// The depth statistics a Renderer keeps (range of the valid pixels and how many there are).
+struct RangeSummary {
+  double min_range = 0.0, max_range = 0.0;
+  int valid_pixels = 0;
+};
+
+RenderRecord MakeRecord(const Scene& scene_, const RangeSummary& range,
+                        const RenderOptions& options, const Decisions& d,
+                        const TurbidityPsf* turbidity, const internal::SnowSplats& snow) {
+  RenderRecord r;
+  r.version = TURBID_VERSION;
+  const int channels = scene_.channels();
+  r.scene.name = scene_.name;
+  r.scene.width = scene_.image.cols;
+  r.scene.height = scene_.image.rows;
+  r.scene.channels = channels;
+  r.scene.fx = scene_.camera.fx;
+  r.scene.fy = scene_.camera.fy;
+  r.scene.cx = scene_.camera.cx;
+  r.scene.cy = scene_.camera.cy;
+  for (const auto& [path, hash] : scene_.input_hashes) r.scene.input_hashes[path] = hash;
+  r.seed = options.seed;
+  r.options = d.used;
+  RenderRecord::Derived& out = r.derived;
+  out.channel_order = channels == 3 ? "BGR" : "gray";
+  out.model = ImageModelName(options.model);
+  out.beta_per_m = d.beta;
+  if (d.revised) out.beta_b_per_m = d.beta_b;
+  if (d.backscatter_on) out.backscatter = d.backscatter;
+  out.ambient = d.ambient;
+  for (const LightOptions& l : options.light.lights)
+    out.lambertian_order_m.push_back(LambertianOrder(l.half_power_angle_deg));
+  out.range_min_m = range.min_range;
+  out.range_max_m = range.max_range;
+  out.valid_depth_fraction = static_cast<double>(range.valid_pixels) / scene_.image.size().area();
+  out.psf.p = d.psf.p;
+  out.psf.sigma_px = d.psf.sigma_px;
+  out.psf.scale_a_px = d.psf.scale_a_px;
+  out.psf.radius_px = d.psf.radius_px;
+  out.psf.tail_mass_outside = d.psf.tail_mass_outside;
+  out.psf.is_delta = d.psf.is_delta || !options.psf.enabled;
+  out.psf.separable = d.psf.separable;
+  if (turbidity) out.psf.turbidity = TurbidityRecord(*turbidity);
+  out.snow_particles = snow.particles;
+  out.snow_visible = snow.visible;
+  r.plan = d.plan;
+  r.encoding = CameraEncodingName(options.camera.FileEncoding());
+  return r;
+}
+
+}  // namespace
+
+namespace {
+
+// Pass A's scratch for one band: light geometry of one row.
+struct RowAScratch {
+  std::vector<float> l, g, cos;
+};
+
+// One render: the state its two passes share. Two passes over the rows, each fusing what used to
+// be whole-image steps (docs/model.md has the model, docs/performance-simulator.md the figures):
+//   A: light geometry -> E_L -> J = (E_A + E_L) rho, written to lit;
+//   B: J * h -> t -> I = Jb t + (1 - t)(E_L + B_inf) -> snow -> sensor noise -> clip/quantise.
+// E_L reaches pass B through the output image's own rows (overwritten in place), or through
+// the light map when that is asked for. Every row is computed from its inputs alone, so the
+// bytes do not depend on the thread count.
+struct RenderPass {
+  const Scene& scene;
+  const cv::Mat& range_m;
+  const RenderOptions& options;
+  const Decisions& d;
+  const RangeSummary range;
+  const int channels, width, per_row;
+  const cv::Size size;
+  bool backscatter = false, veil_term = false, keep_light = false;
+  cv::Mat image, lit, light_map, t_map, veil, noise_map;
+  bool e_in_map = false, e_in_image = false;  // where pass A leaves E_L
+  // Pass A.
+  cv::Mat normals;
+  std::vector<internal::LightRowConstants> lights;
+  internal::LightRowContext light_context;
+  float ambient[3] = {0, 0, 0}, neg_beta[3] = {0, 0, 0};
+  // J * h: the separable kernel row by row in pass B; other kernels on the whole image.
+  std::optional<SeparableBlur> blur;
+  bool whole_image_blur = false, stream = false;
+  int radius = 0;
+  double stripes = 1.0;
+  cv::Mat blurred;                        // J * h when it is not computed row by row
+  std::optional<TurbidityPsf> turbidity;  // the per-pixel kernels (psf.turbidity_dependent)
+  // Pass B.
+  internal::SnowSplats snow;
+  bool snowing = false, sensor = false, open_water = false, quantise = false, srgb = false;
+  float bs[3] = {0, 0, 0}, t_const[3] = {0, 0, 0}, open_bs[3] = {0, 0, 0};
+  float sea_values[4][3] = {};
+  float levels = 255.0f;
+
+  RenderPass(const Scene& scene_in, const cv::Mat& range_in, const RenderOptions& options_in,
+             const Decisions& d_in, RangeSummary range_in_summary)
+      : scene(scene_in),
+        range_m(range_in),
+        options(options_in),
+        d(d_in),
+        range(range_in_summary),
+        channels(scene_in.channels()),
+        width(scene_in.image.cols),
+        per_row(scene_in.image.cols * scene_in.channels()),
+        size(scene_in.image.size()) {}
+
+  void AllocateOutputs();
+  void PrepareLight(const cv::Mat& scene_normals);
+  void PlanBlur();
+  void WholeImagePassA();
+  void PreparePassB();
+  RowAScratch MakeScratch() const;
+  void RowA(int y, RowAScratch& scratch, float* e_out, float* lit_out);
+  float* ETarget(int y, float* scratch);
+  void BandB(const cv::Range& rows);
+  void ComposeRow(int y, const float* jb, float* t_row, float* tb_row, float* out);
+  void FinishRow(int y, float* scratch, float* out);
+};
+
+void RenderPass::AllocateOutputs() {
+  const int type = scene.image.type();
+  backscatter = d.backscatter_on && !d.zero_beta;
+  veil_term = !d.zero_beta && (d.any_light || backscatter);
+  keep_light = d.any_light && veil_term;  // E_L needed again in pass B
+  image = internal::PooledMat(size, type), lit = internal::PooledMat(size, type);
   if (options.maps.light || (keep_light && options.maps.veil))
     light_map = d.any_light ? cv::Mat(size, type) : cv::Mat(size, type, cv::Scalar::all(0));
   if (options.maps.transmission)
@@ -861,65 +413,54 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
   if (options.maps.veil) veil = cv::Mat(size, CV_32FC(channels), cv::Scalar::all(0));
   if (options.maps.noise) noise_map = cv::Mat(size, CV_32FC(channels));
   // Where pass A leaves E_L: the light map, else the image rows (in place), else nowhere.
-  const bool e_in_map = !light_map.empty() && d.any_light;
-  const bool e_in_image = keep_light && !e_in_map;
+  e_in_map = !light_map.empty() && d.any_light;
+  e_in_image = keep_light && !e_in_map;
+}
 
-  // ---- pass A: E_L and J ----
-  cv::Mat normals;
-  std::vector<internal::LightRowConstants> lights;
-  internal::LightRowContext light_context;
+void RenderPass::PrepareLight(const cv::Mat& scene_normals) {
   if (d.any_light) {
-    normals = scene_.normals;
-    if (normals.empty()) {
-      std::lock_guard<std::mutex> lock(cache_->mutex);
-      if (cache_->normals.empty())
-        cache_->normals = NormalsFromDepth(scene_.camera, scene_.depth_m);
-      normals = cache_->normals;
-    }
+    normals = scene_normals;
     lights = internal::LightConstantsFor(options.light, channels);
-    light_context = internal::LightContextFor(options.light, scene_.camera, width);
+    light_context = internal::LightContextFor(options.light, scene.camera, width);
   }
-  float ambient[3] = {0, 0, 0}, neg_beta[3] = {0, 0, 0};
   for (int c = 0; c < channels; ++c) {
     ambient[c] = static_cast<float>(d.ambient[c]);
     neg_beta[c] = -static_cast<float>(d.beta[c]);
   }
-  // Pass A for one row: E_L into e_out (when there is light) and J into lit_out.
-  struct RowAScratch {
-    std::vector<float> l, g, cos;
-  };
-  auto row_a = [&](int y, RowAScratch& scratch, float* e_out, float* lit_out) {
-    float* e = nullptr;
-    if (d.any_light) {
-      e = e_out;
-      const float ray_y = light_context.RayY(scene_.camera, y);
-      for (size_t k = 0; k < lights.size(); ++k) {
-        internal::LightGeometryRow(light_context, lights[k], ray_y, scene_.depth_m.ptr<float>(y),
-                                   normals.ptr<cv::Vec3f>(y), width, scratch.l.data(),
-                                   scratch.g.data(), scratch.cos.data());
-        internal::AccumulateLightRow(scratch.l.data(), scratch.g.data(), width, channels, neg_beta,
-                                     lights[k].color, k == 0, e);
-      }
-    }
-    if (channels == 3)
-      LitRow<3>(scene_.image.ptr<float>(y), e, ambient, width, lit_out);
-    else
-      LitRow<1>(scene_.image.ptr<float>(y), e, ambient, width, lit_out);
-  };
-  auto make_scratch = [&] {
-    RowAScratch scratch;
-    if (d.any_light)
-      scratch.l.resize(width), scratch.g.resize(width), scratch.cos.resize(5 * width);
-    return scratch;
-  };
-  // Where pass A leaves E_L of an image row (for pass B), or scratch when pass B does not need it.
-  auto e_target = [&](int y, float* scratch) {
-    return e_in_map ? light_map.ptr<float>(y) : (e_in_image ? image.ptr<float>(y) : scratch);
-  };
+}
 
-  // ---- J * h: the separable kernel row by row in pass B; other kernels on the whole image ----
-  std::optional<SeparableBlur> blur;
-  bool whole_image_blur = false;
+RowAScratch RenderPass::MakeScratch() const {
+  RowAScratch scratch;
+  if (d.any_light) scratch.l.resize(width), scratch.g.resize(width), scratch.cos.resize(5 * width);
+  return scratch;
+}
+
+// Pass A for one row: E_L into e_out (when there is light) and J into lit_out.
+void RenderPass::RowA(int y, RowAScratch& scratch, float* e_out, float* lit_out) {
+  float* e = nullptr;
+  if (d.any_light) {
+    e = e_out;
+    const float ray_y = light_context.RayY(scene.camera, y);
+    for (size_t k = 0; k < lights.size(); ++k) {
+      internal::LightGeometryRow(light_context, lights[k], ray_y, scene.depth_m.ptr<float>(y),
+                                 normals.ptr<cv::Vec3f>(y), width, scratch.l.data(),
+                                 scratch.g.data(), scratch.cos.data());
+      internal::AccumulateLightRow(scratch.l.data(), scratch.g.data(), width, channels, neg_beta,
+                                   lights[k].color, k == 0, e);
+    }
+  }
+  if (channels == 3)
+    LitRow<3>(scene.image.ptr<float>(y), e, ambient, width, lit_out);
+  else
+    LitRow<1>(scene.image.ptr<float>(y), e, ambient, width, lit_out);
+}
+
+// Where pass A leaves E_L of an image row (for pass B), or scratch when pass B does not need it.
+float* RenderPass::ETarget(int y, float* scratch) {
+  return e_in_map ? light_map.ptr<float>(y) : (e_in_image ? image.ptr<float>(y) : scratch);
+}
+
+void RenderPass::PlanBlur() {
   if (d.blur) {
     if (d.psf.separable && !d.psf.kernel_1d.empty() && !options.psf.depth_dependent &&
         !options.psf.turbidity_dependent)
@@ -927,252 +468,229 @@ RenderResult Renderer::Render(const RenderOptions& options) const {
     else
       whole_image_blur = true;
   }
-  const int radius = blur ? blur->radius : 0;
+  radius = blur ? blur->radius : 0;
   // Streaming (pass A a few rows ahead of pass B in the same band, so J is still in cache when it
   // is blurred) needs the mirrored rows of a band's halo to be single reflections.
-  const bool stream = !whole_image_blur && 2 * radius < size.height;
-
+  stream = !whole_image_blur && 2 * radius < size.height;
   // Bands of rows (OpenCV's default is one row per task: each band computes its own halo and
   // scratch, so bands are a few per thread, of at least 16 rows).
-  const double stripes =
+  stripes =
       std::max(1.0, std::min<double>(4.0 * std::max(cv::getNumThreads(), 1), size.height / 16.0));
+}
 
-  cv::Mat blurred;  // J * h when it is not computed row by row
-  std::optional<TurbidityPsf> turbidity;  // the per-pixel kernels (psf.turbidity_dependent)
-  if (!stream) {
-    cv::parallel_for_(
-        cv::Range(0, size.height),
-        [&](const cv::Range& rows) {
-          RowAScratch scratch = make_scratch();
-          std::vector<float> e_scratch(d.any_light ? per_row : 0);
-          for (int y = rows.start; y < rows.end; ++y)
-            row_a(y, scratch, e_target(y, e_scratch.data()), lit.ptr<float>(y));
-        },
-        stripes);
-    if (whole_image_blur && options.psf.turbidity_dependent) {
-      turbidity = PlanTurbidityPsf(options.psf, ThicknessMap(d, range_m_, channels));
-      blurred = ApplyTurbidityPsf(*turbidity, lit);
-    } else if (whole_image_blur) {
-      blurred = options.psf.depth_dependent ? ApplyDepthDependentPsf(options.psf, lit, range_m_)
-                                            : ApplyPsf(d.psf, lit);
-    }
-  }
-
-  // ---- pass B: attenuation, veil, snow, sensor noise, camera ----
-  internal::SnowSplats snow;
-  IrradianceOptions no_light;
-  no_light.lights.clear();
-  const bool snowing = options.snow.enabled && options.snow.density_per_m3 > 0.0;
-  if (snowing)
-    snow = internal::DrawMarineSnow(options.snow, d.lights_used ? options.light : no_light,
-                                    scene_.camera, range_m_, d.beta, d.ambient, options.seed);
-  const bool sensor = options.sensor.enabled &&
-                      (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0);
-  float bs[3] = {0, 0, 0}, t_const[3] = {0, 0, 0};
-  for (int c = 0; c < channels; ++c) {
-    bs[c] = backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
-    t_const[c] = static_cast<float>(std::exp(-d.beta[c] * cache_->min_range));
-  }
-  // beta = 0: what open water (NaN depth) shows, B_inf when enabled (t = 0 there).
-  const bool open_water = d.zero_beta && cache_->valid_pixels < size.area();
-  float open_bs[3] = {0, 0, 0};
-  for (int c = 0; c < channels; ++c)
-    open_bs[c] = d.backscatter_on ? static_cast<float>(d.backscatter[c]) : 0.0f;
-  float sea_values[4][3] = {};
-  const float* sea[4] = {sea_values[0], sea_values[1], sea_values[2], sea_values[3]};
-  if (d.sea_thru) {
-    const std::vector<double>* coefficients[4] = {&d.sea_a, &d.sea_b, &d.sea_c, &d.sea_d};
-    for (int k = 0; k < 4; ++k)
-      for (int c = 0; c < channels; ++c) sea_values[k][c] = static_cast<float>((*coefficients[k])[c]);
-  }
-  const float levels = options.camera.bit_depth == 8 ? 255.0f : 65535.0f;
-  const bool quantise = options.camera.bit_depth != 32;
-  const bool srgb = quantise && options.camera.encoding == CameraEncoding::kSrgb;
+// Without streaming: pass A over the whole image, then the whole-image blur (if any).
+void RenderPass::WholeImagePassA() {
   cv::parallel_for_(
       cv::Range(0, size.height),
       [&](const cv::Range& rows) {
-        const int y0 = rows.start, y1 = rows.end;
-        RowAScratch scratch_a = make_scratch();
+        RowAScratch scratch = MakeScratch();
         std::vector<float> e_scratch(d.any_light ? per_row : 0);
-        std::vector<float> t_row(per_row), jb_row, padded, scratch(per_row);
-        std::vector<float> tb_row(d.revised ? per_row : 0);
-        if (blur) jb_row.resize(per_row), padded.resize(per_row + 2 * radius * channels);
-        // Rows of J outside the band that its blur reads (mirrored at the image borders), computed
-        // here rather than shared with the neighbouring band: at most 2R rows.
-        std::vector<int> halo_rows;
-        std::vector<float> halo;
-        if (stream && blur) {
-          for (int y = y0 - radius; y < y1 + radius; ++y) {
-            const int source = blur->row_of[y + radius];
-            if ((source < y0 || source >= y1) &&
-                std::find(halo_rows.begin(), halo_rows.end(), source) == halo_rows.end())
-              halo_rows.push_back(source);
-          }
-          halo.resize(halo_rows.size() * per_row);
-          for (size_t i = 0; i < halo_rows.size(); ++i)
-            row_a(halo_rows[i], scratch_a, e_scratch.data(), halo.data() + i * per_row);
-        }
-        auto j_row = [&](int source) -> const float* {
-          // Without streaming pass A has computed every row of J (a kernel 2R + 1 >= the height
-          // reads rows of other bands, reflected as often as it needs).
-          if (!stream || (source >= y0 && source < y1)) return lit.ptr<float>(source);
-          const size_t i =
-              std::find(halo_rows.begin(), halo_rows.end(), source) - halo_rows.begin();
-          return halo.data() + i * per_row;
-        };
-        std::vector<const float*> tap_rows(2 * radius + 1);
-        int next_a = y0;  // next band row pass A has to compute (streaming)
-        for (int y = y0; y < y1; ++y) {
-          if (stream) {
-            // Mirrored rows of a band lie within [y - R, y + R] (single reflections): compute up to
-            // y + R.
-            for (const int last = std::min(y + radius, y1 - 1); next_a <= last; ++next_a)
-              row_a(next_a, scratch_a, e_target(next_a, e_scratch.data()), lit.ptr<float>(next_a));
-          }
-          const float* jb = lit.ptr<float>(y);
-          if (blur) {
-            for (int dy = -radius; dy <= radius; ++dy)
-              tap_rows[dy + radius] = j_row(blur->row_of[y + dy + radius]);
-            BlurRow(*blur, tap_rows.data(), width, padded.data(), jb_row.data());
-            jb = jb_row.data();
-          } else if (!blurred.empty()) {
-            jb = blurred.ptr<float>(y);
-          }
-          float* out = image.ptr<float>(y);
-          if (d.zero_beta) {
-            std::copy(jb, jb + per_row, out);
-            // Invalid depth is open water at infinite range: t = 0 there even at beta = 0 (the
-            // limit beta -> 0+ taken along the ray), leaving the backscatter B_inf alone.
-            if (open_water) {
-              const float* r = range_m_.ptr<float>(y);
-              float* t = t_map.empty() ? nullptr : t_map.ptr<float>(y);
-              float* v = veil.empty() ? nullptr : veil.ptr<float>(y);
-              for (int x = 0; x < width; ++x) {
-                if (r[x] == r[x]) continue;
-                for (int c = 0; c < channels; ++c) {
-                  out[x * channels + c] = open_bs[c];
-                  if (t) t[x * channels + c] = 0.0f;
-                  if (v) v[x * channels + c] = open_bs[c];
-                }
-              }
-            }
-          } else if (d.revised) {
-            // Direct transmission (constant or Sea-thru beta^D(r)) and backscatter transmission.
-            const float* r = range_m_.ptr<float>(y);
-            float* t = t_row.data();
-            if (d.sea_thru)
-              SeaThruTransmissionRow(r, width, channels, sea[0], sea[1], sea[2], sea[3], t);
-            else
-              TransmissionRows(r, width, d.beta, t);
-            TransmissionRows(r, width, d.beta_b, tb_row.data());
-            if (!t_map.empty()) std::copy(t, t + per_row, t_map.ptr<float>(y));
-            const float* e = e_in_map ? light_map.ptr<float>(y) : (e_in_image ? out : nullptr);
-            if (!veil.empty()) VeilRow(tb_row.data(), e, bs, width, channels, veil.ptr<float>(y));
-            ComposeRevised(jb, t, tb_row.data(), e, bs, width, channels, out);
-          } else {
-            const float* r = range_m_.ptr<float>(y);
-            float* t = t_row.data();
-            if (d.uniform_range) {
-              for (int x = 0; x < width; ++x)
-                for (int c = 0; c < channels; ++c)
-                  t[x * channels + c] = r[x] == r[x] ? t_const[c] : 0.0f;
-            } else {
-              TransmissionRows(r, width, d.beta, t);  // NaN depth: open water, t = 0
-            }
-            if (!t_map.empty()) std::copy(t, t + per_row, t_map.ptr<float>(y));
-            const float* e = e_in_map ? light_map.ptr<float>(y) : nullptr;
-            if (!veil.empty() && veil_term) VeilRow(t, e, bs, width, channels, veil.ptr<float>(y));
-            if (!veil_term)
-              ComposePlain(jb, t, per_row, out);
-            else if (e_in_image && channels == 3)
-              ComposeVeil<3, true>(jb, t, nullptr, bs, width, out);
-            else if (e_in_image)
-              ComposeVeil<1, true>(jb, t, nullptr, bs, width, out);
-            else if (channels == 3)
-              ComposeVeil<3, false>(jb, t, e, bs, width, out);
-            else
-              ComposeVeil<1, false>(jb, t, e, bs, width, out);
-          }
-          float* noise = noise_map.empty() ? nullptr : noise_map.ptr<float>(y);
-          if (noise) std::copy(out, out + per_row, noise);
-          if (snowing) internal::AddSnowRow(snow, y, width, scratch.data(), out);
-          if (sensor)
-            internal::AddSensorNoiseRow(options.sensor, options.seed, y, per_row, out,
-                                        scratch.data());
-          if (noise)
-            for (int i = 0; i < per_row; ++i) noise[i] = out[i] - noise[i];
-          const bool swap_rb = options.rgb_image && channels == 3;
-          if (srgb && swap_rb) {
-            QuantiseEncodedRowSwapRB(out, per_row, CameraEncoding::kSrgb, options.camera.bit_depth);
-          } else if (srgb) {
-            QuantiseEncodedRow(out, per_row, CameraEncoding::kSrgb, options.camera.bit_depth);
-          } else {
-            QuantiseRow(out, per_row, levels, quantise);
-            if (swap_rb)
-              for (int x = 0; x < width; ++x) std::swap(out[3 * x], out[3 * x + 2]);
-          }
-        }
+        for (int y = rows.start; y < rows.end; ++y)
+          RowA(y, scratch, ETarget(y, e_scratch.data()), lit.ptr<float>(y));
       },
       stripes);
+  if (whole_image_blur && options.psf.turbidity_dependent) {
+    turbidity = PlanTurbidityPsf(options.psf, ThicknessMap(d, range_m, channels));
+    blurred = ApplyTurbidityPsf(*turbidity, lit);
+  } else if (whole_image_blur) {
+    blurred = options.psf.depth_dependent ? ApplyDepthDependentPsf(options.psf, lit, range_m)
+                                          : ApplyPsf(d.psf, lit);
+  }
+}
 
-  result.image = image;
-  result.lit = lit;
-  result.transmission = t_map;
-  if (options.maps.light) result.light = light_map;
-  result.veil = veil;
-  result.noise = noise_map;
+// Pass B's constants: snow, sensor noise, backscatter, transmission, Sea-thru, camera.
+void RenderPass::PreparePassB() {
+  IrradianceOptions no_light;
+  no_light.lights.clear();
+  snowing = options.snow.enabled && options.snow.density_per_m3 > 0.0;
+  if (snowing)
+    snow = internal::DrawMarineSnow(options.snow, d.lights_used ? options.light : no_light,
+                                    scene.camera, range_m, d.beta, d.ambient, options.seed);
+  sensor = options.sensor.enabled &&
+           (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0);
+  for (int c = 0; c < channels; ++c) {
+    bs[c] = backscatter ? static_cast<float>(d.backscatter[c]) : 0.0f;
+    t_const[c] = static_cast<float>(std::exp(-d.beta[c] * range.min_range));
+  }
+  // beta = 0: what open water (NaN depth) shows, B_inf when enabled (t = 0 there).
+  open_water = d.zero_beta && range.valid_pixels < size.area();
+  for (int c = 0; c < channels; ++c)
+    open_bs[c] = d.backscatter_on ? static_cast<float>(d.backscatter[c]) : 0.0f;
+  if (d.sea_thru) {
+    const std::vector<double>* coefficients[4] = {&d.sea_a, &d.sea_b, &d.sea_c, &d.sea_d};
+    for (int k = 0; k < 4; ++k)
+      for (int c = 0; c < channels; ++c)
+        sea_values[k][c] = static_cast<float>((*coefficients[k])[c]);
+  }
+  levels = options.camera.bit_depth == 8 ? 255.0f : 65535.0f;
+  quantise = options.camera.bit_depth != 32;
+  srgb = quantise && options.camera.encoding == CameraEncoding::kSrgb;
+}
+
+// Pass B over one band of rows (with pass A streamed a few rows ahead when it can be).
+void RenderPass::BandB(const cv::Range& rows) {
+  const int y0 = rows.start, y1 = rows.end;
+  RowAScratch scratch_a = MakeScratch();
+  std::vector<float> e_scratch(d.any_light ? per_row : 0);
+  std::vector<float> t_row(per_row), jb_row, padded, scratch(per_row);
+  std::vector<float> tb_row(d.revised ? per_row : 0);
+  if (blur) jb_row.resize(per_row), padded.resize(per_row + 2 * radius * channels);
+  // Rows of J outside the band that its blur reads (mirrored at the image borders), computed
+  // here rather than shared with the neighbouring band: at most 2R rows.
+  std::vector<int> halo_rows;
+  std::vector<float> halo;
+  if (stream && blur) {
+    for (int y = y0 - radius; y < y1 + radius; ++y) {
+      const int source = blur->row_of[y + radius];
+      if ((source < y0 || source >= y1) &&
+          std::find(halo_rows.begin(), halo_rows.end(), source) == halo_rows.end())
+        halo_rows.push_back(source);
+    }
+    halo.resize(halo_rows.size() * per_row);
+    for (size_t i = 0; i < halo_rows.size(); ++i)
+      RowA(halo_rows[i], scratch_a, e_scratch.data(), halo.data() + i * per_row);
+  }
+  auto j_row = [&](int source) -> const float* {
+    // Without streaming pass A has computed every row of J (a kernel 2R + 1 >= the height
+    // reads rows of other bands, reflected as often as it needs).
+    if (!stream || (source >= y0 && source < y1)) return lit.ptr<float>(source);
+    const size_t i = std::find(halo_rows.begin(), halo_rows.end(), source) - halo_rows.begin();
+    return halo.data() + i * per_row;
+  };
+  std::vector<const float*> tap_rows(2 * radius + 1);
+  int next_a = y0;  // next band row pass A has to compute (streaming)
+  for (int y = y0; y < y1; ++y) {
+    if (stream) {
+      // Mirrored rows of a band lie within [y - R, y + R] (single reflections): compute up to
+      // y + R.
+      for (const int last = std::min(y + radius, y1 - 1); next_a <= last; ++next_a)
+        RowA(next_a, scratch_a, ETarget(next_a, e_scratch.data()), lit.ptr<float>(next_a));
+    }
+    const float* jb = lit.ptr<float>(y);
+    if (blur) {
+      for (int dy = -radius; dy <= radius; ++dy)
+        tap_rows[dy + radius] = j_row(blur->row_of[y + dy + radius]);
+      BlurRow(*blur, tap_rows.data(), width, padded.data(), jb_row.data());
+      jb = jb_row.data();
+    } else if (!blurred.empty()) {
+      jb = blurred.ptr<float>(y);
+    }
+    float* out = image.ptr<float>(y);
+    ComposeRow(y, jb, t_row.data(), tb_row.data(), out);
+    FinishRow(y, scratch.data(), out);
+  }
+}
+
+// I of one row from Jb: attenuation, veil (and the t and veil maps).
+void RenderPass::ComposeRow(int y, const float* jb, float* t_row, float* tb_row, float* out) {
+  float* t_out = t_map.empty() ? nullptr : t_map.ptr<float>(y);
+  float* v_out = veil.empty() ? nullptr : veil.ptr<float>(y);
+  const float* r = range_m.ptr<float>(y);
+  if (d.zero_beta) {
+    std::copy(jb, jb + per_row, out);
+    // Invalid depth is open water at infinite range: t = 0 there even at beta = 0 (the
+    // limit beta -> 0+ taken along the ray), leaving the backscatter B_inf alone.
+    if (open_water) {
+      for (int x = 0; x < width; ++x) {
+        if (r[x] == r[x]) continue;
+        for (int c = 0; c < channels; ++c) {
+          out[x * channels + c] = open_bs[c];
+          if (t_out) t_out[x * channels + c] = 0.0f;
+          if (v_out) v_out[x * channels + c] = open_bs[c];
+        }
+      }
+    }
+  } else if (d.revised) {
+    // Direct transmission (constant or Sea-thru beta^D(r)) and backscatter transmission.
+    float* t = t_row;
+    if (d.sea_thru)
+      SeaThruTransmissionRow(r, width, channels, sea_values[0], sea_values[1], sea_values[2],
+                             sea_values[3], t);
+    else
+      TransmissionRows(r, width, d.beta, t);
+    TransmissionRows(r, width, d.beta_b, tb_row);
+    if (t_out) std::copy(t, t + per_row, t_out);
+    const float* e = e_in_map ? light_map.ptr<float>(y) : (e_in_image ? out : nullptr);
+    if (v_out) VeilRow(tb_row, e, bs, width, channels, v_out);
+    ComposeRevised(jb, t, tb_row, e, bs, width, channels, out);
+  } else {
+    float* t = t_row;
+    if (d.uniform_range) {
+      for (int x = 0; x < width; ++x)
+        for (int c = 0; c < channels; ++c) t[x * channels + c] = r[x] == r[x] ? t_const[c] : 0.0f;
+    } else {
+      TransmissionRows(r, width, d.beta, t);  // NaN depth: open water, t = 0
+    }
+    if (t_out) std::copy(t, t + per_row, t_out);
+    const float* e = e_in_map ? light_map.ptr<float>(y) : nullptr;
+    if (v_out && veil_term) VeilRow(t, e, bs, width, channels, v_out);
+    if (!veil_term)
+      ComposePlain(jb, t, per_row, out);
+    else if (e_in_image && channels == 3)
+      ComposeVeil<3, true>(jb, t, nullptr, bs, width, out);
+    else if (e_in_image)
+      ComposeVeil<1, true>(jb, t, nullptr, bs, width, out);
+    else if (channels == 3)
+      ComposeVeil<3, false>(jb, t, e, bs, width, out);
+    else
+      ComposeVeil<1, false>(jb, t, e, bs, width, out);
+  }
+}
+
+// Snow, sensor noise (and the noise map), then the camera's clipping and quantisation.
+void RenderPass::FinishRow(int y, float* scratch, float* out) {
+  float* noise = noise_map.empty() ? nullptr : noise_map.ptr<float>(y);
+  if (noise) std::copy(out, out + per_row, noise);
+  if (snowing) internal::AddSnowRow(snow, y, width, scratch, out);
+  if (sensor) internal::AddSensorNoiseRow(options.sensor, options.seed, y, per_row, out, scratch);
+  if (noise)
+    for (int i = 0; i < per_row; ++i) noise[i] = out[i] - noise[i];
+  const bool swap_rb = options.rgb_image && channels == 3;
+  if (srgb && swap_rb) {
+    QuantiseEncodedRowSwapRB(out, per_row, CameraEncoding::kSrgb, options.camera.bit_depth);
+  } else if (srgb) {
+    QuantiseEncodedRow(out, per_row, CameraEncoding::kSrgb, options.camera.bit_depth);
+  } else {
+    QuantiseRow(out, per_row, levels, quantise);
+    if (swap_rb)
+      for (int x = 0; x < width; ++x) std::swap(out[3 * x], out[3 * x + 2]);
+  }
+}
+
+}  // namespace
+
+const cv::Mat& Renderer::Normals() const {
+  if (!scene_.normals.empty()) return scene_.normals;
+  std::lock_guard<std::mutex> lock(cache_->mutex);
+  if (cache_->normals.empty()) cache_->normals = NormalsFromDepth(scene_.camera, scene_.depth_m);
+  return cache_->normals;
+}
+
+RenderResult Renderer::Render(const RenderOptions& options) const {
+  const Decisions d = Decide(options, scene_, cache_->min_range, cache_->max_range);
+  const RangeSummary range{cache_->min_range, cache_->max_range, cache_->valid_pixels};
+  RenderPass pass(scene_, range_m_, options, d, range);
+  pass.AllocateOutputs();
+  pass.PrepareLight(d.any_light ? Normals() : cv::Mat());
+  pass.PlanBlur();
+  if (!pass.stream) pass.WholeImagePassA();
+  pass.PreparePassB();
+  cv::parallel_for_(
+      cv::Range(0, pass.size.height), [&](const cv::Range& rows) { pass.BandB(rows); },
+      pass.stripes);
+
+  RenderResult result;
+  result.image = pass.image;
+  result.lit = pass.lit;
+  result.transmission = pass.t_map;
+  if (options.maps.light) result.light = pass.light_map;
+  result.veil = pass.veil;
+  result.noise = pass.noise_map;
   if (options.maps.psf)
     result.psf = d.psf.kernel.empty() ? cv::Mat::ones(1, 1, CV_32F) : d.psf.kernel;
-
-  // Sidecar: everything used, after defaults and preset resolution.
-  RenderOptions used = options;
-  used.water = d.water;
-  json orders = json::array();
-  for (const LightOptions& l : options.light.lights)
-    orders.push_back(LambertianOrder(l.half_power_angle_deg));
-  json hashes = json::object();
-  for (const auto& [path, hash] : scene_.input_hashes) hashes[path] = hash;
   result.plan = d.plan;
-  result.sidecar = {
-      {"tool", "turbid render"},
-      {"version", TURBID_VERSION},
-      {"scene",
-       {{"name", scene_.name},
-        {"width", size.width},
-        {"height", size.height},
-        {"channels", channels},
-        {"camera",
-         {{"fx", scene_.camera.fx},
-          {"fy", scene_.camera.fy},
-          {"cx", scene_.camera.cx},
-          {"cy", scene_.camera.cy}}},
-        {"input_hashes", hashes}}},
-      {"seed", options.seed},
-      {"options", RenderOptionsToJson(used)},
-      {"derived",
-       {{"channel_order", channels == 3 ? "BGR" : "gray"},
-        {"model", ImageModelName(options.model)},
-        {"beta_per_m", d.beta},
-        {"beta_b_per_m", d.revised ? json(d.beta_b) : json()},
-        {"backscatter", d.backscatter_on ? json(d.backscatter) : json()},
-        {"ambient", d.ambient},
-        {"lambertian_order_m", orders},
-        {"range_m", {{"min", cache_->min_range}, {"max", cache_->max_range}}},
-        {"valid_depth_fraction", static_cast<double>(cache_->valid_pixels) / size.area()},
-        {"psf",
-         {{"p", d.psf.p},
-          {"sigma_px", d.psf.sigma_px},
-          {"scale_a_px", d.psf.scale_a_px},
-          {"radius_px", d.psf.radius_px},
-          {"tail_mass_outside", d.psf.tail_mass_outside},
-          {"is_delta", d.psf.is_delta || !options.psf.enabled},
-          {"separable", d.psf.separable},
-          {"turbidity", turbidity ? TurbidityJson(*turbidity) : json()}}},
-        {"snow", {{"particles", snow.particles}, {"visible", snow.visible}}}}},
-      {"plan", d.plan.ToJson()},
-      // How the image file's values are coded (what `turbid score` and `enhance` read).
-      {"encoding", CameraEncodingName(options.camera.FileEncoding())},
-  };
+  result.sidecar =
+      MakeRecord(scene_, range, options, d, pass.turbidity ? &*pass.turbidity : nullptr, pass.snow);
   return result;
 }
 

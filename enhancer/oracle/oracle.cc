@@ -243,9 +243,9 @@ struct Truth {
 // The truth of a render. planes: also t, E, the veil and the snow layer as images (always with
 // beta = 0, whose t is made as a whole image).
 Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene& scene,
-                   const nlohmann::json& sidecar, bool remove_snow, bool planes) {
+                   const RenderRecord& sidecar, bool remove_snow, bool planes) {
   ValidateEnhanceImage(image, method);
-  if (!sidecar.is_object() || !sidecar.contains("options")) {
+  if (!sidecar.options) {
     throw Error(method + ": the sidecar has no \"options\" object (not a turbid render sidecar?)");
   }
   if (scene.image.size() != image.size() || scene.channels() != image.channels()) {
@@ -255,7 +255,7 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
                 std::to_string(image.rows) + ", " + std::to_string(image.channels()) + ")");
   }
   Truth truth;
-  truth.render = RenderOptionsFromJson(sidecar["options"]);
+  truth.render = *sidecar.options;
   const RenderOptions& ro = truth.render;
   const WaterOptions water = ResolveWater(ro.water);
   const int ch = truth.channels = image.channels();
@@ -494,7 +494,7 @@ cv::Mat DeconvolveReflect101(const cv::Mat& image, const cv::Mat& kernel, double
 }
 
 OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& image,
-                                const Scene& scene, const nlohmann::json& sidecar) {
+                                const Scene& scene, const RenderRecord& sidecar) {
   ThrowIfInvalid(o, "oracle_exact");
   Truth truth = ResolveTruth("oracle_exact", image, scene, sidecar, o.remove_snow, true);
   OracleResult result;
@@ -541,7 +541,7 @@ OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& imag
 }
 
 OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const Scene& scene,
-                           const nlohmann::json& sidecar) {
+                           const RenderRecord& sidecar) {
   ThrowIfInvalid(o, "oracle");
   // The truth maps as rows made where the data term reads them (E also as an image for target
   // lit, whose last step multiplies by it).

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "scenes/scene.h"
+#include "simulator/render_record.h"
 
 namespace turbid {
 
@@ -69,9 +70,9 @@ struct OracleResult {
 // Both need the scene the render was made from (same size and channels) and its sidecar; throw
 // Error otherwise.
 OracleResult OracleExactEnhance(const OracleExactOptions& options, const cv::Mat& image,
-                                const Scene& scene, const nlohmann::json& sidecar);
+                                const Scene& scene, const RenderRecord& sidecar);
 OracleResult OracleEnhance(const OracleOptions& options, const cv::Mat& image, const Scene& scene,
-                           const nlohmann::json& sidecar);
+                           const RenderRecord& sidecar);
 
 // Reflect-101 deconvolution: the x with ConvolveReflect101(x, kernel) = image (cv::filter2D with
 // BORDER_REFLECT_101, as the renderer blurs), found by the DFT of the even periodic extension

@@ -72,7 +72,7 @@ cv::Mat FullWholeImage(const FullOptions& o, const cv::Mat& image, const Irradia
 // The full pipeline. `keep_steps`: fill every inspection-only field of FullResult (range_m);
 // FullEnhance passes false and saves the full-size work they cost.
 FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Scene* scene,
-                           const nlohmann::json* sidecar, bool keep_steps) {
+                           const RenderRecord* sidecar, bool keep_steps) {
   ThrowIfInvalid(o, "full");
   FullResult r;
   const int channels = image.channels();
@@ -123,12 +123,12 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
 }  // namespace
 
 FullResult FullEnhanceDetailed(const FullOptions& o, const cv::Mat& image, const Scene* scene,
-                               const nlohmann::json* sidecar) {
+                               const RenderRecord* sidecar) {
   return FullEnhanceImpl(o, image, scene, sidecar, true);
 }
 
 cv::Mat FullEnhance(const FullOptions& o, const cv::Mat& image, const Scene* scene,
-                    const nlohmann::json* sidecar) {
+                    const RenderRecord* sidecar) {
   return FullEnhanceImpl(o, image, scene, sidecar, false).image;
 }
 

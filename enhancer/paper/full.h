@@ -20,6 +20,7 @@
 #include "enhancer/registry.h"
 #include "scenes/scene.h"
 #include "simulator/light.h"
+#include "simulator/render_record.h"
 
 namespace turbid {
 
@@ -160,9 +161,9 @@ std::vector<LightScaleEstimate> EstimateLightScale(const cv::Mat& denoised, cons
 
 // Geometry: `scene` (may be null), the sidecar's light options and camera (may be null).
 FullResult FullEnhanceDetailed(const FullOptions& options, const cv::Mat& image, const Scene* scene,
-                               const nlohmann::json* sidecar);
+                               const RenderRecord* sidecar);
 cv::Mat FullEnhance(const FullOptions& options, const cv::Mat& image, const Scene* scene,
-                    const nlohmann::json* sidecar);
+                    const RenderRecord* sidecar);
 
 // Reports FullEnhanceDetailed's intermediates to `sink` under the names `turbid enhance
 // --dump-steps` writes: 01_denoised, 02_light, 02_veil_removed (I_de - (1 - t) E_L, the veil

@@ -26,7 +26,7 @@ double PercentileOf(std::vector<float>& values, double percentile);
 // dehazing plane, a camera at 1/subsample, the plane's z-depth capped at max_range_m, a bilinear
 // upsampling to `size` (the map itself when already that size).
 CameraIntrinsics ResolveCamera(const cv::Mat& image, const Scene* scene,
-                               const nlohmann::json* sidecar, std::vector<std::string>* steps);
+                               const RenderRecord* sidecar, std::vector<std::string>* steps);
 Plane ResolvePlane(const FullOptions& o, const Scene* scene, const CameraIntrinsics& camera,
                    std::string* source);
 CameraIntrinsics Downscaled(const CameraIntrinsics& c, int subsample);
@@ -42,7 +42,7 @@ cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r,
                     const double* noise_sigma = nullptr,
                     const enhancer_internal::LinearUpsampler* t_rows = nullptr);
 // The LED specification and beta (one value when every channel has the same).
-void ResolveLightsAndBeta(const FullOptions& o, const nlohmann::json* sidecar, int channels,
+void ResolveLightsAndBeta(const FullOptions& o, const RenderRecord* sidecar, int channels,
                           IrradianceOptions* lights, std::vector<double>* beta, FullResult* r);
 // t = exp(-beta r) on the plane into r->transmission (r->range_m when keep_steps), or *t_rows.
 void TransmissionStep(const FullOptions& o, const CameraIntrinsics& camera,

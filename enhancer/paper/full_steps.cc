@@ -35,7 +35,7 @@ bool Fail(std::string* why, const std::string& message) {
 
 // Camera for an image: the scene's, else the sidecar's, else a 53-degree pinhole (fx = max side).
 CameraIntrinsics ResolveCamera(const cv::Mat& image, const Scene* scene,
-                               const nlohmann::json* sidecar, std::vector<std::string>* steps) {
+                               const RenderRecord* sidecar, std::vector<std::string>* steps) {
   if (scene != nullptr) {
     if (scene->camera.width != image.cols || scene->camera.height != image.rows) {
       throw Error("full: image is " + std::to_string(image.cols) + "x" +
@@ -47,13 +47,10 @@ CameraIntrinsics ResolveCamera(const cv::Mat& image, const Scene* scene,
   CameraIntrinsics c;
   c.width = image.cols;
   c.height = image.rows;
-  if (sidecar != nullptr && sidecar->contains("scene") && (*sidecar)["scene"].contains("camera")) {
-    const auto& j = (*sidecar)["scene"]["camera"];
-    c.fx = j.value("fx", 0.0), c.fy = j.value("fy", 0.0), c.cx = j.value("cx", 0.0),
-    c.cy = j.value("cy", 0.0);
-    const auto& s = (*sidecar)["scene"];
-    if (s.value("width", 0) == image.cols && s.value("height", 0) == image.rows && c.fx != 0 &&
-        c.fy != 0) {
+  if (sidecar != nullptr) {
+    const RenderRecord::SceneInfo& s = sidecar->scene;
+    c.fx = s.fx, c.fy = s.fy, c.cx = s.cx, c.cy = s.cy;
+    if (s.width == image.cols && s.height == image.rows && c.fx != 0 && c.fy != 0) {
       steps->push_back("camera: from the sidecar");
       return c;
     }
@@ -236,12 +233,12 @@ cv::Mat DenoiseStep(const FullOptions& o, const cv::Mat& image, FullResult* r,
 // The LED specification (the sidecar's lights, else the simulator's default LED) and beta: the
 // fixed beta_per_m, or with beta_source=auto the sidecar's water per channel. One value when every
 // channel has the same beta.
-void ResolveLightsAndBeta(const FullOptions& o, const nlohmann::json* sidecar, int channels,
+void ResolveLightsAndBeta(const FullOptions& o, const RenderRecord* sidecar, int channels,
                           IrradianceOptions* lights, std::vector<double>* beta, FullResult* r) {
   *beta = {o.beta_per_m};
   r->beta_source = "beta_per_m";
-  if (sidecar != nullptr && sidecar->contains("options")) {
-    const RenderOptions rendered = RenderOptionsFromJson((*sidecar)["options"]);
+  if (sidecar != nullptr && sidecar->options) {
+    const RenderOptions& rendered = *sidecar->options;
     *lights = rendered.light;
     if (o.beta_source == "auto") {
       const WaterOptions& water = rendered.water;

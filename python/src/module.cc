@@ -406,8 +406,8 @@ PyRenderResult RenderScene(const PyScene& scene, const std::string& params_text,
   options.rgb_image = true;  // written in NumPy's order by the render's last pass: no copy later
   out.result = std::make_shared<RenderResult>(scene.renderer->Render(options));
   if (!scene.spec.empty()) {
-    out.result->sidecar["scene"]["spec"] = scene.spec;
-    out.result->sidecar["scene"]["builtin_scale"] = scene.scale;
+    out.result->sidecar.scene.spec = scene.spec;
+    out.result->sidecar.scene.builtin_scale = scene.scale;
   }
   return out;
 }
@@ -420,8 +420,9 @@ py::array EnhanceArray(const py::array& image, const std::string& method,
   const Encoding enc = ParseEncoding(encoding);
   const ArrayView iv = ViewArray(image, "image");
   const json params = ParseJsonText(params_text, "params");
-  std::optional<json> sidecar;
-  if (sidecar_text) sidecar = ParseJsonText(*sidecar_text, "sidecar");
+  std::optional<RenderRecord> sidecar;
+  if (sidecar_text)
+    sidecar = RenderRecord::FromJson(ParseJsonText(*sidecar_text, "sidecar"), "sidecar");
   cv::Mat out;
   {
     WorkScope release;
@@ -434,11 +435,10 @@ py::array EnhanceArray(const py::array& image, const std::string& method,
     std::optional<Scene> loaded;
     if (scene) {
       input.scene = &scene->scene();
-    } else if (sidecar && info.needs_geometry && sidecar->contains("scene") &&
-               (*sidecar)["scene"].contains("spec")) {
+    } else if (sidecar && info.needs_geometry && sidecar->scene.spec) {
       LoadSceneOptions so;
-      so.builtin_scale = (*sidecar)["scene"].value("builtin_scale", 1.0);
-      loaded = LoadScene((*sidecar)["scene"]["spec"].get<std::string>(), so);
+      so.builtin_scale = sidecar->scene.builtin_scale.value_or(1.0);
+      loaded = LoadScene(*sidecar->scene.spec, so);
       input.scene = &*loaded;
     }
     if (info.needs_sidecar && !input.sidecar)
@@ -698,7 +698,7 @@ PYBIND11_MODULE(_turbid, m) {
         if (m->empty()) return py::none();
         return ToNumpy(*m);
       })
-      .def("sidecar", [](const PyRenderResult& r) { return r.result->sidecar.dump(); })
+      .def("sidecar", [](const PyRenderResult& r) { return r.result->sidecar.ToJson().dump(); })
       .def("plan", [](const PyRenderResult& r) { return r.result->plan.ToText(); });
 
   m.def("expand_scene_spec", [](const std::string& spec) {

@@ -70,8 +70,8 @@ RenderOptions Clean(double beta, double power) {
 
 // The render's sidecar with the LED power replaced by 1: the blind estimate then has to find
 // the true power (in image units) from the image alone.
-nlohmann::json WithUnitPower(nlohmann::json sidecar) {
-  for (auto& light : sidecar["options"]["light"]["lights"]) light["power"] = 1.0;
+RenderRecord WithUnitPower(RenderRecord sidecar) {
+  for (LightOptions& light : sidecar.options->light.lights) light.power = 1.0;
   return sidecar;
 }
 
@@ -90,7 +90,7 @@ TEST(FullBlind, LightScaleRecoversTheTrueLedPower) {
     for (double beta : {0.4, 0.7, 1.0}) {
       for (double power : {4.0, 8.0, 16.0, 32.0}) {
         const RenderResult r = Render(Clean(beta, power), scene);
-        const nlohmann::json unit = WithUnitPower(r.sidecar);
+        const RenderRecord unit = WithUnitPower(r.sidecar);
         const FullResult f =
             FullEnhanceDetailed(FullVariantDefaults("full_matched"), r.image, &scene, &unit);
         ASSERT_EQ(f.light_scale.size(), static_cast<size_t>(r.image.channels()));

@@ -159,9 +159,9 @@ struct Truth {
 };
 
 Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene& scene,
-                   const nlohmann::json& sidecar, bool remove_snow) {
+                   const RenderRecord& sidecar, bool remove_snow) {
   ValidateEnhanceImage(image, method);
-  if (!sidecar.is_object() || !sidecar.contains("options")) {
+  if (!sidecar.options) {
     throw Error(method + ": the sidecar has no \"options\" object (not a turbid render sidecar?)");
   }
   if (scene.image.size() != image.size() || scene.channels() != image.channels()) {
@@ -171,7 +171,7 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
                 std::to_string(image.rows) + ", " + std::to_string(image.channels()) + ")");
   }
   Truth truth;
-  truth.render = RenderOptionsFromJson(sidecar["options"]);
+  truth.render = *sidecar.options;
   const RenderOptions& ro = truth.render;
   const WaterOptions water = ResolveWater(ro.water);
   const int ch = truth.channels = image.channels();
@@ -398,7 +398,7 @@ cv::Mat DeconvolveReflect101(const cv::Mat& image, const cv::Mat& kernel, double
 }
 
 OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& image,
-                                const Scene& scene, const nlohmann::json& sidecar) {
+                                const Scene& scene, const RenderRecord& sidecar) {
   ThrowIfInvalid(o, "oracle_exact");
   Truth truth = ResolveTruth("oracle_exact", image, scene, sidecar, o.remove_snow);
   OracleResult result;
@@ -446,7 +446,7 @@ OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& imag
 }
 
 OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const Scene& scene,
-                           const nlohmann::json& sidecar) {
+                           const RenderRecord& sidecar) {
   ThrowIfInvalid(o, "oracle");
   Truth truth = ResolveTruth("oracle", image, scene, sidecar, o.remove_snow);
   OracleResult result;

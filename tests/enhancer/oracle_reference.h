@@ -11,9 +11,9 @@
 namespace turbid::oracle_reference {
 
 OracleResult OracleExactEnhance(const OracleExactOptions& options, const cv::Mat& image,
-                                const Scene& scene, const nlohmann::json& sidecar);
+                                const Scene& scene, const RenderRecord& sidecar);
 OracleResult OracleEnhance(const OracleOptions& options, const cv::Mat& image, const Scene& scene,
-                           const nlohmann::json& sidecar);
+                           const RenderRecord& sidecar);
 cv::Mat DeconvolveReflect101(const cv::Mat& image, const cv::Mat& kernel, double nsr);
 // The data term and hierarchical MMSE on given truth maps (the step oracle_internal::OracleMmse
 // replaced).

@@ -62,7 +62,7 @@ TEST(Models, RevisedSeparatesDirectAndBackscatterCoefficients) {
       }
     }
   EXPECT_NE(r.plan.ToText().find("model: revised"), std::string::npos);
-  EXPECT_EQ(r.sidecar["derived"]["model"], "revised");
+  EXPECT_EQ(r.sidecar.ToJson()["derived"]["model"], "revised");
 }
 
 TEST(Models, RevisedWithEqualCoefficientsIsEquationTwoWithBackscatter) {
@@ -127,7 +127,7 @@ TEST(Models, UwcnnPowerLawTransmissionAndBackgroundLight) {
         ASSERT_NEAR(r.image.at<cv::Vec3f>(y, x)[c], Clip(rho * t + b * (1.0 - t)), 2e-6);
       }
     }
-  EXPECT_EQ(r.sidecar["options"]["uwcnn"]["type"], "3C");
+  EXPECT_EQ(r.sidecar.ToJson()["options"]["uwcnn"]["type"], "3C");
   EXPECT_NE(r.plan.ToText().find("model: uwcnn"), std::string::npos);
 
   // Rescaled distances: the farthest pixel at 12 m, constant B = 0.8 (the other script's recipe),

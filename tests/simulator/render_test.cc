@@ -178,7 +178,7 @@ TEST(Render, SameSeedSameBytesOnOneAndManyThreads) {
   const RenderResult many = Render(o, scene);
   cv::setNumThreads(threads);
   EXPECT_EQ(cv::norm(one.image, many.image, cv::NORM_INF), 0.0);
-  EXPECT_EQ(one.sidecar.dump(), many.sidecar.dump());
+  EXPECT_EQ(one.sidecar.ToJson().dump(), many.sidecar.ToJson().dump());
   o.seed = 78;
   EXPECT_GT(cv::norm(Render(o, scene).image, one.image, cv::NORM_INF), 0.0);
 }
@@ -217,7 +217,7 @@ TEST(Render, RgbImageIsTheSameBytesReordered) {
             << psf << channels << camera;
         EXPECT_EQ(cv::norm(rgb.transmission, bgr.transmission, cv::NORM_INF), 0.0);
         EXPECT_EQ(cv::norm(rgb.veil, bgr.veil, cv::NORM_INF), 0.0);
-        EXPECT_EQ(rgb.sidecar.dump(), bgr.sidecar.dump());
+        EXPECT_EQ(rgb.sidecar.ToJson().dump(), bgr.sidecar.ToJson().dump());
         if (channels == 3) EXPECT_GT(cv::norm(rgb.image, bgr.image, cv::NORM_INF), 0.0);
       }
 }
@@ -250,15 +250,15 @@ TEST(Render, SidecarHasEverythingUsed) {
   o.water.type = "IB";
   o.seed = 4;
   const RenderResult r = Render(o, scene);
-  EXPECT_EQ(r.sidecar["seed"], 4);
-  EXPECT_EQ(r.sidecar["options"]["water"]["type"], "IB");
-  EXPECT_NEAR(r.sidecar["options"]["water"]["beta_gray_per_m"].get<double>(),
+  EXPECT_EQ(r.sidecar.ToJson()["seed"], 4);
+  EXPECT_EQ(r.sidecar.ToJson()["options"]["water"]["type"], "IB");
+  EXPECT_NEAR(r.sidecar.ToJson()["options"]["water"]["beta_gray_per_m"].get<double>(),
               JerlovBeta("IB").gray_per_m, 1e-12);
-  EXPECT_TRUE(r.sidecar.contains("version"));
-  EXPECT_TRUE(r.sidecar["scene"].contains("input_hashes"));
-  EXPECT_EQ(r.sidecar["derived"]["channel_order"], "gray");
+  EXPECT_TRUE(r.sidecar.ToJson().contains("version"));
+  EXPECT_TRUE(r.sidecar.ToJson()["scene"].contains("input_hashes"));
+  EXPECT_EQ(r.sidecar.ToJson()["derived"]["channel_order"], "gray");
   // The sidecar's options reproduce the render.
-  const RenderResult again = Render(RenderOptionsFromJson(r.sidecar["options"]), scene);
+  const RenderResult again = Render(RenderOptionsFromJson(r.sidecar.ToJson()["options"]), scene);
   EXPECT_EQ(cv::norm(r.image, again.image, cv::NORM_INF), 0.0);
 }
 
@@ -364,7 +364,7 @@ TEST(Render, BadDepthIsRejectedWithItsPixel) {
   holes.depth_m.at<float>(1, 1) = -std::numeric_limits<float>::quiet_NaN();
   holes.depth_m.at<float>(2, 2) = std::numeric_limits<float>::quiet_NaN();
   const RenderResult r = Render(Bare(), holes);
-  EXPECT_NEAR(r.sidecar["derived"]["valid_depth_fraction"].get<double>(), 94.0 / 96.0, 1e-12);
+  EXPECT_NEAR(r.sidecar.ToJson()["derived"]["valid_depth_fraction"].get<double>(), 94.0 / 96.0, 1e-12);
   holes.depth_m.setTo(std::numeric_limits<float>::quiet_NaN());
   try {
     Render(Bare(), holes);
@@ -402,9 +402,9 @@ TEST(Render, RangeStatisticsMatchTheRangeMap) {
     }
   EXPECT_EQ(valid, range.rows * range.cols - 20);
   const RenderResult r = renderer.Render(Bare());
-  EXPECT_EQ(r.sidecar["derived"]["range_m"]["min"].get<double>(), lo);
-  EXPECT_EQ(r.sidecar["derived"]["range_m"]["max"].get<double>(), hi);
-  EXPECT_NEAR(r.sidecar["derived"]["valid_depth_fraction"].get<double>(),
+  EXPECT_EQ(r.sidecar.ToJson()["derived"]["range_m"]["min"].get<double>(), lo);
+  EXPECT_EQ(r.sidecar.ToJson()["derived"]["range_m"]["max"].get<double>(), hi);
+  EXPECT_NEAR(r.sidecar.ToJson()["derived"]["valid_depth_fraction"].get<double>(),
               static_cast<double>(valid) / range.total(), 1e-12);
 }
 

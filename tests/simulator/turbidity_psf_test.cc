@@ -257,8 +257,8 @@ TEST(TurbidityPsf, RenderUsesBetaTimesRangePerChannel) {
     cv::Mat per_pixel = GatherReference(o.psf, r.lit, t).mul(r.transmission) + r.veil;
     cv::min(cv::max(per_pixel, 0.0), 1.0, per_pixel);
     EXPECT_LE(MaxAbsDiff(r.image, per_pixel), 5e-4) << (sea_thru ? "Sea-thru" : "paper");
-    EXPECT_TRUE(r.sidecar["derived"]["psf"]["turbidity"].is_object());
-    EXPECT_EQ(r.sidecar["options"]["psf"]["turbidity_dependent"], true);
+    EXPECT_TRUE(r.sidecar.ToJson()["derived"]["psf"]["turbidity"].is_object());
+    EXPECT_EQ(r.sidecar.ToJson()["options"]["psf"]["turbidity_dependent"], true);
   }
 }
 

@@ -44,8 +44,8 @@ TEST(ModelExamples, EachConfigExpandsAndRendersItsModel) {
     ASSERT_EQ(items.size(), c.items) << c.file;
     for (const GenerateItem& item : items) ASSERT_EQ(item.params["model"], c.model) << c.file;
     const RenderResult r = Render(RenderOptionsFromJson(items.back().params), scene);
-    EXPECT_EQ(r.sidecar["derived"]["model"], c.model) << c.file;
-    EXPECT_EQ(r.sidecar["encoding"], "srgb") << c.file;
+    EXPECT_EQ(r.sidecar.ToJson()["derived"]["model"], c.model) << c.file;
+    EXPECT_EQ(r.sidecar.ToJson()["encoding"], "srgb") << c.file;
   }
   // The UWCNN example draws every Jerlov type and distances within the recipe's range.
   const GenerateConfig uwcnn = ParseGenerateConfig(ReadExample("uwcnn.json"), "uwcnn.json");

@@ -34,7 +34,7 @@ const Scene& PickedScene(const Inputs& i, bool color) { return color ? i.seafloo
 // seed 1, linear camera, as Inputs makes it) is redone once, when the case first runs.
 struct OracleInput {
   cv::Mat image;
-  nlohmann::json sidecar;
+  RenderRecord sidecar;
 };
 
 }  // namespace

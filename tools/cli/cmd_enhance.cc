@@ -175,14 +175,18 @@ void Run(const EnhanceArgs& a) {
   if (a.bit_depth != 8 && a.bit_depth != 16) throw Error("enhance: --bit-depth must be 8 or 16");
   if (!a.force && fs::exists(a.out)) throw Error(a.out, "exists (use --force to replace it)");
 
-  std::optional<json> sidecar;
-  if (!a.sidecar.empty()) sidecar = ReadJsonObjectFile(a.sidecar);
+  std::optional<json> sidecar_json;
+  std::optional<RenderRecord> sidecar;
+  if (!a.sidecar.empty()) {
+    sidecar_json = ReadJsonObjectFile(a.sidecar);
+    sidecar = RenderRecord::FromJson(*sidecar_json, a.sidecar);
+  }
   // How the input's integer values are coded: --transfer, else what the sidecar (given, or the
   // render's OUT.json / scene.json beside the input) records, else sRGB as a camera writes.
   // Every method works on the decoded, linear image.
   std::optional<KnownEncoding> recorded;
   if (sidecar) {
-    if (auto name = SidecarEncoding(*sidecar)) recorded = KnownEncoding{*name, a.sidecar};
+    if (auto name = SidecarEncoding(*sidecar_json)) recorded = KnownEncoding{*name, a.sidecar};
   }
   if (!recorded) recorded = EncodingBeside(a.in);
   std::string transfer = a.transfer;
@@ -200,14 +204,13 @@ void Run(const EnhanceArgs& a) {
   // The scene: --scene, else the one the sidecar names (turbid render records its spec).
   std::string spec = a.scene;
   double scale = a.scale;
-  const bool sidecar_names_scene =
-      sidecar && sidecar->contains("scene") && (*sidecar)["scene"].contains("spec");
+  const bool sidecar_names_scene = sidecar && sidecar->scene.spec;
   if (spec.empty() && sidecar_names_scene && info.needs_geometry) {
-    spec = (*sidecar)["scene"]["spec"].get<std::string>();
+    spec = *sidecar->scene.spec;
   }
   // The render's scale, also when --scene names the same scene the sidecar does.
-  if (scale == 0.0 && sidecar_names_scene && (*sidecar)["scene"]["spec"] == spec) {
-    scale = (*sidecar)["scene"].value("builtin_scale", 1.0);
+  if (scale == 0.0 && sidecar_names_scene && *sidecar->scene.spec == spec) {
+    scale = sidecar->scene.builtin_scale.value_or(1.0);
   }
   std::optional<Scene> scene;
   if (!spec.empty()) {

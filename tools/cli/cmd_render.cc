@@ -124,10 +124,10 @@ void RunRender(const RenderArgs& args) {
       if (fs::exists(name)) throw Error(name, "exists (use --force to replace it)");
 
   const RenderResult result = renderer.Render(options);
-  json sidecar = result.sidecar;
-  sidecar["scene"]["spec"] = args.scene;
-  sidecar["scene"]["builtin_scale"] = args.scale;
-  sidecar["outputs"] = {{"image", fs::path(args.out).filename().string()}};
+  RenderRecord sidecar = result.sidecar;
+  sidecar.scene.spec = args.scene;
+  sidecar.scene.builtin_scale = args.scale;
+  sidecar.outputs = {{"image", fs::path(args.out).filename().string()}};
   const std::vector<std::pair<std::string, const cv::Mat*>> maps = {
       {"transmission", &result.transmission},
       {"light", &result.light},
@@ -145,14 +145,14 @@ void RunRender(const RenderArgs& args) {
       double peak = 0.0;
       cv::minMaxLoc(image, nullptr, &peak);
       if (map_ext == ".png" && peak > 0.0) image = image / peak;
-      sidecar["outputs"]["psf_peak"] = peak;
+      sidecar.psf_peak = peak;
     }
     if (name == "noise" && map_ext == ".png") image = image + 0.5;  // signed: offset by 0.5
     const std::string path = stem + "_" + name + map_ext;
     WriteMap(path, image, 16, args.force);
-    sidecar["outputs"][name] = fs::path(path).filename().string();
+    sidecar.outputs[name] = fs::path(path).filename().string();
   }
-  AtomicWriteText(stem + ".json", sidecar.dump(2) + "\n", args.force);
+  AtomicWriteText(stem + ".json", sidecar.ToJson().dump(2) + "\n", args.force);
   std::cout << "wrote " << args.out << " and " << stem << ".json\n";
 }
 

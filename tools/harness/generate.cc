@@ -430,14 +430,17 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
           WriteMap(p[1], format == "exr" ? clean : QuantiseEncoded(clean, encoding, bits), bits,
                    true, TransferFor(encoding));
           WriteMap(p[2], result.lit, 16, true);
-          json sidecar = result.sidecar;
+          RenderRecord record = result.sidecar;
+          record.scene.spec = specs[item.scene];
+          record.scene.builtin_scale = scale;
+          record.item = RenderRecord::Item{item.index, item.id};
+          record.outputs = {{"image", "images/" + item.id + ext},
+                            {"ground_truth", "ground_truth/" + item.id + ext},
+                            {"lit", "lit/" + item.id + ".pfm"}};
+          json sidecar = record.ToJson();
+          // generate records the options as its config gave them (the resume check above
+          // compares them with the item's).
           sidecar["options"] = item.params;
-          sidecar["scene"]["spec"] = specs[item.scene];
-          sidecar["scene"]["builtin_scale"] = scale;
-          sidecar["item"] = {{"index", item.index}, {"id", item.id}};
-          sidecar["outputs"] = {{"image", "images/" + item.id + ext},
-                                {"ground_truth", "ground_truth/" + item.id + ext},
-                                {"lit", "lit/" + item.id + ".pfm"}};
           AtomicWriteText(p[3], sidecar.dump(2) + "\n", true);
         }
         const int n = ++done;

@@ -1,0 +1,160 @@
+#include "simulator/render_plan.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace turbid {
+namespace {
+
+std::string Format(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+std::string ListText(const std::vector<double>& values) {
+  std::string s = "[";
+  for (size_t i = 0; i < values.size(); ++i) s += (i ? ", " : "") + Format(values[i]);
+  return s + "]";
+}
+
+// The image model's values (beta, E_A, B_inf, beta^B, Sea-thru) and its plan line.
+void DecideModel(const RenderOptions& options, int channels, double max_range, Decisions& d) {
+  RenderPlan& plan = d.plan;
+  bool& lights_used = d.lights_used;
+  if (options.model == ImageModel::kRevised) {
+    const RevisedOptions& v = options.revised;
+    d.revised = true;
+    d.backscatter_on = true;
+    d.beta_b = ChannelValues(v.beta_b_rgb_per_m, v.beta_b_gray_per_m, channels);
+    d.sea_thru = v.range_dependent;
+    if (d.sea_thru) {
+      d.sea_a = ChannelValues(v.a_rgb, v.a_gray, channels);
+      d.sea_b = ChannelValues(v.b_rgb, v.b_gray, channels);
+      d.sea_c = ChannelValues(v.c_rgb, v.c_gray, channels);
+      d.sea_d = ChannelValues(v.d_rgb, v.d_gray, channels);
+    }
+    plan.steps.push_back(
+        "model: revised (Akkaynak & Treibitz 2018): I = [J*h] exp(-beta^D r) + (1 - exp(-beta^B "
+        "r)) (B_inf + E_L), beta^B = " +
+        ListText(d.beta_b) + " 1/m" +
+        (d.sea_thru ? ", beta^D(r) = a exp(b r) + c exp(d r) (Sea-thru)" : ""));
+  } else if (options.model == ImageModel::kUwcnn) {
+    // t = N^d = exp(d ln N): beta = -ln N, scaled when distances are rescaled; J = rho (no
+    // ambient or artificial light in this recipe); B = scale N^exponent.
+    const UwcnnOptions& u = d.used.uwcnn;
+    const std::vector<double> n = ChannelValues(u.n_rgb_per_m, u.n_gray_per_m, channels);
+    const bool rescale = u.max_distance_m > 0.0 && std::isfinite(max_range) && max_range > 0.0;
+    const double distance_scale = rescale ? u.max_distance_m / max_range : 1.0;
+    for (int c = 0; c < channels; ++c) {
+      d.beta[c] = -std::log(n[c]) * distance_scale;
+      d.ambient[c] = 1.0;
+      d.backscatter[c] = u.backlight_scale * std::pow(n[c], u.backlight_exponent);
+    }
+    d.backscatter_on = true;
+    lights_used = false;
+    plan.steps.push_back("model: uwcnn (Li, Anwar & Porikli 2020): I = rho N^d + B (1 - N^d), " +
+                         std::string("type ") + u.type + ", N = " + ListText(n) +
+                         ", B = " + ListText(d.backscatter) +
+                         (rescale ? ", d = r x " + Format(distance_scale) : ", d = r"));
+    plan.skipped.push_back("uwcnn: no ambient E_A or artificial light (J = rho)");
+  } else {
+    plan.steps.push_back("model: paper (eq. 2): I = [J*h] t + (1 - t) E_L");
+  }
+}
+
+// The PSF kernel and whether (and how) J is blurred.
+void DecidePsf(const RenderOptions& options, Decisions& d) {
+  RenderPlan& plan = d.plan;
+  if (!options.psf.enabled) {
+    plan.skipped.push_back("psf: disabled");
+  } else {
+    d.psf = PsfKernel(options.psf);
+    if (options.psf.turbidity_dependent) {
+      d.blur = true;
+      plan.steps.push_back(
+          "psf: turbidity-dependent, T = beta r per pixel and channel, h = exp(-T) delta + (1 - "
+          "exp(-T)) g_T (eq. 7 at p = sqrt(T), sigma = " +
+          Format(d.psf.sigma_px) + " px), up to " + std::to_string(options.psf.thickness_levels) +
+          " kernels");
+    } else if (d.psf.is_delta && !options.psf.depth_dependent) {
+      plan.skipped.push_back("psf: kernel is a delta at this pixel scale (sigma " +
+                             Format(d.psf.sigma_px) + " px)");
+    } else {
+      d.blur = true;
+      plan.steps.push_back(std::string("psf: generalized Gaussian p = ") + Format(d.psf.p) +
+                           ", sigma = " + Format(d.psf.sigma_px) + " px, radius " +
+                           std::to_string(d.psf.radius_px) + " px, " +
+                           (d.psf.separable ? "separable (Gaussian)" : "2-D") +
+                           (options.psf.depth_dependent ? ", range-dependent width" : ""));
+    }
+  }
+}
+
+}  // namespace
+
+Decisions Decide(const RenderOptions& options, const Scene& scene, double min_range,
+                 double max_range) {
+  ThrowIfInvalid(options, "render options");
+  Decisions d;
+  d.used = ResolvePresets(options);
+  d.water = d.used.water;
+  const int channels = scene.channels();
+  d.beta = ChannelValues(d.water.beta_rgb_per_m, d.water.beta_gray_per_m, channels);
+  d.ambient = ChannelValues(d.water.ambient_rgb, d.water.ambient_gray, channels);
+  d.backscatter = ChannelValues(d.water.backscatter_rgb, d.water.backscatter_gray, channels);
+  d.backscatter_on = options.water.backscatter;
+  RenderPlan& plan = d.plan;
+  bool& lights_used = d.lights_used;
+  DecideModel(options, channels, max_range, d);
+  const std::string what = channels == 1 ? "1 channel (gray)" : "3 channels (BGR)";
+  plan.steps.push_back("input: " + scene.name + " " + std::to_string(scene.width()) + "x" +
+                       std::to_string(scene.height()) + ", " + what);
+  if (channels == 1) plan.skipped.push_back("colour: gray input, every term computed on 1 channel");
+  for (const LightOptions& l : options.light.lights)
+    d.any_light = d.any_light || (lights_used && l.power > 0.0);
+  if (d.any_light)
+    plan.steps.push_back("light: " + std::to_string(options.light.lights.size()) + " LED(s), " +
+                         IncidenceModelName(options.light.incidence) + " incidence");
+  else
+    plan.skipped.push_back("light: no light (or zero power): E_L = 0, no veiling term");
+  // The revised model always takes the general path (two transmissions, maybe range-dependent).
+  d.zero_beta =
+      !d.revised && std::all_of(d.beta.begin(), d.beta.end(), [](double b) { return b == 0.0; });
+  d.uniform_range = !d.revised && max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
+  if (d.zero_beta)
+    plan.skipped.push_back(
+        "attenuation: beta = 0, t = 1 (no exp, no veil; t = 0 where depth is invalid)");
+  else if (d.uniform_range)
+    plan.steps.push_back("attenuation: uniform range " + Format(min_range) +
+                         " m, t constant per channel");
+  else
+    plan.steps.push_back(std::string(d.revised ? "attenuation: direct t = exp(-beta^D r)"
+                                               : "attenuation: t = exp(-beta r)") +
+                         ", beta = " + ListText(d.beta) + " 1/m");
+  if (d.backscatter_on && !d.zero_beta)
+    plan.steps.push_back("backscatter: (1 - t) B_inf, B_inf = " + ListText(d.backscatter));
+  DecidePsf(options, d);
+  if (options.snow.enabled && options.snow.density_per_m3 > 0.0)
+    plan.steps.push_back("snow: " + Format(options.snow.density_per_m3) + " particles/m^3");
+  else
+    plan.skipped.push_back("snow: none");
+  if (options.sensor.enabled &&
+      (options.sensor.photons_at_white > 0.0 || options.sensor.read_noise > 0.0))
+    plan.steps.push_back("sensor noise: Poisson-Gaussian, " +
+                         Format(options.sensor.photons_at_white) + " e-/full scale, read " +
+                         Format(options.sensor.read_noise));
+  else
+    plan.skipped.push_back("sensor noise: none");
+  plan.steps.push_back(options.camera.bit_depth == 32
+                           ? std::string("camera: clip to [0, 1], float, linear")
+                           : "camera: clip, " + CameraEncodingName(options.camera.encoding) +
+                                 " encoding, quantise to " +
+                                 std::to_string(options.camera.bit_depth) + " bit");
+  return d;
+}
+
+}  // namespace turbid
