@@ -1,4 +1,4 @@
-// The registry's internal entry type and the strict JSON -> Options binder every method uses.
+// The registry's internal entry type (a method's parameters are read by enhancer/params.h).
 // enhancer/registry.h is the public contract (ListMethods, FindMethod, Enhance); this header is
 // for method implementers (enhancer/*.cc, including enhancer/paper/ and enhancer/baselines/).
 #pragma once
@@ -20,7 +20,8 @@ namespace turbid {
 
 // One method: its self-description and how to run it. `run` receives the caller's overrides (a
 // JSON object, possibly empty; the registry already checked it is an object) and must bind them
-// strictly (ParamBinder below), run, and return float32 [0,1] with the input's channel count.
+// strictly (ReadMethodParams with its field table, enhancer/params.h), run, and return float32
+// [0,1] with the input's channel count.
 struct MethodEntry {
   MethodInfo info;
   std::function<cv::Mat(const nlohmann::json& params, const EnhanceInput& input)> run;
@@ -31,49 +32,6 @@ struct MethodEntry {
   // order; otherwise Enhance hands it B, G, R and reorders the result.
   bool rgb_native = false;
 };
-
-// Binds a JSON params object onto an Options struct strictly:
-//   ParamBinder b("dcp", params);
-//   b.Bind("omega", &options.omega);        // double / int / bool / std::string fields
-//   b.Bind("distribution", &name_string);   // enums: bind a string, convert after
-//   b.Finish(options);                      // unknown keys -> Error; then options.Check -> Error
-// Errors name the method and key: "dcp: parameter 'omega': expected a number, got \"x\"".
-// Integers accept JSON integers or numbers with an integral value; doubles accept any finite
-// number; bools accept only true/false. Non-finite numbers are rejected.
-class ParamBinder {
- public:
-  ParamBinder(std::string method, const nlohmann::json& params);
-
-  void Bind(const std::string& key, double* field);
-  void Bind(const std::string& key, int* field);
-  void Bind(const std::string& key, bool* field);
-  void Bind(const std::string& key, std::string* field);
-
-  // Throws Error for keys never passed to Bind; then Check()s `options` (if it has Check).
-  template <typename Options>
-  void Finish(const Options& options) {
-    FinishKeys();
-    std::string why;
-    if (!options.Check(&why)) throw Error(method_ + ": " + why);
-  }
-  void FinishKeys();  // the unknown-key check alone
-
-  const std::string& method() const { return method_; }
-
- private:
-  const nlohmann::json* Find(const std::string& key);
-  [[noreturn]] void Fail(const std::string& key, const std::string& problem) const;
-
-  std::string method_;
-  const nlohmann::json& params_;
-  std::set<std::string> bound_;
-};
-
-// Helper for MethodInfo::params: {name, default (as JSON), doc, how the image bounds it}.
-inline MethodParam Param(std::string name, nlohmann::json default_value, std::string doc,
-                         SizeBound bound = SizeBound::kNone) {
-  return MethodParam{std::move(name), std::move(default_value), std::move(doc), bound};
-}
 
 // Shared input validation for methods: non-empty CV_32F, 1 or 3 channels, all finite. Throws
 // Error("<method>: ...").

@@ -14,6 +14,7 @@
 #include "enhancer/blocks/deconvolution.h"
 #include "enhancer/method.h"
 #include "enhancer/oracle/oracle_internal.h"
+#include "enhancer/params.h"
 #include "simulator/image_pool.h"
 #include "simulator/kernels.h"
 #include "simulator/light.h"
@@ -665,8 +666,44 @@ constexpr const char* kInputs =
     "sidecar: water (beta, E_A, B_inf), LED lights with their power, PSF, snow and seed, sensor "
     "noise and bit depth; scene: depth (range, normals), camera";
 
+// The parameters, each declared once (enhancer/params.h).
+const Fields<OracleExactOptions>& OracleExactFields() {
+  using O = OracleExactOptions;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Member("target", &O::target, "clean: recover rho (ground truth) | lit: recover J")
+          .Member("remove_snow", &O::remove_snow,
+                  "re-render the marine snow from the seed and subtract")
+          .Member("min_transmission", &O::min_transmission, "floor on t when dividing, (0, 1]")
+          .Member("min_irradiance", &O::min_irradiance, "floor on E_A + E_L when dividing, > 0")
+          .Member("max_iterations", &O::max_iterations,
+                  "range-dependent PSF: fixed-point iterations, [1, 1000]")
+          .Member("tolerance", &O::tolerance, "range-dependent PSF: residual to stop at, [0, 1]");
+  return fields;
+}
+
+const Fields<OracleOptions>& OracleFields() {
+  using O = OracleOptions;
+  constexpr int kRadius = static_cast<int>(SizeBound::kRadius);
+  static const Fields<O> fields =
+      Fields<O>()
+          .Member("target", &O::target, "clean: recover rho (ground truth) | lit: recover J")
+          .Member("remove_snow", &O::remove_snow,
+                  "re-render the marine snow from the seed and subtract")
+          .Member("mask_transmission", &O::mask_transmission,
+                  "pixels with t below this are masked (prior mean), (0, 1)")
+          .Member("coarse_radius", &O::coarse_radius, "prior's coarse window radius, px")
+          .Tag(kRadius)
+          .Member("middle_radius", &O::middle_radius, "prior's middle window radius, px (< coarse)")
+          .Tag(kRadius)
+          .Member("pixel_radius", &O::pixel_radius, "window of the per-pixel prior variance, px")
+          .Tag(kRadius)
+          .Member("deblur", &O::deblur,
+                  "Wiener deconvolution of the true PSF after the MMSE estimate");
+  return fields;
+}
+
 MethodEntry OracleExactEntry() {
-  const OracleExactOptions d;
   MethodEntry e;
   e.info.name = "oracle_exact";
   e.info.summary = "algebraic inverse of the simulator with every true parameter (no noise model)";
@@ -675,25 +712,9 @@ MethodEntry OracleExactEntry() {
   e.info.needs_sidecar = true;
   e.info.privileged = true;
   e.info.inputs = kInputs;
-  e.info.params = {
-      Param("target", d.target, "clean: recover rho (ground truth) | lit: recover J"),
-      Param("remove_snow", d.remove_snow, "re-render the marine snow from the seed and subtract"),
-      Param("min_transmission", d.min_transmission, "floor on t when dividing, (0, 1]"),
-      Param("min_irradiance", d.min_irradiance, "floor on E_A + E_L when dividing, > 0"),
-      Param("max_iterations", d.max_iterations,
-            "range-dependent PSF: fixed-point iterations, [1, 1000]"),
-      Param("tolerance", d.tolerance, "range-dependent PSF: residual to stop at, [0, 1]"),
-  };
+  e.info.params = MethodParamsOf(OracleExactFields());
   e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
-    OracleExactOptions o;
-    ParamBinder b("oracle_exact", params);
-    b.Bind("target", &o.target);
-    b.Bind("remove_snow", &o.remove_snow);
-    b.Bind("min_transmission", &o.min_transmission);
-    b.Bind("min_irradiance", &o.min_irradiance);
-    b.Bind("max_iterations", &o.max_iterations);
-    b.Bind("tolerance", &o.tolerance);
-    b.Finish(o);
+    const OracleExactOptions o = ReadMethodParams("oracle_exact", params, OracleExactFields());
     if (in.scene == nullptr) throw Error("oracle_exact: needs the scene (--scene)");
     if (in.sidecar == nullptr) throw Error("oracle_exact: needs the render's sidecar (--sidecar)");
     return OracleExactEnhance(o, in.image, *in.scene, *in.sidecar).image;
@@ -702,7 +723,6 @@ MethodEntry OracleExactEntry() {
 }
 
 MethodEntry OracleEntry() {
-  const OracleOptions d;
   MethodEntry e;
   e.info.name = "oracle";
   e.info.summary =
@@ -714,30 +734,9 @@ MethodEntry OracleEntry() {
   e.info.needs_sidecar = true;
   e.info.privileged = true;
   e.info.inputs = kInputs;
-  e.info.params = {
-      Param("target", d.target, "clean: recover rho (ground truth) | lit: recover J"),
-      Param("remove_snow", d.remove_snow, "re-render the marine snow from the seed and subtract"),
-      Param("mask_transmission", d.mask_transmission,
-            "pixels with t below this are masked (prior mean), (0, 1)"),
-      Param("coarse_radius", d.coarse_radius, "prior's coarse window radius, px",
-            SizeBound::kRadius),
-      Param("middle_radius", d.middle_radius, "prior's middle window radius, px (< coarse)",
-            SizeBound::kRadius),
-      Param("pixel_radius", d.pixel_radius, "window of the per-pixel prior variance, px",
-            SizeBound::kRadius),
-      Param("deblur", d.deblur, "Wiener deconvolution of the true PSF after the MMSE estimate"),
-  };
+  e.info.params = MethodParamsOf(OracleFields());
   e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
-    OracleOptions o;
-    ParamBinder b("oracle", params);
-    b.Bind("target", &o.target);
-    b.Bind("remove_snow", &o.remove_snow);
-    b.Bind("mask_transmission", &o.mask_transmission);
-    b.Bind("coarse_radius", &o.coarse_radius);
-    b.Bind("middle_radius", &o.middle_radius);
-    b.Bind("pixel_radius", &o.pixel_radius);
-    b.Bind("deblur", &o.deblur);
-    b.Finish(o);
+    const OracleOptions o = ReadMethodParams("oracle", params, OracleFields());
     if (in.scene == nullptr) throw Error("oracle: needs the scene (--scene)");
     if (in.sidecar == nullptr) throw Error("oracle: needs the render's sidecar (--sidecar)");
     return OracleEnhance(o, in.image, *in.scene, *in.sidecar).image;

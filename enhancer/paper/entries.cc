@@ -4,6 +4,7 @@
 #include <string>
 
 #include "enhancer/method.h"
+#include "enhancer/params.h"
 #include "enhancer/paper/full.h"
 #include "enhancer/paper/params.h"
 #include "enhancer/paper/simplified.h"
@@ -12,7 +13,6 @@ namespace turbid {
 namespace {
 
 using paper_internal::BindSimplified;
-using paper_internal::ClahePar;
 
 // What each variant of `full` reads besides the image (docs/methods.md).
 std::string FullInputs(const FullOptions& d) {
@@ -57,54 +57,7 @@ MethodEntry FullEntry(const std::string& variant) {
   e.info.needs_geometry = true;
   e.info.privileged = FullOptionsArePrivileged(d);
   e.info.inputs = FullInputs(d);
-  e.info.params = {
-      Param("denoise", d.denoise, "step 1: guided-filter denoise (eq. 4)"),
-      Param("denoise_radius", d.denoise_radius, "guided filter k, pixels (paper: 4)",
-            SizeBound::kRadius),
-      Param("denoise_eps", d.denoise_eps, "guided filter epsilon on [0,1] data (paper: 0.1^2)"),
-      Param("denoise_adaptive", d.denoise_adaptive,
-            "epsilon scaled by t_med^2, floored at (factor * noise sigma)^2 (false: as given)"),
-      Param("denoise_noise_factor", d.denoise_noise_factor,
-            "adaptive denoise: multiple of the Immerkaer noise estimate, [0, 100]"),
-      Param("light", d.light, "step 2: artificial-light estimate (eq. 5; lights from the sidecar)"),
-      Param("light_scaling", d.light_scaling,
-            "blind: scale estimated from the veil | range: E_L mapped onto [min I, max I] (paper "
-            "as written) | physical: E_L as modelled (privileged)"),
-      Param("light_scale_percentile", d.light_scale_percentile,
-            "blind: percentile of I_de / ((1 - t) L), %, (0, 50]"),
-      Param("light_scale_support", d.light_scale_support,
-            "blind: share of max (1 - t) L a pixel needs to count, (0, 1)"),
-      Param("light_subsample", d.light_subsample, "E_L and t computed at 1/this size, [1, 64]"),
-      Param("dehaze", d.dehaze, "step 3: plane-induced dehazing (eq. 6)"),
-      Param("beta_per_m", d.beta_per_m,
-            "attenuation in t = exp(-beta r), 1/m (paper: 0.7); setting it implies beta_source "
-            "fixed"),
-      Param("beta_source", d.beta_source,
-            "fixed: beta_per_m | auto: the sidecar's water (per channel) when given (privileged)"),
-      Param("t_min", d.t_min, "lower clamp on t in eq. 6, (0, 1]"),
-      Param("exposure_percentile", d.exposure_percentile,
-            "J_plane divided by this percentile when above 1 (0: clip), [0, 100]"),
-      Param("keep_detail", d.keep_detail,
-            "weight of the denoising residual added back after dehazing (0: discarded), [0, 10]"),
-      Param("plane", d.plane, "plane source: auto | dvl | depth | scene | frontal"),
-      Param("frontal_distance_m", d.frontal_distance_m,
-            "distance of the fallback frontal plane, m"),
-      Param("max_range_m", d.max_range_m, "range where a ray misses the plane, m"),
-      Param("deblur", d.deblur, "step 4: PSF deconvolution (eq. 7)"),
-      Param("psf_optical_thickness", d.psf_optical_thickness, "PSF T (paper: 4)"),
-      Param("psf_forward_scatter", d.psf_forward_scatter, "PSF q (paper: 0.9)"),
-      Param("deconvolution", DeconvolutionMethodName(d.deconvolution.method),
-            "wiener | richardson_lucy"),
-      Param("nsr", d.deconvolution.nsr, "Wiener noise-to-signal ratio, [1e-8, 10]"),
-      Param("iterations", d.deconvolution.iterations, "Richardson-Lucy iterations, [1, 1000]"),
-      Param("contrast", d.contrast, "step 5: CLAHE"),
-      Param("clahe_target_mean", d.clahe_target_mean,
-            "CLAHE alpha chosen per image so the output keeps the restored image's mean (at "
-            "least clahe_min_mean) instead of clahe_alpha; naming clahe_alpha implies false"),
-      Param("clahe_min_mean", d.clahe_min_mean,
-            "floor of the kept mean (an underexposed image is brought up to it), [0, 0.6]"),
-  };
-  for (MethodParam& p : ClahePar("clahe_", d.clahe)) e.info.params.push_back(p);
+  e.info.params = MethodParamsOf(paper_internal::FullFields(), d);
   e.run = [variant](const nlohmann::json& params, const EnhanceInput& in) {
     return RunFull(variant, params, in);
   };
@@ -121,16 +74,7 @@ MethodEntry SimplifiedEntry() {
   e.info.summary = "paper simplified model: dual guided-filter detail boost, then CLAHE";
   e.info.source = "the reproduced paper §III-B, eqs. 8-9 (after He et al. TPAMI 2013 §4.2)";
   e.info.inputs = "";  // the image alone
-  e.info.params = {
-      Param("fine_radius", d.fine_radius, "k_f, pixels (paper: 2)", SizeBound::kRadius),
-      Param("fine_eps", d.fine_eps, "sigma_f on [0,1] data (paper: 0.1^2)"),
-      Param("coarse_radius", d.coarse_radius, "k_g, pixels (paper: 8)", SizeBound::kRadius),
-      Param("coarse_eps", d.coarse_eps, "sigma_g on [0,1] data (paper: 0.4^2)"),
-      Param("coarse_subsample", d.coarse_subsample, "fast guided filter ratio for I_g, 1 = exact"),
-      Param("alpha", d.alpha, "detail amplification (paper: 5)"),
-      Param("contrast", d.contrast, "CLAHE after the detail boost"),
-  };
-  for (MethodParam& p : ClahePar("clahe_", d.clahe)) e.info.params.push_back(p);
+  e.info.params = MethodParamsOf(paper_internal::SimplifiedFields(), d);
   e.run = [](const nlohmann::json& params, const EnhanceInput& in) {
     SimplifiedOptions o = BindSimplified(params);
     o.clahe.rgb = in.rgb;  // the guided filters and the detail boost are per channel

@@ -1,65 +1,136 @@
-// The JSON parameter binding of `full` (and its variants) and `simplified`: ParamBinder calls
-// (enhancer/method.h) onto FullOptions and SimplifiedOptions, and the shared CLAHE parameters.
+// The parameters of `full` (and its variants) and `simplified`: one field table each (core/fields.h)
+// onto FullOptions and SimplifiedOptions, with the CLAHE and deconvolution keys they share.
 #include "enhancer/paper/params.h"
 
 #include <string>
 
 #include "core/error.h"
 #include "enhancer/method.h"
+#include "enhancer/params.h"
 #include "enhancer/paper/full.h"
 #include "enhancer/paper/simplified.h"
 
 namespace turbid {
 namespace paper_internal {
+namespace {
 
-void BindClahe(ParamBinder& b, const std::string& prefix, ClaheOptions* c, std::string* dist) {
-  b.Bind(prefix + "tiles_x", &c->tiles_x);
-  b.Bind(prefix + "tiles_y", &c->tiles_y);
-  b.Bind(prefix + "clip_limit", &c->clip_limit);
-  b.Bind(prefix + "bins", &c->bins);
-  b.Bind(prefix + "distribution", dist);
-  b.Bind(prefix + "alpha", &c->alpha);
+constexpr int kRadius = static_cast<int>(SizeBound::kRadius);
+constexpr int kPerAxis = static_cast<int>(SizeBound::kPerAxis);
+
+const Fields<DeconvolutionOptions>& DeconvolutionFields() {
+  using O = DeconvolutionOptions;
+  using M = DeconvolutionMethod;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Choice("deconvolution", &O::method,
+                  {{DeconvolutionMethodName(M::kWiener), M::kWiener},
+                   {DeconvolutionMethodName(M::kRichardsonLucy), M::kRichardsonLucy}},
+                  "wiener | richardson_lucy")
+          .Member("nsr", &O::nsr, "Wiener noise-to-signal ratio, [1e-8, 10]")
+          .Member("iterations", &O::iterations, "Richardson-Lucy iterations, [1, 1000]");
+  return fields;
 }
 
-std::vector<MethodParam> ClahePar(const std::string& prefix, const ClaheOptions& c) {
-  return {
-      Param(prefix + "tiles_x", c.tiles_x, "CLAHE tiles along x, >= 2 (adapthisteq: 8)",
-            SizeBound::kPerAxis),
-      Param(prefix + "tiles_y", c.tiles_y, "CLAHE tiles along y, >= 2 (adapthisteq: 8)",
-            SizeBound::kPerAxis),
-      Param(prefix + "clip_limit", c.clip_limit, "CLAHE clip limit as a fraction, [0,1] (0.01)"),
-      Param(prefix + "bins", c.bins, "CLAHE histogram bins, [2, 65536] (256)"),
-      Param(prefix + "distribution", ClaheDistributionName(c.distribution),
-            "CLAHE target: uniform | rayleigh | exponential (paper: rayleigh)"),
-      Param(prefix + "alpha", c.alpha, "Rayleigh/exponential parameter, > 0 (paper: 0.4)"),
-  };
+}  // namespace
+
+const Fields<ClaheOptions>& ClaheFields() {
+  using O = ClaheOptions;
+  using D = ClaheDistribution;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Member("tiles_x", &O::tiles_x, "CLAHE tiles along x, >= 2 (adapthisteq: 8)")
+          .Tag(kPerAxis)
+          .Member("tiles_y", &O::tiles_y, "CLAHE tiles along y, >= 2 (adapthisteq: 8)")
+          .Tag(kPerAxis)
+          .Member("clip_limit", &O::clip_limit, "CLAHE clip limit as a fraction, [0,1] (0.01)")
+          .Member("bins", &O::bins, "CLAHE histogram bins, [2, 65536] (256)")
+          .Choice("distribution", &O::distribution,
+                  {{ClaheDistributionName(D::kUniform), D::kUniform},
+                   {ClaheDistributionName(D::kRayleigh), D::kRayleigh},
+                   {ClaheDistributionName(D::kExponential), D::kExponential}},
+                  "CLAHE target: uniform | rayleigh | exponential (paper: rayleigh)")
+          .Member("alpha", &O::alpha, "Rayleigh/exponential parameter, > 0 (paper: 0.4)");
+  return fields;
+}
+
+const Fields<FullOptions>& FullFields() {
+  using O = FullOptions;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Member("denoise", &O::denoise, "step 1: guided-filter denoise (eq. 4)")
+          .Member("denoise_radius", &O::denoise_radius, "guided filter k, pixels (paper: 4)")
+          .Tag(kRadius)
+          .Member("denoise_eps", &O::denoise_eps,
+                  "guided filter epsilon on [0,1] data (paper: 0.1^2)")
+          .Member("denoise_adaptive", &O::denoise_adaptive,
+                  "epsilon scaled by t_med^2, floored at (factor * noise sigma)^2 (false: as given)")
+          .Member("denoise_noise_factor", &O::denoise_noise_factor,
+                  "adaptive denoise: multiple of the Immerkaer noise estimate, [0, 100]")
+          .Member("light", &O::light,
+                  "step 2: artificial-light estimate (eq. 5; lights from the sidecar)")
+          .Member("light_scaling", &O::light_scaling,
+                  "blind: scale estimated from the veil | range: E_L mapped onto [min I, max I] "
+                  "(paper as written) | physical: E_L as modelled (privileged)")
+          .Member("light_scale_percentile", &O::light_scale_percentile,
+                  "blind: percentile of I_de / ((1 - t) L), %, (0, 50]")
+          .Member("light_scale_support", &O::light_scale_support,
+                  "blind: share of max (1 - t) L a pixel needs to count, (0, 1)")
+          .Member("light_subsample", &O::light_subsample,
+                  "E_L and t computed at 1/this size, [1, 64]")
+          .Member("dehaze", &O::dehaze, "step 3: plane-induced dehazing (eq. 6)")
+          .Member("beta_per_m", &O::beta_per_m,
+                  "attenuation in t = exp(-beta r), 1/m (paper: 0.7); setting it implies "
+                  "beta_source fixed")
+          .Member("beta_source", &O::beta_source,
+                  "fixed: beta_per_m | auto: the sidecar's water (per channel) when given "
+                  "(privileged)")
+          .Member("t_min", &O::t_min, "lower clamp on t in eq. 6, (0, 1]")
+          .Member("exposure_percentile", &O::exposure_percentile,
+                  "J_plane divided by this percentile when above 1 (0: clip), [0, 100]")
+          .Member("keep_detail", &O::keep_detail,
+                  "weight of the denoising residual added back after dehazing (0: discarded), "
+                  "[0, 10]")
+          .Member("plane", &O::plane, "plane source: auto | dvl | depth | scene | frontal")
+          .Member("frontal_distance_m", &O::frontal_distance_m,
+                  "distance of the fallback frontal plane, m")
+          .Member("max_range_m", &O::max_range_m, "range where a ray misses the plane, m")
+          .Member("deblur", &O::deblur, "step 4: PSF deconvolution (eq. 7)")
+          .Member("psf_optical_thickness", &O::psf_optical_thickness, "PSF T (paper: 4)")
+          .Member("psf_forward_scatter", &O::psf_forward_scatter, "PSF q (paper: 0.9)")
+          .Nested("", &O::deconvolution, DeconvolutionFields())
+          .Member("contrast", &O::contrast, "step 5: CLAHE")
+          .Member("clahe_target_mean", &O::clahe_target_mean,
+                  "CLAHE alpha chosen per image so the output keeps the restored image's mean (at "
+                  "least clahe_min_mean) instead of clahe_alpha; naming clahe_alpha implies false")
+          .Member("clahe_min_mean", &O::clahe_min_mean,
+                  "floor of the kept mean (an underexposed image is brought up to it), [0, 0.6]")
+          .Nested("clahe_", &O::clahe, ClaheFields());
+  return fields;
+}
+
+const Fields<SimplifiedOptions>& SimplifiedFields() {
+  using O = SimplifiedOptions;
+  static const Fields<O> fields =
+      Fields<O>()
+          .Member("fine_radius", &O::fine_radius, "k_f, pixels (paper: 2)")
+          .Tag(kRadius)
+          .Member("fine_eps", &O::fine_eps, "sigma_f on [0,1] data (paper: 0.1^2)")
+          .Member("coarse_radius", &O::coarse_radius, "k_g, pixels (paper: 8)")
+          .Tag(kRadius)
+          .Member("coarse_eps", &O::coarse_eps, "sigma_g on [0,1] data (paper: 0.4^2)")
+          .Member("coarse_subsample", &O::coarse_subsample,
+                  "fast guided filter ratio for I_g, 1 = exact")
+          .Member("alpha", &O::alpha, "detail amplification (paper: 5)")
+          .Member("contrast", &O::contrast, "CLAHE after the detail boost")
+          .Nested("clahe_", &O::clahe, ClaheFields());
+  return fields;
 }
 
 SimplifiedOptions BindSimplified(const nlohmann::json& params) {
-  SimplifiedOptions o;
-  ParamBinder b("simplified", params);
-  b.Bind("fine_radius", &o.fine_radius);
-  b.Bind("fine_eps", &o.fine_eps);
-  b.Bind("coarse_radius", &o.coarse_radius);
-  b.Bind("coarse_eps", &o.coarse_eps);
-  b.Bind("coarse_subsample", &o.coarse_subsample);
-  b.Bind("alpha", &o.alpha);
-  b.Bind("contrast", &o.contrast);
-  std::string dist = ClaheDistributionName(o.clahe.distribution);
-  BindClahe(b, "clahe_", &o.clahe, &dist);
-  b.FinishKeys();
-  try {
-    o.clahe.distribution = ClaheDistributionFromName(dist);
-  } catch (const Error& e) {
-    throw Error(std::string("simplified: ") + e.what());
-  }
-  b.Finish(o);
-  return o;
+  return ReadMethodParams("simplified", params, SimplifiedFields());
 }
 
 }  // namespace paper_internal
-
-using paper_internal::BindClahe;
 
 FullOptions FullVariantDefaults(const std::string& variant) {
   FullOptions o;
@@ -92,52 +163,14 @@ bool FullOptionsArePrivileged(const FullOptions& o) {
 
 FullOptions FullOptionsFromJson(const nlohmann::json& params, const std::string& variant) {
   FullOptions o = FullVariantDefaults(variant);
-  ParamBinder b(variant, params);
-  b.Bind("denoise", &o.denoise);
-  b.Bind("denoise_radius", &o.denoise_radius);
-  b.Bind("denoise_eps", &o.denoise_eps);
-  b.Bind("denoise_adaptive", &o.denoise_adaptive);
-  b.Bind("denoise_noise_factor", &o.denoise_noise_factor);
-  b.Bind("light", &o.light);
-  b.Bind("light_scaling", &o.light_scaling);
-  b.Bind("light_scale_percentile", &o.light_scale_percentile);
-  b.Bind("light_scale_support", &o.light_scale_support);
-  b.Bind("light_subsample", &o.light_subsample);
-  b.Bind("dehaze", &o.dehaze);
-  b.Bind("beta_per_m", &o.beta_per_m);
-  // A beta the user names is the beta they want: it wins over a sidecar's water unless
-  // beta_source says otherwise.
-  if (params.is_object() && params.contains("beta_per_m")) o.beta_source = "fixed";
-  b.Bind("beta_source", &o.beta_source);
-  b.Bind("t_min", &o.t_min);
-  b.Bind("exposure_percentile", &o.exposure_percentile);
-  b.Bind("keep_detail", &o.keep_detail);
-  b.Bind("plane", &o.plane);
-  b.Bind("frontal_distance_m", &o.frontal_distance_m);
-  b.Bind("max_range_m", &o.max_range_m);
-  b.Bind("deblur", &o.deblur);
-  b.Bind("psf_optical_thickness", &o.psf_optical_thickness);
-  b.Bind("psf_forward_scatter", &o.psf_forward_scatter);
-  std::string deconv = DeconvolutionMethodName(o.deconvolution.method);
-  b.Bind("deconvolution", &deconv);
-  b.Bind("nsr", &o.deconvolution.nsr);
-  b.Bind("iterations", &o.deconvolution.iterations);
-  b.Bind("contrast", &o.contrast);
-  // An alpha the user names is the alpha they want, unless clahe_target_mean says otherwise.
-  if (params.is_object() && params.contains("clahe_alpha")) o.clahe_target_mean = false;
-  b.Bind("clahe_target_mean", &o.clahe_target_mean);
-  b.Bind("clahe_min_mean", &o.clahe_min_mean);
-  std::string dist = ClaheDistributionName(o.clahe.distribution);
-  BindClahe(b, "clahe_", &o.clahe, &dist);
-  b.FinishKeys();
-  try {
-    o.deconvolution.method = DeconvolutionMethodFromName(deconv);
-    o.clahe.distribution = ClaheDistributionFromName(dist);
-  } catch (const Error& e) {
-    throw Error(variant + ": " + e.what());
+  if (params.is_object()) {
+    // A beta the user names is the beta they want: it wins over a sidecar's water unless
+    // beta_source says otherwise (read after this, it overrides).
+    if (params.contains("beta_per_m")) o.beta_source = "fixed";
+    // An alpha the user names is the alpha they want, unless clahe_target_mean says otherwise.
+    if (params.contains("clahe_alpha")) o.clahe_target_mean = false;
   }
-  b.Finish(o);
-  return o;
+  return ReadMethodParams(variant, params, paper_internal::FullFields(), o);
 }
 
 }  // namespace turbid

@@ -1,21 +1,23 @@
-// Internal to enhancer/paper/: the JSON binding shared by the registry entries (params.cc).
+// Internal to enhancer/paper/: the parameters of `full` (and its variants) and `simplified`, each
+// declared once in a field table (core/fields.h, enhancer/params.h) that reads them strictly and
+// lists them with their defaults (params.cc).
 #pragma once
 
 #include <nlohmann/json.hpp>
-#include <string>
-#include <vector>
 
+#include "core/fields.h"
 #include "enhancer/blocks/clahe.h"
-#include "enhancer/method.h"
+#include "enhancer/paper/full.h"
 #include "enhancer/paper/simplified.h"
 
 namespace turbid::paper_internal {
 
-// Binds the CLAHE keys `prefix`tiles_x ... onto `c`; the distribution as a name into `dist`.
-void BindClahe(ParamBinder& b, const std::string& prefix, ClaheOptions* c, std::string* dist);
-// The CLAHE keys' MethodParam entries with the defaults of `c`.
-std::vector<MethodParam> ClahePar(const std::string& prefix, const ClaheOptions& c);
-// Strict binding of `simplified`'s parameters; throws Error naming the key.
+// The CLAHE keys (under the prefix "clahe_" in both methods).
+const Fields<ClaheOptions>& ClaheFields();
+// Every key of `full` and its variants (the variant sets the defaults: FullVariantDefaults).
+const Fields<FullOptions>& FullFields();
+const Fields<SimplifiedOptions>& SimplifiedFields();
+// Strict reading of `simplified`'s parameters; throws Error naming the key.
 SimplifiedOptions BindSimplified(const nlohmann::json& params);
 
 }  // namespace turbid::paper_internal

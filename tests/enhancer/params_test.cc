@@ -3,6 +3,10 @@
 
 #include <gtest/gtest.h>
 
+#include "enhancer/registry.h"
+#include "scenes/builtin.h"
+#include "simulator/render.h"
+
 namespace turbid {
 namespace {
 
@@ -69,6 +73,42 @@ TEST(MethodParams, ListedFromTheSameTable) {
   EXPECT_EQ(params[0].bound, SizeBound::kWindow);
   EXPECT_EQ(params[1].bound, SizeBound::kNone);
   EXPECT_EQ(params[2].doc, "refine the transmission");
+}
+
+// Every registered method reads exactly the parameters it lists (one table drives both): naming
+// each listed parameter with its listed default gives the same bytes as naming none, and a key it
+// does not list is refused naming the method and the key.
+TEST(MethodParams, EveryMethodReadsWhatItLists) {
+  BuiltinSceneOptions so;
+  so.scale = 0.08;
+  const Scene scene = MakeBuiltinScene("seafloor", so);
+  RenderOptions ro;
+  ro.seed = 3;
+  const RenderResult rendered = Render(ro, scene);
+  EnhanceInput input;
+  input.image = rendered.image;
+  input.scene = &scene;
+  input.sidecar = &rendered.sidecar;
+  int methods = 0;
+  for (const MethodInfo& m : ListMethods()) {
+    json defaults = json::object();
+    for (const MethodParam& p : m.params) defaults[p.name] = p.default_value;
+    ASSERT_EQ(defaults.size(), m.params.size()) << m.name << " lists a parameter twice";
+    const cv::Mat plain = Enhance(m.name, json::object(), input);
+    const cv::Mat named = Enhance(m.name, defaults, input);
+    ASSERT_EQ(plain.size(), named.size()) << m.name;
+    EXPECT_EQ(cv::norm(plain, named, cv::NORM_INF), 0.0) << m.name;
+    try {
+      Enhance(m.name, json{{"zz_not_a_parameter", 1}}, input);
+      ADD_FAILURE() << m.name << " accepted an unknown parameter";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(m.name + ": unknown parameter 'zz_not_a_parameter'"),
+                std::string::npos)
+          << e.what();
+    }
+    ++methods;
+  }
+  EXPECT_GE(methods, 12);
 }
 
 }  // namespace
