@@ -3,6 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
 #include "enhancer/registry.h"
 #include "scenes/builtin.h"
 #include "simulator/render.h"
@@ -109,6 +114,54 @@ TEST(MethodParams, EveryMethodReadsWhatItLists) {
     ++methods;
   }
   EXPECT_GE(methods, 12);
+}
+
+// docs/method-parameters.md is generated from the methods' field tables (the listing `turbid
+// enhance --list` prints): this test fails when it is stale and rewrites it when
+// TURBID_UPDATE_DOCS=1 is set.
+std::string ParameterDocs() {
+  std::ostringstream out;
+  out << "# Method parameters\n\n"
+      << "Generated from each method's field table (`enhancer/params.h`, `core/fields.h`) by\n"
+      << "`tests/enhancer/params_test.cc` (`TURBID_UPDATE_DOCS=1 ctest -R "
+         "MethodParams.DocsTableIsCurrent`\nrewrites it); the same rows as `turbid enhance "
+         "--list` and `turbid.methods()`. Sizes marked\n*window*, *radius* or *per axis* are "
+         "bounded by the image ([methods.md](methods.md)).\n";
+  for (const MethodInfo& m : ListMethods()) {
+    out << "\n## `" << m.name << "`\n\n" << m.summary << ".\n\n";
+    if (m.params.empty()) {
+      out << "No parameters.\n";
+      continue;
+    }
+    out << "| parameter | default | meaning |\n|---|---|---|\n";
+    for (const MethodParam& p : m.params) {
+      const char* bound = p.bound == SizeBound::kWindow   ? " *(window)*"
+                          : p.bound == SizeBound::kRadius ? " *(radius)*"
+                          : p.bound == SizeBound::kPerAxis ? " *(per axis)*"
+                                                           : "";
+      std::string doc = p.doc;
+      for (size_t at = doc.find('|'); at != std::string::npos; at = doc.find('|', at + 2))
+        doc.replace(at, 1, "\\|");
+      out << "| `" << p.name << "` | `" << p.default_value.dump() << "` | " << doc << bound
+          << " |\n";
+    }
+  }
+  return out.str();
+}
+
+TEST(MethodParams, DocsTableIsCurrent) {
+  const std::filesystem::path path = std::filesystem::path(__FILE__).parent_path().parent_path()
+                                         .parent_path() / "docs" / "method-parameters.md";
+  const std::string expected = ParameterDocs();
+  const char* update = std::getenv("TURBID_UPDATE_DOCS");
+  if (update != nullptr && std::string(update) == "1") {
+    std::ofstream(path, std::ios::binary) << expected;
+  }
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_EQ(text.str(), expected)
+      << path << " is stale: rerun with TURBID_UPDATE_DOCS=1 to regenerate it";
 }
 
 }  // namespace
