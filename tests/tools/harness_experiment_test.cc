@@ -2,6 +2,7 @@
 // seeded sampling and shards.
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <set>
 
 #include "core/error.h"
@@ -185,6 +186,32 @@ TEST(HarnessExperiment, BadFilesAreRejectedWithOneLineErrors) {
   in = FakeExperimentJson();
   in["scale"] = 1.5;
   expect_error(in, "'scale' must be in (0, 1]");
+}
+
+// An edited resolved experiment.json: integers that are floats out of range, strings or
+// fractions are one line naming the key (never a float-to-int cast, which is undefined).
+TEST(HarnessExperiment, ResolvedJsonIntegersAreReadStrictly) {
+  const json good = ParseExperiment(FakeExperimentJson(), "exp.json", FakeCatalog()).ToJson();
+  const auto error_of = [&](const std::function<void(json&)>& edit) {
+    json in = good;
+    edit(in);
+    try {
+      ExperimentFromResolvedJson(in, "experiment.json");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error_of([](json& j) { j["seed"] = 1e300; }).find("experiment.json: 'seed' must be"),
+            std::string::npos);
+  EXPECT_NE(error_of([](json& j) { j["seed"] = -1; }).find("'seed' must be"), std::string::npos);
+  EXPECT_NE(error_of([](json& j) { j["samples"]["count"] = -1e300; }).find("'samples.count'"),
+            std::string::npos);
+  EXPECT_NE(error_of([](json& j) { j["level"]["bins"] = 2.5; }).find("'level.bins'"),
+            std::string::npos);
+  EXPECT_NE(error_of([](json& j) { j["thumbnail_width"] = "96"; }).find("'thumbnail_width'"),
+            std::string::npos);
+  EXPECT_EQ(error_of([](json& j) { j["seed"] = 7.0; }), "");  // 7.0 is the integer 7
 }
 
 TEST(HarnessExperiment, ResolvedJsonRoundTrips) {

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -104,6 +105,23 @@ json Experiment::ToJson() const {
   return out;
 }
 
+namespace {
+// An integer of a resolved experiment file, read strictly (a float such as 1e300 is refused, never
+// cast: core/json_io.h).
+int64_t ResolvedInteger(const json& value, int64_t lo, int64_t hi, const std::string& source,
+                        const char* key) {
+  const std::optional<int64_t> v = JsonInteger(value, lo, hi);
+  if (!v) throw Error(source, std::string("'") + key + "' must be an integer in [" +
+                                  std::to_string(lo) + ", " + std::to_string(hi) + "]");
+  return *v;
+}
+uint64_t ResolvedSeed(const json& value, const std::string& source, const char* key) {
+  const std::optional<uint64_t> v = JsonUnsigned(value);
+  if (!v) throw Error(source, std::string("'") + key + "' must be an integer in [0, 2^64 - 1]");
+  return *v;
+}
+}  // namespace
+
 Experiment ExperimentFromResolvedJson(const json& in, const std::string& source) {
   try {
     if (!in.is_object() || in.value("format", "") != kFormat) {
@@ -113,7 +131,7 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     e.source_path = source;
     e.name = in.at("name").get<std::string>();
     e.description = in.at("description").get<std::string>();
-    e.seed = in.at("seed").get<uint64_t>();
+    e.seed = ResolvedSeed(in.at("seed"), source, "seed");
     for (const json& s : in.at("scenes")) {
       ExperimentScene scene;
       scene.spec = s.at("spec").get<std::string>();
@@ -128,8 +146,9 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
       e.grid.emplace_back(g.at("path").get<std::string>(), g.at("values").get<std::vector<json>>());
     }
     const json& samples = in.at("samples");
-    e.sample_count = samples.at("count").get<int>();
-    e.sample_seed = samples.at("seed").get<uint64_t>();
+    e.sample_count =
+        static_cast<int>(ResolvedInteger(samples.at("count"), 0, 1000000, source, "samples.count"));
+    e.sample_seed = ResolvedSeed(samples.at("seed"), source, "samples.seed");
     for (const json& p : samples.at("params")) {
       SampledParam param;
       param.path = p.at("path").get<std::string>();
@@ -140,7 +159,8 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
       e.sampled.push_back(param);
     }
     e.level_path = in.at("level").at("path").get<std::string>();
-    e.level_bins = in.at("level").at("bins").get<int>();
+    e.level_bins =
+        static_cast<int>(ResolvedInteger(in.at("level").at("bins"), 0, 100, source, "level.bins"));
     e.seed_path = in.at("seed_path").get<std::string>();
     for (const json& m : in.at("methods")) {
       ExperimentMethod method;
@@ -159,7 +179,8 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     }
     e.ground_truth = in.at("ground_truth").get<std::string>();
     e.best_excludes = in.at("best_excludes").get<std::vector<std::string>>();
-    e.thumbnail_width = in.at("thumbnail_width").get<int>();
+    e.thumbnail_width =
+        static_cast<int>(ResolvedInteger(in.at("thumbnail_width"), 0, 4096, source, "thumbnail_width"));
     // Scene names and method labels become file names (thumbs/<scene>-c<n>/<label>.png,
     // external/<label>/): a resolved file holds only the names a sweep accepts.
     const auto check_name = [&](const char* what, const std::string& name) {
