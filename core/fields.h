@@ -10,7 +10,8 @@
 //   const Fields<ClaheOptions>& ClaheFields() {
 //     static const Fields<ClaheOptions> fields = Fields<ClaheOptions>()
 //         .Integer("tiles_x", &ClaheOptions::tiles_x, "tiles along x", 2, 1024)
-//         .Number("clip_limit", &ClaheOptions::clip_limit, "clip limit", NumberRange::Between(0, 1));
+//         .Number("clip_limit", &ClaheOptions::clip_limit, "clip limit", NumberRange::Between(0,
+//         1));
 //     return fields;
 //   }
 #pragma once
@@ -93,45 +94,48 @@ class Fields {
 
   Fields& Number(std::string key, double T::*member, std::string doc,
                  NumberRange range = NumberRange::Any()) {
-    return Add(std::move(key), "number", range.Text(), std::move(doc),
-               [member, range](const Json& v, T& out) {
-                 return fields_detail::NumberProblem(v, range, &(out.*member));
-               },
-               [member](const T& in) { return Json(in.*member); });
+    return Add(
+        std::move(key), "number", range.Text(), std::move(doc),
+        [member, range](const Json& v, T& out) {
+          return fields_detail::NumberProblem(v, range, &(out.*member));
+        },
+        [member](const T& in) { return Json(in.*member); });
   }
   Fields& Integer(std::string key, int T::*member, std::string doc,
                   int64_t lo = std::numeric_limits<int>::min(),
                   int64_t hi = std::numeric_limits<int>::max()) {
-    return Add(std::move(key), "integer", fields_detail::IntegerRangeText(lo, hi), std::move(doc),
-               [member, lo, hi](const Json& v, T& out) {
-                 int64_t value = 0;
-                 std::string problem = fields_detail::IntegerProblem(v, lo, hi, &value);
-                 if (problem.empty()) out.*member = static_cast<int>(value);
-                 return problem;
-               },
-               [member](const T& in) { return Json(in.*member); });
+    return Add(
+        std::move(key), "integer", fields_detail::IntegerRangeText(lo, hi), std::move(doc),
+        [member, lo, hi](const Json& v, T& out) {
+          int64_t value = 0;
+          std::string problem = fields_detail::IntegerProblem(v, lo, hi, &value);
+          if (problem.empty()) out.*member = static_cast<int>(value);
+          return problem;
+        },
+        [member](const T& in) { return Json(in.*member); });
   }
   // An unsigned 64-bit integer (seeds): 0 to 2^64 - 1.
   Fields& Unsigned(std::string key, uint64_t T::*member, std::string doc) {
-    return Add(std::move(key), "integer", "in [0, 2^64 - 1]", std::move(doc),
-               [member](const Json& v, T& out) {
-                 return fields_detail::UnsignedProblem(v, &(out.*member));
-               },
-               [member](const T& in) { return Json(in.*member); });
+    return Add(
+        std::move(key), "integer", "in [0, 2^64 - 1]", std::move(doc),
+        [member](const Json& v, T& out) {
+          return fields_detail::UnsignedProblem(v, &(out.*member));
+        },
+        [member](const T& in) { return Json(in.*member); });
   }
   Fields& Boolean(std::string key, bool T::*member, std::string doc) {
-    return Add(std::move(key), "boolean", "", std::move(doc),
-               [member](const Json& v, T& out) {
-                 return fields_detail::BooleanProblem(v, &(out.*member));
-               },
-               [member](const T& in) { return Json(in.*member); });
+    return Add(
+        std::move(key), "boolean", "", std::move(doc),
+        [member](const Json& v, T& out) {
+          return fields_detail::BooleanProblem(v, &(out.*member));
+        },
+        [member](const T& in) { return Json(in.*member); });
   }
   Fields& String(std::string key, std::string T::*member, std::string doc) {
-    return Add(std::move(key), "string", "", std::move(doc),
-               [member](const Json& v, T& out) {
-                 return fields_detail::StringProblem(v, &(out.*member));
-               },
-               [member](const T& in) { return Json(in.*member); });
+    return Add(
+        std::move(key), "string", "", std::move(doc),
+        [member](const Json& v, T& out) { return fields_detail::StringProblem(v, &(out.*member)); },
+        [member](const T& in) { return Json(in.*member); });
   }
   // One of a fixed set of names, each standing for a value of E (an enum, usually).
   template <typename E>
@@ -165,11 +169,10 @@ class Fields {
     for (const typename Fields<S>::Field& f : sub.fields()) {
       FieldInfo info = f.info;
       info.key = prefix + info.key;
-      fields_.push_back(Field{std::move(info),
-                              [member, read = f.read](const Json& v, T& out) {
-                                return read(v, out.*member);
-                              },
-                              [member, write = f.write](const T& in) { return write(in.*member); }});
+      fields_.push_back(
+          Field{std::move(info),
+                [member, read = f.read](const Json& v, T& out) { return read(v, out.*member); },
+                [member, write = f.write](const T& in) { return write(in.*member); }});
     }
     return *this;
   }
@@ -255,9 +258,9 @@ class Fields {
   Fields& Add(std::string key, std::string type, std::string range, std::string doc, Reader read,
               Writer write) {
     if (Find(key) != nullptr) throw std::logic_error("Fields: key '" + key + "' declared twice");
-    fields_.push_back(Field{FieldInfo{std::move(key), std::move(type), std::move(range), nullptr,
-                                      std::move(doc), 0},
-                            std::move(read), std::move(write)});
+    fields_.push_back(Field{
+        FieldInfo{std::move(key), std::move(type), std::move(range), nullptr, std::move(doc), 0},
+        std::move(read), std::move(write)});
     return *this;
   }
 

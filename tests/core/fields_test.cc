@@ -71,7 +71,7 @@ TEST(Fields, ReadsEveryKindAndKeepsAbsentKeys) {
   EXPECT_EQ(e.name, "y");
   EXPECT_EQ(e.shape, Shape::kSquare);
   EXPECT_EQ(e.inner.bins, 64);
-  EXPECT_EQ(e.inner.alpha, 0.4);  // absent: kept
+  EXPECT_EQ(e.inner.alpha, 0.4);                      // absent: kept
   ExampleFields().Read(json(nullptr), &e, "f.json");  // null reads nothing
   EXPECT_EQ(e.beta, 0.5);
 }
@@ -157,8 +157,8 @@ TEST(Fields, MemberTakesTheKindFromTheTypeAndBaseMembersWork) {
 }
 
 TEST(Fields, TagsLabelTheLastField) {
-  const Fields<Inner> fields = Fields<Inner>().Integer("bins", &Inner::bins, "b").Tag(3).Number(
-      "alpha", &Inner::alpha, "a");
+  const Fields<Inner> fields =
+      Fields<Inner>().Integer("bins", &Inner::bins, "b").Tag(3).Number("alpha", &Inner::alpha, "a");
   EXPECT_EQ(fields.Info()[0].tag, 3);
   EXPECT_EQ(fields.Info()[1].tag, 0);
   EXPECT_THROW(Fields<Inner>().Tag(1), std::logic_error);
@@ -203,8 +203,9 @@ TEST(Fields, InfoCarriesTypesRangesDefaultsAndDocs) {
 }
 
 TEST(Fields, DeclaringAKeyTwiceIsAProgrammingError) {
-  EXPECT_THROW(Fields<Inner>().Integer("bins", &Inner::bins, "a").Integer("bins", &Inner::bins, "b"),
-               std::logic_error);
+  EXPECT_THROW(
+      Fields<Inner>().Integer("bins", &Inner::bins, "a").Integer("bins", &Inner::bins, "b"),
+      std::logic_error);
 }
 
 TEST(NumberRange, TextAndContains) {

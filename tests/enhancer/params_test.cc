@@ -135,8 +135,8 @@ std::string ParameterDocs() {
     }
     out << "| parameter | default | meaning |\n|---|---|---|\n";
     for (const MethodParam& p : m.params) {
-      const char* bound = p.bound == SizeBound::kWindow   ? " *(window)*"
-                          : p.bound == SizeBound::kRadius ? " *(radius)*"
+      const char* bound = p.bound == SizeBound::kWindow    ? " *(window)*"
+                          : p.bound == SizeBound::kRadius  ? " *(radius)*"
                           : p.bound == SizeBound::kPerAxis ? " *(per axis)*"
                                                            : "";
       std::string doc = p.doc;
@@ -150,8 +150,9 @@ std::string ParameterDocs() {
 }
 
 TEST(MethodParams, DocsTableIsCurrent) {
-  const std::filesystem::path path = std::filesystem::path(__FILE__).parent_path().parent_path()
-                                         .parent_path() / "docs" / "method-parameters.md";
+  const std::filesystem::path path =
+      std::filesystem::path(__FILE__).parent_path().parent_path().parent_path() / "docs" /
+      "method-parameters.md";
   const std::string expected = ParameterDocs();
   const char* update = std::getenv("TURBID_UPDATE_DOCS");
   if (update != nullptr && std::string(update) == "1") {
@@ -160,8 +161,8 @@ TEST(MethodParams, DocsTableIsCurrent) {
   std::ifstream in(path, std::ios::binary);
   std::stringstream text;
   text << in.rdbuf();
-  EXPECT_EQ(text.str(), expected)
-      << path << " is stale: rerun with TURBID_UPDATE_DOCS=1 to regenerate it";
+  EXPECT_EQ(text.str(), expected) << path
+                                  << " is stale: rerun with TURBID_UPDATE_DOCS=1 to regenerate it";
 }
 
 }  // namespace
