@@ -22,19 +22,19 @@
 #include <opencv2/quality/qualityssim.hpp>
 #include <opencv2/ximgproc.hpp>
 #include <regex>
-#include <thread>
 #include <string>
+#include <thread>
 #include <vector>
 
+#include "core/atomic_file.h"
+#include "core/error.h"
 #include "enhancer/blocks/clahe.h"
 #include "enhancer/blocks/guided_filter.h"
 #include "enhancer/paper/full.h"
 #include "enhancer/paper/simplified.h"
 #include "metrics/full_reference.h"
 #include "metrics/ssim.h"
-#include "core/atomic_file.h"
 #include "scenes/builtin.h"
-#include "core/error.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
 #include "tools/bench/bench_cases.h"
@@ -51,8 +51,8 @@ namespace {
 using bench::BenchCase;
 using bench::Format;
 using bench::Goal;
-using bench::InteriorMaxDiff;
 using bench::Inputs;
+using bench::InteriorMaxDiff;
 
 struct BenchArgs {
   std::string filter = ".*";
@@ -360,20 +360,76 @@ class CollectingReporter : public benchmark::BenchmarkReporter {
   std::map<std::string, std::string> errors_;
 };
 
-void RunBench(const BenchArgs& args) {
+// The checks of the arguments, in order; returns the --filter expression.
+std::regex CheckBenchArgs(const BenchArgs& args) {
   if (!(args.min_time_s > 0.0 && args.min_time_s <= 60.0))
     throw Error("bench", "--min-time must be in (0, 60] seconds");
   if (args.repetitions < 1 || args.repetitions > 50)
     throw Error("bench", "--repetitions must be in [1, 50]");
   if (!(args.scale > 0.0 && args.scale <= 1.0)) throw Error("bench", "--scale must be in (0, 1]");
   if (args.threads < 1 || args.threads > 1024) throw Error("bench", "--threads must be >= 1");
-  std::regex filter;
   try {
-    filter = std::regex(args.filter);
+    return std::regex(args.filter);
   } catch (const std::regex_error& e) {
     throw Error("bench", "--filter: not a valid regular expression: " + args.filter);
   }
+}
 
+// Registers ours and the peer of each case with Google Benchmark.
+void RegisterCases(const std::vector<BenchCase>& cases, const BenchArgs& args, bool real_time) {
+  for (const BenchCase& c : cases) {
+    auto add = [&](const std::string& name, const std::function<void()>& fn) {
+      benchmark::internal::Benchmark* b =
+          benchmark::RegisterBenchmark(name.c_str(), [fn](benchmark::State& state) {
+            for (auto _ : state) fn();
+          });
+      b->Unit(benchmark::kMillisecond)->MinTime(args.min_time_s);
+      if (args.repetitions > 1) b->Repetitions(args.repetitions)->ReportAggregatesOnly(true);
+      if (real_time) b->UseRealTime();
+    };
+    add(c.name + "@ours", c.ours);
+    if (c.peer) add(c.name + "@peer", c.peer);
+  }
+}
+
+// One table row (printed) and one JSON entry (into report["cases"]) per case.
+void ReportCases(const std::vector<BenchCase>& cases, const CollectingReporter& reporter,
+                 const BenchArgs& args, nlohmann::json* report) {
+  std::cout << "\n| case | ours ms | peer | peer ms | peer/ours | goal | status | agreement |\n"
+            << "|---|---|---|---|---|---|---|---|\n";
+  for (const BenchCase& c : cases) {
+    const double ours = reporter.Ms(c.name + "@ours");
+    const double peer = c.peer ? reporter.Ms(c.name + "@peer") : -1.0;
+    const double ratio = (ours > 0.0 && peer > 0.0) ? peer / ours : 0.0;
+    std::string goal = "-", status = "-";
+    if (c.goal.min_ratio > 0.0) {
+      goal = ">= " + Format("%g", c.goal.min_ratio) + "x";
+      status = ratio >= c.goal.min_ratio ? "met" : "not met";
+    } else if (c.goal.max_ms > 0.0) {
+      goal = "<= " + Format("%g", c.goal.max_ms) + " ms";
+      status = ours > 0.0 && ours <= c.goal.max_ms ? "met" : "not met";
+      if (args.scale != 1.0) status += " (goal is at scale 1)";
+    }
+    const std::string agreement = c.agreement ? c.agreement() : "";
+    std::cout << "| " << c.name << " | " << Format("%.3f", ours) << " | "
+              << (c.peer_name.empty() ? "-" : c.peer_name) << " | "
+              << (peer > 0.0 ? Format("%.3f", peer) : "-") << " | "
+              << (ratio > 0.0 ? Format("%.2f", ratio) + "x" : "-") << " | " << goal << " | "
+              << status << " | " << agreement << " |\n";
+    (*report)["cases"].push_back({{"name", c.name},
+                                  {"ours_ms", ours},
+                                  {"peer", c.peer_name},
+                                  {"peer_ms", peer > 0.0 ? nlohmann::json(peer) : nlohmann::json()},
+                                  {"ratio", ratio > 0.0 ? nlohmann::json(ratio) : nlohmann::json()},
+                                  {"goal", goal},
+                                  {"goal_source", c.goal.source},
+                                  {"status", status},
+                                  {"agreement", agreement}});
+  }
+}
+
+void RunBench(const BenchArgs& args) {
+  const std::regex filter = CheckBenchArgs(args);
   std::unique_ptr<Inputs> inputs;
   auto get_inputs = [&]() -> const Inputs& {
     if (!inputs) inputs = std::make_unique<Inputs>(args.scale);
@@ -407,19 +463,7 @@ void RunBench(const BenchArgs& args) {
   get_inputs();
   const bool real_time = args.threads > 1;  // CPU time of the main thread misses the workers
   benchmark::ClearRegisteredBenchmarks();
-  for (const BenchCase& c : cases) {
-    auto add = [&](const std::string& name, const std::function<void()>& fn) {
-      benchmark::internal::Benchmark* b =
-          benchmark::RegisterBenchmark(name.c_str(), [fn](benchmark::State& state) {
-            for (auto _ : state) fn();
-          });
-      b->Unit(benchmark::kMillisecond)->MinTime(args.min_time_s);
-      if (args.repetitions > 1) b->Repetitions(args.repetitions)->ReportAggregatesOnly(true);
-      if (real_time) b->UseRealTime();
-    };
-    add(c.name + "@ours", c.ours);
-    if (c.peer) add(c.name + "@peer", c.peer);
-  }
+  RegisterCases(cases, args, real_time);
   CollectingReporter reporter(real_time);
   benchmark::RunSpecifiedBenchmarks(&reporter, ".*");
   benchmark::ClearRegisteredBenchmarks();
@@ -436,37 +480,7 @@ void RunBench(const BenchArgs& args) {
                            {"repetitions", args.repetitions},
                            {"warm_allocator", args.warm_allocator},
                            {"cases", nlohmann::json::array()}};
-  std::cout << "\n| case | ours ms | peer | peer ms | peer/ours | goal | status | agreement |\n"
-            << "|---|---|---|---|---|---|---|---|\n";
-  for (const BenchCase& c : cases) {
-    const double ours = reporter.Ms(c.name + "@ours");
-    const double peer = c.peer ? reporter.Ms(c.name + "@peer") : -1.0;
-    const double ratio = (ours > 0.0 && peer > 0.0) ? peer / ours : 0.0;
-    std::string goal = "-", status = "-";
-    if (c.goal.min_ratio > 0.0) {
-      goal = ">= " + Format("%g", c.goal.min_ratio) + "x";
-      status = ratio >= c.goal.min_ratio ? "met" : "not met";
-    } else if (c.goal.max_ms > 0.0) {
-      goal = "<= " + Format("%g", c.goal.max_ms) + " ms";
-      status = ours > 0.0 && ours <= c.goal.max_ms ? "met" : "not met";
-      if (args.scale != 1.0) status += " (goal is at scale 1)";
-    }
-    const std::string agreement = c.agreement ? c.agreement() : "";
-    std::cout << "| " << c.name << " | " << Format("%.3f", ours) << " | "
-              << (c.peer_name.empty() ? "-" : c.peer_name) << " | "
-              << (peer > 0.0 ? Format("%.3f", peer) : "-") << " | "
-              << (ratio > 0.0 ? Format("%.2f", ratio) + "x" : "-") << " | " << goal << " | "
-              << status << " | " << agreement << " |\n";
-    report["cases"].push_back({{"name", c.name},
-                               {"ours_ms", ours},
-                               {"peer", c.peer_name},
-                               {"peer_ms", peer > 0.0 ? nlohmann::json(peer) : nlohmann::json()},
-                               {"ratio", ratio > 0.0 ? nlohmann::json(ratio) : nlohmann::json()},
-                               {"goal", goal},
-                               {"goal_source", c.goal.source},
-                               {"status", status},
-                               {"agreement", agreement}});
-  }
+  ReportCases(cases, reporter, args, &report);
   std::cout << "\n"
             << (real_time ? "wall" : "CPU") << " time per call, " << args.threads << " thread(s), "
             << get_inputs().hull_gray.image.cols << "x" << get_inputs().hull_gray.image.rows
@@ -480,6 +494,49 @@ void RunBench(const BenchArgs& args) {
   }
 }
 
+// The sweep's folder: --out (a sweep there only with --force, started over), else a new
+// temporary folder.
+std::string SweepBenchDir(const BenchArgs& args) {
+  std::string dir = args.out;
+  if (dir.empty()) {
+    std::string pattern = (std::filesystem::temp_directory_path() / "turbid-bench-sweep-XXXXXX");
+    if (mkdtemp(pattern.data()) == nullptr)
+      throw Error(pattern, "cannot create a temporary folder");
+    dir = pattern;
+  } else if (std::filesystem::exists(dir + "/journal.jsonl") && !args.force) {
+    throw Error(dir, "holds a sweep already (use --force to start it over)");
+  } else if (std::filesystem::exists(dir + "/journal.jsonl")) {
+    std::filesystem::remove(dir + "/journal.jsonl");
+  }
+  return dir;
+}
+
+// The stages' table, longest first, against the threads' capacity (wall time x threads); each
+// stage also goes into report["stages"].
+void ReportStages(const StageProfile& profile, double capacity_ms, nlohmann::json* report) {
+  const std::map<std::string, StageProfile::Entry> stages = profile.Snapshot();
+  std::vector<std::pair<std::string, StageProfile::Entry>> rows(stages.begin(), stages.end());
+  std::sort(rows.begin(), rows.end(),
+            [](const auto& a, const auto& b) { return a.second.ms > b.second.ms; });
+  double timed_ms = 0.0;
+  for (const auto& row : rows) timed_ms += row.second.ms;
+  std::cout << "| stage | thread-s | share of thread time | calls | ms per call |\n"
+            << "|---|---|---|---|---|\n";
+  for (const auto& [name, e] : rows) {
+    std::cout << "| " << name << " | " << Format("%.2f", e.ms / 1e3) << " | "
+              << Format("%.1f", 100.0 * e.ms / capacity_ms) << " % | " << e.calls << " | "
+              << Format("%.1f", e.ms / static_cast<double>(std::max<int64_t>(1, e.calls)))
+              << " |\n";
+    (*report)["stages"].push_back({{"stage", name}, {"ms", e.ms}, {"calls", e.calls}});
+  }
+  const double rest_ms = std::max(0.0, capacity_ms - timed_ms);
+  std::cout << "| (untimed: idle threads, glue) | " << Format("%.2f", rest_ms / 1e3) << " | "
+            << Format("%.1f", 100.0 * rest_ms / capacity_ms) << " % | - | - |\n"
+            << "\nthread time = wall time x threads (" << Format("%.2f", capacity_ms / 1e3)
+            << " s); each stage is wall time summed over the threads. Metrics' shared work is "
+               "charged to the first metric that needs it.\n";
+}
+
 // `turbid bench --sweep EXPERIMENT`: one whole sweep, from scratch, timed end to end and by stage.
 // Stage times are wall times summed over the sweep's threads, so with N threads they add up to at
 // most N x the wall time; the rest is threads waiting (the last items, locks) or untimed glue.
@@ -491,17 +548,8 @@ void RunSweepBench(const BenchArgs& args) {
                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
   if (!args.json_path.empty() && !args.force && std::filesystem::exists(args.json_path))
     throw Error(args.json_path, "exists (use --force to replace it)");
-  std::string dir = args.out;
-  const bool temporary = dir.empty();
-  if (temporary) {
-    std::string pattern = (std::filesystem::temp_directory_path() / "turbid-bench-sweep-XXXXXX");
-    if (mkdtemp(pattern.data()) == nullptr) throw Error(pattern, "cannot create a temporary folder");
-    dir = pattern;
-  } else if (std::filesystem::exists(dir + "/journal.jsonl") && !args.force) {
-    throw Error(dir, "holds a sweep already (use --force to start it over)");
-  } else if (std::filesystem::exists(dir + "/journal.jsonl")) {
-    std::filesystem::remove(dir + "/journal.jsonl");
-  }
+  const bool temporary = args.out.empty();
+  const std::string dir = SweepBenchDir(args);
   StageProfile profile;
   SweepOptions options;
   options.out_dir = dir;
@@ -527,18 +575,6 @@ void RunSweepBench(const BenchArgs& args) {
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (temporary) std::filesystem::remove_all(dir);
 
-  const std::map<std::string, StageProfile::Entry> stages = profile.Snapshot();
-  std::vector<std::pair<std::string, StageProfile::Entry>> rows(stages.begin(), stages.end());
-  std::sort(rows.begin(), rows.end(),
-            [](const auto& a, const auto& b) { return a.second.ms > b.second.ms; });
-  double timed_ms = 0.0;
-  for (const auto& row : rows) timed_ms += row.second.ms;
-  const double capacity_ms = wall_s * 1e3 * threads;
-  std::cout << "\nsweep " << experiment.name << ": " << summary.ran << " items in "
-            << Format("%.2f", wall_s) << " s wall on " << threads << " thread(s) ("
-            << summary.failed_rows << " failed method runs)\n\n"
-            << "| stage | thread-s | share of thread time | calls | ms per call |\n"
-            << "|---|---|---|---|---|\n";
   nlohmann::json report = {{"turbid_version", TURBID_VERSION},
                            {"experiment", experiment.name},
                            {"items", summary.ran},
@@ -546,19 +582,10 @@ void RunSweepBench(const BenchArgs& args) {
                            {"wall_s", wall_s},
                            {"failed_rows", summary.failed_rows},
                            {"stages", nlohmann::json::array()}};
-  for (const auto& [name, e] : rows) {
-    std::cout << "| " << name << " | " << Format("%.2f", e.ms / 1e3) << " | "
-              << Format("%.1f", 100.0 * e.ms / capacity_ms) << " % | " << e.calls << " | "
-              << Format("%.1f", e.ms / static_cast<double>(std::max<int64_t>(1, e.calls)))
-              << " |\n";
-    report["stages"].push_back({{"stage", name}, {"ms", e.ms}, {"calls", e.calls}});
-  }
-  const double rest_ms = std::max(0.0, capacity_ms - timed_ms);
-  std::cout << "| (untimed: idle threads, glue) | " << Format("%.2f", rest_ms / 1e3) << " | "
-            << Format("%.1f", 100.0 * rest_ms / capacity_ms) << " % | - | - |\n"
-            << "\nthread time = wall time x threads (" << Format("%.2f", capacity_ms / 1e3)
-            << " s); each stage is wall time summed over the threads. Metrics' shared work is "
-               "charged to the first metric that needs it.\n";
+  std::cout << "\nsweep " << experiment.name << ": " << summary.ran << " items in "
+            << Format("%.2f", wall_s) << " s wall on " << threads << " thread(s) ("
+            << summary.failed_rows << " failed method runs)\n\n";
+  ReportStages(profile, wall_s * 1e3 * threads, &report);
   if (!args.json_path.empty()) {
     AtomicWriteText(args.json_path, report.dump(2) + "\n", args.force);
     std::cout << "wrote " << args.json_path << "\n";

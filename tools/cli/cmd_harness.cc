@@ -81,8 +81,8 @@ void RunSweepCommand(const SweepArgs& args) {
   } else {
     std::cout << "sweep: " << summary.ran << " items run";
     if (summary.retried > 0) std::cout << " (" << summary.retried << " retried)";
-    std::cout << ", " << summary.already_done
-              << " already done (" << summary.items_in_shard << " in "
+    std::cout << ", " << summary.already_done << " already done (" << summary.items_in_shard
+              << " in "
               << (options.shard.count > 1 ? "shard " + args.shard : std::string("the sweep"))
               << ", " << summary.items_total << " in the experiment)";
     if (summary.failed_rows > 0) {
@@ -182,9 +182,7 @@ void RunRegressCommand(const RegressArgs& args) {
   if (report.failed()) throw Error("regress: " + results + " regressed against " + args.baseline);
 }
 
-}  // namespace
-
-void AddHarnessCommands(CLI::App& app) {
+void AddSweepCommand(CLI::App& app) {
   auto sweep_args = std::make_shared<SweepArgs>();
   CLI::App* sweep = app.add_subcommand(
       "sweep", "run an experiment file: scenes x turbidity grid x methods x metrics");
@@ -210,7 +208,9 @@ void AddHarnessCommands(CLI::App& app) {
                   "(for benchmarks)");
   sweep->callback([sweep_args] { RunSweepCommand(*sweep_args); });
   sweep->footer("Example: turbid sweep scenes/experiments/demo.json --out demo");
+}
 
+void AddMergeCommand(CLI::App& app) {
   auto merge_dirs = std::make_shared<std::vector<std::string>>();
   auto merge_options = std::make_shared<MergeOptions>();
   CLI::App* merge = app.add_subcommand("merge", "combine shard outputs into the unsharded result");
@@ -227,7 +227,9 @@ void AddHarnessCommands(CLI::App& app) {
               << merge_options->out_dir << "\n";
   });
   merge->footer("Example: turbid merge demo_shard0 demo_shard1 --out demo_merged");
+}
 
+void AddRegressCommand(CLI::App& app) {
   auto regress_args = std::make_shared<RegressArgs>();
   CLI::App* regress = app.add_subcommand(
       "regress", "compare results with a baseline table; exit 1 when a metric regressed");
@@ -248,7 +250,9 @@ void AddHarnessCommands(CLI::App& app) {
   regress->add_flag("--strict", regress_args->strict, "improvements beyond tolerance fail too");
   regress->callback([regress_args] { RunRegressCommand(*regress_args); });
   regress->footer("Example: turbid regress --baseline demo/items.csv demo_merged");
+}
 
+void AddReportCommand(CLI::App& app) {
   auto report_dir = std::make_shared<std::string>();
   auto report_options = std::make_shared<ReportOptions>();
   CLI::App* report =
@@ -264,6 +268,15 @@ void AddHarnessCommands(CLI::App& app) {
               << summary.images << " images)\n";
   });
   report->footer("Example: turbid report demo");
+}
+
+}  // namespace
+
+void AddHarnessCommands(CLI::App& app) {
+  AddSweepCommand(app);
+  AddMergeCommand(app);
+  AddRegressCommand(app);
+  AddReportCommand(app);
 }
 
 }  // namespace turbid

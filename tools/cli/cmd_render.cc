@@ -11,8 +11,8 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "scenes/image_io.h"
 #include "core/json_io.h"
+#include "scenes/image_io.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/cli/cli.h"
@@ -63,28 +63,30 @@ struct RenderArgs {
   bool explain = false, force = false;
 };
 
-void RunRender(const RenderArgs& args) {
+// --beta B (grey water, the same in every channel) or R,G,B: custom water.
+void ApplyBeta(const RenderArgs& args, json& params) {
+  std::vector<double> beta;
+  std::stringstream items(args.beta + ",");
+  for (std::string item; std::getline(items, item, ',');) {
+    if (item.empty()) throw UsageError("--beta '" + args.beta + "': empty item (give B or R,G,B)");
+    beta.push_back(ParseDecimalOption("--beta", item));
+  }
+  if (beta.size() != 1 && beta.size() != 3) throw Error("--beta: give 1 value or 3 (R,G,B)");
+  const double r = beta[0], g = beta.size() == 3 ? beta[1] : r, b = beta.back();
+  SetRenderParam(params, "water.type", "custom");
+  SetRenderParam(params, "water.beta_rgb_per_m", json::array({r, g, b}));
+  if (beta.size() == 1) SetRenderParam(params, "water.beta_gray_per_m", r);
+}
+
+// The render options: --params, then the flags over them; `ext` is the output's extension.
+RenderOptions ResolveRenderOptions(const RenderArgs& args, const std::string& ext) {
   json params = args.params.empty() ? json::object() : ReadJsonFile(args.params);
   if (!params.is_object()) throw Error(args.params, "parameters must be a JSON object");
   if (!args.water.empty()) SetRenderParam(params, "water.type", args.water);
-  if (!args.beta.empty()) {
-    std::vector<double> beta;
-    std::stringstream items(args.beta + ",");
-    for (std::string item; std::getline(items, item, ',');) {
-      if (item.empty())
-        throw UsageError("--beta '" + args.beta + "': empty item (give B or R,G,B)");
-      beta.push_back(ParseDecimalOption("--beta", item));
-    }
-    if (beta.size() != 1 && beta.size() != 3) throw Error("--beta: give 1 value or 3 (R,G,B)");
-    const double r = beta[0], g = beta.size() == 3 ? beta[1] : r, b = beta.back();
-    SetRenderParam(params, "water.type", "custom");
-    SetRenderParam(params, "water.beta_rgb_per_m", json::array({r, g, b}));
-    if (beta.size() == 1) SetRenderParam(params, "water.beta_gray_per_m", r);
-  }
+  if (!args.beta.empty()) ApplyBeta(args, params);
   for (const std::string& s : args.sets) ApplyRenderSet(params, s);
   if (args.seed) params["seed"] = *args.seed;
   if (args.bit_depth) SetRenderParam(params, "camera.bit_depth", args.bit_depth);
-  const std::string ext = args.out.empty() ? "" : Extension(args.out);
   if (!args.out.empty() && ext != ".png" && ext != ".exr")
     throw Error(args.out, "output must end in .png or .exr");
   if (ext == ".exr" && !params.contains("camera")) SetRenderParam(params, "camera.bit_depth", 32);
@@ -98,18 +100,12 @@ void RunRender(const RenderArgs& args) {
   options.maps = MapSelection::FromList(args.maps);
   if (ext == ".png" && options.camera.bit_depth == 32)
     throw Error(args.out, "camera.bit_depth 32 (float) needs an .exr output");
+  return options;
+}
 
-  LoadSceneOptions scene_options;
-  scene_options.builtin_scale = args.scale;
-  ThrowIfInvalid(scene_options, "--scale");
-  const Scene scene = LoadScene(args.scene, scene_options);
-  Renderer renderer(scene);
-  if (args.explain) std::cout << renderer.Plan(options).ToText();
-  if (args.out.empty()) return;
-
-  // Every output is checked before anything is written, so a refusal leaves nothing behind.
-  const std::string stem = Stem(args.out);
-  const std::string map_ext = ext == ".exr" ? ".exr" : ".png";
+// Every output is checked before anything is written, so a refusal leaves nothing behind.
+void CheckOutputsFree(const RenderArgs& args, const RenderOptions& options, const std::string& stem,
+                      const std::string& map_ext) {
   std::vector<std::string> names = {args.out, stem + ".json"};
   const std::vector<std::pair<std::string, bool>> wanted = {
       {"transmission", options.maps.transmission},
@@ -122,8 +118,12 @@ void RunRender(const RenderArgs& args) {
   if (!args.force)
     for (const std::string& name : names)
       if (fs::exists(name)) throw Error(name, "exists (use --force to replace it)");
+}
 
-  const RenderResult result = renderer.Render(options);
+// The image, the maps asked for (STEM_NAME.EXT) and the sidecar STEM.json, written last.
+void WriteRenderOutputs(const RenderArgs& args, const RenderOptions& options,
+                        const RenderResult& result, const std::string& stem,
+                        const std::string& map_ext) {
   RenderRecord sidecar = result.sidecar;
   sidecar.scene.spec = args.scene;
   sidecar.scene.builtin_scale = args.scale;
@@ -136,8 +136,7 @@ void RunRender(const RenderArgs& args) {
       {"noise", &result.noise}};
   const int bits = options.camera.bit_depth == 32 ? 16 : options.camera.bit_depth;
   // The image holds decoded codes of the camera encoding: written with it, the file stores them.
-  WriteMap(args.out, result.image, bits, args.force,
-           TransferFor(options.camera.FileEncoding()));
+  WriteMap(args.out, result.image, bits, args.force, TransferFor(options.camera.FileEncoding()));
   for (const auto& [name, mat] : maps) {
     if (mat->empty()) continue;
     cv::Mat image = *mat;
@@ -153,6 +152,24 @@ void RunRender(const RenderArgs& args) {
     sidecar.outputs[name] = fs::path(path).filename().string();
   }
   AtomicWriteText(stem + ".json", sidecar.ToJson().dump(2) + "\n", args.force);
+}
+
+void RunRender(const RenderArgs& args) {
+  const std::string ext = args.out.empty() ? "" : Extension(args.out);
+  const RenderOptions options = ResolveRenderOptions(args, ext);
+  LoadSceneOptions scene_options;
+  scene_options.builtin_scale = args.scale;
+  ThrowIfInvalid(scene_options, "--scale");
+  const Scene scene = LoadScene(args.scene, scene_options);
+  Renderer renderer(scene);
+  if (args.explain) std::cout << renderer.Plan(options).ToText();
+  if (args.out.empty()) return;
+
+  const std::string stem = Stem(args.out);
+  const std::string map_ext = ext == ".exr" ? ".exr" : ".png";
+  CheckOutputsFree(args, options, stem, map_ext);
+  const RenderResult result = renderer.Render(options);
+  WriteRenderOutputs(args, options, result, stem, map_ext);
   std::cout << "wrote " << args.out << " and " << stem << ".json\n";
 }
 

@@ -1,25 +1,24 @@
 // `turbid scene`: load and validate scenes (built-in or scene files), write their clean image,
 // depth and normals, print a summary. Reference: docs/cli/scene.md.
-#include <nlohmann/json.hpp>
-
 #include <cmath>
-#include <functional>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "core/atomic_file.h"
+#include "core/error.h"
+#include "core/safe_name.h"
 #include "scenes/builtin.h"
 #include "scenes/camera_encoding.h"
-#include "core/error.h"
 #include "scenes/image_io.h"
-#include "core/safe_name.h"
 #include "scenes/scene_loader.h"
 #include "scenes/scene_summary.h"
 #include "tools/cli/cli.h"
@@ -68,82 +67,103 @@ struct PlannedFile {
   std::function<void(const std::string& path, bool overwrite)> write;
 };
 
+// Clean image: 8-bit PNG coded with --encoding (sRGB by default) through the same camera
+// quantiser as `turbid render`, so an identity render scores SSIM 1 against it; linear float
+// EXR on request (lossless).
+void PlanImage(const Scene& scene, const SceneArgs& args, const fs::path& dir,
+               std::vector<PlannedFile>* plan, nlohmann::json* files, nlohmann::json* scene_file) {
+  const CameraEncoding encoding = CameraEncodingFromName(args.encoding, "--encoding");
+  plan->push_back(
+      {(dir / "image.png").string(), [&scene, encoding](const std::string& path, bool overwrite) {
+         WriteImageOptions options;
+         options.transfer = TransferFor(encoding);
+         options.overwrite = overwrite;
+         WriteImage(path, QuantiseEncoded(scene.image, encoding, 8), options);
+       }});
+  (*files)["image"] = "image.png";
+  (*files)["image_encoding"] = CameraEncodingName(encoding);
+  if (args.image_exr) {
+    plan->push_back(
+        {(dir / "image.exr").string(), [&scene](const std::string& path, bool overwrite) {
+           WriteImageOptions options;
+           options.overwrite = overwrite;
+           WriteImage(path, scene.image, options);
+         }});
+    (*files)["image_exr"] = "image.exr";
+    (*scene_file)["image"] = "image.exr";
+    (*scene_file)["color"] = "linear";
+  } else {
+    (*scene_file)["image"] = "image.png";
+    (*scene_file)["color"] = CameraEncodingName(encoding);
+  }
+}
+
+// Depth: float metres in EXR (NaN = invalid), or TUM-style 16-bit PNG (x5000, 0 = invalid).
+void PlanDepth(const Scene& scene, const SceneArgs& args, const fs::path& dir,
+               std::vector<PlannedFile>* plan, nlohmann::json* files, nlohmann::json* scene_file) {
+  if (args.depth_format == "png16") {
+    const DepthStats stats = ComputeDepthStats(scene.depth_m);
+    if (stats.max_m * kPng16DepthUnitsPerM > 65535.0)
+      throw Error(
+          "scene " + scene.name,
+          "depth reaches " + Fixed(stats.max_m, 3) +
+              " m, beyond the 16-bit PNG range (13.107 m at 5000/m); use --depth-format exr");
+    plan->push_back(
+        {(dir / "depth.png").string(), [&scene](const std::string& path, bool overwrite) {
+           WriteImageOptions options;
+           options.bit_depth = 16;
+           options.raw = true;
+           options.overwrite = overwrite;
+           WriteImage(path, scene.depth_m * kPng16DepthUnitsPerM, options);
+         }});
+    (*files)["depth"] = "depth.png";
+    (*scene_file)["type"] = "rgbd";
+    (*scene_file)["depth"] = "depth.png";
+    (*scene_file)["depth_scale"] = kPng16DepthUnitsPerM;
+  } else {
+    plan->push_back(
+        {(dir / "depth.exr").string(), [&scene](const std::string& path, bool overwrite) {
+           WriteImageOptions options;
+           options.overwrite = overwrite;
+           WriteImage(path, scene.depth_m, options);
+         }});
+    (*files)["depth"] = "depth.exr";
+    (*scene_file)["type"] = "depth";
+    (*scene_file)["depth"] = "depth.exr";
+    (*scene_file)["depth_scale"] = 1.0;
+  }
+}
+
+void PlanNormals(const Scene& scene, const SceneArgs& args, const fs::path& dir,
+                 std::vector<PlannedFile>* plan, nlohmann::json* files) {
+  if (args.normals_format == "png" || args.normals_format == "both") {
+    plan->push_back(
+        {(dir / "normals.png").string(), [&scene](const std::string& path, bool overwrite) {
+           WriteImageOptions options;
+           options.overwrite = overwrite;
+           WriteImage(path, NormalsForFile(scene.normals, true), options);
+         }});
+    (*files)["normals"] = "normals.png";
+  }
+  if (args.normals_format == "exr" || args.normals_format == "both") {
+    plan->push_back(
+        {(dir / "normals.exr").string(), [&scene](const std::string& path, bool overwrite) {
+           WriteImageOptions options;
+           options.overwrite = overwrite;
+           WriteImage(path, NormalsForFile(scene.normals, false), options);
+         }});
+    (*files)["normals_exr"] = "normals.exr";
+  }
+}
+
 // Everything one scene writes, decided before anything is written.
 std::vector<PlannedFile> PlanOutputs(const Scene& scene, const SceneArgs& args, const fs::path& dir,
                                      nlohmann::json* files) {
   std::vector<PlannedFile> plan;
   nlohmann::json scene_file = {{"name", scene.name}, {"camera", CameraToJson(scene.camera)}};
-  // Clean image: 8-bit PNG coded with --encoding (sRGB by default) through the same camera
-  // quantiser as `turbid render`, so an identity render scores SSIM 1 against it; linear float
-  // EXR on request (lossless).
-  const CameraEncoding encoding = CameraEncodingFromName(args.encoding, "--encoding");
-  plan.push_back({(dir / "image.png").string(),
-                  [&scene, encoding](const std::string& path, bool overwrite) {
-                    WriteImageOptions options;
-                    options.transfer = TransferFor(encoding);
-                    options.overwrite = overwrite;
-                    WriteImage(path, QuantiseEncoded(scene.image, encoding, 8), options);
-                  }});
-  (*files)["image"] = "image.png";
-  (*files)["image_encoding"] = CameraEncodingName(encoding);
-  if (args.image_exr) {
-    plan.push_back({(dir / "image.exr").string(), [&scene](const std::string& path, bool overwrite) {
-                      WriteImageOptions options;
-                      options.overwrite = overwrite;
-                      WriteImage(path, scene.image, options);
-                    }});
-    (*files)["image_exr"] = "image.exr";
-    scene_file["image"] = "image.exr";
-    scene_file["color"] = "linear";
-  } else {
-    scene_file["image"] = "image.png";
-    scene_file["color"] = CameraEncodingName(encoding);
-  }
-  // Depth: float metres in EXR (NaN = invalid), or TUM-style 16-bit PNG (x5000, 0 = invalid).
-  if (args.depth_format == "png16") {
-    const DepthStats stats = ComputeDepthStats(scene.depth_m);
-    if (stats.max_m * kPng16DepthUnitsPerM > 65535.0)
-      throw Error("scene " + scene.name,
-                  "depth reaches " + Fixed(stats.max_m, 3) +
-                      " m, beyond the 16-bit PNG range (13.107 m at 5000/m); use --depth-format exr");
-    plan.push_back({(dir / "depth.png").string(), [&scene](const std::string& path, bool overwrite) {
-                      WriteImageOptions options;
-                      options.bit_depth = 16;
-                      options.raw = true;
-                      options.overwrite = overwrite;
-                      WriteImage(path, scene.depth_m * kPng16DepthUnitsPerM, options);
-                    }});
-    (*files)["depth"] = "depth.png";
-    scene_file["type"] = "rgbd";
-    scene_file["depth"] = "depth.png";
-    scene_file["depth_scale"] = kPng16DepthUnitsPerM;
-  } else {
-    plan.push_back({(dir / "depth.exr").string(), [&scene](const std::string& path, bool overwrite) {
-                      WriteImageOptions options;
-                      options.overwrite = overwrite;
-                      WriteImage(path, scene.depth_m, options);
-                    }});
-    (*files)["depth"] = "depth.exr";
-    scene_file["type"] = "depth";
-    scene_file["depth"] = "depth.exr";
-    scene_file["depth_scale"] = 1.0;
-  }
-  if (args.normals_format == "png" || args.normals_format == "both") {
-    plan.push_back({(dir / "normals.png").string(), [&scene](const std::string& path, bool overwrite) {
-                      WriteImageOptions options;
-                      options.overwrite = overwrite;
-                      WriteImage(path, NormalsForFile(scene.normals, true), options);
-                    }});
-    (*files)["normals"] = "normals.png";
-  }
-  if (args.normals_format == "exr" || args.normals_format == "both") {
-    plan.push_back({(dir / "normals.exr").string(), [&scene](const std::string& path, bool overwrite) {
-                      WriteImageOptions options;
-                      options.overwrite = overwrite;
-                      WriteImage(path, NormalsForFile(scene.normals, false), options);
-                    }});
-    (*files)["normals_exr"] = "normals.exr";
-  }
+  PlanImage(scene, args, dir, &plan, files, &scene_file);
+  PlanDepth(scene, args, dir, &plan, files, &scene_file);
+  PlanNormals(scene, args, dir, &plan, files);
   if (scene.dominant_plane) scene_file["plane"] = PlaneToJson(*scene.dominant_plane);
   if (!scene.dvl_points_in_camera.empty()) {
     nlohmann::json dvl = nlohmann::json::array();
@@ -151,9 +171,10 @@ std::vector<PlannedFile> PlanOutputs(const Scene& scene, const SceneArgs& args, 
     scene_file["dvl"] = dvl;
   }
   const std::string scene_text = scene_file.dump(2) + "\n";
-  plan.push_back({(dir / "scene.json").string(), [scene_text](const std::string& path, bool overwrite) {
-                    AtomicWriteText(path, scene_text, overwrite);
-                  }});
+  plan.push_back(
+      {(dir / "scene.json").string(), [scene_text](const std::string& path, bool overwrite) {
+         AtomicWriteText(path, scene_text, overwrite);
+       }});
   (*files)["scene"] = "scene.json";
   return plan;
 }
@@ -178,8 +199,8 @@ std::string HumanSummary(const Scene& scene) {
   return s.str();
 }
 
-void RunScene(const SceneArgs& args) {
-  if (!(args.scale > 0.0 && args.scale <= 1.0)) throw Error("--scale", "must be in (0, 1]");
+// The specs given and the --builtin names (all: every built-in scene).
+std::vector<std::string> SceneSpecs(const SceneArgs& args) {
   std::vector<std::string> specs = args.specs;
   for (const std::string& name : args.builtins) {
     if (name == "all") {
@@ -189,12 +210,15 @@ void RunScene(const SceneArgs& args) {
     }
   }
   if (specs.empty()) throw Error("turbid scene", "no scene given (SPEC... or --builtin NAME|all)");
+  return specs;
+}
 
-  // 1. Load and validate everything before writing anything.
+// 1. Load and validate everything before writing anything; `sources` gets each scene's spec.
+std::vector<Scene> LoadScenes(const std::vector<std::string>& specs, const SceneArgs& args,
+                              std::vector<std::string>* sources) {
   LoadSceneOptions load;
   load.builtin_scale = args.scale;
   std::vector<Scene> scenes;
-  std::vector<std::string> sources;
   std::set<std::string> names;
   std::map<std::string, std::string> folder_names;  // FileNameKey -> scene name
   for (const std::string& spec : specs) {
@@ -227,36 +251,48 @@ void RunScene(const SceneArgs& args) {
       }
     }
     scenes.push_back(std::move(scene));
-    sources.push_back(spec);
+    sources->push_back(spec);
   }
+  return scenes;
+}
 
-  // 2. Plan every output and refuse before writing if one exists (unless --force).
+// 2. Plan every output and refuse before writing if one exists (unless --force).
+std::vector<std::vector<PlannedFile>> PlanScenes(const std::vector<Scene>& scenes,
+                                                 const std::vector<std::string>& sources,
+                                                 const SceneArgs& args) {
   std::vector<std::vector<PlannedFile>> plans(scenes.size());
-  std::vector<nlohmann::json> summaries(scenes.size());
-  if (!args.out_dir.empty()) {
-    std::error_code ec;
-    if (fs::exists(args.out_dir, ec) && !fs::is_directory(args.out_dir, ec))
-      throw Error(args.out_dir, "exists and is not a folder");
-    for (size_t i = 0; i < scenes.size(); ++i) {
-      nlohmann::json files;
-      plans[i] = PlanOutputs(scenes[i], args, fs::path(args.out_dir) / scenes[i].name, &files);
-      files["summary"] = "summary.json";
-      summaries[i] = SceneSummaryJson(scenes[i]);
-      summaries[i]["source"] = sources[i];
-      summaries[i]["files"] = files;
-      summaries[i]["turbid_version"] = TURBID_VERSION;
-      const std::string text = summaries[i].dump(2) + "\n";
-      plans[i].push_back({(fs::path(args.out_dir) / scenes[i].name / "summary.json").string(),
-                          [text](const std::string& path, bool overwrite) {
-                            AtomicWriteText(path, text, overwrite);
-                          }});
-      if (!args.force) {
-        for (const PlannedFile& file : plans[i])
-          if (fs::exists(file.path, ec))
-            throw Error(file.path, "already exists (use --force to overwrite)");
-      }
+  if (args.out_dir.empty()) return plans;
+  std::error_code ec;
+  if (fs::exists(args.out_dir, ec) && !fs::is_directory(args.out_dir, ec))
+    throw Error(args.out_dir, "exists and is not a folder");
+  for (size_t i = 0; i < scenes.size(); ++i) {
+    nlohmann::json files;
+    plans[i] = PlanOutputs(scenes[i], args, fs::path(args.out_dir) / scenes[i].name, &files);
+    files["summary"] = "summary.json";
+    nlohmann::json summary = SceneSummaryJson(scenes[i]);
+    summary["source"] = sources[i];
+    summary["files"] = files;
+    summary["turbid_version"] = TURBID_VERSION;
+    const std::string text = summary.dump(2) + "\n";
+    plans[i].push_back({(fs::path(args.out_dir) / scenes[i].name / "summary.json").string(),
+                        [text](const std::string& path, bool overwrite) {
+                          AtomicWriteText(path, text, overwrite);
+                        }});
+    if (!args.force) {
+      for (const PlannedFile& file : plans[i])
+        if (fs::exists(file.path, ec))
+          throw Error(file.path, "already exists (use --force to overwrite)");
     }
   }
+  return plans;
+}
+
+void RunScene(const SceneArgs& args) {
+  if (!(args.scale > 0.0 && args.scale <= 1.0)) throw Error("--scale", "must be in (0, 1]");
+  const std::vector<std::string> specs = SceneSpecs(args);
+  std::vector<std::string> sources;
+  const std::vector<Scene> scenes = LoadScenes(specs, args, &sources);
+  const std::vector<std::vector<PlannedFile>> plans = PlanScenes(scenes, sources, args);
 
   // 3. Write (each file atomically) and report.
   for (size_t i = 0; i < scenes.size(); ++i) {

@@ -1,7 +1,5 @@
 // `turbid score`: metrics of images against a reference, over a `turbid generate` manifest, or
 // feature matching over image pairs. Reference: docs/cli/score.md.
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <atomic>
 #include <cctype>
@@ -13,18 +11,19 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
 
+#include "core/error.h"
+#include "core/input_file.h"
+#include "core/json_io.h"
 #include "metrics/feature_matching.h"
 #include "metrics/image_checks.h"
 #include "metrics/registry.h"
-#include "core/error.h"
 #include "scenes/image_io.h"
-#include "core/input_file.h"
-#include "core/json_io.h"
 #include "tools/cli/cli.h"
 #include "tools/harness/experiment.h"
 #include "tools/harness/external_method.h"
@@ -42,7 +41,7 @@ namespace fs = std::filesystem;
 // Output: one row per scored image.
 
 struct ScoreRow {
-  std::string label;  // image path (or manifest id)
+  std::string label;                                // image path (or manifest id)
   nlohmann::json extra = nlohmann::json::object();  // reference / original paths in batch mode
   std::map<std::string, double> values;
 };
@@ -267,124 +266,148 @@ void ScoreAgainstReference(const ScoreArgs& args) {
     }
     rows.push_back(row);
   }
-  nlohmann::json header = {{"reference", has_ref ? nlohmann::json(args.ref) : nlohmann::json()},
-                           {"original", has_orig ? nlohmann::json(args.original) : nlohmann::json()}};
+  nlohmann::json header = {
+      {"reference", has_ref ? nlohmann::json(args.ref) : nlohmann::json()},
+      {"original", has_orig ? nlohmann::json(args.original) : nlohmann::json()}};
   PrintRows(metrics, rows, ParseFormat(args.json, args.csv), header, std::cout);
+}
+
+// A manifest's columns: given by flags, else found by their usual names.
+struct ManifestColumns {
+  std::string image, ref, orig, id;
+  bool has_ref = false, has_orig = false;
+};
+
+ManifestColumns FindManifestColumns(const ScoreArgs& args, const std::vector<Record>& records) {
+  std::vector<std::string> keys;
+  for (const auto& [k, v] : records.front()) keys.push_back(k);
+  const std::vector<std::string> image_names = {
+      "enhanced",      "enhanced_path", "restored", "image",  "image_path",  "degraded",
+      "degraded_path", "rendered",      "render",   "output", "output_path", "path"};
+  const std::vector<std::string> ref_names = {
+      "ground_truth", "ground_truth_path", "gt",  "gt_path", "clean", "clean_path", "clear",
+      "reference",    "reference_path",    "ref", "truth"};
+  const std::vector<std::string> degraded_names = {"original",      "original_path", "degraded",
+                                                   "degraded_path", "rendered",      "render"};
+  ManifestColumns c;
+  c.image = args.image_column.empty() ? FindColumn(keys, image_names) : args.image_column;
+  c.ref = args.ref_column.empty() ? FindColumn(keys, ref_names) : args.ref_column;
+  c.orig = args.original_column;
+  if (c.orig.empty()) {
+    c.orig = FindColumn(keys, degraded_names);
+    if (c.orig == c.image) c.orig.clear();  // scoring the degraded image itself
+  }
+  std::string known;
+  for (const std::string& k : keys) known += (known.empty() ? "" : ", ") + k;
+  if (c.image.empty() || !records.front().count(c.image))
+    throw Error(args.manifest,
+                "no image column found (columns: " + known + "; choose one with --image-column)");
+  if (!args.ref_column.empty() && !records.front().count(c.ref))
+    throw Error(args.manifest, "no column '" + c.ref + "' (columns: " + known + ")");
+  c.id = FindColumn(keys, {"id", "name", "item", "sample"});
+  c.has_ref = !c.ref.empty();
+  c.has_orig = !c.orig.empty() && records.front().count(c.orig);
+  return c;
+}
+
+// A generate manifest's "encoding" column codes its own image and ground_truth files; other
+// files are looked up beside them.
+std::optional<KnownEncoding> RecordEncoding(const Record& record, const std::string& col,
+                                            const std::string& path, const std::string& manifest) {
+  if (auto beside = EncodingBeside(path)) return beside;
+  auto it = record.find("encoding");
+  if ((col == "image" || col == "ground_truth") && it != record.end() &&
+      (it->second == "srgb" || it->second == "linear"))
+    return KnownEncoding{it->second, manifest};
+  return std::nullopt;
+}
+
+// One manifest row (on line `line`) scored; differently coded image and reference warn once
+// (counted in `mismatches`).
+ScoreRow ScoreManifestRow(const ScoreArgs& args, const ManifestColumns& c,
+                          const std::vector<std::string>& metrics, const Record& record, int line,
+                          int* mismatches) {
+  auto get = [&](const std::string& col) {
+    auto it = record.find(col);
+    const std::string value = it == record.end() ? std::string() : it->second;
+    // An empty path would name the manifest's folder (or no reference at all).
+    if (value.empty())
+      throw Error(args.manifest, "line " + std::to_string(line) + ": empty '" + col + "'");
+    return value;
+  };
+  const std::string image_path = ResolvePath(args.manifest, get(c.image));
+  if (c.has_ref) {
+    const std::string ref_path = ResolvePath(args.manifest, get(c.ref));
+    const auto a = RecordEncoding(record, c.image, image_path, args.manifest);
+    const auto b = RecordEncoding(record, c.ref, ref_path, args.manifest);
+    if (a && b && a->name != b->name && (*mismatches)++ == 0)
+      WarnOnEncodingMismatch("score", image_path, a, "its reference " + ref_path, b);
+  }
+  MetricImage img = LoadMetricImage(image_path), ref, orig;
+  ScoreRow row;
+  row.label = c.id.empty() ? get(c.image) : record.at(c.id);
+  if (!c.id.empty()) row.extra["path"] = get(c.image);
+  if (c.has_ref) {
+    const std::string ref_path = ResolvePath(args.manifest, get(c.ref));
+    ref = LoadMetricImage(ref_path);
+    CheckSideImage(metrics, true, ref_path, ref.pixels);
+    row.extra["reference"] = get(c.ref);
+  }
+  if (c.has_orig) {
+    const std::string orig_path = ResolvePath(args.manifest, get(c.orig));
+    orig = LoadMetricImage(orig_path);
+    CheckSideImage(metrics, false, orig_path, orig.pixels);
+    row.extra["original"] = get(c.orig);
+  }
+  MetricInputs in;
+  in.data_range = CommonScale({&ref, &img, &orig});
+  in.reference = ref.pixels;
+  in.image = img.pixels;
+  in.original = orig.pixels;
+  try {
+    row.values =
+        WithFileContext(image_path, "scoring it", [&] { return ComputeMetrics(metrics, in); });
+  } catch (const Error& e) {
+    const std::string message = e.what();
+    throw message.rfind(image_path + ": ", 0) == 0 ? e : Error(image_path, message);
+  }
+  return row;
 }
 
 void ScoreManifest(const ScoreArgs& args) {
   std::vector<int> lines;
   const std::vector<Record> records = ReadManifest(args.manifest, &lines);
   if (records.empty()) throw Error(args.manifest, "manifest has no rows");
-  std::vector<std::string> keys;
-  for (const auto& [k, v] : records.front()) keys.push_back(k);
-  const std::vector<std::string> image_names = {"enhanced", "enhanced_path", "restored",
-                                                "image", "image_path", "degraded",
-                                                "degraded_path", "rendered", "render",
-                                                "output", "output_path", "path"};
-  const std::vector<std::string> ref_names = {"ground_truth", "ground_truth_path", "gt",
-                                              "gt_path", "clean", "clean_path", "clear",
-                                              "reference", "reference_path", "ref", "truth"};
-  const std::vector<std::string> degraded_names = {"original", "original_path", "degraded",
-                                                   "degraded_path", "rendered", "render"};
-  const std::string image_col =
-      args.image_column.empty() ? FindColumn(keys, image_names) : args.image_column;
-  const std::string ref_col = args.ref_column.empty() ? FindColumn(keys, ref_names) : args.ref_column;
-  std::string orig_col = args.original_column;
-  if (orig_col.empty()) {
-    orig_col = FindColumn(keys, degraded_names);
-    if (orig_col == image_col) orig_col.clear();  // scoring the degraded image itself
-  }
-  std::string known;
-  for (const std::string& k : keys) known += (known.empty() ? "" : ", ") + k;
-  if (image_col.empty() || !records.front().count(image_col))
-    throw Error(args.manifest, "no image column found (columns: " + known +
-                                   "; choose one with --image-column)");
-  if (!args.ref_column.empty() && !records.front().count(ref_col))
-    throw Error(args.manifest, "no column '" + ref_col + "' (columns: " + known + ")");
-  const std::string id_col = FindColumn(keys, {"id", "name", "item", "sample"});
-  const bool has_ref = !ref_col.empty();
-  const bool has_orig = !orig_col.empty() && records.front().count(orig_col);
-  const std::string default_list = has_ref ? "ssim,psnr" : "cnr";
+  const ManifestColumns c = FindManifestColumns(args, records);
+  const std::string default_list = c.has_ref ? "ssim,psnr" : "cnr";
   const std::vector<std::string> metrics =
-      ParseMetricList(args.metrics.empty() ? default_list : args.metrics, has_ref, has_orig);
-  // A generate manifest's "encoding" column codes its own image and ground_truth files; other
-  // files are looked up beside them. Differently coded image and reference: one warning.
+      ParseMetricList(args.metrics.empty() ? default_list : args.metrics, c.has_ref, c.has_orig);
   int mismatches = 0;
-  auto encoding_of = [&](const Record& record, const std::string& col, const std::string& path)
-      -> std::optional<KnownEncoding> {
-    if (auto beside = EncodingBeside(path)) return beside;
-    auto it = record.find("encoding");
-    if ((col == "image" || col == "ground_truth") && it != record.end() &&
-        (it->second == "srgb" || it->second == "linear"))
-      return KnownEncoding{it->second, args.manifest};
-    return std::nullopt;
-  };
   std::vector<ScoreRow> rows;
   for (size_t k = 0; k < records.size(); ++k) {
-    const Record& record = records[k];
-    auto get = [&](const std::string& col) {
-      auto it = record.find(col);
-      const std::string value = it == record.end() ? std::string() : it->second;
-      // An empty path would name the manifest's folder (or no reference at all).
-      if (value.empty())
-        throw Error(args.manifest, "line " + std::to_string(lines[k]) + ": empty '" + col + "'");
-      return value;
-    };
-    const std::string image_path = ResolvePath(args.manifest, get(image_col));
-    if (has_ref) {
-      const std::string ref_path = ResolvePath(args.manifest, get(ref_col));
-      const auto a = encoding_of(record, image_col, image_path);
-      const auto b = encoding_of(record, ref_col, ref_path);
-      if (a && b && a->name != b->name &&
-          mismatches++ == 0)
-        WarnOnEncodingMismatch("score", image_path, a, "its reference " + ref_path, b);
-    }
-    MetricImage img = LoadMetricImage(image_path), ref, orig;
-    ScoreRow row;
-    row.label = id_col.empty() ? get(image_col) : record.at(id_col);
-    if (!id_col.empty()) row.extra["path"] = get(image_col);
-    if (has_ref) {
-      const std::string ref_path = ResolvePath(args.manifest, get(ref_col));
-      ref = LoadMetricImage(ref_path);
-      CheckSideImage(metrics, true, ref_path, ref.pixels);
-      row.extra["reference"] = get(ref_col);
-    }
-    if (has_orig) {
-      const std::string orig_path = ResolvePath(args.manifest, get(orig_col));
-      orig = LoadMetricImage(orig_path);
-      CheckSideImage(metrics, false, orig_path, orig.pixels);
-      row.extra["original"] = get(orig_col);
-    }
-    MetricInputs in;
-    in.data_range = CommonScale({&ref, &img, &orig});
-    in.reference = ref.pixels;
-    in.image = img.pixels;
-    in.original = orig.pixels;
-    try {
-      row.values =
-          WithFileContext(image_path, "scoring it", [&] { return ComputeMetrics(metrics, in); });
-    } catch (const Error& e) {
-      const std::string message = e.what();
-      throw message.rfind(image_path + ": ", 0) == 0 ? e : Error(image_path, message);
-    }
-    rows.push_back(row);
+    rows.push_back(ScoreManifestRow(args, c, metrics, records[k], lines[k], &mismatches));
   }
   if (mismatches > 1)
     std::cerr << "score: warning: " << mismatches
               << " rows compare differently coded image and reference\n";
   nlohmann::json header = {{"manifest", args.manifest},
-                           {"image_column", image_col},
-                           {"reference_column", ref_col},
-                           {"original_column", has_orig ? orig_col : std::string()}};
+                           {"image_column", c.image},
+                           {"reference_column", c.ref},
+                           {"original_column", c.has_orig ? c.orig : std::string()}};
   PrintRows(metrics, rows, ParseFormat(args.json, args.csv), header, std::cout);
 }
 
-// A results folder against a generate dataset: the enhanced image of item ID is RESULTS/ID.<ext>.
-// Writes a sweep's tables (items.csv, items.jsonl, summary.md, summary.csv) with two methods:
-// `none` (the degraded input as it is) and NAME (the results).
-void ScoreResults(const ScoreArgs& args) {
-  const std::vector<Record> records = ReadManifest(args.manifest);
+// What scoring a results folder shares between its items.
+struct ResultsScoring {
+  std::string gt_column;  // the manifest column of the ground truth
+  std::string name;       // the scored method's name
+  std::vector<nlohmann::json> levels;
+  std::vector<std::string> metric_names, reference_only;
+};
+
+// The checks of --results's arguments and the manifest's columns, in order; returns the ground
+// truth's column.
+std::string CheckResultsArgs(const ScoreArgs& args, const std::vector<Record>& records) {
   if (records.empty()) throw Error(args.manifest, "manifest has no rows");
   if (!fs::is_directory(args.results)) throw Error(args.results, "not a folder");
   const std::string gt_column = args.ground_truth == "lit" ? "lit" : "ground_truth";
@@ -394,27 +417,38 @@ void ScoreResults(const ScoreArgs& args) {
   if (args.encoding != "srgb" && args.encoding != "linear") {
     throw Error("--encoding must be srgb or linear, not '" + args.encoding + "'");
   }
-  for (const std::string& column : {std::string("id"), std::string("image"), gt_column,
-                                    args.level}) {
+  for (const std::string& column :
+       {std::string("id"), std::string("image"), gt_column, args.level}) {
     if (!records.front().count(column)) {
       throw Error(args.manifest, "no column '" + column +
                                      "' (a manifest.csv or manifest.jsonl of `turbid generate`)");
     }
   }
+  return gt_column;
+}
+
+// --name, else the results folder's name; 1-64 characters of [A-Za-z0-9_-], not 'none'.
+std::string ResultsName(const ScoreArgs& args) {
   std::string name = args.name;
   if (name.empty()) name = fs::path(args.results).lexically_normal().filename().string();
-  if (name.empty()) name = fs::path(args.results).lexically_normal().parent_path().filename().string();
+  if (name.empty())
+    name = fs::path(args.results).lexically_normal().parent_path().filename().string();
   const bool safe = !name.empty() && name.size() <= 64 && name != "none" &&
-                    name.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                           "0123456789_-") == std::string::npos;
+                    name.find_first_not_of(
+                        "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                        "0123456789_-") == std::string::npos;
   if (!safe) {
     throw Error("--name '" + name + "': need 1-64 characters of [A-Za-z0-9_-], not 'none'");
   }
-  const std::string out = args.out.empty() ? (fs::path(args.results) / "turbid-score").string()
-                                           : args.out;
+  return name;
+}
 
+// The sweep a results folder stands for: methods `none` and NAME, one grid axis (the level
+// column, its values in order of appearance); fills the levels and metric names of `s`.
+Experiment ResultsExperiment(const ScoreArgs& args, const std::vector<Record>& records,
+                             ResultsScoring* s) {
   Experiment e;
-  e.name = name;
+  e.name = s->name;
   e.description = "results folder " + args.results + " scored against the dataset " +
                   args.manifest + " (`turbid score --results`)";
   e.source_path = args.manifest;
@@ -426,83 +460,82 @@ void ScoreResults(const ScoreArgs& args) {
   }
   ExperimentMethod identity, scored;
   identity.name = identity.label = "none";
-  scored.name = scored.label = name;
+  scored.name = scored.label = s->name;
   e.methods = {identity, scored};
   e.best_excludes = {"none"};
   e.ground_truth = args.ground_truth;
   e.thumbnail_width = 0;
   e.level_path = args.level;
   e.listed_items = static_cast<int>(records.size());
-  std::vector<nlohmann::json> levels;
   std::set<std::string> seen;
   for (const Record& record : records) {
-    if (seen.insert(record.at(args.level)).second) levels.push_back(record.at(args.level));
+    if (seen.insert(record.at(args.level)).second) s->levels.push_back(record.at(args.level));
   }
-  e.grid.emplace_back(args.level, levels);
+  e.grid.emplace_back(args.level, s->levels);
   e.scenes.push_back({"", "", "dataset", 1.0});
-  std::vector<std::string> metric_names, reference_only;
   for (const HarnessMetricInfo& m : e.metrics) {
-    metric_names.push_back(m.name);
-    if (!m.needs_reference && !m.needs_original) reference_only.push_back(m.name);
+    s->metric_names.push_back(m.name);
+    if (!m.needs_reference && !m.needs_original) s->reference_only.push_back(m.name);
   }
+  return e;
+}
 
-  std::vector<ItemResult> items(records.size());
-  std::set<std::string> ids;
-  for (const Record& record : records) {
-    if (!ids.insert(record.at("id")).second) {
-      throw Error(args.manifest, "item id '" + record.at("id") + "' appears twice");
-    }
+// Item K of the manifest: its identity, then both methods' metrics. A missing or unreadable
+// results file is the item's error; an unreadable dataset file throws.
+void ScoreResultItem(const ScoreArgs& args, const ResultsScoring& s, const Record& record, size_t k,
+                     ItemResult& item) {
+  item.index = static_cast<int>(k);
+  item.id = record.at("id");
+  const size_t underscore = item.id.rfind('_');
+  item.scene = underscore == std::string::npos ? item.id : item.id.substr(0, underscore);
+  item.level = record.at(args.level);
+  item.condition = static_cast<int>(
+      std::find(s.levels.begin(), s.levels.end(), nlohmann::json(item.level)) - s.levels.begin());
+  item.level_value = ParseValueOr(item.level, item.condition);
+  item.params = {{args.level, item.level}};
+  const cv::Mat degraded = ReadImage(ResolvePath(args.manifest, record.at("image")));
+  cv::Mat reference = ReadImage(ResolvePath(args.manifest, record.at(s.gt_column)));
+  if (args.ground_truth == "lit") cv::min(cv::max(reference, 0.0), 1.0, reference);
+  item.width = degraded.cols;
+  item.height = degraded.rows;
+  if (!s.reference_only.empty()) {
+    MetricInputs inputs;
+    inputs.image = reference;
+    item.reference_metrics = ComputeMetrics(s.reference_only, inputs);
   }
+  MetricInputs inputs;
+  inputs.reference = reference;
+  inputs.original = degraded;
+  inputs.image = degraded;
+  std::map<std::string, double> nan_metrics;
+  for (const std::string& m : s.metric_names) nan_metrics[m] = std::nan("");
+  MethodResult none{"none", ComputeMetrics(s.metric_names, inputs), "", std::nan("")};
+  MethodResult row{s.name, nan_metrics, "", std::nan("")};
+  try {
+    const std::string path = FindOutputFile(args.results, item.id);
+    if (path.empty()) throw Error("missing results file " + item.id + ".*");
+    inputs.image = ReadMethodOutput(path, args.encoding, degraded);
+    row.metrics = ComputeMetrics(s.metric_names, inputs);
+  } catch (const std::exception& error) {
+    row.error = error.what();
+  }
+  item.methods = {none, row};
+}
+
+// Every item, on --threads threads; the first dataset failure is thrown after all have joined.
+std::vector<ItemResult> ScoreResultItems(const ScoreArgs& args, const ResultsScoring& s,
+                                         const std::vector<Record>& records) {
+  std::vector<ItemResult> items(records.size());
   std::atomic<size_t> next{0};
   std::mutex error_mutex;
   std::string first_error;
-  const auto nan_metrics = [&] {
-    std::map<std::string, double> values;
-    for (const std::string& m : metric_names) values[m] = std::nan("");
-    return values;
-  };
   const auto work = [&] {
     for (size_t k = next++; k < records.size(); k = next++) {
-      const Record& record = records[k];
-      ItemResult& item = items[k];
-      item.index = static_cast<int>(k);
-      item.id = record.at("id");
-      const size_t underscore = item.id.rfind('_');
-      item.scene = underscore == std::string::npos ? item.id : item.id.substr(0, underscore);
-      item.level = record.at(args.level);
-      item.condition = static_cast<int>(
-          std::find(levels.begin(), levels.end(), nlohmann::json(item.level)) - levels.begin());
-      item.level_value = ParseValueOr(item.level, item.condition);
-      item.params = {{args.level, item.level}};
       try {
-        const cv::Mat degraded = ReadImage(ResolvePath(args.manifest, record.at("image")));
-        cv::Mat reference = ReadImage(ResolvePath(args.manifest, record.at(gt_column)));
-        if (args.ground_truth == "lit") cv::min(cv::max(reference, 0.0), 1.0, reference);
-        item.width = degraded.cols;
-        item.height = degraded.rows;
-        if (!reference_only.empty()) {
-          MetricInputs inputs;
-          inputs.image = reference;
-          item.reference_metrics = ComputeMetrics(reference_only, inputs);
-        }
-        MetricInputs inputs;
-        inputs.reference = reference;
-        inputs.original = degraded;
-        inputs.image = degraded;
-        MethodResult none{"none", ComputeMetrics(metric_names, inputs), "", std::nan("")};
-        MethodResult row{name, nan_metrics(), "", std::nan("")};
-        try {
-          const std::string path = FindOutputFile(args.results, item.id);
-          if (path.empty()) throw Error("missing results file " + item.id + ".*");
-          inputs.image = ReadMethodOutput(path, args.encoding, degraded);
-          row.metrics = ComputeMetrics(metric_names, inputs);
-        } catch (const std::exception& error) {
-          row.error = error.what();
-        }
-        item.methods = {none, row};
+        ScoreResultItem(args, s, records[k], k, items[k]);
       } catch (const std::exception& error) {
         std::lock_guard<std::mutex> lock(error_mutex);
-        if (first_error.empty()) first_error = item.id + ": " + error.what();
+        if (first_error.empty()) first_error = items[k].id + ": " + error.what();
       }
     }
   };
@@ -514,6 +547,28 @@ void ScoreResults(const ScoreArgs& args) {
   for (int t = 0; t < threads; ++t) pool.emplace_back(work);
   for (std::thread& thread : pool) thread.join();
   if (!first_error.empty()) throw Error(args.manifest, first_error);
+  return items;
+}
+
+// A results folder against a generate dataset: the enhanced image of item ID is RESULTS/ID.<ext>.
+// Writes a sweep's tables (items.csv, items.jsonl, summary.md, summary.csv) with two methods:
+// `none` (the degraded input as it is) and NAME (the results).
+void ScoreResults(const ScoreArgs& args) {
+  const std::vector<Record> records = ReadManifest(args.manifest);
+  ResultsScoring s;
+  s.gt_column = CheckResultsArgs(args, records);
+  s.name = ResultsName(args);
+  const std::string& name = s.name;
+  const std::string out =
+      args.out.empty() ? (fs::path(args.results) / "turbid-score").string() : args.out;
+  const Experiment e = ResultsExperiment(args, records, &s);
+  std::set<std::string> ids;
+  for (const Record& record : records) {
+    if (!ids.insert(record.at("id")).second) {
+      throw Error(args.manifest, "item id '" + record.at("id") + "' appears twice");
+    }
+  }
+  const std::vector<ItemResult> items = ScoreResultItems(args, s, records);
 
   // Files in RESULTS that belong to no item (a typo in the names shows here).
   int unmatched = 0;
@@ -527,8 +582,8 @@ void ScoreResults(const ScoreArgs& args) {
   int failed = 0;
   for (const ItemResult& item : items) failed += !item.methods[1].error.empty();
   std::cout << "score: " << items.size() << " items of " << args.manifest << ", " << name
-            << " from " << args.results << ": " << (items.size() - failed) << " scored, "
-            << failed << " failed or missing (see the error column of items.csv)";
+            << " from " << args.results << ": " << (items.size() - failed) << " scored, " << failed
+            << " failed or missing (see the error column of items.csv)";
   if (unmatched > 0) std::cout << "; " << unmatched << " files in the folder match no item";
   std::cout << "\ntables: " << out << "/summary.md, " << out << "/summary.csv, " << out
             << "/items.csv\n";
@@ -547,9 +602,8 @@ std::vector<std::pair<std::string, std::string>> ReadPairs(const std::string& pa
     ++number;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.find_first_not_of(" \t") == std::string::npos || line[0] == '#') continue;
-    std::vector<std::string> fields = line.find(',') != std::string::npos
-                                          ? SplitCsvLine(line)
-                                          : std::vector<std::string>{};
+    std::vector<std::string> fields =
+        line.find(',') != std::string::npos ? SplitCsvLine(line) : std::vector<std::string>{};
     if (fields.empty()) {
       std::istringstream words(line);
       for (std::string w; words >> w;) fields.push_back(w);
@@ -622,13 +676,14 @@ void ScorePairs(const ScoreArgs& args) {
     return;
   }
   std::cout << std::left << std::setw(10) << "detector" << std::right << std::setw(8) << "pairs"
-            << std::setw(13) << "active_sets" << std::setw(18) << "mean_corresp."
-            << std::setw(14) << "mean_inliers" << "\n";
+            << std::setw(13) << "active_sets" << std::setw(18) << "mean_corresp." << std::setw(14)
+            << "mean_inliers"
+            << "\n";
   for (const MatchBatchResult& b : batches)
     std::cout << std::left << std::setw(10) << b.detector << std::right << std::setw(8) << b.pairs
               << std::setw(13) << b.active_sets << std::setw(18) << std::fixed
-              << std::setprecision(2) << b.mean_correspondences << std::setw(14)
-              << b.mean_inliers << "\n";
+              << std::setprecision(2) << b.mean_correspondences << std::setw(14) << b.mean_inliers
+              << "\n";
 }
 
 }  // namespace

@@ -44,55 +44,45 @@ double FiniteNumber(const json& value, const std::string& file, const std::strin
   return number;
 }
 
-// Grid values: an array, or {"linspace": [lo, hi, n]} / {"logspace": [lo, hi, n]}.
-std::vector<json> GridValues(const json& spec, const std::string& file, const std::string& path) {
-  CheckLabelText(file, "grid axis", path);
-  const std::string what = "grid '" + path + "'";
+// A named axis: each value sets several paths together, e.g. gray and RGB beta.
+std::vector<json> NamedAxisValues(const json& spec, const std::string& file,
+                                  const std::string& path, const std::string& what) {
   std::vector<json> values;
-  if (path.rfind('@', 0) == 0) {
-    // A named axis: each value sets several paths together, e.g. gray and RGB beta.
-    if (path.size() < 2) throw Error(file, "grid axis '@' needs a name");
-    if (!spec.is_array() || spec.empty()) {
-      throw Error(file,
-                  what + " must be a non-empty array of {path: value, \"label\": ...} objects");
-    }
-    std::set<std::string> labels;
-    for (const json& value : spec) {
-      if (!value.is_object()) throw Error(file, what + " values must be objects {path: value}");
-      CheckValueLabel(file, what, value);
-      int paths = 0;
-      for (const auto& [key, v] : value.items()) {
-        CheckLabelText(file, what + " key", key);
-        if (key == "label") {
-          if (!v.is_string() || v.get<std::string>().empty()) {
-            throw Error(file, what + " 'label' must be a non-empty string");
-          }
-        } else if (key == "x") {
-          FiniteNumber(v, file, what + " 'x'");
-        } else {
-          if (key.rfind('@', 0) == 0) throw Error(file, what + " cannot set another axis " + key);
-          if (v.is_null()) throw Error(file, what + " sets '" + key + "' to null");
-          ++paths;
+  if (path.size() < 2) throw Error(file, "grid axis '@' needs a name");
+  if (!spec.is_array() || spec.empty()) {
+    throw Error(file, what + " must be a non-empty array of {path: value, \"label\": ...} objects");
+  }
+  std::set<std::string> labels;
+  for (const json& value : spec) {
+    if (!value.is_object()) throw Error(file, what + " values must be objects {path: value}");
+    CheckValueLabel(file, what, value);
+    int paths = 0;
+    for (const auto& [key, v] : value.items()) {
+      CheckLabelText(file, what + " key", key);
+      if (key == "label") {
+        if (!v.is_string() || v.get<std::string>().empty()) {
+          throw Error(file, what + " 'label' must be a non-empty string");
         }
+      } else if (key == "x") {
+        FiniteNumber(v, file, what + " 'x'");
+      } else {
+        if (key.rfind('@', 0) == 0) throw Error(file, what + " cannot set another axis " + key);
+        if (v.is_null()) throw Error(file, what + " sets '" + key + "' to null");
+        ++paths;
       }
-      if (paths == 0) throw Error(file, what + " has a value that sets no parameter");
-      const std::string label =
-          value.contains("label") ? value["label"].get<std::string>() : value.dump();
-      if (!labels.insert(label).second) throw Error(file, what + " repeats label '" + label + "'");
-      values.push_back(value);
     }
-    return values;
+    if (paths == 0) throw Error(file, what + " has a value that sets no parameter");
+    const std::string label =
+        value.contains("label") ? value["label"].get<std::string>() : value.dump();
+    if (!labels.insert(label).second) throw Error(file, what + " repeats label '" + label + "'");
+    values.push_back(value);
   }
-  if (spec.is_array()) {
-    if (spec.empty()) throw Error(file, what + " has no values (empty grid)");
-    for (const json& value : spec) {
-      if (value.is_null()) throw Error(file, what + " holds a null value");
-      CheckValueLabel(file, what + " value", value);
-      if (value.is_number()) FiniteNumber(value, file, what + " value");
-      values.push_back(value);
-    }
-    return values;
-  }
+  return values;
+}
+
+// {"linspace": [lo, hi, n]} or {"logspace": [lo, hi, n]}.
+std::vector<json> RangeValues(const json& spec, const std::string& file, const std::string& what) {
+  std::vector<json> values;
   if (!spec.is_object() || spec.size() != 1 ||
       !(spec.contains("linspace") || spec.contains("logspace"))) {
     throw Error(file,
@@ -120,6 +110,25 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
     values.push_back(i == n - 1 && n > 1 ? hi : value);
   }
   return values;
+}
+
+// Grid values: an array, or {"linspace": [lo, hi, n]} / {"logspace": [lo, hi, n]}.
+std::vector<json> GridValues(const json& spec, const std::string& file, const std::string& path) {
+  CheckLabelText(file, "grid axis", path);
+  const std::string what = "grid '" + path + "'";
+  if (path.rfind('@', 0) == 0) return NamedAxisValues(spec, file, path, what);
+  std::vector<json> values;
+  if (spec.is_array()) {
+    if (spec.empty()) throw Error(file, what + " has no values (empty grid)");
+    for (const json& value : spec) {
+      if (value.is_null()) throw Error(file, what + " holds a null value");
+      CheckValueLabel(file, what + " value", value);
+      if (value.is_number()) FiniteNumber(value, file, what + " value");
+      values.push_back(value);
+    }
+    return values;
+  }
+  return RangeValues(spec, file, what);
 }
 
 SampledParam ParseSampled(const std::string& path, const json& spec, const std::string& file) {

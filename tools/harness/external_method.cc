@@ -71,9 +71,8 @@ bool WaitExited(pid_t pid, double seconds) {
 }
 
 const std::set<std::string>& CommandKeys() {
-  static const std::set<std::string> keys = {"name",      "label",   "command", "batch",
-                                             "batch_size", "input",  "output",  "timeout_s",
-                                             "cwd",       "env"};
+  static const std::set<std::string> keys = {"name",  "label",  "command",   "batch", "batch_size",
+                                             "input", "output", "timeout_s", "cwd",   "env"};
   return keys;
 }
 
@@ -202,8 +201,7 @@ ProcessResult RunProcess(const ProcessOptions& options) {
                            POSIX_SPAWN_SETPGROUP | POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
   pid_t pid = 0;
   const auto start = Clock::now();
-  const int rc =
-      ::posix_spawnp(&pid, argv[0], &actions, &attributes, argv.data(), envp.data());
+  const int rc = ::posix_spawnp(&pid, argv[0], &actions, &attributes, argv.data(), envp.data());
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
   ::close(log_fd);
@@ -255,49 +253,40 @@ void ParseBatch(const json& method, bool* batch, int* batch_size) {
   }
 }
 
-}  // namespace
+json ParsePythonMethod(const json& method) {
+  CheckObjectKeys(method, {"name", "label", "python", "batch", "batch_size", "encoding"},
+                  "a Python method");
+  const json& key = method["python"];
+  if (!key.is_string() || key.get<std::string>().empty()) {
+    throw Error("'python' must be the key of the callable in turbid.sweep(..., methods={...})");
+  }
+  bool batch = false;
+  int batch_size = 32;
+  ParseBatch(method, &batch, &batch_size);
+  json spec = {
+      {"kind", "python"},
+      {"python", key},
+      {"batch", batch},
+      {"encoding", method.contains("encoding") ? ParseEncoding(method["encoding"], "'encoding'")
+                                               : std::string("linear")}};
+  if (batch) spec["batch_size"] = batch_size;
+  return spec;
+}
 
-json ParseExternalMethodSpec(const json& method) {
-  const int kinds = static_cast<int>(method.contains("command")) +
-                    static_cast<int>(method.contains("results")) +
-                    static_cast<int>(method.contains("python"));
-  if (kinds > 1) {
-    throw Error(
-        "give one of 'command' (a program to run), 'results' (precomputed files) or 'python' (a "
-        "callable passed to turbid.sweep)");
+json ParseResultsMethod(const json& method) {
+  CheckObjectKeys(method, {"name", "label", "results", "encoding"}, "a results method");
+  const json& pattern = method["results"];
+  if (!pattern.is_string() || pattern.get<std::string>().find("{id}") == std::string::npos) {
+    throw Error("'results' must be a path pattern holding {id}, e.g. \"results/x/{id}.png\"");
   }
-  if (method.contains("python")) {
-    CheckObjectKeys(method, {"name", "label", "python", "batch", "batch_size", "encoding"},
-                    "a Python method");
-    const json& key = method["python"];
-    if (!key.is_string() || key.get<std::string>().empty()) {
-      throw Error("'python' must be the key of the callable in turbid.sweep(..., methods={...})");
-    }
-    bool batch = false;
-    int batch_size = 32;
-    ParseBatch(method, &batch, &batch_size);
-    json spec = {{"kind", "python"},
-                 {"python", key},
-                 {"batch", batch},
-                 {"encoding", method.contains("encoding")
-                                  ? ParseEncoding(method["encoding"], "'encoding'")
-                                  : std::string("linear")}};
-    if (batch) spec["batch_size"] = batch_size;
-    return spec;
-  }
-  if (method.contains("results")) {
-    CheckObjectKeys(method, {"name", "label", "results", "encoding"}, "a results method");
-    const json& pattern = method["results"];
-    if (!pattern.is_string() || pattern.get<std::string>().find("{id}") == std::string::npos) {
-      throw Error("'results' must be a path pattern holding {id}, e.g. \"results/x/{id}.png\"");
-    }
-    return {{"kind", "results"},
-            {"results", pattern},
-            {"encoding", method.contains("encoding")
-                             ? ParseEncoding(method["encoding"], "'encoding'")
-                             : std::string("srgb")}};
-  }
-  CheckObjectKeys(method, CommandKeys(), "an external method");
+  return {{"kind", "results"},
+          {"results", pattern},
+          {"encoding", method.contains("encoding") ? ParseEncoding(method["encoding"], "'encoding'")
+                                                   : std::string("srgb")}};
+}
+
+// "command": a non-empty array of strings naming a program.
+const json& ParseCommandArray(const json& method) {
   const json& command = method["command"];
   if (!command.is_array() || command.empty()) {
     throw Error("'command' must be a non-empty array of strings (the program and its arguments)");
@@ -306,9 +295,11 @@ json ParseExternalMethodSpec(const json& method) {
     if (!arg.is_string()) throw Error("'command' arguments must be strings, got " + arg.dump());
   }
   if (command[0].get<std::string>().empty()) throw Error("'command' names no program");
-  bool batch = false;
-  int batch_size = 32;
-  ParseBatch(method, &batch, &batch_size);
+  return command;
+}
+
+// A per-image command names {input} and {output}; a batch command {input_dir} and {output_dir}.
+void CheckPlaceholders(const json& command, bool batch) {
   const char* need_a = batch ? "{input_dir}" : "{input}";
   const char* need_b = batch ? "{output_dir}" : "{output}";
   const char* wrong_a = batch ? "{input}" : "{input_dir}";
@@ -326,34 +317,41 @@ json ParseExternalMethodSpec(const json& method) {
                          : " (\"batch\": false: one process per image)"));
     }
   }
+}
+
+// "input": the files the command reads {format, bits, encoding}.
+json ParseInputSpec(const json& method) {
   json input = {{"format", "png"}, {"bits", 8}, {"encoding", "srgb"}};
-  if (method.contains("input")) {
-    const json& spec = method["input"];
-    if (!spec.is_object()) throw Error("'input' must be an object {format, bits, encoding}");
-    CheckObjectKeys(spec, {"format", "bits", "encoding"}, "'input'");
-    if (spec.contains("format")) input["format"] = ParseFormat(spec["format"], "'input.format'");
-    const bool is_float = IsFloatFormat(input["format"]);
-    input["bits"] = is_float ? 32 : 8;
-    input["encoding"] = is_float ? "linear" : "srgb";
-    if (spec.contains("bits")) {
-      const json& bits = spec["bits"];
-      const bool ok = bits.is_number_integer() &&
-                      (is_float ? bits == 32 : (bits == 8 || bits == 16));
-      if (!ok) {
-        throw Error(std::string("'input.bits' must be ") + (is_float ? "32" : "8 or 16") +
-                    " for " + input["format"].get<std::string>() + ", got " + bits.dump());
-      }
-      input["bits"] = bits;
+  if (!method.contains("input")) return input;
+  const json& spec = method["input"];
+  if (!spec.is_object()) throw Error("'input' must be an object {format, bits, encoding}");
+  CheckObjectKeys(spec, {"format", "bits", "encoding"}, "'input'");
+  if (spec.contains("format")) input["format"] = ParseFormat(spec["format"], "'input.format'");
+  const bool is_float = IsFloatFormat(input["format"]);
+  input["bits"] = is_float ? 32 : 8;
+  input["encoding"] = is_float ? "linear" : "srgb";
+  if (spec.contains("bits")) {
+    const json& bits = spec["bits"];
+    const bool ok = bits.is_number_integer() && (is_float ? bits == 32 : (bits == 8 || bits == 16));
+    if (!ok) {
+      throw Error(std::string("'input.bits' must be ") + (is_float ? "32" : "8 or 16") + " for " +
+                  input["format"].get<std::string>() + ", got " + bits.dump());
     }
-    if (spec.contains("encoding")) {
-      input["encoding"] = ParseEncoding(spec["encoding"], "'input.encoding'");
-      if (is_float && input["encoding"] != "linear") {
-        throw Error("'input.encoding' of a float format (pfm, exr) must be \"linear\"");
-      }
+    input["bits"] = bits;
+  }
+  if (spec.contains("encoding")) {
+    input["encoding"] = ParseEncoding(spec["encoding"], "'input.encoding'");
+    if (is_float && input["encoding"] != "linear") {
+      throw Error("'input.encoding' of a float format (pfm, exr) must be \"linear\"");
     }
   }
-  // The output encoding applies to integer files only (float files are linear); by default the
-  // method answers in the encoding it was given.
+  return input;
+}
+
+// "output": the files the command writes {format, encoding}. The output encoding applies to
+// integer files only (float files are linear); by default the method answers in the encoding it
+// was given.
+json ParseOutputSpec(const json& method, const json& input) {
   json output = {{"format", input["format"]},
                  {"encoding", IsFloatFormat(input["format"]) ? "srgb" : input["encoding"]}};
   if (method.contains("output")) {
@@ -365,6 +363,11 @@ json ParseExternalMethodSpec(const json& method) {
       output["encoding"] = ParseEncoding(spec["encoding"], "'output.encoding'");
     }
   }
+  return output;
+}
+
+// "timeout_s", "cwd" and "env" of a command, into `spec`.
+void ParseProcessKeys(const json& method, json* spec) {
   double timeout_s = 600.0;
   if (method.contains("timeout_s")) {
     const json& value = method["timeout_s"];
@@ -391,11 +394,44 @@ json ParseExternalMethodSpec(const json& method) {
       env[name] = value;
     }
   }
-  json spec = {{"kind", "command"}, {"command", command}, {"batch", batch},
-               {"input", input},    {"output", output},   {"timeout_s", timeout_s},
-               {"cwd", cwd},        {"env", env}};
+  (*spec)["timeout_s"] = timeout_s;
+  (*spec)["cwd"] = cwd;
+  (*spec)["env"] = env;
+}
+
+json ParseCommandMethod(const json& method) {
+  CheckObjectKeys(method, CommandKeys(), "an external method");
+  const json& command = ParseCommandArray(method);
+  bool batch = false;
+  int batch_size = 32;
+  ParseBatch(method, &batch, &batch_size);
+  CheckPlaceholders(command, batch);
+  const json input = ParseInputSpec(method);
+  const json output = ParseOutputSpec(method, input);
+  json spec = {{"kind", "command"},
+               {"command", command},
+               {"batch", batch},
+               {"input", input},
+               {"output", output}};
+  ParseProcessKeys(method, &spec);
   if (batch) spec["batch_size"] = batch_size;
   return spec;
+}
+
+}  // namespace
+
+json ParseExternalMethodSpec(const json& method) {
+  const int kinds = static_cast<int>(method.contains("command")) +
+                    static_cast<int>(method.contains("results")) +
+                    static_cast<int>(method.contains("python"));
+  if (kinds > 1) {
+    throw Error(
+        "give one of 'command' (a program to run), 'results' (precomputed files) or 'python' (a "
+        "callable passed to turbid.sweep)");
+  }
+  if (method.contains("python")) return ParsePythonMethod(method);
+  if (method.contains("results")) return ParseResultsMethod(method);
+  return ParseCommandMethod(method);
 }
 
 std::vector<std::string> ExpandCommand(const json& command,
@@ -444,13 +480,13 @@ cv::Mat CheckMethodOutput(const cv::Mat& image, const cv::Mat& degraded, const s
   };
   if (image.empty()) throw fail("empty image");
   if (image.cols != degraded.cols || image.rows != degraded.rows) {
-    throw fail("wrong size: " + std::to_string(image.cols) + "x" +
-                          std::to_string(image.rows) + ", the input is " +
-                          std::to_string(degraded.cols) + "x" + std::to_string(degraded.rows));
+    throw fail("wrong size: " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
+               ", the input is " + std::to_string(degraded.cols) + "x" +
+               std::to_string(degraded.rows));
   }
   if (image.channels() != degraded.channels()) {
     throw fail("has " + std::to_string(image.channels()) + " channels, the input has " +
-                          std::to_string(degraded.channels()));
+               std::to_string(degraded.channels()));
   }
   cv::Mat data;
   image.convertTo(data, CV_32F);
@@ -461,7 +497,7 @@ cv::Mat CheckMethodOutput(const cv::Mat& image, const cv::Mat& degraded, const s
   for (size_t i = 0; i < values; ++i) bad += !std::isfinite(p[i]);
   if (bad > 0) {
     throw fail(std::to_string(bad) + " non-finite values (NaN or inf) of " +
-                          std::to_string(values));
+               std::to_string(values));
   }
   cv::min(cv::max(data, 0.0), 1.0, data);
   return data;

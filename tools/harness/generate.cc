@@ -18,10 +18,10 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "scenes/image_io.h"
 #include "core/json_io.h"
 #include "core/limits.h"
 #include "core/safe_name.h"
+#include "scenes/image_io.h"
 #include "scenes/scene_loader.h"
 #include "simulator/noise.h"
 #include "simulator/render.h"
@@ -49,7 +49,8 @@ void SetPath(json& root, const std::string& path, const json& value) {
       // would append entries until memory runs out).
       const bool digits = !key.empty() && key.size() <= 9 &&
                           key.find_first_not_of("0123456789") == std::string::npos;
-      if (!digits) throw Error("parameter path '" + path + "': '" + key + "' is not an array index");
+      if (!digits)
+        throw Error("parameter path '" + path + "': '" + key + "' is not an array index");
       const size_t index = std::stoul(key);
       if (index > node->size())
         throw Error("parameter path '" + path + "': index " + key +
@@ -85,15 +86,15 @@ std::string FileEncodingName(const json& params, const std::string& format) {
 // Typed reads of a config's optional keys: absent gives `fallback`; a value of the wrong type is an
 // Error naming the file and the key (nlohmann's value() throws its own type_error, and converts a
 // float or negative number to an integer silently or with undefined behaviour).
-double ConfigNumber(const json& object, const char* key, double fallback,
-                    const std::string& file, const std::string& where) {
+double ConfigNumber(const json& object, const char* key, double fallback, const std::string& file,
+                    const std::string& where) {
   if (!object.contains(key)) return fallback;
   if (!object[key].is_number()) throw Error(file, where + key + ": must be a number");
   return object[key].get<double>();
 }
 
-uint64_t ConfigSeed(const json& object, const char* key, uint64_t fallback,
-                    const std::string& file, const std::string& where) {
+uint64_t ConfigSeed(const json& object, const char* key, uint64_t fallback, const std::string& file,
+                    const std::string& where) {
   if (!object.contains(key)) return fallback;
   const json& v = object[key];
   if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<int64_t>() >= 0))
@@ -190,15 +191,10 @@ json GeneratePreset(const std::string& name) {
   throw Error("generate: preset: unknown preset '" + name + "' (uwcnn_nyu, uwcnn_constant_b)");
 }
 
-GenerateConfig ParseGenerateConfig(const json& config, const std::string& config_path) {
-  if (!config.is_object()) throw Error(config_path, "must be a JSON object");
-  for (auto it = config.begin(); it != config.end(); ++it)
-    if (it.key() != "scenes" && it.key() != "scale" && it.key() != "base" && it.key() != "grid" &&
-        it.key() != "random" && it.key() != "seed" && it.key() != "format" &&
-        it.key() != "preset")
-      throw Error(config_path, it.key() +
-                                   ": unknown key (scenes, scale, base, grid, random, seed, format, "
-                                   "preset)");
+namespace {
+
+// The named preset's base and random draws (empty without "preset").
+json ReadPreset(const json& config, const std::string& config_path) {
   json preset = {{"base", json::object()}, {"random_params", json::object()}};
   if (config.contains("preset")) {
     if (!config["preset"].is_string()) throw Error(config_path, "preset: must be a string");
@@ -208,6 +204,97 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
       throw Error(config_path, e.what());
     }
   }
+  return preset;
+}
+
+// random.count, checked before the grid is expanded (1 without a "random" object).
+int64_t RandomCount(const json& config, const std::string& config_path) {
+  if (config.contains("random") && config["random"].is_object()) {
+    const json& count = config["random"].value("count", json(1));
+    if (!count.is_number_integer() || count.get<int64_t>() < 1 || count.get<int64_t>() > 1000000)
+      throw Error(config_path, "random.count: must be an integer in [1, 1e6]");
+  }
+  return config.contains("random") && config["random"].is_object()
+             ? config["random"].value("count", json(1)).get<int64_t>()
+             : 1;
+}
+
+// Grid: cartesian product over dotted parameter paths, in key order. Its size (times the
+// samples) is checked against the item limit before the product is built.
+std::vector<json> GridCombos(const json& config, int64_t samples, const std::string& config_path) {
+  std::vector<json> combos = {json::object()};
+  if (!config.contains("grid")) return combos;
+  const json& grid = config["grid"];
+  if (!grid.is_object())
+    throw Error(config_path, "grid: must be an object of path -> array of values");
+  int64_t points = samples;
+  for (auto it = grid.begin(); it != grid.end(); ++it) {
+    if (!it.value().is_array() || it.value().empty())
+      throw Error(config_path, "grid." + it.key() + ": must be a non-empty array");
+    points = SaturatingProduct(points, static_cast<int64_t>(it.value().size()));
+  }
+  CheckItemCount(config_path, "the dataset (grid points x random.count)", points);
+  for (auto it = grid.begin(); it != grid.end(); ++it) {
+    std::vector<json> next;
+    for (const json& combo : combos)
+      for (const json& value : it.value()) {
+        json c = combo;
+        c[it.key()] = value;
+        next.push_back(c);
+      }
+    combos = next;
+  }
+  return combos;
+}
+
+// The "random" block (its count checked by RandomCount), with the preset's draws under it.
+void ReadRandom(const json& config, int64_t samples, const json& preset,
+                const std::string& config_path, GenerateConfig* out) {
+  out->random_seed = out->seed;
+  if (config.contains("random")) {
+    const json& random = config["random"];
+    if (!random.is_object()) throw Error(config_path, "random: must be an object");
+    out->samples = static_cast<int>(samples);  // checked before the grid was expanded
+    out->random_seed = ConfigSeed(random, "seed", out->seed, config_path, "random.");
+    const json empty = json::object();
+    out->random_params = ConfigObject(random, "params", empty, config_path, "random.");
+  }
+  if (!preset["random_params"].empty()) {
+    json params = preset["random_params"];
+    for (auto it = out->random_params.begin(); it != out->random_params.end(); ++it)
+      params[it.key()] = it.value();
+    out->random_params = params;
+  }
+}
+
+// The scene specs, a multi-frame scene file (nyu_v2, folder) standing for every frame it selects.
+void ReadScenes(const json& config, const std::string& config_path, GenerateConfig* out) {
+  LoadSceneOptions scene_options;
+  scene_options.builtin_scale = out->scale;
+  ThrowIfInvalid(scene_options, config_path + ": scale");
+  for (const json& spec : config["scenes"]) {
+    if (!spec.is_string()) throw Error(config_path, "scenes: entries must be strings");
+    for (const std::string& one : ExpandSceneSpec(spec.get<std::string>()))
+      out->scene_specs.push_back(one);
+  }
+  CheckItemCount(
+      config_path, "the dataset (scenes x grid points x random.count)",
+      SaturatingProduct(static_cast<int64_t>(out->scene_specs.size()),
+                        SaturatingProduct(static_cast<int64_t>(out->combos.size()), out->samples)));
+}
+
+}  // namespace
+
+GenerateConfig ParseGenerateConfig(const json& config, const std::string& config_path) {
+  if (!config.is_object()) throw Error(config_path, "must be a JSON object");
+  for (auto it = config.begin(); it != config.end(); ++it)
+    if (it.key() != "scenes" && it.key() != "scale" && it.key() != "base" && it.key() != "grid" &&
+        it.key() != "random" && it.key() != "seed" && it.key() != "format" && it.key() != "preset")
+      throw Error(config_path,
+                  it.key() +
+                      ": unknown key (scenes, scale, base, grid, random, seed, format, "
+                      "preset)");
+  const json preset = ReadPreset(config, config_path);
   if (!config.contains("scenes") || !config["scenes"].is_array() || config["scenes"].empty())
     throw Error(config_path, "scenes: a non-empty array of scene specs is required");
   GenerateConfig out;
@@ -223,67 +310,10 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   out.base = preset["base"];
   out.base.merge_patch(ConfigObject(config, "base", empty, config_path, ""));
   RenderOptionsFromJson(out.base);  // fail early on a bad base
-
-  // Grid: cartesian product over dotted parameter paths, in key order. Its size (times the
-  // samples) is checked against the item limit before the product is built.
-  out.combos = {json::object()};
-  if (config.contains("random") && config["random"].is_object()) {
-    const json& count = config["random"].value("count", json(1));
-    if (!count.is_number_integer() || count.get<int64_t>() < 1 || count.get<int64_t>() > 1000000)
-      throw Error(config_path, "random.count: must be an integer in [1, 1e6]");
-  }
-  const int64_t samples = config.contains("random") && config["random"].is_object()
-                              ? config["random"].value("count", json(1)).get<int64_t>()
-                              : 1;
-  if (config.contains("grid")) {
-    const json& grid = config["grid"];
-    if (!grid.is_object())
-      throw Error(config_path, "grid: must be an object of path -> array of values");
-    int64_t points = samples;
-    for (auto it = grid.begin(); it != grid.end(); ++it) {
-      if (!it.value().is_array() || it.value().empty())
-        throw Error(config_path, "grid." + it.key() + ": must be a non-empty array");
-      points = SaturatingProduct(points, static_cast<int64_t>(it.value().size()));
-    }
-    CheckItemCount(config_path, "the dataset (grid points x random.count)", points);
-    for (auto it = grid.begin(); it != grid.end(); ++it) {
-      std::vector<json> next;
-      for (const json& combo : out.combos)
-        for (const json& value : it.value()) {
-          json c = combo;
-          c[it.key()] = value;
-          next.push_back(c);
-        }
-      out.combos = next;
-    }
-  }
-  out.random_seed = out.seed;
-  if (config.contains("random")) {
-    const json& random = config["random"];
-    if (!random.is_object()) throw Error(config_path, "random: must be an object");
-    out.samples = static_cast<int>(samples);  // checked above, before the grid was expanded
-    out.random_seed = ConfigSeed(random, "seed", out.seed, config_path, "random.");
-    out.random_params = ConfigObject(random, "params", empty, config_path, "random.");
-  }
-  if (!preset["random_params"].empty()) {
-    json params = preset["random_params"];
-    for (auto it = out.random_params.begin(); it != out.random_params.end(); ++it)
-      params[it.key()] = it.value();
-    out.random_params = params;
-  }
-  LoadSceneOptions scene_options;
-  scene_options.builtin_scale = out.scale;
-  ThrowIfInvalid(scene_options, config_path + ": scale");
-  for (const json& spec : config["scenes"]) {
-    if (!spec.is_string()) throw Error(config_path, "scenes: entries must be strings");
-    // A multi-frame scene file (nyu_v2, folder) stands for every frame it selects.
-    for (const std::string& one : ExpandSceneSpec(spec.get<std::string>()))
-      out.scene_specs.push_back(one);
-  }
-  CheckItemCount(
-      config_path, "the dataset (scenes x grid points x random.count)",
-      SaturatingProduct(static_cast<int64_t>(out.scene_specs.size()),
-                        SaturatingProduct(static_cast<int64_t>(out.combos.size()), out.samples)));
+  const int64_t samples = RandomCount(config, config_path);
+  out.combos = GridCombos(config, samples, config_path);
+  ReadRandom(config, samples, preset, config_path, &out);
+  ReadScenes(config, config_path, &out);
   return out;
 }
 
@@ -337,45 +367,38 @@ std::vector<GenerateItem> ExpandGenerateItems(const GenerateConfig& config,
   return items;
 }
 
-void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int threads) {
-  LoadSceneOptions scene_options;
-  scene_options.builtin_scale = config.scale;
-  std::vector<std::unique_ptr<Renderer>> renderers;
-  std::vector<std::string> names;
-  for (const std::string& spec : config.scene_specs) {
-    renderers.push_back(std::make_unique<Renderer>(LoadScene(spec, scene_options)));
-    names.push_back(renderers.back()->scene().name);
-  }
-  const std::vector<GenerateItem> items = ExpandGenerateItems(config, names);
-  const std::vector<std::string>& specs = config.scene_specs;
-  const std::string& format = config.format;
-  const double scale = config.scale;
-  using Item = GenerateItem;
-  const std::string ext = "." + format;
-  auto paths = [&](const Item& item) {
-    const fs::path dir(out_dir);
-    return std::array<std::string, 4>{(dir / "images" / (item.id + ext)).string(),
-                                      (dir / "ground_truth" / (item.id + ext)).string(),
-                                      (dir / "lit" / (item.id + ".pfm")).string(),
-                                      (dir / "sidecars" / (item.id + ".json")).string()};
-  };
-  // Two outputs never share a file (on a case-insensitive file system either), e.g. an item's
-  // degraded image and its ground truth.
-  {
-    std::map<std::string, std::string> owners;  // FileNameKey(path) -> item id
-    for (const Item& item : items) {
-      for (const std::string& path : paths(item)) {
-        const auto [it, inserted] = owners.emplace(FileNameKey(path), item.id);
-        if (!inserted) {
-          throw Error(path, "would be written twice (items '" + it->second + "' and '" + item.id +
-                                "'); give the scenes distinct names");
-        }
+namespace {
+
+// An item's four outputs: degraded image, ground truth, lit J and sidecar (written last).
+using ItemPaths = std::array<std::string, 4>;
+
+ItemPaths PathsOf(const GenerateItem& item, const std::string& out_dir, const std::string& ext) {
+  const fs::path dir(out_dir);
+  return ItemPaths{(dir / "images" / (item.id + ext)).string(),
+                   (dir / "ground_truth" / (item.id + ext)).string(),
+                   (dir / "lit" / (item.id + ".pfm")).string(),
+                   (dir / "sidecars" / (item.id + ".json")).string()};
+}
+
+// Two outputs never share a file (on a case-insensitive file system either), e.g. an item's
+// degraded image and its ground truth.
+void CheckDistinctOutputs(const std::vector<GenerateItem>& items, const std::string& out_dir,
+                          const std::string& ext) {
+  std::map<std::string, std::string> owners;  // FileNameKey(path) -> item id
+  for (const GenerateItem& item : items) {
+    for (const std::string& path : PathsOf(item, out_dir, ext)) {
+      const auto [it, inserted] = owners.emplace(FileNameKey(path), item.id);
+      if (!inserted) {
+        throw Error(path, "would be written twice (items '" + it->second + "' and '" + item.id +
+                              "'); give the scenes distinct names");
       }
     }
   }
-  // One generate per folder at a time; holding the lock, the temporaries that killed earlier runs
-  // left (".NAME.tmpXXXX") are removed: their items are rendered again below.
-  const FolderLock lock(out_dir, "generate");
+}
+
+// Holding the folder's lock: removes the temporaries that killed earlier runs left
+// (".NAME.tmpXXXX"; their items are rendered again) and creates the output folders.
+void PrepareOutputFolders(const std::string& out_dir) {
   RemoveStaleTemporaries(out_dir, /*recursive=*/false);
   for (const char* sub : {"images", "ground_truth", "lit", "sidecars"}) {
     // Clean-up never follows a link: a planted link would aim it at another folder.
@@ -385,19 +408,55 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
     fs::create_directories(fs::path(out_dir) / sub, ec);
     if (ec) throw OutputError((fs::path(out_dir) / sub).string(), "cannot create: " + ec.message());
   }
-  // An item is complete when its sidecar (written last) exists and names the same parameters.
-  auto complete = [&](const Item& item) {
-    const auto p = paths(item);
-    if (!fs::exists(p[3])) return false;
-    for (int i = 0; i < 3; ++i)
-      if (!fs::exists(p[i])) return false;
-    try {
-      return ReadJsonFile(p[3]).at("options") == item.params;
-    } catch (...) {
-      return false;
-    }
-  };
+}
 
+// An item is complete when its sidecar (written last) exists and names the same parameters.
+bool IsComplete(const GenerateItem& item, const ItemPaths& p) {
+  if (!fs::exists(p[3])) return false;
+  for (int i = 0; i < 3; ++i)
+    if (!fs::exists(p[i])) return false;
+  try {
+    return ReadJsonFile(p[3]).at("options") == item.params;
+  } catch (...) {
+    return false;
+  }
+}
+
+// Renders one item and writes its outputs, the sidecar last.
+void RenderItem(const GenerateConfig& config, const Renderer& renderer, const GenerateItem& item,
+                const ItemPaths& p, const std::string& ext) {
+  const std::string& format = config.format;
+  RenderOptions options = RenderOptionsFromJson(item.params);
+  if (format == "exr") options.camera.bit_depth = 32;
+  const RenderResult result = renderer.Render(options);
+  const int bits = options.camera.bit_depth == 32 ? 16 : options.camera.bit_depth;
+  // The ground truth goes through the same camera (encoding and bit depth) as the image,
+  // so an identity render scores SSIM 1 against it; lit J is float (PFM), linear.
+  const CameraEncoding encoding = options.camera.FileEncoding();
+  const cv::Mat& clean = renderer.scene().image;
+  WriteMap(p[0], result.image, bits, true, TransferFor(encoding));
+  WriteMap(p[1], format == "exr" ? clean : QuantiseEncoded(clean, encoding, bits), bits, true,
+           TransferFor(encoding));
+  WriteMap(p[2], result.lit, 16, true);
+  RenderRecord record = result.sidecar;
+  record.scene.spec = config.scene_specs[item.scene];
+  record.scene.builtin_scale = config.scale;
+  record.item = RenderRecord::Item{item.index, item.id};
+  record.outputs = {{"image", "images/" + item.id + ext},
+                    {"ground_truth", "ground_truth/" + item.id + ext},
+                    {"lit", "lit/" + item.id + ".pfm"}};
+  json sidecar = record.ToJson();
+  // generate records the options as its config gave them (the resume check above
+  // compares them with the item's).
+  sidecar["options"] = item.params;
+  AtomicWriteText(p[3], sidecar.dump(2) + "\n", true);
+}
+
+// The items rendered by `threads` workers; the first failure stops them and is thrown once all
+// have joined. Returns the items skipped as already complete.
+int RenderItems(const GenerateConfig& config, const std::vector<GenerateItem>& items,
+                const std::vector<std::unique_ptr<Renderer>>& renderers, const std::string& out_dir,
+                const std::string& ext, int threads) {
   std::atomic<int> next{0}, done{0}, skipped{0};
   std::atomic<bool> progress_shown{false};
   std::mutex error_mutex;
@@ -411,37 +470,13 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
         std::lock_guard<std::mutex> lock(error_mutex);
         if (!first_error.empty()) return;
       }
-      const Item& item = items[i];
+      const GenerateItem& item = items[i];
       try {
-        if (complete(item)) {
+        const ItemPaths p = PathsOf(item, out_dir, ext);
+        if (IsComplete(item, p)) {
           ++skipped;
         } else {
-          const auto p = paths(item);
-          const Renderer& renderer = *renderers[item.scene];
-          RenderOptions options = RenderOptionsFromJson(item.params);
-          if (format == "exr") options.camera.bit_depth = 32;
-          const RenderResult result = renderer.Render(options);
-          const int bits = options.camera.bit_depth == 32 ? 16 : options.camera.bit_depth;
-          // The ground truth goes through the same camera (encoding and bit depth) as the image,
-          // so an identity render scores SSIM 1 against it; lit J is float (PFM), linear.
-          const CameraEncoding encoding = options.camera.FileEncoding();
-          const cv::Mat& clean = renderer.scene().image;
-          WriteMap(p[0], result.image, bits, true, TransferFor(encoding));
-          WriteMap(p[1], format == "exr" ? clean : QuantiseEncoded(clean, encoding, bits), bits,
-                   true, TransferFor(encoding));
-          WriteMap(p[2], result.lit, 16, true);
-          RenderRecord record = result.sidecar;
-          record.scene.spec = specs[item.scene];
-          record.scene.builtin_scale = scale;
-          record.item = RenderRecord::Item{item.index, item.id};
-          record.outputs = {{"image", "images/" + item.id + ext},
-                            {"ground_truth", "ground_truth/" + item.id + ext},
-                            {"lit", "lit/" + item.id + ".pfm"}};
-          json sidecar = record.ToJson();
-          // generate records the options as its config gave them (the resume check above
-          // compares them with the item's).
-          sidecar["options"] = item.params;
-          AtomicWriteText(p[3], sidecar.dump(2) + "\n", true);
+          RenderItem(config, *renderers[item.scene], item, p, ext);
         }
         const int n = ++done;
         if (n % 10 == 0 || n == static_cast<int>(items.size())) {
@@ -470,13 +505,19 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   if (progress_shown) std::cerr << "\n";  // an error after it starts a line of its own
   if (output_error) throw OutputError(first_error);
   if (!first_error.empty()) throw Error("generate: " + first_error);
+  return skipped.load();
+}
 
-  // Manifest in item order: the same bytes whatever the thread count or interruption history.
+// Manifest in item order: the same bytes whatever the thread count or interruption history.
+void WriteManifest(const GenerateConfig& config, const std::vector<GenerateItem>& items,
+                   const std::string& out_dir, const std::string& ext) {
+  const std::vector<std::string>& specs = config.scene_specs;
+  const std::string& format = config.format;
   std::string csv =
       "index,id,scene,image,ground_truth,lit,sidecar,seed,beta_r,beta_g,beta_b,beta_gray,psf_T,psf_"
       "q,encoding\n";
   std::string jsonl;
-  for (const Item& item : items) {
+  for (const GenerateItem& item : items) {
     const json& o = item.params;
     const json& b = o["water"]["beta_rgb_per_m"];
     std::ostringstream row;
@@ -501,8 +542,29 @@ void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int t
   }
   AtomicWriteText((fs::path(out_dir) / "manifest.csv").string(), csv, true);
   AtomicWriteText((fs::path(out_dir) / "manifest.jsonl").string(), jsonl, true);
-  std::cout << "generate: " << items.size() << " items (" << skipped.load()
-            << " already complete) in " << out_dir << "\n";
+}
+
+}  // namespace
+
+void RunGenerate(const GenerateConfig& config, const std::string& out_dir, int threads) {
+  LoadSceneOptions scene_options;
+  scene_options.builtin_scale = config.scale;
+  std::vector<std::unique_ptr<Renderer>> renderers;
+  std::vector<std::string> names;
+  for (const std::string& spec : config.scene_specs) {
+    renderers.push_back(std::make_unique<Renderer>(LoadScene(spec, scene_options)));
+    names.push_back(renderers.back()->scene().name);
+  }
+  const std::vector<GenerateItem> items = ExpandGenerateItems(config, names);
+  const std::string ext = "." + config.format;
+  CheckDistinctOutputs(items, out_dir, ext);
+  // One generate per folder at a time.
+  const FolderLock lock(out_dir, "generate");
+  PrepareOutputFolders(out_dir);
+  const int skipped = RenderItems(config, items, renderers, out_dir, ext, threads);
+  WriteManifest(config, items, out_dir, ext);
+  std::cout << "generate: " << items.size() << " items (" << skipped << " already complete) in "
+            << out_dir << "\n";
 }
 
 }  // namespace turbid

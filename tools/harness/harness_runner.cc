@@ -9,12 +9,12 @@
 #include <mutex>
 #include <opencv2/imgproc.hpp>
 
+#include "core/error.h"
+#include "core/safe_name.h"
 #include "enhancer/registry.h"
 #include "metrics/registry.h"
 #include "scenes/builtin.h"
-#include "core/error.h"
 #include "scenes/image_io.h"
-#include "core/safe_name.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "tools/harness/external_method.h"
@@ -37,7 +37,8 @@ std::map<std::string, double> NanMetrics(const std::vector<std::string>& names) 
 }
 
 bool Selected(const ItemTask& task, const std::string& label) {
-  return task.only.empty() || std::find(task.only.begin(), task.only.end(), label) != task.only.end();
+  return task.only.empty() ||
+         std::find(task.only.begin(), task.only.end(), label) != task.only.end();
 }
 
 // A path of the experiment file (relative to its folder), made absolute.
@@ -279,47 +280,117 @@ double HarnessRunner::Cost(const ItemTask& task) const {
     }
   }
   int methods = 0;
-  for (const ExperimentMethod& method : experiment_.methods) methods += Selected(task, method.label);
+  for (const ExperimentMethod& method : experiment_.methods)
+    methods += Selected(task, method.label);
   return values * (methods + 1);
 }
 
 ItemResult HarnessRunner::Run(const ItemSpec& item) const { return Run(ItemTask{&item, {}}); }
 
-ItemResult HarnessRunner::Run(const ItemTask& task) const {
-  const ItemSpec& item = *task.spec;
-  const ExperimentScene& scene_spec = experiment_.scenes[static_cast<size_t>(item.scene_index)];
-  // Without reuse every item starts from nothing: load, a fresh renderer, ground-truth scores.
+// The scene an item renders: the shared context's with reuse, else one loaded for the item.
+struct HarnessRunner::ItemScene {
   std::unique_ptr<SceneContext> fresh;
   const Scene* scene = nullptr;
   const Renderer* renderer = nullptr;
   std::map<std::string, double> reference_metrics;
+};
+
+HarnessRunner::ItemScene HarnessRunner::SceneFor(const ItemSpec& item) const {
+  const ExperimentScene& scene_spec = experiment_.scenes[static_cast<size_t>(item.scene_index)];
+  // Without reuse every item starts from nothing: load, a fresh renderer, ground-truth scores.
+  ItemScene s;
   if (options_.reuse) {
     SceneContext& context = Context(item.scene_index);
-    scene = &context.scene;
-    renderer = context.renderer.get();
-    reference_metrics = context.reference_metrics;
+    s.scene = &context.scene;
+    s.renderer = context.renderer.get();
+    s.reference_metrics = context.reference_metrics;
   } else {
     const ScopedStage timed(options_.profile, "scene: load, clean scores, thumbnail");
-    fresh = std::make_unique<SceneContext>();
-    fresh->scene = LoadExperimentScene(scene_spec);
-    fresh->renderer = std::make_unique<Renderer>(fresh->scene);
-    scene = &fresh->scene;
-    renderer = fresh->renderer.get();
+    s.fresh = std::make_unique<SceneContext>();
+    s.fresh->scene = LoadExperimentScene(scene_spec);
+    s.fresh->renderer = std::make_unique<Renderer>(s.fresh->scene);
+    s.scene = &s.fresh->scene;
+    s.renderer = s.fresh->renderer.get();
     if (experiment_.ground_truth == "clean" && !reference_only_metrics_.empty()) {
       MetricInputs inputs;
-      inputs.image = scene->image;
-      reference_metrics = ComputeMetrics(reference_only_metrics_, inputs);
+      inputs.image = s.scene->image;
+      s.reference_metrics = ComputeMetrics(reference_only_metrics_, inputs);
     }
   }
+  return s;
+}
 
+// Ground truth: the clean rho, or the lit J clipped to the metrics' [0, 1] range; its scores go
+// into result, and the thumbnails of the degraded image (and lit J) are written.
+cv::Mat HarnessRunner::GroundTruth(const ItemSpec& item, ItemScene& s, const RenderResult& render,
+                                   ItemResult* result) const {
+  cv::Mat reference = s.scene->image;
+  if (experiment_.ground_truth == "lit") {
+    cv::min(cv::max(render.lit, 0.0), 1.0, reference);
+    if (!reference_only_metrics_.empty()) {
+      MetricInputs inputs;
+      inputs.image = reference;
+      s.reference_metrics = ComputeMetrics(reference_only_metrics_, inputs);
+    }
+  }
+  result->reference_metrics = s.reference_metrics;
+  if (experiment_.thumbnail_width > 0) {
+    const std::string thumbs = out_dir_ + "/thumbs/" + item.id;
+    const ScopedStage timed(options_.profile, "I/O: thumbnails");
+    WriteThumbnail(thumbs + "/degraded.png", render.image, experiment_.thumbnail_width);
+    if (experiment_.ground_truth == "lit") {
+      WriteThumbnail(thumbs + "/lit.png", reference, experiment_.thumbnail_width);
+    }
+  }
+  return reference;
+}
+
+// One (not batch) method on the item, scored; its failure is the row's error.
+MethodResult HarnessRunner::RunMethod(const ExperimentMethod& method, const ItemSpec& item,
+                                      const Scene* scene, const RenderResult& render,
+                                      const cv::Mat& reference,
+                                      OriginalCache* original_cache) const {
+  MethodResult row;
+  row.label = method.label;
+  cv::Mat enhanced;
+  const auto start = Clock::now();
+  try {
+    if (method.name == "none" && !method.IsExternal()) {
+      enhanced = render.image;
+    } else if (method.IsExternal()) {
+      enhanced = RunExternal(method, item.id, render.image, &row.time_ms);
+    } else {
+      EnhanceInput input;
+      input.image = render.image;
+      input.scene = scene;
+      input.sidecar = &render.sidecar;
+      enhanced = Enhance(method.name, method.params, input);
+    }
+    if (!method.IsExternal()) row.time_ms = MillisecondsSince(start);
+    if (options_.profile && std::isfinite(row.time_ms))
+      options_.profile->Add("method " + method.label, row.time_ms);
+    Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
+          reference, render.image, &row, original_cache);
+  } catch (const OutputError&) {
+    throw;  // our own write failed (full disk...): not the method's failure; the sweep stops
+  } catch (const std::exception& error) {
+    if (row.time_ms == 0.0) row.time_ms = MillisecondsSince(start);
+    row.error = error.what();
+    row.metrics = NanMetrics(metric_names_);
+  }
+  return row;
+}
+
+ItemResult HarnessRunner::Run(const ItemTask& task) const {
+  const ItemSpec& item = *task.spec;
+  ItemScene s = SceneFor(item);
   ItemResult result;
-  result.width = scene->width();
-  result.height = scene->height();
-  const std::string thumbs = out_dir_ + "/thumbs/" + item.id;
+  result.width = s.scene->width();
+  result.height = s.scene->height();
   const auto start_render = Clock::now();
   RenderResult render;
   try {
-    render = renderer->Render(ItemRenderOptions(experiment_, item));
+    render = s.renderer->Render(ItemRenderOptions(experiment_, item));
   } catch (const Error& error) {
     result.error = std::string("render: ") + error.what();
     for (const ExperimentMethod& method : experiment_.methods) {
@@ -330,68 +401,25 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
   }
   result.render_ms = MillisecondsSince(start_render);
   if (options_.profile) options_.profile->Add("render", result.render_ms);
-
-  // Ground truth: the clean rho, or the lit J clipped to the metrics' [0, 1] range.
-  cv::Mat reference = scene->image;
-  if (experiment_.ground_truth == "lit") {
-    cv::min(cv::max(render.lit, 0.0), 1.0, reference);
-    if (!reference_only_metrics_.empty()) {
-      MetricInputs inputs;
-      inputs.image = reference;
-      reference_metrics = ComputeMetrics(reference_only_metrics_, inputs);
-    }
-  }
-  result.reference_metrics = reference_metrics;
-  if (experiment_.thumbnail_width > 0) {
-    const ScopedStage timed(options_.profile, "I/O: thumbnails");
-    WriteThumbnail(thumbs + "/degraded.png", render.image, experiment_.thumbnail_width);
-    if (experiment_.ground_truth == "lit") {
-      WriteThumbnail(thumbs + "/lit.png", reference, experiment_.thumbnail_width);
-    }
-  }
+  const cv::Mat reference = GroundTruth(item, s, render, &result);
 
   bool batch_pending = false;
   // The degraded image's visible-edge analysis, shared by the scores of every method of the item.
   const std::shared_ptr<OriginalCache> original_cache = NewOriginalCache();
   for (const ExperimentMethod& method : experiment_.methods) {
     if (!Selected(task, method.label)) continue;
-    MethodResult row;
-    row.label = method.label;
     if (method.IsBatch()) {
       // Run once for the whole batch by FinishBatch; this row is replaced there.
+      MethodResult row;
+      row.label = method.label;
       row.metrics = NanMetrics(metric_names_);
       row.error = "batch method not run";
       batch_pending = true;
       result.methods.push_back(std::move(row));
       continue;
     }
-    cv::Mat enhanced;
-    const auto start = Clock::now();
-    try {
-      if (method.name == "none" && !method.IsExternal()) {
-        enhanced = render.image;
-      } else if (method.IsExternal()) {
-        enhanced = RunExternal(method, item.id, render.image, &row.time_ms);
-      } else {
-        EnhanceInput input;
-        input.image = render.image;
-        input.scene = scene;
-        input.sidecar = &render.sidecar;
-        enhanced = Enhance(method.name, method.params, input);
-      }
-      if (!method.IsExternal()) row.time_ms = MillisecondsSince(start);
-      if (options_.profile && std::isfinite(row.time_ms))
-        options_.profile->Add("method " + method.label, row.time_ms);
-      Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
-            reference, render.image, &row, original_cache.get());
-    } catch (const OutputError&) {
-      throw;  // our own write failed (full disk...): not the method's failure; the sweep stops
-    } catch (const std::exception& error) {
-      if (row.time_ms == 0.0) row.time_ms = MillisecondsSince(start);
-      row.error = error.what();
-      row.metrics = NanMetrics(metric_names_);
-    }
-    result.methods.push_back(std::move(row));
+    result.methods.push_back(
+        RunMethod(method, item, s.scene, render, reference, original_cache.get()));
   }
   if (batch_pending) {
     auto pending = std::make_unique<Pending>();
@@ -478,8 +506,8 @@ cv::Mat HarnessRunner::RunExternal(const ExperimentMethod& method, const std::st
   const std::string output = work + "/out/" + id + OutputExtension(spec);
   WriteMethodInput(input, degraded, spec.at("input"));
   ProcessOptions process = ProcessFor(method);
-  process.argv = ExpandCommand(spec.at("command"),
-                               {{"input", input}, {"output", output}, {"id", id}});
+  process.argv =
+      ExpandCommand(spec.at("command"), {{"input", input}, {"output", output}, {"id", id}});
   process.log_path = folder + "/" + id + ".log";
   const ProcessResult ran = RunProcess(process);
   *time_ms = ran.wall_ms;
@@ -514,137 +542,176 @@ cv::Mat HarnessRunner::RunExternal(const ExperimentMethod& method, const std::st
   return enhanced;
 }
 
+namespace {
+
+// The row of `label` in an item's result.
+MethodResult& RowOf(ItemResult& result, const std::string& label) {
+  for (MethodResult& row : result.methods) {
+    if (row.label == label) return row;
+  }
+  throw Error("internal: no row for " + label);
+}
+
+}  // namespace
+
+std::vector<size_t> HarnessRunner::BatchMembers(const std::vector<ItemTask>& tasks,
+                                                const ExperimentMethod& method) const {
+  std::vector<size_t> members;
+  std::lock_guard<std::mutex> lock(pending_mutex_);
+  for (size_t k = 0; k < tasks.size(); ++k) {
+    if (Selected(tasks[k], method.label) && pending_.count(tasks[k].spec->id)) {
+      members.push_back(k);
+    }
+  }
+  return members;
+}
+
+const HarnessRunner::Pending& HarnessRunner::PendingOf(const std::string& id) const {
+  std::lock_guard<std::mutex> lock(pending_mutex_);
+  return *pending_.at(id);
+}
+
+// A "python" batch method: one call for the batch; outputs are checked and scored per item.
+void HarnessRunner::FinishPythonBatch(const ExperimentMethod& method,
+                                      const std::vector<ItemTask>& tasks,
+                                      const std::vector<size_t>& members,
+                                      std::vector<ItemResult>* results) const {
+  std::vector<cv::Mat> degraded;
+  std::vector<std::string> ids;
+  for (size_t k : members) {
+    degraded.push_back(PendingOf(tasks[k].spec->id).degraded);
+    ids.push_back(tasks[k].spec->id);
+  }
+  std::vector<cv::Mat> outputs;
+  std::string problem;
+  const auto start = Clock::now();
+  try {
+    outputs = RunInProcess(method, degraded, ids);
+  } catch (const OutputError&) {
+    throw;
+  } catch (const std::exception& error) {
+    problem = error.what();
+  }
+  const double share_ms = MillisecondsSince(start) / static_cast<double>(members.size());
+  if (options_.profile)
+    options_.profile->Add("method " + method.label, share_ms * static_cast<double>(members.size()));
+  for (size_t m = 0; m < members.size(); ++m) {
+    MethodResult& row = RowOf((*results)[members[m]], method.label);
+    row.time_ms = share_ms;
+    row.time_is_batch_share = true;
+    row.metrics = NanMetrics(metric_names_);
+    row.error = problem;
+    if (!problem.empty()) continue;
+    try {
+      const Pending& pending = PendingOf(tasks[members[m]].spec->id);
+      Score(ids[m], method.label, outputs[m], pending.reference, pending.degraded, &row);
+      row.error.clear();
+    } catch (const OutputError&) {
+      throw;
+    } catch (const std::exception& error) {
+      row.error = error.what();
+      row.metrics = NanMetrics(metric_names_);
+    }
+  }
+}
+
+// A "command" batch method's one process: its inputs written into WORK/in, run on WORK/in and
+// WORK/out. Returns the batch's problem ("" when it ran) and each member's share of its time.
+std::string HarnessRunner::RunCommandBatch(const ExperimentMethod& method,
+                                           const std::vector<ItemTask>& tasks,
+                                           const std::vector<size_t>& members,
+                                           const std::string& work, const std::string& folder,
+                                           double* share_ms) const {
+  const nlohmann::json& spec = method.external;
+  const std::string log_name = "batch-" + tasks[members.front()].spec->id + ".log";
+  std::error_code ec;
+  std::string batch_problem = ExternalFolderProblem(out_dir_, folder);
+  if (batch_problem.empty()) {
+    fs::remove_all(work, ec);
+    fs::create_directories(work + "/in", ec);
+    if (!ec) fs::create_directories(work + "/out", ec);
+    if (ec) throw OutputError(work, "cannot create the work folder: " + ec.message());
+  }
+  for (size_t k : members) {
+    if (!batch_problem.empty()) break;
+    try {
+      WriteMethodInput(work + "/in/" + tasks[k].spec->id + InputExtension(spec),
+                       PendingOf(tasks[k].spec->id).degraded, spec.at("input"));
+    } catch (const OutputError&) {
+      throw;
+    } catch (const Error& error) {
+      batch_problem = std::string("cannot write the inputs: ") + error.what();
+    }
+  }
+  *share_ms = 0.0;
+  if (!batch_problem.empty()) return batch_problem;
+  ProcessOptions process = ProcessFor(method);
+  process.argv = ExpandCommand(spec.at("command"),
+                               {{"input_dir", work + "/in"}, {"output_dir", work + "/out"}});
+  process.log_path = folder + "/" + log_name;
+  const ProcessResult ran = RunProcess(process);
+  *share_ms = ran.wall_ms / static_cast<double>(members.size());
+  if (options_.profile) options_.profile->Add("method " + method.label, ran.wall_ms);
+  const std::string failure = ran.Failure();
+  if (!failure.empty()) {
+    return failure + " (log: external/" + method.label + "/" + log_name + ")";
+  }
+  fs::remove(process.log_path, ec);  // logs are kept for failures only
+  return "";
+}
+
+// A "command" batch method: one process for the batch; its outputs are read and scored per item.
+void HarnessRunner::FinishCommandBatch(const ExperimentMethod& method,
+                                       const std::vector<ItemTask>& tasks,
+                                       const std::vector<size_t>& members,
+                                       std::vector<ItemResult>* results) const {
+  const nlohmann::json& spec = method.external;
+  const std::string first_id = tasks[members.front()].spec->id;
+  const std::string folder = out_dir_ + "/external/" + method.label;
+  const std::string work = fs::absolute(folder + "/work-" + first_id).string();
+  double share_ms = 0.0;
+  const std::string batch_problem =
+      RunCommandBatch(method, tasks, members, work, folder, &share_ms);
+  for (size_t k : members) {
+    MethodResult& row = RowOf((*results)[k], method.label);
+    row.time_ms = share_ms;
+    row.time_is_batch_share = true;
+    row.metrics = NanMetrics(metric_names_);
+    row.error = batch_problem;
+    if (!batch_problem.empty()) continue;
+    const std::string& id = tasks[k].spec->id;
+    try {
+      const std::string path = FindOutputFile(work + "/out", id);
+      if (path.empty()) throw Error("wrote no output for this item (expected " + id + ".*)");
+      const Pending& pending = PendingOf(id);
+      const cv::Mat enhanced =
+          ReadOutput(path, fs::path(path).filename().string(),
+                     spec.at("output").at("encoding").get<std::string>(), pending.degraded);
+      Score(id, method.label, enhanced, pending.reference, pending.degraded, &row);
+      row.error.clear();
+    } catch (const OutputError&) {
+      throw;
+    } catch (const std::exception& error) {
+      row.error = error.what();
+      row.metrics = NanMetrics(metric_names_);
+    }
+  }
+  std::error_code ec;
+  if (ExternalFolderProblem(out_dir_, folder).empty()) fs::remove_all(work, ec);
+}
+
 void HarnessRunner::FinishBatch(const std::vector<ItemTask>& tasks,
                                 std::vector<ItemResult>* results) const {
   for (const ExperimentMethod& method : experiment_.methods) {
     if (!method.IsBatch()) continue;
-    const nlohmann::json& spec = method.external;
     // The items of this batch that wait for this method (rendered, selected).
-    std::vector<size_t> members;
-    {
-      std::lock_guard<std::mutex> lock(pending_mutex_);
-      for (size_t k = 0; k < tasks.size(); ++k) {
-        if (Selected(tasks[k], method.label) && pending_.count(tasks[k].spec->id)) {
-          members.push_back(k);
-        }
-      }
-    }
+    const std::vector<size_t> members = BatchMembers(tasks, method);
     if (members.empty()) continue;
-    const auto pending_of = [&](size_t k) -> const Pending& {
-      std::lock_guard<std::mutex> lock(pending_mutex_);
-      return *pending_.at(tasks[k].spec->id);
-    };
-    const auto row_of = [&](size_t k) -> MethodResult& {
-      for (MethodResult& row : (*results)[k].methods) {
-        if (row.label == method.label) return row;
-      }
-      throw Error("internal: no row for " + method.label);
-    };
-    if (spec.at("kind") == "python") {
-      // One call for the batch; outputs are checked and scored per item.
-      std::vector<cv::Mat> degraded;
-      std::vector<std::string> ids;
-      for (size_t k : members) {
-        degraded.push_back(pending_of(k).degraded);
-        ids.push_back(tasks[k].spec->id);
-      }
-      std::vector<cv::Mat> outputs;
-      std::string problem;
-      const auto start = Clock::now();
-      try {
-        outputs = RunInProcess(method, degraded, ids);
-      } catch (const OutputError&) {
-        throw;
-      } catch (const std::exception& error) {
-        problem = error.what();
-      }
-      const double share_ms = MillisecondsSince(start) / static_cast<double>(members.size());
-      if (options_.profile)
-        options_.profile->Add("method " + method.label, share_ms * static_cast<double>(members.size()));
-      for (size_t m = 0; m < members.size(); ++m) {
-        MethodResult& row = row_of(members[m]);
-        row.time_ms = share_ms;
-        row.time_is_batch_share = true;
-        row.metrics = NanMetrics(metric_names_);
-        row.error = problem;
-        if (!problem.empty()) continue;
-        try {
-          const Pending& pending = pending_of(members[m]);
-          Score(ids[m], method.label, outputs[m], pending.reference, pending.degraded, &row);
-          row.error.clear();
-        } catch (const OutputError&) {
-          throw;
-        } catch (const std::exception& error) {
-          row.error = error.what();
-          row.metrics = NanMetrics(metric_names_);
-        }
-      }
-      continue;
+    if (method.external.at("kind") == "python") {
+      FinishPythonBatch(method, tasks, members, results);
+    } else {
+      FinishCommandBatch(method, tasks, members, results);
     }
-    const std::string first_id = tasks[members.front()].spec->id;
-    const std::string folder = out_dir_ + "/external/" + method.label;
-    const std::string work = fs::absolute(folder + "/work-" + first_id).string();
-    const std::string log_name = "batch-" + first_id + ".log";
-    std::error_code ec;
-    std::string batch_problem = ExternalFolderProblem(out_dir_, folder);
-    if (batch_problem.empty()) {
-      fs::remove_all(work, ec);
-      fs::create_directories(work + "/in", ec);
-      if (!ec) fs::create_directories(work + "/out", ec);
-      if (ec) throw OutputError(work, "cannot create the work folder: " + ec.message());
-    }
-    for (size_t k : members) {
-      if (!batch_problem.empty()) break;
-      try {
-        WriteMethodInput(work + "/in/" + tasks[k].spec->id + InputExtension(spec),
-                         pending_of(k).degraded, spec.at("input"));
-      } catch (const OutputError&) {
-        throw;
-      } catch (const Error& error) {
-        batch_problem = std::string("cannot write the inputs: ") + error.what();
-      }
-    }
-    double share_ms = 0.0;
-    if (batch_problem.empty()) {
-      ProcessOptions process = ProcessFor(method);
-      process.argv = ExpandCommand(spec.at("command"),
-                                   {{"input_dir", work + "/in"}, {"output_dir", work + "/out"}});
-      process.log_path = folder + "/" + log_name;
-      const ProcessResult ran = RunProcess(process);
-      share_ms = ran.wall_ms / static_cast<double>(members.size());
-      if (options_.profile) options_.profile->Add("method " + method.label, ran.wall_ms);
-      const std::string failure = ran.Failure();
-      if (!failure.empty()) {
-        batch_problem = failure + " (log: external/" + method.label + "/" + log_name + ")";
-      } else {
-        fs::remove(process.log_path, ec);  // logs are kept for failures only
-      }
-    }
-    for (size_t k : members) {
-      MethodResult& row = row_of(k);
-      row.time_ms = share_ms;
-      row.time_is_batch_share = true;
-      row.metrics = NanMetrics(metric_names_);
-      row.error = batch_problem;
-      if (!batch_problem.empty()) continue;
-      const std::string& id = tasks[k].spec->id;
-      try {
-        const std::string path = FindOutputFile(work + "/out", id);
-        if (path.empty()) throw Error("wrote no output for this item (expected " + id + ".*)");
-        const Pending& pending = pending_of(k);
-        const cv::Mat enhanced =
-            ReadOutput(path, fs::path(path).filename().string(),
-                       spec.at("output").at("encoding").get<std::string>(), pending.degraded);
-        Score(id, method.label, enhanced, pending.reference, pending.degraded, &row);
-        row.error.clear();
-      } catch (const OutputError&) {
-        throw;
-      } catch (const std::exception& error) {
-        row.error = error.what();
-        row.metrics = NanMetrics(metric_names_);
-      }
-    }
-    if (ExternalFolderProblem(out_dir_, folder).empty()) fs::remove_all(work, ec);
   }
   std::lock_guard<std::mutex> lock(pending_mutex_);
   for (const ItemTask& task : tasks) pending_.erase(task.spec->id);

@@ -19,6 +19,9 @@
 
 namespace turbid {
 
+struct RenderResult;
+struct Scene;
+
 // Name checks and option resolution read from the registries (methods, metrics), the simulator's
 // strict RenderOptionsFromJson and the scene loader.
 HarnessCatalog RegistryCatalog();
@@ -29,9 +32,9 @@ HarnessCatalog RegistryCatalog();
 // with their item ids — one for a per-image method, a batch for a batch method — and returns one
 // image per input (checked like a file output: CheckMethodOutput). Throws to fail those cells;
 // called from the sweep's worker threads.
-using InProcessMethod = std::function<std::vector<cv::Mat>(
-    const nlohmann::json& spec, const std::vector<cv::Mat>& degraded,
-    const std::vector<std::string>& ids)>;
+using InProcessMethod = std::function<std::vector<cv::Mat>(const nlohmann::json& spec,
+                                                           const std::vector<cv::Mat>& degraded,
+                                                           const std::vector<std::string>& ids)>;
 
 struct HarnessRunnerOptions {
   // Reuse work that does not depend on the swept parameters: each scene is loaded once, one
@@ -88,8 +91,31 @@ class HarnessRunner {
 
  private:
   struct SceneContext;
-  struct Pending;  // a degraded image (and its ground truth) waiting for the batch methods
+  struct Pending;    // a degraded image (and its ground truth) waiting for the batch methods
+  struct ItemScene;  // the scene, renderer and ground-truth scores an item uses
   SceneContext& Context(int scene_index) const;
+  ItemScene SceneFor(const ItemSpec& item) const;
+  // The item's ground truth (scored into result; thumbnails written).
+  cv::Mat GroundTruth(const ItemSpec& item, ItemScene& scene, const RenderResult& render,
+                      ItemResult* result) const;
+  // One method (not a batch one) on the item, scored; a failure is the row's error.
+  MethodResult RunMethod(const ExperimentMethod& method, const ItemSpec& item, const Scene* scene,
+                         const RenderResult& render, const cv::Mat& reference,
+                         OriginalCache* original_cache) const;
+  // FinishBatch's parts: the tasks waiting for a batch method, a waiting item's images, and the
+  // "python" and "command" batch runs.
+  std::vector<size_t> BatchMembers(const std::vector<ItemTask>& tasks,
+                                   const ExperimentMethod& method) const;
+  const Pending& PendingOf(const std::string& id) const;
+  void FinishPythonBatch(const ExperimentMethod& method, const std::vector<ItemTask>& tasks,
+                         const std::vector<size_t>& members,
+                         std::vector<ItemResult>* results) const;
+  std::string RunCommandBatch(const ExperimentMethod& method, const std::vector<ItemTask>& tasks,
+                              const std::vector<size_t>& members, const std::string& work,
+                              const std::string& folder, double* share_ms) const;
+  void FinishCommandBatch(const ExperimentMethod& method, const std::vector<ItemTask>& tasks,
+                          const std::vector<size_t>& members,
+                          std::vector<ItemResult>* results) const;
   // The sweep scheduler's cost of a task: values (pixels x channels) x (methods run + 1); before
   // the scene is loaded, the camera size of a built-in scene, 0 (unknown) for a scene file.
   double Cost(const ItemTask& task) const;

@@ -10,6 +10,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -293,45 +294,53 @@ std::string Base64(const std::string& bytes) {
   return out;
 }
 
-ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) {
-  ThrowIfInvalid(options, "report");
-  const SweepDir sweep = LoadSweepDir(dir);
-  const Experiment& e = sweep.experiment;
-  if (sweep.items.empty()) throw Error(dir, "no finished items to report on (run the sweep first)");
-  if (!fs::exists(dir + "/summary.md")) {
-    WriteTables(e, sweep.items, dir);  // e.g. an interrupted sweep: tables of what is there
-  }
-  ReportSummary summary;
-  summary.html_path = options.out_file.empty() ? dir + "/report.html" : options.out_file;
-  const std::string report_dir = dir + "/report";
-  std::error_code create_error;
-  fs::create_directories(report_dir, create_error);
-  if (create_error) throw OutputError(report_dir, "cannot create: " + create_error.message());
+namespace {
 
-  // ---- Plots ----
-  Plotter plotter{report_dir, options.gnuplot, "", true};
-  const std::vector<std::string> levels = LevelLabels(e);
-  // A named axis ("@turbidity") is shown without its "@".
-  const std::string axis = e.level_path.rfind('@', 0) == 0 ? e.level_path.substr(1) : e.level_path;
+// What the plots and the page share: the sweep, its levels along the x axis and the summary cells.
+struct ReportData {
+  std::string dir;         // the sweep's folder
+  std::string report_dir;  // DIR/report
+  const SweepDir* sweep = nullptr;
+  std::vector<std::string> levels;
+  std::string axis;  // the level path, a named axis ("@turbidity") shown without its "@"
   std::map<std::string, double> level_x;
   bool numeric_levels = true;
-  for (const ItemResult& item : sweep.items) level_x[item.level] = item.level_value;
-  for (const std::string& level : levels) {
-    numeric_levels &= level_x.count(level) && level_x[level] == std::atof(level.c_str()) &&
-                      level.find_first_not_of("0123456789.eE+-") == std::string::npos;
+  std::map<std::tuple<std::string, std::string, std::string>, Stats> lookup;
+};
+
+ReportData MakeReportData(const std::string& dir, const std::string& report_dir,
+                          const SweepDir& sweep) {
+  const Experiment& e = sweep.experiment;
+  ReportData d;
+  d.dir = dir;
+  d.report_dir = report_dir;
+  d.sweep = &sweep;
+  d.levels = LevelLabels(e);
+  // A named axis ("@turbidity") is shown without its "@".
+  d.axis = e.level_path.rfind('@', 0) == 0 ? e.level_path.substr(1) : e.level_path;
+  for (const ItemResult& item : sweep.items) d.level_x[item.level] = item.level_value;
+  for (const std::string& level : d.levels) {
+    d.numeric_levels &= d.level_x.count(level) && d.level_x[level] == std::atof(level.c_str()) &&
+                        level.find_first_not_of("0123456789.eE+-") == std::string::npos;
   }
   const std::vector<SummaryCell> cells = Summarize(e, sweep.items);
-  std::map<std::tuple<std::string, std::string, std::string>, Stats> lookup;
-  for (const SummaryCell& cell : cells) lookup[{cell.level, cell.method, cell.metric}] = cell.stats;
+  for (const SummaryCell& cell : cells)
+    d.lookup[{cell.level, cell.method, cell.metric}] = cell.stats;
+  return d;
+}
 
-  std::vector<std::pair<std::string, std::string>> plots;  // (caption, svg path)
+using Plots = std::vector<std::pair<std::string, std::string>>;  // (caption, svg path)
+
+// One plot per metric: its mean per method against the turbidity level.
+void PlotMetricsAgainstLevel(ReportData& d, Plotter& plotter, Plots* plots) {
+  const Experiment& e = d.sweep->experiment;
   std::string xtics;
-  if (!numeric_levels) {
+  if (!d.numeric_levels) {
     xtics = "set xtics (";
-    for (size_t i = 0; i < levels.size(); ++i) {
-      if (!level_x.count(levels[i])) continue;
-      xtics += (xtics.back() == '(' ? "" : ", ") + GpTicLabel(levels[i]) + " " +
-               FormatValue(level_x[levels[i]]);
+    for (size_t i = 0; i < d.levels.size(); ++i) {
+      if (!d.level_x.count(d.levels[i])) continue;
+      xtics += (xtics.back() == '(' ? "" : ", ") + GpTicLabel(d.levels[i]) + " " +
+               FormatValue(d.level_x[d.levels[i]]);
     }
     xtics += ")\n";
   }
@@ -341,11 +350,11 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     for (const ExperimentMethod& m : e.methods) data << " " << OneLine(m.label);
     data << "\n";
     int points = 0;
-    for (const std::string& level : levels) {
-      if (!level_x.count(level)) continue;
-      data << FormatValue(level_x[level]);
+    for (const std::string& level : d.levels) {
+      if (!d.level_x.count(level)) continue;
+      data << FormatValue(d.level_x[level]);
       for (const ExperimentMethod& m : e.methods) {
-        const Stats& s = lookup[{level, m.label, metric.name}];
+        const Stats& s = d.lookup[{level, m.label, metric.name}];
         const bool ok = s.n > 0 && std::isfinite(s.mean);
         data << " " << (ok ? FormatValue(s.mean) : "?");
         points += ok;
@@ -354,13 +363,13 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     }
     if (points == 0) continue;
     const std::string name = "metric_" + SafeFileName(metric.name);
-    AtomicWriteText(report_dir + "/" + name + ".dat", data.str(), true);
+    AtomicWriteText(d.report_dir + "/" + name + ".dat", data.str(), true);
     std::ostringstream gp;
     gp << "set datafile missing '?'\nset grid\nset key outside right top\n"
-       << "set xlabel " << GpString(axis) << "\nset ylabel "
+       << "set xlabel " << GpString(d.axis) << "\nset ylabel "
        << GpString(metric.name +
                    (metric.higher_is_better ? " (higher is better)" : " (lower is better)"))
-       << "\nset title " << GpString(metric.name + " vs " + axis + " (mean over items)")
+       << "\nset title " << GpString(metric.name + " vs " + d.axis + " (mean over items)")
        << "\nset offsets graph 0.03, graph 0.03, graph 0.05, graph 0.05\n"
        << xtics << "plot ";
     for (size_t m = 0; m < e.methods.size(); ++m) {
@@ -370,57 +379,59 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
     }
     gp << "\n";
     const std::string svg = plotter.Run(name, gp.str());
-    if (!svg.empty()) plots.push_back({metric.name + " against " + axis, svg});
+    if (!svg.empty()) plots->push_back({metric.name + " against " + d.axis, svg});
   }
-  // Run time against the primary (first) metric, per method, over all items.
-  {
-    const HarnessMetricInfo& primary = e.metrics.front();
-    std::ostringstream data;
-    data << "# mean_time_ms mean_" << primary.name << " method\n";
-    std::ostringstream labels;  // one `set label` per point: the method names stay in the script
-    int points = 0;
-    for (const ExperimentMethod& m : e.methods) {
-      std::vector<double> times;
-      bool batch_share = false;  // an external batch process's time / its items
-      for (const ItemResult& item : sweep.items) {
-        for (const MethodResult& row : item.methods) {
-          if (row.label != m.label) continue;
-          times.push_back(row.time_ms);
-          batch_share |= row.time_is_batch_share;
-        }
-      }
-      const Stats t = ComputeStats(times);
-      const Stats& q = lookup[{"all", m.label, primary.name}];
-      if (t.n == 0 || q.n == 0 || !std::isfinite(q.mean)) continue;
-      const double time_ms = std::max(t.mean, 1e-3);  // > 0 for the log-scale axis
-      const std::string label = batch_share ? m.label + " (batch)" : m.label;
-      // The method's name as a quoted data-file column, for readers of the file; the plot takes
-      // its labels from the script.
-      std::string quoted = OneLine(label);
-      std::replace(quoted.begin(), quoted.end(), '"', '\'');
-      data << FormatValue(time_ms) << " " << FormatValue(q.mean) << " \"" << quoted << "\"\n";
-      ++points;
-      labels << "set label " << points << " " << GpString(label) << " at first "
-             << FormatValue(time_ms) << ", first " << FormatValue(q.mean) << " center offset 0,1\n";
-    }
-    if (points > 0) {
-      AtomicWriteText(report_dir + "/time_vs_metric.dat", data.str(), true);
-      std::ostringstream gp;
-      gp << "set grid\nset logscale x\nset xlabel 'mean run time per image (ms, log scale)'\n"
-         << "set ylabel "
-         << GpString(primary.name +
-                     (primary.higher_is_better ? " (higher is better)" : " (lower is better)"))
-         << "\nset title " << GpString("run time vs " + primary.name + " per method (all items)")
-         << "\nset offsets graph 0.1, graph 0.2, graph 0.1, graph 0.1\nunset key\n"
-         << labels.str() << "plot 'time_vs_metric.dat' using 1:2 with points pt 7 ps 1.5\n";
-      const std::string svg = plotter.Run("time_vs_metric", gp.str());
-      if (!svg.empty()) plots.push_back({"run time against " + primary.name, svg});
-    }
-  }
-  summary.warning = plotter.warning;
+}
 
-  // ---- Page ----
-  std::ostringstream html;
+// Run time against the primary (first) metric, per method, over all items.
+void PlotTimeVsMetric(ReportData& d, Plotter& plotter, Plots* plots) {
+  const Experiment& e = d.sweep->experiment;
+  const HarnessMetricInfo& primary = e.metrics.front();
+  std::ostringstream data;
+  data << "# mean_time_ms mean_" << primary.name << " method\n";
+  std::ostringstream labels;  // one `set label` per point: the method names stay in the script
+  int points = 0;
+  for (const ExperimentMethod& m : e.methods) {
+    std::vector<double> times;
+    bool batch_share = false;  // an external batch process's time / its items
+    for (const ItemResult& item : d.sweep->items) {
+      for (const MethodResult& row : item.methods) {
+        if (row.label != m.label) continue;
+        times.push_back(row.time_ms);
+        batch_share |= row.time_is_batch_share;
+      }
+    }
+    const Stats t = ComputeStats(times);
+    const Stats& q = d.lookup[{"all", m.label, primary.name}];
+    if (t.n == 0 || q.n == 0 || !std::isfinite(q.mean)) continue;
+    const double time_ms = std::max(t.mean, 1e-3);  // > 0 for the log-scale axis
+    const std::string label = batch_share ? m.label + " (batch)" : m.label;
+    // The method's name as a quoted data-file column, for readers of the file; the plot takes
+    // its labels from the script.
+    std::string quoted = OneLine(label);
+    std::replace(quoted.begin(), quoted.end(), '"', '\'');
+    data << FormatValue(time_ms) << " " << FormatValue(q.mean) << " \"" << quoted << "\"\n";
+    ++points;
+    labels << "set label " << points << " " << GpString(label) << " at first "
+           << FormatValue(time_ms) << ", first " << FormatValue(q.mean) << " center offset 0,1\n";
+  }
+  if (points == 0) return;
+  AtomicWriteText(d.report_dir + "/time_vs_metric.dat", data.str(), true);
+  std::ostringstream gp;
+  gp << "set grid\nset logscale x\nset xlabel 'mean run time per image (ms, log scale)'\n"
+     << "set ylabel "
+     << GpString(primary.name +
+                 (primary.higher_is_better ? " (higher is better)" : " (lower is better)"))
+     << "\nset title " << GpString("run time vs " + primary.name + " per method (all items)")
+     << "\nset offsets graph 0.1, graph 0.2, graph 0.1, graph 0.1\nunset key\n"
+     << labels.str() << "plot 'time_vs_metric.dat' using 1:2 with points pt 7 ps 1.5\n";
+  const std::string svg = plotter.Run("time_vs_metric", gp.str());
+  if (!svg.empty()) plots->push_back({"run time against " + primary.name, svg});
+}
+
+// The page's head, title and the sweep's one-paragraph description.
+void WritePageHead(std::ostringstream& html, const SweepDir& sweep, const std::string& warning) {
+  const Experiment& e = sweep.experiment;
   html << "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>"
        << Html(e.name) << " — turbid sweep report</title>\n<style>\n"
        << "body{font-family:sans-serif;margin:1.5em;max-width:1400px;color:#222}\n"
@@ -439,11 +450,10 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
        << e.metrics.size()
        << " metrics. Ground truth: " << (e.ground_truth == "lit" ? "lit J" : "clean ρ")
        << ". Turbidity level: <code>" << Html(e.level_path) << "</code>.</p>\n";
-  if (!summary.warning.empty()) html << "<p class=\"warn\">" << Html(summary.warning) << "</p>\n";
+  if (!warning.empty()) html << "<p class=\"warn\">" << Html(warning) << "</p>\n";
+}
 
-  html << "<h2>Summary</h2>\n" << MarkdownToHtml(ReadAll(dir + "/summary.md"), 1);
-  html << "<h2>Run time</h2>\n" << MarkdownToHtml(ReadAll(dir + "/timings.md"), 1);
-
+void WritePlotsSection(std::ostringstream& html, const Plots& plots) {
   html << "<h2>Plots</h2>\n<div class=\"plots\">\n";
   for (const auto& [caption, svg] : plots) {
     html << "<figure style=\"display:inline-block\"><img class=\"plot\" width=\"640\" "
@@ -453,14 +463,20 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   }
   if (plots.empty()) html << "<p class=\"warn\">no plots</p>\n";
   html << "</div>\n";
+}
 
-  // Image grid: one row per (scene, level), the first item of each.
+// Image grid: one row per (scene, level), the first item of each. Returns the images embedded.
+int WriteImageGrid(std::ostringstream& html, const ReportData& d, const ReportOptions& options) {
+  const Experiment& e = d.sweep->experiment;
+  const std::string& dir = d.dir;
+  int images = 0;
   html << "<h2>Images</h2>\n<p>First item of each scene and level; thumbnails are sRGB-encoded "
           "for display.</p>\n<table class=\"grid\">\n<tr><th>item</th><th>clean</th>";
   if (e.ground_truth == "lit") html << "<th>lit J</th>";
   html << "<th>degraded</th>";
   for (const ExperimentMethod& m : e.methods) {
-    if (m.name != "none") html << "<th>" << Html(m.privileged ? m.label + " †" : m.label) << "</th>";
+    if (m.name != "none")
+      html << "<th>" << Html(m.privileged ? m.label + " †" : m.label) << "</th>";
   }
   html << "</tr>\n";
   std::set<std::pair<std::string, std::string>> shown;
@@ -469,16 +485,16 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   // downloaded folder) could otherwise copy any readable file of the user's into a shared page.
   const auto image_cell = [&](const std::string& path, const std::string& alt) {
     if (!IsPlainFileBelow(dir, path)) return std::string("<td>–</td>");
-    ++summary.images;
+    ++images;
     return "<td><img class=\"thumb\" alt=\"" + Html(alt) + "\" src=\"" +
            DataUri(path, "image/png") + "\"></td>";
   };
-  for (const ItemResult& item : sweep.items) {
+  for (const ItemResult& item : d.sweep->items) {
     if (rows >= options.max_grid_rows) break;
     if (!shown.insert({item.scene, item.level}).second) continue;
     ++rows;
     const std::string thumbs = dir + "/thumbs/" + item.id;
-    html << "<tr><td>" << Html(item.id) << "<br>" << Html(axis) << " = " << Html(item.level)
+    html << "<tr><td>" << Html(item.id) << "<br>" << Html(d.axis) << " = " << Html(item.level)
          << "</td>"
          << image_cell(dir + "/thumbs/" + item.scene + "/clean.png", item.scene + " clean");
     if (e.ground_truth == "lit") html << image_cell(thumbs + "/lit.png", item.id + " lit");
@@ -491,7 +507,11 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   }
   html << "</table>\n";
   if (e.thumbnail_width == 0) html << "<p>Thumbnails are off in this experiment.</p>\n";
+  return images;
+}
 
+// The experiment as run, the list of files, and the image check for headless tests.
+void WritePageTail(std::ostringstream& html, const SweepDir& sweep) {
   html << "<h2>Experiment</h2>\n<pre>" << Html(sweep.experiment_json.dump(2)) << "</pre>\n";
   html << "<p>Files: items.csv, items.jsonl, summary.md, summary.csv (identical bytes for any "
           "thread count and shard layout), timings.csv, timings.md; plot scripts and data in "
@@ -504,6 +524,41 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
           "  document.body.setAttribute('data-images', imgs.length);\n"
           "  document.body.setAttribute('data-broken-images', bad);\n"
           "});\n</script>\n</body>\n</html>\n";
+}
+
+}  // namespace
+
+ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) {
+  ThrowIfInvalid(options, "report");
+  const SweepDir sweep = LoadSweepDir(dir);
+  const Experiment& e = sweep.experiment;
+  if (sweep.items.empty()) throw Error(dir, "no finished items to report on (run the sweep first)");
+  if (!fs::exists(dir + "/summary.md")) {
+    WriteTables(e, sweep.items, dir);  // e.g. an interrupted sweep: tables of what is there
+  }
+  ReportSummary summary;
+  summary.html_path = options.out_file.empty() ? dir + "/report.html" : options.out_file;
+  const std::string report_dir = dir + "/report";
+  std::error_code create_error;
+  fs::create_directories(report_dir, create_error);
+  if (create_error) throw OutputError(report_dir, "cannot create: " + create_error.message());
+
+  // ---- Plots ----
+  Plotter plotter{report_dir, options.gnuplot, "", true};
+  ReportData data = MakeReportData(dir, report_dir, sweep);
+  Plots plots;
+  PlotMetricsAgainstLevel(data, plotter, &plots);
+  PlotTimeVsMetric(data, plotter, &plots);
+  summary.warning = plotter.warning;
+
+  // ---- Page ----
+  std::ostringstream html;
+  WritePageHead(html, sweep, summary.warning);
+  html << "<h2>Summary</h2>\n" << MarkdownToHtml(ReadAll(dir + "/summary.md"), 1);
+  html << "<h2>Run time</h2>\n" << MarkdownToHtml(ReadAll(dir + "/timings.md"), 1);
+  WritePlotsSection(html, plots);
+  summary.images = WriteImageGrid(html, data, options);
+  WritePageTail(html, sweep);
   AtomicWriteText(summary.html_path, html.str(), true);
   summary.plots = static_cast<int>(plots.size());
   return summary;
