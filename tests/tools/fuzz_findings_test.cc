@@ -78,6 +78,39 @@ TEST(FuzzFindings, GenerateConfigWrongTypesAreErrorsNamingTheKey) {
   EXPECT_EQ(GenerateError(base), "");
 }
 
+// generate's "random" and a sweep's "samples" read one sampler language (experiment_grid.h): the
+// same distributions (int_uniform too), the same checks, and unknown keys are errors in both.
+TEST(FuzzFindings, GenerateRandomSharesTheSweepSamplers) {
+  const json base = {{"scenes", {"builtin:seafloor"}}, {"scale", 0.05}};
+  json config = base;
+  config["random"] = {{"count", 2}, {"parms", json::object()}};
+  EXPECT_EQ(GenerateError(config),
+            "gen.json: unknown key 'random.parms' (known: count, seed, params)");
+  for (uint64_t i = 0; i < 200; ++i) {
+    const json v = SampleValue(json{{"int_uniform", {2, 5}}}, 7, i, "sensor.bit_depth");
+    ASSERT_TRUE(v.is_number_integer()) << v.dump();
+    EXPECT_GE(v.get<int64_t>(), 2);
+    EXPECT_LE(v.get<int64_t>(), 5);
+  }
+  const auto error_of = [](const json& spec) {
+    try {
+      SampleValue(spec, 1, 0, "water.beta");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error_of(json{{"uniform", {3, 1}}}),
+            "generate: random.params.water.beta range is empty: lo 3 > hi 1");
+  EXPECT_EQ(error_of(json{{"int_uniform", {1.5, 3}}}),
+            "generate: random.params.water.beta int_uniform bounds must be integers");
+  EXPECT_NE(error_of(json{{"normal", {0, 1}}}).find("unknown distribution 'normal'"),
+            std::string::npos);
+  config = base;
+  config["random"] = {{"count", 2}, {"params", {{"sensor.bit_depth", {{"int_uniform", {8, 12}}}}}}};
+  EXPECT_EQ(GenerateError(config), "");
+}
+
 TEST(FuzzFindings, SetALightAfterSettingLightToANumber) {
   // render_params_fuzzer: `--set light=7 --set light.lights.0.power=2` escaped as a JSON library
   // type_error. As for any other path, the non-object on the way is replaced.

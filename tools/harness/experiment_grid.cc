@@ -133,14 +133,18 @@ std::vector<json> GridValues(const json& spec, const std::string& file, const st
 
 SampledParam ParseSampled(const std::string& path, const json& spec, const std::string& file) {
   CheckLabelText(file, "samples param", path);
-  const std::string what = "samples param '" + path + "'";
+  SampledParam param = ParseDistribution(spec, file, "samples param '" + path + "'");
+  param.path = path;
+  return param;
+}
+
+SampledParam ParseDistribution(const json& spec, const std::string& file, const std::string& what) {
   if (!spec.is_object() || spec.size() != 1) {
     throw Error(file, what +
                           " must be one of {\"uniform\"|\"log_uniform\"|\"int_uniform\": [lo, "
                           "hi]} or {\"choice\": [values...]}");
   }
   SampledParam param;
-  param.path = path;
   param.distribution = spec.begin().key();
   const json& args = spec.begin().value();
   if (param.distribution == "choice") {
@@ -175,8 +179,11 @@ namespace {
 
 double Uniform01(uint64_t key) { return static_cast<double>(key >> 11) * 0x1.0p-53; }
 
-json DrawSample(const SampledParam& param, uint64_t key) {
-  const double u = Uniform01(key);
+json DrawSample(const SampledParam& param, uint64_t key) { return DrawDistribution(param, Uniform01(key)); }
+
+}  // namespace
+
+json DrawDistribution(const SampledParam& param, double u) {
   if (param.distribution == "choice") {
     const size_t n = param.choices.size();
     return param.choices[std::min(n - 1, static_cast<size_t>(u * static_cast<double>(n)))];
@@ -191,6 +198,8 @@ json DrawSample(const SampledParam& param, uint64_t key) {
   }
   return param.low + u * (param.high - param.low);
 }
+
+namespace {
 
 std::string FormatLevelNumber(double value) {
   char buffer[64];

@@ -28,6 +28,15 @@ std::vector<nlohmann::json> GridValues(const nlohmann::json& spec, const std::st
 SampledParam ParseSampled(const std::string& path, const nlohmann::json& spec,
                           const std::string& file);
 
+// The distribution a sampler spec names — {"uniform"|"log_uniform"|"int_uniform": [lo, hi]} or
+// {"choice": [...]} — checked (lo <= hi, finite, log_uniform lo > 0, int_uniform integer bounds);
+// errors are Error(file, what + ...). The one reading of sampler specs: a sweep's "samples" and
+// generate's "random" (and turbid.data's DegradeTransform) share it.
+SampledParam ParseDistribution(const nlohmann::json& spec, const std::string& file,
+                               const std::string& what);
+// A draw of `param` at u in [0, 1).
+nlohmann::json DrawDistribution(const SampledParam& param, double u);
+
 // Parameters of one condition (grid point x sample draw), in a fixed order.
 nlohmann::json ConditionParams(const Experiment& experiment, int condition);
 

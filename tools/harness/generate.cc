@@ -25,6 +25,7 @@
 #include "scenes/scene_loader.h"
 #include "simulator/noise.h"
 #include "simulator/render.h"
+#include "tools/harness/experiment_grid.h"
 #include "tools/harness/tables.h"
 
 namespace turbid {
@@ -136,29 +137,11 @@ void ApplyRenderSet(json& params, const std::string& assignment) {
   SetRenderParam(params, key, value ? std::move(*value) : json(text));
 }
 
+// One draw of a "random.params" entry: the sweep's samplers (experiment_grid.h), so the same
+// distributions and checks hold in both.
 json SampleValue(const json& spec, uint64_t key, uint64_t index, const std::string& path) {
-  if (!spec.is_object() || spec.size() != 1)
-    throw Error("generate: random.params." + path +
-                ": expected {\"uniform\": [lo, hi]}, "
-                "{\"log_uniform\": [lo, hi]} or {\"choice\": [...]}");
-  const std::string kind = spec.begin().key();
-  const json& args = spec.begin().value();
-  const double u = RandomUniform(key, index);
-  if (kind == "choice") {
-    if (!args.is_array() || args.empty())
-      throw Error("generate: random.params." + path + ".choice: non-empty array");
-    return args[std::min<size_t>(static_cast<size_t>(u * args.size()), args.size() - 1)];
-  }
-  if (!args.is_array() || args.size() != 2 || !args[0].is_number() || !args[1].is_number())
-    throw Error("generate: random.params." + path + "." + kind + ": expected [lo, hi]");
-  const double lo = args[0].get<double>(), hi = args[1].get<double>();
-  if (kind == "uniform") return lo + u * (hi - lo);
-  if (kind == "log_uniform") {
-    if (lo <= 0.0 || hi <= 0.0)
-      throw Error("generate: random.params." + path + ".log_uniform: bounds must be > 0");
-    return std::exp(std::log(lo) + u * (std::log(hi) - std::log(lo)));
-  }
-  throw Error("generate: random.params." + path + ": unknown distribution '" + kind + "'");
+  return DrawDistribution(ParseDistribution(spec, "generate", "random.params." + path),
+                          RandomUniform(key, index));
 }
 
 json GeneratePreset(const std::string& name) {
@@ -254,6 +237,10 @@ void ReadRandom(const json& config, int64_t samples, const json& preset,
   if (config.contains("random")) {
     const json& random = config["random"];
     if (!random.is_object()) throw Error(config_path, "random: must be an object");
+    for (auto it = random.begin(); it != random.end(); ++it) {
+      if (it.key() != "count" && it.key() != "seed" && it.key() != "params")
+        throw Error(config_path, "unknown key 'random." + it.key() + "' (known: count, seed, params)");
+    }
     out->samples = static_cast<int>(samples);  // checked before the grid was expanded
     out->random_seed = ConfigSeed(random, "seed", out->seed, config_path, "random.");
     const json empty = json::object();
