@@ -112,6 +112,19 @@ std::string StringProblem(const nlohmann::json& v, std::string* out) {
   return "";
 }
 
+std::string ArrayProblem(const nlohmann::json& v, size_t size, const NumberRange& range,
+                         std::vector<double>* out) {
+  if (!v.is_array() || v.size() != size)
+    return "expected an array of " + std::to_string(size) + " numbers, got " + Shown(v);
+  std::vector<double> values(size);
+  for (size_t i = 0; i < size; ++i) {
+    std::string problem = NumberProblem(v[i], range, &values[i]);
+    if (!problem.empty()) return "[" + std::to_string(i) + "]: " + problem;
+  }
+  *out = std::move(values);
+  return "";
+}
+
 std::string Quoted(const std::string& noun, const std::string& where, const std::string& key) {
   return (noun.empty() ? "" : noun + " ") + "'" + (where.empty() ? key : where + "." + key) + "'";
 }
