@@ -88,7 +88,13 @@ std::string IntegerProblem(const nlohmann::json& v, int64_t lo, int64_t hi, int6
   const std::optional<int64_t> value =
       JsonInteger(v, std::numeric_limits<int64_t>::min(), std::numeric_limits<int64_t>::max());
   if (!value) return "expected an integer, got " + Shown(v);
-  if (*value < lo || *value > hi) return "must be " + IntegerRangeText(lo, hi) + ", got " + Shown(v);
+  if (*value < lo || *value > hi) {
+    // The full int range has no text of its own (IntegerRangeText gives "" for help).
+    const std::string range = IntegerRangeText(lo, hi);
+    return "must be " +
+           (range.empty() ? "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]" : range) +
+           ", got " + Shown(v);
+  }
   *out = *value;
   return "";
 }

@@ -115,6 +115,9 @@ TEST(RenderOptions, EveryListedKeyIsAcceptedAndAnUnknownOneRefused) {
 TEST(RenderOptions, WrongTypesNameTheDottedKey) {
   EXPECT_EQ(ErrorOf({{"psf", {{"max_radius_px", 2.5}}}}),
             "render options: 'psf.max_radius_px': expected an integer, got 2.5");
+  EXPECT_EQ(ErrorOf({{"psf", {{"max_radius_px", 10000000000}}}}),
+            "render options: 'psf.max_radius_px': must be in [-2147483648, 2147483647], got "
+            "10000000000");
   EXPECT_EQ(ErrorOf({{"water", {{"ambient_rgb", {1, "x", 3}}}}}),
             "render options: 'water.ambient_rgb': [1]: expected a number, got \"x\"");
   EXPECT_EQ(ErrorOf({{"light", {{"lights", {{{"power", true}}}}}}}),
