@@ -88,8 +88,13 @@ std::string IntegerProblem(const nlohmann::json& v, int64_t lo, int64_t hi, int6
   const std::optional<int64_t> value =
       JsonInteger(v, std::numeric_limits<int64_t>::min(), std::numeric_limits<int64_t>::max());
   if (!value) return "expected an integer, got " + Shown(v);
-  if (*value < lo || *value > hi)
-    return "must be " + IntegerRangeText(lo, hi) + ", got " + Shown(v);
+  if (*value < lo || *value > hi) {
+    // The full int range has no text of its own (IntegerRangeText gives "" for help).
+    const std::string range = IntegerRangeText(lo, hi);
+    return "must be " +
+           (range.empty() ? "in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]" : range) +
+           ", got " + Shown(v);
+  }
   *out = *value;
   return "";
 }
@@ -110,6 +115,19 @@ std::string BooleanProblem(const nlohmann::json& v, bool* out) {
 std::string StringProblem(const nlohmann::json& v, std::string* out) {
   if (!v.is_string()) return "expected a string, got " + Shown(v);
   *out = v.get<std::string>();
+  return "";
+}
+
+std::string ArrayProblem(const nlohmann::json& v, size_t size, const NumberRange& range,
+                         std::vector<double>* out) {
+  if (!v.is_array() || v.size() != size)
+    return "expected an array of " + std::to_string(size) + " numbers, got " + Shown(v);
+  std::vector<double> values(size);
+  for (size_t i = 0; i < size; ++i) {
+    std::string problem = NumberProblem(v[i], range, &values[i]);
+    if (!problem.empty()) return "[" + std::to_string(i) + "]: " + problem;
+  }
+  *out = std::move(values);
   return "";
 }
 

@@ -68,6 +68,8 @@ std::string IntegerProblem(const nlohmann::json& v, int64_t lo, int64_t hi, int6
 std::string UnsignedProblem(const nlohmann::json& v, uint64_t* out);
 std::string BooleanProblem(const nlohmann::json& v, bool* out);
 std::string StringProblem(const nlohmann::json& v, std::string* out);
+std::string ArrayProblem(const nlohmann::json& v, size_t size, const NumberRange& range,
+                         std::vector<double>* out);
 std::string IntegerRangeText(int64_t lo, int64_t hi);
 std::string Quoted(const std::string& noun, const std::string& where, const std::string& key);
 [[noreturn]] void ThrowUnknownKey(const std::string& source, const std::string& noun,
@@ -136,6 +138,26 @@ class Fields {
         std::move(key), "string", "", std::move(doc),
         [member](const Json& v, T& out) { return fields_detail::StringProblem(v, &(out.*member)); },
         [member](const T& in) { return Json(in.*member); });
+  }
+  // A fixed number of numbers in a member with operator[] (std::array<double, N>, cv::Vec3d):
+  // a JSON array of exactly `size` finite numbers, each within `range`.
+  template <typename A>
+  Fields& Array(std::string key, A T::*member, size_t size, std::string doc,
+                NumberRange range = NumberRange::Any()) {
+    return Add(
+        std::move(key), "array of " + std::to_string(size) + " numbers", range.Text(),
+        std::move(doc),
+        [member, size, range](const Json& v, T& out) {
+          std::vector<double> values;
+          std::string problem = fields_detail::ArrayProblem(v, size, range, &values);
+          for (size_t i = 0; i < values.size(); ++i) (out.*member)[i] = values[i];
+          return problem;
+        },
+        [member, size](const T& in) {
+          Json values = Json::array();
+          for (size_t i = 0; i < size; ++i) values.push_back((in.*member)[i]);
+          return values;
+        });
   }
   // One of a fixed set of names, each standing for a value of E (an enum, usually).
   template <typename E>

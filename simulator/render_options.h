@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/fields.h"
 #include "scenes/camera_encoding.h"
 #include "simulator/light.h"
 #include "simulator/models.h"
@@ -70,7 +71,8 @@ struct RenderOptions {
 // JSON <-> options. The JSON object mirrors the struct: {"water": {...}, "light": {"lights": [...],
 // "incidence": "lambertian", ...}, "psf": {...}, "snow": {...}, "sensor": {...}, "camera":
 // {"bit_depth": 8}, "seed": 0}. Missing keys keep the in-class defaults; unknown keys, wrong types
-// and values failing Check throw Error naming the key path (e.g. "psf.forward_scatter").
+// and values failing Check throw Error "render options: ..." naming the key path (e.g.
+// 'psf.forward_scatter').
 RenderOptions RenderOptionsFromJson(const nlohmann::json& json);
 // Every field, with the values in `options` (the sidecar's "options" object); a Jerlov water
 // type is written with its resolved beta values.
@@ -80,6 +82,15 @@ nlohmann::json RenderOptionsToJson(const RenderOptions& options);
 RenderOptions ResolvePresets(const RenderOptions& options);
 // RenderOptionsToJson of options whose presets are already resolved (ResolvePresets).
 nlohmann::json ResolvedRenderOptionsToJson(const RenderOptions& resolved);
+
+// The field tables behind RenderOptionsFromJson / ToJson (each key declared once, in
+// render_options.cc): one per section, "" for the top level and "light.lights[]" for one light.
+// For help, docs and the tests that every key reads back.
+struct RenderSection {
+  std::string name;
+  std::vector<FieldInfo> fields;  // key, type, default (RenderOptions{}'s), doc
+};
+const std::vector<RenderSection>& RenderSections();
 
 // What the renderer did and what it skipped, for --explain and the sidecar.
 struct RenderPlan {

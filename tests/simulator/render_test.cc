@@ -142,12 +142,13 @@ TEST(Render, JsonRoundTripAndStrictErrors) {
     }
     return std::string("no error");
   };
-  EXPECT_NE(error_of(R"({"psf": {"forward_scater": 0.9}})").find("psf.forward_scater: unknown key"),
-            std::string::npos);
+  EXPECT_NE(
+      error_of(R"({"psf": {"forward_scater": 0.9}})").find("unknown key 'psf.forward_scater'"),
+      std::string::npos);
   EXPECT_NE(error_of(R"({"psf": {"forward_scatter": 0}})").find("psf.forward_scatter"),
             std::string::npos);
   EXPECT_NE(error_of(R"({"psf": {"forward_scatter": "a"}})")
-                .find("psf.forward_scatter: must be a number"),
+                .find("'psf.forward_scatter': expected a number"),
             std::string::npos);
   EXPECT_NE(error_of(R"({"water": {"beta_rgb_per_m": [1, 2]}})").find("water.beta_rgb_per_m"),
             std::string::npos);
@@ -162,7 +163,7 @@ TEST(Render, JsonRoundTripAndStrictErrors) {
   EXPECT_NE(error_of(R"({"seed": -1})").find("seed"), std::string::npos);
   EXPECT_NE(error_of(R"({"camera": {"bit_depth": 12}})").find("camera.bit_depth"),
             std::string::npos);
-  EXPECT_NE(error_of(R"({"colour": 1})").find("colour: unknown key"), std::string::npos);
+  EXPECT_NE(error_of(R"({"colour": 1})").find("unknown key 'colour'"), std::string::npos);
   EXPECT_THROW(MapSelection::FromList("light,fog"), Error);
 }
 

@@ -176,7 +176,7 @@ TEST_F(MessagesCli, SeedsOutsideTheRangeNameTheKey) {
     const std::string params = dir.Write("p.json", R"({"seed": )" + bad + "}");
     ExpectRefused(RunTurbid({"render", "--scene", "builtin:hull", "--scale", "0.05", "--params",
                              params, "--out", dir.File("r.png")}),
-                  1, "p.json: render options: seed: " + range);
+                  1, "p.json: render options: 'seed': " + range);
   }
   const std::string samples = dir.Write(
       "s.json", R"({"name": "s", "scale": 0.05, "scenes": ["builtin:hull"], "methods": ["clahe"],

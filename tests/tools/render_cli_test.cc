@@ -63,7 +63,7 @@ TEST(RenderCli, ParamsFileSetAndErrors) {
   run = RunTurbid({"render", "--scene", "hull", "--scale", "0.1", "--params", dir.File("bad.json"),
                    "--out", dir.File("x.png")});
   EXPECT_EQ(run.exit_code, 1);
-  EXPECT_NE(run.err.find("psf.forward_scater: unknown key"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("unknown key 'psf.forward_scater'"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(dir.File("x.png")));
   run = RunTurbid(
       {"render", "--scene", "hull", "--scale", "0.1", "--beta", "11", "--out", dir.File("x.png")});
