@@ -203,7 +203,11 @@ void ReadPsf(Section s, RenderRecord::Derived::Psf* psf) {
   s.Take("is_delta", psf->is_delta);
   s.Take("separable", psf->separable);
   if (auto t = s.Sub("turbidity", true)) {
-    RenderRecord::Turbidity& turbidity = psf->turbidity.emplace();
+    // Assigned, not emplace()d: clang 14 caches is_constructible<Turbidity> as false while
+    // RenderRecord (which holds the optional) is being defined, before the nested type's default
+    // member initializers are parsed, and then refuses emplace() with no arguments.
+    psf->turbidity = RenderRecord::Turbidity{};
+    RenderRecord::Turbidity& turbidity = *psf->turbidity;
     t->Take("levels", turbidity.levels);
     t->Take("exact", turbidity.exact);
     t->Take("thickness", turbidity.thickness);
@@ -292,7 +296,8 @@ RenderRecord RenderRecord::FromJson(const json& j, const std::string& source) {
   top.Take("encoding", r.encoding);
   if (auto o = top.Sub("outputs")) ReadOutputs(*o, &r);
   if (auto i = top.Sub("item")) {
-    Item& item = r.item.emplace();
+    r.item = Item{};  // not emplace(): as for the turbidity above (clang 14)
+    Item& item = *r.item;
     i->Take("index", item.index);
     i->Take("id", item.id);
     i->RejectUnknown();
