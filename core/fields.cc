@@ -26,12 +26,15 @@ std::string Format(double v) {
 // A value as an error message shows it: its JSON text, cut to 60 characters (a value may be a
 // megabyte array).
 std::string Shown(const nlohmann::json& v) {
-  std::string text = v.dump();
+  // Invalid UTF-8 in a string is shown as U+FFFD, not thrown (nlohmann's dump would).
+  std::string text = v.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
   if (text.size() > 60) text = text.substr(0, 57) + "...";
   return text;
 }
 
 }  // namespace
+
+std::string fields_detail::ShownValue(const nlohmann::json& v) { return Shown(v); }
 
 bool NumberRange::Contains(double v) const {
   if (!std::isfinite(v)) return false;

@@ -71,6 +71,8 @@ std::string StringProblem(const nlohmann::json& v, std::string* out);
 std::string ArrayProblem(const nlohmann::json& v, size_t size, const NumberRange& range,
                          std::vector<double>* out);
 std::string IntegerRangeText(int64_t lo, int64_t hi);
+// A value as messages show it: JSON text, invalid UTF-8 replaced, cut to 60 characters.
+std::string ShownValue(const nlohmann::json& v);
 std::string Quoted(const std::string& noun, const std::string& where, const std::string& key);
 [[noreturn]] void ThrowUnknownKey(const std::string& source, const std::string& noun,
                                   const std::string& where, const std::string& key,
@@ -176,7 +178,7 @@ class Fields {
               }
             }
           }
-          return "expected one of " + list + ", got " + v.dump();
+          return "expected one of " + list + ", got " + fields_detail::ShownValue(v);
         },
         [member, names](const T& in) -> Json {
           for (const auto& [name, value] : names) {

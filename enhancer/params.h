@@ -33,7 +33,7 @@ template <typename Options>
 Options ReadMethodParams(const std::string& method, const nlohmann::json& params,
                          const Fields<Options>& fields, Options options = Options{}) {
   if (!params.is_null() && !params.is_object()) {
-    throw Error(method + ": parameters must be a JSON object, got " + params.dump());
+    throw Error(method + ": parameters must be a JSON object, got " + fields_detail::ShownValue(params));
   }
   fields.Read(params, &options, method, "", "parameter");
   std::string why;

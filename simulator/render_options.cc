@@ -115,7 +115,7 @@ const Fields<LightOptions>& LightFields() {
 
 // light.lights: an array of light objects, each read with LightFields.
 std::string ReadLights(const json& list, IrradianceOptions& out) {
-  if (!list.is_array()) return "expected an array of light objects, got " + list.dump();
+  if (!list.is_array()) return "expected an array of light objects, got " + fields_detail::ShownValue(list);
   out.lights.clear();
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string where = "light.lights[" + std::to_string(i) + "]";
