@@ -97,7 +97,18 @@ const Fields<WaterOptions>& WaterFields() {
           .Member("ambient_gray", &O::ambient_gray, "E_A for gray images")
           .Member("backscatter", &O::backscatter, "add the ambient backscatter (1 - t) B_inf")
           .Array("backscatter_rgb", &O::backscatter_rgb, 3, "B_inf, R G B")
-          .Member("backscatter_gray", &O::backscatter_gray, "B_inf for gray images");
+          .Member("backscatter_gray", &O::backscatter_gray, "B_inf for gray images")
+          .Array("scattering_albedo_rgb", &O::scattering_albedo_rgb, 3,
+                 "single-scattering albedo b/c, R G B (physical terms only)")
+          .Member("scattering_albedo_gray", &O::scattering_albedo_gray,
+                  "single-scattering albedo b/c for gray images")
+          .Custom(
+              "phase", "object", "", "phase function (keys: section water.phase)",
+              [](const json& v, O& out) {
+                PhaseFunctionFields().Read(v, &out.phase, kSource, "water.phase");
+                return std::string();
+              },
+              [](const O& in) { return PhaseFunctionFields().ToJson(in.phase); });
   return fields;
 }
 
@@ -115,7 +126,8 @@ const Fields<LightOptions>& LightFields() {
 
 // light.lights: an array of light objects, each read with LightFields.
 std::string ReadLights(const json& list, IrradianceOptions& out) {
-  if (!list.is_array()) return "expected an array of light objects, got " + fields_detail::ShownValue(list);
+  if (!list.is_array())
+    return "expected an array of light objects, got " + fields_detail::ShownValue(list);
   out.lights.clear();
   for (size_t i = 0; i < list.size(); ++i) {
     const std::string where = "light.lights[" + std::to_string(i) + "]";
@@ -346,6 +358,7 @@ const std::vector<RenderSection>& RenderSections() {
     add("revised", RevisedFields());
     add("uwcnn", UwcnnFields());
     add("water", WaterFields());
+    add("water.phase", PhaseFunctionFields());
     add("light", IrradianceFields());
     add("light.lights[]", LightFields());
     add("psf", PsfFields());

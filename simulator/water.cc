@@ -89,6 +89,12 @@ bool WaterOptions::Check(std::string* why) const {
   for (double b : backscatter_rgb)
     if (!InRange(b, 0.0, 1.0)) return fail("backscatter_rgb: each value must be in [0, 1]");
   if (!InRange(backscatter_gray, 0.0, 1.0)) return fail("backscatter_gray: must be in [0, 1]");
+  for (double w : scattering_albedo_rgb)
+    if (!InRange(w, 0.0, 1.0)) return fail("scattering_albedo_rgb: each value must be in [0, 1]");
+  if (!InRange(scattering_albedo_gray, 0.0, 1.0))
+    return fail("scattering_albedo_gray: must be in [0, 1]");
+  std::string phase_why;
+  if (!phase.Check(&phase_why)) return fail("phase." + phase_why);
   return true;
 }
 

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "simulator/phase_function.h"
+
 namespace turbid {
 
 // Colour triples are written in R, G, B order everywhere in options and JSON (what people write);
@@ -40,6 +42,16 @@ struct WaterOptions {
   bool backscatter = false;
   Rgb backscatter_rgb{0.05, 0.2, 0.25};  // B_inf per channel R, G, B, image units, [0, 1]
   double backscatter_gray = 0.15;        // B_inf for gray images, image units, [0, 1]
+  // Scattering, for the terms that follow the water's optics rather than eq. 2 (the single-scatter
+  // veil, the small-angle PSF; docs/model.md "The water's scattering"): the single-scattering
+  // albedo omega = b / c per channel R, G, B, each in [0, 1], so that the scattering coefficient is
+  // b = omega beta (beta taken as the beam attenuation c). Default 0.8, the value the physics
+  // issue's measurements use (coastal waters, Solonenko & Mobley 2015: b/c at 550 nm 0.85 for II,
+  // 0.86 for 3C). The paper model does not read these.
+  Rgb scattering_albedo_rgb{0.8, 0.8, 0.8};
+  double scattering_albedo_gray = 0.8;  // omega for gray images, [0, 1]
+  // The phase function of that scattering (simulator/phase_function.h), JSON "phase": {...}.
+  PhaseFunctionOptions phase;
 
   bool Check(std::string* why) const;
 };

@@ -20,6 +20,8 @@ using nlohmann::json;
 json Wrap(const std::string& name, const json& object) {
   if (name.empty()) return object;
   if (name == "light.lights[]") return {{"light", {{"lights", json::array({object})}}}};
+  const size_t dot = name.find('.');  // a nested object such as "water.phase"
+  if (dot != std::string::npos) return {{name.substr(0, dot), {{name.substr(dot + 1), object}}}};
   return {{name, object}};
 }
 
@@ -28,6 +30,12 @@ std::string Dotted(const std::string& name, const std::string& key) {
   if (name.empty()) return key;
   if (name == "light.lights[]") return "light.lights[0]." + key;
   return name + "." + key;
+}
+
+// "water.phase" -> "water/phase" (a JSON pointer's path).
+std::string Slashed(std::string name) {
+  std::replace(name.begin(), name.end(), '.', '/');
+  return name;
 }
 
 std::string ErrorOf(const json& j) {
@@ -81,7 +89,7 @@ TEST(RenderOptions, TablesListEveryKeyTheJsonHas) {
     json written = section.name.empty()               ? all
                    : section.name == "light.lights[]" ? all["light"]["lights"][0]
                    : section.name == "uwcnn"          ? uwcnn["uwcnn"]
-                                                      : all[section.name];
+                                             : all[json::json_pointer("/" + Slashed(section.name))];
     if (section.name.empty()) written["uwcnn"] = uwcnn["uwcnn"];
     std::vector<std::string> keys;
     for (const FieldInfo& f : section.fields) keys.push_back(f.key);
