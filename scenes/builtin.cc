@@ -140,6 +140,14 @@ bool BuiltinSceneOptions::Check(std::string* why) const {
     if (why) *why = "supersampling must be in 1..8";
     return false;
   }
+  if (pose) {
+    const cv::Matx33d e = pose->rotation.t() * pose->rotation - cv::Matx33d::eye();
+    if (!(cv::norm(e, cv::NORM_INF) < 1e-6) || !(cv::determinant(pose->rotation) > 0) ||
+        !std::isfinite(cv::norm(pose->position_m))) {
+      if (why) *why = "pose: the rotation must be orthonormal and the position finite";
+      return false;
+    }
+  }
   return true;
 }
 
@@ -174,9 +182,18 @@ std::vector<cv::Vec3d> DvlBeamHits(const Plane& plane, double beam_half_angle_ra
   return hits;
 }
 
+Pose BuiltinScenePose(const std::string& name) {
+  const Model model = ModelFor(name);
+  return {model.world_from_camera, model.camera_in_world};
+}
+
 Scene MakeBuiltinScene(const std::string& name, const BuiltinSceneOptions& options) {
   ThrowIfInvalid(options, "builtin scene '" + name + "'");
-  const Model model = ModelFor(name);
+  Model model = ModelFor(name);
+  if (options.pose) {
+    model.world_from_camera = options.pose->rotation;
+    model.camera_in_world = options.pose->position_m;
+  }
   Scene scene;
   scene.name = name;
   scene.camera = ScaleIntrinsics(model.camera, options.scale);

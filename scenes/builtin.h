@@ -8,9 +8,11 @@
 // inside [0.05, 0.95], anti-aliased by supersampling each pixel. See docs/formats.md.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "scenes/pose.h"
 #include "scenes/scene.h"
 
 namespace turbid {
@@ -23,6 +25,11 @@ struct BuiltinSceneOptions {
   // supersampling^2 sub-pixel rays so textures do not alias. Depth and normals always come from the
   // pixel-centre ray.
   int supersampling = 2;
+  // The camera's pose in the scene's world (camera-to-world, metres; BuiltinScenePose gives the
+  // scene's own): a sequence flies the camera along a trajectory (scenes/sequence.h). Depth,
+  // normals, the dominant plane and the DVL hits follow the pose; the rotation must be
+  // orthonormal (1e-6) and the position finite.
+  std::optional<Pose> pose;
   bool Check(std::string* why) const;
 };
 
@@ -32,6 +39,9 @@ std::vector<std::string> BuiltinSceneNames();
 // Throws Error for an unknown name. Deterministic: same name and options give the same bytes
 // whatever the number of threads.
 Scene MakeBuiltinScene(const std::string& name, const BuiltinSceneOptions& options = {});
+
+// The scene's own camera pose (camera-to-world in its world); throws Error for an unknown name.
+Pose BuiltinScenePose(const std::string& name);
 
 // Native (scale 1) intrinsics of a built-in scene; throws Error for an unknown name.
 CameraIntrinsics BuiltinSceneCamera(const std::string& name);
