@@ -17,9 +17,9 @@ namespace {
 using testing::RunTurbid;
 using testing::TempDir;
 
-const std::vector<std::string> kNewcomerOrder = {"scene",    "render", "enhance", "score",
-                                                 "sweep",    "merge",  "regress", "report",
-                                                 "generate", "bench"};
+const std::vector<std::string> kNewcomerOrder = {
+    "scene", "sequence", "render", "enhance", "score", "sweep",
+    "merge", "regress",  "report", "generate", "bench"};
 
 std::vector<std::string> Lines(const std::string& text) {
   std::vector<std::string> lines;

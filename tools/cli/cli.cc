@@ -162,6 +162,7 @@ int RunCli(int argc, const char* const* argv) {
   app.require_subcommand(1);
   // `turbid --help` lists the subcommands in this order: the order a newcomer uses them.
   AddSceneCommand(app);
+  AddSequenceCommand(app);
   AddRenderCommand(app);
   AddEnhanceCommand(app);
   AddScoreCommand(app);
