@@ -6,10 +6,10 @@
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "core/error.h"
 #include "metrics/image_checks.h"
 #include "metrics/simd_dispatch.h"
 #include "metrics/ssim_double_kernel.h"
-#include "core/error.h"
 
 namespace turbid {
 
@@ -226,76 +226,91 @@ constexpr int kRowsPerBand = 32;
 
 }  // namespace
 
-SsimResult Ssim(const SsimOptions& options, const cv::Mat& reference, const cv::Mat& image) {
+namespace {
+
+// The one-line errors of Ssim's inputs (options, sizes, depths, the window's minimum size);
+// returns the Gaussian window's radius.
+int CheckSsimInputs(const SsimOptions& options, const cv::Mat& reference, const cv::Mat& image) {
   ThrowIfInvalid(options, "ssim");
+  const int radius = SsimRadius(options);
   CheckMetricPair(reference, image, "ssim");
   if (reference.depth() != image.depth())
     throw Error("ssim: reference and image have different pixel depths (convert one first)");
-  const int radius = SsimRadius(options);
   const int window = 2 * radius + 1;
   if (reference.cols < window || reference.rows < window)
     throw Error("ssim: image is " + std::to_string(reference.cols) + "x" +
                 std::to_string(reference.rows) + " but the Gaussian window needs at least " +
                 std::to_string(window) + "x" + std::to_string(window) + " pixels");
+  return radius;
+}
 
+// The Gaussian taps in double, normalised to sum 1 (the exact and float64 paths).
+std::vector<double> GaussianTaps64(double sigma, int radius) {
+  std::vector<double> taps;
+  double sum = 0.0;
+  for (int k = -radius; k <= radius; ++k)
+    sum += taps.emplace_back(std::exp(-0.5 / (sigma * sigma) * k * k));
+  for (double& t : taps) t /= sum;
+  return taps;
+}
+
+// One channel's mean SSIM by the 8-bit float32 fused kernel, in bands of rows run in parallel;
+// the row sums are added in row order whatever the thread count (deterministic).
+double FloatSsimChannel(const SsimOptions& options, const cv::Mat& reference, const cv::Mat& image,
+                        int c, int radius, double range, double c1, double c2, cv::Mat* map) {
+  const std::vector<float> taps = GaussianTaps(options.sigma, radius);
+  const int width = reference.cols, height = reference.rows;
+  // Without a map only the cropped region is ever averaged, so the border is not computed.
+  const int row_begin = map ? 0 : radius;
+  const int row_end = map ? height : height - radius;
+  const int col_begin = map ? 0 : radius;
+  const int col_end = map ? width : width - radius;
+  const int bands = (row_end - row_begin + kRowsPerBand - 1) / kRowsPerBand;
+  std::vector<double> row_sums(height, 0.0);
+  if (map) map->create(height, width, CV_32F);
+  cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range_of_bands) {
+    SsimBand band(reference, image, c, taps, range / 2.0, c1, c2);
+    for (int b = range_of_bands.start; b < range_of_bands.end; ++b) {
+      const int begin = row_begin + b * kRowsPerBand;
+      const int end = std::min(row_end, begin + kRowsPerBand);
+      band.Run(begin, end, col_begin, col_end, map, row_sums.data());
+    }
+  });
+  double sum = 0.0;
+  for (int i = radius; i < height - radius; ++i) sum += row_sums[i];
+  const double count = static_cast<double>(width - 2 * radius) * (height - 2 * radius);
+  return sum / count;
+}
+
+}  // namespace
+
+SsimResult Ssim(const SsimOptions& options, const cv::Mat& reference, const cv::Mat& image) {
+  const int radius = CheckSsimInputs(options, reference, image);
   const double range =
       options.data_range > 0.0 ? options.data_range : DefaultDataRange(reference.depth());
   const double c1 = (options.k1 * range) * (options.k1 * range);
   const double c2 = (options.k2 * range) * (options.k2 * range);
-  const std::vector<float> taps = GaussianTaps(options.sigma, radius);
-
   const int channels = reference.channels();
-  const int width = reference.cols;
-  const int height = reference.rows;
   SsimResult result;
   std::vector<cv::Mat> maps(channels);
-  // Without a map only the cropped region is ever averaged, so the border is not computed.
-  const int row_begin = options.compute_map ? 0 : radius;
-  const int row_end = options.compute_map ? height : height - radius;
-  const int col_begin = options.compute_map ? 0 : radius;
-  const int col_end = options.compute_map ? width : width - radius;
-  const int bands = (row_end - row_begin + kRowsPerBand - 1) / kRowsPerBand;
-  std::vector<double> row_sums(height, 0.0);
-
   // 8-bit: float32 fused kernel (centred products exact in float). Other depths: the fused kernel
   // in float64 (metrics/ssim_double_kernel.cc says why). exact_double: the plain OpenCV path.
   const bool exact = options.exact_double;
   const bool fused_double = !exact && reference.depth() != CV_8U;
-  std::vector<double> taps64;
-  {
-    double sum = 0.0;
-    for (int k = -radius; k <= radius; ++k)
-      sum += taps64.emplace_back(std::exp(-0.5 / (options.sigma * options.sigma) * k * k));
-    for (double& t : taps64) t /= sum;
-  }
+  const std::vector<double> taps64 = GaussianTaps64(options.sigma, radius);
   for (int c = 0; c < channels; ++c) {
+    cv::Mat* map = options.compute_map ? &maps[c] : nullptr;
     if (exact) {
-      result.per_channel.push_back(PreciseChannel(reference, image, c, taps64, radius, c1, c2,
-                                                  options.compute_map ? &maps[c] : nullptr));
-      continue;
-    }
-    if (fused_double) {
-      if (options.compute_map) maps[c].create(height, width, CV_32F);
       result.per_channel.push_back(
-          ssim_internal::FusedDoubleSsimChannel(reference, image, c, taps64, range / 2.0, c1, c2,
-                                                options.compute_map ? &maps[c] : nullptr));
-      continue;
+          PreciseChannel(reference, image, c, taps64, radius, c1, c2, map));
+    } else if (fused_double) {
+      if (map) map->create(reference.rows, reference.cols, CV_32F);
+      result.per_channel.push_back(ssim_internal::FusedDoubleSsimChannel(
+          reference, image, c, taps64, range / 2.0, c1, c2, map));
+    } else {
+      result.per_channel.push_back(
+          FloatSsimChannel(options, reference, image, c, radius, range, c1, c2, map));
     }
-    if (options.compute_map) maps[c].create(height, width, CV_32F);
-    cv::parallel_for_(cv::Range(0, bands), [&](const cv::Range& range_of_bands) {
-      SsimBand band(reference, image, c, taps, range / 2.0, c1, c2);
-      for (int b = range_of_bands.start; b < range_of_bands.end; ++b) {
-        const int begin = row_begin + b * kRowsPerBand;
-        const int end = std::min(row_end, begin + kRowsPerBand);
-        band.Run(begin, end, col_begin, col_end, options.compute_map ? &maps[c] : nullptr,
-                 row_sums.data());
-      }
-    });
-    // Row sums are added in row order whatever the thread count: deterministic.
-    double sum = 0.0;
-    for (int i = radius; i < height - radius; ++i) sum += row_sums[i];
-    const double count = static_cast<double>(width - 2 * radius) * (height - 2 * radius);
-    result.per_channel.push_back(sum / count);
   }
   double total = 0.0;
   for (double v : result.per_channel) total += v;

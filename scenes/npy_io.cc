@@ -114,7 +114,8 @@ void ConvertRows(const std::vector<char>& bytes, cv::Mat& out) {
     float* row = out.ptr<float>(y);
     for (int x = 0; x < out.cols; ++x) {
       T v;
-      std::memcpy(&v, bytes.data() + (static_cast<size_t>(y) * out.cols + x) * sizeof(T), sizeof(T));
+      std::memcpy(&v, bytes.data() + (static_cast<size_t>(y) * out.cols + x) * sizeof(T),
+                  sizeof(T));
       row[x] = static_cast<float>(v);
     }
   }
@@ -130,6 +131,72 @@ bool IsNpyFile(const std::string& path) {
   return std::memcmp(head, kMagic, kMagicSize) == 0;
 }
 
+namespace {
+
+// The preamble (magic, version, header length) and the header text of an open .npy file;
+// *preamble_size is 10 (version 1) or 12 (versions 2 and 3).
+std::string ReadNpyHeader(std::ifstream& in, const std::string& path, uintmax_t file_size,
+                          size_t* preamble_size) {
+  unsigned char preamble[12] = {};
+  if (!in.read(reinterpret_cast<char*>(preamble), 10) ||
+      std::memcmp(preamble, kMagic, kMagicSize) != 0)
+    throw Error(path, "not a .npy file (no \\x93NUMPY magic)");
+  const int major = preamble[6];
+  uint64_t header_size = 0;
+  *preamble_size = 10;
+  if (major == 1) {
+    header_size = preamble[8] | (uint64_t{preamble[9]} << 8);
+  } else if (major == 2 || major == 3) {
+    if (!in.read(reinterpret_cast<char*>(preamble) + 10, 2))
+      throw Error(path, "truncated .npy header");
+    header_size = preamble[8] | (uint64_t{preamble[9]} << 8) | (uint64_t{preamble[10]} << 16) |
+                  (uint64_t{preamble[11]} << 24);
+    *preamble_size = 12;
+  } else {
+    throw Error(path, ".npy format version " + std::to_string(major) + " is not supported (1-3)");
+  }
+  if (header_size > (1u << 20) || *preamble_size + header_size > file_size)
+    throw Error(path, "truncated .npy header");
+  std::string header(header_size, '\0');
+  if (!in.read(header.data(), static_cast<std::streamsize>(header_size)))
+    throw Error(path, "truncated .npy header");
+  return header;
+}
+
+// The item size of a supported dtype ('<f4', '<f8', '<u2'); sets *integer for '<u2'.
+size_t NpyItemSize(const std::string& path, const std::string& dtype, bool* integer) {
+  if (dtype == "<f4") return 4;
+  if (dtype == "<f8") return 8;
+  if (dtype == "<u2") {
+    *integer = true;
+    return 2;
+  }
+  throw Error(path, "dtype '" + dtype +
+                        "' is not supported (little-endian float32 '<f4', float64 '<f8' or "
+                        "uint16 '<u2')");
+}
+
+// The (rows, cols) of a C-order 2-D array from the header's dict (its keys checked), checked
+// against the size limits before anything is allocated.
+std::vector<int64_t> NpyShape(const std::string& path, HeaderParser& parser,
+                              const std::map<std::string, std::string>& dict) {
+  if (dict.at("fortran_order") == "True")
+    throw Error(path,
+                "Fortran-order arrays are not supported (save a C-order array: "
+                "numpy.ascontiguousarray)");
+  if (dict.at("fortran_order") != "False") parser.Fail("fortran_order must be True or False");
+  const std::vector<int64_t> shape = parser.Shape(dict.at("shape"));
+  if (shape.size() != 2)
+    throw Error(path, "array has " + std::to_string(shape.size()) + " dimensions " +
+                          dict.at("shape") + ", a depth map must be 2-D (rows, cols)");
+  if (shape[0] <= 0 || shape[1] <= 0)
+    throw Error(path, "shape " + dict.at("shape") + " must have at least one row and column");
+  CheckImageSize(path, shape[1], shape[0]);  // before the data size is computed or read
+  return shape;
+}
+
+}  // namespace
+
 NpyArray ReadNpy(const std::string& path) {
   static_assert(sizeof(float) == 4 && sizeof(double) == 8);
   const uint16_t probe = 1;
@@ -142,67 +209,24 @@ NpyArray ReadNpy(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path, "cannot open for reading");
   const uintmax_t file_size = std::filesystem::file_size(path, ec);
-  unsigned char preamble[12] = {};
-  if (!in.read(reinterpret_cast<char*>(preamble), 10) ||
-      std::memcmp(preamble, kMagic, kMagicSize) != 0)
-    throw Error(path, "not a .npy file (no \\x93NUMPY magic)");
-  const int major = preamble[6];
-  uint64_t header_size = 0;
-  size_t preamble_size = 10;
-  if (major == 1) {
-    header_size = preamble[8] | (uint64_t{preamble[9]} << 8);
-  } else if (major == 2 || major == 3) {
-    if (!in.read(reinterpret_cast<char*>(preamble) + 10, 2)) throw Error(path, "truncated .npy header");
-    header_size = preamble[8] | (uint64_t{preamble[9]} << 8) | (uint64_t{preamble[10]} << 16) |
-                  (uint64_t{preamble[11]} << 24);
-    preamble_size = 12;
-  } else {
-    throw Error(path, ".npy format version " + std::to_string(major) + " is not supported (1-3)");
-  }
-  if (header_size > (1u << 20) || preamble_size + header_size > file_size)
-    throw Error(path, "truncated .npy header");
-  std::string header(header_size, '\0');
-  if (!in.read(header.data(), static_cast<std::streamsize>(header_size)))
-    throw Error(path, "truncated .npy header");
-
+  size_t preamble_size = 0;
+  const std::string header = ReadNpyHeader(in, path, file_size, &preamble_size);
   HeaderParser parser(path, header);
   const std::map<std::string, std::string> dict = parser.Parse();
   for (const char* key : {"descr", "fortran_order", "shape"})
     if (!dict.count(key)) parser.Fail(std::string("missing key '") + key + "'");
   if (dict.size() != 3) parser.Fail("unexpected keys (expected descr, fortran_order, shape)");
-
   NpyArray out;
   out.dtype = dict.at("descr");
-  size_t item_size = 0;
-  if (out.dtype == "<f4") {
-    item_size = 4;
-  } else if (out.dtype == "<f8") {
-    item_size = 8;
-  } else if (out.dtype == "<u2") {
-    item_size = 2;
-    out.integer = true;
-  } else {
-    throw Error(path, "dtype '" + out.dtype +
-                          "' is not supported (little-endian float32 '<f4', float64 '<f8' or "
-                          "uint16 '<u2')");
-  }
-  if (dict.at("fortran_order") == "True")
-    throw Error(path, "Fortran-order arrays are not supported (save a C-order array: "
-                      "numpy.ascontiguousarray)");
-  if (dict.at("fortran_order") != "False") parser.Fail("fortran_order must be True or False");
-  const std::vector<int64_t> shape = parser.Shape(dict.at("shape"));
-  if (shape.size() != 2)
-    throw Error(path, "array has " + std::to_string(shape.size()) + " dimensions " +
-                          dict.at("shape") + ", a depth map must be 2-D (rows, cols)");
-  if (shape[0] <= 0 || shape[1] <= 0)
-    throw Error(path, "shape " + dict.at("shape") + " must have at least one row and column");
-  CheckImageSize(path, shape[1], shape[0]);  // before the data size is computed or read
+  const size_t item_size = NpyItemSize(path, out.dtype, &out.integer);
+  const std::vector<int64_t> shape = NpyShape(path, parser, dict);
   const uint64_t data_size = static_cast<uint64_t>(shape[0] * shape[1]) * item_size;
-  const uint64_t available = file_size - preamble_size - header_size;
+  const uint64_t available = file_size - preamble_size - header.size();
   if (available != data_size)
     throw Error(path, "holds " + std::to_string(available) + " data bytes, shape " +
                           dict.at("shape") + " of " + out.dtype + " needs " +
-                          std::to_string(data_size) + (available < data_size ? " (truncated)" : ""));
+                          std::to_string(data_size) +
+                          (available < data_size ? " (truncated)" : ""));
   std::vector<char> bytes(data_size);
   if (!in.read(bytes.data(), static_cast<std::streamsize>(data_size)))
     throw Error(path, "truncated .npy data");

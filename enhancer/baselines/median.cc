@@ -19,6 +19,8 @@
 // constexpr builder: for Tarel's default k = 11 at compile time, so that each network becomes
 // straight-line vector code (values stay in registers between comparators); for any other k at run
 // time, executed by a small interpreter.
+#include "enhancer/baselines/median.h"
+
 #include <algorithm>
 #include <array>
 #include <cstdint>
@@ -29,7 +31,6 @@
 #include <utility>
 #include <vector>
 
-#include "enhancer/baselines/median.h"
 #include "enhancer/baselines/common.h"
 #include "enhancer/simd_switch.h"
 
@@ -509,98 +510,130 @@ struct Planes {
 
 }  // namespace
 
+namespace {
+
+// One NetworkMedian run: the padded input ring, the sorted levels and the band, and the stage
+// calls of each pair of output rows.
+class MedianRun {
+ public:
+  MedianRun(const cv::Mat& image, int k, const MedianStages& stages)
+      : image_(image),
+        stages_(stages),
+        k_(k),
+        half_(k / 2),
+        rows_(k - 1),
+        top_(TopBlock(k)),
+        width_(image.cols),
+        wp_(image.cols + 2 * (k / 2)),
+        ring_(k + 2) {
+    // Slack: whole vectors or chunks past n, read at offsets up to k - 1.
+    const int stride = (wp_ + 2 * kChunk + k + 7) / 8 * 8;
+    // Padded input rows (border: reflect) in a ring of k + 2: a pair of output rows reads k + 1.
+    input_.Reset(ring_, stride);
+    ring_row_.assign(ring_, -1);
+    column_source_.resize(wp_);
+    for (int x = 0; x < wp_; ++x)
+      column_source_[x] = cv::borderInterpolate(x - half_, width_, cv::BORDER_REFLECT);
+    // Sorted core columns (level 0) and blocks of 2^j columns (level j), k-1 rows each.
+    levels_.resize(top_ > 0 ? top_ : 1);
+    for (size_t j = 0; j < levels_.size(); ++j) levels_[j].Reset(rows_ << j, stride);
+    band_.Reset(k + 1, stride);
+    result_.Reset(1, stride);
+  }
+
+  // Output rows y and y+1 are padded rows y+half and y+1+half: core = padded rows y+1 .. y+k-1;
+  // private rows y (output y) and y+k (output y+1; past the image for an odd last row, then
+  // unused).
+  void RowPair(int y, cv::Mat& filtered) {
+    SortCore(y);
+    CoreBand();
+    for (int side = 0; side < 2 && y + side < image_.rows; ++side) {
+      Begin();
+      for (int r = 0; r <= k_; ++r) in_.push_back(band_.Row(r));
+      const float* own = PaddedRow(side == 0 ? y : y + k_);
+      for (int dx = 0; dx < k_; ++dx) in_.push_back(own + dx);
+      out_.push_back(result_.Row(0));
+      stages_.Run(Stage::kFinish, 0, in_.data(), out_.data(), width_, scratch_);
+      std::copy_n(result_.Row(0), width_, filtered.ptr<float>(y + side));
+    }
+  }
+
+ private:
+  void Begin() {
+    in_.clear();
+    out_.clear();
+  }
+
+  const float* PaddedRow(int py) {
+    float* row = input_.Row(py % ring_);
+    if (ring_row_[py % ring_] != py) {
+      ring_row_[py % ring_] = py;
+      const int sy = std::min(cv::borderInterpolate(py - half_, image_.rows, cv::BORDER_REFLECT),
+                              image_.rows - 1);
+      const float* src = image_.ptr<float>(sy);
+      for (int x = 0; x < half_; ++x) row[x] = src[column_source_[x]];
+      std::copy_n(src, width_, row + half_);
+      for (int x = half_ + width_; x < wp_; ++x) row[x] = src[column_source_[x]];
+    }
+    return row;
+  }
+
+  // The core's columns sorted (level 0), then merged into blocks of 2^j columns.
+  void SortCore(int y) {
+    Begin();
+    for (int r = 0; r < rows_; ++r) in_.push_back(PaddedRow(y + 1 + r));
+    for (int r = 0; r < rows_; ++r) out_.push_back(levels_[0].Row(r));
+    stages_.Run(Stage::kSortColumns, 0, in_.data(), out_.data(), wp_, scratch_);
+    for (int j = 1; j < top_; ++j) {
+      Begin();
+      for (int shift : {0, 1 << (j - 1)}) {
+        for (int r = 0; r < (rows_ << (j - 1)); ++r) in_.push_back(levels_[j - 1].Row(r) + shift);
+      }
+      for (int r = 0; r < (rows_ << j); ++r) out_.push_back(levels_[j].Row(r));
+      stages_.Run(Stage::kMergeLevel, j, in_.data(), out_.data(), wp_ - (1 << j) + 1, scratch_);
+    }
+  }
+
+  // The k + 1 sorted values every output pixel of the pair shares, from the largest blocks.
+  void CoreBand() {
+    Begin();
+    const int largest_half = top_ > 0 ? top_ - 1 : 0;
+    for (int shift : {0, 1 << largest_half}) {
+      if (top_ == 0 && shift > 0) break;
+      for (int r = 0; r < (rows_ << largest_half); ++r) {
+        in_.push_back(levels_[largest_half].Row(r) + shift);
+      }
+    }
+    int offset = 1 << top_;
+    for (int j = top_ - 1; j >= 0; --j) {
+      if (!(k_ & (1 << j))) continue;
+      for (int r = 0; r < (rows_ << j); ++r) in_.push_back(levels_[j].Row(r) + offset);
+      offset += 1 << j;
+    }
+    for (int r = 0; r <= k_; ++r) out_.push_back(band_.Row(r));
+    stages_.Run(Stage::kCoreBand, 0, in_.data(), out_.data(), width_, scratch_);
+  }
+
+  const cv::Mat& image_;
+  const MedianStages& stages_;
+  const int k_, half_, rows_, top_, width_, wp_, ring_;
+  Planes input_, band_, result_;
+  std::vector<Planes> levels_;
+  std::vector<int> ring_row_, column_source_;
+  std::vector<float> scratch_;
+  std::vector<const float*> in_;
+  std::vector<float*> out_;
+};
+
+}  // namespace
+
 cv::Mat NetworkMedian(const cv::Mat& image, int k, bool allow_compiled) {
   CV_Assert(image.type() == CV_32FC1 && k >= 3 && k % 2 == 1);
   const MedianStages& stages =
       StagesFor(k, allow_compiled && k == 11 && enhancer_internal::UseHandWrittenAvx2());
-  const int half = k / 2;
-  const int rows = k - 1;
-  const int top = TopBlock(k);
-  const int width = image.cols;
-  const int wp = width + 2 * half;  // padded width
-  // Slack: whole vectors or chunks past n, read at offsets up to k - 1.
-  const int stride = (wp + 2 * kChunk + k + 7) / 8 * 8;
-
-  // Padded input rows (border: reflect) in a ring of k + 2: a pair of output rows reads k + 1.
-  const int ring = k + 2;
-  Planes input;
-  input.Reset(ring, stride);
-  std::vector<int> ring_row(ring, -1);
-  std::vector<int> column_source(wp);
-  for (int x = 0; x < wp; ++x) {
-    column_source[x] = cv::borderInterpolate(x - half, width, cv::BORDER_REFLECT);
-  }
-  auto padded_row = [&](int py) -> const float* {
-    float* row = input.Row(py % ring);
-    if (ring_row[py % ring] != py) {
-      ring_row[py % ring] = py;
-      const int sy = std::min(cv::borderInterpolate(py - half, image.rows, cv::BORDER_REFLECT),
-                              image.rows - 1);
-      const float* src = image.ptr<float>(sy);
-      for (int x = 0; x < half; ++x) row[x] = src[column_source[x]];
-      std::copy_n(src, width, row + half);
-      for (int x = half + width; x < wp; ++x) row[x] = src[column_source[x]];
-    }
-    return row;
-  };
-
-  // Sorted core columns (level 0) and blocks of 2^j columns (level j), k-1 rows each.
-  std::vector<Planes> levels(top > 0 ? top : 1);
-  for (size_t j = 0; j < levels.size(); ++j) levels[j].Reset(rows << j, stride);
-  Planes band, result;
-  band.Reset(k + 1, stride);
-  result.Reset(1, stride);
-
-  std::vector<float> scratch;
-  std::vector<const float*> in;
-  std::vector<float*> out;
+  MedianRun run(image, k, stages);
   cv::Mat filtered(image.size(), CV_32FC1);
-  for (int y = 0; y < image.rows; y += 2) {
-    // Output rows y and y+1 are padded rows y+half and y+1+half: core = padded rows y+1 .. y+k-1;
-    // private rows y (output y) and y+k (output y+1; past the image for an odd last row, then
-    // unused).
-    in.clear();
-    out.clear();
-    for (int r = 0; r < rows; ++r) in.push_back(padded_row(y + 1 + r));
-    for (int r = 0; r < rows; ++r) out.push_back(levels[0].Row(r));
-    stages.Run(Stage::kSortColumns, 0, in.data(), out.data(), wp, scratch);
-    for (int j = 1; j < top; ++j) {
-      in.clear();
-      out.clear();
-      for (int shift : {0, 1 << (j - 1)}) {
-        for (int r = 0; r < (rows << (j - 1)); ++r) in.push_back(levels[j - 1].Row(r) + shift);
-      }
-      for (int r = 0; r < (rows << j); ++r) out.push_back(levels[j].Row(r));
-      stages.Run(Stage::kMergeLevel, j, in.data(), out.data(), wp - (1 << j) + 1, scratch);
-    }
-    in.clear();
-    out.clear();
-    const int largest_half = top > 0 ? top - 1 : 0;
-    for (int shift : {0, 1 << largest_half}) {
-      if (top == 0 && shift > 0) break;
-      for (int r = 0; r < (rows << largest_half); ++r) {
-        in.push_back(levels[largest_half].Row(r) + shift);
-      }
-    }
-    int offset = 1 << top;
-    for (int j = top - 1; j >= 0; --j) {
-      if (!(k & (1 << j))) continue;
-      for (int r = 0; r < (rows << j); ++r) in.push_back(levels[j].Row(r) + offset);
-      offset += 1 << j;
-    }
-    for (int r = 0; r <= k; ++r) out.push_back(band.Row(r));
-    stages.Run(Stage::kCoreBand, 0, in.data(), out.data(), width, scratch);
-    for (int side = 0; side < 2 && y + side < image.rows; ++side) {
-      in.clear();
-      out.clear();
-      for (int r = 0; r <= k; ++r) in.push_back(band.Row(r));
-      const float* own = padded_row(side == 0 ? y : y + k);
-      for (int dx = 0; dx < k; ++dx) in.push_back(own + dx);
-      out.push_back(result.Row(0));
-      stages.Run(Stage::kFinish, 0, in.data(), out.data(), width, scratch);
-      std::copy_n(result.Row(0), width, filtered.ptr<float>(y + side));
-    }
-  }
+  for (int y = 0; y < image.rows; y += 2) run.RowPair(y, filtered);
   return filtered;
 }
 
