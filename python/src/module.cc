@@ -58,13 +58,6 @@ using namespace pyext;
 
 // ---- scenes ------------------------------------------------------------------------------------
 
-struct PyScene {
-  std::shared_ptr<const Renderer> renderer;
-  std::string spec;  // how it was loaded ("" for arrays)
-  double scale = 1.0;
-  const Scene& scene() const { return renderer->scene(); }
-};
-
 PyScene SceneFromSpec(const std::string& spec, double scale) {
   PyScene s;
   s.spec = spec;
@@ -173,42 +166,8 @@ py::array EnhanceArray(const py::array& image, const std::string& method,
   return WrapNumpy(out);  // R, G, B already
 }
 
-// As `turbid score` reads files: integer arrays keep their raw values with data range 255 / 65535.
-MetricImage MetricFromArray(const py::array& a, const std::string& what) {
-  const ArrayView v = ViewArray(a, what);
-  MetricImage m;
-  m.data_range = v.mat.depth() == CV_8U ? 255.0 : (v.mat.depth() == CV_16U ? 65535.0 : 1.0);
-  cv::Mat f = v.mat;
-  if (f.depth() != CV_32F) f.convertTo(f, CV_32F);
-  if (v.channels == 3) {
-    cv::Mat bgr;
-    cv::cvtColor(f, bgr, cv::COLOR_RGB2BGR);
-    f = bgr;
-  }
-  m.pixels = f;
-  return m;
-}
-
-std::map<std::string, double> ScoreArrays(const py::array& image, const std::optional<py::array>& ref,
-                                          const std::optional<py::array>& original,
-                                          const std::string& metric_list) {
-  MetricImage img, r, o;
-  img = MetricFromArray(image, "image");
-  if (ref) r = MetricFromArray(*ref, "ref");
-  if (original) o = MetricFromArray(*original, "original");
-  WorkScope release;
-  const std::string list = metric_list.empty() ? (ref ? "ssim,psnr" : "cnr") : metric_list;
-  const std::vector<std::string> metrics = ParseMetricList(list, bool(ref), bool(original));
-  MetricInputs in;
-  in.data_range = CommonScale({&r, &img, &o});
-  in.reference = r.pixels;
-  in.image = img.pixels;
-  in.original = o.pixels;
-  return ComputeMetrics(metrics, in);
-}
-
 std::string MatchArrays(const py::array& a, const py::array& b, const std::string& detector) {
-  const MetricImage ia = MetricFromArray(a, "a"), ib = MetricFromArray(b, "b");
+  const MetricImage ia = MetricFromArray(ViewArray(a, "a")), ib = MetricFromArray(ViewArray(b, "b"));
   WorkScope release;
   FeatureMatchOptions options;
   options.detector = ParseFeatureDetector(detector);
@@ -422,8 +381,6 @@ void DefineCalls(py::module_& m) {
         py::arg("maps"));
   m.def("enhance", &EnhanceArray, py::arg("image"), py::arg("method"), py::arg("params"),
         py::arg("sidecar"), py::arg("scene"), py::arg("encoding"));
-  m.def("score", &ScoreArrays, py::arg("image"), py::arg("ref"), py::arg("original"),
-        py::arg("metrics"));
   m.def("match_features", &MatchArrays, py::arg("a"), py::arg("b"), py::arg("detector"));
   m.def("methods", [] {
     json all = json::array();
@@ -469,7 +426,6 @@ void DefineFilesAndThreads(py::module_& m) {
   m.def("write_image", [](const std::string& path, const py::array& image, int bit_depth,
                           const std::string& encoding, bool overwrite) {
     const ArrayView v = ViewArray(image, "image");
-    if (v.mat.depth() != CV_32F) throw Error("image: write_image takes float32 [0, 1]");
     WorkScope release;
     // A new Mat for the BGR copy: converting into v.mat's header would swap the caller's array.
     cv::Mat m;
@@ -480,6 +436,7 @@ void DefineFilesAndThreads(py::module_& m) {
     }
     WriteImageOptions o;
     o.bit_depth = bit_depth;
+    o.raw = v.mat.depth() != CV_32F;  // uint8 / uint16 codes are written as they are
     o.transfer = ParseEncoding(encoding) == Encoding::kSrgb ? Transfer::kSrgb : Transfer::kLinear;
     o.overwrite = overwrite;
     try {
@@ -628,4 +585,5 @@ PYBIND11_MODULE(_turbid, m) {
   DefineFilesAndThreads(m);
   DefineRuns(m);
   DefineData(m);
+  DefineBatch(m);
 }

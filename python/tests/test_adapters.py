@@ -115,7 +115,7 @@ def write_folder(root, depth_of, stems=("f10", "f2", "f1")):
     out = {}
     for i, stem in enumerate(stems):
         rgb = np.stack([np.full_like(x, 50 * i + 5), 30 * y, 20 * x], axis=-1).astype(np.float32) / 255
-        turbid.write_image(root / "rgb" / (stem + ".png"), rgb)
+        turbid.write_image(root / "rgb" / (stem + ".png"), rgb, encoding="linear")
         depth = depth_of(i, x, y)
         np.save(root / "depth" / (stem + ".npy"), depth)
         out[stem] = (rgb, depth)

@@ -316,7 +316,7 @@ def test_torch_tensors_that_cannot_be_read_are_one_type_error():
     with pytest.raises(TypeError, match=r"\.cpu\(\)") as e:
         turbid.enhance(meta, "clahe")
     assert "meta" in one_line(e)
-    with pytest.raises(ValueError, match="channels first") as e:
+    with pytest.raises(ValueError, match="channels first. pass channel_axis=-3") as e:
         turbid.enhance(torch.from_numpy(IMG.transpose(2, 0, 1).copy()), "clahe")
     one_line(e)
     for t in (torch.zeros((8, 8), dtype=torch.int64), torch.zeros((8, 8), dtype=torch.bool),
@@ -359,7 +359,7 @@ def test_dtypes_and_layouts():
         with pytest.raises(TypeError, match="dtype") as e:
             turbid.enhance(IMG.astype(dtype), "clahe")
         one_line(e)
-    for shape in ((48,), (2, 48, 64, 3), (48, 64, 2), (48, 64, 4), (0, 64, 3)):
+    for shape in ((48,), (2, 48, 64, 2), (48, 64, 2), (48, 64, 4), (0, 64, 3), (0, 48, 64, 3)):
         with pytest.raises(ValueError) as e:
             turbid.enhance(np.zeros(shape, np.float32), "clahe")
         one_line(e)
