@@ -128,6 +128,11 @@ MetricImage MetricFromArray(const ArrayView& v);
 // The batch entry points (batch.cc): enhance, score and the sRGB curve over N x H x W x C arrays,
 // the items in parallel with the GIL released; score's domains.
 void DefineBatch(py::module_& m);
+// module.cc: a scene from a spec (builtin scale), a config from a dict or a JSON path.
+PyScene SceneFromSpec(const std::string& spec, double scale);
+json ConfigFrom(const py::object& config, std::string* source);
+// The training-data path (dataset.cc): generate plans, per-epoch draws, crops before rendering.
+void DefineDataset(py::module_& m);
 py::array ToNumpy(const cv::Mat& mat);
 
 }  // namespace turbid::pyext

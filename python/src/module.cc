@@ -58,7 +58,9 @@ using namespace pyext;
 
 // ---- scenes ------------------------------------------------------------------------------------
 
-PyScene SceneFromSpec(const std::string& spec, double scale) {
+}  // namespace
+
+PyScene pyext::SceneFromSpec(const std::string& spec, double scale) {
   PyScene s;
   s.spec = spec;
   s.scale = scale;
@@ -74,6 +76,8 @@ PyScene SceneFromSpec(const std::string& spec, double scale) {
   }
   return s;
 }
+
+namespace {
 
 PyScene SceneFromArrays(const py::array& image, const py::array& depth_m, double fx, double fy,
                         double cx, double cy, const std::optional<py::array>& normals,
@@ -270,7 +274,9 @@ InProcessMethod PythonCallable(py::handle fn) {
   };
 }
 
-json ConfigFrom(const py::object& config, std::string* source) {
+}  // namespace
+
+json pyext::ConfigFrom(const py::object& config, std::string* source) {
   if (py::isinstance<py::str>(config) || py::hasattr(config, "__fspath__")) {
     *source = py::str(py::module_::import("os").attr("fspath")(config));
     return ReadConfigFile(*source);
@@ -280,39 +286,7 @@ json ConfigFrom(const py::object& config, std::string* source) {
                        "config");
 }
 
-// A generate config with its scenes loaded and items expanded: renders item i on demand.
-struct GeneratePlan {
-  GenerateConfig config;
-  std::vector<PyScene> scenes;
-  std::vector<GenerateItem> items;
-};
-
-std::shared_ptr<GeneratePlan> PlanFrom(const py::object& config_obj) {
-  std::string source;
-  const json config = ConfigFrom(config_obj, &source);
-  auto plan = std::make_shared<GeneratePlan>();
-  plan->config = ParseGenerateConfig(config, source);
-  std::vector<std::string> names;
-  for (const std::string& spec : plan->config.scene_specs) {
-    plan->scenes.push_back(SceneFromSpec(spec, plan->config.scale));
-    names.push_back(plan->scenes.back().scene().name);
-  }
-  WorkScope release;
-  plan->items = ExpandGenerateItems(plan->config, names);
-  return plan;
-}
-
-std::string DrawParams(const std::string& base_text, const std::string& random_text,
-                       uint64_t random_seed, uint64_t seed, uint64_t index) {
-  json params = ParseJsonText(base_text, "base");
-  const json random = ParseJsonText(random_text, "random.params");
-  if (!params.is_object()) throw Error("base: parameters must be a JSON object");
-  if (!random.is_object()) throw Error("random.params: must be an object");
-  ApplyRandomDraw(params, random, random_seed, index);
-  if (!params.contains("seed")) params["seed"] = GenerateItemSeed(seed, index);
-  return RenderOptionsToJson(RenderOptionsFromJson(params)).dump();
-}
-
+namespace {
 
 // ---- the module's definitions, by group ----------------------------------------------------------
 
@@ -524,18 +498,6 @@ void DefineRuns(py::module_& m) {
 }
 
 void DefineData(py::module_& m) {
-  py::class_<GeneratePlan, std::shared_ptr<GeneratePlan>>(m, "GeneratePlan")
-      .def(py::init(&PlanFrom))
-      .def("__len__", [](const GeneratePlan& p) { return p.items.size(); })
-      .def("item", [](const GeneratePlan& p, int64_t i) {
-        if (i < 0 || i >= static_cast<int64_t>(p.items.size()))
-          throw py::index_error("item " + std::to_string(i) + " out of range");
-        const GenerateItem& it = p.items[i];
-        return py::make_tuple(it.id, it.scene, it.params.dump());
-      })
-      .def("scene", [](const GeneratePlan& p, size_t s) { return p.scenes.at(s); })
-      .def_property_readonly("format", [](const GeneratePlan& p) { return p.config.format; });
-  m.def("draw_params", &DrawParams);
   // For python/benchmarks/bench.py: the C++ time alone (no conversion, no Python), seconds of
   // process CPU time per call (all threads; time spent waiting for a busy core is not counted).
   m.def("_cpp_render_seconds", [](const PyScene& scene, const std::string& params_text, int n) {
@@ -586,4 +548,5 @@ PYBIND11_MODULE(_turbid, m) {
   DefineRuns(m);
   DefineData(m);
   DefineBatch(m);
+  DefineDataset(m);
 }

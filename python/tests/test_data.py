@@ -34,8 +34,9 @@ def test_dataset_items_equal_generate(tmp_path):
     rows = [json.loads(l) for l in (tmp_path / "manifest.jsonl").read_text().splitlines()]
     assert len(rows) == len(ds)
     for i in (0, 3, 5, 7):
-        degraded, clean, params = ds[i]
-        assert ds.item_id(i) == rows[i]["id"]
+        sample = ds[i]
+        degraded, clean, params = sample["degraded"], sample["clean"], sample["params"]
+        assert ds.item_id(i) == rows[i]["id"] == sample["id"] and sample["index"] == i
         assert params == rows[i]["options"]
         # The same 8-bit codes, sRGB-coded as the manifest records (decoded in float vs double).
         assert rows[i]["encoding"] == "srgb"
@@ -46,10 +47,10 @@ def test_dataset_items_equal_generate(tmp_path):
 
 def test_dataset_is_deterministic_in_any_order():
     ds = data.RenderDataset(CONFIG, with_params=False)
-    forward = [ds[i][0] for i in range(len(ds))]
+    forward = [ds[i]["degraded"] for i in range(len(ds))]
     again = data.RenderDataset(CONFIG, with_params=False)
     for i in reversed(range(len(ds))):
-        assert np.array_equal(again[i][0], forward[i])
+        assert np.array_equal(again[i]["degraded"], forward[i])
     assert not np.array_equal(forward[0], forward[1])
 
 
@@ -63,15 +64,16 @@ def test_transform_draws_like_generate():
                              "random": dict(SAMPLER, count=4)})
     types = set()
     for i in range(4):
-        degraded, clean, params = t(scene.image, scene.depth, K, i)
-        assert params == ds[i][2]  # generate's parameters for item i
+        sample = t(scene.image, scene.depth, K, seed=i)
+        degraded, clean, params = sample["degraded"], sample["clean"], sample["params"]
+        assert params == ds[i]["params"]  # generate's parameters for item i
         # Rendered as from_arrays + render with those parameters (normals derived from depth).
         own = turbid.Scene.from_arrays(scene.image, scene.depth, c["fx"], c["fy"], c["cx"], c["cy"])
         assert np.array_equal(degraded, turbid.render(own, params).image)
         assert np.array_equal(clean, scene.image)
         types.add(params["water"]["type"])
         again = t(scene.image, scene.depth, (c["fx"], c["fy"], c["cx"], c["cy"]), i)
-        assert np.array_equal(again[0], degraded)
+        assert np.array_equal(again["degraded"], degraded)
     assert types <= {"I", "IB", "II", "3C", "5C"}
 
 
@@ -85,19 +87,22 @@ def test_transform_rejects_bad_samplers():
 def test_torch_dataloader_two_workers():
     torch = pytest.importorskip("torch", reason="python3-torch is not installed")
     from torch.utils.data import DataLoader
-    ds = data.RenderDataset(CONFIG, channels_first=True, with_params=False)
+    ds = data.RenderDataset(CONFIG, channel_axis=-3, with_params=False)
     expected = [ds[i] for i in range(len(ds))]
     for workers in (0, 2):
-        loader = DataLoader(ds, batch_size=3, num_workers=workers, shuffle=False)
+        loader = DataLoader(ds, batch_size=3, num_workers=workers, shuffle=False,
+                            collate_fn=data.collate)
         seen = 0
-        for degraded, clean in loader:
+        for batch in loader:
+            degraded, clean = batch["degraded"], batch["clean"]
+            assert degraded.shape[1:] == (3, 96, 128) and batch["valid"].dtype == torch.bool
             for j in range(degraded.shape[0]):
-                assert np.array_equal(degraded[j].numpy(), expected[seen][0])
-                assert np.array_equal(clean[j].numpy(), expected[seen][1])
+                assert np.array_equal(degraded[j].numpy(), expected[seen]["degraded"])
+                assert np.array_equal(clean[j].numpy(), expected[seen]["clean"])
                 seen += 1
         assert seen == len(ds)
     # Another order, items still the same bytes.
     order = [5, 2, 7, 0, 3, 6, 1, 4]
-    loader = DataLoader(ds, batch_size=1, num_workers=2, sampler=order)
-    for k, (degraded, _) in enumerate(loader):
-        assert np.array_equal(degraded[0].numpy(), expected[order[k]][0])
+    loader = DataLoader(ds, batch_size=1, num_workers=2, sampler=order)  # default collate
+    for k, batch in enumerate(loader):
+        assert np.array_equal(batch["degraded"][0].numpy(), expected[order[k]]["degraded"])
