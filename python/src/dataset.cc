@@ -169,9 +169,27 @@ Scene SampleScene(const Scene& s, const SampleSpec& spec) {
   return out;
 }
 
+// An image as NumPy in its final layout: H x W x C RGB, or C x H x W RGB with `planar` (one pass
+// that also reorders B, G, R when `bgr`). Gray images are H x W x 1 / 1 x H x W.
+py::array ToLayout(const cv::Mat& m, bool bgr, bool planar) {
+  const int c = m.channels();
+  if (!planar) {
+    py::array a = bgr ? ToNumpy(m) : WrapNumpy(m);
+    return c == 1 ? py::array(a.attr("reshape")(m.rows, m.cols, 1)) : a;
+  }
+  py::array_t<float> out({c, m.rows, m.cols});
+  std::vector<cv::Mat> planes;
+  for (int k = 0; k < c; ++k)
+    planes.emplace_back(m.rows, m.cols, CV_32F, out.mutable_data() + k * m.total());
+  if (bgr && c == 3) std::swap(planes[0], planes[2]);
+  WorkScope release;
+  cv::split(m, planes);
+  return out;
+}
+
 // A rendered sample: {"degraded", "clean" (J with `lit`), "depth", "valid", "K", maps...}.
 py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::string& params_text,
-                      const std::string& maps, bool lit, bool float_output) {
+                      const std::string& maps, bool lit, bool float_output, bool planar) {
   const json params = ParseJsonText(params_text, "params");
   RenderResult result;
   std::unique_ptr<Renderer> own;  // the cropped / resized scene's
@@ -190,8 +208,8 @@ py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::s
   }
   const Scene& scene = (own ? *own : full).scene();
   py::dict out;
-  out["degraded"] = WrapNumpy(result.image);  // R, G, B already
-  out["clean"] = ToNumpy(lit ? result.lit : scene.image);
+  out["degraded"] = ToLayout(result.image, /*bgr=*/false, planar);  // R, G, B already
+  out["clean"] = ToLayout(lit ? result.lit : scene.image, /*bgr=*/true, planar);
   out["depth"] = ToNumpy(scene.depth_m);
   py::array_t<bool> v({valid.rows, valid.cols});
   cv::Mat dst(valid.rows, valid.cols, CV_8U, v.mutable_data());
@@ -201,7 +219,8 @@ py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::s
       {"transmission", &result.transmission}, {"light", &result.light},
       {"veil", &result.veil}, {"psf", &result.psf}, {"noise", &result.noise}};
   for (const auto& [name, mat] : named)
-    if (!mat->empty()) out[name] = ToNumpy(*mat);
+    if (!mat->empty())
+      out[name] = std::string(name) == "psf" ? ToNumpy(*mat) : ToLayout(*mat, true, planar);
   const CameraIntrinsics& c = scene.camera;
   out["K"] = py::make_tuple(c.fx, c.fy, c.cx, c.cy);
   return out;
@@ -244,10 +263,10 @@ void DefineDataset(py::module_& m) {
   m.def("crop_origin", &CropOrigin);
   m.def("render_sample", [](const PyScene& scene, const std::string& params_text, int crop_h,
                             int crop_w, int y0, int x0, int size_h, int size_w, int channels,
-                            const std::string& maps, bool lit, bool float_output) {
+                            const std::string& maps, bool lit, bool float_output, bool planar) {
     const SampleSpec spec =
         MakeSpec(scene.scene(), crop_h, crop_w, y0, x0, size_h, size_w, channels);
-    return RenderSample(*scene.renderer, spec, params_text, maps, lit, float_output);
+    return RenderSample(*scene.renderer, spec, params_text, maps, lit, float_output, planar);
   });
   m.def("draw_params", [](const std::string& base_text, const std::string& random_text,
                           uint64_t random_seed, uint64_t seed, uint64_t index) {

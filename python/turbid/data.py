@@ -110,19 +110,9 @@ class _SampleOptions:
 
     def render(self, core, params_text, window, float_output):
         ch, cw, y0, x0 = window
-        sample = _turbid.render_sample(core, params_text, ch, cw, y0, x0, self.size[0],
-                                       self.size[1], self.channels or 0, ",".join(self.maps),
-                                       self.lit, float_output)
-        for key in ("degraded", "clean") + tuple(m for m in self.maps if m != "psf"):
-            a = sample.get(key)
-            if a is None or a.ndim != 2 and a.ndim != 3:
-                continue
-            if a.ndim == 2:
-                a = a[:, :, None]
-            if self.channels_first:
-                a = _np.ascontiguousarray(a.transpose(2, 0, 1))
-            sample[key] = a
-        return sample
+        return _turbid.render_sample(core, params_text, ch, cw, y0, x0, self.size[0],
+                                     self.size[1], self.channels or 0, ",".join(self.maps),
+                                     self.lit, float_output, self.channels_first)
 
 
 def _worker_threads(threads):
@@ -346,8 +336,10 @@ def collate(samples):
                 raise ValueError("collate: '%s' has different sizes in one batch: %s; pass crop= "
                                  "or size= to the dataset, or batch with "
                                  "turbid.data.BucketBatchSampler" % (key, sizes))
-            stacked = _np.stack(values)
-            out[key] = torch.from_numpy(stacked) if torch is not None else stacked
+            if torch is not None:  # in a worker: stacked into shared memory, as torch does
+                out[key] = torch.utils.data.default_collate(values)
+            else:
+                out[key] = _np.stack(values)
         elif key == "index" and torch is not None:
             out[key] = torch.tensor(values)
         else:
