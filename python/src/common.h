@@ -131,8 +131,14 @@ void DefineBatch(py::module_& m);
 // module.cc: a scene from a spec (builtin scale), a config from a dict or a JSON path.
 PyScene SceneFromSpec(const std::string& spec, double scale);
 json ConfigFrom(const py::object& config, std::string* source);
+// Render parameters as Python callers write them: top-level dotted keys ("water.type",
+// "light.lights.0.power") are set into the nested object as `turbid render --set` sets them,
+// after the nested keys (module.cc).
+json ExpandDottedParams(json params, const std::string& what);
 // The training-data path (dataset.cc): generate plans, per-epoch draws, crops before rendering.
 void DefineDataset(py::module_& m);
+// report, merge and regress (harness.cc).
+void DefineHarness(py::module_& m);
 py::array ToNumpy(const cv::Mat& mat);
 
 }  // namespace turbid::pyext

@@ -270,9 +270,8 @@ void DefineDataset(py::module_& m) {
   });
   m.def("draw_params", [](const std::string& base_text, const std::string& random_text,
                           uint64_t random_seed, uint64_t seed, uint64_t index) {
-    json params = ParseJsonText(base_text, "base");
+    json params = ExpandDottedParams(ParseJsonText(base_text, "base"), "base");
     const json random = ParseJsonText(random_text, "random.params");
-    if (!params.is_object()) throw Error("base: parameters must be a JSON object");
     if (!random.is_object()) throw Error("random.params: must be an object");
     ApplyRandomDraw(params, random, random_seed, index);
     if (!params.contains("seed")) params["seed"] = GenerateItemSeed(seed, index);

@@ -118,8 +118,7 @@ struct PyRenderResult {
 
 PyRenderResult RenderScene(const PyScene& scene, const std::string& params_text,
                            std::optional<uint64_t> seed, const std::string& maps) {
-  json params = ParseJsonText(params_text, "params");
-  if (!params.is_object()) throw Error("params: parameters must be a JSON object");
+  json params = ExpandDottedParams(ParseJsonText(params_text, "params"), "params");
   if (seed) params["seed"] = *seed;  // turbid.render checked it (turbid._seed)
   PyRenderResult out;
   WorkScope release;
@@ -276,6 +275,18 @@ InProcessMethod PythonCallable(py::handle fn) {
 
 }  // namespace
 
+json pyext::ExpandDottedParams(json params, const std::string& what) {
+  if (!params.is_object()) throw Error(what + ": parameters must be a JSON object");
+  std::vector<std::pair<std::string, json>> dotted;
+  for (auto it = params.begin(); it != params.end(); ++it)
+    if (it.key().find('.') != std::string::npos) dotted.emplace_back(it.key(), it.value());
+  for (const auto& [key, value] : dotted) {
+    params.erase(key);
+    SetRenderParam(params, key, value);
+  }
+  return params;
+}
+
 json pyext::ConfigFrom(const py::object& config, std::string* source) {
   if (py::isinstance<py::str>(config) || py::hasattr(config, "__fspath__")) {
     *source = py::str(py::module_::import("os").attr("fspath")(config));
@@ -303,6 +314,7 @@ void DefineScenes(py::module_& m) {
                   py::arg("encoding") = py::none())
       .def_property_readonly("name", [](const PyScene& s) { return s.scene().name; })
       .def_property_readonly("spec", [](const PyScene& s) { return s.spec; })
+      .def_property_readonly("scale", [](const PyScene& s) { return s.scale; })
       .def_property_readonly("width", [](const PyScene& s) { return s.scene().width(); })
       .def_property_readonly("height", [](const PyScene& s) { return s.scene().height(); })
       .def_property_readonly("image", [](const PyScene& s) { return ToNumpy(s.scene().image); })
@@ -382,7 +394,9 @@ void DefineCalls(py::module_& m) {
   });
   m.def("default_params", [] { return RenderOptionsToJson(RenderOptions{}).dump(); });
   m.def("resolve_params", [](const std::string& text) {
-    return RenderOptionsToJson(RenderOptionsFromJson(ParseJsonText(text, "params"))).dump();
+    return RenderOptionsToJson(
+               RenderOptionsFromJson(ExpandDottedParams(ParseJsonText(text, "params"), "params")))
+        .dump();
   });
 }
 
@@ -549,4 +563,5 @@ PYBIND11_MODULE(_turbid, m) {
   DefineData(m);
   DefineBatch(m);
   DefineDataset(m);
+  DefineHarness(m);
 }

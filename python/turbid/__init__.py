@@ -23,7 +23,7 @@ from . import _arrays
 __version__ = _turbid.__version__
 
 __all__ = ["Scene", "RenderResult", "render", "enhance", "methods", "score", "metrics",
-           "srgb_encode", "srgb_decode",
+           "srgb_encode", "srgb_decode", "report", "merge", "regress",
            "match_features", "generate", "sweep", "default_params", "resolve_params",
            "read_image", "write_image", "set_num_threads", "get_num_threads", "__version__"]
 
@@ -73,18 +73,44 @@ class Scene:
             float(fx), float(fy), float(cx), float(cy),
             _optional_array(normals, "normals", float_only=True), str(name), encoding))
 
-    name = property(lambda self: self._core.name)
-    spec = property(lambda self: self._core.spec)
-    width = property(lambda self: self._core.width)
-    height = property(lambda self: self._core.height)
-    image = property(lambda self: self._core.image)
-    depth = property(lambda self: self._core.depth)
-    normals = property(lambda self: self._core.normals)
-    range = property(lambda self: self._core.range)
-    camera = property(lambda self: self._core.camera)
+    name = property(lambda self: self._core.name, doc="The scene's short name (str).")
+    spec = property(lambda self: self._core.spec,
+                    doc='How it was loaded ("builtin:NAME", a scene file path; "" for arrays).')
+    width = property(lambda self: self._core.width, doc="Width in pixels.")
+    height = property(lambda self: self._core.height, doc="Height in pixels.")
+    image = property(lambda self: self._core.image,
+                     doc="The clean image rho: float32 linear RGB H x W x 3 (or H x W gray).")
+    depth = property(lambda self: self._core.depth,
+                     doc="z-depth in metres, float32 H x W, NaN where unknown.")
+    normals = property(lambda self: self._core.normals,
+                       doc="Unit normals (camera frame x, y, z), H x W x 3; None if derived.")
+    range = property(lambda self: self._core.range,
+                     doc="Distance along the viewing ray in metres, H x W, NaN where unknown.")
+    camera = property(lambda self: self._core.camera,
+                      doc="Pinhole intrinsics: dict fx, fy, cx, cy, width, height (pixels).")
 
     def __repr__(self):
         return "turbid.Scene(%r, %dx%d)" % (self.name, self.width, self.height)
+
+    def __reduce__(self):
+        # Loaded scenes travel as their spec (and scale); array scenes as their arrays.
+        if self.spec:
+            return (_scene_from_spec, (self.spec, self._core.scale))
+        c = self.camera
+        normals = self.normals
+        if not isinstance(normals, _np.ndarray) or normals.dtype != _np.float32:
+            normals = None  # derived from depth again, as the first time
+        return (_scene_from_arrays, (self.image, self.depth, c["fx"], c["fy"], c["cx"], c["cy"],
+                                     normals, self.name))
+
+
+def _scene_from_spec(spec, scale):
+    return Scene(_turbid.Scene.builtin(spec, scale) if spec.startswith("builtin:")
+                 else _turbid.Scene.load(spec))
+
+
+def _scene_from_arrays(image, depth, fx, fy, cx, cy, normals, name):
+    return Scene.from_arrays(image, depth, fx, fy, cx, cy, normals=normals, name=name)
 
 
 class RenderResult:
@@ -104,12 +130,31 @@ class RenderResult:
             self._cache[key] = make()
         return self._cache[key]
 
-    image = property(lambda self: self._get("image", self._core.image))
-    lit = property(lambda self: self._get("lit", self._core.lit))
+    image = property(lambda self: self._get("image", lambda: self._core.image()),
+                     doc="The degraded image I: float32 RGB (or gray) in [0, 1].")
+    lit = property(lambda self: self._get("lit", lambda: self._core.lit()),
+                   doc="J = (E_A + E_L) rho, the lit ground truth (float32).")
     maps = property(lambda self: self._get(
-        "maps", lambda: {n: self._core.map(n) for n in self._names}))
-    sidecar = property(lambda self: self._get("sidecar", lambda: _json.loads(self._core.sidecar())))
-    plan = property(lambda self: self._core.plan())
+        "maps", lambda: {n: self._core.map(n) for n in self._names}),
+        doc="Dict of the maps asked for with render(maps=...).")
+    sidecar = property(lambda self: self._get("sidecar", lambda: _json.loads(self._core.sidecar())),
+                       doc="The dict the CLI writes as OUT.json (parameters, scene, versions).")
+    # Python holds R, G, B: the plan says so (the libraries' B, G, R is never visible).
+    plan = property(lambda self: self._get("plan", lambda: self._core.plan().replace(
+        "channels (BGR)", "channels (RGB)")),
+                    doc="What the render computed and skipped (text).")
+
+    def __getstate__(self):  # the arrays, not the C++ result
+        return {"names": self._names, "cache": {
+            "image": self.image, "lit": self.lit, "maps": self.maps, "sidecar": self.sidecar,
+            "plan": self.plan}}
+
+    def __setstate__(self, state):
+        self._core, self._names, self._cache = None, state["names"], dict(state["cache"])
+
+    def __repr__(self):
+        shape = "x".join(map(str, self.image.shape))
+        return "turbid.RenderResult(image %s, maps %s)" % (shape, list(self._names))
 
 
 def _array(value, what, color=True, float_only=False, channel_axis=-1):
@@ -141,13 +186,24 @@ def _int(value, what, low=-2**63, high=2**63 - 1):
     return n
 
 
+def _json_value(value):
+    """NumPy scalars and arrays (and CPU tensors) where JSON takes numbers and lists."""
+    if isinstance(value, _np.generic):
+        return value.item()
+    if isinstance(value, _np.ndarray) or _arrays._is_torch(value):
+        return _np.asarray(value).tolist()
+    if isinstance(value, _os.PathLike):
+        return _os.fspath(value)
+    raise TypeError("Object of type %s is not JSON serializable" % type(value).__name__)
+
+
 def _dumps(value, what):
     if value is None:
         return "{}"
     if isinstance(value, (str, bytes, _os.PathLike)):
         raise ValueError("%s: a dict of parameters, not a %s" % (what, type(value).__name__))
     try:
-        return _json.dumps(value, allow_nan=False)
+        return _json.dumps(value, allow_nan=False, default=_json_value)
     except (TypeError, ValueError) as e:
         raise ValueError("%s: not JSON-serialisable: %s" % (what, e)) from None
 
@@ -381,6 +437,42 @@ def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True, meth
     return _json.loads(_turbid.sweep(experiment, _os.fspath(out), int(threads), str(shard),
                                      bool(force), bool(reuse), bool(retry_failed),
                                      dict(methods or {}), allow_commands=bool(allow_commands)))
+
+
+def report(dir, out=None, gnuplot="gnuplot"):
+    """``turbid report``: a static HTML report of a sweep folder (tables, images, plots).
+    ``out``: the HTML file (default ``DIR/report.html``). Returns dict html (its path), plots,
+    images, warning (non-empty when something was skipped, e.g. gnuplot missing)."""
+    return _json.loads(_turbid.report(_os.fspath(dir), "" if out is None else _os.fspath(out),
+                                      str(gnuplot)))
+
+
+def merge(dirs, out, allow_partial=False, force=False):
+    """``turbid merge``: combine shard folders (``sweep(..., shard="i/N")``) into the unsharded
+    result in ``out``. ``allow_partial=True`` writes tables even when items are missing;
+    ``force=True`` replaces an ``out`` holding another experiment. Returns the items merged."""
+    if isinstance(dirs, (str, bytes, _os.PathLike)):
+        raise TypeError("merge: dirs is a list of shard folders")
+    return _turbid.merge([_os.fspath(d) for d in dirs], _os.fspath(out), bool(allow_partial),
+                         bool(force))
+
+
+def regress(baseline, results, tolerances=None, tolerance_file=None, strict=False):
+    """``turbid regress``: compare ``results`` (a sweep folder or a CSV) with a ``baseline``
+    items.csv / summary.csv. ``tolerances``: {metric: abs or (abs, rel)} (default: the file
+    ``BASELINE.tolerances.json`` beside the baseline if present, else abs 1e-6, rel 1e-4);
+    ``strict=True``: improvements beyond tolerance fail too. Returns dict failed (bool),
+    compared, moves (list of key, metric, baseline, result, regression), missing, extra and text
+    (what the CLI prints); it does not raise for a regression -- check ``["failed"]``."""
+    tol = {}
+    for metric, value in dict(tolerances or {}).items():
+        pair = value if isinstance(value, (tuple, list)) else (value, 0.0)
+        if len(pair) != 2:
+            raise ValueError("tolerances: %r is abs or (abs, rel)" % (metric,))
+        tol[str(metric)] = (float(pair[0]), float(pair[1]))
+    return _json.loads(_turbid.regress(
+        _os.fspath(baseline), _os.fspath(results), tol,
+        "" if tolerance_file is None else _os.fspath(tolerance_file), bool(strict)))
 
 
 def default_params():
