@@ -27,3 +27,22 @@ def test_training_example_runs():
                          env=os.environ, timeout=600)
     assert out.returncode == 0, out.stderr[-2000:]
     assert "psnr" in out.stdout and "tensor" in out.stdout
+
+
+def test_api_reference_is_generated_from_the_docstrings():
+    sys.path.insert(0, os.path.join(ROOT, "python", "tools"))
+    try:
+        import api_docs
+    finally:
+        sys.path.pop(0)
+    text = open(DOC).read()
+    new = api_docs.updated(text)
+    if new != text and os.environ.get("TURBID_UPDATE_DOCS") == "1":
+        with open(DOC, "w") as f:
+            f.write(new)
+        text = new
+    assert new == text, ("docs/python.md: the API reference is out of date; run "
+                         "PYTHONPATH=build/python python3 python/tools/api_docs.py")
+    for name in ("turbid.score(image, ref=None", "domain='srgb8'", "class turbid.data.RenderDataset",
+                 "turbid.data.RenderDataset.set_epoch(epoch)", "turbid.srgb_encode"):
+        assert name in text, name
