@@ -131,3 +131,18 @@ def test_dotted_paths_and_numpy_numbers():
     assert data.draw_params({}, 0, base={"water.type": "II"})["water"]["type"] == "II"
     with pytest.raises(ValueError, match="water.tpye"):
         turbid.render(scene, {"water.tpye": "3C"})
+
+
+def test_numpy_numbers_in_configs(tmp_path):
+    config = {"scenes": ["builtin:room"], "scale": np.float64(0.1), "seed": np.int64(3),
+              "random": {"count": np.int32(2), "params": {
+                  "psf.forward_scatter": {"uniform": np.array([0.2, 0.8])}}}}
+    plain = {"scenes": ["builtin:room"], "scale": 0.1, "seed": 3,
+             "random": {"count": 2, "params": {"psf.forward_scatter": {"uniform": [0.2, 0.8]}}}}
+    a, b = data.RenderDataset(config), data.RenderDataset(plain)
+    assert len(a) == 2 and a[1]["params"] == b[1]["params"]
+    assert pickle.loads(pickle.dumps(a))[1]["params"] == b[1]["params"]
+    turbid.generate(config, tmp_path / "g", threads=1)
+    assert len((tmp_path / "g" / "manifest.jsonl").read_text().splitlines()) == 2
+    exp = dict(EXP, scale=np.float32(0.1), grid={"water.beta_gray_per_m": np.array([0.5])})
+    assert turbid.sweep(exp, tmp_path / "s", threads=1)["items_total"] == 2

@@ -208,6 +208,14 @@ def _dumps(value, what):
         raise ValueError("%s: not JSON-serialisable: %s" % (what, e)) from None
 
 
+def _config(value, what):
+    """A config / experiment argument: a path as it is, a dict as plain JSON values (NumPy
+    scalars and arrays become numbers and lists)."""
+    if isinstance(value, (str, _os.PathLike)):
+        return value
+    return _json.loads(_dumps(value, what))
+
+
 def _map_list(maps):
     if maps is None:
         return []
@@ -402,7 +410,7 @@ def generate(config, out, threads=None):
     threads = 0 if threads is None else _int(threads, "generate: threads", 0, 256)
     if threads == 0:
         threads = min(_os.cpu_count() or 1, 256)
-    _turbid.generate(config, _os.fspath(out), threads)
+    _turbid.generate(_config(config, "config"), _os.fspath(out), threads)
 
 
 def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True, methods=None,
@@ -434,7 +442,8 @@ def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True, meth
     with their ``env``); without it a sweep that names one raises before any work. An experiment
     file is data: nothing in it can allow its commands."""
     threads = _int(threads, "threads", -2**31, 2**31 - 1)  # the range is checked by the sweep
-    return _json.loads(_turbid.sweep(experiment, _os.fspath(out), int(threads), str(shard),
+    return _json.loads(_turbid.sweep(_config(experiment, "experiment"), _os.fspath(out),
+                                     int(threads), str(shard),
                                      bool(force), bool(reuse), bool(retry_failed),
                                      dict(methods or {}), allow_commands=bool(allow_commands)))
 

@@ -24,7 +24,7 @@ import sys as _sys
 import numpy as _np
 
 from . import _turbid, _arrays
-from . import Scene, _dumps, _int, _seed, set_num_threads
+from . import Scene, _config, _dumps, _int, _seed, set_num_threads
 
 __all__ = ["RenderDataset", "DegradeTransform", "collate", "BucketBatchSampler", "draw_params"]
 
@@ -171,7 +171,7 @@ class RenderDataset:
             threads = _int(threads, "threads", 1, 4096)
         self.threads = threads
         self._pid = None
-        self._plan = _turbid.GeneratePlan(config)
+        self._plan = _turbid.GeneratePlan(_config(config, "config"))
         # Crops larger than a scene fail now, not in a worker.
         for s in range(len({self._plan.item(i)[1] for i in range(len(self._plan))})):
             self._sample_size(s)
@@ -184,7 +184,7 @@ class RenderDataset:
 
     def __setstate__(self, state):
         self.__dict__.update(state)
-        self._plan = _turbid.GeneratePlan(self.config)
+        self._plan = _turbid.GeneratePlan(_config(self.config, "config"))
 
     def __len__(self):
         return len(self._plan)
