@@ -65,8 +65,7 @@ void ForEachItem(size_t n, const std::string& what, const Body& body) {
       }
     }
   });
-  if (failure)
-    throw Error(what + "[" + std::to_string(failure->first) + "]: " + failure->second);
+  if (failure) throw Error(what + "[" + std::to_string(failure->first) + "]: " + failure->second);
 }
 
 py::array EnhanceBatch(const py::array& batch, const std::string& method,
@@ -111,7 +110,8 @@ py::array EnhanceBatch(const py::array& batch, const std::string& method,
   return out;
 }
 
-// ---- score ---------------------------------------------------------------------------------------
+// ---- score
+// ---------------------------------------------------------------------------------------
 
 enum class Domain { kSrgb8, kLinear, kAsGiven };
 
@@ -140,8 +140,8 @@ cv::Mat CodeSrgb8(const cv::Mat& linear) {
 }
 
 struct ScoreSide {
-  cv::Mat full;        // what full-reference metrics compare
-  cv::Mat linear;      // what the no-reference metrics read
+  cv::Mat full;    // what full-reference metrics compare
+  cv::Mat linear;  // what the no-reference metrics read
   double full_range = 1.0;
 };
 
@@ -157,7 +157,7 @@ ScoreSide ToDomain(const ArrayView& v, Domain domain, Encoding encoding, const s
     return s;
   }
   // Floats are linear light whatever `encoding` says (it describes integer codes).
-  const Encoding enc = v.mat.depth() == CV_32F    ? Encoding::kLinear
+  const Encoding enc = v.mat.depth() == CV_32F       ? Encoding::kLinear
                        : encoding == Encoding::kNone ? Encoding::kSrgb
                                                      : encoding;
   s.linear = ToInternal(v, enc, what);
@@ -233,8 +233,7 @@ std::map<std::string, double> ScoreOne(const ScoreArgs& args, const ArrayView& i
 std::map<std::string, double> ScoreArrays(const py::array& image,
                                           const std::optional<py::array>& ref,
                                           const std::optional<py::array>& original,
-                                          const std::string& metric_list,
-                                          const std::string& domain,
+                                          const std::string& metric_list, const std::string& domain,
                                           const std::optional<std::string>& encoding) {
   const ArrayView iv = ViewArray(image, "image");
   std::optional<ArrayView> rv, ov;
@@ -245,10 +244,12 @@ std::map<std::string, double> ScoreArrays(const py::array& image,
   return ScoreOne(args, iv, rv ? &*rv : nullptr, ov ? &*ov : nullptr);
 }
 
-std::vector<std::map<std::string, double>> ScoreBatch(
-    const py::array& image, const std::optional<py::array>& ref,
-    const std::optional<py::array>& original, const std::string& metric_list,
-    const std::string& domain, const std::optional<std::string>& encoding) {
+std::vector<std::map<std::string, double>> ScoreBatch(const py::array& image,
+                                                      const std::optional<py::array>& ref,
+                                                      const std::optional<py::array>& original,
+                                                      const std::string& metric_list,
+                                                      const std::string& domain,
+                                                      const std::optional<std::string>& encoding) {
   const std::vector<ArrayView> iv = ViewBatch(image, "image");
   std::vector<ArrayView> rv, ov;
   if (ref) rv = ViewBatch(*ref, "ref");
@@ -256,8 +257,7 @@ std::vector<std::map<std::string, double>> ScoreBatch(
   for (const auto* other : {&rv, &ov})
     if (!other->empty() && other->size() != iv.size())
       throw Error(std::string(other == &rv ? "ref" : "original") + ": a batch of " +
-                  std::to_string(other->size()) + " for " + std::to_string(iv.size()) +
-                  " images");
+                  std::to_string(other->size()) + " for " + std::to_string(iv.size()) + " images");
   std::vector<std::map<std::string, double>> out(iv.size());
   WorkScope release;
   const ScoreArgs args = MakeScoreArgs(metric_list, bool(ref), bool(original), domain, encoding);
@@ -267,7 +267,8 @@ std::vector<std::map<std::string, double>> ScoreBatch(
   return out;
 }
 
-// ---- the sRGB curve ------------------------------------------------------------------------------
+// ---- the sRGB curve
+// ------------------------------------------------------------------------------
 
 // Any C-contiguous array, element by element (scenes/image_io.h's curve, IEC 61966-2-1).
 // decode: uint8 / uint16 codes are scaled to [0, 1] first (as ReadImage); encode: `bits` 8 or 16

@@ -98,8 +98,8 @@ uint64_t SplitMix64(uint64_t x) {
 
 // The crop window's origin: centred, or drawn from (seed, epoch, index) with a counter-based
 // generator (the same window in any worker, any order).
-std::pair<int, int> CropOrigin(uint64_t seed, uint64_t epoch, uint64_t index, int height,
-                               int width, int crop_h, int crop_w, bool random) {
+std::pair<int, int> CropOrigin(uint64_t seed, uint64_t epoch, uint64_t index, int height, int width,
+                               int crop_h, int crop_w, bool random) {
   if (crop_h > height || crop_w > width)
     throw Error("crop " + std::to_string(crop_h) + "x" + std::to_string(crop_w) +
                 " (h x w) is larger than the frame, " + std::to_string(height) + "x" +
@@ -215,9 +215,11 @@ py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::s
   cv::Mat dst(valid.rows, valid.cols, CV_8U, v.mutable_data());
   valid.convertTo(dst, CV_8U, 1.0 / 255.0);
   out["valid"] = v;
-  const std::pair<const char*, const cv::Mat*> named[] = {
-      {"transmission", &result.transmission}, {"light", &result.light},
-      {"veil", &result.veil}, {"psf", &result.psf}, {"noise", &result.noise}};
+  const std::pair<const char*, const cv::Mat*> named[] = {{"transmission", &result.transmission},
+                                                          {"light", &result.light},
+                                                          {"veil", &result.veil},
+                                                          {"psf", &result.psf},
+                                                          {"noise", &result.noise}};
   for (const auto& [name, mat] : named)
     if (!mat->empty())
       out[name] = std::string(name) == "psf" ? ToNumpy(*mat) : ToLayout(*mat, true, planar);
@@ -226,8 +228,8 @@ py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::s
   return out;
 }
 
-SampleSpec MakeSpec(const Scene& s, int crop_h, int crop_w, int y0, int x0, int size_h,
-                    int size_w, int channels) {
+SampleSpec MakeSpec(const Scene& s, int crop_h, int crop_w, int y0, int x0, int size_h, int size_w,
+                    int channels) {
   SampleSpec spec;
   if (crop_h > 0 && (crop_h != s.height() || crop_w != s.width())) {
     spec.crop_h = crop_h;
@@ -247,16 +249,18 @@ void DefineDataset(py::module_& m) {
   py::class_<GeneratePlan, std::shared_ptr<GeneratePlan>>(m, "GeneratePlan")
       .def(py::init(&PlanFrom))
       .def("__len__", [](const GeneratePlan& p) { return p.items.size(); })
-      .def("item", [](const GeneratePlan& p, int64_t i) {
-        if (i < 0 || i >= static_cast<int64_t>(p.items.size()))
-          throw py::index_error("item " + std::to_string(i) + " out of range");
-        const GenerateItem& it = p.items[i];
-        return py::make_tuple(it.id, it.scene, it.params.dump());
-      })
-      .def("params", [](const GeneratePlan& p, int64_t i, uint64_t epoch) {
-        WorkScope release;
-        return ItemParams(p, static_cast<size_t>(i), epoch).dump();
-      })
+      .def("item",
+           [](const GeneratePlan& p, int64_t i) {
+             if (i < 0 || i >= static_cast<int64_t>(p.items.size()))
+               throw py::index_error("item " + std::to_string(i) + " out of range");
+             const GenerateItem& it = p.items[i];
+             return py::make_tuple(it.id, it.scene, it.params.dump());
+           })
+      .def("params",
+           [](const GeneratePlan& p, int64_t i, uint64_t epoch) {
+             WorkScope release;
+             return ItemParams(p, static_cast<size_t>(i), epoch).dump();
+           })
       .def("scene", [](const GeneratePlan& p, size_t s) { return p.scenes.at(s); })
       .def_property_readonly("seed", [](const GeneratePlan& p) { return p.config.seed; })
       .def_property_readonly("format", [](const GeneratePlan& p) { return p.config.format; });

@@ -35,7 +35,9 @@ std::string ReportDir(const std::string& dir, const std::string& out, const std:
     WorkScope release;
     s = WriteReport(dir, options);
   }
-  return json({{"html", s.html_path}, {"plots", s.plots}, {"images", s.images},
+  return json({{"html", s.html_path},
+               {"plots", s.plots},
+               {"images", s.images},
                {"warning", s.warning}})
       .dump();
 }
@@ -77,9 +79,8 @@ std::string RegressTables(const std::string& baseline, const std::string& result
     std::ifstream in(baseline);
     std::getline(in, header);
     const bool summary = header.rfind("level,method,metric", 0) == 0 ||
-                         (header.empty() &&
-                          fs::path(baseline).filename().string().find("summary") !=
-                              std::string::npos);
+                         (header.empty() && fs::path(baseline).filename().string().find(
+                                                "summary") != std::string::npos);
     results += summary ? "/summary.csv" : "/items.csv";
     try {
       const SweepDir dir = LoadSweepDir(results_arg);
@@ -101,10 +102,17 @@ std::string RegressTables(const std::string& baseline, const std::string& result
   const RegressReport r = Regress(baseline, results, options);
   json moves = json::array();
   for (const RegressMove& m : r.moves)
-    moves.push_back({{"key", m.key}, {"metric", m.metric}, {"baseline", m.baseline},
-                     {"result", m.result}, {"regression", m.regression}});
-  return json({{"failed", r.failed()}, {"compared", r.compared}, {"moves", moves},
-               {"missing", r.missing}, {"extra", r.extra}, {"text", r.Format()},
+    moves.push_back({{"key", m.key},
+                     {"metric", m.metric},
+                     {"baseline", m.baseline},
+                     {"result", m.result},
+                     {"regression", m.regression}});
+  return json({{"failed", r.failed()},
+               {"compared", r.compared},
+               {"moves", moves},
+               {"missing", r.missing},
+               {"extra", r.extra},
+               {"text", r.Format()},
                {"results", results}})
       .dump();
 }
@@ -115,8 +123,8 @@ void DefineHarness(py::module_& m) {
   m.def("report", &ReportDir, py::arg("dir"), py::arg("out"), py::arg("gnuplot"));
   m.def("merge", &Merge, py::arg("dirs"), py::arg("out"), py::arg("allow_partial"),
         py::arg("force"));
-  m.def("regress", &RegressTables, py::arg("baseline"), py::arg("results"),
-        py::arg("tolerances"), py::arg("tolerance_file"), py::arg("strict"));
+  m.def("regress", &RegressTables, py::arg("baseline"), py::arg("results"), py::arg("tolerances"),
+        py::arg("tolerance_file"), py::arg("strict"));
 }
 
 }  // namespace turbid::pyext
