@@ -262,6 +262,7 @@ void DefineDataset(py::module_& m) {
              return ItemParams(p, static_cast<size_t>(i), epoch).dump();
            })
       .def("scene", [](const GeneratePlan& p, size_t s) { return p.scenes.at(s); })
+      .def_property_readonly("scene_count", [](const GeneratePlan& p) { return p.scenes.size(); })
       .def_property_readonly("seed", [](const GeneratePlan& p) { return p.config.seed; })
       .def_property_readonly("format", [](const GeneratePlan& p) { return p.config.format; });
   m.def("crop_origin", &CropOrigin);

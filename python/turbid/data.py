@@ -173,7 +173,7 @@ class RenderDataset:
         self._pid = None
         self._plan = _turbid.GeneratePlan(_config(config, "config"))
         # Crops larger than a scene fail now, not in a worker.
-        for s in range(len({self._plan.item(i)[1] for i in range(len(self._plan))})):
+        for s in range(self._plan.scene_count):
             self._sample_size(s)
 
     def __getstate__(self):
