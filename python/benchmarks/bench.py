@@ -1,7 +1,10 @@
 """Binding overhead, thread scaling and loader throughput of the turbid package.
 
-Run: PYTHONPATH=build/python python3 python/benchmarks/bench.py   (docs/performance.md)
+Run: PYTHONPATH=build/python python3 python/benchmarks/bench.py [--loader]   (docs/performance.md)
 """
+import os
+import resource
+import sys
 import threading
 import time
 
@@ -78,47 +81,48 @@ def scaling(n=40):
           " (x%.2f)" % (rates[1], rates[2], rates[2] / rates[1]))
 
 
-def loader():
+def cpu_seconds():
+    """CPU time of this process and its finished children (DataLoader workers are joined when an
+    iteration ends), user + system."""
+    own = resource.getrusage(resource.RUSAGE_SELF)
+    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+
+
+def loader(images=512):
+    """turbid.data through a torch DataLoader with 2 workers: 256 x 256 random crops and full
+    640 x 480 frames of the seafloor scene with a random sampler; images/s (wall) and CPU
+    milliseconds per image (all processes)."""
     try:
+        import torch
         from torch.utils.data import DataLoader
     except ImportError:
-        DataLoader = None
-    config = {"scenes": ["builtin:seafloor"], "seed": 1,
-              "random": {"count": 64, "params": {
+        print("loader: python3-torch is not installed")
+        return
+    config = {"scenes": ["builtin:seafloor", "builtin:room"], "seed": 1,
+              "random": {"count": images // 2, "params": {
                   "water.type": {"choice": ["I", "II", "3C", "5C"]},
-                  "psf.forward_scatter": {"uniform": [0.2, 0.8]}}}}
-    ds = data.RenderDataset(config, channels_first=True, with_params=False)
-    scene = turbid.Scene.builtin("seafloor")
-    crop_img = np.ascontiguousarray(scene.image[100:356, 100:356])
-    crop_depth = np.ascontiguousarray(scene.depth[100:356, 100:356])
-    c = scene.camera
-    K = (c["fx"], c["fy"], c["cx"] - 100, c["cy"] - 100)
-    t = data.DegradeTransform(config["random"], seed=1)
-
-    class Crops:
-        def __len__(self):
-            return 64
-
-        def __getitem__(self, i):
-            return t(crop_img, crop_depth, K, i)[:2]
-
-    for name, dataset in (("640x480 RenderDataset", ds), ("256x256 DegradeTransform", Crops())):
-        t0 = time.perf_counter()
-        for i in range(len(dataset)):
-            dataset[i]
-        print("%s, in-process: %.1f images/s" % (name, len(dataset) / (time.perf_counter() - t0)))
-        if DataLoader is None:
-            continue
-        for workers in (1, 2):
-            loader = DataLoader(dataset, batch_size=8, num_workers=workers)
-            t0 = time.perf_counter()
-            count = sum(b[0].shape[0] for b in loader)
-            print("%s, DataLoader num_workers=%d: %.1f images/s"
-                  % (name, workers, count / (time.perf_counter() - t0)))
+                  "psf.forward_scatter": {"uniform": [0.2, 0.8]},
+                  "snow.density_per_m3": {"log_uniform": [0.5, 20]}}}}
+    for name, kw in (("256x256 crops", {"crop": 256}), ("640x480 frames", {})):
+        ds = data.RenderDataset(config, channel_axis=-3, with_params=False, **kw)
+        for workers in (2,):
+            dl = DataLoader(ds, batch_size=32, num_workers=workers, shuffle=True,
+                            collate_fn=data.collate)
+            next(iter(dl))  # start-up (fork, first scene load) not counted
+            c0, t0 = cpu_seconds(), time.perf_counter()
+            count = sum(b["degraded"].shape[0] for b in dl)
+            wall, cpu = time.perf_counter() - t0, cpu_seconds() - c0
+            print("RenderDataset %s, DataLoader num_workers=%d, batch 32: %.0f images/s, "
+                  "%.2f ms CPU per image (%d images, %d cores)"
+                  % (name, workers, count / wall, 1e3 * cpu / count, count, os.cpu_count()))
 
 
 if __name__ == "__main__":
     print("turbid", turbid.__version__)
+    if "--loader" in sys.argv:
+        loader()
+        sys.exit(0)
     overhead()
     scaling()
     loader()

@@ -13,6 +13,9 @@ import turbid  # noqa: E402
 where = os.path.realpath(turbid.__file__)
 assert where.startswith(os.path.realpath(venv)), f"turbid imported from {where}, not from {venv}"
 print("imported from", where)
+# The type information ships in the wheel (PEP 561).
+for typed in ("py.typed", "__init__.pyi", "data.pyi"):
+    assert os.path.exists(os.path.join(os.path.dirname(where), typed)), typed + " not installed"
 
 
 def write_gray_tiff(path, pixels):

@@ -221,4 +221,18 @@ py::array ToNumpy(const cv::Mat& mat) {
   return out;
 }
 
+MetricImage MetricFromArray(const ArrayView& v) {
+  MetricImage m;
+  m.data_range = v.mat.depth() == CV_8U ? 255.0 : (v.mat.depth() == CV_16U ? 65535.0 : 1.0);
+  cv::Mat f = v.mat;
+  if (f.depth() != CV_32F) f.convertTo(f, CV_32F);
+  if (v.channels == 3) {
+    cv::Mat bgr;
+    cv::cvtColor(f, bgr, cv::COLOR_RGB2BGR);
+    f = bgr;
+  }
+  m.pixels = f;
+  return m;
+}
+
 }  // namespace turbid::pyext

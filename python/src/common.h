@@ -8,6 +8,7 @@
 #include <pybind11/pybind11.h>
 
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -16,6 +17,8 @@
 #include <string>
 
 #include "core/error.h"
+#include "simulator/render.h"
+#include "tools/harness/metric_image.h"
 
 namespace turbid::pyext {
 
@@ -97,6 +100,14 @@ struct ArrayView {
   int channels = 1;
 };
 
+// A scene as the Python class holds it: the renderer owns the scene (module.cc).
+struct PyScene {
+  std::shared_ptr<const Renderer> renderer;
+  std::string spec;  // how it was loaded ("" for arrays)
+  double scale = 1.0;
+  const Scene& scene() const { return renderer->scene(); }
+};
+
 double ProcessCpuSeconds();
 int64_t MaxNumThreads();
 void SetNumThreads(const py::int_& value);
@@ -111,6 +122,23 @@ ArrayView ViewArray(const py::array& a, const std::string& what, bool allow_colo
 cv::Mat ToInternal(const ArrayView& v, Encoding encoding, const std::string& what,
                    bool keep_rgb = false);
 py::array WrapNumpy(const cv::Mat& mat);
+// As `turbid score` reads files: integer arrays keep their raw values (data range 255 / 65535),
+// float32 is [0, 1]; R, G, B becomes B, G, R. Call without the GIL.
+MetricImage MetricFromArray(const ArrayView& v);
+// The batch entry points (batch.cc): enhance, score and the sRGB curve over N x H x W x C arrays,
+// the items in parallel with the GIL released; score's domains.
+void DefineBatch(py::module_& m);
+// module.cc: a scene from a spec (builtin scale), a config from a dict or a JSON path.
+PyScene SceneFromSpec(const std::string& spec, double scale);
+json ConfigFrom(const py::object& config, std::string* source);
+// Render parameters as Python callers write them: top-level dotted keys ("water.type",
+// "light.lights.0.power") are set into the nested object as `turbid render --set` sets them,
+// after the nested keys (module.cc).
+json ExpandDottedParams(json params, const std::string& what);
+// The training-data path (dataset.cc): generate plans, per-epoch draws, crops before rendering.
+void DefineDataset(py::module_& m);
+// report, merge and regress (harness.cc).
+void DefineHarness(py::module_& m);
 py::array ToNumpy(const cv::Mat& mat);
 
 }  // namespace turbid::pyext

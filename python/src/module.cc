@@ -58,14 +58,9 @@ using namespace pyext;
 
 // ---- scenes ------------------------------------------------------------------------------------
 
-struct PyScene {
-  std::shared_ptr<const Renderer> renderer;
-  std::string spec;  // how it was loaded ("" for arrays)
-  double scale = 1.0;
-  const Scene& scene() const { return renderer->scene(); }
-};
+}  // namespace
 
-PyScene SceneFromSpec(const std::string& spec, double scale) {
+PyScene pyext::SceneFromSpec(const std::string& spec, double scale) {
   PyScene s;
   s.spec = spec;
   s.scale = scale;
@@ -81,6 +76,8 @@ PyScene SceneFromSpec(const std::string& spec, double scale) {
   }
   return s;
 }
+
+namespace {
 
 PyScene SceneFromArrays(const py::array& image, const py::array& depth_m, double fx, double fy,
                         double cx, double cy, const std::optional<py::array>& normals,
@@ -121,8 +118,7 @@ struct PyRenderResult {
 
 PyRenderResult RenderScene(const PyScene& scene, const std::string& params_text,
                            std::optional<uint64_t> seed, const std::string& maps) {
-  json params = ParseJsonText(params_text, "params");
-  if (!params.is_object()) throw Error("params: parameters must be a JSON object");
+  json params = ExpandDottedParams(ParseJsonText(params_text, "params"), "params");
   if (seed) params["seed"] = *seed;  // turbid.render checked it (turbid._seed)
   PyRenderResult out;
   WorkScope release;
@@ -173,42 +169,8 @@ py::array EnhanceArray(const py::array& image, const std::string& method,
   return WrapNumpy(out);  // R, G, B already
 }
 
-// As `turbid score` reads files: integer arrays keep their raw values with data range 255 / 65535.
-MetricImage MetricFromArray(const py::array& a, const std::string& what) {
-  const ArrayView v = ViewArray(a, what);
-  MetricImage m;
-  m.data_range = v.mat.depth() == CV_8U ? 255.0 : (v.mat.depth() == CV_16U ? 65535.0 : 1.0);
-  cv::Mat f = v.mat;
-  if (f.depth() != CV_32F) f.convertTo(f, CV_32F);
-  if (v.channels == 3) {
-    cv::Mat bgr;
-    cv::cvtColor(f, bgr, cv::COLOR_RGB2BGR);
-    f = bgr;
-  }
-  m.pixels = f;
-  return m;
-}
-
-std::map<std::string, double> ScoreArrays(const py::array& image, const std::optional<py::array>& ref,
-                                          const std::optional<py::array>& original,
-                                          const std::string& metric_list) {
-  MetricImage img, r, o;
-  img = MetricFromArray(image, "image");
-  if (ref) r = MetricFromArray(*ref, "ref");
-  if (original) o = MetricFromArray(*original, "original");
-  WorkScope release;
-  const std::string list = metric_list.empty() ? (ref ? "ssim,psnr" : "cnr") : metric_list;
-  const std::vector<std::string> metrics = ParseMetricList(list, bool(ref), bool(original));
-  MetricInputs in;
-  in.data_range = CommonScale({&r, &img, &o});
-  in.reference = r.pixels;
-  in.image = img.pixels;
-  in.original = o.pixels;
-  return ComputeMetrics(metrics, in);
-}
-
 std::string MatchArrays(const py::array& a, const py::array& b, const std::string& detector) {
-  const MetricImage ia = MetricFromArray(a, "a"), ib = MetricFromArray(b, "b");
+  const MetricImage ia = MetricFromArray(ViewArray(a, "a")), ib = MetricFromArray(ViewArray(b, "b"));
   WorkScope release;
   FeatureMatchOptions options;
   options.detector = ParseFeatureDetector(detector);
@@ -311,7 +273,21 @@ InProcessMethod PythonCallable(py::handle fn) {
   };
 }
 
-json ConfigFrom(const py::object& config, std::string* source) {
+}  // namespace
+
+json pyext::ExpandDottedParams(json params, const std::string& what) {
+  if (!params.is_object()) throw Error(what + ": parameters must be a JSON object");
+  std::vector<std::pair<std::string, json>> dotted;
+  for (auto it = params.begin(); it != params.end(); ++it)
+    if (it.key().find('.') != std::string::npos) dotted.emplace_back(it.key(), it.value());
+  for (const auto& [key, value] : dotted) {
+    params.erase(key);
+    SetRenderParam(params, key, value);
+  }
+  return params;
+}
+
+json pyext::ConfigFrom(const py::object& config, std::string* source) {
   if (py::isinstance<py::str>(config) || py::hasattr(config, "__fspath__")) {
     *source = py::str(py::module_::import("os").attr("fspath")(config));
     return ReadConfigFile(*source);
@@ -321,39 +297,7 @@ json ConfigFrom(const py::object& config, std::string* source) {
                        "config");
 }
 
-// A generate config with its scenes loaded and items expanded: renders item i on demand.
-struct GeneratePlan {
-  GenerateConfig config;
-  std::vector<PyScene> scenes;
-  std::vector<GenerateItem> items;
-};
-
-std::shared_ptr<GeneratePlan> PlanFrom(const py::object& config_obj) {
-  std::string source;
-  const json config = ConfigFrom(config_obj, &source);
-  auto plan = std::make_shared<GeneratePlan>();
-  plan->config = ParseGenerateConfig(config, source);
-  std::vector<std::string> names;
-  for (const std::string& spec : plan->config.scene_specs) {
-    plan->scenes.push_back(SceneFromSpec(spec, plan->config.scale));
-    names.push_back(plan->scenes.back().scene().name);
-  }
-  WorkScope release;
-  plan->items = ExpandGenerateItems(plan->config, names);
-  return plan;
-}
-
-std::string DrawParams(const std::string& base_text, const std::string& random_text,
-                       uint64_t random_seed, uint64_t seed, uint64_t index) {
-  json params = ParseJsonText(base_text, "base");
-  const json random = ParseJsonText(random_text, "random.params");
-  if (!params.is_object()) throw Error("base: parameters must be a JSON object");
-  if (!random.is_object()) throw Error("random.params: must be an object");
-  ApplyRandomDraw(params, random, random_seed, index);
-  if (!params.contains("seed")) params["seed"] = GenerateItemSeed(seed, index);
-  return RenderOptionsToJson(RenderOptionsFromJson(params)).dump();
-}
-
+namespace {
 
 // ---- the module's definitions, by group ----------------------------------------------------------
 
@@ -370,6 +314,7 @@ void DefineScenes(py::module_& m) {
                   py::arg("encoding") = py::none())
       .def_property_readonly("name", [](const PyScene& s) { return s.scene().name; })
       .def_property_readonly("spec", [](const PyScene& s) { return s.spec; })
+      .def_property_readonly("scale", [](const PyScene& s) { return s.scale; })
       .def_property_readonly("width", [](const PyScene& s) { return s.scene().width(); })
       .def_property_readonly("height", [](const PyScene& s) { return s.scene().height(); })
       .def_property_readonly("image", [](const PyScene& s) { return ToNumpy(s.scene().image); })
@@ -422,8 +367,6 @@ void DefineCalls(py::module_& m) {
         py::arg("maps"));
   m.def("enhance", &EnhanceArray, py::arg("image"), py::arg("method"), py::arg("params"),
         py::arg("sidecar"), py::arg("scene"), py::arg("encoding"));
-  m.def("score", &ScoreArrays, py::arg("image"), py::arg("ref"), py::arg("original"),
-        py::arg("metrics"));
   m.def("match_features", &MatchArrays, py::arg("a"), py::arg("b"), py::arg("detector"));
   m.def("methods", [] {
     json all = json::array();
@@ -451,7 +394,9 @@ void DefineCalls(py::module_& m) {
   });
   m.def("default_params", [] { return RenderOptionsToJson(RenderOptions{}).dump(); });
   m.def("resolve_params", [](const std::string& text) {
-    return RenderOptionsToJson(RenderOptionsFromJson(ParseJsonText(text, "params"))).dump();
+    return RenderOptionsToJson(
+               RenderOptionsFromJson(ExpandDottedParams(ParseJsonText(text, "params"), "params")))
+        .dump();
   });
 }
 
@@ -469,7 +414,6 @@ void DefineFilesAndThreads(py::module_& m) {
   m.def("write_image", [](const std::string& path, const py::array& image, int bit_depth,
                           const std::string& encoding, bool overwrite) {
     const ArrayView v = ViewArray(image, "image");
-    if (v.mat.depth() != CV_32F) throw Error("image: write_image takes float32 [0, 1]");
     WorkScope release;
     // A new Mat for the BGR copy: converting into v.mat's header would swap the caller's array.
     cv::Mat m;
@@ -480,6 +424,7 @@ void DefineFilesAndThreads(py::module_& m) {
     }
     WriteImageOptions o;
     o.bit_depth = bit_depth;
+    o.raw = v.mat.depth() != CV_32F;  // uint8 / uint16 codes are written as they are
     o.transfer = ParseEncoding(encoding) == Encoding::kSrgb ? Transfer::kSrgb : Transfer::kLinear;
     o.overwrite = overwrite;
     try {
@@ -567,18 +512,6 @@ void DefineRuns(py::module_& m) {
 }
 
 void DefineData(py::module_& m) {
-  py::class_<GeneratePlan, std::shared_ptr<GeneratePlan>>(m, "GeneratePlan")
-      .def(py::init(&PlanFrom))
-      .def("__len__", [](const GeneratePlan& p) { return p.items.size(); })
-      .def("item", [](const GeneratePlan& p, int64_t i) {
-        if (i < 0 || i >= static_cast<int64_t>(p.items.size()))
-          throw py::index_error("item " + std::to_string(i) + " out of range");
-        const GenerateItem& it = p.items[i];
-        return py::make_tuple(it.id, it.scene, it.params.dump());
-      })
-      .def("scene", [](const GeneratePlan& p, size_t s) { return p.scenes.at(s); })
-      .def_property_readonly("format", [](const GeneratePlan& p) { return p.config.format; });
-  m.def("draw_params", &DrawParams);
   // For python/benchmarks/bench.py: the C++ time alone (no conversion, no Python), seconds of
   // process CPU time per call (all threads; time spent waiting for a busy core is not counted).
   m.def("_cpp_render_seconds", [](const PyScene& scene, const std::string& params_text, int n) {
@@ -628,4 +561,7 @@ PYBIND11_MODULE(_turbid, m) {
   DefineFilesAndThreads(m);
   DefineRuns(m);
   DefineData(m);
+  DefineBatch(m);
+  DefineDataset(m);
+  DefineHarness(m);
 }

@@ -115,7 +115,7 @@ def write_folder(root, depth_of, stems=("f10", "f2", "f1")):
     out = {}
     for i, stem in enumerate(stems):
         rgb = np.stack([np.full_like(x, 50 * i + 5), 30 * y, 20 * x], axis=-1).astype(np.float32) / 255
-        turbid.write_image(root / "rgb" / (stem + ".png"), rgb)
+        turbid.write_image(root / "rgb" / (stem + ".png"), rgb, encoding="linear")
         depth = depth_of(i, x, y)
         np.save(root / "depth" / (stem + ".npy"), depth)
         out[stem] = (rgb, depth)
@@ -181,16 +181,19 @@ def test_folder_dataset_bad_npy_raise_one_line(tmp_path):
 def test_generate_and_render_dataset_expand_frames(tmp_path):
     write_folder(tmp_path / "data", lambda i, x, y: (2.0 + 0.1 * x + i).astype(np.float32))
     spec = folder_json(tmp_path, "set.json", frames="1:3")  # f2, f10
-    config = {"scenes": [spec, "builtin:room"], "scale": 0.05, "seed": 4,
+    # scale 1: generate scales built-ins only, RenderDataset file scenes too (test_data.py).
+    config = {"scenes": [spec, "builtin:room"], "scale": 1.0, "seed": 4,
               "grid": {"psf.optical_thickness": [0.5, 1.5]}}
-    ds = turbid.data.RenderDataset(config)
+    ds = turbid.data.RenderDataset(config, channels=None)
     assert len(ds) == 3 * 2
     turbid.generate(config, tmp_path / "out", threads=2)
     rows = [json.loads(line) for line in (tmp_path / "out" / "manifest.jsonl").read_text().splitlines()]
     assert [r["scene"] for r in rows] == [spec + "#f2"] * 2 + [spec + "#f10"] * 2 + ["builtin:room"] * 2
     assert [r["id"][:-7] for r in rows[:4]] == ["set_f2", "set_f2", "set_f10", "set_f10"]
     for i in (0, 3):
-        degraded, clean, params = ds[i]
+        degraded, clean, params = (ds[i][k] for k in ("degraded", "clean", "params"))
+        if clean.shape[2] == 1:
+            degraded, clean = degraded[:, :, 0], clean[:, :, 0]
         assert ds.item_id(i) == rows[i]["id"] and params == rows[i]["options"]
         assert np.array_equal(clean, turbid.Scene.load(rows[i]["scene"]).image)
         png = turbid.read_image(tmp_path / "out" / rows[i]["image"], encoding="srgb")

@@ -66,10 +66,12 @@ def test_five_ways_to_render_a_frame_agree(tmp_path, cli, make_frame):
     from_load = turbid.render(loaded, params).image
     own = turbid.Scene.from_arrays(image, depth, c["fx"], c["fy"], c["cx"], c["cy"])
     from_arrays = turbid.render(own, params).image
-    degraded, _, transform_params = data.DegradeTransform(base=BASE, seed=SEED)(image, depth, K, 0)
-    assert transform_params == params
-    ds_image, _, ds_params = data.RenderDataset(config)[0]
-    assert ds_params == params
+    sample = data.DegradeTransform(base=BASE, seed=SEED)(image, depth, K, seed=0)
+    degraded = sample["degraded"]
+    assert sample["params"] == params
+    sample = data.RenderDataset(config)[0]
+    ds_image = sample["degraded"]
+    assert sample["params"] == params
 
     config_path = tmp_path / "generate.json"
     config_path.write_text(json.dumps(config))

@@ -169,11 +169,11 @@ def test_set_num_threads_in_dataloader_workers():
         config = {"scenes": ["builtin:room"], "scale": 0.1, "seed": 3,
                   "grid": {"psf.optical_thickness": [0.5, 1.0, 1.5, 2.0]}}
         ds = data.RenderDataset(config, channels_first=True, with_params=False)
-        want = [ds[i][0] for i in range(len(ds))]  # the parent's pool has run
+        want = [ds[i]["degraded"] for i in range(len(ds))]  # the parent's pool has run
         loader = torch.utils.data.DataLoader(
             ds, batch_size=1, num_workers=2,
             worker_init_fn=lambda _: turbid.set_num_threads(1))
-        got = [batch[0][0].numpy() for batch in loader]
+        got = [batch["degraded"][0].numpy() for batch in loader]
         assert all(np.array_equal(a, b) for a, b in zip(got, want)), "differs"
         print(len(got))
     """)
@@ -305,9 +305,10 @@ def test_torch_cpu_tensors_are_accepted():
     assert np.array_equal(turbid.enhance(u8, "clahe", encoding="srgb"),
                           turbid.enhance(u8.numpy(), "clahe", encoding="srgb"))
     t = data.DegradeTransform(seed=1)
-    a = t(img, depth, torch.tensor([50.0, 50.0, 32.0, 24.0]), 3)
+    a = t(img, depth, torch.tensor([50.0, 50.0, 32.0, 24.0]), seed=3)
     b = t(IMG, DEPTH, (50, 50, 32, 24), 3)
-    assert np.array_equal(a[0], b[0]) and a[2] == b[2]
+    assert isinstance(a["degraded"], torch.Tensor) and isinstance(b["degraded"], np.ndarray)
+    assert np.array_equal(a["degraded"].numpy(), b["degraded"]) and a["params"] == b["params"]
 
 
 def test_torch_tensors_that_cannot_be_read_are_one_type_error():
@@ -316,7 +317,7 @@ def test_torch_tensors_that_cannot_be_read_are_one_type_error():
     with pytest.raises(TypeError, match=r"\.cpu\(\)") as e:
         turbid.enhance(meta, "clahe")
     assert "meta" in one_line(e)
-    with pytest.raises(ValueError, match="channels first") as e:
+    with pytest.raises(ValueError, match="channels first. pass channel_axis=-3") as e:
         turbid.enhance(torch.from_numpy(IMG.transpose(2, 0, 1).copy()), "clahe")
     one_line(e)
     for t in (torch.zeros((8, 8), dtype=torch.int64), torch.zeros((8, 8), dtype=torch.bool),
@@ -359,7 +360,7 @@ def test_dtypes_and_layouts():
         with pytest.raises(TypeError, match="dtype") as e:
             turbid.enhance(IMG.astype(dtype), "clahe")
         one_line(e)
-    for shape in ((48,), (2, 48, 64, 3), (48, 64, 2), (48, 64, 4), (0, 64, 3)):
+    for shape in ((48,), (2, 48, 64, 2), (48, 64, 2), (48, 64, 4), (0, 64, 3), (0, 48, 64, 3)):
         with pytest.raises(ValueError) as e:
             turbid.enhance(np.zeros(shape, np.float32), "clahe")
         one_line(e)
@@ -385,7 +386,7 @@ def test_integer_arguments_out_of_range_are_one_line(tmp_path):
     for i in (len(ds), -len(ds) - 1, 2**70):
         with pytest.raises(IndexError):
             ds[i]
-    assert np.array_equal(ds[-1][0], ds[len(ds) - 1][0])
+    assert np.array_equal(ds[-1]["degraded"], ds[len(ds) - 1]["degraded"])
 
 
 # ---- item 15: messages speak Python ------------------------------------------------------------

@@ -18,10 +18,12 @@ import os as _os
 import numpy as _np
 
 from . import _turbid
+from . import _arrays
 
 __version__ = _turbid.__version__
 
 __all__ = ["Scene", "RenderResult", "render", "enhance", "methods", "score", "metrics",
+           "srgb_encode", "srgb_decode", "report", "merge", "regress",
            "match_features", "generate", "sweep", "default_params", "resolve_params",
            "read_image", "write_image", "set_num_threads", "get_num_threads", "__version__"]
 
@@ -58,27 +60,57 @@ class Scene:
         return list(_turbid.expand_scene_spec(_os.fspath(path)))
 
     @staticmethod
-    def from_arrays(image, depth_m, fx, fy, cx, cy, normals=None, name="arrays", encoding=None):
-        """A scene from arrays: ``image`` RGB (float32 linear, or uint8/uint16 with ``encoding``),
-        ``depth_m`` float32 H x W z-depth in metres (NaN where unknown), pinhole intrinsics in
-        pixels; ``normals`` (optional, float32 H x W x 3, camera frame) else derived from depth."""
+    def from_arrays(image, depth_m, fx, fy, cx, cy, normals=None, name="arrays", encoding=None,
+                    channel_axis=-1):
+        """A scene from arrays: ``image`` RGB or gray (float linear, or uint8/uint16 with
+        ``encoding``; ``channel_axis=-3`` for C x H x W), ``depth_m`` float H x W z-depth in
+        metres (NaN, 0 or negative where unknown: the TUM / ICL-NUIM convention is 0), pinhole
+        intrinsics in pixels; ``normals`` (optional, float32 H x W x 3, camera frame) else
+        derived from depth."""
         return Scene(_turbid.Scene.from_arrays(
-            _array(image, "image"), _array(depth_m, "depth_m", color=False, float_only=True),
+            _array(image, "image", channel_axis=channel_axis),
+            _zero_is_invalid(_array(depth_m, "depth_m", color=False, float_only=True)),
             float(fx), float(fy), float(cx), float(cy),
             _optional_array(normals, "normals", float_only=True), str(name), encoding))
 
-    name = property(lambda self: self._core.name)
-    spec = property(lambda self: self._core.spec)
-    width = property(lambda self: self._core.width)
-    height = property(lambda self: self._core.height)
-    image = property(lambda self: self._core.image)
-    depth = property(lambda self: self._core.depth)
-    normals = property(lambda self: self._core.normals)
-    range = property(lambda self: self._core.range)
-    camera = property(lambda self: self._core.camera)
+    name = property(lambda self: self._core.name, doc="The scene's short name (str).")
+    spec = property(lambda self: self._core.spec,
+                    doc='How it was loaded ("builtin:NAME", a scene file path; "" for arrays).')
+    width = property(lambda self: self._core.width, doc="Width in pixels.")
+    height = property(lambda self: self._core.height, doc="Height in pixels.")
+    image = property(lambda self: self._core.image,
+                     doc="The clean image rho: float32 linear RGB H x W x 3 (or H x W gray).")
+    depth = property(lambda self: self._core.depth,
+                     doc="z-depth in metres, float32 H x W, NaN where unknown.")
+    normals = property(lambda self: self._core.normals,
+                       doc="Unit normals (camera frame x, y, z), H x W x 3; None if derived.")
+    range = property(lambda self: self._core.range,
+                     doc="Distance along the viewing ray in metres, H x W, NaN where unknown.")
+    camera = property(lambda self: self._core.camera,
+                      doc="Pinhole intrinsics: dict fx, fy, cx, cy, width, height (pixels).")
 
     def __repr__(self):
         return "turbid.Scene(%r, %dx%d)" % (self.name, self.width, self.height)
+
+    def __reduce__(self):
+        # Loaded scenes travel as their spec (and scale); array scenes as their arrays.
+        if self.spec:
+            return (_scene_from_spec, (self.spec, self._core.scale))
+        c = self.camera
+        normals = self.normals
+        if not isinstance(normals, _np.ndarray) or normals.dtype != _np.float32:
+            normals = None  # derived from depth again, as the first time
+        return (_scene_from_arrays, (self.image, self.depth, c["fx"], c["fy"], c["cx"], c["cy"],
+                                     normals, self.name))
+
+
+def _scene_from_spec(spec, scale):
+    return Scene(_turbid.Scene.builtin(spec, scale) if spec.startswith("builtin:")
+                 else _turbid.Scene.load(spec))
+
+
+def _scene_from_arrays(image, depth, fx, fy, cx, cy, normals, name):
+    return Scene.from_arrays(image, depth, fx, fy, cx, cy, normals=normals, name=name)
 
 
 class RenderResult:
@@ -98,85 +130,45 @@ class RenderResult:
             self._cache[key] = make()
         return self._cache[key]
 
-    image = property(lambda self: self._get("image", self._core.image))
-    lit = property(lambda self: self._get("lit", self._core.lit))
+    image = property(lambda self: self._get("image", lambda: self._core.image()),
+                     doc="The degraded image I: float32 RGB (or gray) in [0, 1].")
+    lit = property(lambda self: self._get("lit", lambda: self._core.lit()),
+                   doc="J = (E_A + E_L) rho, the lit ground truth (float32).")
     maps = property(lambda self: self._get(
-        "maps", lambda: {n: self._core.map(n) for n in self._names}))
-    sidecar = property(lambda self: self._get("sidecar", lambda: _json.loads(self._core.sidecar())))
-    plan = property(lambda self: self._core.plan())
+        "maps", lambda: {n: self._core.map(n) for n in self._names}),
+        doc="Dict of the maps asked for with render(maps=...).")
+    sidecar = property(lambda self: self._get("sidecar", lambda: _json.loads(self._core.sidecar())),
+                       doc="The dict the CLI writes as OUT.json (parameters, scene, versions).")
+    # Python holds R, G, B: the plan says so (the libraries' B, G, R is never visible).
+    plan = property(lambda self: self._get("plan", lambda: self._core.plan().replace(
+        "channels (BGR)", "channels (RGB)")),
+                    doc="What the render computed and skipped (text).")
+
+    def __getstate__(self):  # the arrays, not the C++ result
+        return {"names": self._names, "cache": {
+            "image": self.image, "lit": self.lit, "maps": self.maps, "sidecar": self.sidecar,
+            "plan": self.plan}}
+
+    def __setstate__(self, state):
+        self._core, self._names, self._cache = None, state["names"], dict(state["cache"])
+
+    def __repr__(self):
+        shape = "x".join(map(str, self.image.shape))
+        return "turbid.RenderResult(image %s, maps %s)" % (shape, list(self._names))
 
 
-def _first_line(error):
-    text = str(error).strip().splitlines()
-    text = text[0] if text else type(error).__name__
-    return text if len(text) <= 160 else text[:157] + "..."
+def _array(value, what, color=True, float_only=False, channel_axis=-1):
+    """One image (``_arrays.images`` without a batch) as the C++ half takes it."""
+    return _arrays.single(value, what, channel_axis, color=color, float_only=float_only)[0]
 
 
-def _to_numpy(value, what):
-    """``value`` as a NumPy array, sharing its memory where it can, or one short TypeError."""
-    if isinstance(value, _np.ndarray):
-        return value
-    kind = type(value).__name__
-    if value is None or isinstance(value, (str, bytes, dict, set, int, float, complex)):
-        raise TypeError("%s: an array (numpy.ndarray, a CPU torch tensor or anything "
-                        "numpy.asarray takes), not %s" % (what, kind))
-    if type(value).__module__.split(".")[0] == "torch":  # without importing torch
-        device = getattr(value, "device", None)
-        if device is not None and getattr(device, "type", "cpu") != "cpu":
-            raise TypeError("%s: a torch tensor on %s; move it to the CPU first (tensor.cpu())"
-                            % (what, device))
-        if getattr(value, "requires_grad", False):
-            value = value.detach()  # turbid's results carry no gradient
-        if str(getattr(value, "dtype", "")) == "torch.bfloat16":
-            value = value.float()   # NumPy has no bfloat16
-    try:
-        if any(hasattr(value, a) for a in ("__array__", "__array_interface__",
-                                           "__array_struct__")):
-            array = _np.asarray(value)
-        elif hasattr(value, "__dlpack__"):
-            array = _np.from_dlpack(value)
-        else:
-            array = _np.asarray(value)  # the buffer protocol, nested sequences
-    except Exception as e:  # noqa: BLE001 (any failure of a foreign type becomes one line)
-        raise TypeError("%s: a %s cannot be read as an array (%s)"
-                        % (what, kind, _first_line(e))) from None
-    if not isinstance(array, _np.ndarray) or array.dtype.kind in "OUSV":
-        raise TypeError("%s: a %s is not an array of numbers" % (what, kind))
-    return array
-
-
-def _array(value, what, color=True, float_only=False):
-    """``value`` (an ndarray, a CPU torch tensor, anything with ``__array__``, ``__dlpack__`` or
-    the buffer protocol) as the array the C++ half takes: H x W (x 3 with ``color``; x 1 too),
-    within TURBID_MAX_PIXELS, C-contiguous, native byte order, dtype uint8, uint16 or float32
-    (other float types converted; ``float_only``: float32). Shares the memory when nothing needs
-    converting. Raises one short TypeError (not an array, wrong dtype) or ValueError (shape,
-    size)."""
-    a = _to_numpy(value, what)
-    dtype = a.dtype
-    if dtype.kind == "f":
-        pass
-    elif dtype.kind == "u" and dtype.itemsize in (1, 2) and not float_only:
-        pass
-    else:
-        accepted = ("float32; float16 and float64 are converted" if float_only else
-                    "uint8, uint16 or float32; float16 and float64 are converted")
-        raise TypeError("%s: dtype %s is not supported (%s)" % (what, dtype.name, accepted))
-    channels = (1, 3) if color else (1,)
-    if not (a.ndim == 2 or (a.ndim == 3 and a.shape[2] in channels)):
-        hint = ""
-        if a.ndim == 3 and a.shape[0] in channels:
-            hint = " (channels first? use .transpose(1, 2, 0), or .permute(1, 2, 0) for torch)"
-        raise ValueError("%s: shape %s is not H x W%s%s"
-                         % (what, tuple(a.shape), " or H x W x 3" if color else "", hint))
-    if a.shape[0] < 1 or a.shape[1] < 1:
-        raise ValueError("%s: array is empty" % what)
-    _turbid._check_image_size(what, int(a.shape[1]), int(a.shape[0]))  # before any copy
-    if dtype.kind == "f" and dtype.itemsize != 4:
-        a = a.astype(_np.float32)
-    elif not dtype.isnative:
-        a = a.astype(dtype.newbyteorder("="))
-    return _np.require(a, requirements=["C_CONTIGUOUS", "ALIGNED"])
+def _zero_is_invalid(depth):
+    """Depth with 0 and negative values (invalid in TUM / ICL-NUIM / Kinect files) as NaN."""
+    if depth.ndim == 3:
+        depth = depth[:, :, 0]
+    if (depth <= 0).any():
+        depth = _np.where(depth > 0, depth, _np.float32(_np.nan)).astype(_np.float32)
+    return depth
 
 
 def _optional_array(value, what, **kw):
@@ -194,15 +186,34 @@ def _int(value, what, low=-2**63, high=2**63 - 1):
     return n
 
 
+def _json_value(value):
+    """NumPy scalars and arrays (and CPU tensors) where JSON takes numbers and lists."""
+    if isinstance(value, _np.generic):
+        return value.item()
+    if isinstance(value, _np.ndarray) or _arrays._is_torch(value):
+        return _np.asarray(value).tolist()
+    if isinstance(value, _os.PathLike):
+        return _os.fspath(value)
+    raise TypeError("Object of type %s is not JSON serializable" % type(value).__name__)
+
+
 def _dumps(value, what):
     if value is None:
         return "{}"
     if isinstance(value, (str, bytes, _os.PathLike)):
         raise ValueError("%s: a dict of parameters, not a %s" % (what, type(value).__name__))
     try:
-        return _json.dumps(value, allow_nan=False)
+        return _json.dumps(value, allow_nan=False, default=_json_value)
     except (TypeError, ValueError) as e:
         raise ValueError("%s: not JSON-serialisable: %s" % (what, e)) from None
+
+
+def _config(value, what):
+    """A config / experiment argument: a path as it is, a dict as plain JSON values (NumPy
+    scalars and arrays become numbers and lists)."""
+    if isinstance(value, (str, _os.PathLike)):
+        return value
+    return _json.loads(_dumps(value, what))
 
 
 def _map_list(maps):
@@ -242,16 +253,37 @@ def render(scene, params=None, seed=None, maps=None):
     return RenderResult(core, names)
 
 
-def enhance(image, method, params=None, sidecar=None, scene=None, encoding=None):
-    """Enhance ``image`` (RGB or gray) with a registered method (see :func:`methods`), as
-    ``turbid enhance``. ``params``: the method's parameters (dict); ``sidecar``: a render's sidecar
-    dict (the oracle needs it; ``full`` reads the lights from it); ``scene``: a Scene giving the
-    geometry (else the one the sidecar names, for methods that need geometry). Returns float32."""
+def enhance(image, method, params=None, sidecar=None, scene=None, encoding=None,
+            channel_axis=-1):
+    """Enhance ``image`` with a registered method (see :func:`methods`), as ``turbid enhance``.
+
+    ``image``: H x W, H x W x C or a batch N x ... x H x W x C of RGB or gray images (a NumPy
+    array, a CPU torch tensor, anything with ``__array__`` / ``__dlpack__``), float (linear
+    light, [0, 1]) or uint8 / uint16 with ``encoding``; ``channel_axis``: where the channels are
+    (-1 default, -3 for C x H x W and N x C x H x W). A batch runs its images in parallel in C++
+    with the GIL released. ``params``: the method's parameters (dict); ``sidecar``: a render's
+    sidecar dict (the oracle needs it; ``full`` reads the lights from it), for a batch one dict or
+    a list with one per image; ``scene``: a Scene giving the geometry (else the one the sidecar
+    names, for methods that need geometry). Returns float32 in the caller's kind and layout (a
+    tensor for a tensor, the channel axis where it was)."""
     if scene is not None and not isinstance(scene, Scene):
         raise ValueError("scene: a turbid.Scene, not a %s" % type(scene).__name__)
-    return _turbid.enhance(_array(image, "image"), str(method), _dumps(params, "params"),
-                           None if sidecar is None else _dumps(sidecar, "sidecar"),
-                           None if scene is None else scene._core, encoding)
+    a, layout = _arrays.images(image, "image", channel_axis)
+    params_text = _dumps(params, "params")
+    if not layout.batch:
+        out = _turbid.enhance(a, str(method), params_text,
+                              None if sidecar is None else _dumps(sidecar, "sidecar"),
+                              None if scene is None else scene._core, encoding)
+        return layout.restore(out)
+    if sidecar is None:
+        sidecars = []
+    elif isinstance(sidecar, dict):
+        sidecars = [_dumps(sidecar, "sidecar")]
+    else:
+        sidecars = [_dumps(x, "sidecar[%d]" % i) for i, x in enumerate(sidecar)]
+    out = _turbid.enhance_batch(a, str(method), params_text, sidecars,
+                                None if scene is None else scene._core, encoding)
+    return layout.restore(out)
 
 
 def methods():
@@ -260,20 +292,86 @@ def methods():
     return _json.loads(_turbid.methods())
 
 
-def score(image, ref=None, original=None, metrics=None):
+SCORE_DOMAINS = ("srgb8", "linear", "as_given")
+
+
+def score(image, ref=None, original=None, metrics=None, domain="srgb8", encoding=None,
+          channel_axis=-1):
     """Metrics of ``image`` against ``ref`` (full-reference) and/or ``original`` (the degraded
-    input, for visible-edge metrics), as ``turbid score`` computes them for files holding these
-    values: uint8 / uint16 arrays are scored on their raw values (data range 255 / 65535), float32
-    on [0, 1]. ``metrics``: list of names or "all" (default: ssim, psnr with ``ref``, else cnr).
-    Returns {name: float}."""
+    input, for visible-edge metrics). ``metrics``: list of names or "all" (default: ssim, psnr
+    with ``ref``, else cnr).
+
+    ``domain`` says what the full-reference metrics (ssim, psnr, mse) compare:
+
+    * ``"srgb8"`` (the default, as the paper and the field score): both images as an 8-bit sRGB
+      camera writes them -- float arrays (linear light) clipped to [0, 1], sRGB-encoded and
+      rounded to codes 0..255; uint8 arrays are taken as those codes, uint16 as 16-bit sRGB codes
+      rounded to 8 bits -- scored with data range 255, as ``turbid score`` and scikit-image score
+      the PNG files.
+    * ``"linear"``: linear light in [0, 1] (integer arrays decoded with ``encoding``, sRGB unless
+      told ``"linear"``), data range 1: what sweeps did before issue 32.
+    * ``"as_given"``: the values as they are (floats on [0, 1], uint8 / uint16 raw with data range
+      255 / 65535), exactly as ``turbid score`` reads files holding these values.
+
+    No-reference metrics (cnr, hautiere_*, uiqm, uciqe) read linear light in every domain but
+    ``as_given``. Arrays as for :func:`enhance` (``channel_axis``, batches): for a batch the
+    result is ``{name: array of the batch's shape}`` (a float64 tensor for tensors), computed in
+    parallel; else ``{name: float}``."""
     if metrics is None:
         text = ""
     elif isinstance(metrics, str):
         text = metrics
     else:
         text = ",".join(str(m) for m in metrics)
-    return dict(_turbid.score(_array(image, "image"), _optional_array(ref, "ref"),
-                              _optional_array(original, "original"), text))
+    if domain not in SCORE_DOMAINS:
+        raise ValueError("domain must be 'srgb8', 'linear' or 'as_given', not %r" % (domain,))
+    a, layout = _arrays.images(image, "image", channel_axis)
+    others = []
+    for name, value in (("ref", ref), ("original", original)):
+        if value is None:
+            others.append(None)
+            continue
+        b, other = _arrays.images(value, name, channel_axis)
+        if other.batch != layout.batch:
+            raise ValueError("%s: batch shape %s differs from the image's %s"
+                             % (name, other.batch, layout.batch))
+        others.append(b)
+    if not layout.batch:
+        return dict(_turbid.score(a, others[0], others[1], text, domain, encoding))
+    rows = _turbid.score_batch(a, others[0], others[1], text, domain, encoding)
+    return {k: layout.tensor(_np.array([r[k] for r in rows]).reshape(layout.batch))
+            for k in rows[0]}
+
+
+def srgb_encode(linear, dtype=None):
+    """Linear light -> sRGB values (IEC 61966-2-1, the curve turbid's files use), element by
+    element, any shape. ``dtype``: None keeps float32 (values outside [0, 1] follow the curve's
+    formula), ``numpy.uint8`` / ``numpy.uint16`` (or ``"uint8"``, ``"uint16"``) clip to [0, 1] and
+    round to 8 / 16-bit codes as ``write_image`` writes them. Takes anything :func:`enhance`
+    takes (float); returns the caller's kind (a tensor for a tensor)."""
+    bits = {None: 0, "float32": 0, "uint8": 8, "uint16": 16}.get(
+        None if dtype is None else _np.dtype(dtype).name, -1)
+    if bits < 0:
+        raise ValueError("dtype: None (float32), uint8 or uint16, not %r" % (dtype,))
+    return _curve(linear, True, bits, "srgb_encode")
+
+
+def srgb_decode(encoded):
+    """sRGB values -> linear light (IEC 61966-2-1), element by element, any shape: float arrays
+    as they are, uint8 / uint16 codes scaled to [0, 1] first (as ``read_image`` decodes PNGs).
+    Returns float32 in the caller's kind (a tensor for a tensor)."""
+    return _curve(encoded, False, 0, "srgb_decode")
+
+
+def _curve(value, encode, bits, what):
+    torch = _arrays._is_torch(value)
+    a = _arrays.to_numpy(value, what)
+    if a.dtype.kind == "f" and a.dtype != _np.float32:
+        a = a.astype(_np.float32)
+    elif not a.dtype.isnative:
+        a = a.astype(a.dtype.newbyteorder("="))
+    a = _np.ascontiguousarray(a)
+    return _arrays.Layout(torch, None, ()).tensor(_turbid.srgb_curve(a, encode, bits))
 
 
 def metrics():
@@ -282,11 +380,13 @@ def metrics():
     return _json.loads(_turbid.metrics())
 
 
-def match_features(a, b, detector="orb"):
+def match_features(a, b, detector="orb", channel_axis=-1):
     """Feature matching between two images (the paper's criterion, as ``turbid score --pairs``):
     detector "orb", "akaze" or "sift". Returns dict keypoints_a, keypoints_b, correspondences,
     inliers, active."""
-    return _json.loads(_turbid.match_features(_array(a, "a"), _array(b, "b"), str(detector)))
+    return _json.loads(_turbid.match_features(_array(a, "a", channel_axis=channel_axis),
+                                              _array(b, "b", channel_axis=channel_axis),
+                                              str(detector)))
 
 
 def set_num_threads(n):
@@ -310,7 +410,7 @@ def generate(config, out, threads=None):
     threads = 0 if threads is None else _int(threads, "generate: threads", 0, 256)
     if threads == 0:
         threads = min(_os.cpu_count() or 1, 256)
-    _turbid.generate(config, _os.fspath(out), threads)
+    _turbid.generate(_config(config, "config"), _os.fspath(out), threads)
 
 
 def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True, methods=None,
@@ -342,9 +442,46 @@ def sweep(experiment, out, threads=0, shard="0/1", force=False, reuse=True, meth
     with their ``env``); without it a sweep that names one raises before any work. An experiment
     file is data: nothing in it can allow its commands."""
     threads = _int(threads, "threads", -2**31, 2**31 - 1)  # the range is checked by the sweep
-    return _json.loads(_turbid.sweep(experiment, _os.fspath(out), int(threads), str(shard),
+    return _json.loads(_turbid.sweep(_config(experiment, "experiment"), _os.fspath(out),
+                                     int(threads), str(shard),
                                      bool(force), bool(reuse), bool(retry_failed),
                                      dict(methods or {}), allow_commands=bool(allow_commands)))
+
+
+def report(dir, out=None, gnuplot="gnuplot"):
+    """``turbid report``: a static HTML report of a sweep folder (tables, images, plots).
+    ``out``: the HTML file (default ``DIR/report.html``). Returns dict html (its path), plots,
+    images, warning (non-empty when something was skipped, e.g. gnuplot missing)."""
+    return _json.loads(_turbid.report(_os.fspath(dir), "" if out is None else _os.fspath(out),
+                                      str(gnuplot)))
+
+
+def merge(dirs, out, allow_partial=False, force=False):
+    """``turbid merge``: combine shard folders (``sweep(..., shard="i/N")``) into the unsharded
+    result in ``out``. ``allow_partial=True`` writes tables even when items are missing;
+    ``force=True`` replaces an ``out`` holding another experiment. Returns the items merged."""
+    if isinstance(dirs, (str, bytes, _os.PathLike)):
+        raise TypeError("merge: dirs is a list of shard folders")
+    return _turbid.merge([_os.fspath(d) for d in dirs], _os.fspath(out), bool(allow_partial),
+                         bool(force))
+
+
+def regress(baseline, results, tolerances=None, tolerance_file=None, strict=False):
+    """``turbid regress``: compare ``results`` (a sweep folder or a CSV) with a ``baseline``
+    items.csv / summary.csv. ``tolerances``: {metric: abs or (abs, rel)} (default: the file
+    ``BASELINE.tolerances.json`` beside the baseline if present, else abs 1e-6, rel 1e-4);
+    ``strict=True``: improvements beyond tolerance fail too. Returns dict failed (bool),
+    compared, moves (list of key, metric, baseline, result, regression), missing, extra and text
+    (what the CLI prints); it does not raise for a regression -- check ``["failed"]``."""
+    tol = {}
+    for metric, value in dict(tolerances or {}).items():
+        pair = value if isinstance(value, (tuple, list)) else (value, 0.0)
+        if len(pair) != 2:
+            raise ValueError("tolerances: %r is abs or (abs, rel)" % (metric,))
+        tol[str(metric)] = (float(pair[0]), float(pair[1]))
+    return _json.loads(_turbid.regress(
+        _os.fspath(baseline), _os.fspath(results), tol,
+        "" if tolerance_file is None else _os.fspath(tolerance_file), bool(strict)))
 
 
 def default_params():
@@ -357,17 +494,43 @@ def resolve_params(params):
     return _json.loads(_turbid.resolve_params(_dumps(params, "params")))
 
 
-def read_image(path, encoding="linear"):
-    """Read an image file as turbid does (float32, RGB, integer files scaled to [0, 1] and decoded
-    with the sRGB curve when ``encoding="srgb"``)."""
-    return _turbid.read_image(_os.fspath(path), str(encoding))
+ENCODINGS = ("srgb", "linear")
 
 
-def write_image(path, image, bit_depth=8, encoding="linear", overwrite=False):
-    """Write a float32 RGB/gray image: .png (8/16-bit), .exr or .pfm, as the CLI writes them."""
+def read_image(path, encoding="srgb", channel_axis=-1):
+    """Read an image file as turbid does: float32 linear light, RGB (or H x W gray), in [0, 1].
+
+    ``encoding`` says how integer files (PNG, JPEG, 8/16-bit TIFF) are coded: ``"srgb"`` (the
+    default: ordinary photos and the PNGs ``render`` / ``generate`` write) decodes them with the
+    sRGB curve, ``"linear"`` only scales them to [0, 1]. Float files (EXR, PFM) are linear
+    already. ``channel_axis=-3`` returns C x H x W."""
+    if encoding not in ENCODINGS:
+        raise ValueError("encoding must be 'srgb' or 'linear', not %r" % (encoding,))
+    out = _turbid.read_image(_os.fspath(path), str(encoding))
+    if out.ndim == 3 and _operator.index(channel_axis) % 3 != 2:
+        out = _np.ascontiguousarray(_np.moveaxis(out, -1, channel_axis))
+    return out
+
+
+def write_image(path, image, bit_depth=8, encoding="srgb", overwrite=False, channel_axis=-1):
+    """Write an RGB or gray image: .png (8/16-bit), .exr or .pfm (float), as the CLI writes them.
+
+    ``image``: float (linear light, [0, 1]: clipped, coded with ``encoding`` -- ``"srgb"`` by
+    default, what viewers expect -- and rounded to ``bit_depth`` for PNG) or uint8 / uint16 codes
+    (written as they are into a PNG of their own bit depth; ``bit_depth`` must match or be left
+    at 8 for uint8). Anything :func:`enhance` takes (one image, ``channel_axis``).
+    ``overwrite=True`` replaces an existing file."""
+    a = _array(image, "image", channel_axis=channel_axis)
     bits = _int(bit_depth, "bit_depth", 0, 64)  # which depths a format takes: checked in C++
-    _turbid.write_image(_os.fspath(path), _array(image, "image"), bits, str(encoding),
-                        bool(overwrite))
+    if encoding not in ENCODINGS:
+        raise ValueError("encoding must be 'srgb' or 'linear', not %r" % (encoding,))
+    if a.dtype.kind == "u":
+        code_bits = 8 * a.dtype.itemsize
+        if bits not in (8, code_bits):
+            raise ValueError("bit_depth=%d: a %s image is written as it is, %d-bit"
+                             % (bits, a.dtype.name, code_bits))
+        bits = code_bits
+    _turbid.write_image(_os.fspath(path), a, bits, str(encoding), bool(overwrite))
 
 
 from . import data  # noqa: E402,F401  (turbid.data: on-the-fly training data)
