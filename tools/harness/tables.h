@@ -76,7 +76,26 @@ struct SummaryCell {
   std::string level, method, metric;
   Stats stats;
   int failed = 0;  // items of the level on which the method failed (error set; metrics NaN)
+  std::string domain;  // where the metric was scored: "encoded" or "linear" (MetricDomain)
+  // 95 % percentile-bootstrap interval of the mean over the level's items (statistics.h; seeded
+  // by the cell's level, method and metric): deterministic.
+  double ci_lo = 0.0, ci_hi = 0.0;
+  // One value per item of the level, in item order (NaN: failed or absent): the paired test's
+  // input.
+  std::vector<double> values;
 };
+
+// The best method of one summary row and whether it beats the runner-up (statistics.h): a
+// two-sided Wilcoxon signed-rank test over the items both have, at the 5 % level, in the
+// direction of the means. `best` is -1 when no column qualifies; `runner_up` -1 when only one.
+struct RowVerdict {
+  int best = -1, runner_up = -1;
+  bool significant = false;  // best beats runner_up (p < 0.05) — or there is no runner-up
+  double p_value = 1.0;
+  int pairs = 0;  // non-zero differences the test used
+};
+RowVerdict JudgeRow(const std::vector<const SummaryCell*>& row, const std::vector<bool>& excluded,
+                    bool higher_is_better);
 std::vector<SummaryCell> Summarize(const Experiment& experiment,
                                    const std::vector<ItemResult>& items);
 
