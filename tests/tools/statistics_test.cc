@@ -6,6 +6,8 @@
 #include <cmath>
 #include <map>
 
+#include "tests/support/test_support.h"
+
 #include "tools/harness/statistics.h"
 #include "tools/harness/tables.h"
 
@@ -146,6 +148,25 @@ TEST(Statistics, RowVerdictNeedsThePairedTest) {
   v = JudgeRow({&spike, &steady}, {false, false}, true);
   EXPECT_EQ(v.best, 0);
   EXPECT_FALSE(v.significant);
+}
+
+TEST(Statistics, RegressWithinIntervalPassesItemNoiseOnly) {
+  testing::TempDir dir;
+  const std::string head = "level,method,metric,domain,n,mean,sd,ci_lo,ci_hi,min,max,failed\n";
+  const std::string base = dir.Write("base.csv", head + "all,a,ssim,encoded,9,0.5,0.1,0.45,0.55,0.3,0.7,0\n");
+  const std::string near = dir.Write("near.csv", head + "all,a,ssim,encoded,9,0.53,0.1,0.48,0.58,0.3,0.7,0\n");
+  const std::string far = dir.Write("far.csv", head + "all,a,ssim,encoded,9,0.6,0.1,0.55,0.65,0.3,0.7,0\n");
+  RegressOptions options;
+  options.higher_is_better["ssim"] = false;  // so that both moves are regressions
+  EXPECT_TRUE(Regress(base, near, options).failed());
+  options.within_interval = true;
+  const RegressReport near_report = Regress(base, near, options);
+  EXPECT_FALSE(near_report.failed());
+  EXPECT_EQ(near_report.within_noise, 1);
+  EXPECT_NE(near_report.Format().find("within noise"), std::string::npos);
+  const RegressReport far_report = Regress(base, far, options);
+  EXPECT_TRUE(far_report.failed());  // 0.6 is outside [0.45, 0.55]
+  EXPECT_EQ(far_report.within_noise, 0);
 }
 
 }  // namespace

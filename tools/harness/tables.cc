@@ -141,6 +141,8 @@ struct KeyedValues {
   std::vector<std::string> metrics;  // in file order (items.csv kind)
   // The score domain of the full-reference metrics ("" when the table predates the column).
   std::string domain;
+  // Summary tables with ci_lo / ci_hi: the baseline interval of each mean, by key and metric.
+  std::map<std::string, std::map<std::string, std::pair<double, double>>> intervals;
 };
 
 KeyedValues Keyed(const CsvTable& table, const std::string& path, bool* is_summary) {
@@ -161,8 +163,13 @@ KeyedValues Keyed(const CsvTable& table, const std::string& path, bool* is_summa
     const int level = table.Column("level"), method = table.Column("method");
     const int metric = table.Column("metric"), mean = table.Column("mean");
     const int domain = table.Column("domain");
+    const int lo = table.Column("ci_lo"), hi = table.Column("ci_hi");
     for (const auto& row : table.rows) {
       add(row[level] + " " + row[method], row[metric], row[mean]);
+      if (lo >= 0 && hi >= 0) {
+        keyed.intervals[row[level] + " " + row[method]][row[metric]] = {ParseValue(row[lo]),
+                                                                        ParseValue(row[hi])};
+      }
       if (domain >= 0 && row[domain] == "encoded") keyed.domain = "encoded";
       if (domain >= 0 && keyed.domain.empty()) keyed.domain = "linear";
     }
@@ -770,7 +777,12 @@ std::string RegressReport::Format() const {
   for (const std::string& key : missing) out << "MISSING     " << key << "\n";
   out << compared << " values compared: " << moves.size() << " moved beyond tolerance ("
       << regressions << " regressed), " << missing.size() << " missing, " << extra.size()
-      << " new rows not in the baseline\n";
+      << " new rows not in the baseline";
+  if (within_noise > 0) {
+    out << "; " << within_noise
+        << " beyond tolerance but inside the baseline's 95 % interval (within noise)";
+  }
+  out << "\n";
   out << (failed() ? "regress: FAIL\n" : "regress: OK\n");
   return out.str();
 }
@@ -813,6 +825,14 @@ RegressReport Regress(const std::string& baseline_csv, const std::string& result
         same = base == result;
       } else {
         same = std::fabs(result - base) <= tol.abs + tol.rel * std::fabs(base);
+      }
+      if (!same && options.within_interval && std::isfinite(result)) {
+        const auto key_it = baseline.intervals.find(key);
+        if (key_it != baseline.intervals.end() && key_it->second.count(metric)) {
+          const auto [lo, hi] = key_it->second.at(metric);
+          same = result >= lo && result <= hi;
+          report.within_noise += same;
+        }
       }
       if (same) continue;
       RegressMove move{key, metric, base, result, true};

@@ -114,6 +114,11 @@ struct RegressOptions {
   // regression.
   std::map<std::string, bool> higher_is_better;
   bool fail_on_improvement = false;  // strict: any move beyond tolerance fails
+  // Summary tables: a mean beyond tolerance that stays inside the baseline's 95 % bootstrap
+  // interval of that mean over items (ci_lo, ci_hi) is within the metric's item noise and passes
+  // (counted in RegressReport::within_noise). For comparing runs whose items differ (another seed,
+  // other samples); a baseline without the columns is compared by tolerance alone.
+  bool within_interval = false;
   bool Check(std::string* why) const;
 };
 
@@ -126,6 +131,7 @@ struct RegressMove {
 
 struct RegressReport {
   int compared = 0;                  // values compared
+  int within_noise = 0;              // beyond tolerance but inside the baseline's interval
   std::vector<RegressMove> moves;    // beyond tolerance, in baseline order
   std::vector<std::string> missing;  // baseline rows/metrics absent from the results
   std::vector<std::string> extra;    // result rows absent from the baseline (informational)
