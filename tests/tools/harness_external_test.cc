@@ -278,8 +278,10 @@ TEST(HarnessExternal, FailuresMarkOnlyTheirCellsAndTheSweepGoesOn) {
   EXPECT_NE(md.find("| failed (items) | 0 | 0 | 0 | 2 | 2 | 2 | 2 | 2 |"), std::string::npos)
       << md;
   const std::string csv = ReadFileText(dir.File("out/summary.csv"));
-  EXPECT_NE(csv.find("level,method,metric,domain,n,mean,sd,ci_lo,ci_hi,min,max,failed\n"), std::string::npos);
-  EXPECT_NE(csv.find("all,crash,ssim,encoded,0,nan,nan,nan,nan,nan,nan,2\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("level,method,metric,domain,n,mean,sd,ci_lo,ci_hi,min,max,failed\n"),
+            std::string::npos);
+  EXPECT_NE(csv.find("all,crash,ssim,encoded,0,nan,nan,nan,nan,nan,nan,2\n"), std::string::npos)
+      << csv;
   EXPECT_NE(csv.find("0.3,clahe,ssim,encoded,1,"), std::string::npos) << csv;
 }
 
@@ -430,7 +432,8 @@ TEST(HarnessExternal, ScoreResultsFolderAgainstDataset) {
   EXPECT_EQ(rows.at(ids[1] + " perfect").at("error"), "missing results file " + ids[1] + ".*");
   EXPECT_TRUE(fs::exists(dir.File("s1/summary.md")));
   const std::string summary = ReadFileText(dir.File("s1/summary.csv"));
-  EXPECT_NE(summary.find("all,perfect,ssim,encoded,1,1,0,1,1,1,1,1\n"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("all,perfect,ssim,encoded,1,1,0,1,1,1,1,1\n"), std::string::npos)
+      << summary;
   EXPECT_NE(summary.find("\n0.3,none,ssim,encoded,1,"), std::string::npos) << summary;
 
   // The degraded images as results score exactly like the `none` row; default name and --out.

@@ -3,6 +3,8 @@
 // harness's coded scores checked against the same images written as PNG files and scored from the
 // files (`turbid score`'s path); the key's parsing, the tables' domain column and regress's refusal
 // to compare across domains.
+#include "tools/harness/score_domain.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -19,7 +21,6 @@
 #include "tools/harness/experiment.h"
 #include "tools/harness/harness_runner.h"
 #include "tools/harness/metric_image.h"
-#include "tools/harness/score_domain.h"
 #include "tools/harness/tables.h"
 
 namespace turbid {
@@ -203,8 +204,7 @@ TEST(ScoreDomain, TablesStateTheDomainAndRegressRefusesToMixThem) {
               options);
       FAIL() << table << ": domains mixed silently";
     } catch (const Error& error) {
-      EXPECT_NE(std::string(error.what()).find("scored in the 'encoded' domain"),
-                std::string::npos)
+      EXPECT_NE(std::string(error.what()).find("scored in the 'encoded' domain"), std::string::npos)
           << error.what();
     }
   }

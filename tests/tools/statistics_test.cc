@@ -1,14 +1,14 @@
 // The tables' statistics (tools/harness/statistics.h) against closed forms and hand-computed
 // cases: Wilcoxon signed-rank p-values counted by hand, the bootstrap interval of a mean against
 // the exact bootstrap distribution of small samples, determinism, and the row verdict.
+#include "tools/harness/statistics.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <map>
 
 #include "tests/support/test_support.h"
-
-#include "tools/harness/statistics.h"
 #include "tools/harness/tables.h"
 
 namespace turbid {
@@ -81,8 +81,8 @@ TEST(Statistics, BootstrapIntervalMatchesTheExactBootstrapDistribution) {
   // quantiles; the distribution is discrete (steps of 1/27 in probability), and those quantiles
   // lie inside steps, so the ends are exact values of it.
   const Interval ci = BootstrapMeanCi(x, 99, 200000);
-  EXPECT_DOUBLE_EQ(ci.lo, 0.0);          // P(mean = 0) = 1/27 > 2.5 %
-  EXPECT_DOUBLE_EQ(ci.hi, 5.0);          // P(mean = 5) = 1/27 > 2.5 %
+  EXPECT_DOUBLE_EQ(ci.lo, 0.0);  // P(mean = 0) = 1/27 > 2.5 %
+  EXPECT_DOUBLE_EQ(ci.hi, 5.0);  // P(mean = 5) = 1/27 > 2.5 %
   const Interval ci90 = BootstrapMeanCi(x, 99, 200000, 0.80);
   // 10 % quantile: P(mean <= 1/3) = 4/27 = 0.148 > 0.10 > P(mean = 0) = 0.037 -> 1/3.
   EXPECT_DOUBLE_EQ(ci90.lo, 1.0 / 3.0);
@@ -153,9 +153,12 @@ TEST(Statistics, RowVerdictNeedsThePairedTest) {
 TEST(Statistics, RegressWithinIntervalPassesItemNoiseOnly) {
   testing::TempDir dir;
   const std::string head = "level,method,metric,domain,n,mean,sd,ci_lo,ci_hi,min,max,failed\n";
-  const std::string base = dir.Write("base.csv", head + "all,a,ssim,encoded,9,0.5,0.1,0.45,0.55,0.3,0.7,0\n");
-  const std::string near = dir.Write("near.csv", head + "all,a,ssim,encoded,9,0.53,0.1,0.48,0.58,0.3,0.7,0\n");
-  const std::string far = dir.Write("far.csv", head + "all,a,ssim,encoded,9,0.6,0.1,0.55,0.65,0.3,0.7,0\n");
+  const std::string base =
+      dir.Write("base.csv", head + "all,a,ssim,encoded,9,0.5,0.1,0.45,0.55,0.3,0.7,0\n");
+  const std::string near =
+      dir.Write("near.csv", head + "all,a,ssim,encoded,9,0.53,0.1,0.48,0.58,0.3,0.7,0\n");
+  const std::string far =
+      dir.Write("far.csv", head + "all,a,ssim,encoded,9,0.6,0.1,0.55,0.65,0.3,0.7,0\n");
   RegressOptions options;
   options.higher_is_better["ssim"] = false;  // so that both moves are regressions
   EXPECT_TRUE(Regress(base, near, options).failed());

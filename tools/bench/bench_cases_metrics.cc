@@ -13,8 +13,8 @@
 
 #include "metrics/no_reference.h"
 #include "metrics/registry.h"
-#include "tools/harness/score_domain.h"
 #include "tools/bench/bench_cases.h"
+#include "tools/harness/score_domain.h"
 
 namespace turbid::bench {
 

@@ -216,8 +216,7 @@ HarnessRunner::HarnessRunner(const Experiment& experiment, std::string out_dir,
     if (!metric.needs_reference && !metric.needs_original) {
       reference_only_metrics_.push_back(metric.name);
     }
-    const bool coded =
-        experiment_.score_domain == ScoreDomain::kEncoded && metric.needs_reference;
+    const bool coded = experiment_.score_domain == ScoreDomain::kEncoded && metric.needs_reference;
     (coded ? coded_metrics_ : linear_metrics_).push_back(metric.name);
   }
   for (size_t i = 0; i < experiment_.scenes.size(); ++i) {
@@ -447,8 +446,8 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
 }
 
 void HarnessRunner::Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,
-                          const ScoreTarget& target, const cv::Mat& degraded,
-                          MethodResult* row, OriginalCache* original_cache) const {
+                          const ScoreTarget& target, const cv::Mat& degraded, MethodResult* row,
+                          OriginalCache* original_cache) const {
   MetricInputs inputs;
   inputs.reference = target.reference;
   inputs.image = enhanced;

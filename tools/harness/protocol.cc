@@ -66,8 +66,8 @@ json ProtocolJson(const Experiment& e) {
                        {"higher_is_better", m.higher_is_better}});
   }
   out["metrics"] = metrics;
-  out["ground_truth"] = e.ground_truth == "lit" ? "lit J = (E_A + E_L) rho, clipped to [0, 1]"
-                                                : "clean rho";
+  out["ground_truth"] =
+      e.ground_truth == "lit" ? "lit J = (E_A + E_L) rho, clipped to [0, 1]" : "clean rho";
   out["resize_policy"] =
       "none: built-in scenes are rendered at their 'scale' (the camera's intrinsics scaled, not "
       "an image resize), scene files at their own size; every method's output must have the "
@@ -75,33 +75,38 @@ json ProtocolJson(const Experiment& e) {
   json scenes = json::array();
   for (const ExperimentScene& s : e.scenes) {
     const bool builtin = s.spec.rfind("builtin:", 0) == 0 || s.spec.find('/') == std::string::npos;
-    scenes.push_back({{"name", s.name},
-                      {"spec", s.spec},
-                      {"source", e.listed_items > 0 ? "dataset manifest"
-                                                    : (builtin ? "built-in (synthetic)" : "scene file")},
-                      {"scale", s.scale}});
+    scenes.push_back(
+        {{"name", s.name},
+         {"spec", s.spec},
+         {"source", e.listed_items > 0 ? "dataset manifest"
+                                       : (builtin ? "built-in (synthetic)" : "scene file")},
+         {"scale", s.scale}});
   }
   out["split"] = {{"scenes", scenes}, {"items", e.ItemCount()}};
   out["seeds"] = {{"render", e.seed},
                   {"seed_path", e.seed_path},
                   {"samples", e.sample_count > 0 ? json(e.sample_seed) : json()},
-                  {"rule", "item seed = MixSeed(MixSeed(seed) ^ (scene << 32 | condition)) >> 33; "
-                           "sampled values from (samples.seed, condition, parameter); "
-                           "tools/harness/experiment_grid.cc"}};
+                  {"rule",
+                   "item seed = MixSeed(MixSeed(seed) ^ (scene << 32 | condition)) >> 33; "
+                   "sampled values from (samples.seed, condition, parameter); "
+                   "tools/harness/experiment_grid.cc"}};
   out["summary_statistics"] = {
       {"cell", "mean over the items of the level (a NaN = failed item is left out and counted)"},
-      {"interval", {{"kind", "percentile bootstrap of the mean over items"},
-                    {"level", kConfidenceLevel},
-                    {"resamples", kBootstrapResamples},
-                    {"seed", kBootstrapSeed},
-                    {"quantiles", "type 7 (linear interpolation)"},
-                    {"cell_stream", "seed ^ FNV-1a(level, method, metric)"}}},
-      {"best", {{"test", "two-sided Wilcoxon signed-rank, best mean vs runner-up mean over the "
-                         "same items (zero differences dropped, mid-ranks for ties; exact up to "
-                         "50 pairs, normal approximation with tie correction beyond)"},
-                {"alpha", 0.05},
-                {"otherwise", "tied"},
-                {"never_best", e.best_excludes}}}};
+      {"interval",
+       {{"kind", "percentile bootstrap of the mean over items"},
+        {"level", kConfidenceLevel},
+        {"resamples", kBootstrapResamples},
+        {"seed", kBootstrapSeed},
+        {"quantiles", "type 7 (linear interpolation)"},
+        {"cell_stream", "seed ^ FNV-1a(level, method, metric)"}}},
+      {"best",
+       {{"test",
+         "two-sided Wilcoxon signed-rank, best mean vs runner-up mean over the "
+         "same items (zero differences dropped, mid-ranks for ties; exact up to "
+         "50 pairs, normal approximation with tie correction beyond)"},
+        {"alpha", 0.05},
+        {"otherwise", "tied"},
+        {"never_best", e.best_excludes}}}};
   out["versions"] = {{"turbid", TURBID_VERSION}, {"opencv", CV_VERSION}, {"protocol", 1}};
   return out;
 }

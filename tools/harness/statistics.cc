@@ -25,8 +25,8 @@ Interval BootstrapMeanCi(const std::vector<double>& all, uint64_t seed, int resa
   const size_t n = values.size();
   if (n == 0) return {std::nan(""), std::nan("")};
   const double mean = std::accumulate(values.begin(), values.end(), 0.0) / static_cast<double>(n);
-  const bool constant = std::all_of(values.begin(), values.end(),
-                                    [&](double v) { return v == values.front(); });
+  const bool constant =
+      std::all_of(values.begin(), values.end(), [&](double v) { return v == values.front(); });
   if (!std::isfinite(mean) || constant || n == 1) return {mean, mean};
   std::vector<double> means(static_cast<size_t>(resamples));
   const double scale = static_cast<double>(n) / 9007199254740992.0;  // n / 2^53
@@ -84,7 +84,8 @@ SignedRankResult WilcoxonSignedRank(const std::vector<double>& a, const std::vec
     int reach = 0;
     for (int r : rank2) {
       for (int s = reach; s >= 0; --s)
-        if (count[static_cast<size_t>(s)] != 0.0) count[static_cast<size_t>(s + r)] += count[static_cast<size_t>(s)];
+        if (count[static_cast<size_t>(s)] != 0.0)
+          count[static_cast<size_t>(s + r)] += count[static_cast<size_t>(s)];
       reach += r;
     }
     double below = 0.0, above = 0.0;  // P(W <= w), P(W >= w) in counts

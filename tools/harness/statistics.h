@@ -38,9 +38,9 @@ double SortedQuantile(const std::vector<double>& sorted, double q);
 // counted by dynamic programming) for up to 50 non-zero differences, and the normal approximation
 // with the tie correction beyond. n = 0 non-zero differences: p = 1.
 struct SignedRankResult {
-  int n = 0;              // non-zero differences used
-  double w_plus = 0.0;    // sum of the ranks of the positive differences (a > b)
-  double p_value = 1.0;   // two-sided
+  int n = 0;             // non-zero differences used
+  double w_plus = 0.0;   // sum of the ranks of the positive differences (a > b)
+  double p_value = 1.0;  // two-sided
   bool exact = true;
 };
 SignedRankResult WilcoxonSignedRank(const std::vector<double>& a, const std::vector<double>& b);

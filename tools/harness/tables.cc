@@ -5,11 +5,10 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <set>
 #include <sstream>
-
-#include <opencv2/core.hpp>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -414,21 +413,22 @@ RowVerdict JudgeRow(const std::vector<const SummaryCell*>& row, const std::vecto
     return verdict;
   }
   verdict.runner_up = ranked[1];
-  const SignedRankResult test = WilcoxonSignedRank(row[static_cast<size_t>(verdict.best)]->values,
-                                                   row[static_cast<size_t>(verdict.runner_up)]->values);
+  const SignedRankResult test =
+      WilcoxonSignedRank(row[static_cast<size_t>(verdict.best)]->values,
+                         row[static_cast<size_t>(verdict.runner_up)]->values);
   verdict.p_value = test.p_value;
   verdict.pairs = test.n;
   // The ranks must point the same way as the means (they can disagree on skewed differences).
   const double centre = test.n * (test.n + 1.0) / 4.0;
   const bool same_way = higher_is_better ? test.w_plus > centre : test.w_plus < centre;
-  verdict.significant = mean(verdict.best) != mean(verdict.runner_up) && same_way &&
-                        test.p_value < 0.05;
+  verdict.significant =
+      mean(verdict.best) != mean(verdict.runner_up) && same_way && test.p_value < 0.05;
   return verdict;
 }
 
 const std::vector<std::string>& DeterministicOutputs() {
-  static const std::vector<std::string> files = {
-      "experiment.json", "items.csv", "items.jsonl", "summary.md", "summary.csv", "protocol.json"};
+  static const std::vector<std::string> files = {"experiment.json", "items.csv",   "items.jsonl",
+                                                 "summary.md",      "summary.csv", "protocol.json"};
   return files;
 }
 
@@ -505,7 +505,8 @@ std::string DomainSentence(const Experiment& experiment) {
     list += (list.empty() ? "" : ", ") + metric.name;
   }
   std::string out = "Score domain: **" + ScoreDomainName(experiment.score_domain) + "**";
-  if (full.empty()) return out + " (no full-reference metric here; every metric reads linear light).";
+  if (full.empty())
+    return out + " (no full-reference metric here; every metric reads linear light).";
   out += experiment.score_domain == ScoreDomain::kEncoded
              ? " — full-reference metrics (" + full +
                    ") compare the images as the camera writes them (its encoding, quantised to its "
@@ -589,9 +590,9 @@ std::string SummaryMarkdown(const Experiment& experiment, const std::vector<Item
       if (it != item.reference_metrics.end()) cell.values.push_back(it->second);
     }
     cell.stats = ComputeStats(cell.values);
-    const Interval ci = BootstrapMeanCi(cell.values, kBootstrapSeed ^ StableHash(level + '\x1f' +
-                                                                                 "ground truth" +
-                                                                                 '\x1f' + metric));
+    const Interval ci = BootstrapMeanCi(
+        cell.values,
+        kBootstrapSeed ^ StableHash(level + '\x1f' + "ground truth" + '\x1f' + metric));
     cell.ci_lo = ci.lo;
     cell.ci_hi = ci.hi;
     return cell;
