@@ -117,4 +117,24 @@ cv::Mat QuantiseEncoded(const cv::Mat& linear, CameraEncoding encoding, int bits
   return out;
 }
 
+cv::Mat EncodeCodes(const cv::Mat& linear, CameraEncoding encoding, int bits) {
+  CV_Assert(linear.depth() == CV_32F && (bits == 8 || bits == 16));
+  cv::Mat out(linear.size(), linear.type());
+  const int per_row = linear.cols * linear.channels();
+  const float levels = bits == 8 ? 255.0f : 65535.0f;
+  const SrgbTables* tables = encoding == CameraEncoding::kSrgb ? &TablesFor(bits) : nullptr;
+  cv::parallel_for_(cv::Range(0, linear.rows), [&](const cv::Range& rows) {
+    for (int y = rows.start; y < rows.end; ++y) {
+      const float* in = linear.ptr<float>(y);
+      float* codes = out.ptr<float>(y);
+      for (int i = 0; i < per_row; ++i) {
+        const float v = std::min(in[i] > 0.0f ? in[i] : 0.0f, 1.0f);  // NaN -> 0
+        codes[i] = tables != nullptr ? static_cast<float>(tables->Code(v))
+                                     : static_cast<float>(static_cast<int>(v * levels + 0.5f));
+      }
+    }
+  });
+  return out;
+}
+
 }  // namespace turbid

@@ -36,5 +36,9 @@ void QuantiseEncodedRow(float* values, int n, CameraEncoding encoding, int bits)
 void QuantiseEncodedRowSwapRB(float* values, int n, CameraEncoding encoding, int bits);
 // The same on a float32 image (any channel count); returns a new image.
 cv::Mat QuantiseEncoded(const cv::Mat& linear, CameraEncoding encoding, int bits);
+// The integer codes themselves (0 .. 2^bits - 1, held as float32, same channels): what a file
+// written with this encoding and bit depth stores, i.e. the raw values `turbid score` reads back.
+// Same clipping and thresholds as QuantiseEncoded (NaN becomes 0).
+cv::Mat EncodeCodes(const cv::Mat& linear, CameraEncoding encoding, int bits);
 
 }  // namespace turbid

@@ -208,9 +208,9 @@ TEST(HarnessExternal, BatchAndPerImageCopiesScoreLikeTheDegradedInput) {
   std::string baseline = ReadFileText(dir.File("out/summary.csv"));
   const size_t row = baseline.find("\nall,copy_one,ssim,");
   ASSERT_NE(row, std::string::npos) << baseline;
-  // level,method,metric,n,mean,...: replace the mean (5th field) with 2 (SSIM <= 1).
+  // level,method,metric,domain,n,mean,...: replace the mean (6th field) with 2 (SSIM <= 1).
   size_t field = row + 1;
-  for (int comma = 0; comma < 4; ++comma) field = baseline.find(',', field) + 1;
+  for (int comma = 0; comma < 5; ++comma) field = baseline.find(',', field) + 1;
   baseline.replace(field, baseline.find(',', field) - field, "2");
   WriteFile(dir.path(), "baseline.csv", baseline);
   const CliRun worse = RunTurbid({"regress", "--baseline", dir.File("baseline.csv"),
@@ -278,9 +278,11 @@ TEST(HarnessExternal, FailuresMarkOnlyTheirCellsAndTheSweepGoesOn) {
   EXPECT_NE(md.find("| failed (items) | 0 | 0 | 0 | 2 | 2 | 2 | 2 | 2 |"), std::string::npos)
       << md;
   const std::string csv = ReadFileText(dir.File("out/summary.csv"));
-  EXPECT_NE(csv.find("level,method,metric,n,mean,sd,min,max,failed\n"), std::string::npos);
-  EXPECT_NE(csv.find("all,crash,ssim,0,nan,nan,nan,nan,2\n"), std::string::npos) << csv;
-  EXPECT_NE(csv.find("0.3,clahe,ssim,1,"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("level,method,metric,domain,n,mean,sd,ci_lo,ci_hi,min,max,failed\n"),
+            std::string::npos);
+  EXPECT_NE(csv.find("all,crash,ssim,encoded,0,nan,nan,nan,nan,nan,nan,2\n"), std::string::npos)
+      << csv;
+  EXPECT_NE(csv.find("0.3,clahe,ssim,encoded,1,"), std::string::npos) << csv;
 }
 
 TEST(HarnessExternal, ResumeKeepsFailedCellsUntilRetryFailed) {
@@ -430,8 +432,9 @@ TEST(HarnessExternal, ScoreResultsFolderAgainstDataset) {
   EXPECT_EQ(rows.at(ids[1] + " perfect").at("error"), "missing results file " + ids[1] + ".*");
   EXPECT_TRUE(fs::exists(dir.File("s1/summary.md")));
   const std::string summary = ReadFileText(dir.File("s1/summary.csv"));
-  EXPECT_NE(summary.find("all,perfect,ssim,1,1,0,1,1,1\n"), std::string::npos) << summary;
-  EXPECT_NE(summary.find("\n0.3,none,ssim,1,"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("all,perfect,ssim,encoded,1,1,0,1,1,1,1,1\n"), std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("\n0.3,none,ssim,encoded,1,"), std::string::npos) << summary;
 
   // The degraded images as results score exactly like the `none` row; default name and --out.
   const CliRun same = RunTurbid(

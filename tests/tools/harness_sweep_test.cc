@@ -77,8 +77,10 @@ TEST(HarnessSweep, OneAndThreeThreadsGiveIdenticalBytes) {
   ExpectSameDeterministicFiles(one.path(), three.path());
   // Rows are in item order, then method order; errors are recorded, not fatal.
   const std::string csv = ReadFileText(one.path() + "/items.csv");
-  EXPECT_EQ(csv.substr(0, csv.find('\n')),
-            "id,scene,condition,level,param:water.beta,param:water.type,method,up,down,nr,error");
+  EXPECT_EQ(
+      csv.substr(0, csv.find('\n')),
+      "id,scene,condition,level,param:water.beta,param:water.type,method,score_domain,up,down,nr,"
+      "error");
   EXPECT_NE(csv.find("\na-c0000,a,0,0.1,0.1,"), std::string::npos);
   EXPECT_NE(csv.find("fake failure"), std::string::npos);
   EXPECT_LT(csv.find("\na-c0000,"), csv.find("\na-c0001,"));

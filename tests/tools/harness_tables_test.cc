@@ -42,7 +42,7 @@ TEST(HarnessTables, ValueFormatRoundTrips) {
 TEST(HarnessTables, BestValueRespectsMetricDirection) {
   nlohmann::json in = testing::FakeExperimentJson();
   in.erase("samples");
-  in["grid"] = {{"water.beta", {0.5}}};
+  in["grid"] = {{"water.beta", {0.5, 0.6, 0.7}}};  // 2 scenes: 2 items per level, 6 in all
   in["metrics"] = {"up", "down"};
   in["methods"] = {"fake_a", "fake_b"};
   const Experiment e = ParseExperiment(in, "exp.json", FakeCatalog());
@@ -65,13 +65,25 @@ TEST(HarnessTables, BestValueRespectsMetricDirection) {
   TempDir dir;
   WriteTables(e, items, dir.path());
   const std::string md = ReadFileText(dir.path() + "/summary.md");
-  EXPECT_NE(md.find("| up ↑ | 0.1 ± 0 | 0.99 ± 0 | **0.6 ± 0** | 0.4 ± 0 |"), std::string::npos)
+  // Over all 6 items fake_a beats fake_b on every item: Wilcoxon p = 2/2^6 = 0.031 < 5 %, bold.
+  EXPECT_NE(md.find("| up ↑ (encoded) | 0.1 | 0.99 | **0.6** | 0.4 | fake_a > fake_b (p = 0.031, "
+                    "n = 6) |"),
+            std::string::npos)
       << md;
-  EXPECT_NE(md.find("| down ↓ | 0.9 ± 0 | 0.01 ± 0 | 0.5 ± 0 | **0.2 ± 0** |"), std::string::npos)
+  EXPECT_NE(md.find("| down ↓ (encoded) | 0.9 | 0.01 | 0.5 | **0.2** | fake_b > fake_a (p = "
+                    "0.031, n = 6) |"),
+            std::string::npos)
+      << md;
+  // Per level only 2 items: p = 0.5, no bold, "tied".
+  EXPECT_NE(md.find("| up ↑ (encoded) | 0.1 | 0.99 | 0.6 | 0.4 | tied: fake_a ≈ fake_b (p = 0.5, "
+                    "n = 2) |"),
+            std::string::npos)
       << md;
   const std::string csv = ReadFileText(dir.path() + "/summary.csv");
-  EXPECT_NE(csv.find("all,fake_a,up,2,0.6,0,0.6,0.6,0\n"), std::string::npos) << csv;
-  EXPECT_NE(csv.find("0.5,fake_b,down,2,0.2,0,0.2,0.2,0\n"), std::string::npos) << csv;
+  EXPECT_NE(csv.find("all,fake_a,up,encoded,6,0.6,0,0.6,0.6,0.6,0.6,0\n"), std::string::npos)
+      << csv;
+  EXPECT_NE(csv.find("0.5,fake_b,down,encoded,2,0.2,0,0.2,0.2,0.2,0.2,0\n"), std::string::npos)
+      << csv;
 }
 
 }  // namespace

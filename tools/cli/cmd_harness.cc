@@ -109,6 +109,7 @@ struct RegressArgs {
   std::vector<std::string> tolerances;  // METRIC=ABS[:REL]
   std::string tolerance_file;
   bool strict = false;
+  bool within_interval = false;
 };
 
 void RunRegressCommand(const RegressArgs& args) {
@@ -143,6 +144,7 @@ void RunRegressCommand(const RegressArgs& args) {
     options.tolerances[spec.substr(0, eq)] = tolerance;
   }
   options.fail_on_improvement = args.strict;
+  options.within_interval = args.within_interval;
   // RESULTS: a sweep folder (its table of the baseline's kind) or a CSV file.
   std::string results = args.results;
   if (fs::is_directory(results)) {
@@ -248,6 +250,9 @@ void AddRegressCommand(CLI::App& app) {
       regress->add_option("--tolerances", regress_args->tolerance_file,
                           "tolerance JSON (default: BASELINE with .tolerances.json, if present)"));
   regress->add_flag("--strict", regress_args->strict, "improvements beyond tolerance fail too");
+  regress->add_flag("--within-interval", regress_args->within_interval,
+                    "summary tables: a mean inside the baseline's 95 % bootstrap interval (ci_lo, "
+                    "ci_hi) is within the metric's noise over items and passes");
   regress->callback([regress_args] { RunRegressCommand(*regress_args); });
   regress->footer("Example: turbid regress --baseline demo/items.csv demo_merged");
 }

@@ -464,6 +464,7 @@ Experiment ResultsExperiment(const ScoreArgs& args, const std::vector<Record>& r
   e.methods = {identity, scored};
   e.best_excludes = {"none"};
   e.ground_truth = args.ground_truth;
+  e.score_domain = ScoreDomain::kEncoded;  // the files' values as written (integer codes)
   e.thumbnail_width = 0;
   e.level_path = args.level;
   e.listed_items = static_cast<int>(records.size());

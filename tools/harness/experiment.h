@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "tools/harness/score_domain.h"
+
 namespace turbid {
 
 struct RenderOptions;  // simulator/render.h; only the catalog and the item runner look inside
@@ -111,6 +113,9 @@ struct Experiment {
   std::vector<ExperimentMethod> methods;
   std::vector<HarnessMetricInfo> metrics;
   std::string ground_truth = "clean";      // "clean" (rho) or "lit" (J = (E_A + E_L) rho)
+  // Where full-reference metrics compare (tools/harness/score_domain.h): camera-coded by default;
+  // a resolved file without the key was scored before it existed, in linear light.
+  ScoreDomain score_domain = ScoreDomain::kEncoded;
   // Method labels never marked best (floor/identity rows, and every privileged method).
   std::vector<std::string> best_excludes;
   int thumbnail_width = 160;  // thumbnails saved during the sweep for the report (0: none)

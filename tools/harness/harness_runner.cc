@@ -196,7 +196,7 @@ std::vector<std::string> DescribeCommands(const Experiment& experiment) {
 
 struct HarnessRunner::Pending {
   cv::Mat degraded;
-  cv::Mat reference;
+  ScoreTarget target;
 };
 
 struct HarnessRunner::SceneContext {
@@ -216,6 +216,8 @@ HarnessRunner::HarnessRunner(const Experiment& experiment, std::string out_dir,
     if (!metric.needs_reference && !metric.needs_original) {
       reference_only_metrics_.push_back(metric.name);
     }
+    const bool coded = experiment_.score_domain == ScoreDomain::kEncoded && metric.needs_reference;
+    (coded ? coded_metrics_ : linear_metrics_).push_back(metric.name);
   }
   for (size_t i = 0; i < experiment_.scenes.size(); ++i) {
     contexts_.push_back(std::make_unique<SceneContext>());
@@ -322,8 +324,9 @@ HarnessRunner::ItemScene HarnessRunner::SceneFor(const ItemSpec& item) const {
 
 // Ground truth: the clean rho, or the lit J clipped to the metrics' [0, 1] range; its scores go
 // into result, and the thumbnails of the degraded image (and lit J) are written.
-cv::Mat HarnessRunner::GroundTruth(const ItemSpec& item, ItemScene& s, const RenderResult& render,
-                                   ItemResult* result) const {
+ScoreTarget HarnessRunner::GroundTruth(const ItemSpec& item, ItemScene& s,
+                                       const RenderResult& render, const CameraCoding& camera,
+                                       ItemResult* result) const {
   cv::Mat reference = s.scene->image;
   if (experiment_.ground_truth == "lit") {
     cv::min(cv::max(render.lit, 0.0), 1.0, reference);
@@ -342,13 +345,20 @@ cv::Mat HarnessRunner::GroundTruth(const ItemSpec& item, ItemScene& s, const Ren
       WriteThumbnail(thumbs + "/lit.png", reference, experiment_.thumbnail_width);
     }
   }
-  return reference;
+  ScoreTarget target;
+  target.reference = reference;
+  target.camera = camera;
+  if (!coded_metrics_.empty()) {
+    const ScopedStage timed(options_.profile, "score: encode");
+    target.reference_coded = EncodeForScoring(reference, camera);
+  }
+  return target;
 }
 
 // One (not batch) method on the item, scored; its failure is the row's error.
 MethodResult HarnessRunner::RunMethod(const ExperimentMethod& method, const ItemSpec& item,
                                       const Scene* scene, const RenderResult& render,
-                                      const cv::Mat& reference,
+                                      const ScoreTarget& target,
                                       OriginalCache* original_cache) const {
   MethodResult row;
   row.label = method.label;
@@ -370,7 +380,7 @@ MethodResult HarnessRunner::RunMethod(const ExperimentMethod& method, const Item
     if (options_.profile && std::isfinite(row.time_ms))
       options_.profile->Add("method " + method.label, row.time_ms);
     Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
-          reference, render.image, &row, original_cache);
+          target, render.image, &row, original_cache);
   } catch (const OutputError&) {
     throw;  // our own write failed (full disk...): not the method's failure; the sweep stops
   } catch (const std::exception& error) {
@@ -389,8 +399,12 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
   result.height = s.scene->height();
   const auto start_render = Clock::now();
   RenderResult render;
+  CameraCoding camera;
   try {
-    render = s.renderer->Render(ItemRenderOptions(experiment_, item));
+    const RenderOptions options = ItemRenderOptions(experiment_, item);
+    camera.encoding = options.camera.encoding;
+    camera.bit_depth = options.camera.bit_depth;
+    render = s.renderer->Render(options);
   } catch (const Error& error) {
     result.error = std::string("render: ") + error.what();
     for (const ExperimentMethod& method : experiment_.methods) {
@@ -401,7 +415,7 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
   }
   result.render_ms = MillisecondsSince(start_render);
   if (options_.profile) options_.profile->Add("render", result.render_ms);
-  const cv::Mat reference = GroundTruth(item, s, render, &result);
+  const ScoreTarget target = GroundTruth(item, s, render, camera, &result);
 
   bool batch_pending = false;
   // The degraded image's visible-edge analysis, shared by the scores of every method of the item.
@@ -419,12 +433,12 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
       continue;
     }
     result.methods.push_back(
-        RunMethod(method, item, s.scene, render, reference, original_cache.get()));
+        RunMethod(method, item, s.scene, render, target, original_cache.get()));
   }
   if (batch_pending) {
     auto pending = std::make_unique<Pending>();
     pending->degraded = render.image;
-    pending->reference = reference;
+    pending->target = target;
     std::lock_guard<std::mutex> lock(pending_mutex_);
     pending_[item.id] = std::move(pending);
   }
@@ -432,20 +446,33 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
 }
 
 void HarnessRunner::Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,
-                          const cv::Mat& reference, const cv::Mat& degraded, MethodResult* row,
+                          const ScoreTarget& target, const cv::Mat& degraded, MethodResult* row,
                           OriginalCache* original_cache) const {
   MetricInputs inputs;
-  inputs.reference = reference;
+  inputs.reference = target.reference;
   inputs.image = enhanced;
   inputs.original = degraded;
   inputs.original_cache = original_cache;
-  if (options_.profile == nullptr) {
-    row->metrics = ComputeMetrics(metric_names_, inputs);
-  } else {
-    std::map<std::string, double> elapsed;
-    row->metrics = ComputeMetrics(metric_names_, inputs, &elapsed);
-    for (const auto& [name, ms] : elapsed) options_.profile->Add("metric " + name, ms);
+  std::map<std::string, double> elapsed;
+  std::map<std::string, double>* timing = options_.profile ? &elapsed : nullptr;
+  row->metrics.clear();
+  if (!linear_metrics_.empty()) row->metrics = ComputeMetrics(linear_metrics_, inputs, timing);
+  if (!coded_metrics_.empty()) {
+    // Full-reference metrics on the images as the camera writes them (encoded once per image).
+    MetricInputs coded;
+    {
+      const ScopedStage timed(options_.profile, "score: encode");
+      coded.image = EncodeForScoring(enhanced, target.camera);
+    }
+    coded.reference = target.reference_coded;
+    coded.data_range = target.camera.DataRange();
+    std::map<std::string, double> coded_elapsed;
+    const std::map<std::string, double> scores =
+        ComputeMetrics(coded_metrics_, coded, timing ? &coded_elapsed : nullptr);
+    row->metrics.insert(scores.begin(), scores.end());
+    elapsed.insert(coded_elapsed.begin(), coded_elapsed.end());
   }
+  for (const auto& [name, ms] : elapsed) options_.profile->Add("metric " + name, ms);
   if (experiment_.thumbnail_width > 0 && !label.empty()) {
     const ScopedStage timed(options_.profile, "I/O: thumbnails");
     WriteThumbnail(out_dir_ + "/thumbs/" + id + "/" + label + ".png", enhanced,
@@ -604,7 +631,7 @@ void HarnessRunner::FinishPythonBatch(const ExperimentMethod& method,
     if (!problem.empty()) continue;
     try {
       const Pending& pending = PendingOf(tasks[members[m]].spec->id);
-      Score(ids[m], method.label, outputs[m], pending.reference, pending.degraded, &row);
+      Score(ids[m], method.label, outputs[m], pending.target, pending.degraded, &row);
       row.error.clear();
     } catch (const OutputError&) {
       throw;
@@ -687,7 +714,7 @@ void HarnessRunner::FinishCommandBatch(const ExperimentMethod& method,
       const cv::Mat enhanced =
           ReadOutput(path, fs::path(path).filename().string(),
                      spec.at("output").at("encoding").get<std::string>(), pending.degraded);
-      Score(id, method.label, enhanced, pending.reference, pending.degraded, &row);
+      Score(id, method.label, enhanced, pending.target, pending.degraded, &row);
       row.error.clear();
     } catch (const OutputError&) {
       throw;

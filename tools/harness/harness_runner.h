@@ -67,6 +67,15 @@ void CheckCommandsAllowed(const Experiment& experiment, bool allowed, const std:
 // (control characters escaped, so a line cannot pose as another).
 std::vector<std::string> DescribeCommands(const Experiment& experiment);
 
+// An item's ground truth as its scores need it: linear, and as the item's camera writes it when
+// the experiment scores full-reference metrics in the encoded domain (coded once per item, shared
+// by every method's score).
+struct ScoreTarget {
+  cv::Mat reference;        // linear float32 [0, 1]
+  cv::Mat reference_coded;  // EncodeForScoring(reference, camera); empty in the linear domain
+  CameraCoding camera;
+};
+
 class HarnessRunner {
  public:
   // out_dir receives thumbs/ when the experiment asks for thumbnails.
@@ -96,11 +105,11 @@ class HarnessRunner {
   SceneContext& Context(int scene_index) const;
   ItemScene SceneFor(const ItemSpec& item) const;
   // The item's ground truth (scored into result; thumbnails written).
-  cv::Mat GroundTruth(const ItemSpec& item, ItemScene& scene, const RenderResult& render,
-                      ItemResult* result) const;
+  ScoreTarget GroundTruth(const ItemSpec& item, ItemScene& scene, const RenderResult& render,
+                          const CameraCoding& camera, ItemResult* result) const;
   // One method (not a batch one) on the item, scored; a failure is the row's error.
   MethodResult RunMethod(const ExperimentMethod& method, const ItemSpec& item, const Scene* scene,
-                         const RenderResult& render, const cv::Mat& reference,
+                         const RenderResult& render, const ScoreTarget& target,
                          OriginalCache* original_cache) const;
   // FinishBatch's parts: the tasks waiting for a batch method, a waiting item's images, and the
   // "python" and "command" batch runs.
@@ -127,10 +136,11 @@ class HarnessRunner {
   std::vector<cv::Mat> RunInProcess(const ExperimentMethod& method,
                                     const std::vector<cv::Mat>& degraded,
                                     const std::vector<std::string>& ids) const;
-  // Scores `enhanced` into row (metrics) and saves its thumbnail.
-  // original_cache (optional): the degraded image's shared metric work across the item's methods.
+  // Scores `enhanced` into row (metrics; full-reference ones in the experiment's score domain)
+  // and saves its thumbnail. original_cache (optional): the degraded image's shared metric work
+  // across the item's methods.
   void Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,
-             const cv::Mat& reference, const cv::Mat& degraded, MethodResult* row,
+             const ScoreTarget& target, const cv::Mat& degraded, MethodResult* row,
              OriginalCache* original_cache = nullptr) const;
 
   const Experiment& experiment_;
@@ -138,6 +148,8 @@ class HarnessRunner {
   HarnessRunnerOptions options_;
   std::vector<std::string> metric_names_;
   std::vector<std::string> reference_only_metrics_;  // no reference, no original needed
+  // The full-reference metrics and the others, when full-reference ones are scored coded.
+  std::vector<std::string> coded_metrics_, linear_metrics_;
   std::vector<std::unique_ptr<SceneContext>> contexts_;
   mutable std::mutex pending_mutex_;
   mutable std::map<std::string, std::unique_ptr<Pending>> pending_;  // by item id

@@ -449,7 +449,12 @@ void WritePageHead(std::ostringstream& html, const SweepDir& sweep, const std::s
        << " scenes × " << e.ConditionCount() << " conditions), " << e.methods.size() << " methods, "
        << e.metrics.size()
        << " metrics. Ground truth: " << (e.ground_truth == "lit" ? "lit J" : "clean ρ")
-       << ". Turbidity level: <code>" << Html(e.level_path) << "</code>.</p>\n";
+       << ". Turbidity level: <code>" << Html(e.level_path) << "</code>. Score domain: <b>"
+       << ScoreDomainName(e.score_domain) << "</b> ("
+       << (e.score_domain == ScoreDomain::kEncoded
+               ? "full-reference metrics on the images as the camera writes them"
+               : "full-reference metrics on linear-light images")
+       << "; no-reference metrics on linear light).</p>\n";
   if (!warning.empty()) html << "<p class=\"warn\">" << Html(warning) << "</p>\n";
 }
 

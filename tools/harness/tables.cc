@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -13,6 +14,8 @@
 #include "core/error.h"
 #include "core/input_file.h"
 #include "core/json_io.h"
+#include "tools/harness/protocol.h"
+#include "tools/harness/statistics.h"
 
 namespace turbid {
 namespace {
@@ -135,6 +138,10 @@ struct KeyedValues {
   std::vector<std::string> keys;  // in file order
   std::map<std::string, std::map<std::string, std::string>> values;
   std::vector<std::string> metrics;  // in file order (items.csv kind)
+  // The score domain of the full-reference metrics ("" when the table predates the column).
+  std::string domain;
+  // Summary tables with ci_lo / ci_hi: the baseline interval of each mean, by key and metric.
+  std::map<std::string, std::map<std::string, std::pair<double, double>>> intervals;
 };
 
 KeyedValues Keyed(const CsvTable& table, const std::string& path, bool* is_summary) {
@@ -154,11 +161,24 @@ KeyedValues Keyed(const CsvTable& table, const std::string& path, bool* is_summa
   if (summary) {
     const int level = table.Column("level"), method = table.Column("method");
     const int metric = table.Column("metric"), mean = table.Column("mean");
-    for (const auto& row : table.rows) add(row[level] + " " + row[method], row[metric], row[mean]);
+    const int domain = table.Column("domain");
+    const int lo = table.Column("ci_lo"), hi = table.Column("ci_hi");
+    for (const auto& row : table.rows) {
+      add(row[level] + " " + row[method], row[metric], row[mean]);
+      if (lo >= 0 && hi >= 0) {
+        keyed.intervals[row[level] + " " + row[method]][row[metric]] = {ParseValue(row[lo]),
+                                                                        ParseValue(row[hi])};
+      }
+      if (domain >= 0 && row[domain] == "encoded") keyed.domain = "encoded";
+      if (domain >= 0 && keyed.domain.empty()) keyed.domain = "linear";
+    }
     return keyed;
   }
   const int id = table.Column("id"), method = table.Column("method");
-  const std::set<std::string> fixed = {"id", "scene", "condition", "level", "method", "error"};
+  const std::set<std::string> fixed = {"id",     "scene",        "condition", "level",
+                                       "method", "score_domain", "error"};
+  if (const int domain = table.Column("score_domain"); domain >= 0 && !table.rows.empty())
+    keyed.domain = table.rows.front()[domain];
   std::vector<int> metric_columns;
   for (size_t i = 0; i < table.header.size(); ++i) {
     if (fixed.count(table.header[i]) || table.header[i].rfind("param:", 0) == 0) continue;
@@ -338,27 +358,77 @@ std::vector<SummaryCell> Summarize(const Experiment& experiment,
     for (size_t m = 0; m < experiment.methods.size(); ++m) {
       const std::string& label = experiment.methods[m].label;
       for (const HarnessMetricInfo& metric : experiment.metrics) {
-        std::vector<double> values;
-        int failed = 0;
+        SummaryCell cell;
+        cell.level = level;
+        cell.method = label;
+        cell.metric = metric.name;
+        cell.domain = MetricDomain(experiment.score_domain, metric.needs_reference);
         for (const ItemResult& item : items) {
           if (level != "all" && item.level != level) continue;
+          double value = std::nan("");
           for (const MethodResult& row : item.methods) {
             if (row.label != label) continue;
             const auto it = row.metrics.find(metric.name);
-            values.push_back(it == row.metrics.end() ? std::nan("") : it->second);
-            failed += !row.error.empty() || !item.error.empty();
+            if (it != row.metrics.end()) value = it->second;
+            cell.failed += !row.error.empty() || !item.error.empty();
           }
+          cell.values.push_back(value);
         }
-        cells.push_back({level, label, metric.name, ComputeStats(values), failed});
+        cell.stats = ComputeStats(cell.values);
+        cells.push_back(std::move(cell));
       }
     }
   }
+  // Intervals: independent per cell (own seed), so computed in parallel with the same result.
+  cv::parallel_for_(cv::Range(0, static_cast<int>(cells.size())), [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      SummaryCell& cell = cells[static_cast<size_t>(i)];
+      const Interval ci = BootstrapMeanCi(
+          cell.values,
+          kBootstrapSeed ^ StableHash(cell.level + '\x1f' + cell.method + '\x1f' + cell.metric));
+      cell.ci_lo = ci.lo;
+      cell.ci_hi = ci.hi;
+    }
+  });
   return cells;
 }
 
+RowVerdict JudgeRow(const std::vector<const SummaryCell*>& row, const std::vector<bool>& excluded,
+                    bool higher_is_better) {
+  RowVerdict verdict;
+  std::vector<int> ranked;
+  for (size_t i = 0; i < row.size(); ++i) {
+    if (excluded[i] || row[i] == nullptr || row[i]->stats.n == 0 || std::isnan(row[i]->stats.mean))
+      continue;
+    ranked.push_back(static_cast<int>(i));
+  }
+  if (ranked.empty()) return verdict;
+  const auto mean = [&](int i) { return row[static_cast<size_t>(i)]->stats.mean; };
+  std::stable_sort(ranked.begin(), ranked.end(), [&](int a, int b) {
+    return higher_is_better ? mean(a) > mean(b) : mean(a) < mean(b);
+  });
+  verdict.best = ranked[0];
+  if (ranked.size() == 1) {
+    verdict.significant = true;
+    return verdict;
+  }
+  verdict.runner_up = ranked[1];
+  const SignedRankResult test =
+      WilcoxonSignedRank(row[static_cast<size_t>(verdict.best)]->values,
+                         row[static_cast<size_t>(verdict.runner_up)]->values);
+  verdict.p_value = test.p_value;
+  verdict.pairs = test.n;
+  // The ranks must point the same way as the means (they can disagree on skewed differences).
+  const double centre = test.n * (test.n + 1.0) / 4.0;
+  const bool same_way = higher_is_better ? test.w_plus > centre : test.w_plus < centre;
+  verdict.significant =
+      mean(verdict.best) != mean(verdict.runner_up) && same_way && test.p_value < 0.05;
+  return verdict;
+}
+
 const std::vector<std::string>& DeterministicOutputs() {
-  static const std::vector<std::string> files = {"experiment.json", "items.csv", "items.jsonl",
-                                                 "summary.md", "summary.csv"};
+  static const std::vector<std::string> files = {"experiment.json", "items.csv",   "items.jsonl",
+                                                 "summary.md",      "summary.csv", "protocol.json"};
   return files;
 }
 
@@ -373,9 +443,14 @@ void ItemTables(const Experiment& experiment, const std::vector<ItemResult>& ite
 
   csv << "id,scene,condition,level";
   for (const std::string& path : param_paths) csv << "," << CsvEscape("param:" + path);
-  csv << ",method";
+  // score_domain: where the full-reference columns were scored (no-reference ones: linear).
+  csv << ",method,score_domain";
   for (const HarnessMetricInfo& metric : experiment.metrics) csv << "," << CsvEscape(metric.name);
   csv << ",error\n";
+  const bool any_full =
+      std::any_of(experiment.metrics.begin(), experiment.metrics.end(),
+                  [](const HarnessMetricInfo& metric) { return metric.needs_reference; });
+  const std::string domain = MetricDomain(experiment.score_domain, any_full);
   for (const ItemResult& item : items) {
     jsonl << ItemResultToJson(item, false).dump() << "\n";
     for (const MethodResult& row : item.methods) {
@@ -384,7 +459,7 @@ void ItemTables(const Experiment& experiment, const std::vector<ItemResult>& ite
       for (const std::string& path : param_paths) {
         csv << "," << CsvEscape(item.params.contains(path) ? ParamText(item.params[path]) : "");
       }
-      csv << "," << CsvEscape(row.label);
+      csv << "," << CsvEscape(row.label) << "," << domain;
       for (const HarnessMetricInfo& metric : experiment.metrics) {
         const auto it = row.metrics.find(metric.name);
         csv << "," << (it == row.metrics.end() ? "nan" : FormatValue(it->second));
@@ -397,12 +472,14 @@ void ItemTables(const Experiment& experiment, const std::vector<ItemResult>& ite
 // summary.csv: the summary in long format.
 std::string SummaryCsv(const std::vector<SummaryCell>& cells) {
   std::ostringstream summary_csv;
-  summary_csv << "level,method,metric,n,mean,sd,min,max,failed\n";
+  summary_csv << "level,method,metric,domain,n,mean,sd,ci_lo,ci_hi,min,max,failed\n";
   for (const SummaryCell& cell : cells) {
     summary_csv << CsvEscape(cell.level) << "," << CsvEscape(cell.method) << ","
-                << CsvEscape(cell.metric) << "," << cell.stats.n << ","
+                << CsvEscape(cell.metric) << "," << cell.domain << "," << cell.stats.n << ","
                 << (cell.stats.n ? FormatValue(cell.stats.mean) : "nan") << ","
                 << (cell.stats.n ? FormatValue(cell.stats.sd) : "nan") << ","
+                << (cell.stats.n ? FormatValue(cell.ci_lo) : "nan") << ","
+                << (cell.stats.n ? FormatValue(cell.ci_hi) : "nan") << ","
                 << (cell.stats.n ? FormatValue(cell.stats.min) : "nan") << ","
                 << (cell.stats.n ? FormatValue(cell.stats.max) : "nan") << "," << cell.failed
                 << "\n";
@@ -420,6 +497,25 @@ std::vector<bool> BestExcluded(const Experiment& experiment) {
   return excluded;
 }
 
+// Where the metrics were scored, as the tables say it (tools/harness/score_domain.h).
+std::string DomainSentence(const Experiment& experiment) {
+  std::string full, other;
+  for (const HarnessMetricInfo& metric : experiment.metrics) {
+    std::string& list = metric.needs_reference ? full : other;
+    list += (list.empty() ? "" : ", ") + metric.name;
+  }
+  std::string out = "Score domain: **" + ScoreDomainName(experiment.score_domain) + "**";
+  if (full.empty())
+    return out + " (no full-reference metric here; every metric reads linear light).";
+  out += experiment.score_domain == ScoreDomain::kEncoded
+             ? " — full-reference metrics (" + full +
+                   ") compare the images as the camera writes them (its encoding, quantised to its "
+                   "bit depth, data range 2^bits − 1)"
+             : " — full-reference metrics (" + full + ") compare linear-light float images";
+  if (!other.empty()) out += "; the others (" + other + ") read linear light";
+  return out + ".";
+}
+
 // summary.md's title and the paragraph that explains the cells.
 void SummaryMarkdownHead(const Experiment& experiment, const std::vector<ItemResult>& items,
                          std::ostringstream& md) {
@@ -427,8 +523,11 @@ void SummaryMarkdownHead(const Experiment& experiment, const std::vector<ItemRes
   if (!experiment.description.empty()) md << experiment.description << "\n\n";
   md << items.size() << " of " << experiment.ItemCount() << " items; ground truth: "
      << (experiment.ground_truth == "lit" ? "lit J = (E_A + E_L) rho" : "clean rho") << "; level: `"
-     << experiment.level_path << "`. Cells: mean ± sample standard deviation "
-     << "over items; **bold** = best per row";
+     << experiment.level_path << "`. " << DomainSentence(experiment)
+     << " Cells: mean over items [95 % percentile-bootstrap interval, " << kBootstrapResamples
+     << " resamples, seeded]; **bold** = best per row where a two-sided Wilcoxon signed-rank "
+        "test over the same items says it beats the runner-up at 5 %, otherwise the row says "
+        "\"tied\"";
   if (!experiment.best_excludes.empty()) {
     md << " (not counting";
     for (const std::string& label : experiment.best_excludes) md << " " << label;
@@ -443,28 +542,60 @@ void SummaryMarkdownHead(const Experiment& experiment, const std::vector<ItemRes
   }
 }
 
+// A summary cell: "mean [ci_lo, ci_hi]" with 4 significant digits (the mean alone for n = 1).
+std::string FormatSummaryCell(const SummaryCell& cell) {
+  if (cell.stats.n == 0) return "–";
+  if (!std::isfinite(cell.stats.mean)) return FormatValue(cell.stats.mean);
+  char buffer[128];
+  if (cell.stats.n == 1 || cell.ci_lo == cell.ci_hi) {
+    std::snprintf(buffer, sizeof buffer, "%.4g", cell.stats.mean);
+  } else {
+    std::snprintf(buffer, sizeof buffer, "%.4g [%.4g, %.4g]", cell.stats.mean, cell.ci_lo,
+                  cell.ci_hi);
+  }
+  return buffer;
+}
+
+// The row's "best" column: the winner and its test, or "tied".
+std::string VerdictText(const Experiment& experiment, const RowVerdict& verdict) {
+  if (verdict.best < 0) return "–";
+  const std::string best = experiment.methods[static_cast<size_t>(verdict.best)].label;
+  if (verdict.runner_up < 0) return best + " (alone)";
+  const std::string second = experiment.methods[static_cast<size_t>(verdict.runner_up)].label;
+  char p[32];
+  std::snprintf(p, sizeof p, "%.2g", verdict.p_value);
+  return (verdict.significant ? best + " > " + second : "tied: " + best + " ≈ " + second) +
+         " (p = " + p + ", n = " + std::to_string(verdict.pairs) + ")";
+}
+
 // summary.md: Table I style, one table per level and overall.
 std::string SummaryMarkdown(const Experiment& experiment, const std::vector<ItemResult>& items,
                             const std::vector<SummaryCell>& cells) {
-  std::map<std::tuple<std::string, std::string, std::string>, Stats> lookup;
+  std::map<std::tuple<std::string, std::string, std::string>, const SummaryCell*> lookup;
   std::map<std::pair<std::string, std::string>, int> failed_items;  // (level, method)
   int any_failed = 0;
   for (const SummaryCell& cell : cells) {
-    lookup[{cell.level, cell.method, cell.metric}] = cell.stats;
+    lookup[{cell.level, cell.method, cell.metric}] = &cell;
     failed_items[{cell.level, cell.method}] = cell.failed;
     any_failed += cell.failed;
   }
 
   const std::vector<bool> excluded = BestExcluded(experiment);
   // Ground-truth scores of no-reference metrics, per level (computed once per scene).
-  const auto reference_stats = [&](const std::string& level, const std::string& metric) {
-    std::vector<double> values;
+  const auto reference_cell = [&](const std::string& level, const std::string& metric) {
+    SummaryCell cell;
     for (const ItemResult& item : items) {
       if (level != "all" && item.level != level) continue;
       const auto it = item.reference_metrics.find(metric);
-      if (it != item.reference_metrics.end()) values.push_back(it->second);
+      if (it != item.reference_metrics.end()) cell.values.push_back(it->second);
     }
-    return ComputeStats(values);
+    cell.stats = ComputeStats(cell.values);
+    const Interval ci = BootstrapMeanCi(
+        cell.values,
+        kBootstrapSeed ^ StableHash(level + '\x1f' + "ground truth" + '\x1f' + metric));
+    cell.ci_lo = ci.lo;
+    cell.ci_hi = ci.hi;
+    return cell;
   };
   bool any_reference = false;
   for (const ItemResult& item : items) any_reference |= !item.reference_metrics.empty();
@@ -483,23 +614,27 @@ std::string SummaryMarkdown(const Experiment& experiment, const std::vector<Item
        << " items)\n\n| metric |";
     for (const ExperimentMethod& m : experiment.methods) md << " " << MethodHeader(m) << " |";
     if (any_reference) md << " ground truth |";
-    md << "\n|---|";
+    md << " best (Wilcoxon, 5 %) |\n|---|";
     for (size_t i = 0; i < experiment.methods.size(); ++i) md << "---|";
     if (any_reference) md << "---|";
-    md << "\n";
+    md << "---|\n";
     for (const HarnessMetricInfo& metric : experiment.metrics) {
-      std::vector<Stats> row;
+      std::vector<const SummaryCell*> row;
       for (const ExperimentMethod& m : experiment.methods) {
-        row.push_back(lookup[{level, m.label, metric.name}]);
+        const auto it = lookup.find({level, m.label, metric.name});
+        row.push_back(it == lookup.end() ? nullptr : it->second);
       }
-      const std::set<size_t> best = BestColumns(row, excluded, metric.higher_is_better);
-      md << "| " << metric.name << (metric.higher_is_better ? " ↑" : " ↓") << " |";
+      const RowVerdict verdict = JudgeRow(row, excluded, metric.higher_is_better);
+      md << "| " << metric.name << (metric.higher_is_better ? " ↑" : " ↓")
+         << (metric.needs_reference ? " (" + ScoreDomainName(experiment.score_domain) + ")" : "")
+         << " |";
       for (size_t i = 0; i < row.size(); ++i) {
-        const std::string cell = FormatCell(row[i]);
-        md << " " << (best.count(i) ? "**" + cell + "**" : cell) << " |";
+        const std::string cell = row[i] == nullptr ? "–" : FormatSummaryCell(*row[i]);
+        const bool bold = verdict.significant && static_cast<int>(i) == verdict.best;
+        md << " " << (bold ? "**" + cell + "**" : cell) << " |";
       }
-      if (any_reference) md << " " << FormatCell(reference_stats(level, metric.name)) << " |";
-      md << "\n";
+      if (any_reference) md << " " << FormatSummaryCell(reference_cell(level, metric.name)) << " |";
+      md << " " << VerdictText(experiment, verdict) << " |\n";
     }
     if (any_failed > 0) {
       // Items on which a method failed (its metrics are NaN and left out of the cells above).
@@ -508,7 +643,7 @@ std::string SummaryMarkdown(const Experiment& experiment, const std::vector<Item
         md << " " << failed_items[{level, m.label}] << " |";
       }
       if (any_reference) md << " |";
-      md << "\n";
+      md << " |\n";
     }
   }
 
@@ -587,7 +722,7 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
   ItemTables(experiment, items, csv, jsonl);
   const std::vector<SummaryCell> cells = Summarize(experiment, items);
   const std::string summary_csv = SummaryCsv(cells);
-  const std::string md = SummaryMarkdown(experiment, items, cells);
+  const std::string md = SummaryMarkdown(experiment, items, cells) + ProtocolMarkdown(experiment);
   std::ostringstream timings_csv, timings_md;
   TimingTables(experiment, items, timings_csv, timings_md);
 
@@ -596,6 +731,7 @@ void WriteTables(const Experiment& experiment, const std::vector<ItemResult>& it
   AtomicWriteText(dir + "/items.csv", csv.str(), true);
   AtomicWriteText(dir + "/items.jsonl", jsonl.str(), true);
   AtomicWriteText(dir + "/summary.csv", summary_csv, true);
+  WriteProtocol(experiment, dir);
   if (with_timings) {
     AtomicWriteText(dir + "/timings.csv", timings_csv.str(), true);
     AtomicWriteText(dir + "/timings.md", timings_md.str(), true);
@@ -642,7 +778,12 @@ std::string RegressReport::Format() const {
   for (const std::string& key : missing) out << "MISSING     " << key << "\n";
   out << compared << " values compared: " << moves.size() << " moved beyond tolerance ("
       << regressions << " regressed), " << missing.size() << " missing, " << extra.size()
-      << " new rows not in the baseline\n";
+      << " new rows not in the baseline";
+  if (within_noise > 0) {
+    out << "; " << within_noise
+        << " beyond tolerance but inside the baseline's 95 % interval (within noise)";
+  }
+  out << "\n";
   out << (failed() ? "regress: FAIL\n" : "regress: OK\n");
   return out.str();
 }
@@ -657,6 +798,12 @@ RegressReport Regress(const std::string& baseline_csv, const std::string& result
     throw Error(results_csv, std::string("is a ") + (results_summary ? "summary" : "per-item") +
                                  " table but the baseline " + baseline_csv + " is a " +
                                  (baseline_summary ? "summary" : "per-item") + " table");
+  }
+  if (!baseline.domain.empty() && !results.domain.empty() && baseline.domain != results.domain) {
+    throw Error(results_csv, "scored in the '" + results.domain + "' domain but the baseline " +
+                                 baseline_csv + " in '" + baseline.domain +
+                                 "': re-measure the baseline (or set the experiment's "
+                                 "\"score_domain\")");
   }
   RegressReport report;
   for (const std::string& key : baseline.keys) {
@@ -679,6 +826,14 @@ RegressReport Regress(const std::string& baseline_csv, const std::string& result
         same = base == result;
       } else {
         same = std::fabs(result - base) <= tol.abs + tol.rel * std::fabs(base);
+      }
+      if (!same && options.within_interval && std::isfinite(result)) {
+        const auto key_it = baseline.intervals.find(key);
+        if (key_it != baseline.intervals.end() && key_it->second.count(metric)) {
+          const auto [lo, hi] = key_it->second.at(metric);
+          same = result >= lo && result <= hi;
+          report.within_noise += same;
+        }
       }
       if (same) continue;
       RegressMove move{key, metric, base, result, true};

@@ -76,7 +76,26 @@ struct SummaryCell {
   std::string level, method, metric;
   Stats stats;
   int failed = 0;  // items of the level on which the method failed (error set; metrics NaN)
+  std::string domain;  // where the metric was scored: "encoded" or "linear" (MetricDomain)
+  // 95 % percentile-bootstrap interval of the mean over the level's items (statistics.h; seeded
+  // by the cell's level, method and metric): deterministic.
+  double ci_lo = 0.0, ci_hi = 0.0;
+  // One value per item of the level, in item order (NaN: failed or absent): the paired test's
+  // input.
+  std::vector<double> values;
 };
+
+// The best method of one summary row and whether it beats the runner-up (statistics.h): a
+// two-sided Wilcoxon signed-rank test over the items both have, at the 5 % level, in the
+// direction of the means. `best` is -1 when no column qualifies; `runner_up` -1 when only one.
+struct RowVerdict {
+  int best = -1, runner_up = -1;
+  bool significant = false;  // best beats runner_up (p < 0.05) — or there is no runner-up
+  double p_value = 1.0;
+  int pairs = 0;  // non-zero differences the test used
+};
+RowVerdict JudgeRow(const std::vector<const SummaryCell*>& row, const std::vector<bool>& excluded,
+                    bool higher_is_better);
 std::vector<SummaryCell> Summarize(const Experiment& experiment,
                                    const std::vector<ItemResult>& items);
 
@@ -95,6 +114,11 @@ struct RegressOptions {
   // regression.
   std::map<std::string, bool> higher_is_better;
   bool fail_on_improvement = false;  // strict: any move beyond tolerance fails
+  // Summary tables: a mean beyond tolerance that stays inside the baseline's 95 % bootstrap
+  // interval of that mean over items (ci_lo, ci_hi) is within the metric's item noise and passes
+  // (counted in RegressReport::within_noise). For comparing runs whose items differ (another seed,
+  // other samples); a baseline without the columns is compared by tolerance alone.
+  bool within_interval = false;
   bool Check(std::string* why) const;
 };
 
@@ -107,6 +131,7 @@ struct RegressMove {
 
 struct RegressReport {
   int compared = 0;                  // values compared
+  int within_noise = 0;              // beyond tolerance but inside the baseline's interval
   std::vector<RegressMove> moves;    // beyond tolerance, in baseline order
   std::vector<std::string> missing;  // baseline rows/metrics absent from the results
   std::vector<std::string> extra;    // result rows absent from the baseline (informational)
