@@ -163,6 +163,7 @@ int RunCli(int argc, const char* const* argv) {
   // `turbid --help` lists the subcommands in this order: the order a newcomer uses them.
   AddSceneCommand(app);
   AddRenderCommand(app);
+  AddWaterCommand(app);
   AddEnhanceCommand(app);
   AddScoreCommand(app);
   AddHarnessCommands(app);

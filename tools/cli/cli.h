@@ -48,6 +48,7 @@ struct ExitStatus {
 // Each subcommand family adds itself to the app; defined in tools/cmd_<family>.cc.
 void AddSceneCommand(CLI::App& app);
 void AddRenderCommand(CLI::App& app);
+void AddWaterCommand(CLI::App& app);
 void AddGenerateCommand(CLI::App& app);  // also in tools/cli/cmd_render.cc
 void AddEnhanceCommand(CLI::App& app);
 void AddScoreCommand(CLI::App& app);
