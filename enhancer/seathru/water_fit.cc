@@ -143,8 +143,8 @@ bool WaterFitOptions::Check(std::string* why) const {
   if (!(dark_percent > 0 && dark_percent <= 100)) return fail("dark_percent must be in (0, 100]");
   if (illuminant_layers < 2 || illuminant_layers > 256)
     return fail("illuminant_layers must be in [2, 256]");
-  if (!(illuminant_radius > 0 && illuminant_radius <= 1))
-    return fail("illuminant_radius must be in (0, 1]");
+  if (!(illuminant_extent > 0 && illuminant_extent <= 1))
+    return fail("illuminant_extent must be in (0, 1]");
   if (attenuation_bins < 3 || attenuation_bins > 1000)
     return fail("attenuation_bins must be in [3, 1000]");
   return true;
@@ -161,7 +161,7 @@ const Fields<WaterFitOptions>& WaterFitFields() {
                   NumberRange::AboveUpTo(0, 100))
           .Integer("illuminant_layers", &O::illuminant_layers,
                    "illuminant: range layers of the local space average colour", 2, 256)
-          .Number("illuminant_radius", &O::illuminant_radius,
+          .Number("illuminant_extent", &O::illuminant_extent,
                   "illuminant: box half-width, fraction of the longer image side",
                   NumberRange::AboveUpTo(0, 1))
           .Integer("attenuation_bins", &O::attenuation_bins,
@@ -308,7 +308,7 @@ cv::Mat LocalAverageColour(const cv::Mat& direct, const cv::Mat& range_m,
   const int layers = options.illuminant_layers;
   const double step = std::max(hi - lo, 1e-6) / (layers - 1);
   const int half = std::max(1, static_cast<int>(std::lround(
-                                   options.illuminant_radius * std::max(direct.cols, direct.rows))));
+                                   options.illuminant_extent * std::max(direct.cols, direct.rows))));
   const cv::Size box(2 * half + 1, 2 * half + 1);
   cv::Mat num(direct.size(), CV_32FC3, cv::Scalar::all(0)), den(direct.size(), CV_32FC1, cv::Scalar(0));
   cv::Mat weight(direct.size(), CV_32FC1), weighted(direct.size(), CV_32FC3), w_blur, d_blur;

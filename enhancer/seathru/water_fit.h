@@ -24,7 +24,7 @@ struct WaterFitOptions {
   int range_bins = 10;            // backscatter: evenly spaced bins over [min, max] range (paper: 10)
   double dark_percent = 1.0;      // backscatter: darkest % of each bin by R+G+B (paper: 1)
   int illuminant_layers = 12;     // illuminant: range layers of the local average
-  double illuminant_radius = 0.1; // illuminant: box radius as a fraction of the longer side
+  double illuminant_extent = 0.1; // illuminant: box radius as a fraction of the longer side
   int attenuation_bins = 24;      // β^D: range bins of the illuminant's log
   // β^D: true = the illuminant's scale k_c is fitted with β^D (ln Ê = ln k − β^D(r) r); false =
   // the paper's fixed Ê = f·a with f = 2 (grey-world reflectance 0.5).
