@@ -1,10 +1,9 @@
 // Depth maps of real RGB-D frames: the nearest-neighbour stretch onto the image grid, the erosion
 // of the valid mask, and the intrinsics of frames without calibration. docs/formats.md.
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "scenes/scene_loader.h"
 

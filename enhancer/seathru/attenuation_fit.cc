@@ -51,7 +51,8 @@ double SolveLinear(const std::vector<Bin>& bins, double b, double d, bool fixed,
     }
     double sse = 0;
     for (const Bin& bin : bins) {
-      const double f = x[0] - x[1] * std::exp(b * bin.r) * bin.r - x[2] * std::exp(d * bin.r) * bin.r;
+      const double f =
+          x[0] - x[1] * std::exp(b * bin.r) * bin.r - x[2] * std::exp(d * bin.r) * bin.r;
       sse += (bin.log_e - f) * (bin.log_e - f);
     }
     if (sse < best) {
@@ -76,17 +77,39 @@ WaterFit FitWater(const std::vector<WaterFitFrame>& frames, const WaterFitOption
   // Per frame: the direct signal, its local average colour (the illuminant up to the scale f), and
   // (r, ln Ê) for every valid pixel.
   std::vector<std::array<float, 4>> samples;  // r, ln Ê (R, G, B)
-  for (const WaterFitFrame& f : frames) {
-    const cv::Mat average = LocalAverageColour(DirectSignal(f, fit.backscatter), f.range_m, options);
+  for (const WaterFitFrame& full : frames) {
+    // The illuminant is a wide average (illuminant_extent of the longer side): it is computed on
+    // every s-th pixel of every s-th row, s = ceil(longer side / 512), which leaves its box as wide
+    // and its range layers as they are, at 1/s^2 of the work (decimation, no averaging of ranges).
+    const int s = std::max(1, (std::max(full.image.cols, full.image.rows) + 511) / 512);
+    WaterFitFrame f = full;
+    if (s > 1) {
+      const int w = (full.image.cols + s - 1) / s, h = (full.image.rows + s - 1) / s;
+      f.image = cv::Mat(h, w, CV_32FC3);
+      f.range_m = cv::Mat(h, w, CV_32FC1);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+          f.image.at<cv::Vec3f>(y, x) = full.image.at<cv::Vec3f>(y * s, x * s);
+          f.range_m.at<float>(y, x) = full.range_m.at<float>(y * s, x * s);
+        }
+    }
+    for (int y = 0; y < full.range_m.rows; ++y) {
+      const float* r = full.range_m.ptr<float>(y);
+      for (int x = 0; x < full.range_m.cols; ++x) {
+        if (!(std::isfinite(r[x]) && r[x] > 0)) continue;
+        ++fit.valid_pixels;
+        fit.min_range_m = std::min<double>(fit.min_range_m, r[x]);
+        fit.max_range_m = std::max<double>(fit.max_range_m, r[x]);
+      }
+    }
+    const cv::Mat average =
+        LocalAverageColour(DirectSignal(f, fit.backscatter), f.range_m, options);
     const double scale = options.fit_illuminant_scale ? 1.0 : 2.0;  // the paper's f
     for (int y = 0; y < f.range_m.rows; ++y) {
       const float* r = f.range_m.ptr<float>(y);
       const cv::Vec3f* a = average.ptr<cv::Vec3f>(y);
       for (int x = 0; x < f.range_m.cols; ++x) {
         if (!(std::isfinite(r[x]) && r[x] > 0)) continue;
-        ++fit.valid_pixels;
-        fit.min_range_m = std::min<double>(fit.min_range_m, r[x]);
-        fit.max_range_m = std::max<double>(fit.max_range_m, r[x]);
         if (a[x][0] <= 1e-6f || a[x][1] <= 1e-6f || a[x][2] <= 1e-6f) continue;
         samples.push_back({r[x], static_cast<float>(std::log(scale * a[x][2])),
                            static_cast<float>(std::log(scale * a[x][1])),
@@ -99,7 +122,8 @@ WaterFit FitWater(const std::vector<WaterFitFrame>& frames, const WaterFitOption
   const double lo = fit.min_range_m, width = std::max(fit.max_range_m - lo, 1e-9) / nb;
   std::vector<std::vector<std::array<float, 4>>> per_bin(static_cast<size_t>(nb));
   for (const auto& s : samples)
-    per_bin[static_cast<size_t>(std::min(nb - 1, static_cast<int>((s[0] - lo) / width)))].push_back(s);
+    per_bin[static_cast<size_t>(std::min(nb - 1, static_cast<int>((s[0] - lo) / width)))].push_back(
+        s);
   const size_t min_count = std::max<size_t>(20, samples.size() / (50 * static_cast<size_t>(nb)));
   std::vector<std::array<double, 4>> medians;  // r, ln Ê (R, G, B)
   AttenuationFit& att = fit.attenuation;
@@ -117,8 +141,9 @@ WaterFit FitWater(const std::vector<WaterFitFrame>& frames, const WaterFitOption
     att.bin_count.push_back(static_cast<int>(v.size()));
   }
   if (medians.size() < 3)
-    throw Error("water fit", "the illuminant is known in fewer than 3 range bins: too few lit "
-                             "pixels or too narrow a range to fit beta^D");
+    throw Error("water fit",
+                "the illuminant is known in fewer than 3 range bins: too few lit "
+                "pixels or too narrow a range to fit beta^D");
   for (int c = 0; c < 3; ++c) {
     std::vector<Bin> bins;
     for (const auto& m : medians) bins.push_back({m[0], m[1 + c]});

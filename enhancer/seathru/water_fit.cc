@@ -1,11 +1,10 @@
 // Sea-thru's water estimate (enhancer/seathru/water_fit.h; choices: docs/cli/water.md).
 #include "enhancer/seathru/water_fit.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 
@@ -271,7 +270,8 @@ BackscatterFit FitBackscatter(const std::vector<WaterFitFrame>& frames,
     for (const Pixel& d : dark) s += std::pow(d.rgb[c] - fit.Evaluate(c, d.r), 2);
     fit.rms[c] = std::sqrt(s / static_cast<double>(n));
   }
-  for (double r : fit.bin_range_m) fit.bin_fitted.push_back({fit.Evaluate(0, r), fit.Evaluate(1, r), fit.Evaluate(2, r)});
+  for (double r : fit.bin_range_m)
+    fit.bin_fitted.push_back({fit.Evaluate(0, r), fit.Evaluate(1, r), fit.Evaluate(2, r)});
   const size_t stride = std::max<size_t>(1, n / 20000);  // the plot's points
   for (size_t i = 0; i < n; i += stride)
     fit.dark.push_back({dark[i].r, dark[i].rgb[0], dark[i].rgb[1], dark[i].rgb[2]});
@@ -307,10 +307,11 @@ cv::Mat LocalAverageColour(const cv::Mat& direct, const cv::Mat& range_m,
   if (!(hi > 0)) return out;
   const int layers = options.illuminant_layers;
   const double step = std::max(hi - lo, 1e-6) / (layers - 1);
-  const int half = std::max(1, static_cast<int>(std::lround(
-                                   options.illuminant_extent * std::max(direct.cols, direct.rows))));
+  const int half = std::max(1, static_cast<int>(std::lround(options.illuminant_extent *
+                                                            std::max(direct.cols, direct.rows))));
   const cv::Size box(2 * half + 1, 2 * half + 1);
-  cv::Mat num(direct.size(), CV_32FC3, cv::Scalar::all(0)), den(direct.size(), CV_32FC1, cv::Scalar(0));
+  cv::Mat num(direct.size(), CV_32FC3, cv::Scalar::all(0)),
+      den(direct.size(), CV_32FC1, cv::Scalar(0));
   cv::Mat weight(direct.size(), CV_32FC1), weighted(direct.size(), CV_32FC3), w_blur, d_blur;
   for (int k = 0; k < layers; ++k) {
     const double centre = lo + k * step;
@@ -321,7 +322,9 @@ cv::Mat LocalAverageColour(const cv::Mat& direct, const cv::Mat& range_m,
       float* w = weight.ptr<float>(y);
       cv::Vec3f* wd = weighted.ptr<cv::Vec3f>(y);
       for (int x = 0; x < range_m.cols; ++x) {
-        w[x] = ValidRange(r[x]) ? static_cast<float>(std::max(0.0, 1 - std::abs(r[x] - centre) / step)) : 0.0f;
+        w[x] = ValidRange(r[x])
+                   ? static_cast<float>(std::max(0.0, 1 - std::abs(r[x] - centre) / step))
+                   : 0.0f;
         wd[x] = d[x] * w[x];
         any = any || w[x] > 0;
       }

@@ -8,9 +8,8 @@
 // everywhere in this header; images are turbid's B, G, R.
 #pragma once
 
-#include <opencv2/core.hpp>
-
 #include <array>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
@@ -21,11 +20,11 @@ namespace turbid {
 using Rgb3 = std::array<double, 3>;  // R, G, B
 
 struct WaterFitOptions {
-  int range_bins = 10;            // backscatter: evenly spaced bins over [min, max] range (paper: 10)
-  double dark_percent = 1.0;      // backscatter: darkest % of each bin by R+G+B (paper: 1)
-  int illuminant_layers = 12;     // illuminant: range layers of the local average
-  double illuminant_extent = 0.1; // illuminant: box radius as a fraction of the longer side
-  int attenuation_bins = 24;      // β^D: range bins of the illuminant's log
+  int range_bins = 10;         // backscatter: evenly spaced bins over [min, max] range (paper: 10)
+  double dark_percent = 1.0;   // backscatter: darkest % of each bin by R+G+B (paper: 1)
+  int illuminant_layers = 12;  // illuminant: range layers of the local average
+  double illuminant_extent = 0.1;  // illuminant: box radius as a fraction of the longer side
+  int attenuation_bins = 24;       // β^D: range bins of the illuminant's log
   // β^D: true = the illuminant's scale k_c is fitted with β^D (ln Ê = ln k − β^D(r) r); false =
   // the paper's fixed Ê = f·a with f = 2 (grey-world reflectance 0.5).
   bool fit_illuminant_scale = true;
@@ -43,7 +42,7 @@ struct WaterFitFrame {
 
 struct BackscatterFit {
   Rgb3 b_inf{}, beta_b{}, j_prime{}, beta_prime{};  // per channel; β in 1/m
-  Rgb3 rms{};                                        // residual RMS over the dark pixels
+  Rgb3 rms{};                                       // residual RMS over the dark pixels
   // The dark pixels used (range, R, G, B), and per range bin: centre, count, the median of the dark
   // pixels, the fitted curve there.
   std::vector<std::array<float, 4>> dark;
@@ -53,9 +52,9 @@ struct BackscatterFit {
 };
 
 struct AttenuationFit {
-  Rgb3 a{}, b{}, c{}, d{};   // β^D_c(r) = a e^{b r} + c e^{d r}, 1/m
-  Rgb3 log_scale{};          // ln k_c (the illuminant's scale)
-  Rgb3 rms{};                // residual RMS of ln Ê over the bins
+  Rgb3 a{}, b{}, c{}, d{};  // β^D_c(r) = a e^{b r} + c e^{d r}, 1/m
+  Rgb3 log_scale{};         // ln k_c (the illuminant's scale)
+  Rgb3 rms{};               // residual RMS of ln Ê over the bins
   // Per range bin: centre, pixel count, the per-pixel estimate −ln(Ê/k)/r (median) and the fit.
   std::vector<double> bin_range_m;
   std::vector<int> bin_count;

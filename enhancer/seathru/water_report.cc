@@ -1,11 +1,10 @@
 // enhancer/seathru/water_report.h.
 #include "enhancer/seathru/water_report.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <opencv2/imgproc.hpp>
 
 namespace turbid {
 namespace {
@@ -152,8 +151,8 @@ cv::Mat WaterFitPlot(const WaterFit& fit) {
       const double ra = r0 + (r1 - r0) * i / 100, rb = r0 + (r1 - r0) * (i + 1) / 100;
       cv::line(canvas, left.At(ra, bs.Evaluate(c, ra)), left.At(rb, bs.Evaluate(c, rb)),
                kChannel[c], 2, cv::LINE_AA);
-      cv::line(canvas, right.At(ra, att.Beta(c, ra)), right.At(rb, att.Beta(c, rb)), kChannel[c],
-               2, cv::LINE_AA);
+      cv::line(canvas, right.At(ra, att.Beta(c, ra)), right.At(rb, att.Beta(c, rb)), kChannel[c], 2,
+               cv::LINE_AA);
     }
     for (size_t i = 0; i < att.bin_range_m.size(); ++i)
       cv::circle(canvas, right.At(att.bin_range_m[i], std::max(0.0, att.bin_beta[i][c])), 3,

@@ -68,14 +68,14 @@ LoopResult CloseLoop(const Scene& scene, const Water& w, bool noise) {
   const WaterFit fit = FitWater({frame});
   LoopResult out;
   for (int c = 0; c < 3; ++c) {
-    out.b_inf_error = std::max(out.b_inf_error,
-                               std::abs(fit.backscatter.b_inf[c] - w.b_inf[c]) / w.b_inf[c]);
-    out.beta_b_error = std::max(out.beta_b_error,
-                                std::abs(fit.backscatter.beta_b[c] - w.beta_b[c]) / w.beta_b[c]);
+    out.b_inf_error =
+        std::max(out.b_inf_error, std::abs(fit.backscatter.b_inf[c] - w.b_inf[c]) / w.b_inf[c]);
+    out.beta_b_error =
+        std::max(out.beta_b_error, std::abs(fit.backscatter.beta_b[c] - w.beta_b[c]) / w.beta_b[c]);
     for (int i = 0; i <= 20; ++i) {
       const double r = fit.min_range_m + (fit.max_range_m - fit.min_range_m) * i / 20;
-      out.beta_d_error = std::max(
-          out.beta_d_error, std::abs(fit.attenuation.Beta(c, r) - w.beta_d[c]) / w.beta_d[c]);
+      out.beta_d_error = std::max(out.beta_d_error,
+                                  std::abs(fit.attenuation.Beta(c, r) - w.beta_d[c]) / w.beta_d[c]);
     }
   }
   return out;
@@ -135,10 +135,10 @@ TEST(SeathruClosedLoop, RoomBackscatter) {
   }
 }
 
-// The `seathru` method on the seafloor renders, against the clean image. The restoration is right up
-// to one global scale: Sea-thru's white balance assumes a mean reflectance of 0.5 (f = 2) where the
-// seafloor's is about 0.39, so every channel comes out 1.28x too bright. Noise-free SSIM with the
-// default: 0.900, 0.900, 0.902 (coastal, oceanic, harbour); told the mean reflectance (0.4):
+// The `seathru` method on the seafloor renders, against the clean image. The restoration is right
+// up to one global scale: Sea-thru's white balance assumes a mean reflectance of 0.5 (f = 2) where
+// the seafloor's is about 0.39, so every channel comes out 1.28x too bright. Noise-free SSIM with
+// the default: 0.900, 0.900, 0.902 (coastal, oceanic, harbour); told the mean reflectance (0.4):
 // 0.972 on all three. With noise (8-bit sRGB + sensor): 0.825, 0.871, 0.592 by default; 0.903,
 // 0.945, 0.681 with 0.4 (harbour's red is under the noise beyond a few metres).
 TEST(SeathruClosedLoop, SeathruRestoresTheSeafloor) {
@@ -154,8 +154,8 @@ TEST(SeathruClosedLoop, SeathruRestoresTheSeafloor) {
       const double before = Ssim({}, scene.image, degraded.image).mean;
       const double by_default =
           Ssim({}, scene.image, Enhance("seathru", nlohmann::json::object(), input)).mean;
-      const double told = Ssim({}, scene.image,
-                               Enhance("seathru", {{"mean_reflectance", 0.4}}, input)).mean;
+      const double told =
+          Ssim({}, scene.image, Enhance("seathru", {{"mean_reflectance", 0.4}}, input)).mean;
       EXPECT_GT(by_default, before);
       if (!noise) {
         EXPECT_GE(by_default, 0.895);

@@ -76,8 +76,8 @@ TEST(WaterCli, FitWritesRenderParamsDiagnosticsAndPlot) {
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("exists (use --force"), std::string::npos) << run.err;
   std::ofstream(dir.File("opts.json")) << R"({"range_bin": 12})";
-  run = RunTurbid({"water", "fit", frame, "--out", dir.File("f2.json"), "--options",
-                   dir.File("opts.json")});
+  run = RunTurbid(
+      {"water", "fit", frame, "--out", dir.File("f2.json"), "--options", dir.File("opts.json")});
   EXPECT_EQ(run.exit_code, 1);
   EXPECT_NE(run.err.find("unknown key 'range_bin'"), std::string::npos) << run.err;
   // Two frames of the same water at once.

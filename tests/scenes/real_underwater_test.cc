@@ -3,11 +3,11 @@
 // expectations, then the Sea-thru D1/D3 and FLSea frames from $TURBID_DATA (skipped when unset;
 // expected values transcribed from each folder's SOURCE.md).
 #include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
 
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <opencv2/imgcodecs.hpp>
 
 #include "core/error.h"
 #include "scenes/image_io.h"
@@ -55,7 +55,8 @@ const char* kBase = R"("type": "depth", "image": "rgb.png", "depth": "depth.exr"
 TEST(RealUnderwater, DepthResizeNoneRefusesAnotherGrid) {
   TempDir dir;
   WriteFrame(dir, {3, 2});
-  const std::string message = LoadError(dir, std::string("{") + kBase + R"(, "camera": "unknown"})");
+  const std::string message =
+      LoadError(dir, std::string("{") + kBase + R"(, "camera": "unknown"})");
   EXPECT_NE(message.find("size 3x2 differs from image"), std::string::npos) << message;
   EXPECT_NE(message.find("stretch_nearest"), std::string::npos) << message;
 }
@@ -116,15 +117,18 @@ TEST(RealUnderwater, BadValuesOfTheNewKeysNameTheKey) {
   TempDir dir;
   WriteFrame(dir, {6, 4});
   const std::string base = std::string("{") + kBase + R"(, "camera": "unknown", )";
-  EXPECT_NE(LoadError(dir, base + R"("depth_erode_px": -1})").find("'depth_erode_px': must be in [0, 64]"),
+  EXPECT_NE(LoadError(dir, base + R"("depth_erode_px": -1})")
+                .find("'depth_erode_px': must be in [0, 64]"),
             std::string::npos);
-  EXPECT_NE(LoadError(dir, base + R"("depth_erode_px": 1.5})").find("'depth_erode_px': expected an integer"),
+  EXPECT_NE(LoadError(dir, base + R"("depth_erode_px": 1.5})")
+                .find("'depth_erode_px': expected an integer"),
             std::string::npos);
   EXPECT_NE(LoadError(dir, base + R"("depth_resize": "bilinear"})")
                 .find("'depth_resize': expected one of none, stretch_nearest"),
             std::string::npos);
-  EXPECT_NE(LoadError(dir, base + R"("depth_kind": "x"})").find("'depth_kind': expected one of z, range"),
-            std::string::npos);
+  EXPECT_NE(
+      LoadError(dir, base + R"("depth_kind": "x"})").find("'depth_kind': expected one of z, range"),
+      std::string::npos);
   EXPECT_NE(LoadError(dir, R"({"type": "stereo", "image": "rgb.png", "disparity": "depth.exr",
                               "baseline_m": 0.1, "camera": "unknown"})")
                 .find("stereo needs the focal length"),
@@ -139,11 +143,14 @@ TEST(RealUnderwater, DepthKindRangeDividesByTheRayLength) {
   WriteFrame(dir, {6, 4});
   const std::string camera = R"("camera": {"fx": 3, "fy": 2, "cx": 2.5, "cy": 1.5})";
   const Scene z = Load(dir, std::string("{") + kBase + ", " + camera + "}");
-  const Scene r = Load(dir, std::string("{") + kBase + ", " + camera + R"(, "depth_kind": "range"})");
-  const Scene ray = Load(dir, std::string("{") + kBase + ", " + camera + R"(, "depth_kind": "ray"})");
+  const Scene r =
+      Load(dir, std::string("{") + kBase + ", " + camera + R"(, "depth_kind": "range"})");
+  const Scene ray =
+      Load(dir, std::string("{") + kBase + ", " + camera + R"(, "depth_kind": "ray"})");
   for (int y = 0; y < 4; ++y)
     for (int x = 0; x < 6; ++x) {
-      const double norm = std::sqrt(1.0 + std::pow((x - 2.5) / 3.0, 2) + std::pow((y - 1.5) / 2.0, 2));
+      const double norm =
+          std::sqrt(1.0 + std::pow((x - 2.5) / 3.0, 2) + std::pow((y - 1.5) / 2.0, 2));
       EXPECT_NEAR(r.depth_m.at<float>(y, x), z.depth_m.at<float>(y, x) / norm, 1e-5);
       EXPECT_EQ(ray.depth_m.at<float>(y, x), r.depth_m.at<float>(y, x));
     }
@@ -157,7 +164,8 @@ TEST(RealUnderwater, UnknownCameraMakesRangeEqualDepthAndSaysSo) {
   const cv::Mat range = RangeFromDepth(s.camera, s.depth_m);
   EXPECT_EQ(cv::norm(range, s.depth_m, cv::NORM_INF), 0.0);
   // The same under "range": z = r / |ray| with |ray| = 1 to float precision.
-  const Scene r = Load(dir, std::string("{") + kBase + R"(, "camera": "unknown", "depth_kind": "range"})");
+  const Scene r =
+      Load(dir, std::string("{") + kBase + R"(, "camera": "unknown", "depth_kind": "range"})");
   EXPECT_EQ(cv::norm(r.depth_m, s.depth_m, cv::NORM_INF), 0.0);
   const nlohmann::json summary = SceneSummaryJson(s);
   EXPECT_EQ(summary["camera"]["unknown"], true);
@@ -170,10 +178,12 @@ TEST(RealUnderwater, SixteenBitImagesLinearAndSrgb) {
   WriteFrame(dir, {6, 4});
   cv::imwrite(dir.File("rgb16.png"), cv::Mat(4, 6, CV_16UC3, cv::Scalar(16384, 32768, 65535)));
   const std::string tail = R"(, "depth": "depth.exr", "camera": "unknown")";
-  const Scene lin = Load(dir, R"({"type": "depth", "image": "rgb16.png", "color": "linear")" + tail + "}");
+  const Scene lin =
+      Load(dir, R"({"type": "depth", "image": "rgb16.png", "color": "linear")" + tail + "}");
   EXPECT_NEAR(lin.image.at<cv::Vec3f>(0, 0)[0], 16384.0 / 65535.0, 1e-6);
   EXPECT_NEAR(lin.image.at<cv::Vec3f>(0, 0)[2], 1.0, 1e-6);
-  const Scene srgb = Load(dir, R"({"type": "depth", "image": "rgb16.png", "color": "srgb")" + tail + "}");
+  const Scene srgb =
+      Load(dir, R"({"type": "depth", "image": "rgb16.png", "color": "srgb")" + tail + "}");
   const double v = 32768.0 / 65535.0;  // IEC 61966-2-1 decode
   EXPECT_NEAR(srgb.image.at<cv::Vec3f>(0, 0)[1], std::pow((v + 0.055) / 1.055, 2.4), 1e-5);
 }
@@ -184,7 +194,8 @@ TEST(RealUnderwater, FloatDepthFromTiffAndPng16) {
   cv::Mat depth(4, 6, CV_32FC1, cv::Scalar(2.5f));
   depth.at<float>(1, 1) = 0.0f;
   cv::imwrite(dir.File("d.tif"), depth);
-  const Scene tif = Load(dir, R"({"type": "depth", "image": "rgb.png", "depth": "d.tif", "camera": "unknown"})");
+  const Scene tif =
+      Load(dir, R"({"type": "depth", "image": "rgb.png", "depth": "d.tif", "camera": "unknown"})");
   EXPECT_EQ(tif.depth_m.at<float>(0, 0), 2.5f);
   EXPECT_TRUE(std::isnan(tif.depth_m.at<float>(1, 1)));
   cv::Mat mm;
@@ -251,9 +262,9 @@ TEST(RealUnderwater, FlseaCanyonsAndRedSeaFrames) {
                         Case{"16315129396993518", red_sea, 1.103, 8.448, 0.863}}) {
     SCOPED_TRACE(c.stem);
     const std::string base = data + "/flsea/" + c.stem;
-    const Scene s = Load(dir, R"({"type": "depth", "image": ")" + base + R"(.tiff", "depth": ")" +
-                                  base + R"(_SeaErra_abs_depth.tif", "color": "srgb", "camera": )" +
-                                  c.camera + "}");
+    const Scene s =
+        Load(dir, R"({"type": "depth", "image": ")" + base + R"(.tiff", "depth": ")" + base +
+                      R"(_SeaErra_abs_depth.tif", "color": "srgb", "camera": )" + c.camera + "}");
     EXPECT_EQ(s.depth_m.size(), cv::Size(968, 608));
     const DepthStats d = ComputeDepthStats(s.depth_m);
     EXPECT_NEAR(d.min_m, c.min_m, 1e-3);

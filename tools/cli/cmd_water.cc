@@ -1,10 +1,9 @@
 // `turbid water fit SCENE... --out FIT.json`: Sea-thru's water estimate from real RGB-D, written as
 // a render-parameter file plus diagnostics and a plot. Reference: docs/cli/water.md.
-#include <nlohmann/json.hpp>
-
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -39,7 +38,8 @@ void RunWaterFit(const WaterFitArgs& args) {
   if (!args.options_path.empty())
     WaterFitFields().Read(ReadJsonFile(args.options_path), &options, args.options_path);
   std::string why;
-  if (!options.Check(&why)) throw Error(args.options_path.empty() ? "water fit" : args.options_path, why);
+  if (!options.Check(&why))
+    throw Error(args.options_path.empty() ? "water fit" : args.options_path, why);
   const std::string diagnostics_path = Sibling(args.out, ".diagnostics.json");
   const std::string plot_path = Sibling(args.out, ".plot.png");
   if (!args.force)
@@ -63,14 +63,15 @@ void RunWaterFit(const WaterFitArgs& args) {
   const BackscatterFit& b = fit.backscatter;
   const AttenuationFit& a = fit.attenuation;
   const double r_mid = 0.5 * (fit.min_range_m + fit.max_range_m);
-  std::printf("%d frame(s), %lld valid pixels, range %.3f..%.3f m\n", fit.frames,
-              fit.valid_pixels, fit.min_range_m, fit.max_range_m);
+  std::printf("%d frame(s), %lld valid pixels, range %.3f..%.3f m\n", fit.frames, fit.valid_pixels,
+              fit.min_range_m, fit.max_range_m);
   std::printf("  B_inf (R, G, B)       %.4f %.4f %.4f\n", b.b_inf[0], b.b_inf[1], b.b_inf[2]);
   std::printf("  beta^B (1/m)          %.4f %.4f %.4f\n", b.beta_b[0], b.beta_b[1], b.beta_b[2]);
-  std::printf("  beta^D at %.2f m (1/m) %.4f %.4f %.4f\n", r_mid, a.Beta(0, r_mid), a.Beta(1, r_mid),
-              a.Beta(2, r_mid));
+  std::printf("  beta^D at %.2f m (1/m) %.4f %.4f %.4f\n", r_mid, a.Beta(0, r_mid),
+              a.Beta(1, r_mid), a.Beta(2, r_mid));
   std::printf("  backscatter residual RMS %.5f %.5f %.5f\n", b.rms[0], b.rms[1], b.rms[2]);
-  std::printf("  wrote %s, %s, %s\n", args.out.c_str(), diagnostics_path.c_str(), plot_path.c_str());
+  std::printf("  wrote %s, %s, %s\n", args.out.c_str(), diagnostics_path.c_str(),
+              plot_path.c_str());
 }
 
 }  // namespace
@@ -80,9 +81,11 @@ void AddWaterCommand(CLI::App& app) {
   water->require_subcommand(1);
   auto args = std::make_shared<WaterFitArgs>();
   CLI::App* fit = water->add_subcommand(
-      "fit", "fit Sea-thru's backscatter and attenuation to scenes of the same water; write a "
-             "render-parameter file (model revised)");
-  PathOption(fit->add_option("scenes", args->scenes, "scene files (real RGB-D frames)")->required());
+      "fit",
+      "fit Sea-thru's backscatter and attenuation to scenes of the same water; write a "
+      "render-parameter file (model revised)");
+  PathOption(
+      fit->add_option("scenes", args->scenes, "scene files (real RGB-D frames)")->required());
   PathOption(fit->add_option("--out", args->out,
                              "FIT.json (turbid render --params); FIT.diagnostics.json and "
                              "FIT.plot.png are written next to it")
