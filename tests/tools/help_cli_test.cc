@@ -17,7 +17,7 @@ namespace {
 using testing::RunTurbid;
 using testing::TempDir;
 
-const std::vector<std::string> kNewcomerOrder = {"scene",    "render", "enhance", "score",
+const std::vector<std::string> kNewcomerOrder = {"scene",    "render", "water", "enhance", "score",
                                                  "sweep",    "merge",  "regress", "report",
                                                  "generate", "bench"};
 

@@ -79,6 +79,7 @@ void RunWaterFit(const WaterFitArgs& args) {
 void AddWaterCommand(CLI::App& app) {
   CLI::App* water = app.add_subcommand("water", "estimate water from real underwater RGB-D");
   water->require_subcommand(1);
+  water->footer("Example: turbid water fit clean/seafloor/scene.json --out water.json");
   auto args = std::make_shared<WaterFitArgs>();
   CLI::App* fit = water->add_subcommand(
       "fit",
