@@ -99,9 +99,13 @@ std::vector<MethodEntry> SeathruMethodEntries() {
     const SeathruOptions o = ReadMethodParams("seathru", params, SeathruFields());
     if (input.scene == nullptr) throw Error("seathru: needs the scene's depth (--scene)");
     ValidateEnhanceImage(input.image, "seathru");
-    if (input.image.channels() != 3) throw Error("seathru: needs a colour image");
+    // A gray image runs as three equal channels (each is fitted alike) and comes back as one.
+    const bool gray = input.image.channels() == 1;
+    cv::Mat colour = input.image;
+    if (gray) cv::merge(std::vector<cv::Mat>{input.image, input.image, input.image}, colour);
     const cv::Mat range = RangeFromDepth(input.scene->camera, input.scene->depth_m);
-    SeathruResult r = Seathru(o, input.image, range);
+    SeathruResult r = Seathru(o, colour, range);
+    if (gray) cv::extractChannel(r.image, r.image, 0);
     if (input.steps != nullptr) {
       input.steps->Image("01_direct", r.direct, true);
       input.steps->Image("02_restored", r.image, true);
