@@ -12,6 +12,7 @@
 #include "enhancer/method.h"
 #include "enhancer/oracle/oracle.h"
 #include "enhancer/paper/entries.h"
+#include "enhancer/seathru/entries.h"
 #include "core/error.h"
 
 namespace turbid {
@@ -28,6 +29,7 @@ const Table& GetTable() {
     t.entries = PaperMethodEntries();
     for (MethodEntry& e : OracleMethodEntries()) t.entries.push_back(std::move(e));
     for (MethodEntry& e : BaselineMethodEntries()) t.entries.push_back(std::move(e));
+    for (MethodEntry& e : SeathruMethodEntries()) t.entries.push_back(std::move(e));
     for (const MethodEntry& e : t.entries) t.infos.push_back(e.info);
     return t;
   }();

@@ -46,6 +46,9 @@ struct Scene {
   std::optional<Plane> dominant_plane;          // when the scene knows it exactly
   std::vector<cv::Vec3d> dvl_points_in_camera;  // DVL-style beam hits on the surface, metres
   std::map<std::string, std::string> input_hashes;  // input file path -> sha256 (empty for built-ins)
+  // The scene file said "camera": "unknown": `camera` holds nominal intrinsics under which range
+  // = depth (scenes/scene_loader.h UnknownCamera); summaries say so.
+  bool camera_unknown = false;
 
   int width() const { return image.cols; }
   int height() const { return image.rows; }

@@ -9,11 +9,13 @@
 #include <fstream>
 #include <limits>
 #include <set>
+#include <map>
 #include <sstream>
 
 #include "core/atomic_file.h"
 #include "scenes/builtin.h"
 #include "core/error.h"
+#include "core/fields.h"
 #include "scenes/folder_dataset.h"
 #include "scenes/image_io.h"
 #include "core/json_io.h"
@@ -37,101 +39,222 @@ std::string Join(const std::set<std::string>& names) {
   return out;
 }
 
-// Strict reader over one JSON object: every accessed key is recorded, and Finish() rejects the
-// rest.
-class ObjectReader {
- public:
-  ObjectReader(const std::string& file, const std::string& where, const json& object)
-      : file_(file), where_(where), object_(object) {
-    if (!object_.is_object()) Fail(where_.empty() ? "top level must be a JSON object" : where_ + " must be an object");
-  }
+std::string FormatNumber(double value) {
+  std::ostringstream s;
+  s << value;
+  return s.str();
+}
 
-  bool Has(const std::string& key) {
-    allowed_.insert(key);
-    return object_.contains(key);
-  }
-  void Allow(const std::string& key) { allowed_.insert(key); }
+[[noreturn]] void Fail(const std::string& file, const std::string& problem) {
+  throw Error(file, problem);
+}
 
-  std::string String(const std::string& key) {
-    const json& v = Get(key);
-    if (!v.is_string()) Fail(Key(key) + " must be a string");
-    return v.get<std::string>();
-  }
-  double Number(const std::string& key) {
-    const json& v = Get(key);
-    if (!v.is_number()) Fail(Key(key) + " must be a number");
-    const double value = v.get<double>();
-    if (!std::isfinite(value)) Fail(Key(key) + " must be finite");
-    return value;
-  }
-  double Positive(const std::string& key) {
-    const double value = Number(key);
-    if (!(value > 0.0)) Fail(Key(key) + " must be > 0, got " + Format(value));
-    return value;
-  }
-  int PositiveInt(const std::string& key) {
-    const json& v = Get(key);
-    if (!v.is_number_integer() || v.get<long long>() <= 0 || v.get<long long>() > (1 << 16))
-      Fail(Key(key) + " must be a positive integer");
-    return static_cast<int>(v.get<long long>());
-  }
-  cv::Vec3d Vector3(const json& v, const std::string& what) {
-    if (!v.is_array() || v.size() != 3) Fail(what + " must be an array of 3 numbers");
-    cv::Vec3d out;
-    for (int i = 0; i < 3; ++i) {
-      if (!v[i].is_number() || !std::isfinite(v[i].get<double>()))
-        Fail(what + " must be an array of 3 finite numbers");
-      out[i] = v[i].get<double>();
+// Reads a JSON object through a sub-table (camera, plane) inside a Custom field: returns the
+// problem ("" when read), the key named relative to the field ("unknown key 'skew' (known: ...)",
+// "'fx': expected a number"); every key in `required` must be present.
+template <typename S>
+std::string ReadObject(const Fields<S>& table, const json& v, const std::vector<std::string>& required,
+                       S* out) {
+  if (!v.is_object()) return "expected an object, got " + fields_detail::ShownValue(v);
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    const typename Fields<S>::Field* field = table.Find(it.key());
+    if (field == nullptr) {
+      std::string known;
+      for (const std::string& k : table.Keys()) known += (known.empty() ? "" : ", ") + k;
+      return "unknown key '" + PrintableName(it.key()) + "' (known: " + known + ")";
     }
-    return out;
+    const std::string problem = field->read(it.value(), *out);
+    if (!problem.empty()) return "'" + it.key() + "': " + problem;
   }
-  const json& Get(const std::string& key) {
-    allowed_.insert(key);
-    if (!object_.contains(key)) Fail("missing required key " + Key(key));
-    return object_.at(key);
-  }
-  void Finish() {
-    for (const auto& [key, value] : object_.items()) {
-      if (!allowed_.count(key))
-        Fail("unknown key " + Key(key) + " (allowed here: " + Join(allowed_) + ")");
-    }
-  }
-  [[noreturn]] void Fail(const std::string& problem) const { throw Error(file_, problem); }
-  std::string Key(const std::string& key) const {
-    return "'" + (where_.empty() ? key : where_ + "." + key) + "'";
-  }
-  static std::string Format(double value) {
-    std::ostringstream s;
-    s << value;
-    return s.str();
-  }
+  for (const std::string& key : required)
+    if (!v.contains(key)) return "missing required key '" + key + "'";
+  return "";
+}
 
- private:
-  const std::string& file_;
-  std::string where_;
-  const json& object_;
-  std::set<std::string> allowed_;
+const Fields<CameraIntrinsics>& CameraFields() {
+  static const Fields<CameraIntrinsics> fields =
+      Fields<CameraIntrinsics>()
+          .Number("fx", &CameraIntrinsics::fx, "focal length along x, pixels (non-zero)")
+          .Number("fy", &CameraIntrinsics::fy,
+                  "focal length along y, pixels (non-zero; negative = image y axis up)")
+          .Number("cx", &CameraIntrinsics::cx, "principal point x, pixels")
+          .Number("cy", &CameraIntrinsics::cy, "principal point y, pixels")
+          .Integer("width", &CameraIntrinsics::width, "image width (checked against the image)", 1,
+                   1 << 16)
+          .Integer("height", &CameraIntrinsics::height, "image height (checked against the image)",
+                   1, 1 << 16);
+  return fields;
+}
+
+// "camera": a preset name, "unknown", or {fx, fy, cx, cy[, width, height]}.
+std::string ReadCamera(const json& v, SceneFileSpec& spec) {
+  if (v.is_string()) {
+    const std::string& name = v.get_ref<const std::string&>();
+    if (name == "unknown") {
+      spec.camera_unknown = true;
+      spec.camera.reset();
+      return "";
+    }
+    try {
+      spec.camera = CameraPreset(name);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  }
+  CameraIntrinsics camera;
+  std::string problem = ReadObject(CameraFields(), v, {"fx", "fy", "cx", "cy"}, &camera);
+  if (!problem.empty()) return problem;
+  if (camera.fx == 0.0 || camera.fy == 0.0) return "'fx' and 'fy' must be non-zero";
+  spec.camera = camera;
+  spec.camera_unknown = false;
+  return "";
+}
+
+json WriteCamera(const SceneFileSpec& spec) {
+  if (spec.camera_unknown) return "unknown";
+  if (!spec.camera) return nullptr;
+  return CameraFields().ToJson(*spec.camera);
+}
+
+struct PlaneKeys {
+  cv::Vec3d normal{0.0, 0.0, 0.0};
+  double offset_m = 0.0;
 };
 
-CameraIntrinsics ParseCamera(const std::string& file, const json& value) {
-  if (value.is_string()) {
-    try {
-      return CameraPreset(value.get<std::string>());
-    } catch (const Error& e) {
-      throw Error(file, std::string("'camera': ") + e.what());
-    }
+const Fields<PlaneKeys>& PlaneFields() {
+  static const Fields<PlaneKeys> fields =
+      Fields<PlaneKeys>()
+          .Array("normal", &PlaneKeys::normal, 3, "plane normal n (any length > 0), camera frame")
+          .Number("offset_m", &PlaneKeys::offset_m, "d in n.X + d = 0, metres (scaled with n)");
+  return fields;
+}
+
+std::string ReadPlane(const json& v, SceneFileSpec& spec) {
+  PlaneKeys keys;
+  std::string problem = ReadObject(PlaneFields(), v, {"normal", "offset_m"}, &keys);
+  if (!problem.empty()) return problem;
+  const double length = cv::norm(keys.normal);
+  if (!(length > 1e-12)) return "'normal' must be non-zero";
+  Plane plane{keys.normal / length, keys.offset_m / length};
+  if (plane.offset_m < 0.0) {  // orient towards the camera
+    plane.normal = -plane.normal;
+    plane.offset_m = -plane.offset_m;
   }
-  ObjectReader reader(file, "camera", value);
-  CameraIntrinsics camera;
-  camera.fx = reader.Number("fx");
-  camera.fy = reader.Number("fy");
-  camera.cx = reader.Number("cx");
-  camera.cy = reader.Number("cy");
-  if (camera.fx == 0.0 || camera.fy == 0.0) reader.Fail("'camera.fx' and 'camera.fy' must be non-zero");
-  if (reader.Has("width")) camera.width = reader.PositiveInt("width");
-  if (reader.Has("height")) camera.height = reader.PositiveInt("height");
-  reader.Finish();
-  return camera;
+  if (plane.offset_m == 0.0) return "passes through the camera centre (offset_m = 0)";
+  spec.plane = plane;
+  return "";
+}
+
+std::string ReadDvl(const json& v, SceneFileSpec& spec) {
+  if (!v.is_array() || v.empty()) return "must be a non-empty array of [x, y, z]";
+  spec.dvl.clear();
+  for (size_t i = 0; i < v.size(); ++i) {
+    std::vector<double> p;
+    std::string problem = fields_detail::ArrayProblem(v[i], 3, NumberRange::Any(), &p);
+    if (!problem.empty()) return "[" + std::to_string(i) + "]: " + problem;
+    if (!(p[2] > 0.0)) return "[" + std::to_string(i) + "] must have z > 0 (in front of the camera)";
+    spec.dvl.push_back({p[0], p[1], p[2]});
+  }
+  return "";
+}
+
+// The keys of one scene-file type (docs/formats.md "Scene files"), built once per type.
+Fields<SceneFileSpec> MakeSpecFields(const std::string& type) {
+  using S = SceneFileSpec;
+  Fields<S> f;
+  f.String("type", &S::type, "rgbd, depth, stereo, builtin, nyu_v2 or folder")
+      .String("name", &S::name, "scene name (default: the file's stem)");
+  if (type == "builtin") {
+    return f.String("builtin", &S::builtin, "built-in scene name (required)")
+        .Number("scale", &S::builtin_scale, "size scale", NumberRange::AboveUpTo(0.0, 1.0));
+  }
+  if (type == "rgbd" || type == "depth" || type == "stereo")
+    f.String("image", &S::image, "clean image file (required)");
+  f.Choice("color", &S::color, {{"srgb", Transfer::kSrgb}, {"linear", Transfer::kLinear}},
+           "how integer (8/16-bit) image files are coded");
+  f.Custom(
+      "camera", "preset name, \"unknown\" or object", "",
+      "intrinsics: {fx, fy, cx, cy[, width, height]}, a preset, or \"unknown\" (range = depth)",
+      [](const json& v, S& out) { return ReadCamera(v, out); },
+      [](const S& in) { return WriteCamera(in); });
+  if (type == "nyu_v2") {
+    return f.String("file", &S::dataset, "the labelled .mat file (required)")
+        .Boolean("crop_border", &S::crop_border, "crop to the NYU toolbox's valid region")
+        .String("depth_dataset", &S::depth_dataset, "\"depths\" or \"rawDepths\"");
+  }
+  if (type == "folder") {
+    f.String("folder", &S::dataset, "dataset root (required)")
+        .String("rgb_dir", &S::rgb_dir, "colour subfolder")
+        .String("depth_dir", &S::depth_dir, "depth subfolder");
+  } else if (type == "stereo") {
+    f.String("disparity", &S::disparity, "disparity file (required)")
+        .Number("baseline_m", &S::baseline_m, "baseline, metres (required)", NumberRange::Above(0))
+        .Number("disparity_scale", &S::disparity_scale, "file units per pixel of disparity",
+                NumberRange::Above(0))
+        .Number("doffs_px", &S::doffs_px, "x-difference of principal points, pixels",
+                NumberRange::AtLeast(0));
+  } else {
+    f.String("depth", &S::depth, "depth file (required)");
+  }
+  if (type != "stereo") {
+    f.Number("depth_scale", &S::depth_scale, "file units per metre", NumberRange::Above(0))
+        .Choice("depth_kind", &S::depth_is_range, {{"z", false}, {"range", true}, {"ray", true}},
+                "z-depth along the optical axis, or range along the ray (\"ray\" = \"range\")")
+        .Choice("depth_resize", &S::depth_resize,
+                {{"none", DepthResize::kNone}, {"stretch_nearest", DepthResize::kStretchNearest}},
+                "a depth map on another grid: none = sizes must match; stretch_nearest")
+        .Integer("depth_erode_px", &S::depth_erode_px,
+                 "erode the valid-depth mask by this many depth-file pixels", 0, 64);
+  }
+  if (type != "folder") {
+    f.Custom(
+        "plane", "object", "", "known dominant plane {normal: [3], offset_m}, camera frame",
+        [](const json& v, S& out) { return ReadPlane(v, out); },
+        [](const S& in) -> json {
+          if (!in.plane) return nullptr;
+          return {{"normal", {in.plane->normal[0], in.plane->normal[1], in.plane->normal[2]}},
+                  {"offset_m", in.plane->offset_m}};
+        });
+    f.Custom(
+        "dvl", "array of [x, y, z]", "", "DVL beam hits, camera frame, metres (z > 0)",
+        [](const json& v, S& out) { return ReadDvl(v, out); },
+        [](const S& in) {
+          json points = json::array();
+          for (const cv::Vec3d& p : in.dvl) points.push_back({p[0], p[1], p[2]});
+          return points;
+        });
+  }
+  return f;
+}
+
+// What a scene file's keys read into: the spec, and the raw "frames" selection of nyu_v2 and
+// folder (resolved once the frames are listed; null = every frame).
+struct SceneFileKeys {
+  SceneFileSpec spec;
+  json frames;
+};
+
+const Fields<SceneFileKeys>& KeyFields(const std::string& type) {
+  static const std::map<std::string, Fields<SceneFileKeys>> tables = [] {
+    std::map<std::string, Fields<SceneFileKeys>> out;
+    for (const char* t : {"rgbd", "depth", "stereo", "builtin", "nyu_v2", "folder"}) {
+      Fields<SceneFileKeys> f;
+      f.Nested("", &SceneFileKeys::spec, MakeSpecFields(t));
+      if (std::string(t) == "nyu_v2" || std::string(t) == "folder") {
+        f.Custom(
+            "frames", "index, array or \"START:STOP[:STEP]\"", "", "frame selection",
+            [](const json& v, SceneFileKeys& out) {
+              out.frames = v;
+              return std::string();
+            },
+            [](const SceneFileKeys& in) { return in.frames; });
+      }
+      out.emplace(t, std::move(f));
+    }
+    return out;
+  }();
+  return tables.at(type);
 }
 
 // "${NAME}" in a path is replaced by the environment variable NAME (e.g. ${TURBID_DATA}, where the
@@ -181,7 +304,7 @@ cv::Mat DepthFromRaw(const std::string& path, const cv::Mat& raw, double units_p
     for (int x = 0; x < raw.cols; ++x) {
       const float v = src[x];
       if (v < 0.0f)
-        throw Error(path, "negative depth value " + ObjectReader::Format(v) + " at pixel (" +
+        throw Error(path, "negative depth value " + FormatNumber(v) + " at pixel (" +
                               std::to_string(x) + ", " + std::to_string(y) + ")");
       dst[x] = (v == 0.0f || !std::isfinite(v)) ? kNan : static_cast<float>(v / units_per_m);
     }
@@ -194,7 +317,7 @@ void CheckImageRange(const std::string& path, const cv::Mat& image) {
     const float* row = image.ptr<float>(y);
     for (int i = 0; i < image.cols * image.channels(); ++i) {
       if (!(row[i] >= 0.0f && row[i] <= 1.0f))
-        throw Error(path, "image value " + ObjectReader::Format(row[i]) + " at pixel (" +
+        throw Error(path, "image value " + FormatNumber(row[i]) + " at pixel (" +
                               std::to_string(i / image.channels()) + ", " + std::to_string(y) +
                               ") is outside [0, 1] (float images must be linear albedo in [0, 1])");
     }
@@ -212,9 +335,14 @@ std::pair<std::string, std::string> SplitFrameSuffix(const std::string& spec) {
 // Frame selection of a multi-frame scene file over `keys` (every frame, in order): absent = all;
 // an index; an array of indices (or, when `stems`, file stems); "START:STOP[:STEP]" (half-open,
 // as a Python slice with non-negative bounds; STOP may be empty = to the end).
-std::vector<std::string> SelectFrames(ObjectReader& reader, const json* value,
+std::vector<std::string> SelectFrames(const std::string& file, const json& selection,
                                       const std::vector<std::string>& keys, bool stems) {
-  if (value == nullptr) return keys;
+  if (selection.is_null()) return keys;
+  const json* value = &selection;
+  struct {
+    const std::string& file;
+    [[noreturn]] void Fail(const std::string& problem) const { throw Error(file, problem); }
+  } reader{file};
   const long long count = static_cast<long long>(keys.size());
   auto index = [&](const json& v, const std::string& what) -> std::string {
     if (!v.is_number_integer())
@@ -274,60 +402,40 @@ std::vector<std::string> SelectFrames(ObjectReader& reader, const json* value,
   reader.Fail("'frames' must be an index, an array, or a \"START:STOP[:STEP]\" range");
 }
 
-// nyu_v2 and folder: the dataset, its frame list, the selection and the frame to load.
-void ParseMultiFrame(ObjectReader& reader, const json& root, const fs::path& folder,
-                     const std::string& json_path, const std::string& frame_suffix,
-                     SceneFileSpec& spec) {
+// nyu_v2 and folder: the frame list, the selection and the frame to load.
+void ParseMultiFrame(const std::string& json_path, const std::string& frame_suffix,
+                     const json& selection, SceneFileSpec& spec) {
+  auto fail = [&](const std::string& problem) { Fail(json_path, problem); };
   std::vector<std::string> keys;
   std::vector<FolderFrame> folder_frames;
   if (spec.type == "nyu_v2") {
-    spec.dataset = Resolve(folder, reader.String("file"), json_path);
-    if (reader.Has("crop_border")) {
-      const json& v = root.at("crop_border");
-      if (!v.is_boolean()) reader.Fail("'crop_border' must be true or false");
-      spec.crop_border = v.get<bool>();
-    }
-    if (reader.Has("depth_dataset")) spec.depth_dataset = reader.String("depth_dataset");
     NyuFrameOptions options;
     options.depth_dataset = spec.depth_dataset;
     std::string why;
-    if (!options.Check(&why)) reader.Fail("'depth_dataset': " + why);
+    if (!options.Check(&why)) fail("'depth_dataset': " + why);
     const int count = NyuFrameCount(spec.dataset, options);
     // A (crafted or sparse) file may claim billions of frames: one key each would exhaust memory.
     CheckItemCount(spec.dataset, "the dataset", count);
     for (int i = 0; i < count; ++i) keys.push_back(std::to_string(i));
   } else {  // folder
-    spec.dataset = Resolve(folder, reader.String("folder"), json_path);
-    if (reader.Has("rgb_dir")) spec.rgb_dir = reader.String("rgb_dir");
-    if (reader.Has("depth_dir")) spec.depth_dir = reader.String("depth_dir");
-    if (reader.Has("depth_scale")) spec.depth_scale = reader.Positive("depth_scale");
-    if (reader.Has("depth_kind")) {
-      const std::string kind = reader.String("depth_kind");
-      if (kind != "z" && kind != "ray")
-        reader.Fail("'depth_kind' must be 'z' (along the optical axis) or 'ray' (distance from "
-                    "the camera centre), got '" + kind + "'");
-      spec.depth_is_range = kind == "ray";
-    }
     FolderDatasetOptions options;
     options.rgb_dir = spec.rgb_dir;
     options.depth_dir = spec.depth_dir;
     folder_frames = ListFolderFrames(spec.dataset, options);
     for (const FolderFrame& f : folder_frames) keys.push_back(f.stem);
   }
-  reader.Allow("frames");
-  spec.frames = SelectFrames(reader, root.contains("frames") ? &root.at("frames") : nullptr, keys,
-                             spec.type == "folder");
+  spec.frames = SelectFrames(json_path, selection, keys, spec.type == "folder");
   // A frame's key becomes part of its scene's name, and with it of file names.
   for (const std::string& key : spec.frames) {
     std::string why;
-    if (!IsSafeFileComponent(key, &why))
-      reader.Fail("frame key '" + PrintableName(key) + "' " + why);
+    if (!IsSafeFileComponent(key, &why)) fail("frame key '" + PrintableName(key) + "' " + why);
   }
   if (!frame_suffix.empty()) {
     if (std::find(keys.begin(), keys.end(), frame_suffix) == keys.end())
-      reader.Fail("'#" + frame_suffix + "': no such frame (" +
-                  (spec.type == "nyu_v2" ? "0-based index, " + std::to_string(keys.size()) + " frames"
-                                         : "a file stem in " + spec.dataset) + ")");
+      fail("'#" + frame_suffix + "': no such frame (" +
+           (spec.type == "nyu_v2" ? "0-based index, " + std::to_string(keys.size()) + " frames"
+                                  : "a file stem in " + spec.dataset) +
+           ")");
     spec.frame = frame_suffix;
   } else if (spec.frames.size() == 1) {
     spec.frame = spec.frames.front();
@@ -339,6 +447,15 @@ void ParseMultiFrame(ObjectReader& reader, const json& root, const fs::path& fol
         spec.depth = f.depth_path;
       }
   }
+}
+
+// The keys each type requires (beyond "type"); "camera" is handled by ParseSceneFile.
+std::vector<std::string> RequiredKeys(const std::string& type) {
+  if (type == "builtin") return {"builtin"};
+  if (type == "rgbd" || type == "depth") return {"image", "depth"};
+  if (type == "stereo") return {"image", "disparity", "baseline_m"};
+  if (type == "nyu_v2") return {"file"};
+  return {"folder"};
 }
 
 }  // namespace
@@ -384,96 +501,57 @@ SceneFileSpec ParseSceneFile(const std::string& spec_path) {
   std::error_code ec;
   if (fs::is_directory(json_path, ec)) throw Error(json_path, "is a folder, not a scene file");
   const json root = ReadJsonFile(json_path);  // regular file, strict (depth, duplicate keys)
-  ObjectReader reader(json_path, "", root);
-  SceneFileSpec spec;
-  spec.source = json_path;
-  spec.type = reader.String("type");
+  if (!root.is_object()) fields_detail::ThrowNotAnObject(json_path, "", root);
+  if (!root.contains("type")) Fail(json_path, "missing required key 'type'");
   const std::set<std::string> types = {"rgbd", "depth", "stereo", "builtin", "nyu_v2", "folder"};
-  if (!types.count(spec.type))
-    reader.Fail("'type' must be one of " + Join(types) + ", got '" + spec.type + "'");
-  spec.name = reader.Has("name") ? reader.String("name") : fs::path(json_path).stem().string();
+  const json& type = root.at("type");
+  if (!type.is_string() || !types.count(type.get<std::string>()))
+    Fail(json_path, "'type' must be one of " + Join(types) + ", got " +
+                        fields_detail::ShownValue(type));
+  SceneFileKeys keys;
+  SceneFileSpec& spec = keys.spec;
+  spec.type = type.get<std::string>();
+  if (spec.type == "rgbd") spec.depth_scale = 5000.0;  // TUM / ICL-NUIM
+  if (spec.type == "depth") spec.depth_scale = 1.0;    // float metres
+  KeyFields(spec.type).Read(root, &keys, json_path);
+  for (const std::string& key : RequiredKeys(spec.type))
+    if (!root.contains(key)) Fail(json_path, "missing required key '" + key + "'");
+  spec.source = json_path;
+  if (!root.contains("name")) spec.name = fs::path(json_path).stem().string();
   // The name becomes a folder (`turbid scene --out`) and part of file names (generate, sweep).
   std::string why;
   if (!IsSafeFileComponent(spec.name, &why))
-    reader.Fail("scene name '" + PrintableName(spec.name) + "' " + why);
+    Fail(json_path, "scene name '" + PrintableName(spec.name) + "' " + why);
   const fs::path folder = fs::path(json_path).parent_path();
   const bool multi_frame = spec.type == "nyu_v2" || spec.type == "folder";
   if (!frame_suffix.empty() && !multi_frame)
-    reader.Fail("'#" + frame_suffix + "' selects a frame, which only nyu_v2 and folder scene files "
-                "have (or no file " + spec_path + ")");
-
+    Fail(json_path, "'#" + frame_suffix +
+                        "' selects a frame, which only nyu_v2 and folder scene files have (or no "
+                        "file " + spec_path + ")");
   if (spec.type == "builtin") {
-    spec.builtin = reader.String("builtin");
-    if (reader.Has("scale")) spec.builtin_scale = reader.Number("scale");
-    if (!(spec.builtin_scale > 0.0 && spec.builtin_scale <= 1.0))
-      reader.Fail("'scale' must be in (0, 1]");
-    bool known = false;
-    for (const std::string& n : BuiltinSceneNames()) known = known || n == spec.builtin;
-    if (!known) reader.Fail("'builtin': unknown scene '" + spec.builtin + "'");
-    reader.Finish();
+    const std::vector<std::string> names = BuiltinSceneNames();
+    if (std::find(names.begin(), names.end(), spec.builtin) == names.end())
+      Fail(json_path, "'builtin': unknown scene '" + PrintableName(spec.builtin) + "'");
     return spec;
   }
-
-  if (!multi_frame) spec.image = Resolve(folder, reader.String("image"), json_path);
-  if (reader.Has("color")) {
-    const std::string color = reader.String("color");
-    if (color == "srgb") {
-      spec.color = Transfer::kSrgb;
-    } else if (color == "linear") {
-      spec.color = Transfer::kLinear;
-    } else {
-      reader.Fail("'color' must be 'srgb' or 'linear', got '" + color + "'");
+  if (!root.contains("camera")) {
+    if (spec.type == "rgbd") {
+      spec.camera = CameraPreset("icl_nuim");  // the documented default for RGB-D frames
+    } else if (spec.type != "nyu_v2") {  // nyu_v2: NyuKinectRgbCamera(), shifted when cropped
+      Fail(json_path,
+           "missing required key 'camera' (an object {fx, fy, cx, cy}, a preset name or "
+           "\"unknown\")");
     }
   }
-  if (reader.Has("camera")) {
-    spec.camera = ParseCamera(json_path, root.at("camera"));
-  } else if (spec.type == "nyu_v2") {
-    // BuildScene uses NyuKinectRgbCamera(), shifted when cropped.
-  } else if (spec.type == "rgbd") {
-    spec.camera = CameraPreset("icl_nuim");  // the issue's documented default for RGB-D frames
-  } else {
-    reader.Fail("missing required key 'camera' (an object {fx, fy, cx, cy} or a preset name)");
-  }
-  if (multi_frame) {
-    ParseMultiFrame(reader, root, folder, json_path, frame_suffix, spec);
-    reader.Finish();
-    return spec;
-  }
-  if (spec.type == "rgbd" || spec.type == "depth") {
-    spec.depth = Resolve(folder, reader.String("depth"), json_path);
-    spec.depth_scale = spec.type == "rgbd" ? 5000.0 : 1.0;
-    if (reader.Has("depth_scale")) spec.depth_scale = reader.Positive("depth_scale");
-  } else {  // stereo
-    spec.disparity = Resolve(folder, reader.String("disparity"), json_path);
-    spec.baseline_m = reader.Positive("baseline_m");
-    if (reader.Has("disparity_scale")) spec.disparity_scale = reader.Positive("disparity_scale");
-    if (reader.Has("doffs_px")) spec.doffs_px = reader.Number("doffs_px");
-    if (spec.doffs_px < 0.0) reader.Fail("'doffs_px' must be >= 0");
-  }
-  if (reader.Has("plane")) {
-    ObjectReader plane_reader(json_path, "plane", root.at("plane"));
-    const cv::Vec3d normal = plane_reader.Vector3(plane_reader.Get("normal"), "'plane.normal'");
-    const double length = cv::norm(normal);
-    if (!(length > 1e-12)) plane_reader.Fail("'plane.normal' must be non-zero");
-    Plane plane{normal / length, plane_reader.Number("offset_m") / length};
-    plane_reader.Finish();
-    if (plane.offset_m < 0.0) {  // orient towards the camera
-      plane.normal = -plane.normal;
-      plane.offset_m = -plane.offset_m;
-    }
-    if (plane.offset_m == 0.0) reader.Fail("'plane' passes through the camera centre (offset_m = 0)");
-    spec.plane = plane;
-  }
-  if (reader.Has("dvl")) {
-    const json& points = root.at("dvl");
-    if (!points.is_array() || points.empty()) reader.Fail("'dvl' must be a non-empty array of [x, y, z]");
-    for (size_t i = 0; i < points.size(); ++i) {
-      const cv::Vec3d p = reader.Vector3(points[i], "'dvl[" + std::to_string(i) + "]'");
-      if (!(p[2] > 0.0)) reader.Fail("'dvl[" + std::to_string(i) + "]' must have z > 0 (in front of the camera)");
-      spec.dvl.push_back(p);
-    }
-  }
-  reader.Finish();
+  if (spec.camera_unknown && spec.type == "stereo")
+    Fail(json_path, "'camera': stereo needs the focal length (fx) for depth = B fx / d, not \"unknown\"");
+  if (spec.camera_unknown && spec.type == "nyu_v2")
+    Fail(json_path, "'camera': nyu_v2 frames have known intrinsics; \"unknown\" is for frames without");
+  if (!spec.image.empty()) spec.image = Resolve(folder, spec.image, json_path);
+  if (!spec.depth.empty()) spec.depth = Resolve(folder, spec.depth, json_path);
+  if (!spec.disparity.empty()) spec.disparity = Resolve(folder, spec.disparity, json_path);
+  if (!spec.dataset.empty()) spec.dataset = Resolve(folder, spec.dataset, json_path);
+  if (multi_frame) ParseMultiFrame(json_path, frame_suffix, keys.frames, spec);
   return spec;
 }
 
@@ -566,8 +644,13 @@ Scene BuildScene(const SceneFileSpec& spec) {
   scene.image = ReadImage(spec.image, image_options);
   CheckImageRange(spec.image, scene.image);
   const cv::Size size = scene.image.size();
-  if (!spec.camera) throw Error(spec.source, "no camera intrinsics");
-  scene.camera = *spec.camera;
+  if (spec.camera_unknown) {
+    scene.camera = UnknownCamera(size.width, size.height);
+    scene.camera_unknown = true;
+  } else {
+    if (!spec.camera) throw Error(spec.source, "no camera intrinsics");
+    scene.camera = *spec.camera;
+  }
   if ((scene.camera.width != 0 && scene.camera.width != size.width) ||
       (scene.camera.height != 0 && scene.camera.height != size.height))
     throw Error(spec.source, "camera size " + std::to_string(scene.camera.width) + "x" +
@@ -579,9 +662,11 @@ Scene BuildScene(const SceneFileSpec& spec) {
   const std::string& geometry_path = spec.type == "stereo" ? spec.disparity : spec.depth;
   const RawDepthFile raw_file = ReadRawDepthFile(geometry_path);
   const cv::Mat& raw = raw_file.values;
-  if (raw.size() != size)
+  const bool resize = spec.type != "stereo" && spec.depth_resize != DepthResize::kNone;
+  if (raw.size() != size && !resize)
     throw Error(geometry_path, "size " + SizeText(raw.size()) + " differs from image " + spec.image +
-                                   " (" + SizeText(size) + ")");
+                                   " (" + SizeText(size) +
+                                   "; \"depth_resize\": \"stretch_nearest\" stretches it)");
   if (spec.type == "stereo") {
     if (raw.channels() != 1)
       throw Error(geometry_path, "disparity must have 1 channel, found " + std::to_string(raw.channels()));
@@ -600,12 +685,17 @@ Scene BuildScene(const SceneFileSpec& spec) {
                                      geometry_path + " (file units per metre, e.g. 1000 for mm)");
       depth_scale = 1.0;
     }
-    scene.depth_m = DepthFromRaw(geometry_path, raw, depth_scale);
+    // Invalid first (0 -> NaN), erosion on the file's own grid (where bilinear downsampling left
+    // its one-pixel seam of spurious values), then the stretch onto the image.
+    scene.depth_m = ErodeValidDepth(DepthFromRaw(geometry_path, raw, depth_scale),
+                                    spec.depth_erode_px);
+    if (raw.size() != size) scene.depth_m = StretchNearest(scene.depth_m, size);
     if (spec.depth_is_range) scene.depth_m = DepthFromRange(scene.camera, scene.depth_m);
   }
   if (cv::countNonZero(scene.depth_m == scene.depth_m) == 0)
     throw Error(geometry_path, "no valid depth pixel (all zero, unknown or non-finite)");
-  scene.normals = NormalsFromDepth(scene.camera, scene.depth_m);
+  scene.normals = NormalsFromDepth(
+      spec.camera_unknown ? NominalCamera(size.width, size.height) : scene.camera, scene.depth_m);
   scene.dominant_plane = spec.plane;
   scene.dvl_points_in_camera = spec.dvl;
   scene.input_hashes[spec.source] = Sha256File(spec.source);

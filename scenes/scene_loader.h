@@ -43,6 +43,26 @@ std::vector<std::string> ExpandSceneSpec(const std::string& spec);
 // sha256 of the JSON file and of every file it references.
 Scene LoadSceneFile(const std::string& json_path);
 
+// How a depth map on a grid other than the image's is brought onto it (scene-file key
+// "depth_resize"): kNone = the sizes must match; kStretchNearest = each image pixel takes the depth
+// pixel whose cell holds its centre, x_d = floor((x + 0.5) * W_d / W), y alike (both axes
+// stretched independently, no averaging, so no depth is invented at silhouettes).
+enum class DepthResize { kNone, kStretchNearest };
+
+// Nearest-neighbour stretch of a CV_32FC1 depth map to `size` by the kStretchNearest rule above.
+cv::Mat StretchNearest(const cv::Mat& depth, const cv::Size& size);
+// Marks invalid (NaN) every pixel within `radius_px` (Chebyshev distance, i.e. a (2r+1)^2 square)
+// of an invalid pixel; pixels outside the map do not count as invalid. radius 0 = unchanged.
+cv::Mat ErodeValidDepth(const cv::Mat& depth_m, int radius_px);
+// The intrinsics "camera": "unknown" stands for: fx = fy = 1e9 px, principal point at the centre,
+// so that |K^-1 [u v 1]| - 1 < 6e-10 on any image up to 65536 px (float resolution is 6e-8):
+// range = depth. (Normals come from a nominal camera with fx = fy = max(width, height), a 53 degree
+// field of view, since a 1e9 px focal length makes every depth step a wall.)
+CameraIntrinsics UnknownCamera(int width, int height);
+// The nominal camera normals of an "unknown"-camera scene are computed with: fx = fy =
+// max(width, height), principal point at the centre.
+CameraIntrinsics NominalCamera(int width, int height);
+
 // A parsed scene file; every field is documented in docs/formats.md ("Scene files").
 struct SceneFileSpec {
   std::string source;  // the JSON file's path (used in messages and input_hashes)
@@ -72,7 +92,11 @@ struct SceneFileSpec {
   std::string depth_dataset = "depths";    // nyu_v2: "depths" or "rawDepths"
   std::string rgb_dir = "rgb";             // folder: colour subfolder
   std::string depth_dir = "depth";         // folder: depth subfolder
-  bool depth_is_range = false;             // folder: files hold distance along the ray, not z
+  // rgbd / depth / folder: files hold distance along the ray ("depth_kind": "range"), not z.
+  bool depth_is_range = false;
+  DepthResize depth_resize = DepthResize::kNone;  // rgbd / depth / folder
+  int depth_erode_px = 0;  // rgbd / depth / folder: valid-mask erosion, depth-file pixels
+  bool camera_unknown = false;  // "camera": "unknown": UnknownCamera(), range = depth
 };
 
 // Parses and checks a scene JSON file (no image is read; multi-frame types list their frames).

@@ -45,6 +45,12 @@ nlohmann::json SceneSummaryJson(const Scene& scene) {
   out["height"] = scene.height();
   out["channels"] = scene.channels();
   out["camera"] = CameraToJson(scene.camera);
+  if (scene.camera_unknown) {
+    out["camera"]["unknown"] = true;
+    out["camera"]["note"] =
+        "no intrinsics (\"camera\": \"unknown\"): range = depth; normals from a nominal "
+        "camera with fx = fy = max(width, height)";
+  }
   const DepthStats depth = ComputeDepthStats(scene.depth_m);
   out["depth"] = {{"valid_pixels", depth.valid_pixels}, {"valid_fraction", depth.valid_fraction},
                   {"min_m", depth.min_m},               {"median_m", depth.median_m},

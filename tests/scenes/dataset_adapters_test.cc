@@ -509,7 +509,7 @@ TEST(FolderDataset, NpyExrPfmAndPng16Depth) {
   WriteText(dir.File("bad.json"), R"({"type": "folder", "folder": "mm", "frames": ["f7"], )" + camera + "}");
   ExpectLoadError(dir.File("bad.json"), dir.File("bad.json"), "no frame with stem 'f7'");
   WriteText(dir.File("bad.json"), R"({"type": "folder", "folder": "mm", "depth_kind": "euclid", )" + camera + "}");
-  ExpectLoadError(dir.File("bad.json"), dir.File("bad.json"), "'depth_kind' must be 'z'");
+  ExpectLoadError(dir.File("bad.json"), dir.File("bad.json"), "'depth_kind': expected one of z, range, ray");
   WriteText(dir.File("bad.json"), R"({"type": "folder", "folder": "mm"})");
   ExpectLoadError(dir.File("bad.json"), dir.File("bad.json"), "missing required key 'camera'");
 }

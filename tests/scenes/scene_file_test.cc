@@ -220,11 +220,11 @@ TEST(SceneFile, BadInputsNameTheFileAndProblem) {
   expect("{" + rgbd + R"(, "colour": "srgb"})", json, "unknown key 'colour'");
   expect(R"({"type": "rgbd", "image": "rgb.png"})", json, "missing required key 'depth'");
   expect(R"({"type": "mesh"})", json, "'type' must be one of");
-  expect("{" + rgbd + R"(, "depth_scale": -5})", json, "'depth_scale' must be > 0");
-  expect("{" + rgbd + R"(, "depth_scale": "5000"})", json, "'depth_scale' must be a number");
-  expect("{" + rgbd + R"(, "color": "gamma"})", json, "'color' must be");
+  expect("{" + rgbd + R"(, "depth_scale": -5})", json, "'depth_scale': must be > 0");
+  expect("{" + rgbd + R"(, "depth_scale": "5000"})", json, "'depth_scale': expected a number");
+  expect("{" + rgbd + R"(, "color": "gamma"})", json, "'color': expected one of srgb, linear");
   expect("{" + rgbd + R"(, "camera": {"fx": 1, "fy": 1, "cx": 0, "cy": 0, "skew": 0}})", json,
-         "unknown key 'camera.skew'");
+         "'camera': unknown key 'skew'");
   expect("{" + rgbd + R"(, "camera": {"fx": 0, "fy": 1, "cx": 0, "cy": 0}})", json, "non-zero");
   expect("{" + rgbd + R"(, "camera": "kinect9"})", json, "unknown");
   expect("{" + rgbd + R"(, "camera": {"fx": 1, "fy": 1, "cx": 0, "cy": 0, "width": 640}})", json,

@@ -18,8 +18,8 @@ using testing::RunTurbid;
 using testing::TempDir;
 
 const std::vector<std::string> kNewcomerOrder = {
-    "scene", "sequence", "render", "enhance", "score", "sweep",
-    "merge", "regress",  "report", "generate", "bench"};
+    "scene", "sequence", "render", "water",  "enhance", "score",
+    "sweep", "merge",    "regress", "report", "generate", "bench"};
 
 std::vector<std::string> Lines(const std::string& text) {
   std::vector<std::string> lines;

@@ -83,8 +83,9 @@ TEST(SceneCli, BadInputIsOneLineAndWritesNothing) {
   // A good scene first, then a bad one: nothing at all is written.
   auto run = RunTurbid({"scene", "builtin:room", dir.File("bad.json"), "--scale", "0.1", "--out", out});
   EXPECT_EQ(run.exit_code, 1);
-  EXPECT_EQ(run.err, "turbid: error: " + dir.File("bad.json") + ": unknown key 'oops' (allowed here: " +
-                         "camera, color, depth, depth_scale, dvl, image, name, plane, type)\n");
+  EXPECT_EQ(run.err, "turbid: error: " + dir.File("bad.json") + ": unknown key 'oops' (known: type, name, image, color, " +
+                         "camera, depth, depth_scale, depth_kind, depth_resize, depth_erode_px, " +
+                         "plane, dvl)\n");
   EXPECT_EQ(CountFiles(out), 0);
   run = RunTurbid({"scene", dir.File("missing.json"), "--out", out});
   EXPECT_EQ(run.exit_code, 1);

@@ -60,6 +60,7 @@ void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in);   // 18
 void AddBaselineCases(std::vector<BenchCase>& cases, const InputsFn& in);  // 18.3: tarel, fusion
 void AddDcpCases(std::vector<BenchCase>& cases, const InputsFn& in);       // 18.3: dcp, cap, oracle
 void AddMachineCases(std::vector<BenchCase>& cases, const InputsFn& in);   // bandwidth, peak flops
+void AddSeathruCases(std::vector<BenchCase>& cases, const InputsFn& in);   // 31.7: water fit, seathru
 
 }  // namespace turbid::bench
 

@@ -300,6 +300,7 @@ std::vector<BenchCase> MakeCases(const std::function<const Inputs&()>& in) {
   bench::AddMetricsCases(cases, in);
   bench::AddBaselineCases(cases, in);
   bench::AddDcpCases(cases, in);
+  bench::AddSeathruCases(cases, in);
   bench::AddMachineCases(cases, in);
   return cases;
 }

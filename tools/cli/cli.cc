@@ -164,6 +164,7 @@ int RunCli(int argc, const char* const* argv) {
   AddSceneCommand(app);
   AddSequenceCommand(app);
   AddRenderCommand(app);
+  AddWaterCommand(app);
   AddEnhanceCommand(app);
   AddScoreCommand(app);
   AddHarnessCommands(app);

@@ -49,6 +49,7 @@ struct ExitStatus {
 void AddSceneCommand(CLI::App& app);
 void AddSequenceCommand(CLI::App& app);  // tools/cli/cmd_sequence.cc
 void AddRenderCommand(CLI::App& app);
+void AddWaterCommand(CLI::App& app);
 void AddGenerateCommand(CLI::App& app);  // also in tools/cli/cmd_render.cc
 void AddEnhanceCommand(CLI::App& app);
 void AddScoreCommand(CLI::App& app);

@@ -160,7 +160,9 @@ void PlanNormals(const Scene& scene, const SceneArgs& args, const fs::path& dir,
 std::vector<PlannedFile> PlanOutputs(const Scene& scene, const SceneArgs& args, const fs::path& dir,
                                      nlohmann::json* files) {
   std::vector<PlannedFile> plan;
-  nlohmann::json scene_file = {{"name", scene.name}, {"camera", CameraToJson(scene.camera)}};
+  nlohmann::json scene_file = {
+      {"name", scene.name},
+      {"camera", scene.camera_unknown ? nlohmann::json("unknown") : CameraToJson(scene.camera)}};
   PlanImage(scene, args, dir, &plan, files, &scene_file);
   PlanDepth(scene, args, dir, &plan, files, &scene_file);
   PlanNormals(scene, args, dir, &plan, files);
@@ -187,7 +189,8 @@ std::string HumanSummary(const Scene& scene) {
     << Fixed(depth.max_m, 3) << " m (median " << Fixed(depth.median_m, 3) << "), "
     << Fixed(100.0 * depth.valid_fraction, 1) << "% valid\n";
   s << "  camera fx " << Fixed(scene.camera.fx, 2) << " fy " << Fixed(scene.camera.fy, 2) << " cx "
-    << Fixed(scene.camera.cx, 2) << " cy " << Fixed(scene.camera.cy, 2) << "\n";
+    << Fixed(scene.camera.cx, 2) << " cy " << Fixed(scene.camera.cy, 2)
+    << (scene.camera_unknown ? " (camera unknown: range = depth)" : "") << "\n";
   if (scene.dominant_plane) {
     const Plane& p = *scene.dominant_plane;
     s << "  plane n (" << Fixed(p.normal[0], 3) << ", " << Fixed(p.normal[1], 3) << ", "
