@@ -15,8 +15,8 @@ constexpr int kTypes = 10;        // I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C (Jer
 constexpr double kDefect = std::numeric_limits<double>::quiet_NaN();
 
 // Solonenko & Mobley (2015), Appl. Opt. 54(17) 5392, Tables 4-8: a(lambda) and b(lambda), 1/m; rows
-// 400 ... 700 nm, columns I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C. kDefect: the printed row repeats a
-// short-wavelength row (see iop.h). Transcribed from shared/data/jerlov_iop/
+// 400 ... 700 nm, columns I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C. kDefect: the printed row repeats
+// a short-wavelength row (see iop.h). Transcribed from shared/data/jerlov_iop/
 // solonenko_mobley_2015_a_b_c_400_700_wide.csv (provenance in its SOURCE.md, section 1).
 const double kA[kWavelengths][kTypes] = {
     {0.022, 0.0295, 0.0331, 0.0355, 0.0615, 0.227, 0.388, 0.66, 1.03, 1.613},
@@ -123,9 +123,9 @@ EffectiveWater Effective(const WaterSpectra& water, const CameraSensitivity& cam
   for (int k = 0; k < 4; ++k) {
     e.weight[k].resize(n);
     for (size_t i = 0; i < n; ++i)
-      e.weight[k][i] = illuminant[i] * (k < 3 ? camera.rgb[k][i]
-                                              : camera.rgb[0][i] + camera.rgb[1][i] +
-                                                    camera.rgb[2][i]);
+      e.weight[k][i] =
+          illuminant[i] *
+          (k < 3 ? camera.rgb[k][i] : camera.rgb[0][i] + camera.rgb[1][i] + camera.rgb[2][i]);
     const double total = Sum(e.weight[k], Spectrum(n, 1.0));
     if (!(total > 0.0)) throw Error("water.iop: the camera sees none of the illuminant");
     e.c[k] = Sum(e.weight[k], c) / total;
@@ -187,8 +187,8 @@ RangeTable TabulateTransmission(const EffectiveWater& e, int k, char which, doub
   table.step_m = top / samples;
   for (int i = 0; i <= samples; ++i) {
     const double r = i * table.step_m;
-    const double t = which == 'd' ? e.DirectTransmission(k, r)
-                                  : std::exp(-e.BackscatterBeta(k, r) * r);
+    const double t =
+        which == 'd' ? e.DirectTransmission(k, r) : std::exp(-e.BackscatterBeta(k, r) * r);
     table.values.push_back(static_cast<float>(t));
   }
   return table;
@@ -198,8 +198,7 @@ void TabulatedTransmissionRow(const float* range_row, int width, int channels,
                               const RangeTable* tables, float* out) {
   for (int x = 0; x < width; ++x) {
     const float r = range_row[x];
-    for (int ch = 0; ch < channels; ++ch)
-      out[x * channels + ch] = r == r ? tables[ch].At(r) : 0.0f;
+    for (int ch = 0; ch < channels; ++ch) out[x * channels + ch] = r == r ? tables[ch].At(r) : 0.0f;
   }
 }
 

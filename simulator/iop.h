@@ -5,10 +5,10 @@
 //
 // Jerlov IOPs: M. G. Solonenko, C. D. Mobley, "Inherent optical properties of Jerlov water types",
 // Appl. Opt. 54(17), 5392-5401 (2015), Tables 4-8 (400-700 nm, 25 nm steps), the one complete
-// source for all ten types (Williamson & Hollins 2022 measured six and disagree strongly on b; we do
-// not mix them). The published table has two defects (rows duplicated from short wavelengths): 3C
-// at 675/700 nm and 5C at 600-700 nm. There b is S&M's own eq. 8 with their Table 3 parameters, and
-// a is the type-I (pure-water) absorption plus the type's excess absorption at its last good
+// source for all ten types (Williamson & Hollins 2022 measured six and disagree strongly on b; we
+// do not mix them). The published table has two defects (rows duplicated from short wavelengths):
+// 3C at 675/700 nm and 5C at 600-700 nm. There b is S&M's own eq. 8 with their Table 3 parameters,
+// and a is the type-I (pure-water) absorption plus the type's excess absorption at its last good
 // wavelength shaped like 7C's excess (docs/model.md gives the rule and the values).
 #pragma once
 

@@ -125,8 +125,8 @@ void UwcnnGrayTransmissionRow(const float* range_row, int width, const float* ne
 
 void UwcnnEncodeRow(const float* linear, int n, float* coded) {
   for (int i = 0; i < n; ++i) {
-    const double v = std::clamp(static_cast<double>(linear[i] == linear[i] ? linear[i] : 0.0f),
-                                0.0, 1.0);
+    const double v =
+        std::clamp(static_cast<double>(linear[i] == linear[i] ? linear[i] : 0.0f), 0.0, 1.0);
     const double e = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
     coded[i] = static_cast<float>(std::round(255.0 * e) / 255.0);
   }

@@ -64,9 +64,8 @@ struct UwcnnOptions {
   double n_gray_per_m = (0.830 + 0.950 + 0.968) / 3.0;
   // Global light A_c = backlight_scale * N_c^backlight_exponent (image units), on the direct signal
   // and as the background: the NYU-v2 script draws the exponent from U(3, 5) per image with scale
-  // 1.5 (default: the middle, 4; a sweep draws it: "uwcnn.backlight_exponent": {"uniform": [3, 5]});
-  // scale 0.8 with exponent 0 is the other script's constant 0.8. Scale in [0, 10], exponent in
-  // [0, 50].
+  // 1.5 (default: the middle, 4; a sweep draws it with a uniform distribution on 3..5); scale 0.8
+  // with exponent 0 is the other script's constant 0.8. Scale in [0, 10], exponent in [0, 50].
   double backlight_scale = 1.5;
   double backlight_exponent = 4.0;
   // > 0: distances are rescaled so the farthest valid pixel lies at this many metres (the
@@ -82,7 +81,7 @@ struct UwcnnOptions {
 // uses t = sum_c w_c exp(-beta_c r), w_c = A_c / sum A, and A = mean A_c, so that I = mean_c of the
 // three recipes.
 struct UwcnnConstants {
-  std::vector<double> beta, light;  // per image channel, 1/m and image units
+  std::vector<double> beta, light;                      // per image channel, 1/m and image units
   std::array<float, 3> gray_neg_beta{}, gray_weight{};  // B, G, R order; gray images only
 };
 UwcnnConstants UwcnnChannelConstants(const UwcnnOptions& resolved, int channels,

@@ -28,8 +28,9 @@ void DeriveRevisedFromIop(const WaterOptions& w, int channels, double max_range,
     throw Error(
         "render options: revised.range_dependent: water.iop derives beta^D(r) already (set "
         "revised.from_iop false to use Sea-thru's form)");
-  const EffectiveWater e = Effective(WaterSpectraFor(w.iop), CameraSensitivityFor(w.camera_sensitivity),
-                                     IlluminantFor(w.illuminant));
+  const EffectiveWater e =
+      Effective(WaterSpectraFor(w.iop), CameraSensitivityFor(w.camera_sensitivity),
+                IlluminantFor(w.illuminant));
   for (int ch = 0; ch < channels; ++ch) {
     const int k = channels == 1 ? 3 : 2 - ch;  // image order B, G, R -> R, G, B, gray
     d.direct_table.push_back(TabulateTransmission(e, k, 'd', max_range));
@@ -153,7 +154,8 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
   // The revised model always takes the general path (two transmissions, maybe range-dependent).
   d.zero_beta =
       !d.revised && std::all_of(d.beta.begin(), d.beta.end(), [](double b) { return b == 0.0; });
-  d.uniform_range = !d.revised && !d.uwcnn_gray && max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
+  d.uniform_range =
+      !d.revised && !d.uwcnn_gray && max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
   if (d.zero_beta)
     plan.skipped.push_back(
         "attenuation: beta = 0, t = 1 (no exp, no veil; t = 0 where depth is invalid)");

@@ -21,7 +21,8 @@ using Spectrum = std::vector<double>;
 // The wavelengths every spectrum is resampled to: 400, 405, ..., 700 nm.
 const std::vector<double>& SpectralGrid();
 
-// The CIE 1931 colour matching functions x, y, z at a wavelength (nm), Wyman et al. 2013 multi-lobe.
+// The CIE 1931 colour matching functions x, y, z at a wavelength (nm), Wyman et al. 2013
+// multi-lobe.
 std::array<double, 3> Cie1931Xyz(double wavelength_nm);
 
 // Camera sensitivities R, G, B on the grid.

@@ -52,11 +52,12 @@ struct WaterOptions {
   double scattering_albedo_gray = 0.8;  // omega for gray images, [0, 1]
   // The phase function of that scattering (simulator/phase_function.h), JSON "phase": {...}.
   PhaseFunctionOptions phase;
-  // Water from its inherent optical properties (simulator/iop.h): "" (off), a Jerlov type (a(lambda),
-  // b(lambda) of Solonenko & Mobley 2015) or a CSV of wavelength_nm, a, b (1/m). When set (type must
-  // be "custom"), ResolveWater fills beta_* with the effective beam attenuation c (the weighted
-  // mean of c(lambda) over the light the camera sees, the r -> 0 limit) and scattering_albedo_*
-  // with b / c of the same weights; "revised" derives beta^D(r) and beta^B from the spectra.
+  // Water from its inherent optical properties (simulator/iop.h): "" (off), a Jerlov type
+  // (a(lambda), b(lambda) of Solonenko & Mobley 2015) or a CSV of wavelength_nm, a, b (1/m). When
+  // set (type must be "custom"), ResolveWater fills beta_* with the effective beam attenuation c
+  // (the weighted mean of c(lambda) over the light the camera sees, the r -> 0 limit) and
+  // scattering_albedo_* with b / c of the same weights; "revised" derives beta^D(r) and beta^B from
+  // the spectra.
   std::string iop;
   // The light's spectrum: "equal_energy", "d65" or a CSV of wavelength_nm, value.
   std::string illuminant = "equal_energy";

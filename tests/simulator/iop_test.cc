@@ -103,7 +103,8 @@ TEST(Iop, RevisedBetaDFallsWithRange) {
     den += cam.rgb[0][i];
   }
   EXPECT_NEAR(b10, -std::log(num / den) / 10.0, 1e-12);
-  std::printf("IB red beta^D: r->0 %.3f, 1 m %.3f, 10 m %.3f, 20 m %.3f /m\n", e.c[0], b1, b10, b20);
+  std::printf("IB red beta^D: r->0 %.3f, 1 m %.3f, 10 m %.3f, 20 m %.3f /m\n", e.c[0], b1, b10,
+              b20);
 }
 
 // The built-in table against the data file it was typed from, every published cell.
@@ -144,7 +145,8 @@ TEST(Iop, SolonenkoMobleyTableMatchesDataFile) {
 
 // water.iop fills beta (= c) and the albedo (= b / c); conflicts and bad files are errors.
 TEST(Iop, WaterFromIopFillsBetaAndAlbedo) {
-  const RenderOptions o = RenderOptionsFromJson(nlohmann::json::parse(R"({"water": {"iop": "ib"}})"));
+  const RenderOptions o =
+      RenderOptionsFromJson(nlohmann::json::parse(R"({"water": {"iop": "ib"}})"));
   const EffectiveWater e =
       Effective(WaterSpectraFor("IB"), CameraSensitivityFor("srgb"), IlluminantFor("equal_energy"));
   EXPECT_EQ(o.water.iop, "IB");

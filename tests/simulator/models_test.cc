@@ -12,8 +12,8 @@
 
 #include "core/error.h"
 #include "simulator/render.h"
-#include "tests/support/test_support.h"
 #include "test_scenes.h"
+#include "tests/support/test_support.h"
 
 namespace turbid {
 namespace {
