@@ -79,6 +79,68 @@ bool UwcnnOptions::Check(std::string* why) const {
   return true;
 }
 
+UwcnnConstants UwcnnChannelConstants(const UwcnnOptions& u, int channels, double distance_scale) {
+  CV_Assert(channels == 1 || channels == 3);
+  UwcnnConstants k;
+  const std::vector<double> n = ChannelValues(u.n_rgb_per_m, u.n_gray_per_m, 3);  // B, G, R
+  double light_sum = 0.0;
+  std::array<double, 3> beta{}, light{};
+  for (int c = 0; c < 3; ++c) {
+    beta[c] = -std::log(n[c]) * distance_scale;
+    light[c] = u.backlight_scale * std::pow(n[c], u.backlight_exponent);
+    light_sum += light[c];
+  }
+  if (channels == 3) {
+    k.beta.assign(beta.begin(), beta.end());
+    k.light.assign(light.begin(), light.end());
+    return k;
+  }
+  // Gray: I = mean_c (A_c rho t_c + A_c (1 - t_c)) = A' rho t' + A' (1 - t') with A' = mean A_c
+  // and t' = sum A_c t_c / sum A_c (equal weights when every A_c is 0).
+  double t_one = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    k.gray_neg_beta[c] = static_cast<float>(-beta[c]);
+    k.gray_weight[c] = static_cast<float>(light_sum > 0.0 ? light[c] / light_sum : 1.0 / 3.0);
+    t_one += k.gray_weight[c] * std::exp(-beta[c]);
+  }
+  k.beta = {-std::log(std::max(t_one, 1e-300))};  // its value at 1 m (snow, plan)
+  k.light = {light_sum / 3.0};
+  return k;
+}
+
+void UwcnnGrayTransmissionRow(const float* range_row, int width, const float* neg_beta,
+                              const float* weight, float* out) {
+  for (int x = 0; x < width; ++x) {
+    const float r = range_row[x];
+    if (!(r == r)) {
+      out[x] = 0.0f;
+      continue;
+    }
+    const float rr = std::max(r, 0.0f);
+    float t = 0.0f;
+    for (int c = 0; c < 3; ++c) t += weight[c] * internal::ExpNonPositive(neg_beta[c] * rr);
+    out[x] = t;
+  }
+}
+
+void UwcnnEncodeRow(const float* linear, int n, float* coded) {
+  for (int i = 0; i < n; ++i) {
+    const double v =
+        std::clamp(static_cast<double>(linear[i] == linear[i] ? linear[i] : 0.0f), 0.0, 1.0);
+    const double e = v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+    coded[i] = static_cast<float>(std::round(255.0 * e) / 255.0);
+  }
+}
+
+void UwcnnDecodeRow(float* values, int n) {
+  for (int i = 0; i < n; ++i) {
+    const double c = values[i];
+    const double a = std::abs(c);
+    const double v = a <= 0.04045 ? a / 12.92 : std::pow((a + 0.055) / 1.055, 2.4);
+    values[i] = static_cast<float>(c < 0 ? -v : v);
+  }
+}
+
 UwcnnOptions ResolveUwcnn(const UwcnnOptions& options) {
   UwcnnOptions resolved = options;
   if (options.type == "custom") return resolved;

@@ -335,6 +335,7 @@ namespace {
 // Pass A's scratch for one band: light geometry of one row.
 struct RowAScratch {
   std::vector<float> l, g, cos;
+  std::vector<float> coded;  // model uwcnn, domain encoded: rho as 8-bit sRGB codes / 255
 };
 
 // One render: the state its two passes share. Two passes over the rows, each fusing what used to
@@ -432,6 +433,7 @@ void RenderPass::PrepareLight(const cv::Mat& scene_normals) {
 RowAScratch RenderPass::MakeScratch() const {
   RowAScratch scratch;
   if (d.any_light) scratch.l.resize(width), scratch.g.resize(width), scratch.cos.resize(5 * width);
+  if (d.uwcnn_encoded) scratch.coded.resize(per_row);
   return scratch;
 }
 
@@ -449,10 +451,15 @@ void RenderPass::RowA(int y, RowAScratch& scratch, float* e_out, float* lit_out)
                                    lights[k].color, k == 0, e);
     }
   }
+  const float* rho = scene.image.ptr<float>(y);
+  if (d.uwcnn_encoded) {
+    UwcnnEncodeRow(rho, per_row, scratch.coded.data());
+    rho = scratch.coded.data();
+  }
   if (channels == 3)
-    LitRow<3>(scene.image.ptr<float>(y), e, ambient, width, lit_out);
+    LitRow<3>(rho, e, ambient, width, lit_out);
   else
-    LitRow<1>(scene.image.ptr<float>(y), e, ambient, width, lit_out);
+    LitRow<1>(rho, e, ambient, width, lit_out);
 }
 
 // Where pass A leaves E_L of an image row (for pass B), or scratch when pass B does not need it.
@@ -577,6 +584,7 @@ void RenderPass::BandB(const cv::Range& rows) {
     }
     float* out = image.ptr<float>(y);
     ComposeRow(y, jb, t_row.data(), tb_row.data(), out);
+    if (d.uwcnn_encoded) UwcnnDecodeRow(out, per_row);  // the recipe's coded I back to linear
     FinishRow(y, scratch.data(), out);
   }
 }
@@ -606,16 +614,24 @@ void RenderPass::ComposeRow(int y, const float* jb, float* t_row, float* tb_row,
     if (d.sea_thru)
       SeaThruTransmissionRow(r, width, channels, sea_values[0], sea_values[1], sea_values[2],
                              sea_values[3], t);
+    else if (d.iop_tables)
+      TabulatedTransmissionRow(r, width, channels, d.direct_table.data(), t);
     else
       TransmissionRows(r, width, d.beta, t);
-    TransmissionRows(r, width, d.beta_b, tb_row);
+    if (d.iop_tables)
+      TabulatedTransmissionRow(r, width, channels, d.backscatter_table.data(), tb_row);
+    else
+      TransmissionRows(r, width, d.beta_b, tb_row);
     if (t_out) std::copy(t, t + per_row, t_out);
     const float* e = e_in_map ? light_map.ptr<float>(y) : (e_in_image ? out : nullptr);
     if (v_out) VeilRow(tb_row, e, bs, width, channels, v_out);
     ComposeRevised(jb, t, tb_row, e, bs, width, channels, out);
   } else {
     float* t = t_row;
-    if (d.uniform_range) {
+    if (d.uwcnn_gray) {
+      UwcnnGrayTransmissionRow(r, width, d.uwcnn.gray_neg_beta.data(), d.uwcnn.gray_weight.data(),
+                               t);
+    } else if (d.uniform_range) {
       for (int x = 0; x < width; ++x)
         for (int c = 0; c < channels; ++c) t[x * channels + c] = r[x] == r[x] ? t_const[c] : 0.0f;
     } else {

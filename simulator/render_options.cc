@@ -62,6 +62,7 @@ const Fields<RevisedOptions>& RevisedFields() {
           .Array("beta_b_rgb_per_m", &O::beta_b_rgb_per_m, 3, "backscatter beta_B, R G B, 1/m")
           .Member("beta_b_gray_per_m", &O::beta_b_gray_per_m, "beta_B for gray images, 1/m")
           .Member("range_dependent", &O::range_dependent, "beta_D(r) = a exp(b r) + c exp(d r)")
+          .Member("from_iop", &O::from_iop, "with water.iop: beta_D(r), beta_B(r) from spectra")
           .Array("a_rgb", &O::a_rgb, 3, "a per channel, 1/m")
           .Array("b_rgb", &O::b_rgb, 3, "b per channel, 1/m")
           .Array("c_rgb", &O::c_rgb, 3, "c per channel, 1/m")
@@ -82,7 +83,10 @@ const Fields<UwcnnOptions>& UwcnnFields() {
           .Member("n_gray_per_m", &O::n_gray_per_m, "N per metre for gray images")
           .Member("backlight_scale", &O::backlight_scale, "background light scale")
           .Member("backlight_exponent", &O::backlight_exponent, "background light exponent")
-          .Member("max_distance_m", &O::max_distance_m, "ranges scaled to this, m; 0: as is");
+          .Member("max_distance_m", &O::max_distance_m, "ranges scaled to this, m; 0: as is")
+          .Choice("domain", &O::domain,
+                  {{"encoded", UwcnnDomain::kEncoded}, {"linear", UwcnnDomain::kLinear}},
+                  "recipe on 8-bit sRGB codes (the scripts) or on linear light");
   return fields;
 }
 
@@ -108,7 +112,10 @@ const Fields<WaterOptions>& WaterFields() {
                 PhaseFunctionFields().Read(v, &out.phase, kSource, "water.phase");
                 return std::string();
               },
-              [](const O& in) { return PhaseFunctionFields().ToJson(in.phase); });
+              [](const O& in) { return PhaseFunctionFields().ToJson(in.phase); })
+          .Member("iop", &O::iop, "\"\" or a Jerlov type or a CSV of a(lambda), b(lambda)")
+          .Member("illuminant", &O::illuminant, "equal_energy, d65 or a CSV (with iop)")
+          .Member("camera_sensitivity", &O::camera_sensitivity, "srgb or a CSV (with iop)");
   return fields;
 }
 
@@ -236,6 +243,25 @@ void AddSection(Fields<RenderOptions>& fields, const std::string& name, S Render
 }
 
 void ApplyWaterPreset(const json& section, WaterOptions& water) {
+  if (!water.iop.empty() && water.type == "custom") {
+    // The IOPs give beta and the albedo: values written for them must repeat what they give.
+    const WaterOptions derived = ResolveWater(water);
+    for (const char* key : {"beta_rgb_per_m", "scattering_albedo_rgb"}) {
+      const Rgb& mine = key[0] == 'b' ? water.beta_rgb_per_m : water.scattering_albedo_rgb;
+      const Rgb& theirs = key[0] == 'b' ? derived.beta_rgb_per_m : derived.scattering_albedo_rgb;
+      if (section.contains(key) && !SameRgb(mine, theirs))
+        throw Error(std::string("render options: water.") + key + ": conflicts with water.iop");
+    }
+    for (const char* key : {"beta_gray_per_m", "scattering_albedo_gray"}) {
+      const double mine = key[0] == 'b' ? water.beta_gray_per_m : water.scattering_albedo_gray;
+      const double theirs =
+          key[0] == 'b' ? derived.beta_gray_per_m : derived.scattering_albedo_gray;
+      if (section.contains(key) && std::abs(mine - theirs) > 1e-9)
+        throw Error(std::string("render options: water.") + key + ": conflicts with water.iop");
+    }
+    water = derived;
+    return;
+  }
   ApplyPreset(section, "water", "beta", ResolveWater,
               {"beta_rgb_per_m", &WaterOptions::beta_rgb_per_m},
               {"beta_gray_per_m", &WaterOptions::beta_gray_per_m}, water);
@@ -333,7 +359,8 @@ RenderOptions RenderOptionsFromJson(const json& j) {
 RenderOptions ResolvePresets(const RenderOptions& options) {
   RenderOptions o = options;
   std::string why;
-  if (o.water.type != "custom" && o.water.Check(&why)) o.water = ResolveWater(o.water);
+  if ((o.water.type != "custom" || !o.water.iop.empty()) && o.water.Check(&why))
+    o.water = ResolveWater(o.water);
   if (o.uwcnn.type != "custom" && o.uwcnn.Check(&why)) o.uwcnn = ResolveUwcnn(o.uwcnn);
   return o;
 }

@@ -21,6 +21,24 @@ std::string ListText(const std::vector<double>& values) {
   return s + "]";
 }
 
+// model revised with water.iop: the direct and backscatter transmissions tabulated over the
+// scene's ranges from the spectra (Akkaynak & Treibitz 2018), per image channel.
+void DeriveRevisedFromIop(const WaterOptions& w, int channels, double max_range, Decisions& d) {
+  if (d.sea_thru)
+    throw Error(
+        "render options: revised.range_dependent: water.iop derives beta^D(r) already (set "
+        "revised.from_iop false to use Sea-thru's form)");
+  const EffectiveWater e =
+      Effective(WaterSpectraFor(w.iop), CameraSensitivityFor(w.camera_sensitivity),
+                IlluminantFor(w.illuminant));
+  for (int ch = 0; ch < channels; ++ch) {
+    const int k = channels == 1 ? 3 : 2 - ch;  // image order B, G, R -> R, G, B, gray
+    d.direct_table.push_back(TabulateTransmission(e, k, 'd', max_range));
+    d.backscatter_table.push_back(TabulateTransmission(e, k, 'b', max_range));
+    d.beta_b[ch] = e.BackscatterBeta(k, 0.0);
+  }
+}
+
 // The image model's values (beta, E_A, B_inf, beta^B, Sea-thru) and its plan line.
 void DecideModel(const RenderOptions& options, int channels, double max_range, Decisions& d) {
   RenderPlan& plan = d.plan;
@@ -37,30 +55,42 @@ void DecideModel(const RenderOptions& options, int channels, double max_range, D
       d.sea_c = ChannelValues(v.c_rgb, v.c_gray, channels);
       d.sea_d = ChannelValues(v.d_rgb, v.d_gray, channels);
     }
+    d.iop_tables = v.from_iop && !d.used.water.iop.empty();
+    if (d.iop_tables) DeriveRevisedFromIop(d.used.water, channels, max_range, d);
     plan.steps.push_back(
         "model: revised (Akkaynak & Treibitz 2018): I = [J*h] exp(-beta^D r) + (1 - exp(-beta^B "
         "r)) (B_inf + E_L), beta^B = " +
-        ListText(d.beta_b) + " 1/m" +
-        (d.sea_thru ? ", beta^D(r) = a exp(b r) + c exp(d r) (Sea-thru)" : ""));
+        ListText(d.beta_b) + " 1/m" + (d.iop_tables ? " at r -> 0" : "") +
+        (d.sea_thru ? ", beta^D(r) = a exp(b r) + c exp(d r) (Sea-thru)" : "") +
+        (d.iop_tables ? ", beta^D(r) and beta^B(r) from the spectra of water.iop " +
+                            d.used.water.iop + " (tabulated over range)"
+                      : ""));
   } else if (options.model == ImageModel::kUwcnn) {
-    // t = N^d = exp(d ln N): beta = -ln N, scaled when distances are rescaled; J = rho (no
-    // ambient or artificial light in this recipe); B = scale N^exponent.
+    // t = N^d = exp(d ln N): beta = -ln N, scaled when distances are rescaled; J = A rho (no
+    // ambient or artificial light in this recipe); background A = scale N^exponent.
     const UwcnnOptions& u = d.used.uwcnn;
-    const std::vector<double> n = ChannelValues(u.n_rgb_per_m, u.n_gray_per_m, channels);
     const bool rescale = u.max_distance_m > 0.0 && std::isfinite(max_range) && max_range > 0.0;
     const double distance_scale = rescale ? u.max_distance_m / max_range : 1.0;
+    d.uwcnn = UwcnnChannelConstants(u, channels, distance_scale);
+    d.uwcnn_gray = channels == 1;
+    d.uwcnn_encoded = u.domain == UwcnnDomain::kEncoded;
     for (int c = 0; c < channels; ++c) {
-      d.beta[c] = -std::log(n[c]) * distance_scale;
-      d.ambient[c] = 1.0;
-      d.backscatter[c] = u.backlight_scale * std::pow(n[c], u.backlight_exponent);
+      d.beta[c] = d.uwcnn.beta[c];
+      d.ambient[c] = d.uwcnn.light[c];
+      d.backscatter[c] = d.uwcnn.light[c];
     }
     d.backscatter_on = true;
     lights_used = false;
-    plan.steps.push_back("model: uwcnn (Li, Anwar & Porikli 2020): I = rho N^d + B (1 - N^d), " +
-                         std::string("type ") + u.type + ", N = " + ListText(n) +
-                         ", B = " + ListText(d.backscatter) +
-                         (rescale ? ", d = r x " + Format(distance_scale) : ", d = r"));
-    plan.skipped.push_back("uwcnn: no ambient E_A or artificial light (J = rho)");
+    const std::vector<double> n = ChannelValues(u.n_rgb_per_m, u.n_gray_per_m, 3);
+    const std::vector<double> a = UwcnnChannelConstants(u, 3, 1.0).light;
+    plan.steps.push_back(
+        "model: uwcnn (Li, Anwar & Porikli 2020): I = A rho N^d + A (1 - N^d), type " + u.type +
+        ", N = " + ListText(n) + ", A = " + ListText(a) +
+        (rescale ? ", d = r x " + Format(distance_scale) : ", d = r") +
+        (d.uwcnn_encoded ? ", on 8-bit sRGB codes / 255 (as the scripts)"
+                         : ", on linear light (turbid's variant)") +
+        (d.uwcnn_gray ? ", gray = mean of the B, G, R recipes" : ""));
+    plan.skipped.push_back("uwcnn: no ambient E_A or artificial light (J = A rho)");
   } else {
     plan.steps.push_back("model: paper (eq. 2): I = [J*h] t + (1 - t) E_L");
   }
@@ -124,7 +154,8 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
   // The revised model always takes the general path (two transmissions, maybe range-dependent).
   d.zero_beta =
       !d.revised && std::all_of(d.beta.begin(), d.beta.end(), [](double b) { return b == 0.0; });
-  d.uniform_range = !d.revised && max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
+  d.uniform_range =
+      !d.revised && !d.uwcnn_gray && max_range - min_range <= 1e-7 * std::max(max_range, 1.0);
   if (d.zero_beta)
     plan.skipped.push_back(
         "attenuation: beta = 0, t = 1 (no exp, no veil; t = 0 where depth is invalid)");

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "scenes/scene.h"
+#include "simulator/iop.h"
+#include "simulator/models.h"
 #include "simulator/psf.h"
 #include "simulator/render_options.h"
 #include "simulator/water.h"
@@ -22,6 +24,13 @@ struct Decisions {
   // model "revised": beta^B (image channel order) and, when range-dependent, Sea-thru's a, b, c, d.
   bool revised = false, sea_thru = false;
   bool lights_used = true;  // false for uwcnn (its recipe has no illumination)
+  // model uwcnn: the recipe on sRGB codes (rho encoded in pass A, I decoded after composing), and
+  // for gray images the transmission sum_c w_c exp(-beta_c r) (simulator/models.h).
+  bool uwcnn_encoded = false, uwcnn_gray = false;
+  UwcnnConstants uwcnn;
+  // model revised with water.iop: t_D(r) and exp(-beta^B(r) r) tabulated per image channel.
+  bool iop_tables = false;
+  std::vector<RangeTable> direct_table, backscatter_table;
   std::vector<double> beta_b, sea_a, sea_b, sea_c, sea_d;
   bool any_light = false;
   bool zero_beta = false;

@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/row_kernel.h"
 #include "simulator/fast_math.h"
+#include "simulator/iop.h"
 
 namespace turbid {
 namespace {
@@ -95,6 +96,11 @@ bool WaterOptions::Check(std::string* why) const {
     return fail("scattering_albedo_gray: must be in [0, 1]");
   std::string phase_why;
   if (!phase.Check(&phase_why)) return fail("phase." + phase_why);
+  if (!iop.empty() && type != "custom")
+    return fail("iop: water.type '" + type + "' names the water already (use type \"custom\")");
+  if (!iop.empty() && iop.size() < 5 && TypeIndex(iop) < 0)
+    return fail("iop: unknown Jerlov type '" + iop +
+                "' (I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C, or a .csv file)");
   return true;
 }
 
@@ -134,6 +140,19 @@ std::string CanonicalJerlovType(const std::string& type) {
 
 WaterOptions ResolveWater(const WaterOptions& options) {
   WaterOptions resolved = options;
+  if (!options.iop.empty() && options.type == "custom") {
+    const EffectiveWater e =
+        Effective(WaterSpectraFor(options.iop), CameraSensitivityFor(options.camera_sensitivity),
+                  IlluminantFor(options.illuminant));
+    if (e.water.name.size() < 5) resolved.iop = e.water.name;  // canonical type spelling
+    for (int k = 0; k < 3; ++k) {
+      resolved.beta_rgb_per_m[k] = std::min(e.c[k], 10.0);
+      resolved.scattering_albedo_rgb[k] = e.c[k] > 0.0 ? e.b[k] / e.c[k] : 0.0;
+    }
+    resolved.beta_gray_per_m = std::min(e.c[3], 10.0);
+    resolved.scattering_albedo_gray = e.c[3] > 0.0 ? e.b[3] / e.c[3] : 0.0;
+    return resolved;
+  }
   if (options.type == "custom") return resolved;
   const int column = TypeIndex(options.type);
   if (column < 0) throw Error("water.type: unknown water type '" + options.type + "'");

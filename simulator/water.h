@@ -52,6 +52,18 @@ struct WaterOptions {
   double scattering_albedo_gray = 0.8;  // omega for gray images, [0, 1]
   // The phase function of that scattering (simulator/phase_function.h), JSON "phase": {...}.
   PhaseFunctionOptions phase;
+  // Water from its inherent optical properties (simulator/iop.h): "" (off), a Jerlov type
+  // (a(lambda), b(lambda) of Solonenko & Mobley 2015) or a CSV of wavelength_nm, a, b (1/m). When
+  // set (type must be "custom"), ResolveWater fills beta_* with the effective beam attenuation c
+  // (the weighted mean of c(lambda) over the light the camera sees, the r -> 0 limit) and
+  // scattering_albedo_* with b / c of the same weights; "revised" derives beta^D(r) and beta^B from
+  // the spectra.
+  std::string iop;
+  // The light's spectrum: "equal_energy", "d65" or a CSV of wavelength_nm, value.
+  std::string illuminant = "equal_energy";
+  // The camera's R, G, B sensitivities: "srgb" (CIE 1931 via Wyman et al. 2013 to linear sRGB) or a
+  // CSV of wavelength_nm, r, g, b.
+  std::string camera_sensitivity = "srgb";
 
   bool Check(std::string* why) const;
 };
@@ -79,7 +91,8 @@ Rgb UwcnnResidualEnergy(const std::string& type);
 std::string CanonicalJerlovType(const std::string& type);
 
 // Returns options with beta_* filled in from the Jerlov preset when type is not "custom", and the
-// type spelled canonically ("C3" -> "3C"). Throws Error for an unknown type.
+// type spelled canonically ("C3" -> "3C"); with iop set, beta_* = c and scattering_albedo_* = b / c
+// from the spectra (simulator/iop.h). Throws Error for an unknown type or an unreadable file.
 WaterOptions ResolveWater(const WaterOptions& options);
 
 // Per-channel values in image channel order: {gray} for 1 channel, {B, G, R} for 3.

@@ -5,14 +5,15 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
 #include "core/error.h"
 #include "simulator/render.h"
-#include "tests/support/test_support.h"
 #include "test_scenes.h"
+#include "tests/support/test_support.h"
 
 namespace turbid {
 namespace {
@@ -114,7 +115,8 @@ TEST(Models, UwcnnPowerLawTransmissionAndBackgroundLight) {
   RenderOptions o = Bare();
   o.model = ImageModel::kUwcnn;
   o.uwcnn.type = "3C";  // Li, Anwar & Porikli 2020: N = 0.710, 0.820, 0.800 (R, G, B)
-  o.water.ambient_rgb = {0.1, 0.1, 0.1};  // ignored by this model: J = rho
+  o.uwcnn.domain = UwcnnDomain::kLinear;
+  o.water.ambient_rgb = {0.1, 0.1, 0.1};  // ignored by this model: J = A rho
   o.light.lights = {LightOptions{}};      // ignored too
   const RenderResult r = Render(o, scene);
   const double n[3] = {0.800, 0.820, 0.710};  // BGR
@@ -122,28 +124,79 @@ TEST(Models, UwcnnPowerLawTransmissionAndBackgroundLight) {
     for (int x = 0; x < 30; x += 2) {
       const double d = PlaneRange(scene, x, y);
       for (int c = 0; c < 3; ++c) {
-        const double t = std::pow(n[c], d), b = 1.5 * std::pow(n[c], 4.0);
+        // The scripts' I = A rho t + A (1 - t): A lights the direct signal too.
+        const double t = std::pow(n[c], d), a = 1.5 * std::pow(n[c], 4.0);
         const double rho = scene.image.at<cv::Vec3f>(y, x)[c];
-        ASSERT_NEAR(r.image.at<cv::Vec3f>(y, x)[c], Clip(rho * t + b * (1.0 - t)), 2e-6);
+        ASSERT_NEAR(r.image.at<cv::Vec3f>(y, x)[c], Clip(a * rho * t + a * (1.0 - t)), 2e-6);
       }
     }
   EXPECT_EQ(r.sidecar.ToJson()["options"]["uwcnn"]["type"], "3C");
-  EXPECT_NE(r.plan.ToText().find("model: uwcnn"), std::string::npos);
+  EXPECT_EQ(r.sidecar.ToJson()["options"]["uwcnn"]["domain"], "linear");
+  EXPECT_NE(r.plan.ToText().find("on linear light"), std::string::npos);
 
-  // Rescaled distances: the farthest pixel at 12 m, constant B = 0.8 (the other script's recipe),
-  // and a gray image uses the mean N.
+  // Rescaled distances: the farthest pixel at 12 m, constant A = 0.8 (the other script's recipe),
+  // and a gray image is the mean of the three channels' recipes (mean of the powers N_c^d, not
+  // (mean N)^d).
   o.uwcnn.max_distance_m = 12.0;
   o.uwcnn.backlight_scale = 0.8;
   o.uwcnn.backlight_exponent = 0.0;
   const Scene gray = testing::MakePlaneScene(30, 20, 2.0, 1, 20.0);
   const RenderResult g = Render(o, gray);
-  const double far = PlaneRange(gray, 0, 0), n_gray = (0.710 + 0.820 + 0.800) / 3.0;
+  const double far = PlaneRange(gray, 0, 0);
   for (int y = 0; y < 20; y += 3)
     for (int x = 0; x < 30; x += 3) {
-      const double d = PlaneRange(gray, x, y) * 12.0 / far, t = std::pow(n_gray, d);
+      const double d = PlaneRange(gray, x, y) * 12.0 / far;
+      const double t = (std::pow(0.710, d) + std::pow(0.820, d) + std::pow(0.800, d)) / 3.0;
       const double rho = gray.image.at<float>(y, x);
-      ASSERT_NEAR(g.image.at<float>(y, x), Clip(rho * t + 0.8 * (1.0 - t)), 2e-6);
+      ASSERT_NEAR(g.image.at<float>(y, x), Clip(0.8 * rho * t + 0.8 * (1.0 - t)), 2e-6);
     }
+  // With A_c unequal the gray image is still the mean of the three recipes.
+  o.uwcnn.backlight_scale = 1.5;
+  o.uwcnn.backlight_exponent = 3.0;
+  const RenderResult g3 = Render(o, gray);
+  for (int y = 0; y < 20; y += 3)
+    for (int x = 0; x < 30; x += 3) {
+      const double d = PlaneRange(gray, x, y) * 12.0 / far;
+      const double rho = gray.image.at<float>(y, x);
+      double mean = 0.0;
+      for (double nc : {0.710, 0.820, 0.800}) {
+        const double a = 1.5 * std::pow(nc, 3.0), t = std::pow(nc, d);
+        mean += (a * rho * t + a * (1.0 - t)) / 3.0;
+      }
+      ASSERT_NEAR(g3.image.at<float>(y, x), Clip(mean), 2e-6);
+    }
+}
+
+// domain "encoded" (default): the recipe on the 8-bit sRGB code of rho scaled to [0, 1], the
+// result decoded to linear light for the rest of the pipeline; an 8-bit sRGB camera writes the
+// recipe's own codes (to one level: the code of the rounded value).
+TEST(Models, UwcnnEncodedDomainWorksOnSrgbCodes) {
+  const Scene scene = testing::MakePlaneScene(30, 20, 2.0, 3, 20.0);
+  RenderOptions o = Bare();
+  o.model = ImageModel::kUwcnn;
+  o.uwcnn.type = "II";  // N = 0.800, 0.925, 0.940
+  ASSERT_EQ(o.uwcnn.domain, UwcnnDomain::kEncoded);
+  const RenderResult r = Render(o, scene);
+  const double n[3] = {0.940, 0.925, 0.800};  // BGR
+  auto encode = [](double v) {
+    v = std::clamp(v, 0.0, 1.0);
+    return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+  };
+  for (int y = 0; y < 20; y += 2)
+    for (int x = 0; x < 30; x += 2) {
+      const double d = PlaneRange(scene, x, y);
+      for (int c = 0; c < 3; ++c) {
+        const double t = std::pow(n[c], d), a = 1.5 * std::pow(n[c], 4.0);
+        const double code = std::round(255.0 * encode(scene.image.at<cv::Vec3f>(y, x)[c])) / 255;
+        const double coded_i = std::min(a * code * t + a * (1.0 - t), 1.0);
+        // Decoded: the output is linear, its sRGB value is the recipe's coded I.
+        ASSERT_NEAR(encode(r.image.at<cv::Vec3f>(y, x)[c]), coded_i, 2e-6);
+      }
+    }
+  EXPECT_NE(r.plan.ToText().find("8-bit sRGB codes"), std::string::npos);
+  // The two domains differ (the recipe is not linear in the coding).
+  o.uwcnn.domain = UwcnnDomain::kLinear;
+  EXPECT_GT(cv::norm(Render(o, scene).image, r.image, cv::NORM_INF), 0.01);
 }
 
 // The built-in N table against the data file it was typed from (shared/data/jerlov/
