@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
+#include <mutex>
+#include <string>
 
 #include "core/error.h"
 #include "simulator/water.h"
@@ -46,7 +49,9 @@ struct Context {
       const double cos_phi = lamp.axis.dot(v) / l_true;
       if (cos_phi <= 0.0) continue;
       const double l = std::max(l_true, min_distance);
-      const double profile = lamp.order == 1.0 ? cos_phi : std::pow(cos_phi, lamp.order);
+      const double profile = lamp.order == 1.0   ? cos_phi
+                             : lamp.order == 2.0 ? cos_phi * cos_phi
+                                                 : std::pow(cos_phi, lamp.order);
       const double cos_theta = -v.dot(d) / l_true;
       const double geometry = profile * Phase(cos_theta) / (l * l);
       for (int ch = 0; ch < channels; ++ch)
@@ -54,28 +59,32 @@ struct Context {
     }
   }
 
-  // The table of one ray: F (cumulative) and G = dF/du at u_j = j / M, channel fastest.
+  // The table of one ray: F (cumulative) and G = dF/du at u_j = j / M, channel fastest;
+  // Simpson's rule on each segment (its ends are the breakpoints, shared with G).
   void Table(const cv::Vec3d& d, float* f_out, float* g_out) const {
-    static constexpr double kNode[3] = {-0.7745966692414834, 0.0, 0.7745966692414834};
-    static constexpr double kWeight[3] = {5.0 / 9.0, 8.0 / 9.0, 5.0 / 9.0};
     const double du = 1.0 / segments;
-    double f[3] = {0, 0, 0}, g[3];
-    for (int j = 0; j <= segments; ++j) {
-      const double u0 = j * du;
-      for (int ch = 0; ch < channels; ++ch) f_out[j * channels + ch] = static_cast<float>(f[ch]);
-      if (j == segments) {  // u = 1: s = infinity, no light left (c > 0; b = 0 when c = 0)
-        for (int ch = 0; ch < channels; ++ch) g_out[j * channels + ch] = 0.0f;
-        break;
+    double f[3] = {0, 0, 0}, g0[3], gm[3], g1[3];
+    auto integrand_u = [&](double u, double* g) {
+      if (u >= 1.0) {  // s = infinity: no light left (c > 0; b = 0 when c = 0)
+        for (int ch = 0; ch < channels; ++ch) g[ch] = 0.0;
+        return;
       }
-      const double ds0 = a / ((1.0 - u0) * (1.0 - u0));
-      Integrand(d, a * u0 / (1.0 - u0), g);
-      for (int ch = 0; ch < channels; ++ch)
-        g_out[j * channels + ch] = static_cast<float>(g[ch] * ds0);
-      for (int k = 0; k < 3; ++k) {
-        const double u = u0 + 0.5 * (1.0 + kNode[k]) * du;
-        const double ds = a / ((1.0 - u) * (1.0 - u));
-        Integrand(d, a * u / (1.0 - u), g);
-        for (int ch = 0; ch < channels; ++ch) f[ch] += 0.5 * du * kWeight[k] * g[ch] * ds;
+      Integrand(d, a * u / (1.0 - u), g);
+      const double ds = a / ((1.0 - u) * (1.0 - u));
+      for (int ch = 0; ch < channels; ++ch) g[ch] *= ds;
+    };
+    integrand_u(0.0, g0);
+    for (int j = 0; j <= segments; ++j) {
+      for (int ch = 0; ch < channels; ++ch) {
+        f_out[j * channels + ch] = static_cast<float>(f[ch]);
+        g_out[j * channels + ch] = static_cast<float>(g0[ch]);
+      }
+      if (j == segments) break;
+      integrand_u((j + 0.5) * du, gm);
+      integrand_u(j + 1 == segments ? 1.0 : (j + 1) * du, g1);
+      for (int ch = 0; ch < channels; ++ch) {
+        f[ch] += du / 6.0 * (g0[ch] + 4.0 * gm[ch] + g1[ch]);
+        g0[ch] = g1[ch];
       }
     }
   }
@@ -83,14 +92,38 @@ struct Context {
   double U(double range_m) const { return std::isfinite(range_m) ? range_m / (range_m + a) : 1.0; }
 };
 
+// The tabulated phase function, cached for the last few options (building a Fournier-Forand
+// phase function costs about as much as a small render).
+std::vector<float> PhaseTable(const PhaseFunctionOptions& o, int n) {
+  struct Entry {
+    std::string key;
+    std::vector<float> table;
+  };
+  static std::mutex mutex;
+  static std::deque<Entry> cache;
+  const std::string key = PhaseFunctionFields().ToJson(o).dump(
+                              -1, ' ', true, nlohmann::json::error_handler_t::replace) +
+                          "/" + std::to_string(n);
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    for (const Entry& e : cache)
+      if (e.key == key) return e.table;
+  }
+  std::vector<float> table = PhaseFunction(o).TabulateByCosine(n);
+  std::lock_guard<std::mutex> lock(mutex);
+  cache.push_front({key, table});
+  if (cache.size() > 8) cache.pop_back();
+  return table;
+}
+
 Context MakeContext(const IrradianceOptions& light, const VeilWater& water,
                     const VeilQuadrature& q) {
   ThrowIfInvalid(light, "light");
   const int channels = static_cast<int>(water.c_per_m.size());
   if ((channels != 1 && channels != 3) || water.b_per_m.size() != water.c_per_m.size())
     throw Error("veil", "water coefficients must have 1 or 3 channels");
-  if (q.grid_step_px < 1 || q.segments < 2 || q.phase_table < 2)
-    throw Error("veil", "quadrature: grid_step_px >= 1, segments >= 2, phase_table >= 2");
+  if (q.grid_step_px < 0 || q.segments < 2 || q.phase_table < 2)
+    throw Error("veil", "quadrature: grid_step_px >= 0, segments >= 2, phase_table >= 2");
   Context k;
   k.channels = channels;
   for (int ch = 0; ch < channels; ++ch) k.c[ch] = water.c_per_m[ch];
@@ -103,6 +136,8 @@ Context MakeContext(const IrradianceOptions& light, const VeilWater& water,
     lamp.position = o.position_in_camera_m;
     lamp.axis = o.axis_in_camera / cv::norm(o.axis_in_camera);
     lamp.order = LambertianOrder(o.half_power_angle_deg);
+    // m = 1 (60 degrees) comes out as 1 + 2e-16: take whole orders as such (no pow).
+    if (std::abs(lamp.order - std::round(lamp.order)) < 1e-9) lamp.order = std::round(lamp.order);
     const std::vector<double> colour = ChannelValues(
         o.color_rgb, (o.color_rgb[0] + o.color_rgb[1] + o.color_rgb[2]) / 3.0, channels);
     for (int ch = 0; ch < channels; ++ch)
@@ -111,7 +146,7 @@ Context MakeContext(const IrradianceOptions& light, const VeilWater& water,
     k.lamps.push_back(lamp);
   }
   k.a = std::clamp(nearest, 0.05, 10.0);
-  k.phase = PhaseFunction(water.phase).TabulateByCosine(q.phase_table);
+  k.phase = PhaseTable(water.phase, q.phase_table);
   k.phase_scale = 0.5 * (q.phase_table - 1);
   return k;
 }
@@ -148,6 +183,15 @@ struct Axis {
   }
 };
 
+// The coarse grid's step: quadrature.grid_step_px, or (0) the pixels spanning 5 degrees at the
+// shorter focal length (the veil's angular detail is set by the lamps' geometry, not the image's
+// resolution), at least 1 and at most 64.
+int GridStep(const VeilQuadrature& q, const CameraIntrinsics& camera) {
+  if (q.grid_step_px > 0) return q.grid_step_px;
+  const double focal = std::min(std::abs(camera.fx), std::abs(camera.fy));
+  return static_cast<int>(std::clamp(std::lround(0.0874886635 * focal), 1L, 64L));
+}
+
 cv::Vec3d UnitRay(const CameraIntrinsics& camera, double x, double y) {
   const cv::Vec3d r = camera.Ray(x, y);
   return r / cv::norm(r);
@@ -179,7 +223,8 @@ cv::Mat SingleScatterVeilMap(const IrradianceOptions& light, const VeilWater& wa
   const int channels = k.channels, width = range_m.cols, height = range_m.rows;
   cv::Mat out(range_m.size(), CV_32FC(channels), cv::Scalar::all(0));
   if (k.lamps.empty() || range_m.empty()) return out;
-  const Axis ax(width, quadrature.grid_step_px), ay(height, quadrature.grid_step_px);
+  const int step = GridStep(quadrature, camera);
+  const Axis ax(width, step), ay(height, step);
   const int nx = static_cast<int>(ax.nodes.size()), ny = static_cast<int>(ay.nodes.size());
   const int per_node = (k.segments + 1) * channels;
   std::vector<float> f(static_cast<size_t>(nx) * ny * per_node), g(f.size());
@@ -191,31 +236,41 @@ cv::Mat SingleScatterVeilMap(const IrradianceOptions& light, const VeilWater& wa
     }
   });
   cv::parallel_for_(cv::Range(0, height), [&](const cv::Range& rows) {
-    std::vector<float> fi(per_node), gi(per_node);
+    // Per row: the tables interpolated vertically between the two node rows around it (one
+    // table per node column), then per pixel horizontally between two columns and Hermite in u.
+    std::vector<float> row_f(static_cast<size_t>(nx) * per_node), row_g(row_f.size());
+    const float m = static_cast<float>(k.segments), inv_m = 1.0f / m;
+    const float a = static_cast<float>(k.a);
     for (int y = rows.start; y < rows.end; ++y) {
       const int j0 = ay.before[y];
       const float wy = ay.weight[y];
+      const size_t top = static_cast<size_t>(j0) * nx * per_node, below = top + nx * per_node;
+      for (size_t i = 0; i < row_f.size(); ++i) {
+        row_f[i] = (1 - wy) * f[top + i] + wy * f[below + i];
+        row_g[i] = (1 - wy) * g[top + i] + wy * g[below + i];
+      }
       const float* r = range_m.ptr<float>(y);
       float* o = out.ptr<float>(y);
       for (int x = 0; x < width; ++x) {
-        const int i0 = ax.before[x];
         const float wx = ax.weight[x];
-        const double u = k.U(r[x]);
-        const int seg = std::min(static_cast<int>(u * k.segments), k.segments - 1);
-        // Only the two breakpoints around u are interpolated across the four rays.
-        const float w[4] = {(1 - wx) * (1 - wy), wx * (1 - wy), (1 - wx) * wy, wx * wy};
-        const size_t base[4] = {(static_cast<size_t>(j0) * nx + i0) * per_node,
-                                (static_cast<size_t>(j0) * nx + i0 + 1) * per_node,
-                                (static_cast<size_t>(j0 + 1) * nx + i0) * per_node,
-                                (static_cast<size_t>(j0 + 1) * nx + i0 + 1) * per_node};
-        for (int e = seg * channels; e < (seg + 2) * channels; ++e) {
-          float fv = 0, gv = 0;
-          for (int q = 0; q < 4; ++q) fv += w[q] * f[base[q] + e], gv += w[q] * g[base[q] + e];
-          fi[e] = fv, gi[e] = gv;
+        const float range = r[x];
+        const float u = range == range && range < 3e38f ? range / (range + a) : 1.0f;
+        const float xs = u * m;
+        const int seg = std::min(static_cast<int>(xs), k.segments - 1);
+        const float t = xs - seg, t2 = t * t, t3 = t2 * t;
+        const float h00 = 2 * t3 - 3 * t2 + 1, h01 = -2 * t3 + 3 * t2;
+        const float h10 = (t3 - 2 * t2 + t) * inv_m, h11 = (t3 - t2) * inv_m;
+        const size_t left = static_cast<size_t>(ax.before[x]) * per_node + seg * channels;
+        const size_t right = left + per_node;
+        for (int ch = 0; ch < channels; ++ch) {
+          const size_t i0 = ch, i1 = ch + channels;
+          auto lerp = [&](const std::vector<float>& v, size_t i) {
+            return (1 - wx) * v[left + i] + wx * v[right + i];
+          };
+          const float value = h00 * lerp(row_f, i0) + h01 * lerp(row_f, i1) +
+                              h10 * lerp(row_g, i0) + h11 * lerp(row_g, i1);
+          o[x * channels + ch] = std::max(value, 0.0f);
         }
-        for (int ch = 0; ch < channels; ++ch)
-          o[x * channels + ch] =
-              static_cast<float>(Hermite(fi.data(), gi.data(), channels, ch, k.segments, u));
       }
     }
   });

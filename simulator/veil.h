@@ -20,10 +20,10 @@
 //
 // Fast path (SingleScatterVeilMap): the substitution s = a u / (1 - u), u in [0, 1), with a the
 // distance of the nearest lamp from the camera (>= 5 cm), puts half the samples within a of the
-// camera, where most of the veil builds. On a coarse grid of view rays (every `grid_step_px`
-// pixels, and the last row and column) the cumulative integral F(u_j) and its integrand
-// dF/du(u_j) are tabulated at M + 1 breakpoints u_j = j / M (3-point Gauss-Legendre per
-// segment, the phase function tabulated by cos theta). Each pixel interpolates the four tables
+// camera, where most of the veil builds. On a coarse grid of view rays (every 5 degrees: see
+// VeilQuadrature, and the last row and column) the cumulative integral F(u_j) and its integrand
+// dF/du(u_j) are tabulated at M + 1 breakpoints u_j = j / M (Simpson's rule per segment, the
+// phase function tabulated by cos theta). Each pixel interpolates the four tables
 // around it bilinearly (the tables are smooth in the ray direction) and evaluates F at its own
 // u(R) by cubic Hermite interpolation: the upper limit is the pixel's exact range. Every value is
 // computed from its inputs alone: the same bytes on any thread count.
