@@ -113,7 +113,7 @@ void DecideVeil(const RenderOptions& options, Decisions& d) {
       "veil: single_scatter, pi integral_0^R b p(theta) E_lamp exp(-c s) ds along each view ray "
       "(R = range, infinity in open water), b = " +
       ListText(d.veil_water.b_per_m) + " 1/m, c = beta, phase " + d.water.phase.model +
-      ", coarse grid 8 px + Hermite in the exact range");
+      ", tables on rays every 5 deg of field, Hermite at the exact range");
 }
 
 }  // namespace
