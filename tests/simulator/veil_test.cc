@@ -313,6 +313,7 @@ TEST(SingleScatterVeil, JerlovIopTranscriptionMatchesTheData) {
   ASSERT_TRUE(file.good());
   std::string line;
   std::getline(file, line);
+  if (!line.empty() && line.back() == '\r') line.pop_back();  // CRLF lines
   std::vector<std::string> header;
   {
     std::stringstream s(line);
@@ -320,6 +321,7 @@ TEST(SingleScatterVeil, JerlovIopTranscriptionMatchesTheData) {
   }
   std::map<int, std::vector<std::string>> rows;
   while (std::getline(file, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
     std::stringstream s(line);
     std::vector<std::string> cells;
     for (std::string cell; std::getline(s, cell, ',');) cells.push_back(cell);
