@@ -16,6 +16,7 @@
 #include "simulator/image_pool.h"
 #include "simulator/kernels.h"
 #include "simulator/render_plan.h"
+#include "simulator/veil.h"
 #include "turbid_version.h"
 
 namespace turbid {
@@ -189,6 +190,19 @@ void VeilRow(const float* t, const float* e, const float* bs, int width, int cha
     }
 }
 
+// Veil "single_scatter": I = Jb t + (1 - t_B) B_inf + V (t_B = t for the paper model), and the
+// veil map (1 - t_B) B_inf + V when asked.
+void ComposeSingleScatter(const float* jb, const float* t, const float* t_b, const float* v,
+                          const float* bs, int width, int channels, float* out, float* veil) {
+  for (int x = 0; x < width; ++x)
+    for (int c = 0; c < channels; ++c) {
+      const int i = x * channels + c;
+      const float added = (1.0f - t_b[i]) * bs[c] + v[i];
+      if (veil) veil[i] = added;
+      out[i] = jb[i] * t[i] + added;
+    }
+}
+
 TURBID_ROW_KERNEL void QuantiseRow(float* p, int n, float levels, bool quantise) {
   if (!quantise) {
     for (int i = 0; i < n; ++i) p[i] = std::min(std::max(p[i], 0.0f), 1.0f);
@@ -355,6 +369,7 @@ struct RenderPass {
   const cv::Size size;
   bool backscatter = false, veil_term = false, keep_light = false;
   cv::Mat image, lit, light_map, t_map, veil, noise_map;
+  cv::Mat scatter_veil;  // V of veil "single_scatter" (simulator/veil.h)
   bool e_in_map = false, e_in_image = false;  // where pass A leaves E_L
   // Pass A.
   cv::Mat normals;
@@ -404,7 +419,7 @@ void RenderPass::AllocateOutputs() {
   const int type = scene.image.type();
   backscatter = d.backscatter_on && !d.zero_beta;
   veil_term = !d.zero_beta && (d.any_light || backscatter);
-  keep_light = d.any_light && veil_term;  // E_L needed again in pass B
+  keep_light = d.any_light && veil_term && !d.single_scatter;  // E_L needed again in pass B
   image = internal::PooledMat(size, type), lit = internal::PooledMat(size, type);
   if (options.maps.light || (keep_light && options.maps.veil))
     light_map = d.any_light ? cv::Mat(size, type) : cv::Mat(size, type, cv::Scalar::all(0));
@@ -529,6 +544,8 @@ void RenderPass::PreparePassB() {
       for (int c = 0; c < channels; ++c)
         sea_values[k][c] = static_cast<float>((*coefficients[k])[c]);
   }
+  if (d.single_scatter)
+    scatter_veil = SingleScatterVeilMap(options.light, d.veil_water, scene.camera, range_m);
   levels = options.camera.bit_depth == 8 ? 255.0f : 65535.0f;
   quantise = options.camera.bit_depth != 32;
   srgb = quantise && options.camera.encoding == CameraEncoding::kSrgb;
@@ -623,6 +640,11 @@ void RenderPass::ComposeRow(int y, const float* jb, float* t_row, float* tb_row,
     else
       TransmissionRows(r, width, d.beta_b, tb_row);
     if (t_out) std::copy(t, t + per_row, t_out);
+    if (d.single_scatter) {
+      ComposeSingleScatter(jb, t, tb_row, scatter_veil.ptr<float>(y), bs, width, channels, out,
+                           v_out);
+      return;
+    }
     const float* e = e_in_map ? light_map.ptr<float>(y) : (e_in_image ? out : nullptr);
     if (v_out) VeilRow(tb_row, e, bs, width, channels, v_out);
     ComposeRevised(jb, t, tb_row, e, bs, width, channels, out);
@@ -638,6 +660,10 @@ void RenderPass::ComposeRow(int y, const float* jb, float* t_row, float* tb_row,
       TransmissionRows(r, width, d.beta, t);  // NaN depth: open water, t = 0
     }
     if (t_out) std::copy(t, t + per_row, t_out);
+    if (d.single_scatter) {
+      ComposeSingleScatter(jb, t, t, scatter_veil.ptr<float>(y), bs, width, channels, out, v_out);
+      return;
+    }
     const float* e = e_in_map ? light_map.ptr<float>(y) : nullptr;
     if (v_out && veil_term) VeilRow(t, e, bs, width, channels, v_out);
     if (!veil_term)

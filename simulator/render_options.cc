@@ -289,6 +289,9 @@ const Fields<RenderOptions>& OptionsFields() {
               {"revised", ImageModel::kRevised},
               {"uwcnn", ImageModel::kUwcnn}},
              "image-formation model");
+    f.Choice("veil", &RenderOptions::veil,
+             {{"paper", VeilModel::kPaper}, {"single_scatter", VeilModel::kSingleScatter}},
+             "lights' veil: eq. 2's (1 - t) E_L, or single scattering along the view ray");
     AddSection(f, "revised", &RenderOptions::revised, RevisedFields(), "model \"revised\"");
     AddSection(f, "uwcnn", &RenderOptions::uwcnn, UwcnnFields(), "model \"uwcnn\"",
                ApplyUwcnnPreset);

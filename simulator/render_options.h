@@ -14,6 +14,7 @@
 #include "simulator/models.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
+#include "simulator/veil.h"
 #include "simulator/water.h"
 
 namespace turbid {
@@ -37,7 +38,7 @@ struct CameraOutputOptions {
 struct MapSelection {
   bool transmission = false;  // t (channels of the image)
   bool light = false;         // E_L
-  bool veil = false;          // (1 - t) E_L (+ (1 - t) B_inf)
+  bool veil = false;          // the veil added: (1 - t) E_L or V (+ (1 - t) B_inf)
   bool psf = false;           // the PSF kernel
   bool noise = false;         // snow + sensor noise layer (noisy - clean before clipping)
   // "transmission,light,veil,psf,noise" (any subset, comma-separated) -> selection; Error
@@ -52,6 +53,10 @@ struct RenderOptions {
   ImageModel model = ImageModel::kPaper;
   RevisedOptions revised;
   UwcnnOptions uwcnn;
+  // The lights' veil (simulator/veil.h, docs/model.md "The veil"): "paper" = eq. 2's
+  // (1 - t) E_L (default); "single_scatter" = the lamps' single-scattered radiance integrated
+  // along each view ray with the water's b, c and phase function.
+  VeilModel veil = VeilModel::kPaper;
   WaterOptions water;
   IrradianceOptions light;
   PsfOptions psf;

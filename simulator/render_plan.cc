@@ -124,6 +124,28 @@ void DecidePsf(const RenderOptions& options, Decisions& d) {
   }
 }
 
+// Which veil of the lights runs (render option "veil") and its plan line.
+void DecideVeil(const RenderOptions& options, Decisions& d) {
+  if (!d.any_light || d.zero_beta) return;  // no lights' veil at all (said above)
+  if (options.veil == VeilModel::kPaper) {
+    d.plan.steps.push_back(std::string("veil: paper, (1 - ") + (d.revised ? "t_B" : "t") +
+                           ") E_L at the surface point (eq. 2)");
+    return;
+  }
+  const int channels = static_cast<int>(d.beta.size());
+  const std::vector<double> albedo = ChannelValues(
+      d.water.scattering_albedo_rgb, d.water.scattering_albedo_gray, channels);
+  d.single_scatter = true;
+  d.veil_water.c_per_m = d.beta;
+  for (int c = 0; c < channels; ++c) d.veil_water.b_per_m.push_back(albedo[c] * d.beta[c]);
+  d.veil_water.phase = d.water.phase;
+  d.plan.steps.push_back(
+      "veil: single_scatter, pi integral_0^R b p(theta) E_lamp exp(-c s) ds along each view ray "
+      "(R = range, infinity in open water), b = " +
+      ListText(d.veil_water.b_per_m) + " 1/m, c = beta, phase " + d.water.phase.model +
+      ", tables on rays every 5 deg of field, Hermite at the exact range");
+}
+
 }  // namespace
 
 Decisions Decide(const RenderOptions& options, const Scene& scene, double min_range,
@@ -166,6 +188,7 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
     plan.steps.push_back(std::string(d.revised ? "attenuation: direct t = exp(-beta^D r)"
                                                : "attenuation: t = exp(-beta r)") +
                          ", beta = " + ListText(d.beta) + " 1/m");
+  DecideVeil(options, d);
   if (d.backscatter_on && !d.zero_beta)
     plan.steps.push_back("backscatter: (1 - t) B_inf, B_inf = " + ListText(d.backscatter));
   DecidePsf(options, d);

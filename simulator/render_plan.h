@@ -11,6 +11,7 @@
 #include "simulator/models.h"
 #include "simulator/psf.h"
 #include "simulator/render_options.h"
+#include "simulator/veil.h"
 #include "simulator/water.h"
 
 namespace turbid {
@@ -33,6 +34,10 @@ struct Decisions {
   std::vector<RangeTable> direct_table, backscatter_table;
   std::vector<double> beta_b, sea_a, sea_b, sea_c, sea_d;
   bool any_light = false;
+  // veil "single_scatter" with lights on and beta > 0: the veil is simulator/veil.h's V, not
+  // (1 - t) E_L; veil_water holds its c, b (image channel order) and phase function.
+  bool single_scatter = false;
+  VeilWater veil_water;
   bool zero_beta = false;
   bool uniform_range = false;
   bool blur = false;

@@ -59,6 +59,12 @@ TURBID_ROW_KERNEL void NoiseVarianceRow(const float* __restrict mean, float* __r
   for (int i = 0; i < n; ++i) v[i] = std::max(mean[i], 0.0f) * gain + floor_var;
 }
 
+// The coded-domain quantisation variance added at the local mean (CodedQuantisation).
+void AddQuantisationRow(const float* mean, const CodedQuantisation& q, float* v, int n) {
+  if (q.step_var == 0.0f) return;
+  for (int i = 0; i < n; ++i) v[i] += q.Variance(mean[i]);
+}
+
 // LocalSignalVariance's last step: max(sum - count, 0) / max(sum a, 1e-30), with the maxima as
 // the vector loop of cv::max(image, scalar) takes them, x > floor ? x : floor (NaN gives the
 // floor; std::max keeps it). The numerator's box sums are NaN once a (z - p)^2 overflowed (inf -
@@ -566,7 +572,8 @@ cv::Mat MaskBelow(const cv::Mat& t, double floor) {
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
-                            double floor_var, double clip_level, bool with_detail) {
+                            double floor_var, double clip_level, bool with_detail,
+                            const CodedQuantisation& quantisation) {
   return OracleMmse(
       o, image,
       [&](int y, const float*& t, const float*& e, const float*& sn, const float*& ve) {
@@ -575,12 +582,13 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
         sn = snow.ptr<float>(y);
         ve = veil.ptr<float>(y);
       },
-      shot_gain, floor_var, clip_level, with_detail);
+      shot_gain, floor_var, clip_level, with_detail, true, quantisation);
 }
 
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const TruthRowFn& truth_row, double shot_gain, double floor_var,
-                            double clip_level_d, bool with_detail, bool keep_estimate) {
+                            double clip_level_d, bool with_detail, bool keep_estimate,
+                            const CodedQuantisation& quantisation) {
   const float gain_f = static_cast<float>(shot_gain), floor_f = static_cast<float>(floor_var);
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2; a = 1 / v,
@@ -609,6 +617,7 @@ OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
   BoxStreamImage(image, 3, 1.0 / 49.0, [&](int y, const float* const* mean) {
     float* var = variance_row.data();
     NoiseVarianceRow(mean[0], var, gain_f, floor_f, n);
+    AddQuantisationRow(mean[0], quantisation, var, n);
     const float* in = image.ptr<float>(y);
     const float *t = nullptr, *e = nullptr, *sn = nullptr, *ve = nullptr;
     truth_row(y, t, e, sn, ve);

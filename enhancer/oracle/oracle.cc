@@ -552,14 +552,18 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   result.steps = truth.steps;
   const RenderOptions& ro = truth.render;
   // Noise variance of I per pixel (Foi et al. 2008): signal / photons + read^2, plus the
-  // quantisation step's 1/12 step^2.
+  // quantisation noise of the camera's codes, (step s)^2 / 12 with s the decoding slope at the
+  // code of the local mean (oracle_internal::CodedQuantisation).
   const bool sensor = ro.sensor.enabled;
   const double read2 = sensor ? ro.sensor.read_noise * ro.sensor.read_noise : 0.0;
   const double gain =
       sensor && ro.sensor.photons_at_white > 0 ? 1.0 / ro.sensor.photons_at_white : 0.0;
   const int bits = ro.camera.bit_depth;
   const double step = bits == 32 ? 0.0 : 1.0 / ((1 << bits) - 1);
-  const double floor_var = read2 + step * step / 12.0 + 1e-12;
+  const double floor_var = read2 + 1e-12;
+  oracle_internal::CodedQuantisation quantisation;
+  quantisation.step_var = static_cast<float>(step * step / 12.0);
+  quantisation.srgb = bits != 32 && ro.camera.encoding == CameraEncoding::kSrgb;
   // The signal in the shot-noise term is the local mean of I (7x7 box) rather than I itself: a
   // variance read from the noisy value weights the darker draws more and biases every weighted
   // mean low.
@@ -590,9 +594,11 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   };
   oracle_internal::OracleMmseResult mmse = oracle_internal::OracleMmse(
       o, image, truth_row, gain, floor_var, 1.0 - half_step - 1e-7, blur.active && o.deblur,
-      /*keep_estimate=*/false);
+      /*keep_estimate=*/false, quantisation);
   result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
-                         " + read^2 + step^2 / 12" + (sensor ? "" : " (sensor off)"));
+                         " + read^2 + (step s)^2 / 12, s the " +
+                         (quantisation.srgb ? "sRGB" : "linear") + " decoding slope" +
+                         (sensor ? "" : " (sensor off)"));
   result.masked_pixels = mmse.masked_pixels;
   const cv::Mat& masked = mmse.masked;
   cv::Mat est = mmse.estimate, prior = mmse.prior;  // est: empty on the deblur path
@@ -726,7 +732,7 @@ MethodEntry OracleEntry() {
   MethodEntry e;
   e.info.name = "oracle";
   e.info.summary =
-      "MMSE inverse of the simulator with every true parameter and the noise model (the ceiling)";
+      "oracle-parameter LMMSE reference: the simulator inverted with every true parameter and the noise model";
   e.info.source =
       "turbid's forward model (docs/model.md); adaptive Wiener (Lee 1980, Kuan et al. 1985) with "
       "the Poisson-Gaussian variance (Foi et al. 2008); Wiener deconvolution";

@@ -6,8 +6,9 @@
 //                  divide by t, undo the blur exactly (reflect-101 borders, as the renderer
 //                  blurs; range-dependent PSF by preconditioned fixed-point iteration), divide by
 //                  E_A + E_L. Float precision on noise-free float renders; amplifies noise by
-//                  1 / (t (E_A + E_L)), so it is no ceiling once there is noise.
-//   oracle       — the ceiling: the same model, inverted with the known Poisson-Gaussian noise
+//                  1 / (t (E_A + E_L)), so it is a poor reference once there is noise.
+//   oracle       — the oracle-parameter LMMSE reference (a strong reference, not a bound: its
+//                  prior is estimated locally): the same model, inverted with the known Poisson-Gaussian noise
 //                  variance (Foi et al., IEEE TIP 2008) as a linear MMSE (Wiener) estimate: a
 //                  hierarchical local-Gaussian prior on rho (adaptive Wiener filter, Lee, IEEE
 //                  PAMI 1980; Kuan et al., IEEE PAMI 1985, with the known per-pixel noise

@@ -2,6 +2,8 @@
 // not part of the API.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <functional>
 #include <opencv2/core.hpp>
 
@@ -14,6 +16,25 @@ namespace turbid::oracle_internal {
 struct DetailSums {
   double posterior[3] = {0, 0, 0}, detail[3] = {0, 0, 0}, detail_sq[3] = {0, 0, 0};
   long long count = 0;
+};
+
+// The quantisation noise of the camera's codes, taken in the coded domain and carried to linear
+// light: a code step Delta = 1 / (2^bits - 1) is Delta s(v) in linear light, s = d decode / d code
+// at the code of the linear value v, so the variance is (Delta s(v))^2 / 12. Linear coding: s = 1.
+// sRGB (IEC 61966-2-1): s = 1 / 12.92 below v = 0.0031308, else (2.4 / 1.055) v^(1.4 / 2.4)
+// (the derivative of ((code + 0.055) / 1.055)^2.4 at code = 1.055 v^(1 / 2.4) - 0.055). Float
+// outputs: 0.
+struct CodedQuantisation {
+  float step_var = 0.0f;  // Delta^2 / 12
+  bool srgb = false;
+
+  float Variance(float v) const {
+    if (!srgb) return step_var;
+    const float x = std::min(std::max(v, 0.0f), 1.0f);
+    if (x <= 0.0031308f) return step_var * static_cast<float>(1.0 / (12.92 * 12.92));
+    // s^2 = (2.4 / 1.055)^2 x^(2.8 / 2.4)
+    return step_var * 5.17520271f * std::pow(x, 1.16666667f);
+  }
 };
 
 struct OracleMmseResult {
@@ -44,6 +65,7 @@ void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& mas
                  const cv::Mat& irradiance, cv::Mat& out);
 
 // The oracle's data term and estimate: the noise variance max(box7(I), 0) shot_gain + floor_var
+// + quantisation.Variance(box7(I))
 // (7x7 local mean, reflected borders), u = (I - snow - veil) / max(t E, 1e-12) with weight
 // a = (t E)^2 / variance (0 where masked or where I > clip_level), then the hierarchical MMSE
 // (docs/methods.md, "oracle"). All maps are the image's size and type. with_detail: also the
@@ -51,7 +73,8 @@ void FinishImage(const cv::Mat& prior, const cv::Mat& detail, const cv::Mat& mas
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const cv::Mat& transmission, const cv::Mat& irradiance,
                             const cv::Mat& snow, const cv::Mat& veil, double shot_gain,
-                            double floor_var, double clip_level, bool with_detail = false);
+                            double floor_var, double clip_level, bool with_detail = false,
+                            const CodedQuantisation& quantisation = {});
 
 // Row y of the truth maps: t, e, snow and veil set to that row of the transmission, irradiance,
 // snow and veil (the image's cols * channels values each, valid until the next call). OracleMmse
@@ -65,6 +88,7 @@ using TruthRowFn = std::function<void(int y, const float*& t, const float*& e, c
 // only the prior, the detail and the sums).
 OracleMmseResult OracleMmse(const OracleOptions& o, const cv::Mat& image,
                             const TruthRowFn& truth_row, double shot_gain, double floor_var,
-                            double clip_level, bool with_detail = false, bool keep_estimate = true);
+                            double clip_level, bool with_detail = false, bool keep_estimate = true,
+                            const CodedQuantisation& quantisation = {});
 
 }  // namespace turbid::oracle_internal

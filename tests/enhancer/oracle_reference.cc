@@ -460,7 +460,7 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
                                                               : 0.0;
   const int bits = ro.camera.bit_depth;
   const double step = bits == 32 ? 0.0 : 1.0 / ((1 << bits) - 1);
-  const double floor_var = read2 + step * step / 12.0 + 1e-12;
+  const double floor_var = read2 + 1e-12;
   // The signal in the shot-noise term is the local mean of I (7x7 box) rather than I itself: a
   // variance read from the noisy value weights the darker draws more and biases every weighted
   // mean low.
@@ -468,8 +468,19 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
   cv::boxFilter(image, local_mean, -1, cv::Size(7, 7), cv::Point(-1, -1), true,
                 cv::BORDER_REFLECT);
   cv::Mat variance = PlusAll(MaxAll(local_mean, 0.0) * gain, floor_var);
+  // The quantisation noise in the coded domain (oracle_internal::CodedQuantisation, tested
+  // against the decoding curve in oracle_quantisation_test.cc).
+  oracle_internal::CodedQuantisation quantisation;
+  quantisation.step_var = static_cast<float>(step * step / 12.0);
+  quantisation.srgb = bits != 32 && ro.camera.encoding == CameraEncoding::kSrgb;
+  if (step > 0.0)
+    for (int y = 0; y < variance.rows; ++y)
+      for (int i = 0; i < variance.cols * variance.channels(); ++i)
+        variance.ptr<float>(y)[i] += quantisation.Variance(local_mean.ptr<float>(y)[i]);
   result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
-                         " + read^2 + step^2 / 12" + (sensor ? "" : " (sensor off)"));
+                         " + read^2 + (step s)^2 / 12, s the " +
+                         (quantisation.srgb ? "sRGB" : "linear") + " decoding slope" +
+                         (sensor ? "" : " (sensor off)"));
 
   // u = (I - S - veil) / (t (E_A + E_L)) ~ h * rho, with variance v = var / (t E)^2.
   const cv::Mat masked = MaskBelow(truth.transmission, o.mask_transmission);

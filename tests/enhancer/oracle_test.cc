@@ -1,6 +1,6 @@
 // The oracles (enhancer/oracle/oracle.h): oracle_exact reaches float precision on noise-free float
-// renders (one PSF and the range-dependent one); the MMSE oracle is a ceiling on noisy 8-bit
-// renders (PSNR and SSIM at least those of the input, simplified and clahe); masked open water is
+// renders (one PSF and the range-dependent one); the oracle-parameter LMMSE reference beats the
+// input and the blind methods on noisy 8-bit renders (PSNR and SSIM at least those of the input, simplified and clahe); masked open water is
 // counted and does not ring into its neighbours.
 #include "enhancer/blocks/box_filter.h"
 #include "enhancer/oracle/oracle.h"
@@ -450,10 +450,10 @@ TEST(Oracle, ExactInverseReachesFloatPrecisionOnNoiseFreeFloatRenders) {
   }
 }
 
-// The ceiling: on noisy 8-bit renders with every default degradation (snow, Poisson-Gaussian
+// The oracle-parameter LMMSE reference: on noisy 8-bit renders with every default degradation (snow, Poisson-Gaussian
 // noise, PSF), the oracle's PSNR and SSIM are at least those of the input and of the blind
 // methods simplified and clahe, and far above oracle_exact's where t is small.
-TEST(Oracle, IsACeilingOnNoisy8BitRenders) {
+TEST(Oracle, BeatsInputAndBlindMethodsOnNoisy8BitRenders) {
   for (const char* name : {"hull", "seafloor", "room"}) {
     const Scene scene = Builtin(name, 0.25);
     for (double beta : {0.7, 1.5}) {

@@ -107,7 +107,7 @@ TEST(BenchCli, SweepIsTimedByStage) {
   EXPECT_EQ(calls["render"], 4);
   EXPECT_EQ(calls["method clahe"], 4);
   EXPECT_EQ(calls["method dcp"], 4);
-  EXPECT_EQ(calls["method oracle"], 4);  // the ceiling every sweep adds
+  EXPECT_EQ(calls["method oracle"], 4);  // the oracle-parameter LMMSE reference every sweep adds
   EXPECT_EQ(calls["metric ssim"], 16);    // none, clahe, dcp, oracle on each item
   EXPECT_EQ(calls["metric hautiere_e"], 16);
   EXPECT_EQ(calls["I/O: journal"], 4);

@@ -32,7 +32,7 @@ TEST(HarnessExperiment, ParsesAndAddsReferenceRows) {
   EXPECT_EQ(e.name, "fake");
   ASSERT_EQ(e.methods.size(), 5u);
   EXPECT_EQ(e.methods[0].label, "none");    // the degraded input, always first
-  EXPECT_EQ(e.methods[1].label, "oracle");  // the error floor, added because it exists
+  EXPECT_EQ(e.methods[1].label, "oracle");  // the oracle-parameter LMMSE reference, added because it exists
   EXPECT_EQ(e.methods[2].label, "fake_a");
   EXPECT_EQ(e.methods[3].label, "fake_a2");
   EXPECT_EQ(e.methods[3].params, json({{"gain", 2}}));

@@ -235,6 +235,24 @@ void AddRenderCases(std::vector<BenchCase>& cases, const std::function<const Inp
     c.goal = {1.0 / 3.0, 0.0, "issue 16 item 2 (at most 3x the fixed-PSF render, 1360x1024)"};
     cases.push_back(c);
   }
+  // The single-scatter veil of the lights against the same render with eq. 2's veil (seafloor,
+  // 640x480 colour, all terms on): at most 3x its time.
+  {
+    BenchCase c;
+    c.name = "render/color/single_scatter_veil";
+    c.peer_name = "the same render, paper veil";
+    const auto render = [in](VeilModel veil) {
+      RenderOptions o;
+      o.water.type = "3C";
+      o.seed = 1;
+      o.veil = veil;
+      benchmark::DoNotOptimize(Render(o, in().seafloor).image.data);
+    };
+    c.ours = [render] { render(VeilModel::kSingleScatter); };
+    c.peer = [render] { render(VeilModel::kPaper); };
+    c.goal = {1.0 / 3.0, 0.0, "issue 30 item 1 (at most 3x the paper veil's render, 640x480)"};
+    cases.push_back(c);
+  }
   // The other image-formation models beside eq. 2 (same scene, same light, PSF, snow and noise).
   for (const char* model : {"revised", "revised_seathru", "uwcnn"}) {
     BenchCase c;

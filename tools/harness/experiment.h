@@ -56,7 +56,7 @@ struct HarnessCatalog {
   // Where each item's seed goes in the render options when the experiment does not say.
   std::string default_seed_path;
   // Rows added when the experiment does not list them (the identity row always; "oracle" when
-  // check_method accepts it), so every table shows the degraded input and the error floor.
+  // check_method accepts it), so every table shows the degraded input and the oracle-parameter LMMSE reference.
   std::vector<std::string> reference_methods = {"none", "oracle"};
 };
 
