@@ -9,6 +9,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/input_file.h"
 #include "core/json_io.h"
 #include "scenes/image_io.h"
 #include "scenes/scene_loader.h"
@@ -76,6 +77,7 @@ class RgbdSequence : public Sequence {
 
 // The lines of a text file that are neither empty nor comments ('#'), with their line numbers.
 std::vector<std::pair<int, std::string>> DataLines(const std::string& path) {
+  CheckInputFile(path);  // never open a FIFO or a device
   std::ifstream in(path);
   if (!in) throw Error(path, "cannot read");
   std::vector<std::pair<int, std::string>> lines;

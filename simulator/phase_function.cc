@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/input_file.h"
 
 namespace turbid {
 namespace {
@@ -56,6 +57,7 @@ double FournierForandMuFor(double target) {
 }
 
 void ReadTable(const std::string& path, std::vector<double>* theta, std::vector<double>* p) {
+  CheckInputFile(path);  // never open a FIFO or a device
   std::ifstream in(path);
   if (!in) throw Error(path + ": cannot read the phase-function table");
   std::string line;

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/input_file.h"
 
 namespace turbid {
 namespace {
@@ -65,6 +66,7 @@ Spectrum Resample(const std::vector<double>& x, const std::vector<double>& y, do
 }
 
 std::vector<std::vector<double>> ReadSpectraCsv(const std::string& path, int columns) {
+  CheckInputFile(path);  // never open a FIFO or a device
   std::ifstream file(path);
   if (!file) throw Error(path, "cannot open the spectra file");
   std::string line;
