@@ -281,7 +281,8 @@ TEST(BuiltinHullReference, SameBytesAsThePreOptimisationCode) {
     SCOPED_TRACE(::testing::Message() << "scale " << c.scale << ", supersampling " << c.ss
                                       << (c.vector ? ", vector" : ", scalar"));
     const VectorTextures mode(c.vector);
-    const Scene scene = MakeBuiltinScene("hull", {.scale = c.scale, .supersampling = c.ss});
+    const Scene scene =
+        MakeBuiltinScene("hull", {.scale = c.scale, .supersampling = c.ss, .pose = {}});
     const cv::Mat expected = ReferenceHullImage(c.scale, c.ss);
     EXPECT_EQ(DifferingPixels(scene.image, expected), 0);
   }

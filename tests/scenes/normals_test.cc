@@ -6,8 +6,8 @@
 #include <cmath>
 #include <limits>
 
-#include "scenes/builtin.h"
 #include "core/error.h"
+#include "scenes/builtin.h"
 
 namespace turbid {
 namespace {
@@ -21,7 +21,8 @@ cv::Mat PlaneDepth(const CameraIntrinsics& camera, const Plane& plane) {
   cv::Mat depth(camera.height, camera.width, CV_32FC1);
   for (int y = 0; y < camera.height; ++y)
     for (int x = 0; x < camera.width; ++x)
-      depth.at<float>(y, x) = static_cast<float>(-plane.offset_m / plane.normal.dot(camera.Ray(x, y)));
+      depth.at<float>(y, x) =
+          static_cast<float>(-plane.offset_m / plane.normal.dot(camera.Ray(x, y)));
   return depth;
 }
 
@@ -67,10 +68,10 @@ TEST(NormalsFromDepth, DepthStepDoesNotBleed) {
 TEST(NormalsFromDepth, HolesGiveNanOnlyWhereUndefined) {
   const CameraIntrinsics camera = SmallCamera();
   cv::Mat depth(camera.height, camera.width, CV_32FC1, 1.5f);
-  depth.at<float>(10, 10) = kNan;       // a hole: its neighbours use the other side
-  depth.at<float>(20, 20) = 0.0f;       // 0 = invalid too
-  depth.row(30).setTo(kNan);            // row 31 sees no upper neighbour, uses the lower one
-  depth.row(32).setTo(kNan);            // row 31 now has neither: undefined
+  depth.at<float>(10, 10) = kNan;  // a hole: its neighbours use the other side
+  depth.at<float>(20, 20) = 0.0f;  // 0 = invalid too
+  depth.row(30).setTo(kNan);       // row 31 sees no upper neighbour, uses the lower one
+  depth.row(32).setTo(kNan);       // row 31 now has neither: undefined
   const cv::Mat normals = NormalsFromDepth(camera, depth);
   auto is_nan = [&](int x, int y) { return std::isnan(normals.at<cv::Vec3f>(y, x)[0]); };
   EXPECT_TRUE(is_nan(10, 10));
@@ -92,7 +93,7 @@ TEST(NormalsFromDepth, HolesGiveNanOnlyWhereUndefined) {
 TEST(NormalsFromDepth, AgreesWithRayCastNormalsOnBuiltinScenes) {
   for (const char* name : {"room", "seafloor"}) {
     SCOPED_TRACE(name);
-    const Scene scene = MakeBuiltinScene(name, {.scale = 0.5, .supersampling = 1});
+    const Scene scene = MakeBuiltinScene(name, {.scale = 0.5, .supersampling = 1, .pose = {}});
     const cv::Mat normals = NormalsFromDepth(scene.camera, scene.depth_m);
     int close = 0, defined = 0;
     for (int y = 0; y < scene.height(); ++y) {
