@@ -49,11 +49,11 @@ cv::Matx33d AxisAngle(const cv::Vec3d& w) {
 // `spacing` along v, alternating direction.
 cv::Vec2d LawnMower(double s, double length, double spacing) {
   const double period = length + spacing;
-  const int lane = static_cast<int>(std::floor(s / period));
-  const double within = s - lane * period;
+  const double lane = std::floor(s / period);  // a double: extreme options overflow any int
+  const double within = std::max(0.0, s - lane * period);
   const double along = std::min(within, length);
   const double across = lane * spacing + std::max(0.0, within - length);
-  return {lane % 2 == 0 ? along : length - along, across};
+  return {std::fmod(lane, 2.0) == 0 ? along : length - along, across};
 }
 
 }  // namespace
