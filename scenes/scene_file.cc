@@ -1,28 +1,27 @@
 // Scene JSON files and the dataset adapters they drive (TUM / ICL-NUIM RGB-D, float depth, stereo
 // disparity, NYU Depth v2 labelled file, RGB-D folders). Schema: docs/formats.md.
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <set>
 #include <map>
+#include <nlohmann/json.hpp>
+#include <set>
 #include <sstream>
 
 #include "core/atomic_file.h"
-#include "scenes/builtin.h"
 #include "core/error.h"
 #include "core/fields.h"
-#include "scenes/folder_dataset.h"
-#include "scenes/image_io.h"
 #include "core/json_io.h"
 #include "core/limits.h"
+#include "core/safe_name.h"
+#include "scenes/builtin.h"
+#include "scenes/folder_dataset.h"
+#include "scenes/image_io.h"
 #include "scenes/normals.h"
 #include "scenes/nyu_depth_v2.h"
-#include "core/safe_name.h"
 #include "scenes/scene_loader.h"
 
 namespace turbid {
@@ -53,8 +52,8 @@ std::string FormatNumber(double value) {
 // problem ("" when read), the key named relative to the field ("unknown key 'skew' (known: ...)",
 // "'fx': expected a number"); every key in `required` must be present.
 template <typename S>
-std::string ReadObject(const Fields<S>& table, const json& v, const std::vector<std::string>& required,
-                       S* out) {
+std::string ReadObject(const Fields<S>& table, const json& v,
+                       const std::vector<std::string>& required, S* out) {
   if (!v.is_object()) return "expected an object, got " + fields_detail::ShownValue(v);
   for (auto it = v.begin(); it != v.end(); ++it) {
     const typename Fields<S>::Field* field = table.Find(it.key());
@@ -86,35 +85,12 @@ const Fields<CameraIntrinsics>& CameraFields() {
   return fields;
 }
 
-// "camera": a preset name, "unknown", or {fx, fy, cx, cy[, width, height]}.
 std::string ReadCamera(const json& v, SceneFileSpec& spec) {
-  if (v.is_string()) {
-    const std::string& name = v.get_ref<const std::string&>();
-    if (name == "unknown") {
-      spec.camera_unknown = true;
-      spec.camera.reset();
-      return "";
-    }
-    try {
-      spec.camera = CameraPreset(name);
-    } catch (const Error& e) {
-      return e.what();
-    }
-    return "";
-  }
-  CameraIntrinsics camera;
-  std::string problem = ReadObject(CameraFields(), v, {"fx", "fy", "cx", "cy"}, &camera);
-  if (!problem.empty()) return problem;
-  if (camera.fx == 0.0 || camera.fy == 0.0) return "'fx' and 'fy' must be non-zero";
-  spec.camera = camera;
-  spec.camera_unknown = false;
-  return "";
+  return ReadCameraValue(v, &spec.camera, &spec.camera_unknown);
 }
 
 json WriteCamera(const SceneFileSpec& spec) {
-  if (spec.camera_unknown) return "unknown";
-  if (!spec.camera) return nullptr;
-  return CameraFields().ToJson(*spec.camera);
+  return CameraValue(spec.camera, spec.camera_unknown);
 }
 
 struct PlaneKeys {
@@ -153,7 +129,8 @@ std::string ReadDvl(const json& v, SceneFileSpec& spec) {
     std::vector<double> p;
     std::string problem = fields_detail::ArrayProblem(v[i], 3, NumberRange::Any(), &p);
     if (!problem.empty()) return "[" + std::to_string(i) + "]: " + problem;
-    if (!(p[2] > 0.0)) return "[" + std::to_string(i) + "] must have z > 0 (in front of the camera)";
+    if (!(p[2] > 0.0))
+      return "[" + std::to_string(i) + "] must have z > 0 (in front of the camera)";
     spec.dvl.push_back({p[0], p[1], p[2]});
   }
   return "";
@@ -324,7 +301,8 @@ void CheckImageRange(const std::string& path, const cv::Mat& image) {
   }
 }
 
-// "FILE.json#KEY" -> (FILE.json, KEY) when FILE.json#KEY itself is not a file; (spec, "") otherwise.
+// "FILE.json#KEY" -> (FILE.json, KEY) when FILE.json#KEY itself is not a file; (spec, "")
+// otherwise.
 std::pair<std::string, std::string> SplitFrameSuffix(const std::string& spec) {
   const size_t hash = spec.rfind('#');
   std::error_code ec;
@@ -384,7 +362,8 @@ std::vector<std::string> SelectFrames(const std::string& file, const json& selec
     auto number = [&](const std::string& p, long long fallback) {
       if (p.empty()) return fallback;
       if (p.find_first_not_of("0123456789") != std::string::npos || p.size() > 12)
-        reader.Fail("'frames' range '" + text + "' must be START:STOP[:STEP] with non-negative integers");
+        reader.Fail("'frames' range '" + text +
+                    "' must be START:STOP[:STEP] with non-negative integers");
       return std::stoll(p);
     };
     if (parts.size() < 2 || parts.size() > 3)
@@ -460,6 +439,37 @@ std::vector<std::string> RequiredKeys(const std::string& type) {
 
 }  // namespace
 
+std::string ReadCameraValue(const json& v, std::optional<CameraIntrinsics>* camera, bool* unknown) {
+  if (v.is_string()) {
+    const std::string& name = v.get_ref<const std::string&>();
+    if (name == "unknown") {
+      *unknown = true;
+      camera->reset();
+      return "";
+    }
+    try {
+      *camera = CameraPreset(name);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    *unknown = false;
+    return "";
+  }
+  CameraIntrinsics read;
+  std::string problem = ReadObject(CameraFields(), v, {"fx", "fy", "cx", "cy"}, &read);
+  if (!problem.empty()) return problem;
+  if (read.fx == 0.0 || read.fy == 0.0) return "'fx' and 'fy' must be non-zero";
+  *camera = read;
+  *unknown = false;
+  return "";
+}
+
+json CameraValue(const std::optional<CameraIntrinsics>& camera, bool unknown) {
+  if (unknown) return "unknown";
+  if (!camera) return nullptr;
+  return CameraFields().ToJson(*camera);
+}
+
 std::vector<std::string> CameraPresetNames() {
   return {"icl_nuim", "tum_default", "tum_fr1", "tum_fr2", "tum_fr3"};
 }
@@ -506,8 +516,8 @@ SceneFileSpec ParseSceneFile(const std::string& spec_path) {
   const std::set<std::string> types = {"rgbd", "depth", "stereo", "builtin", "nyu_v2", "folder"};
   const json& type = root.at("type");
   if (!type.is_string() || !types.count(type.get<std::string>()))
-    Fail(json_path, "'type' must be one of " + Join(types) + ", got " +
-                        fields_detail::ShownValue(type));
+    Fail(json_path,
+         "'type' must be one of " + Join(types) + ", got " + fields_detail::ShownValue(type));
   SceneFileKeys keys;
   SceneFileSpec& spec = keys.spec;
   spec.type = type.get<std::string>();
@@ -527,7 +537,8 @@ SceneFileSpec ParseSceneFile(const std::string& spec_path) {
   if (!frame_suffix.empty() && !multi_frame)
     Fail(json_path, "'#" + frame_suffix +
                         "' selects a frame, which only nyu_v2 and folder scene files have (or no "
-                        "file " + spec_path + ")");
+                        "file " +
+                        spec_path + ")");
   if (spec.type == "builtin") {
     const std::vector<std::string> names = BuiltinSceneNames();
     if (std::find(names.begin(), names.end(), spec.builtin) == names.end())
@@ -537,16 +548,18 @@ SceneFileSpec ParseSceneFile(const std::string& spec_path) {
   if (!root.contains("camera")) {
     if (spec.type == "rgbd") {
       spec.camera = CameraPreset("icl_nuim");  // the documented default for RGB-D frames
-    } else if (spec.type != "nyu_v2") {  // nyu_v2: NyuKinectRgbCamera(), shifted when cropped
+    } else if (spec.type != "nyu_v2") {        // nyu_v2: NyuKinectRgbCamera(), shifted when cropped
       Fail(json_path,
            "missing required key 'camera' (an object {fx, fy, cx, cy}, a preset name or "
            "\"unknown\")");
     }
   }
   if (spec.camera_unknown && spec.type == "stereo")
-    Fail(json_path, "'camera': stereo needs the focal length (fx) for depth = B fx / d, not \"unknown\"");
+    Fail(json_path,
+         "'camera': stereo needs the focal length (fx) for depth = B fx / d, not \"unknown\"");
   if (spec.camera_unknown && spec.type == "nyu_v2")
-    Fail(json_path, "'camera': nyu_v2 frames have known intrinsics; \"unknown\" is for frames without");
+    Fail(json_path,
+         "'camera': nyu_v2 frames have known intrinsics; \"unknown\" is for frames without");
   if (!spec.image.empty()) spec.image = Resolve(folder, spec.image, json_path);
   if (!spec.depth.empty()) spec.depth = Resolve(folder, spec.depth, json_path);
   if (!spec.disparity.empty()) spec.disparity = Resolve(folder, spec.disparity, json_path);
@@ -664,12 +677,13 @@ Scene BuildScene(const SceneFileSpec& spec) {
   const cv::Mat& raw = raw_file.values;
   const bool resize = spec.type != "stereo" && spec.depth_resize != DepthResize::kNone;
   if (raw.size() != size && !resize)
-    throw Error(geometry_path, "size " + SizeText(raw.size()) + " differs from image " + spec.image +
-                                   " (" + SizeText(size) +
+    throw Error(geometry_path, "size " + SizeText(raw.size()) + " differs from image " +
+                                   spec.image + " (" + SizeText(size) +
                                    "; \"depth_resize\": \"stretch_nearest\" stretches it)");
   if (spec.type == "stereo") {
     if (raw.channels() != 1)
-      throw Error(geometry_path, "disparity must have 1 channel, found " + std::to_string(raw.channels()));
+      throw Error(geometry_path,
+                  "disparity must have 1 channel, found " + std::to_string(raw.channels()));
     for (int y = 0; y < raw.rows; ++y)
       for (int x = 0; x < raw.cols; ++x)
         if (raw.at<float>(y, x) < 0.0f)
@@ -687,8 +701,8 @@ Scene BuildScene(const SceneFileSpec& spec) {
     }
     // Invalid first (0 -> NaN), erosion on the file's own grid (where bilinear downsampling left
     // its one-pixel seam of spurious values), then the stretch onto the image.
-    scene.depth_m = ErodeValidDepth(DepthFromRaw(geometry_path, raw, depth_scale),
-                                    spec.depth_erode_px);
+    scene.depth_m =
+        ErodeValidDepth(DepthFromRaw(geometry_path, raw, depth_scale), spec.depth_erode_px);
     if (raw.size() != size) scene.depth_m = StretchNearest(scene.depth_m, size);
     if (spec.depth_is_range) scene.depth_m = DepthFromRange(scene.camera, scene.depth_m);
   }

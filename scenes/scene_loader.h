@@ -4,8 +4,8 @@
 // `turbid render` and `turbid scene` all call LoadScene. Schema and units: docs/formats.md.
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-
 #include <optional>
 #include <string>
 #include <vector>
@@ -23,7 +23,8 @@ struct LoadSceneOptions {
 
 // spec: "builtin:NAME", a bare built-in name ("hull", "seafloor", "room"), the path of a scene
 // JSON file, or "FILE.json#KEY" for one frame of a multi-frame scene file (nyu_v2: KEY is the
-// 0-based frame index; folder: the file stem). The result has passed Scene::Validate(). Throws Error("<file>: <problem>").
+// 0-based frame index; folder: the file stem). The result has passed Scene::Validate(). Throws
+// Error("<file>: <problem>").
 Scene LoadScene(const std::string& spec, const LoadSceneOptions& options = {});
 
 // True when `spec` names a built-in scene ("builtin:NAME" or a bare known name that is not an
@@ -65,11 +66,11 @@ CameraIntrinsics NominalCamera(int width, int height);
 
 // A parsed scene file; every field is documented in docs/formats.md ("Scene files").
 struct SceneFileSpec {
-  std::string source;  // the JSON file's path (used in messages and input_hashes)
-  std::string name;    // default: the JSON file's stem
-  std::string type;    // "rgbd", "depth", "stereo", "builtin", "nyu_v2" or "folder"
-  std::string image;   // clean image path, resolved against the JSON's folder
-  std::string depth;   // rgbd / depth: depth file path
+  std::string source;     // the JSON file's path (used in messages and input_hashes)
+  std::string name;       // default: the JSON file's stem
+  std::string type;       // "rgbd", "depth", "stereo", "builtin", "nyu_v2" or "folder"
+  std::string image;      // clean image path, resolved against the JSON's folder
+  std::string depth;      // rgbd / depth: depth file path
   std::string disparity;  // stereo: disparity file path
   // rgbd / depth: file units per metre, depth_m = value / depth_scale (rgbd default 5000 as
   // TUM / ICL-NUIM; depth default 1, i.e. float metres). 0 in the file = invalid.
@@ -77,7 +78,7 @@ struct SceneFileSpec {
   double disparity_scale = 1.0;  // stereo: file units per pixel of disparity (Middlebury 2003: 4)
   double baseline_m = 0.0;       // stereo: baseline, metres (> 0)
   double doffs_px = 0.0;         // stereo: x-difference of principal points (Middlebury doffs), px
-  Transfer color = Transfer::kSrgb;  // how integer image files are encoded
+  Transfer color = Transfer::kSrgb;        // how integer image files are encoded
   std::optional<CameraIntrinsics> camera;  // width/height 0 = taken from the image
   std::optional<Plane> plane;              // known dominant plane, camera frame
   std::vector<cv::Vec3d> dvl;              // DVL beam hits, camera frame, metres
@@ -85,17 +86,18 @@ struct SceneFileSpec {
   double builtin_scale = 1.0;              // builtin: size scale in (0, 1]
   // nyu_v2 and folder (multi-frame datasets). depth_scale 0 = not given (folder: required for
   // integer depth files, 1 for float ones).
-  std::string dataset;              // nyu_v2: the labelled .mat file; folder: the dataset root
-  std::vector<std::string> frames;  // selected frame keys in order (NYU: 0-based index; folder: stem)
+  std::string dataset;  // nyu_v2: the labelled .mat file; folder: the dataset root
+  std::vector<std::string>
+      frames;         // selected frame keys in order (NYU: 0-based index; folder: stem)
   std::string frame;  // the frame BuildScene loads: "#KEY" of the spec, or the only selected one
-  bool crop_border = false;                // nyu_v2: crop to the NYU toolbox's valid region
-  std::string depth_dataset = "depths";    // nyu_v2: "depths" or "rawDepths"
-  std::string rgb_dir = "rgb";             // folder: colour subfolder
-  std::string depth_dir = "depth";         // folder: depth subfolder
+  bool crop_border = false;              // nyu_v2: crop to the NYU toolbox's valid region
+  std::string depth_dataset = "depths";  // nyu_v2: "depths" or "rawDepths"
+  std::string rgb_dir = "rgb";           // folder: colour subfolder
+  std::string depth_dir = "depth";       // folder: depth subfolder
   // rgbd / depth / folder: files hold distance along the ray ("depth_kind": "range"), not z.
   bool depth_is_range = false;
   DepthResize depth_resize = DepthResize::kNone;  // rgbd / depth / folder
-  int depth_erode_px = 0;  // rgbd / depth / folder: valid-mask erosion, depth-file pixels
+  int depth_erode_px = 0;       // rgbd / depth / folder: valid-mask erosion, depth-file pixels
   bool camera_unknown = false;  // "camera": "unknown": UnknownCamera(), range = depth
 };
 
@@ -109,6 +111,12 @@ Scene BuildScene(const SceneFileSpec& spec);
 // fy -480.00, cx 319.5, cy 239.5), "tum_fr1", "tum_fr2", "tum_fr3", "tum_default" (TUM RGB-D
 // published calibrations). Throws Error for an unknown name.
 CameraIntrinsics CameraPreset(const std::string& name);
+// The "camera" value of scene and sequence files: a preset name, "unknown" (sets *unknown,
+// resets *camera) or {fx, fy, cx, cy[, width, height]}. Returns the problem, "" when read.
+std::string ReadCameraValue(const nlohmann::json& value, std::optional<CameraIntrinsics>* camera,
+                            bool* unknown);
+// The "camera" value that ReadCameraValue reads back ("unknown", the object, or null).
+nlohmann::json CameraValue(const std::optional<CameraIntrinsics>& camera, bool unknown);
 std::vector<std::string> CameraPresetNames();
 
 // Stereo disparity (pixels) to z-depth (metres): z = baseline_m * fx_px / (d + doffs_px), the

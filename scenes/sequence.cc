@@ -67,6 +67,7 @@ class RgbdSequence : public Sequence {
     s.depth_scale = spec_.depth_scale;
     s.color = spec_.srgb ? Transfer::kSrgb : Transfer::kLinear;
     s.camera = spec_.camera;
+    s.camera_unknown = spec_.camera_unknown;
     return BuildScene(s);
   }
 
@@ -159,17 +160,8 @@ Pose NearestPose(const std::vector<std::pair<double, Pose>>& gt, double t, doubl
   return best->second;
 }
 
-struct CameraKeys {
-  double fx = 0, fy = 0, cx = 0, cy = 0;
-};
-
 const Fields<RgbdSequenceSpec>& RgbdSequenceFields() {
   using O = RgbdSequenceSpec;
-  static const Fields<CameraKeys> camera = Fields<CameraKeys>()
-                                               .Number("fx", &CameraKeys::fx, "focal x, px")
-                                               .Number("fy", &CameraKeys::fy, "focal y, px")
-                                               .Number("cx", &CameraKeys::cx, "principal x, px")
-                                               .Number("cy", &CameraKeys::cy, "principal y, px");
   static const Fields<O> fields =
       Fields<O>()
           .Custom(
@@ -182,25 +174,12 @@ const Fields<RgbdSequenceSpec>& RgbdSequenceFields() {
           .String("associations", &O::associations, "TUM associations file")
           .String("groundtruth", &O::groundtruth, "TUM ground-truth trajectory")
           .Custom(
-              "camera", "string or object", "", "a camera preset or {fx, fy, cx, cy}",
-              [](const json& v, O& out) -> std::string {
-                if (v.is_string()) {
-                  out.camera = CameraPreset(v.get<std::string>());
-                  return "";
-                }
-                if (!v.is_object()) return "expected a preset name or {fx, fy, cx, cy}";
-                CameraKeys k;
-                camera.Read(v, &k, out.source, "camera");
-                if (k.fx == 0 || k.fy == 0) return "fx and fy must be non-zero";
-                out.camera = CameraIntrinsics{k.fx, k.fy, k.cx, k.cy, 0, 0};
-                return "";
+              "camera", "string or object", "",
+              "a camera preset, \"unknown\" or {fx, fy, cx, cy} (as scene files)",
+              [](const json& v, O& out) {
+                return ReadCameraValue(v, &out.camera, &out.camera_unknown);
               },
-              [](const O& in) {
-                return json{{"fx", in.camera.fx},
-                            {"fy", in.camera.fy},
-                            {"cx", in.camera.cx},
-                            {"cy", in.camera.cy}};
-              })
+              [](const O& in) { return CameraValue(in.camera, in.camera_unknown); })
           .Number("depth_scale", &O::depth_scale, "depth units per metre", NumberRange::Above(0))
           .Custom(
               "color", "one of: srgb, linear", "", "how the colour files are coded",
@@ -232,12 +211,7 @@ RgbdSequenceSpec ParseRgbdSequenceFile(const std::string& json_path) {
   RgbdSequenceSpec spec;
   spec.source = json_path;
   spec.name = fs::path(json_path).stem().string();
-  try {
-    RgbdSequenceFields().Read(root, &spec, json_path);
-  } catch (const std::exception& e) {  // CameraPreset's Error names no file
-    const std::string what = e.what();
-    throw Error(what.rfind(json_path, 0) == 0 ? what : json_path + ": " + what);
-  }
+  RgbdSequenceFields().Read(root, &spec, json_path);
   for (const char* key : {"type", "associations", "groundtruth", "camera"})
     if (!root.contains(key)) throw Error(json_path, std::string("missing key '") + key + "'");
   const fs::path folder = fs::path(json_path).parent_path();

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,11 +44,14 @@ std::unique_ptr<Sequence> MakeBuiltinSequence(const std::string& scene,
 
 // The keys of an "rgbd_sequence" scene file.
 struct RgbdSequenceSpec {
-  std::string source;           // the JSON file (messages)
-  std::string name;             // default: the file's stem
-  std::string associations;     // TUM associations: "t_rgb rgb_path t_depth depth_path" per line
-  std::string groundtruth;      // TUM ground truth: "t tx ty tz qx qy qz qw" per line
-  CameraIntrinsics camera;      // a preset name or {fx, fy, cx, cy}; size from the images
+  std::string source;        // the JSON file (messages)
+  std::string name;          // default: the file's stem
+  std::string associations;  // TUM associations: "t_rgb rgb_path t_depth depth_path" per line
+  std::string groundtruth;   // TUM ground truth: "t tx ty tz qx qy qz qw" per line
+  // "camera": a preset name, "unknown" or {fx, fy, cx, cy} (scenes/scene_loader.h
+  // ReadCameraValue, as scene files); size from the images.
+  std::optional<CameraIntrinsics> camera;
+  bool camera_unknown = false;
   double depth_scale = 5000.0;  // depth file units per metre (TUM / ICL-NUIM: 5000)
   bool srgb = true;             // colour files are sRGB-coded ("color": "srgb" | "linear")
   int first_frame = 0;          // the first association line used (0-based)
