@@ -272,14 +272,13 @@ void WriteTumSequence(const Sequence& sequence, const std::string& folder, bool 
     groundtruth << t << " " << p.position_m[0] << " " << p.position_m[1] << " " << p.position_m[2]
                 << " " << q[0] << " " << q[1] << " " << q[2] << " " << q[3] << "\n";
   }
-  const json spec = {
-      {"type", "rgbd_sequence"},
-      {"name", sequence.name()},
-      {"associations", "associations.txt"},
-      {"groundtruth", "groundtruth.txt"},
-      {"camera", {{"fx", camera.fx}, {"fy", camera.fy}, {"cx", camera.cx}, {"cy", camera.cy}}},
-      {"depth_scale", 5000.0},
-      {"max_time_difference_s", 1e-6}};
+  const json spec = {{"type", "rgbd_sequence"},
+                     {"name", sequence.name()},
+                     {"associations", "associations.txt"},
+                     {"groundtruth", "groundtruth.txt"},
+                     {"camera", CameraValue(camera, false)},
+                     {"depth_scale", 5000.0},
+                     {"max_time_difference_s", 1e-6}};
   AtomicWriteText((fs::path(folder) / "associations.txt").string(), associations.str(), overwrite);
   AtomicWriteText((fs::path(folder) / "groundtruth.txt").string(), groundtruth.str(), overwrite);
   AtomicWriteText((fs::path(folder) / "sequence.json").string(), spec.dump(2) + "\n", overwrite);
