@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/fields.h"
 #include "core/input_file.h"
 #include "core/json_io.h"
 #include "tools/harness/tables.h"
@@ -226,33 +227,62 @@ RegressReport Regress(const std::string& baseline_csv, const std::string& result
   return report;
 }
 
+namespace {
+
+const Fields<Tolerance>& ToleranceFields() {
+  static const Fields<Tolerance> fields =
+      Fields<Tolerance>()
+          .Number("abs", &Tolerance::abs, "absolute tolerance", NumberRange::AtLeast(0))
+          .Number("rel", &Tolerance::rel, "relative tolerance", NumberRange::AtLeast(0));
+  return fields;
+}
+
+// A tolerance file: {"default": {abs, rel}, "metrics": {NAME: {abs, rel}}, "comment": "..."}.
+struct ToleranceFile {
+  RegressOptions* options = nullptr;
+  std::string path, comment;
+};
+
+const Fields<ToleranceFile>& ToleranceFileFields() {
+  using F = ToleranceFile;
+  static const Fields<F> fields =
+      Fields<F>()
+          .Custom(
+              "default", "object {abs, rel}", "", "the tolerance of metrics not listed",
+              [](const nlohmann::json& v, F& out) {
+                ToleranceFields().Read(v, &out.options->default_tolerance, out.path, "default");
+                return std::string();
+              },
+              [](const F& in) { return ToleranceFields().ToJson(in.options->default_tolerance); })
+          .Custom(
+              "metrics", "object {metric: {abs, rel}}", "", "per-metric tolerances",
+              [](const nlohmann::json& v, F& out) -> std::string {
+                if (!v.is_object()) return "expected an object {metric: {abs, rel}}";
+                for (const auto& [metric, tolerance] : v.items()) {
+                  Tolerance t = out.options->default_tolerance;
+                  if (out.options->tolerances.count(metric)) t = out.options->tolerances[metric];
+                  ToleranceFields().Read(tolerance, &t, out.path, "metrics." + metric);
+                  out.options->tolerances[metric] = t;
+                }
+                return "";
+              },
+              [](const F& in) {
+                nlohmann::json out = nlohmann::json::object();
+                for (const auto& [metric, t] : in.options->tolerances) {
+                  out[metric] = ToleranceFields().ToJson(t);
+                }
+                return out;
+              })
+          .String("comment", &F::comment, "free text");
+  return fields;
+}
+
+}  // namespace
+
 void LoadTolerances(const std::string& path, RegressOptions* options) {
   const json parsed = ReadJsonFile(path);
-  const auto read = [&](const json& object, Tolerance* tolerance, const std::string& where) {
-    if (!object.is_object()) throw Error(path, where + " must be an object {abs, rel}");
-    for (const auto& [key, value] : object.items()) {
-      if ((key != "abs" && key != "rel") || !value.is_number()) {
-        throw Error(path, where + ": unknown key or non-number '" + key + "'");
-      }
-      (key == "abs" ? tolerance->abs : tolerance->rel) = value.get<double>();
-    }
-  };
-  if (!parsed.is_object()) throw Error(path, "must be an object {default, metrics}");
-  for (const auto& [key, value] : parsed.items()) {
-    if (key == "default") {
-      read(value, &options->default_tolerance, "'default'");
-    } else if (key == "metrics") {
-      if (!value.is_object()) throw Error(path, "'metrics' must be an object");
-      for (const auto& [metric, tolerance] : value.items()) {
-        Tolerance t = options->default_tolerance;
-        if (options->tolerances.count(metric)) t = options->tolerances[metric];
-        read(tolerance, &t, "metric '" + metric + "'");
-        options->tolerances[metric] = t;
-      }
-    } else if (key != "comment") {
-      throw Error(path, "unknown key '" + key + "' (default, metrics, comment)");
-    }
-  }
+  ToleranceFile file{options, path, ""};
+  ToleranceFileFields().Read(parsed, &file, path);
   std::string why;
   if (!options->Check(&why)) throw Error(path, why);
 }
