@@ -18,9 +18,11 @@
 #include "simulator/image_pool.h"
 #include "simulator/kernels.h"
 #include "simulator/light.h"
+#include "simulator/models.h"
 #include "simulator/noise.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
+#include "simulator/veil.h"
 #include "simulator/water.h"
 
 namespace turbid {
@@ -241,10 +243,8 @@ struct Truth {
   }
 };
 
-// The truth of a render. planes: also t, E, the veil and the snow layer as images (always with
-// beta = 0, whose t is made as a whole image).
-Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene& scene,
-                   const RenderRecord& sidecar, bool remove_snow, bool planes) {
+void CheckTruthInputs(const std::string& method, const cv::Mat& image, const Scene& scene,
+                      const RenderRecord& sidecar) {
   ValidateEnhanceImage(image, method);
   if (!sidecar.options) {
     throw Error(method + ": the sidecar has no \"options\" object (not a turbid render sidecar?)");
@@ -255,6 +255,122 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
                 " channels) does not match the image (" + std::to_string(image.cols) + "x" +
                 std::to_string(image.rows) + ", " + std::to_string(image.channels()) + ")");
   }
+}
+
+// RangeFromDepth's values: a whole image at beta = 0, else its rows into a pooled image (the
+// snow and the rows' transmission read it).
+cv::Mat TruthRange(const Scene& scene, bool zero_beta) {
+  CV_Assert(scene.depth_m.type() == CV_32FC1);
+  if (zero_beta) return RangeFromDepth(scene.camera, scene.depth_m);
+  const std::vector<double> range_dx = RangeColumnTable(scene.camera, scene.depth_m.cols);
+  cv::Mat range_m = internal::PooledMat(scene.depth_m.size(), CV_32FC1);
+  for (int y = 0; y < range_m.rows; ++y) {
+    RangeFromDepthRow(scene.camera, range_dx, scene.depth_m.ptr<float>(y), y,
+                      range_m.ptr<float>(y));
+  }
+  return range_m;
+}
+
+// The renderer's beta = 0 transmission: 1 where depth is valid, 0 (open water) where it is NaN.
+cv::Mat ZeroBetaTransmission(const cv::Mat& range_m, int channels) {
+  cv::Mat valid = range_m == range_m;  // 255 where not NaN
+  cv::Mat t1, out;
+  valid.convertTo(t1, CV_32F, 1.0 / 255.0);
+  cv::merge(std::vector<cv::Mat>(channels, t1), out);
+  return out;
+}
+
+std::string BlurStep(const BlurModel& blur) {
+  if (!blur.active) return "psf: none (disabled or a delta)";
+  return std::string("psf: ") +
+         (blur.turbidity ? std::to_string(blur.Count()) + " turbidity-dependent levels"
+          : blur.depth_dependent
+              ? std::to_string(blur.levels.size()) + " range-dependent levels"
+              : "one kernel, radius " + std::to_string(blur.levels[0].radius_px) + " px");
+}
+
+// Eq. 2 with eq. 2's veil: the row pass's inputs (lights, snow splats) of Truth::Rows.
+void SetUpPaperRows(Truth& truth, const Scene& scene, const WaterOptions& water,
+                    const std::vector<double>& ambient, bool remove_snow) {
+  const RenderOptions& ro = truth.render;
+  const int ch = truth.channels;
+  cv::Scalar backscatter = cv::Scalar::all(0);
+  truth.backscatter = water.backscatter;
+  if (water.backscatter) {
+    backscatter = ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
+    truth.steps.push_back("veil: (1 - t)(E_L + B_inf)");
+  } else {
+    truth.steps.push_back("veil: (1 - t) E_L");
+  }
+  if (!ro.light.lights.empty()) {
+    ThrowIfInvalid(ro.light, "light");
+    truth.normals =
+        scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
+    CV_Assert(scene.depth_m.type() == CV_32FC1 && truth.normals.type() == CV_32FC3 &&
+              truth.normals.size() == scene.depth_m.size());
+    truth.context = internal::LightContextFor(ro.light, scene.camera, truth.width);
+    truth.lights = internal::LightConstantsFor(ro.light, ch);
+  }
+  for (int c = 0; c < ch; ++c) {
+    truth.neg_beta[c] = -static_cast<float>(truth.beta[c]);
+    truth.ambient_f[c] = static_cast<float>(ambient[c]);
+    truth.backscatter_f[c] = static_cast<float>(backscatter[c]);
+  }
+  if (remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
+    // RenderMarineSnow's layer (its particles drawn row by row onto zeros).
+    truth.splats = internal::DrawMarineSnow(ro.snow, ro.light, scene.camera, truth.range_m,
+                                            truth.beta, ambient, ro.seed);
+    CV_Assert(truth.splats.channels == ch);
+    truth.draw_snow = true;
+    truth.steps.push_back("snow: " + std::to_string(truth.splats.visible) +
+                          " particles re-rendered from the seed and subtracted");
+  } else {
+    truth.steps.push_back("snow: none subtracted");
+  }
+}
+
+// Any other model or veil ("revised", "uwcnn" linear, veil "single_scatter"): the truth maps are
+// the simulator's own, from one render of the scene with reflectance 1 everywhere, noise-free,
+// unblurred and unquantised: its J is E (what multiplies the reflectance), its maps give t, the
+// veil actually added and the snow layer (the noise map with the sensor off). Never re-derived.
+void TruthPlanesFromRenderer(Truth& truth, const Scene& scene, bool remove_snow) {
+  const RenderOptions& ro = truth.render;
+  if (ro.model == ImageModel::kUwcnn && ro.uwcnn.domain == UwcnnDomain::kEncoded) {
+    throw Error(
+        "oracle: model uwcnn with domain \"encoded\" applies the recipe to sRGB codes, which is "
+        "not a linear image model to invert (render with uwcnn.domain \"linear\")");
+  }
+  Scene white = scene;
+  white.image = cv::Mat(scene.image.size(), scene.image.type(), cv::Scalar::all(1.0));
+  RenderOptions o = ro;
+  o.sensor.enabled = false;
+  o.psf.enabled = false;
+  o.snow.enabled = remove_snow && ro.snow.enabled;
+  o.camera.bit_depth = 32;
+  o.maps = MapSelection{};
+  o.maps.transmission = o.maps.veil = o.maps.noise = true;
+  o.rgb_image = false;
+  const RenderResult r = Renderer(white).Render(o);
+  truth.transmission = r.transmission;
+  truth.irradiance = r.lit;
+  truth.veil = r.veil;
+  truth.snow =
+      o.snow.enabled ? r.noise : cv::Mat(scene.image.size(), r.noise.type(), cv::Scalar::all(0));
+  CV_Assert(truth.transmission.size() == scene.image.size() &&
+            truth.veil.size() == scene.image.size() &&
+            truth.irradiance.size() == scene.image.size());
+  truth.steps.push_back("truth maps: the simulator's own (model " + ImageModelName(ro.model) +
+                        ", veil " + VeilModelName(ro.veil) +
+                        "): t, E and the veil from a noise-free render at reflectance 1");
+  truth.steps.push_back(o.snow.enabled ? "snow: re-rendered from the seed and subtracted"
+                                       : "snow: none subtracted");
+}
+
+// The truth of a render. planes: also t, E, the veil and the snow layer as images (always with
+// beta = 0, whose t is made as a whole image, and for models other than eq. 2 with its veil).
+Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene& scene,
+                   const RenderRecord& sidecar, bool remove_snow, bool planes) {
+  CheckTruthInputs(method, image, scene, sidecar);
   Truth truth;
   truth.render = *sidecar.options;
   const RenderOptions& ro = truth.render;
@@ -264,88 +380,32 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   truth.width = image.cols;
   const std::vector<double> beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, ch);
   truth.beta = beta;
-  const std::vector<double> ambient = ChannelValues(water.ambient_rgb, water.ambient_gray, ch);
   const bool zero_beta = truth.zero_beta =
       std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
-  planes = planes || zero_beta;
-  // The range: RangeFromDepth's rows (its values), into a pooled image first (the snow and the
-  // rows' transmission read it).
-  CV_Assert(scene.depth_m.type() == CV_32FC1);
-  if (zero_beta) {
-    truth.range_m = RangeFromDepth(scene.camera, scene.depth_m);
+  truth.range_m = TruthRange(scene, zero_beta);
+  if (ro.model != ImageModel::kPaper || ro.veil != VeilModel::kPaper) {
+    TruthPlanesFromRenderer(truth, scene, remove_snow);
   } else {
-    const std::vector<double> range_dx = RangeColumnTable(scene.camera, scene.depth_m.cols);
-    truth.range_m = internal::PooledMat(scene.depth_m.size(), CV_32FC1);
-    for (int y = 0; y < image.rows; ++y) {
-      RangeFromDepthRow(scene.camera, range_dx, scene.depth_m.ptr<float>(y), y,
-                        truth.range_m.ptr<float>(y));
+    planes = planes || zero_beta;
+    if (zero_beta) {
+      truth.transmission = ZeroBetaTransmission(truth.range_m, ch);
+    } else if (planes) {
+      truth.transmission = NewLike(image);
     }
-  }
-
-  if (zero_beta) {
-    // The renderer's beta = 0 path: t = 1 where depth is valid, 0 (open water) where it is NaN.
-    cv::Mat valid = truth.range_m == truth.range_m;  // 255 where not NaN
-    cv::Mat t1;
-    valid.convertTo(t1, CV_32F, 1.0 / 255.0);
-    std::vector<cv::Mat> t_planes(ch, t1);
-    cv::merge(t_planes, truth.transmission);
-  } else if (planes) {
-    truth.transmission = NewLike(image);
-  }
-  cv::Scalar backscatter = cv::Scalar::all(0);
-  truth.backscatter = water.backscatter;
-  if (water.backscatter) {
-    backscatter = ToScalar(ChannelValues(water.backscatter_rgb, water.backscatter_gray, ch));
-    truth.steps.push_back("veil: (1 - t)(E_L + B_inf)");
-  } else {
-    truth.steps.push_back("veil: (1 - t) E_L");
-  }
-  const int w = image.cols;
-  if (!ro.light.lights.empty()) {
-    ThrowIfInvalid(ro.light, "light");
-    truth.normals =
-        scene.normals.empty() ? NormalsFromDepth(scene.camera, scene.depth_m) : scene.normals;
-    CV_Assert(scene.depth_m.type() == CV_32FC1 && truth.normals.type() == CV_32FC3 &&
-              truth.normals.size() == scene.depth_m.size());
-    truth.context = internal::LightContextFor(ro.light, scene.camera, w);
-    truth.lights = internal::LightConstantsFor(ro.light, ch);
-  }
-  for (int c = 0; c < ch; ++c) {
-    truth.neg_beta[c] = -static_cast<float>(beta[c]);
-    truth.ambient_f[c] = static_cast<float>(ambient[c]);
-    truth.backscatter_f[c] = static_cast<float>(backscatter[c]);
-  }
-  if (remove_snow && ro.snow.enabled && ro.snow.density_per_m3 > 0) {
-    // RenderMarineSnow's layer (its particles drawn row by row onto zeros).
-    truth.splats = internal::DrawMarineSnow(ro.snow, ro.light, scene.camera, truth.range_m, beta,
-                                            ambient, ro.seed);
-    CV_Assert(truth.splats.channels == ch);
-    truth.draw_snow = true;
-    truth.steps.push_back("snow: " + std::to_string(truth.splats.visible) +
-                          " particles re-rendered from the seed and subtracted");
-  } else {
-    truth.steps.push_back("snow: none subtracted");
-  }
-  if (planes) {
-    truth.irradiance = NewLike(image);
-    truth.veil = NewLike(image);
-    truth.snow = NewLike(image);
-    for (int y = 0; y < image.rows; ++y) {
-      truth.Rows(y, truth.irradiance.ptr<float>(y), truth.transmission.ptr<float>(y),
-                 truth.veil.ptr<float>(y), truth.snow.ptr<float>(y));
+    SetUpPaperRows(truth, scene, water, ChannelValues(water.ambient_rgb, water.ambient_gray, ch),
+                   remove_snow);
+    if (planes) {
+      truth.irradiance = NewLike(image);
+      truth.veil = NewLike(image);
+      truth.snow = NewLike(image);
+      for (int y = 0; y < image.rows; ++y) {
+        truth.Rows(y, truth.irradiance.ptr<float>(y), truth.transmission.ptr<float>(y),
+                   truth.veil.ptr<float>(y), truth.snow.ptr<float>(y));
+      }
     }
   }
   truth.blur = MakeBlurModel(ro.psf, truth.range_m, beta);
-  if (!truth.blur.active) {
-    truth.steps.push_back("psf: none (disabled or a delta)");
-  } else {
-    truth.steps.push_back(
-        std::string("psf: ") +
-        (truth.blur.turbidity ? std::to_string(truth.blur.Count()) + " turbidity-dependent levels"
-         : truth.blur.depth_dependent
-             ? std::to_string(truth.blur.levels.size()) + " range-dependent levels"
-             : "one kernel, radius " + std::to_string(truth.blur.levels[0].radius_px) + " px"));
-  }
+  truth.steps.push_back(BlurStep(truth.blur));
   return truth;
 }
 
@@ -732,7 +792,8 @@ MethodEntry OracleEntry() {
   MethodEntry e;
   e.info.name = "oracle";
   e.info.summary =
-      "oracle-parameter LMMSE reference: the simulator inverted with every true parameter and the noise model";
+      "oracle-parameter LMMSE reference: the simulator inverted with every true parameter and the "
+      "noise model";
   e.info.source =
       "turbid's forward model (docs/model.md); adaptive Wiener (Lee 1980, Kuan et al. 1985) with "
       "the Poisson-Gaussian variance (Foi et al. 2008); Wiener deconvolution";
