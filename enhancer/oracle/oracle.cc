@@ -601,49 +601,51 @@ OracleResult OracleExactEnhance(const OracleExactOptions& o, const cv::Mat& imag
   return result;
 }
 
-OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const Scene& scene,
-                           const RenderRecord& sidecar) {
-  ThrowIfInvalid(o, "oracle");
-  // The truth maps as rows made where the data term reads them (E also as an image for target
-  // lit, whose last step multiplies by it).
-  const bool lit = o.target == "lit";
-  Truth truth = ResolveTruth("oracle", image, scene, sidecar, o.remove_snow, false);
-  OracleResult result;
-  result.steps = truth.steps;
-  const RenderOptions& ro = truth.render;
-  // Noise variance of I per pixel (Foi et al. 2008): signal / photons + read^2, plus the
-  // quantisation noise of the camera's codes, (step s)^2 / 12 with s the decoding slope at the
-  // code of the local mean (oracle_internal::CodedQuantisation).
-  const bool sensor = ro.sensor.enabled;
-  const double read2 = sensor ? ro.sensor.read_noise * ro.sensor.read_noise : 0.0;
-  const double gain =
-      sensor && ro.sensor.photons_at_white > 0 ? 1.0 / ro.sensor.photons_at_white : 0.0;
-  const int bits = ro.camera.bit_depth;
-  const double step = bits == 32 ? 0.0 : 1.0 / ((1 << bits) - 1);
-  const double floor_var = read2 + 1e-12;
+namespace {
+
+// The noise model of I per pixel (Foi et al. 2008): signal / photons + read^2, plus the
+// quantisation noise of the camera's codes, (step s)^2 / 12 with s the decoding slope at the
+// code of the local mean (oracle_internal::CodedQuantisation).
+struct NoiseModel {
+  bool sensor = false;
+  double gain = 0.0, floor_var = 0.0, half_step = 0.0;
   oracle_internal::CodedQuantisation quantisation;
-  quantisation.step_var = static_cast<float>(step * step / 12.0);
-  quantisation.srgb = bits != 32 && ro.camera.encoding == CameraEncoding::kSrgb;
-  // The signal in the shot-noise term is the local mean of I (7x7 box) rather than I itself: a
-  // variance read from the noisy value weights the darker draws more and biases every weighted
-  // mean low.
-  const double half_step = bits == 32 ? 0.0 : 0.5 * step;
-  const BlurModel& blur = truth.blur;
-  if (lit && truth.irradiance.empty()) truth.irradiance = NewLike(image);
-  const int n = image.cols * image.channels();
-  thread_local std::vector<float> truth_rows;
-  truth_rows.resize(std::max<size_t>(truth_rows.size(), 4 * static_cast<size_t>(n)));
-  auto truth_row = [&](int y, const float*& t, const float*& e, const float*& sn,
-                       const float*& ve) {
-    if (!truth.transmission.empty()) {  // the images (beta = 0)
+
+  explicit NoiseModel(const RenderOptions& ro) {
+    sensor = ro.sensor.enabled;
+    const double read2 = sensor ? ro.sensor.read_noise * ro.sensor.read_noise : 0.0;
+    gain = sensor && ro.sensor.photons_at_white > 0 ? 1.0 / ro.sensor.photons_at_white : 0.0;
+    const int bits = ro.camera.bit_depth;
+    const double step = bits == 32 ? 0.0 : 1.0 / ((1 << bits) - 1);
+    floor_var = read2 + 1e-12;
+    quantisation.step_var = static_cast<float>(step * step / 12.0);
+    quantisation.srgb = bits != 32 && ro.camera.encoding == CameraEncoding::kSrgb;
+    half_step = bits == 32 ? 0.0 : 0.5 * step;
+  }
+  std::string Step(const RenderOptions& ro) const {
+    return "noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
+           " + read^2 + (step s)^2 / 12, s the " + (quantisation.srgb ? "sRGB" : "linear") +
+           " decoding slope" + (sensor ? "" : " (sensor off)");
+  }
+};
+
+// Row y of the truth maps for OracleMmse: the images where the truth has them (beta = 0, other
+// models), else made by Truth::Rows into per-thread rows (E into the irradiance image for target
+// lit, whose last step multiplies by it).
+oracle_internal::TruthRowFn TruthRows(Truth& truth, int n, bool lit) {
+  return [&truth, n, lit](int y, const float*& t, const float*& e, const float*& sn,
+                          const float*& ve) {
+    if (!truth.transmission.empty()) {
       t = truth.transmission.ptr<float>(y);
       e = truth.irradiance.ptr<float>(y);
       sn = truth.snow.ptr<float>(y);
       ve = truth.veil.ptr<float>(y);
       return;
     }
-    float* e_row = lit ? truth.irradiance.ptr<float>(y) : truth_rows.data();
-    float* t_row = truth_rows.data() + n;
+    thread_local std::vector<float> rows;
+    rows.resize(std::max<size_t>(rows.size(), 4 * static_cast<size_t>(n)));
+    float* e_row = lit ? truth.irradiance.ptr<float>(y) : rows.data();
+    float* t_row = rows.data() + n;
     float* sn_row = t_row + n;
     float* ve_row = sn_row + n;
     truth.Rows(y, e_row, t_row, ve_row, sn_row);
@@ -652,16 +654,76 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
     sn = sn_row;
     ve = ve_row;
   };
-  oracle_internal::OracleMmseResult mmse = oracle_internal::OracleMmse(
-      o, image, truth_row, gain, floor_var, 1.0 - half_step - 1e-7, blur.active && o.deblur,
-      /*keep_estimate=*/false, quantisation);
-  result.steps.push_back("noise: variance I / " + std::to_string(ro.sensor.photons_at_white) +
-                         " + read^2 + (step s)^2 / 12, s the " +
-                         (quantisation.srgb ? "sRGB" : "linear") + " decoding slope" +
-                         (sensor ? "" : " (sensor off)"));
+}
+
+// Wiener on the deviation from the prior mean (the signal's mean; smooth, so h * P = P to the
+// blur's width): K = (noise left after the MMSE) / (variance of the deviation), both over the
+// data pixels — the MMSE filter for a white deviation of that variance (Gonzalez & Woods §5.8). A
+// constant-K Wiener on est itself would scale its mean by 1 / (1 + K). The sums are the mean of
+// the posterior variance and the variance of detail = est - prior over the data pixels, made
+// with the estimate's rows (OracleMmse; in double, as cv::mean / cv::meanStdDev form them, in
+// another order: the ratio agrees to ~1e-15).
+double DeblurNsr(const oracle_internal::DetailSums& stats, int channels) {
+  double noise = 0, signal = 0;
+  for (int c = 0; c < channels; ++c) {
+    const double n = static_cast<double>(stats.count);
+    const double pm = stats.count > 0 ? stats.posterior[c] / n : 0.0;
+    const double mean = stats.count > 0 ? stats.detail[c] / n : 0.0;
+    const double var = stats.count > 0 ? std::max(stats.detail_sq[c] / n - mean * mean, 0.0) : 0.0;
+    noise += pm;
+    signal += var;
+  }
+  return std::clamp(signal > 0 ? noise / signal : 10.0, 1e-8, 10.0);
+}
+
+// est = prior + the deblurred detail, the prior where masked, then the target and the clamp: one
+// pass, fed by the streamed deconvolution where it has one (one kernel, spatial path).
+cv::Mat DeblurAndFinish(const Truth& truth, const oracle_internal::OracleMmseResult& mmse,
+                        double nsr, bool lit, const cv::Mat& image) {
+  const BlurModel& blur = truth.blur;
+  DeconvolutionOptions d;
+  d.nsr = nsr;
+  const Finisher finish{truth.channels, true, lit};
+  cv::Mat out = NewLike(image);
+  int negative_zeros = 0;
+  auto emit = [&](int y, const float* row) {
+    negative_zeros +=
+        finish(mmse.prior.ptr<float>(y), row, mmse.masked.ptr<uchar>(y),
+               lit ? truth.irradiance.ptr<float>(y) : nullptr, out.ptr<float>(y), out.cols);
+  };
+  if (blur.Count() != 1 || blur.depth_dependent ||
+      !DeconvolveRows(d, mmse.detail, blur.Kernel(0), emit)) {
+    std::vector<cv::Mat> per_level;
+    for (size_t i = 0; i < blur.Count(); ++i)
+      per_level.push_back(Deconvolve(d, mmse.detail, blur.Kernel(i)));
+    const cv::Mat deblurred = blur.depth_dependent ? blur.Blend(per_level) : per_level[0];
+    for (int y = 0; y < out.rows; ++y) emit(y, deblurred.ptr<float>(y));
+  }
+  if (negative_zeros > 0) cv::max(out, 0.0, out);
+  return out;
+}
+
+}  // namespace
+
+OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const Scene& scene,
+                           const RenderRecord& sidecar) {
+  ThrowIfInvalid(o, "oracle");
+  const bool lit = o.target == "lit";
+  Truth truth = ResolveTruth("oracle", image, scene, sidecar, o.remove_snow, false);
+  OracleResult result;
+  result.steps = truth.steps;
+  const NoiseModel noise(truth.render);
+  // The signal in the shot-noise term is the local mean of I (7x7 box) rather than I itself: a
+  // variance read from the noisy value weights the darker draws more and biases every weighted
+  // mean low.
+  const BlurModel& blur = truth.blur;
+  if (lit && truth.irradiance.empty()) truth.irradiance = NewLike(image);
+  const oracle_internal::OracleMmseResult mmse = oracle_internal::OracleMmse(
+      o, image, TruthRows(truth, image.cols * image.channels(), lit), noise.gain, noise.floor_var,
+      1.0 - noise.half_step - 1e-7, blur.active && o.deblur,
+      /*keep_estimate=*/false, noise.quantisation);
+  result.steps.push_back(noise.Step(truth.render));
   result.masked_pixels = mmse.masked_pixels;
-  const cv::Mat& masked = mmse.masked;
-  cv::Mat est = mmse.estimate, prior = mmse.prior;  // est: empty on the deblur path
   if (mmse.censored_pixels > 0) {
     result.steps.push_back("censored: " + std::to_string(mmse.censored_pixels) +
                            " pixels clipped at 0 or 1 in some channel: no weight");
@@ -674,52 +736,14 @@ OracleResult OracleEnhance(const OracleOptions& o, const cv::Mat& image, const S
                            std::to_string(o.mask_transmission) + ", set to the prior mean");
   }
   if (blur.active && o.deblur) {
-    // Wiener on the deviation from the prior mean (the signal's mean; smooth, so h * P = P to
-    // the blur's width): K = (noise left after the MMSE) / (variance of the deviation), both over
-    // the data pixels — the MMSE filter for a white deviation of that variance (Gonzalez & Woods
-    // §5.8). A constant-K Wiener on est itself would scale its mean by 1 / (1 + K).
-    // detail = est - prior, and over the data pixels the mean of the posterior variance and the
-    // variance of detail, made with the estimate's rows (OracleMmse; sums in double, as cv::mean
-    // / cv::meanStdDev form them, in another order: the ratio agrees to ~1e-15).
-    const cv::Mat& detail = mmse.detail;
-    const oracle_internal::DetailSums& stats = mmse.detail_sums;
-    double noise = 0, signal = 0;
-    for (int c = 0; c < truth.channels; ++c) {
-      const double n = static_cast<double>(stats.count);
-      const double pm = stats.count > 0 ? stats.posterior[c] / n : 0.0;
-      const double mean = stats.count > 0 ? stats.detail[c] / n : 0.0;
-      const double var =
-          stats.count > 0 ? std::max(stats.detail_sq[c] / n - mean * mean, 0.0) : 0.0;
-      noise += pm;
-      signal += var;
-    }
-    result.deblur_nsr = std::clamp(signal > 0 ? noise / signal : 10.0, 1e-8, 10.0);
-    DeconvolutionOptions d;
-    d.nsr = result.deblur_nsr;
-    // est = prior + the deblurred detail, the prior where masked, then the target and the clamp:
-    // one pass, fed by the streamed deconvolution where it has one (one kernel, spatial path).
-    const Finisher finish{truth.channels, true, lit};
-    cv::Mat out = NewLike(image);
-    int negative_zeros = 0;
-    auto emit = [&](int y, const float* row) {
-      negative_zeros +=
-          finish(prior.ptr<float>(y), row, masked.ptr<uchar>(y),
-                 lit ? truth.irradiance.ptr<float>(y) : nullptr, out.ptr<float>(y), out.cols);
-    };
-    if (blur.Count() != 1 || blur.depth_dependent ||
-        !DeconvolveRows(d, detail, blur.Kernel(0), emit)) {
-      std::vector<cv::Mat> per_level;
-      for (size_t i = 0; i < blur.Count(); ++i)
-        per_level.push_back(Deconvolve(d, detail, blur.Kernel(i)));
-      const cv::Mat deblurred = blur.depth_dependent ? blur.Blend(per_level) : per_level[0];
-      for (int y = 0; y < out.rows; ++y) emit(y, deblurred.ptr<float>(y));
-    }
+    result.deblur_nsr = DeblurNsr(mmse.detail_sums, truth.channels);
+    result.image = DeblurAndFinish(truth, mmse, result.deblur_nsr, lit, image);
     result.steps.push_back("deblur: Wiener, NSR " + std::to_string(result.deblur_nsr));
-    if (negative_zeros > 0) cv::max(out, 0.0, out);
-    result.image = out;
     return result;
   }
-  oracle_internal::FinishImage(est, cv::Mat(), masked, lit ? truth.irradiance : cv::Mat(), est);
+  cv::Mat est = mmse.estimate;
+  oracle_internal::FinishImage(est, cv::Mat(), mmse.masked, lit ? truth.irradiance : cv::Mat(),
+                               est);
   result.image = est;
   return result;
 }
