@@ -409,6 +409,106 @@ void LocalSignalVariance(const cv::Mat& z, const cv::Mat& a, PRow&& p_row, int r
   }
 }
 
+// The coarse and middle levels of HierarchicalMmse: w (box sums of a) and m (the BLUE of the
+// local mean) per level, the level-0 constant p0 and the coarse level's per-channel signal
+// variance s0 (as rows of n values), and the middle level's count of values without data.
+struct MmseLevels {
+  cv::Mat wc, mc, wm, mm;
+  std::vector<float> p0, s0;
+  long long wm_none = 0;
+};
+
+// Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data), in float
+// as setTo stores it, as one row.
+std::vector<float> LevelZero(const cv::Mat& a, const cv::Mat& au, int n, int ch) {
+  const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
+  std::vector<float> p0(n);
+  for (int i = 0; i < n; ++i) {
+    const int c = i % ch;
+    p0[i] = static_cast<float>(sa[c] > 0 ? sau[c] / sa[c] : 0.5);
+  }
+  return p0;
+}
+
+// w = box sum of a; m = box sum of a u / max(w, 1e-30), the BLUE of the local mean (noise 1 / w).
+// The coarse and middle levels from one pass over a and a u (BoxStreamTwoRadii), with the
+// numerator of the coarse level's whole-image signal variance (z = m, weights w, p = the level-0
+// constant): s0 = max(sum w (m - p)^2 - sum [w > 0], 0) / sum w per channel; the count of
+// [w > 0] is an integer, exact in double whatever the order of its sum.
+MmseLevels CoarseAndMiddleLevels(const OracleOptions& o, const cv::Mat& u, const cv::Mat& a,
+                                 const cv::Mat& au) {
+  const int ch = u.channels();
+  const int n = u.cols * ch;
+  const size_t bytes = sizeof(float) * n;
+  MmseLevels lv;
+  lv.p0 = LevelZero(a, au, n, ch);
+  lv.s0.resize(n);
+  auto level = [&](int y, const float* const* out, const cv::Mat& m) {
+    QuotientRow(out[0], out[1], const_cast<cv::Mat&>(m).ptr<float>(y), n);
+  };
+  auto level_input = [&](int y, float* const* in) {
+    std::memcpy(in[0], a.ptr<float>(y), bytes);
+    std::memcpy(in[1], au.ptr<float>(y), bytes);
+  };
+  lv.wc = NewLike(u);
+  lv.mc = NewLike(u);
+  lv.wm = NewLike(u);
+  lv.mm = NewLike(u);
+  const cv::Mat num = NewLike(u);
+  long long wc_none[4] = {0, 0, 0, 0};
+  BoxStreamTwoRadii<2>(
+      u.rows, u.cols, ch, o.coarse_radius, o.middle_radius, level_input,
+      [&](int y, const float* const* out) {
+        level(y, out, lv.mc);
+        NumeratorOnlyRow(lv.mc.ptr<float>(y), out[0], lv.p0.data(),
+                         const_cast<cv::Mat&>(num).ptr<float>(y), n);
+        NoDataPerChannel(out[0], u.cols, ch, wc_none);
+      },
+      [&](int y, const float* const* out) {
+        level(y, out, lv.mm);
+        lv.wm_none += NoDataRow(out[0], n);
+      },
+      [&](int y) { return lv.wc.ptr<float>(y); },  // w written in place
+      [&](int y) { return lv.wm.ptr<float>(y); });
+  const cv::Scalar sw = cv::sum(lv.wc), sn = cv::sum(num);
+  const double values = static_cast<double>(u.rows) * u.cols;
+  for (int i = 0; i < n; ++i) {
+    const int c = i % ch;
+    const double sh = values - static_cast<double>(wc_none[c]);
+    lv.s0[i] = static_cast<float>(sw[c] > 0 ? std::max(sn[c] - sh, 0.0) / sw[c] : 0.0);
+  }
+  return lv;
+}
+
+// The middle level's signal variance over coarse windows around p1, the coarse shrink p1 = p0 +
+// S w / (S w + 1) (m - p0) (w = 0 keeps p), made as the stream first asks for its rows (again for
+// the reflected border: the same values); then the middle shrink into p2 (returned).
+// p1 only as a ring of rows (slot y mod ring_rows): the stream asks for source rows at most
+// coarse_radius + its batch (8) rows ahead of the output row it emits, and again near the borders
+// (the same values, made again), so a ring of 2 coarse_radius + 17 rows keeps every row until its
+// output row has read it.
+cv::Mat MiddlePrior(const OracleOptions& o, const cv::Mat& u, const MmseLevels& lv,
+                    MmseRows& rows) {
+  const int n = u.cols * u.channels();
+  const cv::Mat p2 = NewLike(u);
+  const int ring_rows = 2 * o.coarse_radius + 17;
+  thread_local std::vector<float> p1_ring;
+  p1_ring.resize(std::max(p1_ring.size(), static_cast<size_t>(ring_rows) * n));
+  auto p1_slot = [&](int y) { return p1_ring.data() + static_cast<size_t>(y % ring_rows) * n; };
+  auto p1_row = [&](int y) {
+    float* row = p1_slot(y);
+    ShrinkRowTo(lv.s0.data(), lv.wc.ptr<float>(y), lv.mc.ptr<float>(y), lv.p0.data(), row, n);
+    return row;
+  };
+  LocalSignalVariance(
+      lv.mm, lv.wm, p1_row, o.coarse_radius, lv.wm_none, [&](int) { return rows.s.data(); },
+      [&](int y) {
+        ShrinkRowTo(rows.s.data(), lv.wm.ptr<float>(y), lv.mm.ptr<float>(y), p1_slot(y),
+                    const_cast<cv::Mat&>(p2).ptr<float>(y), n);
+      });
+  return p2;
+}
+
 // The linear MMSE estimate of rho from u = rho + noise of variance v (a = 1 / v, 0 where
 // masked), under a hierarchical local Gaussian prior (docs/methods.md, "oracle"). Writes the
 // prior mean of the finest level to *prior and the posterior variance to *posterior.
@@ -427,78 +527,8 @@ cv::Mat HierarchicalMmse(const OracleOptions& o, const cv::Mat& u, const cv::Mat
                          cv::Mat* prior, cv::Mat* posterior, DetailOut* detail, bool images) {
   const int ch = u.channels();
   const int n = u.cols * ch;
-  const size_t bytes = sizeof(float) * n;
   MmseRows& rows = ThreadMmseRows(n);
-  // Level 0: the inverse-variance-weighted global mean (0.5 where a channel has no data), in
-  // float as setTo stores it, as one row.
-  const cv::Scalar sa = cv::sum(a), sau = cv::sum(au);
-  std::vector<float> p0(n), s0(n);
-  for (int i = 0; i < n; ++i) {
-    const int c = i % ch;
-    p0[i] = static_cast<float>(sa[c] > 0 ? sau[c] / sa[c] : 0.5);
-  }
-  // w = box sum of a; m = box sum of a u / max(w, 1e-30), the BLUE of the local mean (noise
-  // 1 / w).
-  auto level = [&](int y, const float* const* out, const cv::Mat& m) {
-    QuotientRow(out[0], out[1], const_cast<cv::Mat&>(m).ptr<float>(y), n);
-  };
-  auto level_input = [&](int y, float* const* in) {
-    std::memcpy(in[0], a.ptr<float>(y), bytes);
-    std::memcpy(in[1], au.ptr<float>(y), bytes);
-  };
-  // The coarse and middle levels from one pass over a and a u (BoxStreamTwoRadii), with the
-  // numerator of the coarse level's whole-image signal variance (z = m, weights w, p = the
-  // level-0 constant).
-  const cv::Mat wc = NewLike(u), mc = NewLike(u), num = NewLike(u);
-  const cv::Mat wm = NewLike(u), mm = NewLike(u);
-  long long wc_none[4] = {0, 0, 0, 0};
-  long long wm_none = 0;
-  BoxStreamTwoRadii<2>(
-      u.rows, u.cols, ch, o.coarse_radius, o.middle_radius, level_input,
-      [&](int y, const float* const* out) {
-        level(y, out, mc);
-        NumeratorOnlyRow(mc.ptr<float>(y), out[0], p0.data(),
-                         const_cast<cv::Mat&>(num).ptr<float>(y), n);
-        NoDataPerChannel(out[0], u.cols, ch, wc_none);
-      },
-      [&](int y, const float* const* out) {
-        level(y, out, mm);
-        wm_none += NoDataRow(out[0], n);
-      },
-      [&](int y) { return const_cast<cv::Mat&>(wc).ptr<float>(y); },  // w written in place
-      [&](int y) { return const_cast<cv::Mat&>(wm).ptr<float>(y); });
-  // max(sum w (m - p)^2 - sum [w > 0], 0) / sum w per channel; the count of [w > 0] is an
-  // integer, exact in double whatever the order of its sum.
-  const cv::Scalar sw = cv::sum(wc), sn = cv::sum(num);
-  const double values = static_cast<double>(u.rows) * u.cols;
-  for (int i = 0; i < n; ++i) {
-    const int c = i % ch;
-    const double sh = values - static_cast<double>(wc_none[c]);
-    s0[i] = static_cast<float>(sw[c] > 0 ? std::max(sn[c] - sh, 0.0) / sw[c] : 0.0);
-  }
-  // The middle level's signal variance over coarse windows around p1, the coarse shrink p1 = p0 +
-  // S w / (S w + 1) (m - p0) (w = 0 keeps p), made as the stream first asks for its rows (again
-  // for the reflected border: the same values); then the middle shrink into p2.
-  // p1 only as a ring of rows (slot y mod ring_rows): the stream asks for source rows at most
-  // coarse_radius + its batch (8) rows ahead of the output row it emits, and again near the borders
-  // (the same values, made again), so a ring of 2 coarse_radius + 17 rows keeps every row until
-  // its output row has read it.
-  const cv::Mat p2 = NewLike(u);
-  const int ring_rows = 2 * o.coarse_radius + 17;
-  thread_local std::vector<float> p1_ring;
-  p1_ring.resize(std::max(p1_ring.size(), static_cast<size_t>(ring_rows) * n));
-  auto p1_slot = [&](int y) { return p1_ring.data() + static_cast<size_t>(y % ring_rows) * n; };
-  auto p1_row = [&](int y) {
-    float* row = p1_slot(y);
-    ShrinkRowTo(s0.data(), wc.ptr<float>(y), mc.ptr<float>(y), p0.data(), row, n);
-    return row;
-  };
-  LocalSignalVariance(
-      mm, wm, p1_row, o.coarse_radius, wm_none, [&](int) { return rows.s.data(); },
-      [&](int y) {
-        ShrinkRowTo(rows.s.data(), wm.ptr<float>(y), mm.ptr<float>(y), p1_slot(y),
-                    const_cast<cv::Mat&>(p2).ptr<float>(y), n);
-      });
+  const cv::Mat p2 = MiddlePrior(o, u, CoarseAndMiddleLevels(o, u, a, au), rows);
   // Gain S / (S + v) = S a / (S a + 1), 0 where masked (a = 0); posterior variance
   // S v / (S + v) = S / (S a + 1), S where masked.
   cv::Mat post, est;
