@@ -20,6 +20,7 @@
 #include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -90,10 +91,16 @@ class Fields {
   using Reader = std::function<std::string(const Json& value, T& out)>;
   using Writer = std::function<Json(const T& in)>;
 
+  // Reads a JSON object under the field's key, naming its own keys' problems from `where` (the
+  // field's path, "scene.camera") and `source`; throws Error.
+  using ObjectReader = std::function<void(const Json& value, T& out, const std::string& source,
+                                          const std::string& where, const std::string& noun)>;
+
   struct Field {
     FieldInfo info;  // default_value left null here; Info() fills it from a struct
     Reader read;
     Writer write;
+    ObjectReader read_object;  // set for Object / OptionalObject fields (read is then unused)
   };
 
   Fields& Number(std::string key, double T::*member, std::string doc,
@@ -193,11 +200,71 @@ class Fields {
     for (const typename Fields<S>::Field& f : sub.fields()) {
       FieldInfo info = f.info;
       info.key = prefix + info.key;
-      fields_.push_back(
-          Field{std::move(info),
-                [member, read = f.read](const Json& v, T& out) { return read(v, out.*member); },
-                [member, write = f.write](const T& in) { return write(in.*member); }});
+      ObjectReader read_object;
+      if (f.read_object) {
+        read_object = [member, r = f.read_object](const Json& v, T& out, const std::string& source,
+                                                  const std::string& where,
+                                                  const std::string& noun) {
+          r(v, out.*member, source, where, noun);
+        };
+      }
+      Reader read;
+      if (f.read) {
+        read = [member, r = f.read](const Json& v, T& out) { return r(v, out.*member); };
+      }
+      fields_.push_back(Field{std::move(info), std::move(read),
+                              [member, write = f.write](const T& in) { return write(in.*member); },
+                              std::move(read_object)});
     }
+    return *this;
+  }
+  // A JSON object under `key`, read by `sub` into the member: its keys' errors name the whole
+  // path ("'scene.camera.fz'"); written as that object.
+  template <typename S>
+  Fields& Object(std::string key, S T::*member, const Fields<S>& sub, std::string doc) {
+    const Fields<S>* table = &sub;
+    Add(std::move(key), "object", "", std::move(doc), nullptr,
+        [member, table](const T& in) { return table->ToJson(in.*member); });
+    fields_.back().read_object = [member, table](const Json& v, T& out, const std::string& source,
+                                                 const std::string& where,
+                                                 const std::string& noun) {
+      table->Read(v, &(out.*member), source, where, noun);
+    };
+    return *this;
+  }
+  // A JSON object under `key` whose keys are more members of T itself (a sidecar's "camera"
+  // object of fx, fy, cx, cy in the scene's struct), read and written by `sub`.
+  Fields& Inline(std::string key, const Fields<T>& sub, std::string doc) {
+    const Fields<T>* table = &sub;
+    Add(std::move(key), "object", "", std::move(doc), nullptr,
+        [table](const T& in) { return table->ToJson(in); });
+    fields_.back().read_object = [table](const Json& v, T& out, const std::string& source,
+                                         const std::string& where, const std::string& noun) {
+      table->Read(v, &out, source, where, noun);
+    };
+    return *this;
+  }
+  // The same for an optional member: null (or absent) is nullopt, written as null.
+  template <typename S>
+  Fields& OptionalObject(std::string key, std::optional<S> T::*member, const Fields<S>& sub,
+                         std::string doc) {
+    const Fields<S>* table = &sub;
+    Add(std::move(key), "object or null", "", std::move(doc), nullptr,
+        [member, table](const T& in) -> Json {
+          return (in.*member) ? table->ToJson(*(in.*member)) : Json();
+        });
+    fields_.back().read_object = [member, table](const Json& v, T& out, const std::string& source,
+                                                 const std::string& where,
+                                                 const std::string& noun) {
+      if (v.is_null()) {
+        out.*member = std::nullopt;
+        return;
+      }
+      // Assigned, not emplace()d: clang 14 may judge S not default-constructible while the
+      // enclosing type is being defined.
+      out.*member = S{};
+      table->Read(v, &*(out.*member), source, where, noun);
+    };
     return *this;
   }
   // The kind taken from the member's type: double -> Number (any finite value), int -> Integer,
@@ -242,6 +309,11 @@ class Fields {
     for (auto it = object.begin(); it != object.end(); ++it) {
       const Field* field = Find(it.key());
       if (field == nullptr) fields_detail::ThrowUnknownKey(source, noun, where, it.key(), Keys());
+      if (field->read_object) {
+        field->read_object(it.value(), *out, source,
+                           where.empty() ? it.key() : where + "." + it.key(), noun);
+        continue;
+      }
       const std::string problem = field->read(it.value(), *out);
       if (!problem.empty()) {
         const std::string named = noun == "key" ? "" : noun;
@@ -284,7 +356,7 @@ class Fields {
     if (Find(key) != nullptr) throw std::logic_error("Fields: key '" + key + "' declared twice");
     fields_.push_back(Field{
         FieldInfo{std::move(key), std::move(type), std::move(range), nullptr, std::move(doc), 0},
-        std::move(read), std::move(write)});
+        std::move(read), std::move(write), nullptr});
     return *this;
   }
 

@@ -5,304 +5,336 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/fields.h"
+#include "core/json_io.h"
 
 namespace turbid {
 namespace {
 
+using fields_detail::ShownValue;
 using nlohmann::json;
 
-// An object of the sidecar being read: each key is taken once, what is left is unknown.
-class Section {
- public:
-  Section(const json& j, std::string path, const std::string& source)
-      : j_(j), path_(std::move(path)), source_(source) {
-    if (!j_.is_object()) Fail(path_.empty() ? "top level" : path_, "must be an object");
-  }
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-  // Throws for a key no Take asked for.
-  void RejectUnknown() const {
-    for (auto it = j_.begin(); it != j_.end(); ++it)
-      if (!taken_.count(it.key())) Fail(Key(it.key()), "unknown key");
-  }
-
-  const json* Find(const std::string& key) {
-    taken_.insert(key);
-    auto it = j_.find(key);
-    return it == j_.end() ? nullptr : &*it;
-  }
-
-  void Take(const std::string& key, std::string& field) {
-    if (const json* v = Find(key)) {
-      if (!v->is_string()) Fail(Key(key), "must be a string");
-      field = v->get<std::string>();
-    }
-  }
-  void Take(const std::string& key, bool& field) {
-    if (const json* v = Find(key)) {
-      if (!v->is_boolean()) Fail(Key(key), "must be true or false");
-      field = v->get<bool>();
-    }
-  }
-  // JSON writes a non-finite double as null: null reads back as `if_null`.
-  void Take(const std::string& key, double& field,
-            double if_null = std::numeric_limits<double>::quiet_NaN()) {
-    if (const json* v = Find(key)) field = Number(*v, Key(key), if_null);
-  }
-  template <typename Int>
-  void TakeInteger(const std::string& key, Int& field) {
-    if (const json* v = Find(key)) field = Integer<Int>(*v, Key(key));
-  }
-  void Take(const std::string& key, int& field) { TakeInteger(key, field); }
-  void Take(const std::string& key, int64_t& field) { TakeInteger(key, field); }
-  void Take(const std::string& key, uint64_t& field) { TakeInteger(key, field); }
-  void Take(const std::string& key, std::vector<double>& field) {
-    if (const json* v = Find(key)) field = Numbers(*v, Key(key));
-  }
-  // null (the sidecar's "not used") leaves nullopt.
-  void Take(const std::string& key, std::optional<std::vector<double>>& field) {
-    if (const json* v = Find(key); v && !v->is_null()) field = Numbers(*v, Key(key));
-  }
-  void Take(const std::string& key, std::vector<int>& field) {
-    if (const json* v = Find(key)) {
-      if (!v->is_array()) Fail(Key(key), "must be an array of integers");
-      field.clear();
-      for (const json& e : *v) field.push_back(Integer<int>(e, Key(key)));
-    }
-  }
-  void Take(const std::string& key, std::vector<std::string>& field) {
-    if (const json* v = Find(key)) {
-      if (!v->is_array()) Fail(Key(key), "must be an array of strings");
-      field.clear();
-      for (const json& e : *v) {
-        if (!e.is_string()) Fail(Key(key), "must be an array of strings");
-        field.push_back(e.get<std::string>());
-      }
-    }
-  }
-
-  // A nested object (nullptr when absent); `allow_null`: null counts as absent.
-  std::optional<Section> Sub(const std::string& key, bool allow_null = false) {
-    const json* v = Find(key);
-    if (!v || (allow_null && v->is_null())) return std::nullopt;
-    return Section(*v, Key(key), source_);
-  }
-
-  std::string Key(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
-  [[noreturn]] void Fail(const std::string& key, const std::string& problem) const {
-    throw Error(source_, "sidecar: " + key + ": " + problem);
-  }
-  const json& value() const { return j_; }
-
- private:
-  double Number(const json& v, const std::string& key, double if_null) const {
-    if (v.is_null()) return if_null;
-    if (!v.is_number()) Fail(key, "must be a number");
-    return v.get<double>();
-  }
-  std::vector<double> Numbers(const json& v, const std::string& key) const {
-    if (!v.is_array()) Fail(key, "must be an array of numbers");
-    std::vector<double> out;
-    for (const json& e : v) {
-      if (!e.is_number() && !e.is_null()) Fail(key, "must be an array of numbers");
-      out.push_back(Number(e, key, std::numeric_limits<double>::quiet_NaN()));
-    }
-    return out;
-  }
-  template <typename Int>
-  Int Integer(const json& v, const std::string& key) const {
-    const bool fits =
-        v.is_number_unsigned()
-            ? v.get<uint64_t>() <= static_cast<uint64_t>(std::numeric_limits<Int>::max())
-            : v.is_number_integer() && v.get<int64_t>() >= 0 &&
-                  static_cast<uint64_t>(v.get<int64_t>()) <=
-                      static_cast<uint64_t>(std::numeric_limits<Int>::max());
-    if (!fits) Fail(key, "must be a non-negative integer");
-    return v.is_number_unsigned() ? static_cast<Int>(v.get<uint64_t>())
-                                  : static_cast<Int>(v.get<int64_t>());
-  }
-
-  const json& j_;
-  std::string path_;
-  const std::string& source_;
-  std::set<std::string> taken_;
-};
-
-json OptionalArray(const std::optional<std::vector<double>>& v) { return v ? json(*v) : json(); }
-
-json TurbidityToJson(const std::optional<RenderRecord::Turbidity>& t) {
-  if (!t) return json();
-  return {{"levels", t->levels},
-          {"exact", t->exact},
-          {"thickness", t->thickness},
-          {"radius_px", t->radius_px}};
+// The sidecar's kinds of values beyond the field tables' own. JSON writes a non-finite double as
+// null, so null reads back as a given value (NaN unless said).
+template <typename T>
+void NullableNumber(Fields<T>& f, std::string key, double T::*m, std::string doc,
+                    double if_null = kNaN) {
+  f.Custom(
+      std::move(key), "number or null", "", std::move(doc),
+      [m, if_null](const json& v, T& out) -> std::string {
+        if (v.is_null()) {
+          out.*m = if_null;
+          return "";
+        }
+        if (!v.is_number()) return "expected a number, got " + ShownValue(v);
+        out.*m = v.get<double>();
+        return "";
+      },
+      [m](const T& in) { return json(in.*m); });
 }
 
-json DerivedToJson(const RenderRecord::Derived& d) {
-  return {{"channel_order", d.channel_order},
-          {"model", d.model},
-          {"beta_per_m", d.beta_per_m},
-          {"beta_b_per_m", OptionalArray(d.beta_b_per_m)},
-          {"backscatter", OptionalArray(d.backscatter)},
-          {"ambient", d.ambient},
-          {"lambertian_order_m", d.lambertian_order_m},
-          {"range_m", {{"min", d.range_min_m}, {"max", d.range_max_m}}},
-          {"valid_depth_fraction", d.valid_depth_fraction},
-          {"psf",
-           {{"p", d.psf.p},
-            {"sigma_px", d.psf.sigma_px},
-            {"scale_a_px", d.psf.scale_a_px},
-            {"radius_px", d.psf.radius_px},
-            {"tail_mass_outside", d.psf.tail_mass_outside},
-            {"is_delta", d.psf.is_delta},
-            {"separable", d.psf.separable},
-            {"turbidity", TurbidityToJson(d.psf.turbidity)}}},
-          {"snow", {{"particles", d.snow_particles}, {"visible", d.snow_visible}}}};
+std::string NumbersProblem(const json& v, std::vector<double>* out) {
+  if (!v.is_array()) return "expected an array of numbers, got " + ShownValue(v);
+  out->clear();
+  for (const json& e : v) {
+    if (!e.is_number() && !e.is_null()) return "must be an array of numbers";
+    out->push_back(e.is_null() ? kNaN : e.get<double>());
+  }
+  return "";
 }
 
-json SceneToJson(const RenderRecord::SceneInfo& s) {
-  json hashes = json::object();
-  for (const auto& [path, hash] : s.input_hashes) hashes[path] = hash;
-  json out = {{"name", s.name},
-              {"width", s.width},
-              {"height", s.height},
-              {"channels", s.channels},
-              {"camera", {{"fx", s.fx}, {"fy", s.fy}, {"cx", s.cx}, {"cy", s.cy}}},
-              {"input_hashes", hashes}};
-  if (s.spec) out["spec"] = *s.spec;
-  if (s.builtin_scale) out["builtin_scale"] = *s.builtin_scale;
-  return out;
+template <typename T>
+void Numbers(Fields<T>& f, std::string key, std::vector<double> T::*m, std::string doc) {
+  f.Custom(
+      std::move(key), "array of numbers", "", std::move(doc),
+      [m](const json& v, T& out) { return NumbersProblem(v, &(out.*m)); },
+      [m](const T& in) { return json(in.*m); });
 }
 
-void ReadScene(Section s, RenderRecord::SceneInfo* scene) {
-  s.Take("name", scene->name);
-  s.Take("width", scene->width);
-  s.Take("height", scene->height);
-  s.Take("channels", scene->channels);
-  if (auto c = s.Sub("camera")) {
-    c->Take("fx", scene->fx);
-    c->Take("fy", scene->fy);
-    c->Take("cx", scene->cx);
-    c->Take("cy", scene->cy);
-    c->RejectUnknown();
-  }
-  if (auto h = s.Sub("input_hashes")) {
-    for (auto it = h->value().begin(); it != h->value().end(); ++it)
-      h->Take(it.key(), scene->input_hashes[it.key()]);
-  }
-  if (s.Find("spec")) s.Take("spec", scene->spec.emplace());
-  if (s.Find("builtin_scale")) s.Take("builtin_scale", scene->builtin_scale.emplace());
-  s.RejectUnknown();
+// null (the sidecar's "not used") is nullopt.
+template <typename T>
+void OptionalNumbers(Fields<T>& f, std::string key, std::optional<std::vector<double>> T::*m,
+                     std::string doc) {
+  f.Custom(
+      std::move(key), "array of numbers or null", "", std::move(doc),
+      [m](const json& v, T& out) -> std::string {
+        if (v.is_null()) {
+          out.*m = std::nullopt;
+          return "";
+        }
+        std::vector<double> values;
+        const std::string problem = NumbersProblem(v, &values);
+        if (problem.empty()) out.*m = std::move(values);
+        return problem;
+      },
+      [m](const T& in) { return (in.*m) ? json(*(in.*m)) : json(); });
 }
 
-void ReadPsf(Section s, RenderRecord::Derived::Psf* psf) {
-  s.Take("p", psf->p);
-  s.Take("sigma_px", psf->sigma_px);
-  s.Take("scale_a_px", psf->scale_a_px);
-  s.Take("radius_px", psf->radius_px);
-  s.Take("tail_mass_outside", psf->tail_mass_outside);
-  s.Take("is_delta", psf->is_delta);
-  s.Take("separable", psf->separable);
-  if (auto t = s.Sub("turbidity", true)) {
-    // Assigned, not emplace()d: clang 14 caches is_constructible<Turbidity> as false while
-    // RenderRecord (which holds the optional) is being defined, before the nested type's default
-    // member initializers are parsed, and then refuses emplace() with no arguments.
-    psf->turbidity = RenderRecord::Turbidity{};
-    RenderRecord::Turbidity& turbidity = *psf->turbidity;
-    t->Take("levels", turbidity.levels);
-    t->Take("exact", turbidity.exact);
-    t->Take("thickness", turbidity.thickness);
-    t->Take("radius_px", turbidity.radius_px);
-    t->RejectUnknown();
-  }
-  s.RejectUnknown();
+template <typename T, typename E>
+void Strings(Fields<T>& f, std::string key, std::vector<E> T::*m, std::string doc) {
+  f.Custom(
+      std::move(key), "array of strings", "", std::move(doc),
+      [m](const json& v, T& out) -> std::string {
+        if (!v.is_array()) return "expected an array of strings, got " + ShownValue(v);
+        (out.*m).clear();
+        for (const json& e : v) {
+          if (!e.is_string()) return "must be an array of strings";
+          (out.*m).push_back(e.get<std::string>());
+        }
+        return "";
+      },
+      [m](const T& in) { return json(in.*m); });
 }
 
-void ReadDerived(Section s, RenderRecord::Derived* d) {
-  s.Take("channel_order", d->channel_order);
-  s.Take("model", d->model);
-  s.Take("beta_per_m", d->beta_per_m);
-  s.Take("beta_b_per_m", d->beta_b_per_m);
-  s.Take("backscatter", d->backscatter);
-  s.Take("ambient", d->ambient);
-  s.Take("lambertian_order_m", d->lambertian_order_m);
-  if (auto r = s.Sub("range_m")) {
-    r->Take("min", d->range_min_m, std::numeric_limits<double>::infinity());
-    r->Take("max", d->range_max_m);
-    r->RejectUnknown();
-  }
-  s.Take("valid_depth_fraction", d->valid_depth_fraction);
-  if (auto p = s.Sub("psf")) ReadPsf(*p, &d->psf);
-  if (auto snow = s.Sub("snow")) {
-    snow->Take("particles", d->snow_particles);
-    snow->Take("visible", d->snow_visible);
-    snow->RejectUnknown();
-  }
-  s.RejectUnknown();
+std::string NonNegativeProblem(const json& v, int64_t* out) {
+  const std::optional<int64_t> value = JsonInteger(v, 0, std::numeric_limits<int64_t>::max());
+  if (!value) return "expected an integer >= 0, got " + ShownValue(v);
+  *out = *value;
+  return "";
 }
 
-void ReadOutputs(Section s, RenderRecord* r) {
-  for (auto it = s.value().begin(); it != s.value().end(); ++it) {
-    if (it.key() == "psf_peak")
-      s.Take("psf_peak", r->psf_peak.emplace());
-    else
-      s.Take(it.key(), r->outputs[it.key()]);
-  }
+template <typename T>
+void NonNegative(Fields<T>& f, std::string key, int T::*m, std::string doc) {
+  f.Integer(std::move(key), m, std::move(doc), 0, std::numeric_limits<int>::max());
+}
+
+using Record = RenderRecord;
+using Scene_ = RenderRecord::SceneInfo;
+
+const Fields<Scene_>& CameraFields() {
+  static const Fields<Scene_> fields = [] {
+    Fields<Scene_> f;
+    NullableNumber(f, "fx", &Scene_::fx, "focal length x, pixels");
+    NullableNumber(f, "fy", &Scene_::fy, "focal length y, pixels");
+    NullableNumber(f, "cx", &Scene_::cx, "principal point x, pixels");
+    NullableNumber(f, "cy", &Scene_::cy, "principal point y, pixels");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<Scene_>& SceneFields() {
+  static const Fields<Scene_> fields = [] {
+    Fields<Scene_> f;
+    f.String("name", &Scene_::name, "scene name");
+    NonNegative(f, "width", &Scene_::width, "pixels");
+    NonNegative(f, "height", &Scene_::height, "pixels");
+    NonNegative(f, "channels", &Scene_::channels, "1 or 3");
+    f.Inline("camera", CameraFields(), "pinhole intrinsics {fx, fy, cx, cy}, pixels");
+    f.Custom(
+        "input_hashes", "object", "", "input file -> sha256",
+        [](const json& v, Scene_& out) -> std::string {
+          if (!v.is_object()) return "expected an object, got " + ShownValue(v);
+          for (auto it = v.begin(); it != v.end(); ++it) {
+            if (!it.value().is_string()) return "'" + it.key() + "' must be a string";
+            out.input_hashes[it.key()] = it.value().get<std::string>();
+          }
+          return "";
+        },
+        [](const Scene_& in) { return json(in.input_hashes); });
+    f.Custom(
+        "spec", "string", "", "the spec the scene was loaded from",
+        [](const json& v, Scene_& out) -> std::string {
+          if (!v.is_string()) return "expected a string, got " + ShownValue(v);
+          out.spec = v.get<std::string>();
+          return "";
+        },
+        [](const Scene_& in) { return in.spec ? json(*in.spec) : json(); });
+    f.Custom(
+        "builtin_scale", "number", "", "the built-in scene's scale",
+        [](const json& v, Scene_& out) -> std::string {
+          if (!v.is_number()) return "expected a number, got " + ShownValue(v);
+          out.builtin_scale = v.get<double>();
+          return "";
+        },
+        [](const Scene_& in) { return in.builtin_scale ? json(*in.builtin_scale) : json(); });
+    return f;
+  }();
+  return fields;
+}
+
+using Turbidity = RenderRecord::Turbidity;
+using Derived = RenderRecord::Derived;
+using Psf = RenderRecord::Derived::Psf;
+
+const Fields<Turbidity>& TurbidityFields() {
+  static const Fields<Turbidity> fields = [] {
+    Fields<Turbidity> f;
+    f.Unsigned("levels", &Turbidity::levels, "levels of the turbidity-dependent PSF")
+        .Boolean("exact", &Turbidity::exact, "one level per distinct thickness");
+    Numbers(f, "thickness", &Turbidity::thickness, "each level's optical thickness");
+    f.Custom(
+        "radius_px", "array of integers", "", "each level's kernel radius, pixels",
+        [](const json& v, Turbidity& out) -> std::string {
+          if (!v.is_array()) return "expected an array of integers, got " + ShownValue(v);
+          out.radius_px.clear();
+          for (const json& e : v) {
+            const std::optional<int64_t> r = JsonInteger(e, 0, std::numeric_limits<int>::max());
+            if (!r) return "must be an array of non-negative integers";
+            out.radius_px.push_back(static_cast<int>(*r));
+          }
+          return "";
+        },
+        [](const Turbidity& in) { return json(in.radius_px); });
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<Psf>& PsfFields() {
+  static const Fields<Psf> fields = [] {
+    Fields<Psf> f;
+    NullableNumber(f, "p", &Psf::p, "p = sqrt(T)");
+    NullableNumber(f, "sigma_px", &Psf::sigma_px, "Gaussian width, pixels");
+    NullableNumber(f, "scale_a_px", &Psf::scale_a_px, "the kernel's scale a, pixels");
+    NonNegative(f, "radius_px", &Psf::radius_px, "truncation radius, pixels");
+    NullableNumber(f, "tail_mass_outside", &Psf::tail_mass_outside, "mass outside the radius");
+    f.Boolean("is_delta", &Psf::is_delta, "the kernel is a delta")
+        .Boolean("separable", &Psf::separable, "applied as two 1-D passes")
+        .OptionalObject("turbidity", &Psf::turbidity, TurbidityFields(),
+                        "the turbidity-dependent PSF's levels (null: not used)");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<Derived>& RangeFields() {
+  static const Fields<Derived> fields = [] {
+    Fields<Derived> f;
+    NullableNumber(f, "min", &Derived::range_min_m, "nearest valid range, metres",
+                   std::numeric_limits<double>::infinity());
+    NullableNumber(f, "max", &Derived::range_max_m, "farthest valid range, metres");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<Derived>& SnowFields() {
+  static const Fields<Derived> fields = [] {
+    Fields<Derived> f;
+    NonNegative(f, "particles", &Derived::snow_particles, "particles drawn");
+    NonNegative(f, "visible", &Derived::snow_visible, "particles in view");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<Derived>& DerivedFields() {
+  static const Fields<Derived> fields = [] {
+    Fields<Derived> f;
+    f.String("channel_order", &Derived::channel_order, "\"BGR\" or \"gray\"")
+        .String("model", &Derived::model, "the image model");
+    Numbers(f, "beta_per_m", &Derived::beta_per_m, "beta per channel, 1/m");
+    OptionalNumbers(f, "beta_b_per_m", &Derived::beta_b_per_m, "beta^B (model revised)");
+    OptionalNumbers(f, "backscatter", &Derived::backscatter, "B_inf when the term is on");
+    Numbers(f, "ambient", &Derived::ambient, "E_A per channel");
+    Numbers(f, "lambertian_order_m", &Derived::lambertian_order_m, "one per light");
+    f.Inline("range_m", RangeFields(), "valid range {min, max}, metres");
+    NullableNumber(f, "valid_depth_fraction", &Derived::valid_depth_fraction,
+                   "share of pixels with valid depth");
+    f.Object("psf", &Derived::psf, PsfFields(), "the PSF's derived values");
+    f.Inline("snow", SnowFields(), "marine snow {particles, visible}");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<RenderPlan>& PlanFields() {
+  static const Fields<RenderPlan> fields = [] {
+    Fields<RenderPlan> f;
+    Strings(f, "steps", &RenderPlan::steps, "what the render did, in order");
+    Strings(f, "skipped", &RenderPlan::skipped, "what it skipped, and why");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<Record::Item>& ItemFields() {
+  static const Fields<Record::Item> fields = [] {
+    Fields<Record::Item> f;
+    f.Custom(
+        "index", "integer", ">= 0", "generate's item index",
+        [](const json& v, Record::Item& out) { return NonNegativeProblem(v, &out.index); },
+        [](const Record::Item& in) { return json(in.index); });
+    f.String("id", &Record::Item::id, "generate's item id");
+    return f;
+  }();
+  return fields;
+}
+
+// The top level. "options" goes through RenderOptionsFromJson (its own tables); "outputs" maps
+// roles to file names, with the PSF map's peak as a number.
+const Fields<Record>& RecordFields() {
+  static const Fields<Record> fields = [] {
+    Fields<Record> f;
+    f.String("tool", &Record::tool, "\"turbid render\"")
+        .String("version", &Record::version, "TURBID_VERSION of the build that rendered")
+        .Object("scene", &Record::scene, SceneFields(), "the scene rendered")
+        .Unsigned("seed", &Record::seed, "the render's seed")
+        .Custom(
+            "options", "object", "",
+            "every render option used, presets resolved (read by RenderOptionsFromJson)",
+            [](const json&, Record&) { return std::string(); },
+            [](const Record& in) {
+              return in.options ? ResolvedRenderOptionsToJson(*in.options) : json();
+            })
+        .Object("derived", &Record::derived, DerivedFields(), "values the render derived")
+        .Object("plan", &Record::plan, PlanFields(), "the render plan")
+        .String("encoding", &Record::encoding, "how the image file's values are coded")
+        .Custom(
+            "outputs", "object", "", "files written: role -> file name; psf_peak: a number",
+            [](const json& v, Record& out) -> std::string {
+              if (!v.is_object()) return "expected an object, got " + ShownValue(v);
+              for (auto it = v.begin(); it != v.end(); ++it) {
+                if (it.key() == "psf_peak") {
+                  if (!it.value().is_number()) return "'psf_peak' must be a number";
+                  out.psf_peak = it.value().get<double>();
+                } else if (!it.value().is_string()) {
+                  return "'" + it.key() + "' expected a string, got " + ShownValue(it.value());
+                } else {
+                  out.outputs[it.key()] = it.value().get<std::string>();
+                }
+              }
+              return "";
+            },
+            [](const Record& in) {
+              json files = json::object();
+              for (const auto& [role, file] : in.outputs) files[role] = file;
+              if (in.psf_peak) files["psf_peak"] = *in.psf_peak;
+              return files;
+            })
+        .OptionalObject("item", &Record::item, ItemFields(), "generate's item");
+    return f;
+  }();
+  return fields;
 }
 
 }  // namespace
 
 json RenderRecord::ToJson() const {
-  json out = {
-      {"tool", tool},
-      {"version", version},
-      {"scene", SceneToJson(scene)},
-      {"seed", seed},
-      {"derived", DerivedToJson(derived)},
-      {"plan", plan.ToJson()},
-      // How the image file's values are coded (what `turbid score` and `enhance` read).
-      {"encoding", encoding},
-  };
-  if (options) out["options"] = ResolvedRenderOptionsToJson(*options);
-  if (!outputs.empty() || psf_peak) {
-    json files = json::object();
-    for (const auto& [role, file] : outputs) files[role] = file;
-    if (psf_peak) files["psf_peak"] = *psf_peak;
-    out["outputs"] = files;
-  }
-  if (item) out["item"] = {{"index", item->index}, {"id", item->id}};
+  json out = RecordFields().ToJson(*this);
+  // Keys the tools set only when set.
+  if (!options) out.erase("options");
+  if (outputs.empty() && !psf_peak) out.erase("outputs");
+  if (!item) out.erase("item");
+  if (!scene.spec) out["scene"].erase("spec");
+  if (!scene.builtin_scale) out["scene"].erase("builtin_scale");
   return out;
 }
 
 RenderRecord RenderRecord::FromJson(const json& j, const std::string& source) {
   RenderRecord r;
-  Section top(j, "", source);
-  top.Take("tool", r.tool);
-  top.Take("version", r.version);
-  if (auto s = top.Sub("scene")) ReadScene(*s, &r.scene);
-  top.Take("seed", r.seed);
-  if (const json* o = top.Find("options")) {
+  const std::string where = source + ": sidecar";
+  RecordFields().Read(j, &r, where);
+  if (const auto o = j.find("options"); o != j.end()) {
     try {
       r.options = RenderOptionsFromJson(*o);
     } catch (const Error& e) {
       throw Error(source, e.what());  // "render options: <key path>: <problem>"
     }
   }
-  if (auto d = top.Sub("derived")) ReadDerived(*d, &r.derived);
-  if (auto p = top.Sub("plan")) {
-    p->Take("steps", r.plan.steps);
-    p->Take("skipped", r.plan.skipped);
-    p->RejectUnknown();
-  }
-  top.Take("encoding", r.encoding);
-  if (auto o = top.Sub("outputs")) ReadOutputs(*o, &r);
-  if (auto i = top.Sub("item")) {
-    r.item = Item{};  // not emplace(): as for the turbidity above (clang 14)
-    Item& item = *r.item;
-    i->Take("index", item.index);
-    i->Take("id", item.id);
-    i->RejectUnknown();
-  }
-  top.RejectUnknown();
   return r;
 }
 

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <optional>
 #include <string>
 
 namespace turbid {
@@ -200,6 +201,79 @@ TEST(Fields, InfoCarriesTypesRangesDefaultsAndDocs) {
   const std::string table = FieldsMarkdown(rows);
   EXPECT_NE(table.find("| `beta` | number, >= 0 | `0.25` | attenuation, 1/m |"), std::string::npos)
       << table;
+}
+
+// Sub-objects: Object (a member struct under its own key), OptionalObject (null = nullopt) and
+// Inline (more members of the same struct under a key); errors name the whole key path, also
+// through Nested.
+struct Outer {
+  Inner inner;
+  std::optional<Inner> maybe;
+  double x = 0, y = 0;  // written as {"at": {"x", "y"}}
+};
+
+const Fields<Outer>& AtFields() {
+  static const Fields<Outer> fields =
+      Fields<Outer>().Number("x", &Outer::x, "x").Number("y", &Outer::y, "y");
+  return fields;
+}
+
+const Fields<Outer>& OuterFields() {
+  static const Fields<Outer> fields =
+      Fields<Outer>()
+          .Object("inner", &Outer::inner, InnerFields(), "an object")
+          .OptionalObject("maybe", &Outer::maybe, InnerFields(), "an object or null")
+          .Inline("at", AtFields(), "x and y");
+  return fields;
+}
+
+struct Wrapper {
+  Outer outer;
+};
+
+TEST(Fields, SubObjectsReadWriteAndNameTheirPath) {
+  Outer o;
+  OuterFields().Read(json::parse(R"({"inner": {"bins": 16}, "maybe": {"alpha": 2},
+                                      "at": {"x": 1, "y": 2}})"),
+                     &o, "f.json");
+  EXPECT_EQ(o.inner.bins, 16);
+  EXPECT_EQ(o.inner.alpha, 0.4);  // absent: kept
+  ASSERT_TRUE(o.maybe.has_value());
+  EXPECT_EQ(o.maybe->alpha, 2.0);
+  EXPECT_EQ(o.maybe->bins, 256);
+  EXPECT_EQ(o.x, 1.0);
+  EXPECT_EQ(o.y, 2.0);
+  const json written = OuterFields().ToJson(o);
+  EXPECT_EQ(written["at"], json::parse(R"({"x": 1.0, "y": 2.0})"));
+  EXPECT_EQ(written["inner"]["bins"], 16);
+  Outer back;
+  OuterFields().Read(written, &back, "w.json");
+  EXPECT_EQ(OuterFields().ToJson(back), written);
+  OuterFields().Read(json::parse(R"({"maybe": null})"), &back, "n.json");
+  EXPECT_FALSE(back.maybe.has_value());
+  EXPECT_TRUE(OuterFields().ToJson(back)["maybe"].is_null());
+
+  auto error_of = [](const char* text) {
+    try {
+      Outer x;
+      OuterFields().Read(json::parse(text), &x, "e.json", "top");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error_of(R"({"inner": {"bins": 1}})"),
+            "e.json: 'top.inner.bins': must be in [2, 65536], got 1");
+  EXPECT_EQ(error_of(R"({"maybe": {"z": 1}})"),
+            "e.json: unknown key 'top.maybe.z' (known: bins, alpha)");
+  EXPECT_EQ(error_of(R"({"at": {"x": "a"}})"), "e.json: 'top.at.x': expected a number, got \"a\"");
+  EXPECT_EQ(error_of(R"({"inner": 3})"), "e.json: 'top.inner' must be a JSON object, got 3");
+
+  // Through Nested: the sub-object keeps its reader.
+  const Fields<Wrapper> wrapper = Fields<Wrapper>().Nested("w_", &Wrapper::outer, OuterFields());
+  Wrapper w;
+  wrapper.Read(json::parse(R"({"w_inner": {"bins": 4}})"), &w, "n.json");
+  EXPECT_EQ(w.outer.inner.bins, 4);
 }
 
 TEST(Fields, DeclaringAKeyTwiceIsAProgrammingError) {

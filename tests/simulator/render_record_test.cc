@@ -61,16 +61,26 @@ TEST(RenderRecord, MissingKeysKeepDefaults) {
 }
 
 TEST(RenderRecord, UnknownKeysAndWrongTypesAreOneLineErrors) {
-  EXPECT_EQ(ErrorOf({{"bogus", 1}}), "s.json: sidecar: bogus: unknown key");
+  // Read through the field tables (core/fields.h): the key's whole path, the known keys.
+  EXPECT_EQ(ErrorOf({{"bogus", 1}}).rfind("s.json: sidecar: unknown key 'bogus' (known: tool, ", 0),
+            0u);
   EXPECT_EQ(ErrorOf({{"scene", {{"camera", {{"fz", 1}}}}}}),
-            "s.json: sidecar: scene.camera.fz: unknown key");
+            "s.json: sidecar: unknown key 'scene.camera.fz' (known: fx, fy, cx, cy)");
   EXPECT_EQ(ErrorOf({{"scene", {{"width", "4"}}}}),
-            "s.json: sidecar: scene.width: must be a non-negative integer");
+            "s.json: sidecar: 'scene.width': expected an integer, got \"4\"");
+  EXPECT_EQ(ErrorOf({{"scene", {{"width", -1}}}}),
+            "s.json: sidecar: 'scene.width': must be >= 0, got -1");
   EXPECT_EQ(ErrorOf({{"derived", {{"psf", {{"is_delta", 1}}}}}}),
-            "s.json: sidecar: derived.psf.is_delta: must be true or false");
+            "s.json: sidecar: 'derived.psf.is_delta': expected true or false, got 1");
+  EXPECT_EQ(ErrorOf({{"derived", {{"psf", {{"turbidity", {{"levels", 2}, {"x", 1}}}}}}}})
+                .rfind("s.json: sidecar: unknown key 'derived.psf.turbidity.x'", 0),
+            0u);
+  EXPECT_EQ(ErrorOf({{"derived", {{"range_m", {{"min", "near"}}}}}}),
+            "s.json: sidecar: 'derived.range_m.min': expected a number, got \"near\"");
   EXPECT_EQ(ErrorOf({{"outputs", {{"image", 3}}}}),
-            "s.json: sidecar: outputs.image: must be a string");
-  EXPECT_EQ(ErrorOf(json::array()), "s.json: sidecar: top level: must be an object");
+            "s.json: sidecar: 'outputs': 'image' expected a string, got 3");
+  EXPECT_EQ(ErrorOf(json::array()),
+            "s.json: sidecar: the top level must be a JSON object, got []");
   const std::string options = ErrorOf({{"options", {{"psf", {{"forward_scatter", 5.0}}}}}});
   EXPECT_EQ(options.rfind("s.json: render options: psf.forward_scatter", 0), 0u) << options;
 }
