@@ -134,6 +134,8 @@ def test_params_render_as_they_are_and_errors_are_plain(tmp_path):
         turbid.water.fit(image, scene.depth, K=k, depth_kind="Z")
     with pytest.raises(ValueError, match="K"):
         turbid.water.fit(image, scene.depth, K=(1.0, 2.0))
+    with pytest.raises(ValueError, match="needs K"):
+        turbid.water.fit(image, scene.depth, depth_kind="z")
     with pytest.raises(ValueError):  # one range only: no bins to fit
         turbid.water.fit(image, np.full_like(scene.depth, 2.0))
 

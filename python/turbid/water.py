@@ -93,6 +93,8 @@ def fit(image, depth, K=None, depth_kind=None, encoding=None, options=None, chan
         arrays.append(a)
         depth_arrays.append(d)
         k = _intrinsics(ks[i], "K" if not several else "K[%d]" % i)
+        if k is None and depth_kind == "z":
+            raise ValueError("depth_kind='z' needs K (the intrinsics) to turn z-depth into range")
         # The depth is converted to range with K unless it is range already.
         cams.append(None if depth_kind == "range" else k)
     if options is None:
