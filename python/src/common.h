@@ -139,6 +139,8 @@ json ExpandDottedParams(json params, const std::string& what);
 void DefineDataset(py::module_& m);
 // report, merge and regress (harness.cc).
 void DefineHarness(py::module_& m);
+// turbid.water.fit (water.cc).
+void DefineWater(py::module_& m);
 py::array ToNumpy(const cv::Mat& mat);
 
 }  // namespace turbid::pyext

@@ -80,10 +80,7 @@ json ItemParams(const GeneratePlan& plan, size_t index, uint64_t epoch) {
   const uint64_t per_scene = c.combos.size() * static_cast<uint64_t>(c.samples);
   const uint64_t in_scene = index % per_scene;
   const size_t g = in_scene / c.samples;
-  json params = c.base;
-  for (auto it = c.combos[g].begin(); it != c.combos[g].end(); ++it)
-    SetRenderParam(params, it.key(), it.value());
-  ApplyRandomDraw(params, c.random_params, c.random_seed, epoch * per_scene + in_scene);
+  json params = DrawItemParams(c, g, epoch * per_scene + in_scene);  // water_from included
   if (!params.contains("seed"))
     params["seed"] = GenerateItemSeed(c.seed, epoch * plan.items.size() + index);
   return RenderOptionsToJson(RenderOptionsFromJson(params));

@@ -564,4 +564,5 @@ PYBIND11_MODULE(_turbid, m) {
   DefineBatch(m);
   DefineDataset(m);
   DefineHarness(m);
+  DefineWater(m);
 }

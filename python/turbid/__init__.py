@@ -534,3 +534,4 @@ def write_image(path, image, bit_depth=8, encoding="srgb", overwrite=False, chan
 
 
 from . import data  # noqa: E402,F401  (turbid.data: on-the-fly training data)
+from . import water  # noqa: E402,F401  (turbid.water: Sea-thru water fit)

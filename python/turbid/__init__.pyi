@@ -7,6 +7,7 @@ import numpy as np
 import numpy.typing as npt
 
 from . import data as data
+from . import water as water
 
 ArrayLike = Any  # numpy.ndarray, torch.Tensor (CPU), anything with __array__ / __dlpack__
 PathLike = Union[str, "os.PathLike[str]"]

@@ -270,17 +270,81 @@ void ReadScenes(const json& config, const std::string& config_path, GenerateConf
                         SaturatingProduct(static_cast<int64_t>(out->combos.size()), out->samples)));
 }
 
+// "water_from": one fit file or a non-empty list of them (each read and checked now).
+void ReadWaterFrom(const json& config, const std::string& config_path, GenerateConfig* out) {
+  if (!config.contains("water_from")) return;
+  const json& value = config["water_from"];
+  const char* expected =
+      "water_from: a fit file (turbid water fit --out) or a non-empty list of them";
+  std::vector<std::string> paths;
+  if (value.is_string()) {
+    paths.push_back(value.get<std::string>());
+  } else if (value.is_array() && !value.empty()) {
+    for (const json& one : value) {
+      if (!one.is_string()) throw Error(config_path, expected);
+      paths.push_back(one.get<std::string>());
+    }
+  } else {
+    throw Error(config_path, expected);
+  }
+  CheckItemCount(config_path, "water_from", static_cast<int64_t>(paths.size()));
+  for (const std::string& path : paths) out->water_from.push_back(ReadWaterSource(path));
+}
+
 }  // namespace
+
+WaterSource ReadWaterSource(const std::string& path) {
+  if (path.empty()) throw Error("water_from: an empty file name");
+  WaterSource source;
+  source.path = path;
+  source.params = ReadJsonFile(path);
+  if (!source.params.is_object())
+    throw Error(path, "water_from: must be a JSON object (a turbid water fit output)");
+  for (auto it = source.params.begin(); it != source.params.end(); ++it) {
+    if (it.key() != "model" && it.key() != "water" && it.key() != "revised" && it.key() != "light")
+      throw Error(path, "water_from: key '" + PrintableName(it.key()) +
+                            "' is not part of a water (model, water, revised, light)");
+    // null would delete the base's section when merged (JSON merge patch).
+    if (it.value().is_null()) throw Error(path, "water_from: " + it.key() + ": must not be null");
+  }
+  try {
+    RenderOptionsFromJson(source.params);
+  } catch (const Error& e) {
+    throw Error(path, e.what());
+  }
+  return source;
+}
+
+int WaterFromIndex(const GenerateConfig& config, uint64_t draw_index) {
+  const size_t n = config.water_from.size();
+  if (n == 0) return -1;
+  if (n == 1) return 0;
+  // The same choice as a {"choice": [...]} draw, on a stream of its own.
+  const double u = RandomUniform(RandomKey(config.random_seed, 0x77a7), draw_index);
+  return static_cast<int>(std::min(n - 1, static_cast<size_t>(u * static_cast<double>(n))));
+}
+
+json DrawItemParams(const GenerateConfig& config, size_t g, uint64_t draw_index) {
+  json params = config.base;
+  const int water = WaterFromIndex(config, draw_index);
+  if (water >= 0) params.merge_patch(config.water_from[water].params);
+  for (auto it = config.combos.at(g).begin(); it != config.combos.at(g).end(); ++it)
+    SetRenderParam(params, it.key(), it.value());
+  // Random samples depend on (random seed, grid point, sample number), not on the scene.
+  ApplyRandomDraw(params, config.random_params, config.random_seed, draw_index);
+  return params;
+}
 
 GenerateConfig ParseGenerateConfig(const json& config, const std::string& config_path) {
   if (!config.is_object()) throw Error(config_path, "must be a JSON object");
   for (auto it = config.begin(); it != config.end(); ++it)
     if (it.key() != "scenes" && it.key() != "scale" && it.key() != "base" && it.key() != "grid" &&
-        it.key() != "random" && it.key() != "seed" && it.key() != "format" && it.key() != "preset")
+        it.key() != "random" && it.key() != "seed" && it.key() != "format" &&
+        it.key() != "preset" && it.key() != "water_from")
       throw Error(config_path,
                   it.key() +
                       ": unknown key (scenes, scale, base, grid, random, seed, format, "
-                      "preset)");
+                      "preset, water_from)");
   const json preset = ReadPreset(config, config_path);
   if (!config.contains("scenes") || !config["scenes"].is_array() || config["scenes"].empty())
     throw Error(config_path, "scenes: a non-empty array of scene specs is required");
@@ -300,6 +364,7 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   const int64_t samples = RandomCount(config, config_path);
   out.combos = GridCombos(config, samples, config_path);
   ReadRandom(config, samples, preset, config_path, &out);
+  ReadWaterFrom(config, config_path, &out);
   ReadScenes(config, config_path, &out);
   return out;
 }
@@ -333,11 +398,10 @@ std::vector<GenerateItem> ExpandGenerateItems(const GenerateConfig& config,
         GenerateItem item;
         item.index = static_cast<int>(items.size());
         item.scene = s;
-        json params = config.base;
-        for (auto it = config.combos[g].begin(); it != config.combos[g].end(); ++it)
-          SetRenderParam(params, it.key(), it.value());
-        // Random samples depend on (random seed, grid point, sample number), not on the scene.
-        ApplyRandomDraw(params, config.random_params, config.random_seed, g * config.samples + r);
+        const uint64_t draw = g * config.samples + r;
+        json params = DrawItemParams(config, g, draw);
+        const int water = WaterFromIndex(config, draw);
+        if (water >= 0) item.water_from = config.water_from[water].path;
         if (!params.contains("seed")) params["seed"] = GenerateItemSeed(config.seed, item.index);
         try {
           params = RenderOptionsToJson(RenderOptionsFromJson(params));
@@ -515,17 +579,18 @@ void WriteManifest(const GenerateConfig& config, const std::vector<GenerateItem>
         << o["water"]["beta_gray_per_m"].dump() << "," << o["psf"]["optical_thickness"].dump()
         << "," << o["psf"]["forward_scatter"].dump() << "," << FileEncodingName(o, format) << "\n";
     csv += row.str();
-    jsonl += json({{"index", item.index},
-                   {"id", item.id},
-                   {"scene", specs[item.scene]},
-                   {"image", "images/" + item.id + ext},
-                   {"ground_truth", "ground_truth/" + item.id + ext},
-                   {"lit", "lit/" + item.id + ".pfm"},
-                   {"sidecar", "sidecars/" + item.id + ".json"},
-                   {"encoding", FileEncodingName(o, format)},
-                   {"options", o}})
-                 .dump() +
-             "\n";
+    json row_json = {{"index", item.index},
+                     {"id", item.id},
+                     {"scene", specs[item.scene]},
+                     {"image", "images/" + item.id + ext},
+                     {"ground_truth", "ground_truth/" + item.id + ext},
+                     {"lit", "lit/" + item.id + ".pfm"},
+                     {"sidecar", "sidecars/" + item.id + ".json"},
+                     {"encoding", FileEncodingName(o, format)},
+                     {"options", o}};
+    // Every row has the same keys (ReadManifest): water_from when the config has it.
+    if (!config.water_from.empty()) row_json["water_from"] = item.water_from;
+    jsonl += row_json.dump() + "\n";
   }
   AtomicWriteText((fs::path(out_dir) / "manifest.csv").string(), csv, true);
   AtomicWriteText((fs::path(out_dir) / "manifest.jsonl").string(), jsonl, true);

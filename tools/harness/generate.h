@@ -12,7 +12,14 @@
 
 namespace turbid {
 
-// A parsed and checked generate config (nothing loaded yet).
+// One fitted water of a config's "water_from": the file and the render parameters it holds (a
+// `turbid water fit` output: only the keys model, water, revised and light).
+struct WaterSource {
+  std::string path;
+  nlohmann::json params = nlohmann::json::object();
+};
+
+// A parsed and checked generate config (nothing loaded but the water_from files).
 struct GenerateConfig {
   std::string source;                   // the config file (or "<dict>"), used in messages
   // "builtin:NAME" or scene JSON paths; multi-frame files expanded to "FILE.json#KEY" per frame
@@ -25,6 +32,8 @@ struct GenerateConfig {
   int samples = 1;                       // random draws per grid point
   uint64_t random_seed = 0;              // seeds the random draws
   nlohmann::json random_params = nlohmann::json::object();  // dotted path -> distribution
+  // "water_from": fitted waters; each draw takes one (seeded choice when several) over the base.
+  std::vector<WaterSource> water_from;
 };
 
 // One dataset item: a scene and its fully resolved render parameters (seed included).
@@ -33,6 +42,7 @@ struct GenerateItem {
   std::string id;  // "<scene name>_<index, 6 digits>"
   size_t scene = 0;  // index into GenerateConfig::scene_specs
   nlohmann::json params;
+  std::string water_from;  // the water_from file the item's water came from ("" without)
 };
 
 // A named preset: {"base": render parameters, "random_params": path -> distribution}. Known:
@@ -53,6 +63,19 @@ std::vector<GenerateItem> ExpandGenerateItems(const GenerateConfig& config,
 // {"choice": [...]}) from the counter-based generator (key, index); `path` names it in messages.
 nlohmann::json SampleValue(const nlohmann::json& spec, uint64_t key, uint64_t index,
                            const std::string& path);
+
+// Reads a `turbid water fit` output for "water_from": a JSON object whose keys are among model,
+// water, revised and light and that `turbid render --params` accepts. Throws Error("<path>: ...").
+WaterSource ReadWaterSource(const std::string& path);
+
+// Which of config.water_from draw number `draw_index` takes (seeded by random.seed; 0 with one
+// file); -1 without water_from.
+int WaterFromIndex(const GenerateConfig& config, uint64_t draw_index);
+
+// The parameters of grid point g for draw number `draw_index` (g * samples + r in generate), before
+// the render seed: base, then the drawn water_from file's keys over it (as `turbid render --params
+// FIT.json` reads them), then the grid point, then the random draw.
+nlohmann::json DrawItemParams(const GenerateConfig& config, size_t g, uint64_t draw_index);
 
 // Applies random draw number `draw_index` of `random_params` (dotted path -> distribution) to
 // `params`, as generate does for grid point g and sample r with draw_index = g * samples + r.
