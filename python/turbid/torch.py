@@ -1,0 +1,740 @@
+"""turbid.torch: the forward model as differentiable PyTorch operations (docs/python.md,
+"Differentiable model").
+
+A transcription of the C++ renderer's equations (simulator/render.cc, light.cc, psf.cc, noise.cc,
+water.cc; docs/model.md) in torch operations on batches N x C x H x W, on any device torch
+supports. The C++ renderer is the reference (python/tests/test_torch*.py compare the two) and the
+fast path for data generation; this module is for learning through the model.
+
+    import turbid.torch as tt
+    image = tt.render(albedo, depth, K, {"water": {"beta_rgb_per_m": beta}})
+
+``params`` is the dict :func:`turbid.render` takes; any number (or list of numbers) in it may be a
+tensor, with a leading N for one value per image (``beta`` N x 3, a light's ``power`` N, its
+``position_in_camera_m`` N x 3). Importing this module needs torch; ``import turbid`` does not.
+"""
+
+import math as _math
+import numbers as _numbers
+
+import numpy as _np
+import torch
+
+import turbid as _turbid
+
+__all__ = ["render", "resolve", "range_from_depth", "normals_from_depth", "irradiance",
+           "psf_kernel", "apply_psf", "sensor_noise", "standard_normals", "camera"]
+
+# ---- parameters ---------------------------------------------------------------------------------
+
+
+def _is_tensor(value):
+    return isinstance(value, torch.Tensor)
+
+
+def _default_at(defaults, path):
+    """The default value at ``path`` (a light index reads the default light)."""
+    node = defaults
+    for key in path:
+        if isinstance(node, list):
+            node = node[0] if node else None
+        elif isinstance(node, dict):
+            node = node.get(key)
+        else:
+            return None
+    return node
+
+
+def _split(value, defaults, path, tensors):
+    """``value`` with every tensor replaced by the numbers of its first batch element (for the C++
+    checks and defaults); the tensors go to ``tensors`` keyed by path."""
+    if _is_tensor(value) or isinstance(value, _np.ndarray):
+        t = torch.as_tensor(value)
+        default = _default_at(defaults, path)
+        width = len(default) if isinstance(default, list) else 0
+        if width:
+            if t.numel() % width:
+                raise ValueError("params: %s: expected %d values (or N x %d), got shape %s"
+                                 % (".".join(map(str, path)), width, width, tuple(t.shape)))
+            tensors[path] = t.reshape(-1, width)
+            return [float(v) for v in t.detach().reshape(-1, width)[0].cpu()]
+        tensors[path] = t.reshape(-1)
+        return float(t.detach().reshape(-1)[0].cpu())
+    if isinstance(value, dict):
+        return {k: _split(v, defaults, path + (k,), tensors) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        if any(_is_tensor(v) for v in value):  # [tensor, tensor, tensor]: one per channel
+            stacked = torch.stack([torch.as_tensor(v).reshape(-1) for v in value], dim=-1)
+            return _split(stacked, defaults, path, tensors)
+        return [_split(v, defaults, path + (i,), tensors) for i, v in enumerate(value)]
+    return value
+
+
+_DEFAULTS = []
+
+
+def _defaults():
+    """Every key's default, the model sections included (for the widths of tensor values)."""
+    if not _DEFAULTS:
+        d = _turbid.resolve_params({"model": "revised"})
+        d["uwcnn"] = _turbid.resolve_params({"model": "uwcnn"})["uwcnn"]
+        _DEFAULTS.append(d)
+    return _DEFAULTS[0]
+
+
+class Params:
+    """Resolved render parameters: every default filled in and checked by the C++ reader
+    (:func:`turbid.resolve_params`, on the first batch element of tensor values), with the tensors
+    given kept as they are. ``get(path)`` returns a tensor of shape (B,) or (B, width), B = 1 or N.
+    """
+
+    def __init__(self, params):
+        if params is None:
+            params = {}
+        if not isinstance(params, dict):
+            raise ValueError("params: a dict, not a %s" % type(params).__name__)
+        self.given = params
+        self.tensors = {}
+        plain = _split(params, _defaults(), (), self.tensors)
+        self.plain = _turbid.resolve_params(plain)
+
+    def raw(self, path):
+        node = self.plain
+        for key in path.split(".") if isinstance(path, str) else path:
+            node = node[int(key)] if isinstance(node, list) else node[key]
+        return node
+
+    def get(self, path, like, n):
+        key = tuple(int(k) if k.isdigit() else k for k in path.split(".")) \
+            if isinstance(path, str) else tuple(path)
+        value = self.tensors.get(key)
+        if value is None:
+            value = torch.as_tensor(self.raw(key), dtype=torch.float64)
+            value = value.reshape(1, -1) if value.ndim == 1 else value.reshape(1)
+        value = value.to(dtype=like.dtype, device=like.device)
+        if value.shape[0] not in (1, n):
+            raise ValueError("params: %s: a leading dimension of %d for a batch of %d"
+                             % (".".join(map(str, key)), value.shape[0], n))
+        return value
+
+    def channels(self, section, rgb_key, gray_key, like, n, c):
+        """Per-channel values (B, C, 1, 1): R, G, B for colour images, the gray key for gray."""
+        v = self.get(section + "." + (rgb_key if c == 3 else gray_key), like, n)
+        return v.reshape(v.shape[0], c, 1, 1)
+
+    def scalar(self, path, like, n):
+        """(B, 1, 1, 1)."""
+        return self.get(path, like, n).reshape(-1, 1, 1, 1)
+
+
+def resolve(params):
+    """:class:`Params` of ``params`` (the dict :func:`turbid.render` takes, tensors allowed)."""
+    return params if isinstance(params, Params) else Params(params)
+
+
+# ---- geometry -----------------------------------------------------------------------------------
+
+
+def _intrinsics(K, n, device):
+    """fx, fy, cx, cy as float64 tensors of shape (B,), B = 1 or n."""
+    K = torch.as_tensor(K, dtype=torch.float64, device=device)
+    if K.ndim == 1 and K.shape[0] == 4:  # (fx, fy, cx, cy)
+        return tuple(K[i].reshape(1) for i in range(4))
+    if K.ndim == 2:
+        K = K.reshape(1, 3, 3)
+    if K.ndim != 3 or K.shape[1:] != (3, 3) or K.shape[0] not in (1, n):
+        raise ValueError("K: 3 x 3 or N x 3 x 3 intrinsics, got shape %s" % (tuple(K.shape),))
+    return K[:, 0, 0], K[:, 1, 1], K[:, 0, 2], K[:, 1, 2]
+
+
+def _rays(K, n, h, w, device):
+    """Column and row ray slopes (x - cx) / fx (B, 1, 1, W) and (y - cy) / fy (B, 1, H, 1), float64."""
+    fx, fy, cx, cy = _intrinsics(K, n, device)
+    xs = torch.arange(w, dtype=torch.float64, device=device)
+    ys = torch.arange(h, dtype=torch.float64, device=device)
+    rx = ((xs[None, :] - cx[:, None]) / fx[:, None]).reshape(-1, 1, 1, w)
+    ry = ((ys[None, :] - cy[:, None]) / fy[:, None]).reshape(-1, 1, h, 1)
+    return rx, ry
+
+
+def _valid(depth):
+    return torch.isfinite(depth) & (depth > 0)
+
+
+def range_from_depth(depth, K):
+    """Range along the viewing ray r = z ||K^-1 [u v 1]|| (N x 1 x H x W metres; NaN where the
+    depth is NaN, 0 or negative), as RangeFromDepth (the norm in double)."""
+    depth = _depth4(depth)
+    n, _, h, w = depth.shape
+    rx, ry = _rays(K, n, h, w, depth.device)
+    factor = torch.sqrt(rx * rx + ry * ry + 1.0)
+    valid = _valid(depth)
+    r = (torch.where(valid, depth, torch.ones_like(depth)).double() * factor).to(depth.dtype)
+    return torch.where(valid, r, torch.full_like(r, float("nan")))
+
+
+@torch.no_grad()
+def normals_from_depth(depth, K, max_relative_jump=0.05):
+    """Unit normals N x 3 x H x W (camera frame, facing the camera; NaN where undefined) as the
+    renderer derives them for scenes without normals (scenes/normals.cc: one-sided differences
+    towards the neighbour with the smaller depth jump, jumps above max_relative_jump * z
+    rejected), computed in double. No gradient flows through them."""
+    depth = _depth4(depth)
+    dtype = depth.dtype
+    z = depth.double()
+    n, _, h, w = z.shape
+    rx, ry = _rays(K, n, h, w, z.device)
+    valid = _valid(z)
+    nan = float("nan")
+    z = torch.where(valid, z, torch.full_like(z, nan))
+    p = torch.cat([(rx * z).expand(n, 1, h, w), (ry * z).expand(n, 1, h, w), z], dim=1)
+
+    def shifted(t, dy, dx):  # t at (y + dy, x + dx), NaN outside
+        out = torch.full_like(t, nan)
+        ys = slice(max(dy, 0), h + min(dy, 0))
+        xs = slice(max(dx, 0), w + min(dx, 0))
+        yd = slice(max(-dy, 0), h + min(-dy, 0))
+        xd = slice(max(-dx, 0), w + min(-dx, 0))
+        out[..., yd, xd] = t[..., ys, xs]
+        return out
+
+    limit = max_relative_jump * z
+
+    def tangent(dy, dx):
+        z_prev, z_next = shifted(z, -dy, -dx), shifted(z, dy, dx)
+        inf = torch.full_like(z, float("inf"))
+        jump_prev = torch.where(torch.isfinite(z_prev), (z_prev - z).abs(), inf)
+        jump_next = torch.where(torch.isfinite(z_next), (z_next - z).abs(), inf)
+        use_next = (jump_next <= jump_prev) & (jump_next <= limit)
+        use_prev = ~use_next & (jump_prev <= limit)
+        t = torch.where(use_next, shifted(p, dy, dx) - p, p - shifted(p, -dy, -dx))
+        return t, use_next | use_prev
+
+    tx, ok_x = tangent(0, 1)
+    ty, ok_y = tangent(1, 0)
+    normal = torch.cross(tx, ty, dim=1)
+    length = torch.linalg.vector_norm(normal, dim=1, keepdim=True)
+    ok = valid & ok_x & ok_y & (length > 0)
+    normal = normal / length
+    flip = (normal * p).sum(dim=1, keepdim=True) > 0
+    normal = torch.where(flip, -normal, normal)
+    normal = torch.where(ok, normal, torch.full_like(normal, nan))
+    return normal.to(dtype)
+
+
+def _depth4(depth):
+    depth = torch.as_tensor(depth)
+    if depth.ndim == 2:
+        depth = depth[None, None]
+    elif depth.ndim == 3:
+        depth = depth[:, None]
+    if depth.ndim != 4 or depth.shape[1] != 1:
+        raise ValueError("depth: N x 1 x H x W (or N x H x W) metres, got shape %s"
+                         % (tuple(depth.shape),))
+    return depth
+
+
+# ---- light --------------------------------------------------------------------------------------
+
+
+def _lambertian_order(half_power_angle_deg):
+    return -_math.log(2.0) / _math.log(_math.cos(half_power_angle_deg * _math.pi / 180.0))
+
+
+def irradiance(P, depth, K, normals, beta, n, c, like):
+    """E_L (N x C x H x W) of the lights of ``P`` (:class:`Params`) at the surface points, with
+    attenuation coefficients ``beta`` (B x C x 1 x 1); 0 where the depth is invalid. None when
+    there is no light (or every power is 0 and none is a tensor)."""
+    lights = P.raw("light.lights")
+    if not lights:
+        return None
+    if all(light["power"] <= 0 and ("light", "lights", i, "power") not in P.tensors
+           for i, light in enumerate(lights)):
+        return None
+    h, w = depth.shape[-2:]
+    dtype = like.dtype
+    rx64, ry64 = _rays(K, n, h, w, like.device)
+    rx, ry = rx64.to(dtype), ry64.to(dtype)
+    valid = _valid(depth)
+    z = torch.where(valid, depth, torch.ones_like(depth)).to(dtype)
+    px, py, pz = rx * z, ry * z, z
+    # A NaN normal faces the camera along the viewing ray.
+    nn = normals.to(dtype)
+    bad = torch.isnan(nn).any(dim=1, keepdim=True)
+    if bad.any():
+        rl = 1.0 / torch.sqrt(rx * rx + ry * ry + 1.0)
+        facing = torch.cat([(-rx * rl).expand_as(z), (-ry * rl).expand_as(z),
+                            (-rl).expand_as(z)], dim=1)
+        nn = torch.where(bad, facing, nn)
+    nx, ny, nz = nn[:, 0:1], nn[:, 1:2], nn[:, 2:3]
+    eq5 = P.raw("light.incidence") == "paper_eq5"
+    min_cos = P.raw("light.min_cos_incidence")
+    min_l = P.raw("light.min_distance_m")
+    total = None
+    for i, light in enumerate(lights):
+        base = "light.lights.%d." % i
+        pos = P.get(base + "position_in_camera_m", like, n).reshape(-1, 3, 1, 1)
+        axis = P.get(base + "axis_in_camera", like, n).reshape(-1, 3, 1, 1)
+        axis = axis / torch.linalg.vector_norm(axis, dim=1, keepdim=True)
+        power = P.scalar(base + "power", like, n)
+        color = P.get(base + "color_rgb", like, n)
+        if c == 1:
+            color = color.mean(dim=1, keepdim=True)
+        color = color.reshape(-1, c, 1, 1)
+        vx, vy, vz = px - pos[:, 0:1], py - pos[:, 1:2], pz - pos[:, 2:3]
+        l_true = torch.sqrt(vx * vx + vy * vy + vz * vz)
+        apart = l_true > 1e-12
+        inv = torch.where(apart, 1.0 / torch.where(apart, l_true, torch.ones_like(l_true)),
+                          torch.zeros_like(l_true))
+        l = torch.clamp(l_true, min=min_l)
+        cphi = torch.where(apart, (axis[:, 0:1] * vx + axis[:, 1:2] * vy + axis[:, 2:3] * vz) * inv,
+                           torch.ones_like(l_true))
+        cpsi = torch.where(apart, -(nx * vx + ny * vy + nz * vz) * inv, torch.ones_like(l_true))
+        if eq5:
+            incidence = torch.where(cpsi > 0, 1.0 / torch.clamp(cpsi, min=min_cos),
+                                    torch.zeros_like(cpsi))
+        else:
+            incidence = torch.clamp(cpsi, min=0.0)
+        cphi = torch.clamp(cphi, 0.0, 1.0)
+        order = _lambertian_order(light["half_power_angle_deg"])
+        rounded = round(order)
+        if abs(order - rounded) < 1e-9 and 0 <= rounded <= 8:
+            beam = cphi ** int(rounded) if rounded != 1 else cphi
+        else:
+            beam = torch.exp(order * torch.log(torch.clamp(cphi, min=1e-30)))
+        g = power * incidence / (l * l) * beam
+        g = torch.where(valid & torch.isfinite(g), g, torch.zeros_like(g))
+        e = color * g * torch.exp(-beta * torch.where(valid, l, torch.zeros_like(l)))
+        total = e if total is None else total + e
+    return total
+
+
+# ---- PSF (paper eq. 7) --------------------------------------------------------------------------
+
+
+def _gamma_q(a, x):
+    """Regularized upper incomplete gamma Q(a, x), as psf.cc computes it (series / Lentz)."""
+    if x <= 0.0:
+        return 1.0
+    if not _math.isfinite(x):
+        return 0.0
+    if x < a + 1.0:
+        term = 1.0 / a
+        total = term
+        for k in range(1, 100000):
+            term *= x / (a + k)
+            total += term
+            if abs(term) < abs(total) * 1e-16:
+                break
+        return 1.0 - total * _math.exp(-x + a * _math.log(x) - _math.lgamma(a))
+    tiny = 1e-300
+    b = x + 1.0 - a
+    cc, d = 1.0 / tiny, 1.0 / b
+    hh = d
+    for i in range(1, 100000):
+        an = -i * (i - a)
+        b += 2.0
+        d = an * d + b
+        if abs(d) < tiny:
+            d = tiny
+        cc = b + an / cc
+        if abs(cc) < tiny:
+            cc = tiny
+        d = 1.0 / d
+        delta = d * cc
+        hh *= delta
+        if abs(delta - 1.0) < 1e-16:
+            break
+    return _math.exp(-x + a * _math.log(x) - _math.lgamma(a)) * hh
+
+
+def _psf_radius(p, sigma, tail_mass, max_radius):
+    """The truncation radius of PsfKernel (plain floats)."""
+    log_a = _math.log(sigma) + 0.5 * (_math.lgamma(1.0 / p) - _math.lgamma(3.0 / p))
+    shape = 2.0 / p
+
+    def outside(radius):
+        return _gamma_q(shape, _math.exp(p * (_math.log(radius) - log_a)))
+
+    radius = 1
+    while radius < max_radius and outside(radius) > tail_mass:
+        radius += 1
+    return radius
+
+
+def _profile(p, log_a, r2):
+    """exp(-(r/A)^p) from r^2 (float64 tensors broadcasting), as ProfileFromSquare."""
+    safe = torch.where(r2 > 0, r2, torch.ones_like(r2))
+    exponent = torch.clamp(p * (0.5 * torch.log(safe) - log_a), max=700.0)
+    return torch.where(r2 > 0, torch.exp(-torch.exp(exponent)), torch.ones_like(r2))
+
+
+def psf_kernel(P, like, n):
+    """Eq. 7's discrete kernels for the batch: a tuple (kernel, separable) where kernel is
+    B x (2R + 1) x (2R + 1) (or B x (2R + 1) 1-D factors when separable), float64, each image's
+    kernel normalised on its own square of radius R_i and zero outside; None when every image's
+    kernel is a delta (or the PSF is disabled)."""
+    if not P.raw("psf.enabled"):
+        return None
+    for key in ("depth_dependent", "turbidity_dependent"):
+        if P.raw("psf." + key):
+            raise ValueError("turbid.torch: psf.%s is not in the differentiable model yet" % key)
+    f64 = torch.empty(0, dtype=torch.float64, device=like.device)
+    T = P.get("psf.optical_thickness", f64, n)
+    q = P.get("psf.forward_scatter", f64, n)
+    ppu = P.get("psf.pixels_per_unit", f64, n)
+    b = max(T.shape[0], q.shape[0], ppu.shape[0])
+    T, q, ppu = T.expand(b), q.expand(b), ppu.expand(b)
+    p = torch.sqrt(T)
+    sigma = 0.5 / torch.sqrt(q) * ppu
+    tail, max_r = P.raw("psf.tail_mass"), P.raw("psf.max_radius_px")
+    radii = [_psf_radius(float(pi), float(si), tail, max_r)
+             for pi, si in zip(p.detach().cpu().tolist(), sigma.detach().cpu().tolist())]
+    log_a = torch.log(sigma) + 0.5 * (torch.lgamma(1.0 / p) - torch.lgamma(3.0 / p))
+    R = max(radii)
+    offsets = torch.arange(-R, R + 1, dtype=torch.float64, device=like.device)
+    r2 = offsets[:, None] ** 2 + offsets[None, :] ** 2
+    inside = torch.stack([((offsets.abs() <= ri)[:, None] & (offsets.abs() <= ri)[None, :])
+                          for ri in radii])
+    k = _profile(p[:, None, None], log_a[:, None, None], r2[None]) * inside
+    k = k / k.sum(dim=(1, 2), keepdim=True)
+    centre = k[:, R, R]
+    delta = (1.0 - centre.detach()) < P.raw("psf.delta_tolerance")
+    if bool(delta.all()):
+        return None
+    if bool(delta.any()):
+        identity = torch.zeros_like(k)
+        identity[:, R, R] = 1.0
+        k = torch.where(delta[:, None, None], identity, k)
+    separable = (bool((p.detach() == 2.0).all()) and not T.requires_grad and not q.requires_grad
+                 and not ppu.requires_grad and not bool(delta.any()))
+    if separable:  # the renderer's two 1-D passes (Gaussian)
+        k1 = _profile(p[:, None], log_a[:, None], offsets[None] ** 2) * inside[:, R, :]
+        return k1 / k1.sum(dim=1, keepdim=True), True
+    return k, False
+
+
+def _reflect101(i, size):
+    """cv::borderInterpolate(i, size, BORDER_REFLECT_101), reflecting as often as needed."""
+    if size == 1:
+        return 0
+    while i < 0 or i >= size:
+        i = -i if i < 0 else 2 * size - 2 - i
+    return i
+
+
+def apply_psf(image, kernel):
+    """image (N x C x H x W) convolved with :func:`psf_kernel`'s kernels, mirrored borders
+    (BORDER_REFLECT_101 at any kernel size)."""
+    if kernel is None:
+        return image
+    k, separable = kernel
+    n, c, h, w = image.shape
+    R = (k.shape[-1] - 1) // 2
+    rows = torch.tensor([_reflect101(i, h) for i in range(-R, h + R)], device=image.device)
+    cols = torch.tensor([_reflect101(i, w) for i in range(-R, w + R)], device=image.device)
+    k = k.to(image.dtype)
+    b = k.shape[0]
+    x = image.reshape(1, n * c, h, w) if b > 1 else image
+    groups = n * c if b > 1 else c
+    reps = c if b > 1 else c
+
+    def weights(kk):  # (B, ...) -> (groups, 1, ...)
+        kk = kk.repeat_interleave(reps, dim=0) if b > 1 else kk.expand(c, *kk.shape[1:])
+        return kk.reshape(groups, 1, *kk.shape[1:])
+
+    if b > 1 and b != n:
+        raise ValueError("psf: per-image parameters for %d images in a batch of %d" % (b, n))
+    if separable:
+        x = x.index_select(-2, rows)
+        x = torch.nn.functional.conv2d(x, weights(k)[..., :, None], groups=groups)
+        x = x.index_select(-1, cols)
+        x = torch.nn.functional.conv2d(x, weights(k)[..., None, :], groups=groups)
+    else:
+        x = x.index_select(-2, rows).index_select(-1, cols)
+        x = torch.nn.functional.conv2d(x, weights(k), groups=groups)
+    return x.reshape(n, c, h, w)
+
+
+# ---- noise and camera ---------------------------------------------------------------------------
+
+_M64 = (1 << 64) - 1
+
+
+def _mix64(z):
+    z = ((z ^ (z >> 30)) * 0xbf58476d1ce4e5b9) & _M64
+    z = ((z ^ (z >> 27)) * 0x94d049bb133111eb) & _M64
+    return z ^ (z >> 31)
+
+
+def _random_key(seed, stream):
+    return _mix64(_mix64(seed) ^ ((stream * 0x9e3779b97f4a7c15 + 1) & _M64))
+
+
+def _hash32(x):
+    x = x ^ (x >> _np.uint32(16))
+    x = x * _np.uint32(0x7feb352d)
+    x = x ^ (x >> _np.uint32(15))
+    x = x * _np.uint32(0x846ca68b)
+    return x ^ (x >> _np.uint32(16))
+
+
+def _fast_log(x):
+    """noise.cc's FastLog in float32 (the same operations)."""
+    f = _np.float32
+    bits = x.view(_np.uint32)
+    e = (bits >> _np.uint32(23)).astype(_np.int32) - 127
+    m = ((bits & _np.uint32(0x007fffff)) | _np.uint32(0x3f800000)).view(_np.float32)
+    big = (m > f(1.41421356)).astype(_np.int32)
+    m = m * (f(1.0) - f(0.5) * big.astype(_np.float32))
+    e = e + big
+    s = (m - f(1.0)) / (m + f(1.0))
+    s2 = s * s
+    series = s * (f(2.0) + s2 * (f(0.6666666667) + s2 * (f(0.4) + s2 * (
+        f(0.2857142857) + s2 * f(0.2222222222)))))
+    return series + e.astype(_np.float32) * f(0.69314718056)
+
+
+def _fast_sincos(u):
+    f = _np.float32
+    quarters = u * f(4.0)
+    q = (quarters + f(0.5)).astype(_np.int32)
+    theta = (quarters - q.astype(_np.float32)) * f(1.5707963268)
+    t2 = theta * theta
+    s = theta * (f(1.0) + t2 * (f(-1.0 / 6) + t2 * (f(1.0 / 120) + t2 * (
+        f(-1.0 / 5040) + t2 * f(1.0 / 362880)))))
+    c = f(1.0) + t2 * (f(-0.5) + t2 * (f(1.0 / 24) + t2 * (f(-1.0 / 720) + t2 * f(1.0 / 40320))))
+    swap = (q & 1).astype(_np.float32)
+    sin_sign = f(1.0) - f(2.0) * ((q >> 1) & 1).astype(_np.float32)
+    cos_sign = f(1.0) - f(2.0) * (((q + 1) >> 1) & 1).astype(_np.float32)
+    return sin_sign * (s + swap * (c - s)), cos_sign * (c + swap * (s - c))
+
+
+def standard_normals(seed, count):
+    """The renderer's standard normals of its sensor stream for ``seed``: samples 0 .. count - 1
+    (RandomNormals of noise.cc, bit for bit), float32 NumPy. Sample y * W * C + x * C + c is
+    the noise of pixel (x, y), channel c in the C++ image's order (B, G, R for colour)."""
+    key = _random_key(int(seed), 2)
+    k1, k2 = _np.uint32(key & 0xffffffff), _np.uint32(key >> 32)
+    pairs = (count + 1) // 2
+    if pairs >= 1 << 32:
+        raise ValueError("standard_normals: too many samples")
+    j = _np.arange(pairs, dtype=_np.uint32)
+    with _np.errstate(over="ignore"):
+        a = _hash32(j ^ k1)  # the high word of the pair counter is 0 below 2^32 pairs
+        b1 = _hash32(a ^ k2)
+        b2 = _hash32((a + _np.uint32(0x9e3779b9)) ^ k2)
+    f = _np.float32
+    u1 = ((b1 >> _np.uint32(8)).astype(_np.int32).astype(_np.float32) + f(1.0)) * f(1.0 / 16777216.0)
+    u2 = (b2 >> _np.uint32(8)).astype(_np.int32).astype(_np.float32) * f(1.0 / 16777216.0)
+    radius = _np.sqrt(f(-2.0) * _fast_log(u1))
+    s, c = _fast_sincos(u2)
+    out = _np.empty(2 * pairs, dtype=_np.float32)
+    out[0::2] = radius * c
+    out[1::2] = radius * s
+    return out[:count]
+
+
+def _seeds(seed, P, n):
+    if seed is None:
+        seed = P.raw("seed")
+    if isinstance(seed, _numbers.Integral):
+        return [int(seed) + i for i in range(n)]
+    seeds = [int(s) for s in (seed.tolist() if _is_tensor(seed) else seed)]
+    if len(seeds) != n:
+        raise ValueError("seed: one integer or %d (one per image), got %d" % (n, len(seeds)))
+    return seeds
+
+
+def _normals_like(image, seeds):
+    """Per image the renderer's sensor normals for its seed, laid out as the image (N x C x H x W,
+    channels R, G, B: the C++ image holds B, G, R)."""
+    n, c, h, w = image.shape
+    out = _np.empty((n, c, h, w), dtype=_np.float32)
+    for i, s in enumerate(seeds):
+        z = standard_normals(s, h * w * c).reshape(h, w, c)
+        if c == 3:
+            z = z[:, :, ::-1]
+        out[i] = z.transpose(2, 0, 1)
+    return torch.from_numpy(out).to(device=image.device, dtype=image.dtype)
+
+
+def sensor_noise(image, P, seeds, normals=None):
+    """Poisson-Gaussian noise by reparameterisation: image + z sqrt(max(image, 0) / photons +
+    read^2) with z the renderer's standard normals of each image's seed (or ``normals``), so
+    gradients flow to the image, ``sensor.photons_at_white`` and ``sensor.read_noise``."""
+    n = image.shape[0]
+    photons = P.scalar("sensor.photons_at_white", image, n)
+    read = P.scalar("sensor.read_noise", image, n)
+    z = _normals_like(image, seeds) if normals is None else normals
+    shot = torch.where(photons > 0, 1.0 / torch.where(photons > 0, photons,
+                                                       torch.ones_like(photons)),
+                       torch.zeros_like(photons))
+    variance = torch.clamp(image, min=0.0) * shot + read * read
+    # d sqrt(v) at v = 0 is infinite: keep the gradient finite where there is no noise at all.
+    safe = torch.where(variance > 0, variance, torch.ones_like(variance))
+    return image + z * torch.where(variance > 0, torch.sqrt(safe), torch.zeros_like(variance))
+
+
+def _srgb_decode(c):
+    return _np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+_TABLES = {}
+
+
+def _srgb_tables(bits, device):
+    key = (bits, str(device))
+    if key not in _TABLES:
+        levels = (1 << bits) - 1
+        k = _np.arange(levels, dtype=_np.float64)
+        threshold = _srgb_decode((k + 0.5) / levels)
+        decoded = _srgb_decode(_np.arange(levels + 1, dtype=_np.float64) / levels).astype(
+            _np.float32)
+        _TABLES[key] = (torch.from_numpy(threshold).to(device),
+                        torch.from_numpy(decoded).to(device))
+    return _TABLES[key]
+
+
+def camera(image, P):
+    """The camera (docs/model.md "Camera"): clip to [0, 1]; for bit depth 8 / 16 the value of its
+    integer code (sRGB or linear encoding), i.e. what the renderer keeps in memory. The
+    quantisation passes gradients straight through (the clip does not)."""
+    clipped = torch.clamp(torch.nan_to_num(image, nan=0.0), 0.0, 1.0)
+    bits = P.raw("camera.bit_depth")
+    if bits == 32:
+        return clipped
+    with torch.no_grad():
+        if P.raw("camera.encoding") == "srgb":
+            threshold, decoded = _srgb_tables(bits, image.device)
+            v = clipped.float().double()
+            code = torch.searchsorted(threshold, v.reshape(-1), right=True).reshape(v.shape)
+            q = decoded[code].to(image.dtype)
+        else:
+            levels = 255.0 if bits == 8 else 65535.0
+            v = clipped.float()
+            q = (torch.floor(v * levels + 0.5) / levels).to(image.dtype)
+    return clipped + (q - clipped).detach()
+
+
+# ---- the model ----------------------------------------------------------------------------------
+
+
+def _images(albedo, channel_axis):
+    albedo = torch.as_tensor(albedo)
+    if not albedo.is_floating_point():
+        raise ValueError("albedo: a float tensor (linear light), got %s" % albedo.dtype)
+    if albedo.ndim == 3:
+        albedo = albedo[None]
+    if albedo.ndim != 4:
+        raise ValueError("albedo: N x C x H x W, got shape %s" % (tuple(albedo.shape),))
+    if channel_axis in (-1, 3):
+        albedo = albedo.permute(0, 3, 1, 2)
+    elif channel_axis not in (-3, 1):
+        raise ValueError("channel_axis: -3 (N x C x H x W) or -1 (N x H x W x C)")
+    if albedo.shape[1] not in (1, 3):
+        raise ValueError("albedo: 1 or 3 channels, got %d" % albedo.shape[1])
+    return albedo
+
+
+def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_axis=-3,
+           maps=None):
+    """Degrade a batch with the forward model, differentiably (docs/model.md; the C++ renderer's
+    equations).
+
+    ``albedo`` N x C x H x W (C = 3, R, G, B, or 1; ``channel_axis=-1``: N x H x W x C), linear;
+    ``depth`` N x 1 x H x W (or N x H x W) z-depth in metres, NaN (or <= 0) = no surface; ``K``
+    N x 3 x 3 or 3 x 3 (for all); ``params`` the dict of :func:`turbid.render`, whose numbers may
+    be tensors (``requires_grad`` for gradients; a leading N gives each image its own value).
+    ``seed``: the sensor noise's seed (default ``params["seed"]``); an integer s gives image i
+    the seed s + i (so image i of a batch equals ``turbid.render(..., seed=s + i)``), a sequence
+    gives one per image. ``normals``: N x 3 x H x W camera-frame unit normals (the scene's own);
+    None derives them from depth as the renderer does for scenes without normals.
+
+    Returns I, N x C x H x W (the layout of ``albedo``), linear light. The camera (clip and the
+    quantiser of ``camera.bit_depth`` / ``camera.encoding``, straight-through gradients) is applied
+    only when ``params`` has a ``"camera"`` section; otherwise I is returned unclipped. Snow is not
+    in the differentiable model yet (``snow.enabled`` true raises unless ``density_per_m3`` is 0
+    or ``"snow": {"enabled": False}``). ``maps``: a list of "transmission", "light", "veil", "lit"
+    returns (I, {name: tensor}) as well.
+    """
+    rho = _images(albedo, channel_axis)
+    P = resolve(params)
+    n, c, h, w = rho.shape
+    depth = _depth4(depth).to(device=rho.device)
+    if depth.shape[0] not in (1, n) or depth.shape[-2:] != (h, w):
+        raise ValueError("depth: shape %s for albedo %s" % (tuple(depth.shape), tuple(rho.shape)))
+    depth = depth.expand(n, 1, h, w)
+    model = P.raw("model")
+    if model not in ("paper", "revised"):
+        raise ValueError("turbid.torch: model %r is not in the differentiable model (paper, "
+                         "revised)" % model)
+    if P.raw("veil") != "paper":
+        raise ValueError("turbid.torch: veil %r is not in the differentiable model (paper)"
+                         % P.raw("veil"))
+    if model == "revised" and P.raw("water.iop") and P.raw("revised.from_iop"):
+        raise ValueError("turbid.torch: revised with water.iop (tabulated beta^D(r)) is not in the "
+                         "differentiable model; set revised.from_iop false")
+    snow = P.raw("snow")
+    if snow["enabled"] and (snow["density_per_m3"] > 0 or ("snow", "density_per_m3") in P.tensors):
+        raise ValueError("turbid.torch: marine snow is not in the differentiable model yet: "
+                         "pass \"snow\": {\"enabled\": false}")
+    valid = _valid(depth)
+    r = range_from_depth(depth, K).to(rho.dtype)
+    r0 = torch.where(valid, r, torch.zeros_like(r))
+    beta = P.channels("water", "beta_rgb_per_m", "beta_gray_per_m", rho, n, c)
+    ambient = P.channels("water", "ambient_rgb", "ambient_gray", rho, n, c)
+    if normals is None:
+        if P.raw("light.lights"):
+            normals = normals_from_depth(depth, K)
+    else:
+        normals = torch.as_tensor(normals, device=rho.device)
+        if normals.ndim == 3:
+            normals = normals[None]
+        if channel_axis in (-1, 3):
+            normals = normals.permute(0, 3, 1, 2)
+        normals = normals.expand(n, 3, h, w)
+    e = irradiance(P, depth, K, normals, beta, n, c, rho)
+    lit = (ambient + e) * rho if e is not None else ambient * rho
+    jb = apply_psf(lit, psf_kernel(P, rho, n))
+    if model == "revised":
+        if P.raw("revised.range_dependent"):
+            co = [P.channels("revised", k + "_rgb", k + "_gray", rho, n, c) for k in "abcd"]
+            beta_d = co[0] * torch.exp(co[1] * r0) + co[2] * torch.exp(co[3] * r0)
+        else:
+            beta_d = beta
+        beta_b = P.channels("revised", "beta_b_rgb_per_m", "beta_b_gray_per_m", rho, n, c)
+        t = torch.exp(-beta_d * r0) * valid
+        t_b = torch.exp(-beta_b * r0) * valid
+        bs = P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
+    else:
+        t = t_b = torch.exp(-beta * r0) * valid
+        bs = (P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
+              if P.raw("water.backscatter") else None)
+    veil_light = e if bs is None else (bs if e is None else e + bs)
+    veil = (1.0 - t_b) * veil_light if veil_light is not None else None
+    image = jb * t + veil if veil is not None else jb * t
+    sensor = P.raw("sensor")
+    if sensor["enabled"] and (sensor["photons_at_white"] > 0 or sensor["read_noise"] > 0 or any(
+            k[0] == "sensor" for k in P.tensors)):
+        image = sensor_noise(image, P, _seeds(seed, P, n))
+    if "camera" in P.given:
+        image = camera(image, P)
+    if channel_axis in (-1, 3):
+        image = image.permute(0, 2, 3, 1)
+    if maps is None:
+        return image
+    out = {}
+    for name in maps:
+        if name == "transmission":
+            value = t.expand(n, c, h, w)
+        elif name == "light":
+            value = e if e is not None else torch.zeros_like(rho)
+        elif name == "veil":
+            value = veil if veil is not None else torch.zeros_like(rho)
+        elif name == "lit":
+            value = lit
+        else:
+            raise ValueError("maps: unknown map %r (transmission, light, veil, lit)" % name)
+        out[name] = value.permute(0, 2, 3, 1) if channel_axis in (-1, 3) else value
+    return image, out
