@@ -101,7 +101,7 @@ def test_camera_encoding_equals_cpp(camera):
         enc = (lambda v: turbid.srgb_encode(v.numpy())) if camera["encoding"] == "srgb" \
             else (lambda v: v.numpy())
         steps = np.abs(enc(out[differ]) - enc(ref[differ])) * levels
-        assert steps.max() <= 1.0 + 1e-3
+        assert steps.max() <= 1.01  # one code (float32 encoding error at 16 bits: 0.004)
     assert len(torch.unique(out)) <= levels + 1
 
 
