@@ -138,8 +138,11 @@ def resolve(params):
 def _intrinsics(K, n, device):
     """fx, fy, cx, cy as float64 tensors of shape (B,), B = 1 or n."""
     K = torch.as_tensor(K, dtype=torch.float64, device=device)
-    if K.ndim == 1 and K.shape[0] == 4:  # (fx, fy, cx, cy)
-        return tuple(K[i].reshape(1) for i in range(4))
+    if K.shape[-1] == 4 and K.ndim in (1, 2):  # (fx, fy, cx, cy), or N of them
+        K = K.reshape(-1, 4)
+        if K.shape[0] not in (1, n):
+            raise ValueError("K: %d intrinsics for a batch of %d" % (K.shape[0], n))
+        return tuple(K[:, i] for i in range(4))
     if K.ndim == 2:
         K = K.reshape(1, 3, 3)
     if K.ndim != 3 or K.shape[1:] != (3, 3) or K.shape[0] not in (1, n):
@@ -721,7 +724,7 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
 
     ``albedo`` N x C x H x W (C = 3, R, G, B, or 1; ``channel_axis=-1``: N x H x W x C), linear;
     ``depth`` N x 1 x H x W (or N x H x W) z-depth in metres, NaN (or <= 0) = no surface; ``K``
-    N x 3 x 3 or 3 x 3 (for all); ``params`` the dict of :func:`turbid.render`, whose numbers may
+    N x 3 x 3 or 3 x 3 (for all), or (fx, fy, cx, cy) (N x 4 or 4, as turbid.data's samples); ``params`` the dict of :func:`turbid.render`, whose numbers may
     be tensors (``requires_grad`` for gradients; a leading N gives each image its own value).
     ``seed``: the sensor noise's seed (default ``params["seed"]``); an integer s gives image i
     the seed s + i (so image i of a batch equals ``turbid.render(..., seed=s + i)``), a sequence
