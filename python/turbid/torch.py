@@ -697,6 +697,135 @@ def camera(image, P):
     return clipped + (q - clipped).detach()
 
 
+# ---- marine snow --------------------------------------------------------------------------------
+
+
+def _uniforms(key, index):
+    """RandomUniform(key, index) of noise.cc for a uint64 array of indices (float64)."""
+    with _np.errstate(over="ignore"):
+        z = _np.uint64(key) + (index + _np.uint64(1)) * _np.uint64(0x9e3779b97f4a7c15)
+        z = (z ^ (z >> _np.uint64(30))) * _np.uint64(0xbf58476d1ce4e5b9)
+        z = (z ^ (z >> _np.uint64(27))) * _np.uint64(0x94d049bb133111eb)
+        z = z ^ (z >> _np.uint64(31))
+    return ((z >> _np.uint64(11)).astype(_np.float64) + 0.5) * (1.0 / 9007199254740992.0)
+
+
+def _lround(x):
+    """std::lround: halves away from zero."""
+    return _np.where(x >= 0, _np.floor(x + 0.5), -_np.floor(-x + 0.5)).astype(_np.int64)
+
+
+def snow_particles(snow, fx, fy, cx, cy, h, w, range_m, seed):
+    """The renderer's draw of marine-snow particles for one image (DrawMarineSnow of noise.cc):
+    dict of NumPy arrays for the particles in front of the scene (u, v, range, point x y z,
+    peak_scale, sigma2, reach) and the count drawn. range_m: H x W NumPy (NaN: open water)."""
+    near3, far3 = snow["near_m"] ** 3, snow["far_m"] ** 3
+    expected = snow["density_per_m3"] * (w / abs(fx)) * (h / abs(fy)) * (far3 - near3) / 3.0
+    if not expected <= 1e6:
+        raise ValueError("snow: density_per_m3 x frustum volume gives %g particles (at most 1e6)"
+                         % expected)
+    count = int(_math.floor(expected + 0.5))
+    key = _random_key(int(seed), 1)
+    base = _np.arange(count, dtype=_np.uint64) * _np.uint64(8)
+    draw = [_uniforms(key, base + _np.uint64(k)) for k in range(5)]
+    u = draw[0] * w - 0.5
+    v = draw[1] * h - 0.5
+    z = _np.cbrt(near3 + draw[2] * (far3 - near3))
+    lo, hi = _math.log(snow["size_min_m"]), _math.log(snow["size_max_m"])
+    diameter = _np.exp(lo + draw[3] * (hi - lo))
+    albedo = snow["albedo_min"] + draw[4] * (snow["albedo_max"] - snow["albedo_min"])
+    x3 = (u - cx) / fx * z
+    y3 = (v - cy) / fy * z
+    rng = _np.sqrt(x3 * x3 + y3 * y3 + z * z)
+    px = _np.clip(_lround(u), 0, w - 1)
+    py = _np.clip(_lround(v), 0, h - 1)
+    surface = range_m[py, px].astype(_np.float64)
+    keep = _np.isnan(surface) | (surface > rng)
+    radius = 0.5 * diameter * _math.sqrt(abs(fx * fy)) / z
+    sigma2 = 0.5 * radius * radius + snow["blur_px"] ** 2
+    reach = _np.minimum(_np.ceil(3.0 * _np.sqrt(sigma2)), 200).astype(_np.int64)
+    out = {"u": u, "v": v, "range": rng, "x": x3, "y": y3, "z": z, "albedo": albedo,
+           "peak_scale": radius * radius / (2.0 * sigma2), "sigma2": sigma2, "reach": reach}
+    return {k: a[keep] for k, a in out.items()}, count
+
+
+def _light_at_points(P, points, beta, like, i, n, c):
+    """E_L at particle points (M x 3, facing every light: cos psi = 1) per channel, M x C,
+    IrradianceAtPoint of light.cc; differentiable in the lights' and water's tensors."""
+    total = torch.zeros(points.shape[0], c, dtype=like.dtype, device=like.device)
+    lights = P.raw("light.lights")
+    min_l = P.raw("light.min_distance_m")
+    for k, light in enumerate(lights):
+        base = "light.lights.%d." % k
+        pick = lambda t: t[i] if t.shape[0] > 1 else t[0]  # noqa: E731
+        pos = pick(P.get(base + "position_in_camera_m", like, n))
+        axis = pick(P.get(base + "axis_in_camera", like, n))
+        axis = axis / torch.linalg.vector_norm(axis)
+        power = pick(P.get(base + "power", like, n))
+        color = pick(P.get(base + "color_rgb", like, n))
+        color = color.mean().reshape(1) if c == 1 else color
+        vec = points - pos
+        l_true = torch.linalg.vector_norm(vec, dim=1)
+        apart = l_true > 1e-12
+        cphi = torch.where(apart, torch.clamp((vec @ axis) / torch.where(
+            apart, l_true, torch.ones_like(l_true)), 0.0, 1.0), torch.ones_like(l_true))
+        order = _lambertian_order(light["half_power_angle_deg"])
+        l = torch.clamp(l_true, min=min_l)
+        g = power * torch.pow(cphi, order) / (l * l)
+        total = total + color[None, :] * g[:, None] * torch.exp(-beta[None, :] * l[:, None])
+    return total
+
+
+def snow_layer(P, K, r, beta, ambient, like, seeds):
+    """The marine-snow layer (N x C x H x W) added before the sensor noise: the renderer's
+    particles for each image's seed (same positions, sizes, albedos and visibility), each a
+    flux-preserving Gaussian of peak albedo (E_A + E_L) exp(-beta r) R^2 / (2 sigma^2).
+    Differentiable in the peaks (water, lights); the draw itself is fixed by the seed."""
+    n, c, h, w = like.shape
+    snow = P.raw("snow")
+    fxs, fys, cxs, cys = (t.expand(n).tolist() for t in _intrinsics(K, n, like.device))
+    range_np = r.detach().double().cpu().numpy()
+    layers = []
+    lights_on = P.raw("model") in ("paper", "revised") and bool(P.raw("light.lights"))
+    for i in range(n):
+        part, _ = snow_particles(snow, fxs[i], fys[i], cxs[i], cys[i], h, w, range_np[i, 0],
+                                 seeds[i])
+        layer = torch.zeros(c, h * w, dtype=like.dtype, device=like.device)
+        m = part["u"].shape[0]
+        if m == 0:
+            layers.append(layer.reshape(c, h, w))
+            continue
+        b_i = beta[i if beta.shape[0] > 1 else 0].reshape(c)
+        a_i = ambient[i if ambient.shape[0] > 1 else 0].reshape(c)
+        dev = like.device
+        points = torch.tensor(_np.stack([part["x"], part["y"], part["z"]], 1), dtype=like.dtype,
+                              device=dev)
+        lit = _light_at_points(P, points, b_i, like, i, n, c) if lights_on else 0.0
+        rng = torch.tensor(part["range"], dtype=like.dtype, device=dev)
+        albedo = torch.tensor(part["albedo"] * part["peak_scale"], dtype=like.dtype, device=dev)
+        peak = albedo[:, None] * (a_i[None, :] + lit) * torch.exp(-b_i[None, :] * rng[:, None])
+        # Footprints: the square of half-width reach around floor(u) .. ceil(u), clipped.
+        size = int(2 * part["reach"].max() + 2)
+        offs = _np.arange(size)
+        u, v, reach = part["u"], part["v"], part["reach"]
+        xs = (_np.floor(u) - reach)[:, None] + offs[None, :]
+        ys = (_np.floor(v) - reach)[:, None] + offs[None, :]
+        okx = (xs >= 0) & (xs <= w - 1) & (xs <= _np.ceil(u)[:, None] + reach[:, None])
+        oky = (ys >= 0) & (ys <= h - 1) & (ys <= _np.ceil(v)[:, None] + reach[:, None])
+        inv = -0.5 / part["sigma2"]
+        gx = _np.exp((xs - u[:, None]) ** 2 * inv[:, None]).astype(_np.float32)
+        gy = _np.exp((ys - v[:, None]) ** 2 * inv[:, None]).astype(_np.float32)
+        weight = (gy[:, :, None] * gx[:, None, :]) * (oky[:, :, None] & okx[:, None, :])
+        index = ys[:, :, None] * w + xs[:, None, :]
+        keep = (oky[:, :, None] & okx[:, None, :]).reshape(-1)
+        index = torch.from_numpy(index.reshape(-1)[keep].astype(_np.int64)).to(dev)
+        weight = torch.from_numpy(weight.reshape(m, -1)).to(device=dev, dtype=like.dtype)
+        source = (peak.t()[:, :, None] * weight[None]).reshape(c, -1)[:, torch.from_numpy(
+            keep).to(dev)]
+        layers.append(layer.index_add(1, index, source).reshape(c, h, w))
+    return torch.stack(layers)
+
+
 # ---- the model ----------------------------------------------------------------------------------
 
 
@@ -735,9 +864,9 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
 
     Returns I, N x C x H x W (the layout of ``albedo``), linear light. The camera (clip and the
     quantiser of ``camera.bit_depth`` / ``camera.encoding``, straight-through gradients) is applied
-    only when ``params`` has a ``"camera"`` section; otherwise I is returned unclipped. Snow is not
-    in the differentiable model yet (``snow.enabled`` true raises unless ``density_per_m3`` is 0
-    or ``"snow": {"enabled": False}``). ``maps``: a list of "transmission", "light", "veil", "lit"
+    only when ``params`` has a ``"camera"`` section; otherwise I is returned unclipped. Marine
+    snow is the renderer's particles for each image's seed, added as a differentiable overlay
+    (the draw itself is fixed). ``maps``: a list of "transmission", "light", "veil", "lit"
     returns (I, {name: tensor}) as well.
     """
     rho = _images(albedo, channel_axis)
@@ -758,9 +887,9 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
         raise ValueError("turbid.torch: revised with water.iop (tabulated beta^D(r)) is not in the "
                          "differentiable model; set revised.from_iop false")
     snow = P.raw("snow")
-    if snow["enabled"] and (snow["density_per_m3"] > 0 or ("snow", "density_per_m3") in P.tensors):
-        raise ValueError("turbid.torch: marine snow is not in the differentiable model yet: "
-                         "pass \"snow\": {\"enabled\": false}")
+    if any(k[0] == "snow" for k in P.tensors):
+        raise ValueError("turbid.torch: snow parameters are fixed numbers (the draw is not "
+                         "differentiable)")
     valid = _valid(depth)
     r = range_from_depth(depth, K).to(rho.dtype)
     if bool(valid.all()):
@@ -805,6 +934,8 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
     else:
         veil = (1.0 - t_b) * veil_light
         image = torch.addcmul(veil, jb, t)
+    if snow["enabled"] and snow["density_per_m3"] > 0:
+        image = image + snow_layer(P, K, r, beta, ambient, rho, _seeds(seed, P, n))
     sensor = P.raw("sensor")
     if sensor["enabled"] and (sensor["photons_at_white"] > 0 or sensor["read_noise"] > 0 or any(
             k[0] == "sensor" for k in P.tensors)):
