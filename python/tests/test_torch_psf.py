@@ -104,3 +104,63 @@ def test_gradcheck_psf_parameters():
         assert torch.autograd.gradcheck(f, (T, q), eps=1e-6, atol=1e-6)
         g = torch.autograd.grad(f(T, q).pow(2).sum(), (T, q))  # not vacuous: non-zero
         assert all(float(x.abs()) > 1e-6 for x in g), g
+
+
+TURBIDITY = merged(ON, {"psf": {"turbidity_dependent": True}})
+
+
+@pytest.mark.parametrize("scene_name", ["hull", "seafloor", "room"])
+@pytest.mark.parametrize("water", [{}, {"water": {"type": "9C"}, "psf": {"forward_scatter": 0.3}},
+                                   {"model": "revised", "revised": {
+                                       "range_dependent": True, "a_rgb": [1.5, 1.0, 0.5],
+                                       "b_rgb": [-0.2, -0.1, -0.1]}}])
+def test_turbidity_dependent_psf_equals_cpp(scene_name, water):
+    """Levels evenly spaced in sqrt(T) (the interpolated case), paper and Sea-thru thickness."""
+    scene = turbid.Scene.builtin(scene_name, 0.15)
+    params = merged(TURBIDITY, water)
+    ref = turbid.render(scene, params)
+    assert ref.sidecar["derived"]["psf"]["turbidity"]["exact"] is False
+    rho, depth, K, normals = tensors(scene)
+    out = tt.render(rho, depth, K, params, normals=normals)
+    assert float((out - chw(ref.image)).abs().max()) <= TOL
+    flat = turbid.render(scene, merged(params, {"psf": {"enabled": False}})).image
+    assert np.abs(ref.image - flat).max() > 5e-3
+
+
+def test_turbidity_dependent_psf_exact_levels_and_open_water():
+    """Few distinct T (exact levels) and NaN depth (open water takes the largest T)."""
+    rng = np.random.default_rng(8)
+    image = rng.uniform(0.1, 0.9, (5, 6)).astype(np.float32)
+    depth = np.full((5, 6), 2.0, np.float32)
+    depth[0, :2] = np.nan
+    scene = turbid.Scene.from_arrays(image, depth, 6.0, 6.0, 2.5, 2.0)
+    K = torch.tensor([[6.0, 0, 2.5], [0, 6.0, 2.0], [0, 0, 1]])
+    for water in ({}, {"water": {"type": "9C", "backscatter": True}}):
+        params = merged(TURBIDITY, water)
+        ref = turbid.render(scene, params)
+        assert ref.sidecar["derived"]["psf"]["turbidity"]["exact"] is True
+        out = tt.render(chw(image), torch.from_numpy(depth)[None, None], K, params)
+        assert float((out - chw(ref.image)).abs().max()) <= TOL
+
+
+@pytest.mark.parametrize("shape", [(4, 5), (7, 8)])  # exact levels, interpolated levels
+def test_gradcheck_turbidity_dependent_psf(shape):
+    """d/dbeta through e^{-T}, the levels' kernels and the interpolation weight; d/dq through
+    the kernels' width (float64)."""
+    h, w = shape
+    rng = np.random.default_rng(5)
+    rho = torch.from_numpy(rng.uniform(0.1, 0.9, (1, 1, h, w)))
+    y, x = np.mgrid[0:h, 0:w]
+    depth = torch.from_numpy(1.0 + 0.3 * x + 0.2 * y)[None, None]
+    K = torch.tensor([[6.0, 0, 2.0], [0, 6.0, 1.5], [0, 0, 1]], dtype=torch.float64)
+
+    def f(beta, q):
+        params = {"snow": {"enabled": False}, "sensor": {"enabled": False},
+                  "light": {"lights": []}, "water": {"beta_gray_per_m": beta},
+                  "psf": {"turbidity_dependent": True, "forward_scatter": q,
+                          "thickness_levels": 32 if h == 4 else 6}}
+        return tt.render(rho, depth, K, params)
+
+    args = (torch.tensor(0.8, dtype=torch.float64, requires_grad=True),
+            torch.tensor(0.3, dtype=torch.float64, requires_grad=True))
+    assert torch.autograd.gradcheck(f, args, eps=1e-6, atol=1e-6)

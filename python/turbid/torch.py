@@ -393,9 +393,8 @@ def psf_kernel(P, like, n):
     kernel is a delta (or the PSF is disabled)."""
     if not P.raw("psf.enabled"):
         return None
-    for key in ("depth_dependent", "turbidity_dependent"):
-        if P.raw("psf." + key):
-            raise ValueError("turbid.torch: psf.%s is not in the differentiable model yet" % key)
+    if P.raw("psf.depth_dependent"):
+        raise ValueError("turbid.torch: psf.depth_dependent is not in the differentiable model yet")
     f64 = torch.empty(0, dtype=torch.float64, device=like.device)
     T = P.get("psf.optical_thickness", f64, n)
     q = P.get("psf.forward_scatter", f64, n)
@@ -429,6 +428,95 @@ def psf_kernel(P, like, n):
         k1 = _profile(p[:, None], log_a[:, None], offsets[None] ** 2) * inside[:, R, :]
         return k1 / k1.sum(dim=1, keepdim=True), True
     return k, False
+
+
+def _glow_kernel(P, thickness, sigma):
+    """g_T of the turbidity-dependent PSF (GlowKernel of psf.cc): eq. 7 at p = sqrt(T), its tail
+    judged by the share 1 - e^{-T} it carries, cut to its disc and renormalised; None for the
+    identity. thickness, sigma: 0-d float64 tensors; the kernel is differentiable in both (the
+    radius is not)."""
+    p = torch.sqrt(thickness)
+    scattered = -float(torch.expm1(-thickness))
+    tail = min(0.1, P.raw("psf.tail_mass") / scattered)
+    R = _psf_radius(float(p), float(sigma), tail, P.raw("psf.max_radius_px"))
+    log_a = torch.log(sigma) + 0.5 * (torch.lgamma(1.0 / p) - torch.lgamma(3.0 / p))
+    o = torch.arange(-R, R + 1, dtype=torch.float64, device=sigma.device)
+    r2 = o[:, None] ** 2 + o[None, :] ** 2
+    k = _profile(p, log_a, r2)
+    k = k / k.sum()
+    tolerance = P.raw("psf.delta_tolerance")
+    if 1.0 - float(k[R, R]) < tolerance:
+        return None
+    k = k * (r2 <= R * R)
+    k = k / k.sum()
+    if scattered * (1.0 - float(k[R, R])) < tolerance:
+        return None
+    return k
+
+
+def _thickness_levels(t, max_levels, default):
+    """The levels of PlanTurbidityPsf for one image's thickness values t (any shape, NaN
+    skipped), as float64 tensors differentiable in t: (levels, exact, p_lo, p_scale)."""
+    lo_t, hi_t = 1e-4, 100.0
+    flat = t.reshape(-1)
+    flat = flat[~torch.isnan(flat)]
+    if flat.numel() == 0:
+        flat = torch.tensor([min(max(default, lo_t), hi_t)], dtype=t.dtype, device=t.device)
+    clamped = torch.clamp(flat, lo_t, hi_t)
+    values, first = _np.unique(clamped.detach().cpu().numpy(), return_index=True)
+    if values.size <= max_levels:  # exact: each level is the T of the pixels that have it
+        first = torch.from_numpy(first).to(t.device)
+        return clamped[first].double(), True, None, None
+    lo, hi = clamped.min().double(), clamped.max().double()
+    p_lo, p_hi = torch.sqrt(lo), torch.sqrt(hi)
+    k = torch.arange(max_levels, dtype=torch.float64, device=t.device)
+    levels = (p_lo + (p_hi - p_lo) * k / (max_levels - 1)) ** 2
+    levels = torch.cat([lo.reshape(1), levels[1:-1], hi.reshape(1)])
+    # In the image's precision (float: as the renderer's float p_lo and p_scale).
+    p_lo_t, p_hi_t = torch.sqrt(lo.to(t.dtype)), torch.sqrt(hi.to(t.dtype))
+    return levels, False, p_lo_t, (max_levels - 1) / (p_hi_t - p_lo_t)
+
+
+def turbidity_psf(lit, thickness, P):
+    """J blurred per pixel and channel with h_T = e^{-T} delta + (1 - e^{-T}) g_T at the pixel's
+    own optical thickness T (N x C x H x W, NaN: open water), by levels as PlanTurbidityPsf /
+    ApplyTurbidityPsf do (exact when T takes at most psf.thickness_levels values, else g
+    interpolated linearly in sqrt(T) between levels evenly spaced in sqrt(T)). Differentiable in
+    J, in T (e^{-T}, the interpolation weight and the levels' kernels) and in q (their width)."""
+    n, c, h, w = lit.shape
+    f64 = torch.empty(0, dtype=torch.float64, device=lit.device)
+    q = P.get("psf.forward_scatter", f64, n)
+    ppu = P.get("psf.pixels_per_unit", f64, n)
+    sigma = 0.5 / torch.sqrt(q) * ppu
+    out = []
+    for i in range(n):
+        t_i = thickness[i]
+        levels, exact, p_lo, p_scale = _thickness_levels(t_i, P.raw("psf.thickness_levels"),
+                                                         P.raw("psf.optical_thickness"))
+        s_i = sigma[i if sigma.shape[0] > 1 else 0]
+        j_i = lit[i:i + 1]
+        blurred = []
+        for level in levels:
+            g = _glow_kernel(P, level, s_i)
+            blurred.append(j_i[0] if g is None else apply_psf(j_i, (g[None], False))[0])
+        blurred = torch.stack(blurred)  # L x C x H x W
+        top = levels.numel() - 1
+        last = levels[-1].to(t_i.dtype)
+        v = torch.where(torch.isnan(t_i), last.expand_as(t_i), torch.clamp(t_i, 1e-4, 100.0))
+        direct = torch.exp(-v)
+        if exact:
+            table = levels.detach().float()
+            lower = (v.detach().float()[None] >= table[1:, None, None, None]).sum(0)
+            weight = torch.zeros_like(v)
+        else:
+            f = torch.clamp((torch.sqrt(v) - p_lo.to(v.dtype)) * p_scale.to(v.dtype), 0.0,
+                            float(top))
+            lower = torch.clamp(f.detach().long(), max=max(top - 1, 0))
+            weight = f - lower.to(f.dtype)
+        a = torch.gather(blurred, 0, lower[None])[0]
+        b = torch.gather(blurred, 0, torch.clamp(lower + 1, max=top)[None])[0]
+        out.append(direct * lit[i] + (1.0 - direct) * ((1.0 - weight) * a + weight * b))
+    return torch.stack(out)
 
 
 def _reflect101(i, size):
@@ -911,13 +999,20 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
         normals = normals.expand(n, 3, h, w)
     e = irradiance(P, depth, K, normals, beta, n, c, rho)
     lit = (ambient + e) * rho if e is not None else ambient * rho
-    jb = apply_psf(lit, psf_kernel(P, rho, n))
     if model == "revised":
         if P.raw("revised.range_dependent"):
             co = [P.channels("revised", k + "_rgb", k + "_gray", rho, n, c) for k in "abcd"]
             beta_d = co[0] * torch.exp(co[1] * r0) + co[2] * torch.exp(co[3] * r0)
         else:
             beta_d = beta
+    if P.raw("psf.enabled") and P.raw("psf.turbidity_dependent"):
+        thickness = (beta_d if model == "revised" else beta) * r0
+        if not bool(valid.all()):  # NaN: open water (a where: no NaN in the gradients)
+            thickness = torch.where(valid, thickness, torch.full_like(thickness, float("nan")))
+        jb = turbidity_psf(lit, thickness.expand(n, c, h, w), P)
+    else:
+        jb = apply_psf(lit, psf_kernel(P, rho, n))
+    if model == "revised":
         beta_b = P.channels("revised", "beta_b_rgb_per_m", "beta_b_gray_per_m", rho, n, c)
         t = keep(torch.exp(-beta_d * r0))
         t_b = keep(torch.exp(-beta_b * r0))
