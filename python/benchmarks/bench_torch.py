@@ -115,7 +115,41 @@ def main():
         fw[0], fw[1], pixels / fw[0] / 1e6))
     print("turbid.render (C++):      %.3f s wall (CPU %.3f s), %.1f Mpx/s" % (
         cp[0], cp[1], pixels / cp[0] / 1e6))
-    print("forward throughput torch / C++: %.2f" % (cp[0] / fw[0]))
+    print("forward throughput torch / C++: %.2f (wall), %.2f (CPU)" % (cp[0] / fw[0],
+                                                                     cp[1] / fw[1]))
+    stages(rho, leaves, params, args)
+
+
+def stages(rho, leaves, params, args):
+    """Where the time goes, and what a fused kernel would gain: the PSF (2R + 1 taps per pass,
+    two passes) against a single elementwise pass over the same tensor (one read, one write:
+    the floor a fused blur approaches), forward and forward + backward; the noise's normals."""
+    P = tt.resolve(params(leaves))
+    kernel = tt.psf_kernel(P, rho, rho.shape[0])
+    lit = rho.clone().requires_grad_()
+    scale = torch.tensor(1.01, requires_grad=True)
+
+    def psf_fb():
+        lit.grad = None
+        tt.apply_psf(lit, kernel).sum().backward()
+
+    def pass_fb():
+        lit.grad = None
+        (lit * scale).sum().backward()
+
+    psf_f = timed(lambda: tt.apply_psf(lit.detach(), kernel), args.rounds)
+    one_f = timed(lambda: lit.detach() * 1.01, args.rounds)
+    print("PSF (R = %d, separable): forward %.3f s wall (CPU %.3f), forward + backward %.3f s "
+          "(CPU %.3f)" % ((kernel[0].shape[-1] - 1) // 2, psf_f[0], psf_f[1], *timed(psf_fb, args.rounds)))
+    one_fb = timed(pass_fb, args.rounds)
+    print("one elementwise pass:    forward %.3f s wall (CPU %.3f), forward + backward %.3f s "
+          "(CPU %.3f): a fused PSF kernel would approach this" % (*one_f, *one_fb))
+    n, c, h, w = rho.shape
+    z = timed(lambda: tt.standard_normals(1, n * c * h * w), 1)
+    g = torch.Generator().manual_seed(0)
+    r = timed(lambda: torch.randn(n, c, h, w, generator=g), args.rounds)
+    print("noise normals: renderer's stream (NumPy) %.3f s wall (CPU %.3f), torch.randn %.3f s "
+          "(CPU %.3f)" % (*z, *r))
 
 
 if __name__ == "__main__":

@@ -5,6 +5,7 @@ ICL-NUIM frame ($TURBID_DATA); batches with per-image parameters; gradients (gra
 Noise, snow and the PSF are off here (test_torch_psf.py, test_torch_noise.py); the camera is
 bit depth 32 (clip only) on both sides. Tolerance: 1e-5 absolute in float32 (issue 35)."""
 
+import importlib
 import json
 import os
 import subprocess
@@ -15,8 +16,22 @@ import pytest
 
 import turbid
 
-torch = pytest.importorskip("torch")
-import turbid.torch as tt  # noqa: E402
+# torch is imported by the fixture, not at collection: test_data.py checks that nothing the
+# package does imports torch, and pytest collects every file before running any test.
+torch = tt = None
+
+
+def load():
+    """Import torch and turbid.torch (skip without torch) into this module's globals."""
+    global torch, tt
+    torch = pytest.importorskip("torch")
+    tt = importlib.import_module("turbid.torch")
+    return torch, tt
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _torch():
+    load()
 
 TOL = 1e-5
 OFF = {"psf": {"enabled": False}, "snow": {"enabled": False}, "sensor": {"enabled": False},

@@ -7,8 +7,15 @@ import pytest
 
 import turbid
 
-torch = pytest.importorskip("torch")
-import turbid.torch as tt  # noqa: E402
+import test_torch_model as base  # noqa: E402
+
+torch = tt = None  # imported by the fixture (not at collection; see test_torch_model.py)
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _torch():
+    global torch, tt
+    torch, tt = base.load()
 
 from test_torch_model import OFF, TOL, array_scene, chw, merged, tensors  # noqa: E402
 
