@@ -2,8 +2,9 @@
 built-in scenes, an array scene with missing depth (normals derived from depth) and a real
 ICL-NUIM frame ($TURBID_DATA); batches with per-image parameters; gradients (gradcheck, float64).
 
-Noise, snow and the PSF are off here (test_torch_psf.py, test_torch_noise.py); the camera is
-bit depth 32 (clip only) on both sides. Tolerance: 1e-5 absolute in float32 (issue 35)."""
+Noise, snow and the PSF are off here (test_torch_psf.py, test_torch_noise.py, test_torch_snow.py);
+the camera is bit depth 32 (clip only) on both sides. Tolerance: 1e-5 absolute in float32
+(issue 35)."""
 
 import importlib
 import json
