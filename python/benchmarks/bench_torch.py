@@ -1,0 +1,156 @@
+"""Speed of turbid.torch (issue 35): a batch forward + backward through the full differentiable
+model, and forward-only throughput against turbid.render (C++) in the same run.
+
+Run: PYTHONPATH=build/python python3 python/benchmarks/bench_torch.py [--batch 64] [--size 256]
+     [--threads 2] [--rounds 3]
+
+The batch: seafloor (built-in) cut to size x size, per-image water (beta, B_inf, E_A), lamp power
+and position with requires_grad, the paper model with its lamp and veil, eq. 7's PSF (T = 4: the
+separable Gaussian; --learn-psf makes T and q tensors, which takes the 2-D kernel), sensor noise
+(the renderer's normals) and no camera quantiser (a training loss reads linear light). Snow off on
+both sides. Times are wall clock (median of the rounds) with torch and turbid limited to --threads;
+CPU time of the process is printed beside them (the machine may be shared).
+"""
+import argparse
+import time
+
+import numpy as np
+import torch
+
+import turbid
+import turbid.torch as tt
+
+
+def scene_crop(size):
+    scale = max(size / 480.0, size / 640.0) * 1.01
+    scene = turbid.Scene.builtin("seafloor", min(scale, 1.0))
+    c = scene.camera
+    image = np.ascontiguousarray(scene.image[:size, :size])
+    depth = np.ascontiguousarray(scene.depth[:size, :size])
+    normals = np.ascontiguousarray(scene.normals[:size, :size])
+    return turbid.Scene.from_arrays(image, depth, c["fx"], c["fy"], c["cx"], c["cy"],
+                                    normals=normals), image, depth, normals, c
+
+
+def timed(fn, rounds):
+    walls, cpus = [], []
+    for _ in range(rounds):
+        w, p = time.perf_counter(), time.process_time()
+        fn()
+        walls.append(time.perf_counter() - w)
+        cpus.append(time.process_time() - p)
+    return float(np.median(walls)), float(np.median(cpus))
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--batch", type=int, default=64)
+    ap.add_argument("--size", type=int, default=256)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--learn-psf", action="store_true")
+    ap.add_argument("--no-noise", action="store_true")
+    ap.add_argument("--noise", default="turbid", choices=["turbid", "torch"],
+                    help="the normals of the sensor noise: the renderer's stream or torch's")
+    args = ap.parse_args()
+    torch.set_num_threads(args.threads)
+    turbid.set_num_threads(args.threads)
+    n, s = args.batch, args.size
+    scene, image, depth, normals, c = scene_crop(s)
+    rho = torch.from_numpy(image).permute(2, 0, 1)[None].expand(n, -1, -1, -1).contiguous()
+    d = torch.from_numpy(depth)[None, None].expand(n, -1, -1, -1).contiguous()
+    nrm = torch.from_numpy(normals).permute(2, 0, 1)[None].expand(n, -1, -1, -1).contiguous()
+    K = torch.tensor([[c["fx"], 0.0, c["cx"]], [0.0, c["fy"], c["cy"]], [0.0, 0.0, 1.0]])
+    g = torch.Generator().manual_seed(0)
+    leaves = {
+        "beta": (0.2 + torch.rand(n, 3, generator=g)).requires_grad_(),
+        "binf": (0.3 * torch.rand(n, 3, generator=g)).requires_grad_(),
+        "ambient": (0.1 + 0.1 * torch.rand(n, 3, generator=g)).requires_grad_(),
+        "power": (4.0 + 4.0 * torch.rand(n, generator=g)).requires_grad_(),
+        "position": (torch.tensor([0.0, 0.25, 0.0]) + 0.1 * torch.rand(n, 3, generator=g))
+        .requires_grad_(),
+        "T": torch.tensor(4.0, requires_grad=args.learn_psf),
+        "q": torch.tensor(0.9, requires_grad=args.learn_psf),
+    }
+
+    def params(v):
+        return {"water": {"beta_rgb_per_m": v["beta"], "backscatter": True,
+                          "backscatter_rgb": v["binf"], "ambient_rgb": v["ambient"]},
+                "light": {"lights": [{"power": v["power"], "position_in_camera_m": v["position"]}]},
+                "psf": {"optical_thickness": v["T"], "forward_scatter": v["q"]},
+                "snow": {"enabled": False}, "sensor": {"enabled": not args.no_noise}}
+
+    def forward_backward():
+        for leaf in leaves.values():
+            leaf.grad = None
+        out = tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise)
+        out.square().mean().backward()
+
+    def forward():
+        with torch.no_grad():
+            tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise)
+
+    cpp_params = [{"water": {"beta_rgb_per_m": leaves["beta"][i].tolist(), "backscatter": True,
+                             "backscatter_rgb": leaves["binf"][i].tolist(),
+                             "ambient_rgb": leaves["ambient"][i].tolist()},
+                   "light": {"lights": [{"power": float(leaves["power"][i]),
+                                         "position_in_camera_m": leaves["position"][i].tolist()}]},
+                   "snow": {"enabled": False}, "sensor": {"enabled": not args.no_noise},
+                   "camera": {"bit_depth": 32}} for i in range(n)]
+
+    def cpp():
+        for i in range(n):
+            turbid.render(scene, cpp_params[i], seed=1 + i).image
+
+    forward_backward()  # warm-up (allocator, tables)
+    fb = timed(forward_backward, args.rounds)
+    fw = timed(forward, args.rounds)
+    cp = timed(cpp, args.rounds)
+    pixels = n * s * s
+    print("batch %d x 3 x %d x %d, %d threads, noise %s, PSF %s" % (
+        n, s, s, args.threads, "off" if args.no_noise else "on (%s normals)" % args.noise,
+        "learned (2-D kernel)" if args.learn_psf else "fixed (separable)"))
+    print("torch forward + backward: %.3f s wall (CPU %.3f s); goal <= 2 s" % fb)
+    print("torch forward:            %.3f s wall (CPU %.3f s), %.1f Mpx/s" % (
+        fw[0], fw[1], pixels / fw[0] / 1e6))
+    print("turbid.render (C++):      %.3f s wall (CPU %.3f s), %.1f Mpx/s" % (
+        cp[0], cp[1], pixels / cp[0] / 1e6))
+    print("forward throughput torch / C++: %.2f (wall), %.2f (CPU)" % (cp[0] / fw[0],
+                                                                     cp[1] / fw[1]))
+    stages(rho, leaves, params, args)
+
+
+def stages(rho, leaves, params, args):
+    """Where the time goes, and what a fused kernel would gain: the PSF (2R + 1 taps per pass,
+    two passes) against a single elementwise pass over the same tensor (one read, one write:
+    the floor a fused blur approaches), forward and forward + backward; the noise's normals."""
+    P = tt.resolve(params(leaves))
+    kernel = tt.psf_kernel(P, rho, rho.shape[0])
+    lit = rho.clone().requires_grad_()
+    scale = torch.tensor(1.01, requires_grad=True)
+
+    def psf_fb():
+        lit.grad = None
+        tt.apply_psf(lit, kernel).sum().backward()
+
+    def pass_fb():
+        lit.grad = None
+        (lit * scale).sum().backward()
+
+    psf_f = timed(lambda: tt.apply_psf(lit.detach(), kernel), args.rounds)
+    one_f = timed(lambda: lit.detach() * 1.01, args.rounds)
+    print("PSF (R = %d, separable): forward %.3f s wall (CPU %.3f), forward + backward %.3f s "
+          "(CPU %.3f)" % ((kernel[0].shape[-1] - 1) // 2, psf_f[0], psf_f[1], *timed(psf_fb, args.rounds)))
+    one_fb = timed(pass_fb, args.rounds)
+    print("one elementwise pass:    forward %.3f s wall (CPU %.3f), forward + backward %.3f s "
+          "(CPU %.3f): a fused PSF kernel would approach this" % (*one_f, *one_fb))
+    n, c, h, w = rho.shape
+    z = timed(lambda: tt.standard_normals(1, n * c * h * w), 1)
+    g = torch.Generator().manual_seed(0)
+    r = timed(lambda: torch.randn(n, c, h, w, generator=g), args.rounds)
+    print("noise normals: renderer's stream (NumPy) %.3f s wall (CPU %.3f), torch.randn %.3f s "
+          "(CPU %.3f)" % (*z, *r))
+
+
+if __name__ == "__main__":
+    main()
