@@ -42,7 +42,7 @@ void WriteViewer(std::ostringstream& html) {
           "</figcaption></figure>"
           "<figure><img id=\"vmethod\" alt=\"method\"><figcaption id=\"vmethod-cap\">"
           "</figcaption></figure></div>\n"
-          "<div id=\"vslide-panel\" hidden><div class=\"vslidebox\"><div class=\"vstack\"><img "
+          "<div id=\"vslide-panel\" hidden><div><div class=\"vstack\"><img "
           "id=\"vbase\" alt=\"\">"
           "<img id=\"vtop\" alt=\"\"></div>"
           "<input type=\"range\" id=\"vrange\" min=\"0\" max=\"100\" value=\"50\" "
@@ -119,10 +119,9 @@ figure.plot{margin:0.5em 0 1.5em}figure.plot img{max-width:100%;height:auto;bord
 .vbar{display:flex;flex-wrap:wrap;gap:0.5em;align-items:center;margin-bottom:0.5em}
 .vbar b{margin-right:1em}
 .vpanels{display:flex;gap:0.5em}.vpanels figure{flex:1 1 0;min-width:0;margin:0;text-align:center}
-.vpanels img{max-width:100%;height:auto;image-rendering:pixelated}
-.vslidebox{display:inline-block;max-width:100%}.vstack{position:relative;max-width:100%}
-.vstack img{display:block;max-width:100%;height:auto;image-rendering:pixelated}
-#vtop{position:absolute;left:0;top:0;width:100%}
+.vpanels img{width:100%;height:auto;image-rendering:pixelated}
+.vstack{position:relative;width:100%;height:calc(100vh - 120px)}
+.vstack img{position:absolute;left:0;top:0;width:100%;height:100%;object-fit:contain;image-rendering:pixelated}
 #vrange{width:100%;max-width:100%}
 @media print{.tablewrap{max-height:none;overflow:visible}thead th,tbody th{position:static}#viewer{display:none}}
 )CSS";

@@ -237,23 +237,61 @@ void PlotMetricsAgainstLevel(const ReportData& d, Plotter& plotter, std::vector<
   }
 }
 
-// Run time against the primary (first) metric per method: numbered points, a key, and a table
-// beside the plot on the page.
-void PlotTimeVsMetric(const ReportData& d, Plotter& plotter, std::vector<Plot>* plots) {
+struct ScatterPoint {
+  double time_ms = 0.0, value = 0.0;  // the plotted position (time > 0 for the log axis)
+  double mean_time_ms = 0.0;          // the table's
+  int group = 0;
+  std::string label;
+};
+
+// Offsets (in characters) of the points' number labels: for each point in turn the candidate
+// around it farthest from every point and every label placed so far, in screen-like units (the
+// log-time and value ranges scaled to a 600 x 380 pixel plot, 8 x 14 pixel characters).
+std::vector<std::pair<double, double>> PlaceLabels(const std::vector<ScatterPoint>& points) {
+  double x0 = HUGE_VAL, x1 = -HUGE_VAL, y0 = HUGE_VAL, y1 = -HUGE_VAL;
+  for (const ScatterPoint& p : points) {
+    x0 = std::min(x0, std::log10(p.time_ms));
+    x1 = std::max(x1, std::log10(p.time_ms));
+    y0 = std::min(y0, p.value);
+    y1 = std::max(y1, p.value);
+  }
+  const auto px = [&](const ScatterPoint& p) {
+    return std::pair<double, double>{(std::log10(p.time_ms) - x0) / std::max(x1 - x0, 1e-9) * 600,
+                                     (p.value - y0) / std::max(y1 - y0, 1e-12) * 380};
+  };
+  static const double kCandidates[][2] = {{1, 0.8}, {1, -0.8},   {-1.8, 0.8}, {-1.8, -0.8},
+                                          {0, 1.5}, {0, -1.5},   {1.5, 0},    {-2.5, 0},
+                                          {2, 1.6}, {-2.8, 1.6}, {2, -1.6},   {-2.8, -1.6}};
+  std::vector<std::pair<double, double>> placed, offsets;
+  for (const ScatterPoint& p : points) {
+    const auto [x, y] = px(p);
+    double best_score = -1.0;
+    std::pair<double, double> best{1, 0.8}, best_at{x, y};
+    for (const auto& c : kCandidates) {
+      const double lx = x + c[0] * 8, ly = y + c[1] * 14;
+      double score = HUGE_VAL;
+      for (const ScatterPoint& q : points) {
+        const auto [qx, qy] = px(q);
+        score = std::min(score, std::hypot(lx - qx, (ly - qy) * 1.5));
+      }
+      for (const auto& [ax, ay] : placed)
+        score = std::min(score, std::hypot(lx - ax, (ly - ay) * 1.5));
+      if (score > best_score + 1e-9) {
+        best_score = score;
+        best = {c[0], c[1]};
+        best_at = {lx, ly};
+      }
+    }
+    placed.push_back(best_at);
+    offsets.push_back(best);
+  }
+  return offsets;
+}
+
+// Each method's mean run time and mean of the primary metric over all items, in group order.
+std::vector<ScatterPoint> ScatterPoints(const ReportData& d, const HarnessMetricInfo& primary) {
   const Experiment& e = d.sweep->experiment;
-  const HarnessMetricInfo& primary = e.metrics.front();
-  const NumberFormat format = ChooseNumberFormat([&] {
-    std::vector<double> v;
-    for (const SummaryCell& cell : d.cells)
-      if (cell.metric == primary.name && cell.stats.n > 0) v.push_back(cell.stats.mean);
-    return v;
-  }());
-  std::ostringstream data, plot, table;
-  data << "# mean_time_ms mean_" << primary.name << " method\n";
-  table << "<table class=\"results key\"><thead><tr><th>#</th><th>method</th><th>ms</th><th>"
-        << Html(primary.name) << (primary.higher_is_better ? " ↑" : " ↓")
-        << "</th></tr></thead>\n<tbody>\n";
-  int points = 0;
+  std::vector<ScatterPoint> points;
   for (int g = 0; g < kMethodGroups; ++g) {
     for (size_t m : d.by_group[static_cast<size_t>(g)]) {
       std::vector<double> times;
@@ -268,27 +306,47 @@ void PlotTimeVsMetric(const ReportData& d, Plotter& plotter, std::vector<Plot>* 
       const Stats t = ComputeStats(times);
       const SummaryCell* q = d.Cell("all", e.methods[m].label, primary.name);
       if (t.n == 0 || q == nullptr || q->stats.n == 0 || !std::isfinite(q->stats.mean)) continue;
-      const double time_ms = std::max(t.mean, 1e-3);  // > 0 for the log-scale axis
-      const std::string label = MethodName(e.methods[m]) + (batch_share ? " (batch)" : "");
-      // The method's name as a quoted data-file column, for readers of the file; the plot takes
-      // its labels from the script.
-      std::string quoted = OneLine(label);
-      std::replace(quoted.begin(), quoted.end(), '"', '\'');
-      data << FormatValue(time_ms) << " " << FormatValue(q->stats.mean) << " \"" << quoted
-           << "\"\n";
-      ++points;
-      plot << (points > 1 ? ", " : "") << "'time_vs_metric.dat' every ::" << points - 1
-           << "::" << points - 1 << " using 1:2 with points ps 1.6 pt " << kGroupPoint[g]
-           << " lc rgb '" << kPalette[(points - 1) % 7] << "' title "
-           << GpString(std::to_string(points) + "  " + label) << ", '' every ::" << points - 1
-           << "::" << points - 1 << " using 1:2:(" << GpString(std::to_string(points))
-           << ") with labels offset char 0.9,0.7 font ',10' notitle";
-      table << "<tr><td>" << points << "</td><th scope=\"row\">" << Html(label) << "</th><td>"
-            << FormatSignificant(t.mean) << "</td><td>" << FormatNumber(q->stats.mean, format)
-            << "</td></tr>\n";
+      points.push_back({std::max(t.mean, 1e-3), q->stats.mean, t.mean, g,
+                        MethodName(e.methods[m]) + (batch_share ? " (batch)" : "")});
     }
   }
-  if (points == 0) return;
+  return points;
+}
+
+// Run time against the primary (first) metric per method: numbered points with their numbers
+// placed apart, a key, and a table beside the plot on the page.
+void PlotTimeVsMetric(const ReportData& d, Plotter& plotter, std::vector<Plot>* plots) {
+  const HarnessMetricInfo& primary = d.sweep->experiment.metrics.front();
+  const std::vector<ScatterPoint> points = ScatterPoints(d, primary);
+  if (points.empty()) return;
+  std::vector<double> means;
+  for (const SummaryCell& cell : d.cells)
+    if (cell.metric == primary.name && cell.stats.n > 0) means.push_back(cell.stats.mean);
+  const NumberFormat format = ChooseNumberFormat(means);
+  const std::vector<std::pair<double, double>> offsets = PlaceLabels(points);
+  std::ostringstream data, plot, table;
+  data << "# mean_time_ms mean_" << primary.name << " method\n";
+  table << "<table class=\"results key\"><thead><tr><th>#</th><th>method</th><th>ms</th><th>"
+        << Html(primary.name) << (primary.higher_is_better ? " ↑" : " ↓")
+        << "</th></tr></thead>\n<tbody>\n";
+  for (size_t i = 0; i < points.size(); ++i) {
+    const ScatterPoint& p = points[i];
+    // The method's name as a quoted data-file column, for readers of the file; the plot takes
+    // its labels from the script.
+    std::string quoted = OneLine(p.label);
+    std::replace(quoted.begin(), quoted.end(), '"', '\'');
+    data << FormatValue(p.time_ms) << " " << FormatValue(p.value) << " \"" << quoted << "\"\n";
+    const std::string number = std::to_string(i + 1);
+    plot << (i ? ", " : "") << "'time_vs_metric.dat' every ::" << i << "::" << i
+         << " using 1:2 with points ps 1.8 pt " << kGroupPoint[p.group] << " lc rgb '"
+         << kPalette[i % 7] << "' title " << GpString(number + "  " + p.label)
+         << ", '' every ::" << i << "::" << i << " using 1:2:(" << GpString(number)
+         << ") with labels offset char " << FormatValue(offsets[i].first) << ","
+         << FormatValue(offsets[i].second) << " font ',12' notitle";
+    table << "<tr><td>" << number << "</td><th scope=\"row\">" << Html(p.label) << "</th><td>"
+          << FormatSignificant(p.mean_time_ms) << "</td><td>" << FormatNumber(p.value, format)
+          << "</td></tr>\n";
+  }
   AtomicWriteText(d.report_dir + "/time_vs_metric.dat", data.str(), true);
   std::ostringstream gp;
   gp << "set grid\nset logscale x\n"
@@ -296,12 +354,12 @@ void PlotTimeVsMetric(const ReportData& d, Plotter& plotter, std::vector<Plot>* 
      << GpString(MetricTitle(primary)) << "\nset title "
      << GpString("run time against " + primary.name + " per method (mean over all items)")
      << "\nset offsets graph 0.08, graph 0.12, graph 0.08, graph 0.08\n"
-     << "set key outside right top Left reverse samplen 1 font ',10'\n"
+     << "set key outside right top Left reverse samplen 1 font ',11'\n"
      << "plot " << plot.str() << "\n";
   table << "</tbody></table>";
-  if (plotter.Run("time_vs_metric", 900, 480, gp.str())) {
+  if (plotter.Run("time_vs_metric", 820, 520, gp.str())) {
     plots->push_back({"run time against " + primary.name + " (numbers: the table beside)",
-                      "time_vs_metric.svg", table.str(), 900, 480});
+                      "time_vs_metric.svg", table.str(), 820, 520});
   }
 }
 
