@@ -408,7 +408,8 @@ ReportSummary WriteReport(const std::string& dir, const ReportOptions& options) 
   html << "<h2 id=\"times\">Run time</h2>\n<p>Wall time per image of each method alone on one "
           "sweep thread (ms, mean; below: standard deviation over items); not deterministic, so "
           "kept apart from the results (timings.csv, timings.md). <b>Bold ▲</b>: the fastest "
-          "mean.</p>\n";
+          "mean. (batch): a batch process's wall time divided by its items; (precomputed): "
+          "results read from files, nothing ran.</p>\n";
   report::WriteTimeTable(html, data);
   report::WritePageTail(html, sweep);
   AtomicWriteText(summary.html_path, html.str(), true);

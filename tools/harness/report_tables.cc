@@ -270,7 +270,20 @@ void WriteTimeTable(std::ostringstream& html, const ReportData& d) {
     html << "<tr class=\"group\"><th colspan=\"" << sizes.size() + 1 << "\">"
          << GroupName(static_cast<MethodGroup>(g)) << "</th></tr>\n";
     for (size_t m : d.by_group[static_cast<size_t>(g)]) {
-      html << "<tr><th scope=\"row\">" << Html(MethodName(e.methods[m])) << "</th>";
+      // As timings.md: a batch process's time per item, or precomputed results (nothing ran).
+      bool batch = false, not_run = false;
+      for (const ItemResult& item : d.sweep->items) {
+        for (const MethodResult& row : item.methods) {
+          if (row.label != e.methods[m].label) continue;
+          batch |= row.time_is_batch_share;
+          not_run |= std::isnan(row.time_ms);
+        }
+      }
+      html << "<tr><th scope=\"row\">" << Html(MethodName(e.methods[m]))
+           << (batch     ? " (batch)"
+               : not_run ? " (precomputed)"
+                         : "")
+           << "</th>";
       for (size_t s = 0; s < sizes.size(); ++s)
         html << cell(s, m, fastest[s] == static_cast<int>(m));
       html << "</tr>\n";
