@@ -127,6 +127,48 @@ figure.plot{margin:0.5em 0 1.5em}figure.plot img{max-width:100%;height:auto;bord
 )CSS";
 }
 
+// The self-check a headless browser test reads (#check), after the viewer's own load handler.
+static std::string CheckScript() {
+  return R"JS((function () {
+  // #check: loads every image and every linked image, then records in the DOM what a headless
+  // browser test reads (tests/tools/report_browser_test.cc).
+  function check() {
+    var body = document.body, imgs = document.querySelectorAll('img.thumb, img.plot'), waits = [];
+    function wait(img) {
+      waits.push(new Promise(function (done) {
+        if (img.complete && img.src) return done();
+        img.addEventListener('load', done); img.addEventListener('error', done);
+      }));
+    }
+    for (var i = 0; i < imgs.length; ++i) { imgs[i].loading = 'eager'; wait(imgs[i]); }
+    var links = document.querySelectorAll('a.view'), probes = [];
+    for (var j = 0; j < links.length; ++j) {
+      var p = new Image(); p.src = links[j].href; probes.push(p); wait(p);
+    }
+    Promise.all(waits).then(function () {
+      var bad = 0, badLinks = 0, plots = 0;
+      for (var i = 0; i < imgs.length; ++i) if (imgs[i].naturalWidth === 0) ++bad;
+      for (var j = 0; j < probes.length; ++j) if (probes[j].naturalWidth === 0) ++badLinks;
+      var ps = document.querySelectorAll('img.plot');
+      for (var k = 0; k < ps.length; ++k) if (ps[k].naturalWidth > 0) ++plots;
+      var root = document.documentElement;
+      body.setAttribute('data-images', imgs.length);
+      body.setAttribute('data-broken-images', bad);
+      body.setAttribute('data-links', probes.length);
+      body.setAttribute('data-broken-links', badLinks);
+      body.setAttribute('data-plots', plots);
+      body.setAttribute('data-overflow-px', Math.max(0, root.scrollWidth - root.clientWidth));
+      body.setAttribute('data-viewer-open', document.getElementById('viewer').hidden ? 0 : 1);
+      body.setAttribute('data-check', 'done');
+    });
+  }
+  window.addEventListener('load', function () {
+    if (/check/.test(location.hash)) check();
+  });
+})();
+)JS";
+}
+
 std::string PageScript() {
   return R"JS((function () {
   var cur = null, slider = false;
@@ -197,44 +239,9 @@ std::string PageScript() {
       if (a) open(a, !!m[3]);
     }
   }
-  // #check: loads every image and every linked image, then records in the DOM what a headless
-  // browser test reads (tests/tools/report_browser_test.cc).
-  function check() {
-    var body = document.body, imgs = document.querySelectorAll('img.thumb, img.plot'), waits = [];
-    function wait(img) {
-      waits.push(new Promise(function (done) {
-        if (img.complete && img.src) return done();
-        img.addEventListener('load', done); img.addEventListener('error', done);
-      }));
-    }
-    for (var i = 0; i < imgs.length; ++i) { imgs[i].loading = 'eager'; wait(imgs[i]); }
-    var links = document.querySelectorAll('a.view'), probes = [];
-    for (var j = 0; j < links.length; ++j) {
-      var p = new Image(); p.src = links[j].href; probes.push(p); wait(p);
-    }
-    Promise.all(waits).then(function () {
-      var bad = 0, badLinks = 0, plots = 0;
-      for (var i = 0; i < imgs.length; ++i) if (imgs[i].naturalWidth === 0) ++bad;
-      for (var j = 0; j < probes.length; ++j) if (probes[j].naturalWidth === 0) ++badLinks;
-      var ps = document.querySelectorAll('img.plot');
-      for (var k = 0; k < ps.length; ++k) if (ps[k].naturalWidth > 0) ++plots;
-      var root = document.documentElement;
-      body.setAttribute('data-images', imgs.length);
-      body.setAttribute('data-broken-images', bad);
-      body.setAttribute('data-links', probes.length);
-      body.setAttribute('data-broken-links', badLinks);
-      body.setAttribute('data-plots', plots);
-      body.setAttribute('data-overflow-px', Math.max(0, root.scrollWidth - root.clientWidth));
-      body.setAttribute('data-viewer-open', cur ? 1 : 0);
-      body.setAttribute('data-check', 'done');
-    });
-  }
-  window.addEventListener('load', function () {
-    fromHash();
-    if (/check/.test(location.hash)) check();
-  });
+  window.addEventListener('load', fromHash);
 })();
-)JS";
+)JS" + CheckScript();
 }
 
 }  // namespace turbid::report
