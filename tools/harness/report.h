@@ -1,9 +1,11 @@
-// `turbid report DIR`: one static, self-contained HTML page for a finished sweep: the experiment,
-// the summary and run-time tables, image grids (clean / degraded / each method per scene and
-// turbidity level, from the thumbnails the sweep saved) and plots made by gnuplot (SVG): each
-// metric against the turbidity level per method, and run time against the primary metric per
-// method. Images and plots are embedded as data: URIs, so the page needs no network and no other
-// file; the gnuplot scripts and data are kept in DIR/report/ so every plot can be re-made.
+// `turbid report DIR`: one static HTML page for a finished sweep, DIR/report.html (docs/report.md):
+// the experiment, the results as tables (methods as grouped rows, one number format per metric,
+// the summary's Wilcoxon verdicts marked ▲ best / ≈ tied), plots made by gnuplot as SVG (each
+// metric against the level in small multiples per method group with bootstrap bands; run time
+// against the primary metric), an image grid with a viewer (full size beside the clean image and
+// the degraded input, or a slider), run times and the protocol. The page links the images the
+// sweep saved (thumbs/) and the plots (report/, with their gnuplot scripts and data) by relative
+// paths: the folder is the report, it works from file:// and fetches nothing from a network.
 #pragma once
 
 #include <string>
@@ -21,7 +23,7 @@ struct ReportOptions {
 struct ReportSummary {
   std::string html_path;
   int plots = 0;        // plots embedded
-  int images = 0;       // thumbnails embedded
+  int images = 0;       // images linked in the grid
   std::string warning;  // non-empty when something was skipped (e.g. gnuplot missing)
 };
 

@@ -294,6 +294,25 @@ std::vector<SummaryCell> Summarize(const Experiment& experiment,
   return cells;
 }
 
+SummaryCell ReferenceSummaryCell(const std::vector<ItemResult>& items, const std::string& level,
+                                 const std::string& metric) {
+  SummaryCell cell;
+  cell.level = level;
+  cell.method = "ground truth";
+  cell.metric = metric;
+  for (const ItemResult& item : items) {
+    if (level != "all" && item.level != level) continue;
+    const auto it = item.reference_metrics.find(metric);
+    if (it != item.reference_metrics.end()) cell.values.push_back(it->second);
+  }
+  cell.stats = ComputeStats(cell.values);
+  const Interval ci = BootstrapMeanCi(
+      cell.values, kBootstrapSeed ^ StableHash(level + '\x1f' + "ground truth" + '\x1f' + metric));
+  cell.ci_lo = ci.lo;
+  cell.ci_hi = ci.hi;
+  return cell;
+}
+
 RowVerdict JudgeRow(const std::vector<const SummaryCell*>& row, const std::vector<bool>& excluded,
                     bool higher_is_better) {
   RowVerdict verdict;
@@ -482,21 +501,8 @@ std::string SummaryMarkdown(const Experiment& experiment, const std::vector<Item
   }
 
   const std::vector<bool> excluded = BestExcluded(experiment);
-  // Ground-truth scores of no-reference metrics, per level (computed once per scene).
   const auto reference_cell = [&](const std::string& level, const std::string& metric) {
-    SummaryCell cell;
-    for (const ItemResult& item : items) {
-      if (level != "all" && item.level != level) continue;
-      const auto it = item.reference_metrics.find(metric);
-      if (it != item.reference_metrics.end()) cell.values.push_back(it->second);
-    }
-    cell.stats = ComputeStats(cell.values);
-    const Interval ci = BootstrapMeanCi(
-        cell.values,
-        kBootstrapSeed ^ StableHash(level + '\x1f' + "ground truth" + '\x1f' + metric));
-    cell.ci_lo = ci.lo;
-    cell.ci_hi = ci.hi;
-    return cell;
+    return ReferenceSummaryCell(items, level, metric);
   };
   bool any_reference = false;
   for (const ItemResult& item : items) any_reference |= !item.reference_metrics.empty();

@@ -98,6 +98,10 @@ RowVerdict JudgeRow(const std::vector<const SummaryCell*>& row, const std::vecto
                     bool higher_is_better);
 std::vector<SummaryCell> Summarize(const Experiment& experiment,
                                    const std::vector<ItemResult>& items);
+// The ground truth's own scores (ItemResult::reference_metrics) over a level's items ("all": every
+// item), with its interval: summary.md's "ground truth" column and the report's row.
+SummaryCell ReferenceSummaryCell(const std::vector<ItemResult>& items, const std::string& level,
+                                 const std::string& metric);
 
 // ---- Regression check ---------------------------------------------------------------------
 
