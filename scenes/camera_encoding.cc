@@ -22,7 +22,7 @@ double SrgbDecode(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.
 struct SrgbTables {
   int levels = 0;                  // L = 2^bits - 1
   int bins = 0;
-  std::vector<double> threshold;   // threshold[k] = decode((k + 1/2) / L), k = 0 .. L - 1; [L] = inf
+  std::vector<double> threshold;  // threshold[k] = decode((k + 1/2) / L), k = 0 .. L - 1; [L] = inf
   std::vector<float> decoded;      // decoded[k] = decode(k / L), k = 0 .. L
   std::vector<uint16_t> first;     // first[i]: codes certainly reached by every v in bin i
 

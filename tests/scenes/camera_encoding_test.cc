@@ -105,7 +105,8 @@ TEST(CameraEncoding, SrgbCodesAreExactAtEveryThreshold) {
     QuantiseEncodedRowSwapRB(swapped.data(), static_cast<int>(swapped.size()),
                              CameraEncoding::kSrgb, bits);
     for (size_t i = 0; i < values.size(); ++i) {
-      const float expected = static_cast<float>(DecodeReference(double(code_of(values[i])) / levels));
+      const float expected =
+          static_cast<float>(DecodeReference(double(code_of(values[i])) / levels));
       ASSERT_EQ(plain[i], expected) << "bits " << bits << " v " << values[i];
       const size_t j = i - i % 3 + (2 - i % 3);  // R <-> B within each pixel
       ASSERT_EQ(swapped[j], expected) << "bits " << bits << " v " << values[i];
