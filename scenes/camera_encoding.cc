@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <utility>
 #include <vector>
 
@@ -15,19 +16,21 @@ namespace {
 double SrgbDecode(double c) { return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4); }
 
 // Tables for one bit depth: decision thresholds, decoded codes and a bin index that gives a lower
-// bound of the code from floor(v * bins).
+// bound of the code from floor(v * bins). The bins are finer than the closest two thresholds
+// (8 bits: bin 1/65536 against a spacing of at least 1 / (255 * 12.92)), so one branch-free step
+// after the lookup almost always finds the code; the loop after it keeps the result exact anyway.
 struct SrgbTables {
   int levels = 0;                  // L = 2^bits - 1
   int bins = 0;
-  std::vector<double> threshold;   // threshold[k] = decode((k + 1/2) / L), k = 0 .. L - 1
+  std::vector<double> threshold;  // threshold[k] = decode((k + 1/2) / L), k = 0 .. L - 1; [L] = inf
   std::vector<float> decoded;      // decoded[k] = decode(k / L), k = 0 .. L
   std::vector<uint16_t> first;     // first[i]: codes certainly reached by every v in bin i
 
-  explicit SrgbTables(int bits) : levels((1 << bits) - 1), bins(bits == 8 ? 4096 : 65536) {
-    threshold.resize(levels);
+  explicit SrgbTables(int bits) : levels((1 << bits) - 1), bins(65536) {
+    threshold.resize(levels + 1);
     decoded.resize(levels + 1);
-    for (int k = 0; k < levels; ++k)
-      threshold[k] = SrgbDecode((k + 0.5) / levels);
+    for (int k = 0; k < levels; ++k) threshold[k] = SrgbDecode((k + 0.5) / levels);
+    threshold[levels] = std::numeric_limits<double>::infinity();  // the step never passes L
     for (int k = 0; k <= levels; ++k) decoded[k] = static_cast<float>(SrgbDecode(double(k) / levels));
     first.resize(bins + 1);
     int count = 0;
@@ -43,7 +46,8 @@ struct SrgbTables {
   int Code(float v) const {
     int q = first[static_cast<int>(v * static_cast<float>(bins))];
     const double value = v;
-    while (q < levels && value >= threshold[q]) ++q;
+    q += value >= threshold[q];         // branch-free: at most one threshold in a bin, as a rule
+    while (value >= threshold[q]) ++q;  // threshold[levels] is infinite: stops at L
     return q;
   }
 };

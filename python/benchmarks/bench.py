@@ -81,12 +81,13 @@ def scaling(n=40):
           " (x%.2f)" % (rates[1], rates[2], rates[2] / rates[1]))
 
 
-def cpu_seconds():
-    """CPU time of this process and its finished children (DataLoader workers are joined when an
-    iteration ends), user + system."""
+def usage():
+    """(main user, main system, workers user, workers system) seconds and (main, workers) minor
+    page faults."""
     own = resource.getrusage(resource.RUSAGE_SELF)
     kids = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + kids.ru_utime + kids.ru_stime
+    return (own.ru_utime, own.ru_stime, kids.ru_utime, kids.ru_stime, own.ru_minflt,
+            kids.ru_minflt)
 
 
 def loader(images=512):
@@ -110,12 +111,16 @@ def loader(images=512):
             dl = DataLoader(ds, batch_size=32, num_workers=workers, shuffle=True,
                             collate_fn=data.collate)
             next(iter(dl))  # start-up (fork, first scene load) not counted
-            c0, t0 = cpu_seconds(), time.perf_counter()
+            u0, t0 = usage(), time.perf_counter()
             count = sum(b["degraded"].shape[0] for b in dl)
-            wall, cpu = time.perf_counter() - t0, cpu_seconds() - c0
+            wall = time.perf_counter() - t0
+            d = [b - a for a, b in zip(u0, usage())]
             print("RenderDataset %s, DataLoader num_workers=%d, batch 32: %.0f images/s, "
-                  "%.2f ms CPU per image (%d images, %d cores)"
-                  % (name, workers, count / wall, 1e3 * cpu / count, count, os.cpu_count()))
+                  "%.2f ms CPU per image (%d images, %d cores); per image: workers %.2f ms user "
+                  "+ %.2f ms system, %.0f page faults; main process %.2f ms"
+                  % (name, workers, count / wall, 1e3 * sum(d[:4]) / count, count,
+                     os.cpu_count(), 1e3 * d[2] / count, 1e3 * d[3] / count, d[5] / count,
+                     1e3 * (d[0] + d[1]) / count))
 
 
 if __name__ == "__main__":

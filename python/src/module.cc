@@ -44,6 +44,7 @@
 #include "tools/harness/generate.h"
 #include "tools/harness/harness_runner.h"
 #include "tools/harness/metric_image.h"
+#include "tools/harness/param_tree.h"
 #include "tools/harness/sweep.h"
 #include "python/src/common.h"
 #include "turbid_version.h"
@@ -276,15 +277,7 @@ InProcessMethod PythonCallable(py::handle fn) {
 }  // namespace
 
 json pyext::ExpandDottedParams(json params, const std::string& what) {
-  if (!params.is_object()) throw Error(what + ": parameters must be a JSON object");
-  std::vector<std::pair<std::string, json>> dotted;
-  for (auto it = params.begin(); it != params.end(); ++it)
-    if (it.key().find('.') != std::string::npos) dotted.emplace_back(it.key(), it.value());
-  for (const auto& [key, value] : dotted) {
-    params.erase(key);
-    SetRenderParam(params, key, value);
-  }
-  return params;
+  return ExpandDottedKeys(std::move(params), what);  // tools/harness/param_tree.h
 }
 
 json pyext::ConfigFrom(const py::object& config, std::string* source) {

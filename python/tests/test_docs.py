@@ -22,6 +22,8 @@ def test_training_example_runs():
     pytest.importorskip("torch")
     code = re.search(r"```python\n(.*?)```", section("Training in ten lines"), re.S).group(1)
     assert '"count": 2000' in code
+    lines = code.strip().splitlines()
+    assert len(lines) <= 12 and max(map(len, lines)) <= 100, (len(lines), max(map(len, lines)))
     code = code.replace('"count": 2000', '"count": 16')
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          env=os.environ, timeout=600)

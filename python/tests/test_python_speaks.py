@@ -133,6 +133,49 @@ def test_dotted_paths_and_numpy_numbers():
         turbid.render(scene, {"water.tpye": "3C"})
 
 
+def test_nested_samplers_equal_dotted_everywhere(tmp_path):
+    """One configuration language: nested objects and dotted paths are the same samplers in
+    generate's random / DegradeTransform, a sweep's samples and render, and --set."""
+    dotted = {"water.type": {"choice": ["I", "3C", "5C"]},
+              "psf.forward_scatter": {"uniform": [0.2, 0.8]},
+              "snow.density_per_m3": {"log_uniform": [0.5, 20.0]},
+              "light.lights.0.power": {"int_uniform": [1, 9]}}
+    nested = {"water": {"type": {"choice": ["I", "3C", "5C"]}},
+              "psf": {"forward_scatter": {"uniform": [0.2, 0.8]}},
+              "snow.density_per_m3": {"log_uniform": [0.5, 20.0]},
+              "light": {"lights": {"0": {"power": {"int_uniform": [1, 9]}}}}}
+    config = {"scenes": ["builtin:room"], "scale": 0.1, "seed": 2, "base": {"snow.enabled": True}}
+    a = data.RenderDataset(dict(config, random={"count": 6, "params": dotted}))
+    b = data.RenderDataset(dict(config, random={"count": 6, "params": nested},
+                                base={"snow": {"enabled": True}}))
+    assert [a.params(i) for i in range(6)] == [b.params(i) for i in range(6)]
+    assert len({a.params(i)["water"]["type"] for i in range(6)}) > 1
+    assert all(a.params(i)["light"]["lights"][0]["power"] in range(1, 10) for i in range(6))
+    assert np.array_equal(a[3]["degraded"], b[3]["degraded"])
+    for i in range(4):
+        assert data.draw_params({"params": dotted}, i) == data.draw_params({"params": nested}, i)
+    with pytest.raises(ValueError, match="random.params.water.type must be a distribution"):
+        data.DegradeTransform({"params": {"water": {"type": "3C"}}})
+    with pytest.raises(ValueError, match="given twice"):
+        data.draw_params({"params": dict(nested, **{"water.type": {"choice": ["I"]}})}, 0)
+    with pytest.raises(ValueError, match="tpye"):
+        data.RenderDataset(dict(config, random={"params": {"water": {"tpye": {"choice": ["I"]}}}}))
+    # A sweep's samples and render.
+    exp = dict(EXP, grid={"water.beta_gray_per_m": [0.5]},
+               samples={"count": 2, "seed": 4, "params": {"psf.forward_scatter": {
+                   "uniform": [0.2, 0.8]}}}, render={"sensor.enabled": False})
+    nested_exp = dict(exp, samples={"count": 2, "seed": 4, "params": {"psf": {"forward_scatter": {
+        "uniform": [0.2, 0.8]}}}}, render={"sensor": {"enabled": False}})
+    rows = []
+    for name, e in (("d", exp), ("n", nested_exp)):
+        turbid.sweep(dict(e, name=name), tmp_path / name, threads=1)
+        with open(tmp_path / name / "experiment.json") as f:
+            rows.append(json.load(f))
+    assert rows[0]["samples"] == rows[1]["samples"]
+    assert rows[0]["render_resolved"] == rows[1]["render_resolved"]
+    assert rows[0]["render_resolved"]["sensor"]["enabled"] is False
+
+
 def test_numpy_numbers_in_configs(tmp_path):
     config = {"scenes": ["builtin:room"], "scale": np.float64(0.1), "seed": np.int64(3),
               "random": {"count": np.int32(2), "params": {

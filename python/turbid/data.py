@@ -13,7 +13,8 @@
 
 Draws come from a counter-based generator keyed by (seed, epoch, index), so a sample is the same
 bytes in any worker process, for any ``num_workers`` and any order. Inside DataLoader workers each
-worker uses ``cores // num_workers`` threads (set on its first item; ``threads=`` overrides).
+worker uses ``cores // num_workers`` threads (set on its first item; ``threads=`` overrides) and
+keeps freed memory in its heap for the next sample (no fresh pages per sample).
 This module does not import torch.
 """
 
@@ -116,9 +117,14 @@ class _SampleOptions:
 
 
 def _worker_threads(threads):
-    """In a torch DataLoader worker: cores // num_workers threads per worker (or ``threads``)."""
+    """In a torch DataLoader worker: cores // num_workers threads per worker (or ``threads``),
+    and freed memory kept in the worker's heap (warm pages for the next sample's arrays)."""
     torch = _sys.modules.get("torch")
     info = torch.utils.data.get_worker_info() if torch is not None else None
+    if info is not None:
+        _turbid.keep_freed_memory()
+    if threads is None:
+        return
     if threads == "auto":
         if info is None:
             return
@@ -234,8 +240,7 @@ class RenderDataset:
             raise TypeError("RenderDataset index must be an int")
         if self._pid != _os.getpid():
             self._pid = _os.getpid()
-            if self.threads is not None:
-                _worker_threads(self.threads)
+            _worker_threads(self.threads)
         i = self._index(index)
         item_id, scene_index, _ = self._plan.item(i)
         scene = self._plan.scene(scene_index)

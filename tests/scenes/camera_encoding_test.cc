@@ -4,8 +4,10 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "core/error.h"
 #include "tests/support/test_support.h"
@@ -76,6 +78,38 @@ TEST(CameraEncoding, PngRoundTripStoresTheCodesExactly) {
       EXPECT_LT(cv::norm(back, q, cv::NORM_INF), 2e-6) << bits;
       // Quantising is idempotent: the decoded codes are fixed points.
       EXPECT_EQ(cv::norm(QuantiseEncoded(q, encoding, bits), q, cv::NORM_INF), 0.0) << bits;
+    }
+  }
+}
+
+// Every decision threshold, approached from both sides by adjacent floats: the code is the one a
+// linear scan of the exact (double) thresholds gives, in the plain and the R <-> B quantiser.
+TEST(CameraEncoding, SrgbCodesAreExactAtEveryThreshold) {
+  for (int bits : {8, 16}) {
+    const int levels = (1 << bits) - 1;
+    std::vector<double> threshold(levels);
+    for (int k = 0; k < levels; ++k) threshold[k] = DecodeReference((k + 0.5) / levels);
+    const auto code_of = [&](float v) {  // the reference: count the thresholds <= v
+      const auto it = std::upper_bound(threshold.begin(), threshold.end(), static_cast<double>(v));
+      return static_cast<int>(it - threshold.begin());
+    };
+    std::vector<float> values;
+    for (int k = 0; k < levels; k += bits == 8 ? 1 : 7) {
+      const float near = static_cast<float>(threshold[k]);
+      for (float v : {std::nextafter(near, 0.0f), near, std::nextafter(near, 2.0f)})
+        values.push_back(v);
+    }
+    while (values.size() % 3 != 0) values.push_back(1.0f);
+    std::vector<float> plain = values, swapped = values;
+    QuantiseEncodedRow(plain.data(), static_cast<int>(plain.size()), CameraEncoding::kSrgb, bits);
+    QuantiseEncodedRowSwapRB(swapped.data(), static_cast<int>(swapped.size()),
+                             CameraEncoding::kSrgb, bits);
+    for (size_t i = 0; i < values.size(); ++i) {
+      const float expected =
+          static_cast<float>(DecodeReference(double(code_of(values[i])) / levels));
+      ASSERT_EQ(plain[i], expected) << "bits " << bits << " v " << values[i];
+      const size_t j = i - i % 3 + (2 - i % 3);  // R <-> B within each pixel
+      ASSERT_EQ(swapped[j], expected) << "bits " << bits << " v " << values[i];
     }
   }
 }

@@ -16,6 +16,7 @@
 #include "core/safe_name.h"
 #include "tools/harness/experiment_grid.h"
 #include "tools/harness/external_method.h"
+#include "tools/harness/param_tree.h"
 
 namespace turbid {
 namespace {
@@ -296,7 +297,7 @@ std::set<std::string> ParseRenderGridAndSamples(const ExperimentInput& x, Experi
   Experiment& e = *out;
   if (in.contains("render")) {
     if (!in["render"].is_object()) throw Error(file, "'render' must be an object");
-    e.render = in["render"];
+    e.render = ExpandDottedKeys(in["render"], file);  // "water.type" as {"water": {"type"}}
   }
   std::set<std::string> swept;
   if (in.contains("grid")) {
@@ -326,7 +327,9 @@ std::set<std::string> ParseRenderGridAndSamples(const ExperimentInput& x, Experi
         samples["params"].empty()) {
       throw Error(file, "'samples.params' must be a non-empty object {path: distribution}");
     }
-    for (const auto& [path, spec] : samples["params"].items()) {
+    // Dotted paths and nested objects alike (param_tree.h), drawn in dotted-path order.
+    const json sampled = FlattenSamplers(samples["params"], file, "'samples.params'");
+    for (const auto& [path, spec] : sampled.items()) {
       if (path.rfind('@', 0) == 0) throw Error(file, "named axes ('" + path + "') are grid-only");
       if (swept.count(path)) {
         throw Error(file, "parameter '" + path + "' is both in 'grid' and in 'samples'");

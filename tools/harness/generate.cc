@@ -26,6 +26,7 @@
 #include "simulator/noise.h"
 #include "simulator/render.h"
 #include "tools/harness/experiment_grid.h"
+#include "tools/harness/param_tree.h"
 #include "tools/harness/tables.h"
 
 namespace turbid {
@@ -134,7 +135,7 @@ void ApplyRenderSet(json& params, const std::string& assignment) {
   // The flag as the error names it (a long value shortened: the message stays one short line).
   const std::string shown = assignment.size() > 60 ? assignment.substr(0, 57) + "..." : assignment;
   std::optional<json> value = ParseJsonIfValid(text, "--set '" + shown + "'");
-  SetRenderParam(params, key, value ? std::move(*value) : json(text));
+  MergeRenderParam(params, key, value ? std::move(*value) : json(text));  // an object merges
 }
 
 // One draw of a "random.params" entry: the sweep's samplers (experiment_grid.h), so the same
@@ -244,7 +245,9 @@ void ReadRandom(const json& config, int64_t samples, const json& preset,
     out->samples = static_cast<int>(samples);  // checked before the grid was expanded
     out->random_seed = ConfigSeed(random, "seed", out->seed, config_path, "random.");
     const json empty = json::object();
-    out->random_params = ConfigObject(random, "params", empty, config_path, "random.");
+    out->random_params =
+        FlattenSamplers(ConfigObject(random, "params", empty, config_path, "random."), config_path,
+                        "random.params");
   }
   if (!preset["random_params"].empty()) {
     json params = preset["random_params"];
@@ -359,7 +362,8 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   if (out.format != "png" && out.format != "exr") throw Error(config_path, "format: png or exr");
   // A preset's base and random draws come first; the config's own entries override them.
   out.base = preset["base"];
-  out.base.merge_patch(ConfigObject(config, "base", empty, config_path, ""));
+  out.base.merge_patch(
+      ExpandDottedKeys(ConfigObject(config, "base", empty, config_path, ""), config_path));
   RenderOptionsFromJson(out.base);  // fail early on a bad base
   const int64_t samples = RandomCount(config, config_path);
   out.combos = GridCombos(config, samples, config_path);
