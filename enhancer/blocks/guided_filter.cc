@@ -14,6 +14,7 @@
 #include "enhancer/blocks/box_filter.h"
 #include "enhancer/blocks/guided_filter_color.h"
 #include "enhancer/blocks/guided_kernels.h"
+#include "enhancer/blocks/guided_segments.h"
 #include "enhancer/simd_switch.h"
 #include "simulator/image_pool.h"
 
@@ -700,11 +701,10 @@ cv::Mat GuidedFilterGrayRunning(const cv::Mat& guide_in, const cv::Mat& src_in, 
 cv::Mat GuidedFilterSelf(const GuidedFilterOptions& options, const cv::Mat& image) {
   if (image.channels() == 1) return GuidedFilter(options, image, image);
   CheckInputs(options, image, image);
-  if (image.channels() == 3 && options.subsample == 1 && options.radius >= 1 &&
-      options.radius <= kMaxFusedRadius) {
-    // Interleaved, streamed: no per-channel planes.
+  if (image.channels() == 3 && options.subsample == 1 && options.radius >= 1) {
+    // Interleaved, streamed, O(1) box sums per value: no per-channel planes.
     const cv::Mat src = Continuous(image);
-    GrayStream stream(src, src, options.radius, static_cast<float>(options.eps), true, 3);
+    guided_segments::Stream stream(src, options.radius, static_cast<float>(options.eps));
     cv::Mat q(src.size(), CV_32FC3);
     for (int t = 0; t < src.rows; ++t) stream.Row(t, q.ptr<float>(t));
     return q;
@@ -725,13 +725,16 @@ void GuidedFilterSelfRows(const std::vector<GuidedFilterOptions>& options, const
   }
   const cv::Mat image = Continuous(image_in);
   std::vector<std::unique_ptr<GrayStream>> streams(options.size());
+  std::vector<std::unique_ptr<guided_segments::Stream>> colour(options.size());
   std::vector<cv::Mat> whole(options.size());  // variants not streamed: filtered in one go
   for (size_t k = 0; k < options.size(); ++k) {
     CheckInputs(options[k], image, image);
-    const bool stream = options[k].radius >= 1 && options[k].subsample == 1 &&
-                        (channels == 1 || options[k].radius <= kMaxFusedRadius);
+    const bool stream = options[k].radius >= 1 && options[k].subsample == 1;
     if (!stream) {
       whole[k] = GuidedFilterSelf(options[k], image);
+    } else if (channels == 3) {
+      colour[k] = std::make_unique<guided_segments::Stream>(image, options[k].radius,
+                                                            static_cast<float>(options[k].eps));
     } else {
       streams[k] = std::make_unique<GrayStream>(image, image, options[k].radius,
                                                 static_cast<float>(options[k].eps), true, channels);
@@ -753,9 +756,13 @@ void GuidedFilterSelfRows(const std::vector<GuidedFilterOptions>& options, const
   std::vector<const float*> ptrs(options.size());
   for (int y = 0; y < image.rows; ++y) {
     for (size_t k = 0; k < options.size(); ++k) {
-      if (streams[k]) {
+      if (streams[k] || colour[k]) {
         float* dst = rows.data() + k * n;
-        streams[k]->Row(y, dst);
+        if (streams[k]) {
+          streams[k]->Row(y, dst);
+        } else {
+          colour[k]->Row(y, dst);
+        }
         ptrs[k] = dst;
       } else {
         ptrs[k] = whole[k].ptr<float>(y);
