@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <utility>
 
 #include "core/cpu.h"
 
@@ -67,10 +68,11 @@ void TransposeInPortable(const Geometry& g, const float* const* src, float* seg)
   }
 }
 
-void TransposeOutPortable(const Geometry& g, const float* seg, float* out) {
+void TransposeOutPortable(const Geometry& g, const float* seg, float* out, int limit) {
   for (int k = 0; k < 8; ++k) {
-    float* dst = out + static_cast<ptrdiff_t>(k) * g.L * 3;
-    for (int j = 0; j < g.L * 3; ++j) dst[j] = seg[j * 8 + k];
+    const int base = k * g.L * 3;
+    const int count = std::min(g.L * 3, limit - base);
+    for (int j = 0; j < count; ++j) out[base + j] = seg[j * 8 + k];
   }
 }
 
@@ -107,24 +109,69 @@ Kernels PortableKernels() {
   return k;
 }
 
-Stream::Stream(const cv::Mat& image, int r, float eps)
-    : image_(image), r_(r), h_(image.rows), eps_(eps), g_(MakeGeometry(image.cols, r)) {
-  CV_Assert(image.type() == CV_32FC3 && image.isContinuous() && r >= 1);
-  k_ = KernelCpuLevel() >= CpuLevel::kAvx2Fma ? Avx2FmaKernels() : Kernels{};
-  if (k_.stage_a == nullptr) k_ = PortableKernels();
-  ring_ = 2 * r + 2;
-  seg_stride_ = static_cast<size_t>(g_.lh8) * 24;
-  ab_stride_ = static_cast<size_t>(g_.la) * 24;
+Kernels ChosenKernels() {
+  const Kernels avx2 = KernelCpuLevel() >= CpuLevel::kAvx2Fma ? Avx2FmaKernels() : Kernels{};
+  return avx2.stage_a != nullptr ? avx2 : PortableKernels();
+}
+
+Input::Input(const cv::Mat& image, int halo)
+    : image_(image), g_(MakeGeometry(image.cols, halo)), k_(ChosenKernels()), ring_(2 * halo + 2) {
+  CV_Assert(image.type() == CV_32FC3 && image.isContinuous() && halo >= 1);
+  stride_ = static_cast<size_t>(g_.lh8) * 24;
   edges_.Assign(static_cast<size_t>(8 * g_.lh8) * 3);
-  seg_.Assign(ring_ * seg_stride_);
+  seg_.Assign(ring_ * stride_);
+}
+
+const float* Input::Row(int y) {
+  while (next_ <= y) {
+    const int t = next_++;
+    const float* row = image_.ptr<float>(t);
+    const float* src[8];
+    for (int k = 0; k < 8; ++k) {
+      const int p0 = k * g_.L - 2 * g_.r, p1 = p0 + g_.lh8;  // the segment's pixels [p0, p1)
+      if (p0 >= 0 && p1 <= g_.cols) {
+        src[k] = row + static_cast<ptrdiff_t>(p0) * 3;  // inside the image: read in place
+        continue;
+      }
+      // Past an edge: the pixels inside the image copied, the rest stays zero.
+      float* e = edges_.data + static_cast<size_t>(k) * g_.lh8 * 3;
+      const int i0 = std::max(p0, 0), i1 = std::min(p1, g_.cols);
+      if (i1 > i0) {
+        std::memcpy(e + static_cast<ptrdiff_t>(i0 - p0) * 3, row + static_cast<ptrdiff_t>(i0) * 3,
+                    sizeof(float) * (i1 - i0) * 3);
+      }
+      src[k] = e;
+    }
+    k_.transpose_in(g_, src, seg_.data + static_cast<size_t>(t % ring_) * stride_);
+  }
+  CV_DbgAssert(y > next_ - 1 - ring_);
+  return seg_.data + static_cast<size_t>(y % ring_) * stride_;
+}
+
+void Input::ToNatural(const float* seg, float* dst) const {
+  k_.transpose_out(g_, seg, dst, g_.cols * 3);
+}
+
+Stream::Stream(std::unique_ptr<Input> own, Input* input, int r, float eps)
+    : own_(std::move(own)),
+      input_(input != nullptr ? input : own_.get()),
+      r_(r),
+      h_(input_->rows()),
+      eps_(eps),
+      g_(MakeGeometry(input_->image().cols, r)),
+      k_(ChosenKernels()) {
+  CV_Assert(r >= 1 && r <= input_->halo());
+  ring_ = 2 * r + 2;
+  offset_ = static_cast<size_t>(2 * (input_->halo() - r)) * 24;
+  c_stride_ = static_cast<size_t>(g_.lh8) * 24;
+  ab_stride_ = static_cast<size_t>(g_.la) * 24;
   a_.Assign(ring_ * ab_stride_);
   b_.Assign(ring_ * ab_stride_);
-  c_i_.Assign(seg_stride_);
-  c_ii_.Assign(seg_stride_);
+  c_i_.Assign(c_stride_);
+  c_ii_.Assign(c_stride_);
   c_a_.Assign(ab_stride_);
   c_b_.Assign(ab_stride_);
   q_seg_.Assign(static_cast<size_t>(g_.L) * 24);
-  q_nat_.Assign(static_cast<size_t>(g_.L) * 24);
   inv_xa_.Assign(static_cast<size_t>(g_.la) * 8);
   inv_xb_.Assign(static_cast<size_t>(g_.L) * 8);
   for (int k = 0; k < 8; ++k) {
@@ -139,27 +186,6 @@ Stream::Stream(const cv::Mat& image, int r, float eps)
           p < g_.cols ? 1.0f / static_cast<float>(Count(p, r, g_.cols)) : 0.0f;
     }
   }
-}
-
-void Stream::Transpose(int y) {
-  const float* row = image_.ptr<float>(y);
-  const float* src[8];
-  for (int k = 0; k < 8; ++k) {
-    const int p0 = k * g_.L - 2 * r_, p1 = p0 + g_.lh8;  // the segment's pixels [p0, p1)
-    if (p0 >= 0 && p1 <= g_.cols) {
-      src[k] = row + static_cast<ptrdiff_t>(p0) * 3;  // inside the image: read in place
-      continue;
-    }
-    // Past an edge: the pixels inside the image copied, the rest stays zero.
-    float* e = edges_.data + static_cast<size_t>(k) * g_.lh8 * 3;
-    const int i0 = std::max(p0, 0), i1 = std::min(p1, g_.cols);
-    if (i1 > i0) {
-      std::memcpy(e + static_cast<ptrdiff_t>(i0 - p0) * 3, row + static_cast<ptrdiff_t>(i0) * 3,
-                  sizeof(float) * (i1 - i0) * 3);
-    }
-    src[k] = e;
-  }
-  k_.transpose_in(g_, src, SegRow(y));
 }
 
 // Direct vertical sums of rows [max(t - r, 0), min(t + r, h - 1)] (row(y) gives each), n floats;
@@ -179,21 +205,20 @@ void DirectColumns(int t, int r, int h, size_t n, float* c0, float* c1, Row0 row
 }
 
 void Stream::StageA(int y) {
-  const int last = std::min(y + r_, h_ - 1);
-  while (next_seg_ <= last) Transpose(next_seg_++);
+  input_->Row(std::min(y + r_, h_ - 1));  // transposed up to there
   const bool anchor = y % kAnchorRows == 0;
   if (anchor) {
-    auto row = [&](int yy) { return static_cast<const float*>(SegRow(yy)); };
-    DirectColumns<true>(y, r_, h_, seg_stride_, c_i_.data, c_ii_.data, row, row);
+    auto row = [&](int yy) { return InRow(yy); };
+    DirectColumns<true>(y, r_, h_, c_stride_, c_i_.data, c_ii_.data, row, row);
   }
-  const float* add = y + r_ < h_ ? SegRow(y + r_) : nullptr;
-  const float* sub = y - r_ - 1 >= 0 ? SegRow(y - r_ - 1) : nullptr;
+  const float* add = y + r_ < h_ ? InRow(y + r_) : nullptr;
+  const float* sub = y - r_ - 1 >= 0 ? InRow(y - r_ - 1) : nullptr;
   const float inv_y = 1.0f / static_cast<float>(Count(y, r_, h_));
   k_.stage_a(g_, c_i_.data, c_ii_.data, add, sub, !anchor, inv_xa_.data, inv_y, eps_, ARow(y),
              BRow(y));
 }
 
-void Stream::Row(int t, float* dst) {
+const float* Stream::RowSegments(int t) {
   const int need = std::min(t + r_, h_ - 1);
   while (next_a_ <= need) StageA(next_a_++);
   const bool anchor = t % kAnchorRows == 0;
@@ -207,14 +232,9 @@ void Stream::Row(int t, float* dst) {
   const float inv_y = 1.0f / static_cast<float>(Count(t, r_, h_));
   k_.stage_b(g_, c_a_.data, c_b_.data, has_add ? ARow(t + r_) : nullptr,
              has_sub ? ARow(t - r_ - 1) : nullptr, has_add ? BRow(t + r_) : nullptr,
-             has_sub ? BRow(t - r_ - 1) : nullptr, !anchor, inv_xb_.data, inv_y, SegRow(t),
+             has_sub ? BRow(t - r_ - 1) : nullptr, !anchor, inv_xb_.data, inv_y, InRow(t),
              q_seg_.data);
-  if (8 * g_.L == g_.cols) {
-    k_.transpose_out(g_, q_seg_.data, dst);
-    return;
-  }
-  k_.transpose_out(g_, q_seg_.data, q_nat_.data);
-  std::memcpy(dst, q_nat_.data, sizeof(float) * g_.cols * 3);
+  return q_seg_.data;
 }
 
 }  // namespace turbid::guided_segments

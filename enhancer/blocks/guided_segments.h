@@ -19,6 +19,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -62,41 +63,75 @@ struct Kernels {
   // Natural rows -> segment row of lh8 columns: src[k] holds segment k's lh8 pixels from pixel
   // k L - 2r on (zeros outside the image).
   void (*transpose_in)(const Geometry& g, const float* const* src, float* seg) = nullptr;
-  // Segment row of L columns -> natural row of 8 L pixels.
-  void (*transpose_out)(const Geometry& g, const float* seg, float* out) = nullptr;
+  // Segment row of L columns -> natural row: the first `limit` values of the 8 L pixels.
+  void (*transpose_out)(const Geometry& g, const float* seg, float* out, int limit) = nullptr;
 };
 
 Kernels PortableKernels();
 // AVX2 + FMA kernels where this build has them (GCC or Clang on x86-64), else null members.
 Kernels Avx2FmaKernels();
+// The kernels this process uses: AVX2 + FMA where KernelCpuLevel() allows, else portable.
+Kernels ChosenKernels();
 
-// The streamed filter. `image`: CV_32FC3, continuous; r >= 1, eps > 0. Row(t, dst) writes output
-// row t (cols * 3 floats); rows in order 0, 1, ..., rows - 1.
-class Stream {
+// The rows of an image (CV_32FC3, continuous) in the segment layout with a halo of 2 `halo`
+// columns each side, for filters of radius <= halo; transposed once each, on demand, kept in a
+// ring of 2 halo + 2 rows. One Input can feed several Streams of the same image.
+class Input {
  public:
-  Stream(const cv::Mat& image, int r, float eps);
-  void Row(int t, float* dst);
+  Input(const cv::Mat& image, int halo);
+  // Segment row y (column 0: pixel -2 halo), transposing the rows up to y first; y at most
+  // 2 halo + 1 rows behind the last row asked for.
+  const float* Row(int y);
+  int halo() const { return g_.r; }
+  int rows() const { return image_.rows; }
+  const cv::Mat& image() const { return image_; }
+  // A segment row of L columns (an output) -> natural row `dst` (cols * 3 floats).
+  void ToNatural(const float* seg, float* dst) const;
 
  private:
-  float* SegRow(int y) { return seg_.data + static_cast<size_t>(y % ring_) * seg_stride_; }
+  const cv::Mat image_;
+  Geometry g_;
+  Kernels k_;
+  int ring_;
+  size_t stride_;
+  Buffer edges_;  // segments reaching past the image: their pixels, zero-padded
+  Buffer seg_;    // the ring of segment rows
+  int next_ = 0;
+};
+
+// The streamed filter (radius r >= 1, eps > 0) of one image: owning its Input, or reading a
+// shared one (halo >= r). Row(t, dst) writes output row t (cols * 3 floats); RowSegments(t) gives
+// it in the segment layout (L columns, valid until the next call); rows in order 0, 1, ...
+class Stream {
+ public:
+  Stream(const cv::Mat& image, int r, float eps)
+      : Stream(std::make_unique<Input>(image, r), nullptr, r, eps) {}
+  Stream(Input* input, int r, float eps) : Stream(nullptr, input, r, eps) {}
+  void Row(int t, float* dst) { input_->ToNatural(RowSegments(t), dst); }
+  const float* RowSegments(int t);
+  // Floats per segment row of output (L columns x 24).
+  size_t SegmentFloats() const { return static_cast<size_t>(g_.L) * 24; }
+
+ private:
+  Stream(std::unique_ptr<Input> own, Input* input, int r, float eps);
+  const float* InRow(int y) { return input_->Row(y) + offset_; }
   float* ARow(int y) { return a_.data + static_cast<size_t>(y % ring_) * ab_stride_; }
   float* BRow(int y) { return b_.data + static_cast<size_t>(y % ring_) * ab_stride_; }
-  void Transpose(int y);
   void StageA(int y);
 
-  const cv::Mat image_;
+  std::unique_ptr<Input> own_;
+  Input* input_;
   const int r_, h_;
   const float eps_;
   Geometry g_;
   Kernels k_;
   int ring_;
-  size_t seg_stride_, ab_stride_;
-  Buffer edges_;                   // segments reaching past the image: their pixels, zero-padded
-  Buffer seg_, a_, b_;             // rings of segment rows: input, a, b
+  size_t offset_, c_stride_, ab_stride_;
+  Buffer a_, b_;                   // rings of segment rows of a and b
   Buffer c_i_, c_ii_, c_a_, c_b_;  // column sums
   Buffer inv_xa_, inv_xb_;         // 1 / window count along x: a-columns, output columns
-  Buffer q_seg_, q_nat_;           // one output row: segment layout, natural (8 L pixels)
-  int next_seg_ = 0, next_a_ = 0;
+  Buffer q_seg_;                   // one output row in the segment layout
+  int next_a_ = 0;
 };
 
 }  // namespace turbid::guided_segments

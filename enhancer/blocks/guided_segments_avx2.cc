@@ -78,13 +78,23 @@ void TransposeInAvx2(const Geometry& g, const float* const* src, float* seg) {
   }
 }
 
-void TransposeOutAvx2(const Geometry& g, const float* seg, float* out) {
-  const ptrdiff_t step = static_cast<ptrdiff_t>(g.L) * 3;
+// Values at or past `limit` are not written (the last segments' pixels past the image).
+void TransposeOutAvx2(const Geometry& g, const float* seg, float* out, int limit) {
+  const int step = g.L * 3;
   __m256 r[8];
-  for (int j = 0; j < g.L * 3; j += 8) {
+  for (int j = 0; j < step; j += 8) {
     for (int i = 0; i < 8; ++i) r[i] = _mm256_load_ps(seg + static_cast<ptrdiff_t>(j + i) * 8);
     Transpose8(r);
-    for (int k = 0; k < 8; ++k) _mm256_storeu_ps(out + k * step + j, r[k]);
+    for (int k = 0; k < 8; ++k) {
+      const int at = k * step + j;
+      if (at + 8 <= limit) {
+        _mm256_storeu_ps(out + at, r[k]);
+      } else if (at < limit) {
+        alignas(32) float tail[8];
+        _mm256_store_ps(tail, r[k]);
+        for (int i = 0; at + i < limit; ++i) out[at + i] = tail[i];
+      }
+    }
   }
 }
 

@@ -175,8 +175,10 @@ TEST(GuidedSegments, TransposesRoundTrip) {
             }
           }
         }
-        k.transpose_out(g, seg.data + static_cast<size_t>(2 * r) * 24, out.data);
+        k.transpose_out(g, seg.data + static_cast<size_t>(2 * r) * 24, out.data, cols * 3);
         for (int p = 0; p < cols * 3; ++p) ASSERT_EQ(out.data[p], static_cast<float>(p + 1));
+        for (int p = cols * 3; p < 8 * g.L * 3; ++p)
+          ASSERT_EQ(out.data[p], 0.0f) << "past the limit";
       }
     }
   }
