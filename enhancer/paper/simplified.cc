@@ -210,7 +210,10 @@ cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
     }
   }
   if (image.channels() == 3) {
-    if (o.coarse_subsample == 1) return SimplifiedColorSegments(o, image);
+    // Images over kStreamBytes keep SimplifiedColor: its non-temporal output stores (no
+    // read-for-ownership of the output) outweigh the shared transposes there.
+    const bool large = o.contrast && image.total() * 3 * sizeof(float) > kStreamBytes;
+    if (o.coarse_subsample == 1 && !large) return SimplifiedColorSegments(o, image);
     return SimplifiedColor(o, fine, coarse, image);
   }
   ValidateEnhanceImage(image, "simplified");
