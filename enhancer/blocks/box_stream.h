@@ -126,6 +126,81 @@ void ProduceBorderedRow(Produce& produce, ExtRow&& ext_row, int j, int rows, int
   for (int p = 0; p < kPlanes; ++p) FillReflectedBorder(ext_row(p), cols, cn, radius, xofs);
 }
 
+// The first row sum of each channel of a bordered row (windows of 3 and 5: every sum, directly).
+inline void FirstRowSums(const float* e, double* h, int cn, int k, int n) {
+  if (k == 3) {
+    BoxDirect3Row(e, h, cn, n);
+  } else if (k == 5) {
+    BoxDirect5Row(e, h, cn, n);
+  } else {
+    for (int c = 0; c < cn; ++c) {
+      double sum = 0;
+      for (int i = 0; i < k; ++i) sum += static_cast<double>(e[i * cn + c]);
+      h[c] = sum;
+    }
+  }
+}
+
+// The running row sums of `count` bordered rows (windows other than 3 and 5): row b's widened
+// values at ext_d(b) (rows `stride` apart), its sums at slot(b), the first already there. Eight
+// gray rows side by side (BoxRunning8Gray), else four (BoxRunning4), then one at a time.
+template <typename ExtD, typename Slot>
+void RunningRowSums(ExtD&& ext_d, size_t stride, Slot&& slot, int count, int cn, int k, int cols) {
+  int b = 0;
+  for (; cn == 1 && b + 8 <= count; b += 8) {
+    double* h[8];
+    for (int r = 0; r < 8; ++r) h[r] = slot(b + r);
+    BoxRunning8Gray(ext_d(b), stride, h, k, cols - 1);
+  }
+  for (; b + 4 <= count; b += 4) {
+    BoxRunning4(ext_d(b), ext_d(b + 1), ext_d(b + 2), ext_d(b + 3), slot(b), slot(b + 1),
+                slot(b + 2), slot(b + 3), cn, k, cols - 1);
+  }
+  for (; b < count; ++b) BoxRunning1(ext_d(b), slot(b), cn, k, cols - 1);
+}
+
+// The per-thread buffers of one BoxStream call, every row starting on a 64-byte line (rows
+// padded to whole lines): `ring_rows` rows of row sums, `sum_rows` of column sums (zeroed), the
+// planes' bordered rows of one batch (float; double when `widen`) and one output row per plane.
+struct BoxBuffers {
+  size_t rn = 0, on = 0, en = 0, edn = 0;  // values per row: sums, outputs, bordered f / d
+  double* ring = nullptr;
+  double* sums = nullptr;
+  float* ext = nullptr;
+  double* ext_d = nullptr;
+  float* outs = nullptr;
+  int batch = 0;
+  float* ExtRow(int p, int b) const { return ext + (static_cast<size_t>(p) * batch + b) * en; }
+  double* ExtDRow(int p, int b) const { return ext_d + (static_cast<size_t>(p) * batch + b) * edn; }
+};
+
+inline BoxBuffers MakeBoxBuffers(int planes, int n, int ext_n, int batch, size_t ring_rows,
+                                 size_t sum_rows, bool widen) {
+  BoxScratch& scratch = ThreadBoxScratch();
+  BoxBuffers b;
+  b.batch = batch;
+  b.rn = LineStride<double>(n);
+  b.on = LineStride<float>(n);
+  b.en = LineStride<float>(ext_n);
+  b.edn = LineStride<double>(ext_n);
+  b.ring = Aligned64(scratch.ring, ring_rows * b.rn);
+  b.sums = Aligned64(scratch.sum, sum_rows * b.rn);
+  std::fill(b.sums, b.sums + sum_rows * b.rn, 0.0);
+  b.ext = Aligned64(scratch.ext, static_cast<size_t>(planes) * batch * b.en);
+  if (widen) b.ext_d = Aligned64(scratch.ext_d, static_cast<size_t>(planes) * batch * b.edn);
+  b.outs = Aligned64(scratch.out, static_cast<size_t>(planes) * b.on);
+  return b;
+}
+
+// Reflected border columns of a row of `cols` pixels extended by `radius` on each side
+// (BORDER_REFLECT, as cv::borderInterpolate places them).
+inline std::vector<int> ReflectedColumns(int cols, int radius) {
+  std::vector<int> xofs(cols + 2 * radius);
+  for (int j = 0; j < cols + 2 * radius; ++j)
+    xofs[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
+  return xofs;
+}
+
 template <int kPlanes, typename Produce, typename Consume>
 void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& produce,
                Consume&& consume) {
@@ -137,67 +212,28 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   const int batch = cn == 1 ? 8 : 4;
   const int capacity = k + batch;
   const int total_rows = rows + k - 1;  // bordered rows j = 0 .. rows + k - 2
-  // Reflected border columns (BORDER_REFLECT, as cv::borderInterpolate places them).
-  std::vector<int> xofs(cols + k - 1);
-  for (int j = 0; j < cols + k - 1; ++j)
-    xofs[j] = cv::borderInterpolate(j - radius, cols, cv::BORDER_REFLECT);
-  // Every buffer row starts on a 64-byte line (rows padded to whole lines).
-  BoxScratch& scratch = ThreadBoxScratch();
-  const size_t rn = LineStride<double>(n), on = LineStride<float>(n);
-  const size_t en = LineStride<float>(ext_n), edn = LineStride<double>(ext_n);
-  const size_t ring_n = static_cast<size_t>(capacity) * rn;
-  double* const ring = Aligned64(scratch.ring, kPlanes * ring_n);
-  double* const sums = Aligned64(scratch.sum, kPlanes * rn);
-  std::fill(sums, sums + kPlanes * rn, 0.0);
-  float* const ext = Aligned64(scratch.ext, kPlanes * batch * en);
+  const std::vector<int> xofs = ReflectedColumns(cols, radius);
   const bool running = k != 3 && k != 5;
-  double* const ext_d = running ? Aligned64(scratch.ext_d, kPlanes * batch * edn) : nullptr;
-  float* const outs = Aligned64(scratch.out, kPlanes * on);
+  const BoxBuffers buf = MakeBoxBuffers(kPlanes, n, ext_n, batch,
+                                        static_cast<size_t>(kPlanes) * capacity, kPlanes, running);
+  const size_t ring_n = static_cast<size_t>(capacity) * buf.rn;
   auto slot = [&](int p, int j) {
-    return ring + p * ring_n + static_cast<size_t>(j % capacity) * rn;
+    return buf.ring + p * ring_n + static_cast<size_t>(j % capacity) * buf.rn;
   };
-  auto ext_row = [&](int p, int b) { return ext + (static_cast<size_t>(p) * batch + b) * en; };
-  auto ext_d_row = [&](int p, int b) { return ext_d + (static_cast<size_t>(p) * batch + b) * edn; };
   int produced = 0;  // bordered rows whose row sums are in the rings
   auto produce_batch = [&](int count) {
     for (int b = 0; b < count; ++b) {
       const int j = produced + b;
       ProduceBorderedRow<kPlanes>(
-          produce, [&](int p) { return ext_row(p, b); }, j, rows, cols, cn, radius, xofs);
+          produce, [&](int p) { return buf.ExtRow(p, b); }, j, rows, cols, cn, radius, xofs);
       for (int p = 0; p < kPlanes; ++p) {
-        float* e = ext_row(p, b);
-        double* h = slot(p, j);
-        if (k == 3) {
-          BoxDirect3Row(e, h, cn, n);
-        } else if (k == 5) {
-          BoxDirect5Row(e, h, cn, n);
-        } else {
-          for (int c = 0; c < cn; ++c) {
-            double sum = 0;
-            for (int i = 0; i < k; ++i) sum += static_cast<double>(e[i * cn + c]);
-            h[c] = sum;
-          }
-          WidenRow(e, ext_d_row(p, b), ext_n);
-        }
+        FirstRowSums(buf.ExtRow(p, b), slot(p, j), cn, k, n);
+        if (running) WidenRow(buf.ExtRow(p, b), buf.ExtDRow(p, b), ext_n);
       }
     }
-    if (running) {
-      for (int p = 0; p < kPlanes; ++p) {
-        int b = 0;
-        for (; cn == 1 && b + 8 <= count; b += 8) {
-          const int j = produced + b;
-          double* h[8];
-          for (int r = 0; r < 8; ++r) h[r] = slot(p, j + r);
-          BoxRunning8Gray(ext_d_row(p, b), edn, h, k, cols - 1);
-        }
-        for (; b + 4 <= count; b += 4) {
-          const int j = produced + b;
-          BoxRunning4(ext_d_row(p, b), ext_d_row(p, b + 1), ext_d_row(p, b + 2),
-                      ext_d_row(p, b + 3), slot(p, j), slot(p, j + 1), slot(p, j + 2),
-                      slot(p, j + 3), cn, k, cols - 1);
-        }
-        for (; b < count; ++b) BoxRunning1(ext_d_row(p, b), slot(p, produced + b), cn, k, cols - 1);
-      }
+    for (int p = 0; running && p < kPlanes; ++p) {
+      RunningRowSums([&](int b) { return buf.ExtDRow(p, b); }, buf.edn,
+                     [&](int b) { return slot(p, produced + b); }, count, cn, k, cols);
     }
     produced += count;
   };
@@ -206,15 +242,15 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
   };
   for (int j = 0; j < k - 1; ++j) {
     need(j);
-    for (int p = 0; p < kPlanes; ++p) BoxAccumulateRow(sums + p * rn, slot(p, j), n);
+    for (int p = 0; p < kPlanes; ++p) BoxAccumulateRow(buf.sums + p * buf.rn, slot(p, j), n);
   }
   const float* out[kPlanes];
-  for (int p = 0; p < kPlanes; ++p) out[p] = outs + p * on;
+  for (int p = 0; p < kPlanes; ++p) out[p] = buf.outs + p * buf.on;
   for (int y = 0; y < rows; ++y) {
     need(y + k - 1);
     for (int p = 0; p < kPlanes; ++p) {
-      double* sum = sums + p * rn;
-      float* o = outs + p * on;
+      double* sum = buf.sums + p * buf.rn;
+      float* o = buf.outs + p * buf.on;
       if (scale != 1.0) {
         BoxColumnRowScaled(sum, slot(p, y + k - 1), slot(p, y), o, scale, n);
       } else {
@@ -222,6 +258,36 @@ void BoxStream(int rows, int cols, int cn, int radius, double scale, Produce&& p
       }
     }
     consume(y, out);
+  }
+}
+
+// One window of BoxStreamTwoRadii: its ring of row sums, column sums and progress.
+struct BoxWindow {
+  int k = 0, capacity = 0, total = 0, produced = 0, accumulated = 0, emitted = 0;
+  double* ring = nullptr;
+  double* sum = nullptr;
+};
+
+// BoxStreamTwoRadii's column steps of window w that the rows produced so far allow, in order: the
+// first k - 1 rows into the column sums, then one output row per further row (plane 0 written at
+// first_plane(y), the others into `other_rows`, `on` values apart).
+template <int kPlanes, typename Slot, typename Consume, typename FirstPlane>
+void BoxWindowColumns(BoxWindow& w, int rows, int n, size_t rn, size_t on, float* other_rows,
+                      Slot&& slot, Consume& consume, FirstPlane& first_plane) {
+  while (w.accumulated < w.k - 1 && w.accumulated < w.produced) {
+    for (int p = 0; p < kPlanes; ++p) BoxAccumulateRow(w.sum + p * rn, slot(p, w.accumulated), n);
+    ++w.accumulated;
+  }
+  while (w.accumulated == w.k - 1 && w.emitted < rows && w.emitted + w.k - 1 < w.produced) {
+    const int y = w.emitted;
+    const float* outs[kPlanes];
+    for (int p = 0; p < kPlanes; ++p) {
+      float* o = p == 0 ? first_plane(y) : other_rows + p * on;
+      BoxColumnRow(w.sum + p * rn, slot(p, y + w.k - 1), slot(p, y), o, n);
+      outs[p] = o;
+    }
+    consume(y, outs);
+    ++w.emitted;
   }
 }
 
@@ -247,104 +313,49 @@ void BoxStreamTwoRadii(int rows, int cols, int cn, int large, int small, Produce
   const int kl = 2 * large + 1;
   const int ext_n = (cols + kl - 1) * cn;
   const int offset = large - small;
-  std::vector<int> xofs(cols + kl - 1);
-  for (int j = 0; j < cols + kl - 1; ++j)
-    xofs[j] = cv::borderInterpolate(j - large, cols, cv::BORDER_REFLECT);
-  struct Window {
-    int k = 0, capacity = 0, total = 0, produced = 0, accumulated = 0, emitted = 0;
-    double* ring = nullptr;
-    double* sum = nullptr;
-  };
-  Window win[2];
+  const std::vector<int> xofs = ReflectedColumns(cols, large);
+  BoxWindow win[2];
   win[0].k = kl;
   win[1].k = 2 * small + 1;
-  // Every buffer row starts on a 64-byte line (rows padded to whole lines).
-  BoxScratch& scratch = ThreadBoxScratch();
-  const size_t rn = LineStride<double>(n), on = LineStride<float>(n);
-  const size_t en = LineStride<float>(ext_n), edn = LineStride<double>(ext_n);
-  size_t ring_total = 0;
-  for (Window& w : win) {
+  size_t ring_rows = 0;
+  for (BoxWindow& w : win) {
     w.capacity = w.k + batch;
     w.total = rows + w.k - 1;
-    ring_total += static_cast<size_t>(kPlanes) * w.capacity * rn;
+    ring_rows += static_cast<size_t>(kPlanes) * w.capacity;
   }
-  win[0].ring = Aligned64(scratch.ring, ring_total);
-  win[1].ring = win[0].ring + static_cast<size_t>(kPlanes) * win[0].capacity * rn;
-  win[0].sum = Aligned64(scratch.sum, 2 * kPlanes * rn);
-  std::fill(win[0].sum, win[0].sum + 2 * kPlanes * rn, 0.0);
-  win[1].sum = win[0].sum + kPlanes * rn;
-  float* const ext = Aligned64(scratch.ext, kPlanes * batch * en);
-  double* const ext_d = Aligned64(scratch.ext_d, kPlanes * batch * edn);
-  float* const out_rows = Aligned64(scratch.out, kPlanes * on);
-  auto slot = [&](const Window& w, int p, int j) {
-    return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * rn;
+  const BoxBuffers buf = MakeBoxBuffers(kPlanes, n, ext_n, batch, ring_rows, 2 * kPlanes, true);
+  win[0].ring = buf.ring;
+  win[1].ring = buf.ring + static_cast<size_t>(kPlanes) * win[0].capacity * buf.rn;
+  win[0].sum = buf.sums;
+  win[1].sum = buf.sums + kPlanes * buf.rn;
+  auto slot = [&](const BoxWindow& w, int p, int j) {
+    return w.ring + (static_cast<size_t>(p) * w.capacity + j % w.capacity) * buf.rn;
   };
-  auto ext_row = [&](int p, int b) { return ext + (static_cast<size_t>(p) * batch + b) * en; };
-  auto ext_d_row = [&](int p, int b) { return ext_d + (static_cast<size_t>(p) * batch + b) * edn; };
   // The row sums of bordered rows (count of them, from the batch's row `first`) of window w,
   // whose rows start `shift` values into the large window's bordered rows.
-  auto row_sums = [&](Window& w, int first, int count, int shift) {
+  auto row_sums = [&](BoxWindow& w, int first, int count, int shift) {
     for (int p = 0; p < kPlanes; ++p) {
       for (int b = first; b < first + count; ++b) {
-        const float* e = ext_row(p, b) + shift;
-        double* h = slot(w, p, w.produced + b - first);
-        if (w.k == 3) {
-          BoxDirect3Row(e, h, cn, n);
-        } else if (w.k == 5) {
-          BoxDirect5Row(e, h, cn, n);
-        } else {
-          for (int c = 0; c < cn; ++c) {
-            double s = 0;
-            for (int i = 0; i < w.k; ++i) s += static_cast<double>(e[i * cn + c]);
-            h[c] = s;
-          }
-        }
+        FirstRowSums(buf.ExtRow(p, b) + shift, slot(w, p, w.produced + b - first), cn, w.k, n);
       }
       if (w.k == 3 || w.k == 5) continue;
-      int b = first;
-      for (; cn == 1 && b + 8 <= first + count; b += 8) {
-        double* h[8];
-        for (int r = 0; r < 8; ++r) h[r] = slot(w, p, w.produced + b - first + r);
-        BoxRunning8Gray(ext_d_row(p, b) + shift, edn, h, w.k, cols - 1);
-      }
-      for (; b + 4 <= first + count; b += 4) {
-        const int j = w.produced + b - first;
-        BoxRunning4(ext_d_row(p, b) + shift, ext_d_row(p, b + 1) + shift,
-                    ext_d_row(p, b + 2) + shift, ext_d_row(p, b + 3) + shift, slot(w, p, j),
-                    slot(w, p, j + 1), slot(w, p, j + 2), slot(w, p, j + 3), cn, w.k, cols - 1);
-      }
-      for (; b < first + count; ++b)
-        BoxRunning1(ext_d_row(p, b) + shift, slot(w, p, w.produced + b - first), cn, w.k, cols - 1);
+      RunningRowSums([&](int i) { return buf.ExtDRow(p, first + i) + shift; }, buf.edn,
+                     [&](int i) { return slot(w, p, w.produced + i); }, count, cn, w.k, cols);
     }
     w.produced += count;
   };
-  // The column steps that the rows produced so far allow, in order: the first k - 1 rows into the
-  // column sums, then one output row per further row.
-  auto columns = [&](Window& w, auto& consume, auto& first_plane) {
-    while (w.accumulated < w.k - 1 && w.accumulated < w.produced) {
-      for (int p = 0; p < kPlanes; ++p)
-        BoxAccumulateRow(w.sum + p * rn, slot(w, p, w.accumulated), n);
-      ++w.accumulated;
-    }
-    while (w.accumulated == w.k - 1 && w.emitted < rows && w.emitted + w.k - 1 < w.produced) {
-      const int y = w.emitted;
-      const float* outs[kPlanes];
-      for (int p = 0; p < kPlanes; ++p) {
-        float* o = p == 0 ? first_plane(y) : out_rows + p * on;
-        BoxColumnRow(w.sum + p * rn, slot(w, p, y + w.k - 1), slot(w, p, y), o, n);
-        outs[p] = o;
-      }
-      consume(y, outs);
-      ++w.emitted;
-    }
+  auto columns = [&](BoxWindow& w, auto& consume, auto& first_plane) {
+    BoxWindowColumns<kPlanes>(
+        w, rows, n, buf.rn, buf.on, buf.outs, [&](int p, int j) { return slot(w, p, j); }, consume,
+        first_plane);
   };
   const int total = win[0].total;
   for (int j0 = 0; j0 < total; j0 += batch) {
     const int count = std::min(batch, total - j0);
     for (int b = 0; b < count; ++b) {
       ProduceBorderedRow<kPlanes>(
-          produce, [&](int p) { return ext_row(p, b); }, j0 + b, rows, cols, cn, large, xofs);
-      for (int p = 0; p < kPlanes; ++p) WidenRow(ext_row(p, b), ext_d_row(p, b), ext_n);
+          produce, [&](int p) { return buf.ExtRow(p, b); }, j0 + b, rows, cols, cn, large, xofs);
+      for (int p = 0; p < kPlanes; ++p) WidenRow(buf.ExtRow(p, b), buf.ExtDRow(p, b), ext_n);
     }
     row_sums(win[0], 0, count, 0);
     // The small window's rows among these: bordered rows j - offset in [0, its total).

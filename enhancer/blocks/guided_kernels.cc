@@ -129,47 +129,41 @@ TURBID_ROW_KERNEL void ApplyCoefficients(const float* __restrict s_a, const floa
 // padded column sums. Each window sum adds the same values in the same order as
 // DirectWindowSums / BlockedWindowSums, so the results are bit-identical to the unfused passes.
 
-// S is the distance between horizontally neighbouring values of one channel: 1 for one-channel
-// rows, the channel count for interleaved rows (each channel is summed alone, in the same order).
-
-// Sum of W consecutive values (S apart) from ext[x]; for W >= 9 from the sums of 4 in `quads`.
-template <int W, int S = 1>
+// Sum of W consecutive values from ext[x]; for W >= 9 from the sums of 4 in `quads`.
+template <int W>
 inline float WindowSumAt(const float* __restrict ext, const float* __restrict quads, int x) {
   if constexpr (W >= 9) {
     constexpr int kQuads = W / 4;
     float s = quads[x];
-    for (int q = 1; q < kQuads; ++q) s += quads[x + 4 * S * q];
-    for (int k = 4 * kQuads; k < W; ++k) s += ext[x + S * k];
+    for (int q = 1; q < kQuads; ++q) s += quads[x + 4 * q];
+    for (int k = 4 * kQuads; k < W; ++k) s += ext[x + k];
     return s;
   } else {
     float s = ext[x];
-    for (int k = 1; k < W; ++k) s += ext[x + S * k];
+    for (int k = 1; k < W; ++k) s += ext[x + k];
     return s;
   }
 }
 
 // Sums of 4 consecutive values of two padded rows (the first pass of BlockedWindowSums).
-template <int W, int S = 1>
+template <int W>
 TURBID_ROW_KERNEL void QuadSumsPair(const float* __restrict e0, const float* __restrict e1,
                                     float* __restrict q0, float* __restrict q1, int w) {
-  const int n = w + 4 * S * (W / 4 - 1);
+  const int n = w + 4 * (W / 4 - 1);
   for (int x = 0; x < n; ++x) {
-    q0[x] = e0[x] + e0[x + S] + e0[x + 2 * S] + e0[x + 3 * S];
-    q1[x] = e1[x] + e1[x + S] + e1[x + 2 * S] + e1[x + 3 * S];
+    q0[x] = e0[x] + e0[x + 1] + e0[x + 2] + e0[x + 3];
+    q1[x] = e1[x] + e1[x + 1] + e1[x + 2] + e1[x + 3];
   }
 }
 
-// kUniform: every inv_cx[x] of the call equals inv_cx[0] (columns at least r from the border),
-// which is read once: the same product per value, one load less.
-template <int W, int S = 1, bool kUniform = false>
+template <int W>
 TURBID_ROW_KERNEL void SelfCoefficientsFused(
     const float* __restrict e_i, const float* __restrict e_ii, const float* __restrict q_i,
     const float* __restrict q_ii, const float* __restrict inv_cx, float inv_cy, float eps,
     float* __restrict a, float* __restrict b, int w) {
-  const float cx = inv_cx[0];
   for (int x = 0; x < w; ++x) {
-    SelfCoefficient(WindowSumAt<W, S>(e_i, q_i, x), WindowSumAt<W, S>(e_ii, q_ii, x),
-                    (kUniform ? cx : inv_cx[x]) * inv_cy, eps, a + x, b + x);
+    SelfCoefficient(WindowSumAt<W>(e_i, q_i, x), WindowSumAt<W>(e_ii, q_ii, x), inv_cx[x] * inv_cy,
+                    eps, a + x, b + x);
   }
 }
 
@@ -195,15 +189,14 @@ TURBID_ROW_KERNEL void GuidedCoefficientsFused(const float* const* __restrict e,
   }
 }
 
-template <int W, int S = 1, bool kUniform = false>
+template <int W>
 TURBID_ROW_KERNEL void ApplyCoefficientsFused(
     const float* __restrict e_a, const float* __restrict e_b, const float* __restrict q_a,
     const float* __restrict q_b, const float* __restrict guide, const float* __restrict inv_cx,
     float inv_cy, float* __restrict q, int w) {
-  const float cx = inv_cx[0];
   for (int x = 0; x < w; ++x) {
-    q[x] = ApplyCoefficient(WindowSumAt<W, S>(e_a, q_a, x), WindowSumAt<W, S>(e_b, q_b, x),
-                            guide[x], (kUniform ? cx : inv_cx[x]) * inv_cy);
+    q[x] = ApplyCoefficient(WindowSumAt<W>(e_a, q_a, x), WindowSumAt<W>(e_b, q_b, x), guide[x],
+                            inv_cx[x] * inv_cy);
   }
 }
 
@@ -546,23 +539,17 @@ TURBID_AVX2 void RunningWindowSumsAvx2(const float* e, int w, int window, float*
 #undef TURBID_AVX2
 #endif
 
-// S > 1 (interleaved channels, each self-guided): no guided kernel and no rolling AVX2 kernels
-// (their 4-sums advance by 8 values, which is not a whole number of pixels).
-template <int R, int S = 1>
+template <int R>
 FusedKernels MakeFusedKernels([[maybe_unused]] bool avx2) {
   constexpr int W = 2 * R + 1;
   FusedKernels k;
-  k.self_coefficients = &SelfCoefficientsFused<W, S>;
-  if constexpr (S == 1) k.guided_coefficients = &GuidedCoefficientsFused<W>;
-  k.apply = &ApplyCoefficientsFused<W, S>;
-  if constexpr (S > 1) {
-    k.self_coefficients_uniform = &SelfCoefficientsFused<W, S, true>;
-    k.apply_uniform = &ApplyCoefficientsFused<W, S, true>;
-  }
+  k.self_coefficients = &SelfCoefficientsFused<W>;
+  k.guided_coefficients = &GuidedCoefficientsFused<W>;
+  k.apply = &ApplyCoefficientsFused<W>;
   if constexpr (W >= 9) {
-    k.quads = &QuadSumsPair<W, S>;
+    k.quads = &QuadSumsPair<W>;
 #ifdef TURBID_HAVE_ROLLING_QUADS
-    if (avx2 && S == 1) {
+    if (avx2) {
       k.quads = nullptr;
       k.self_coefficients = &SelfCoefficientsRolling<W>;
       k.guided_coefficients = &GuidedCoefficientsRolling<W>;
@@ -573,18 +560,16 @@ FusedKernels MakeFusedKernels([[maybe_unused]] bool avx2) {
   return k;
 }
 
-// Kernels for radius r and `channels` interleaved channels (1 or 3).
+// Kernels for radius r.
 template <int... R>
-FusedKernels FusedKernelsFor(int r, int channels, std::integer_sequence<int, R...>) {
+FusedKernels FusedKernelsFor(int r, std::integer_sequence<int, R...>) {
   static const FusedKernels portable[] = {MakeFusedKernels<R + 1>(false)...};
   static const FusedKernels avx2[] = {MakeFusedKernels<R + 1>(true)...};
-  static const FusedKernels interleaved3[] = {MakeFusedKernels<R + 1, 3>(false)...};
-  if (channels == 3) return interleaved3[r - 1];
   return enhancer_internal::UseHandWrittenAvx2() ? avx2[r - 1] : portable[r - 1];
 }
 
-FusedKernels FusedKernelsFor(int r, int channels) {
-  return FusedKernelsFor(r, channels, std::make_integer_sequence<int, kMaxFusedRadius>{});
+FusedKernels FusedKernelsFor(int r) {
+  return FusedKernelsFor(r, std::make_integer_sequence<int, kMaxFusedRadius>{});
 }
 
 // Stage A / B column-sum updates of two planes at once (one pass; the same arithmetic per plane

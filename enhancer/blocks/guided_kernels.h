@@ -5,7 +5,6 @@
 #include <cstddef>
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define TURBID_HAVE_COLUMN_QUADS3 1
 #define TURBID_HAVE_ROLLING_QUADS 1
 #endif
 
@@ -88,14 +87,11 @@ struct FusedKernels {
                               float*, float*, int) = nullptr;
   void (*apply)(const float*, const float*, const float*, const float*, const float*, const float*,
                 float, float*, int) = nullptr;
-  // Interleaved streams: the same kernels for columns whose window counts are all 2r + 1.
-  decltype(self_coefficients) self_coefficients_uniform = nullptr;
-  decltype(apply) apply_uniform = nullptr;
 };
 
 constexpr int kMaxFusedRadius = 12;
 
-// Kernels for radius r (1..kMaxFusedRadius) and `channels` interleaved channels (1 or 3).
-FusedKernels FusedKernelsFor(int r, int channels);
+// Kernels for radius r (1..kMaxFusedRadius), one-channel rows.
+FusedKernels FusedKernelsFor(int r);
 
 }  // namespace turbid::guided_internal

@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "enhancer/blocks/guided_filter.h"
+#include "enhancer/blocks/guided_segments.h"
 #include "enhancer/method.h"
 #include "enhancer/paper/full_internal.h"
 #include "enhancer/paper/kernels.h"
@@ -79,6 +80,57 @@ cv::Mat SimplifiedGray(const SimplifiedOptions& o, const GuidedFilterOptions& fi
   });
   // CLAHE's output is in [0, 1] already.
   return o.contrast ? ClaheFromBins(o.clahe, bins) : out;
+}
+
+// The boost I_g + alpha (I_f - I_g) of n values, clamped to [0, 1] into dst; whether every value
+// was finite. next_dst / stream_dst: BoostClampRowAvx2's prefetch and non-temporal targets.
+bool BoostRow(const SimplifiedOptions& o, const float* i_f, const float* i_g, float* dst, int n,
+              [[maybe_unused]] float* next_dst, [[maybe_unused]] float* stream_dst) {
+#ifdef TURBID_HAVE_BOOST_AVX2
+  static const bool fma = CpuHasFma();
+  if (enhancer_internal::UseHandWrittenAvx2()) {
+    return fma ? BoostClampRowAvx2<true>(i_g, i_f, 1.0 - o.alpha, o.alpha, dst, n, next_dst,
+                                         stream_dst)
+               : BoostClampRowAvx2<false>(i_g, i_f, 1.0 - o.alpha, o.alpha, dst, n, next_dst,
+                                          stream_dst);
+  }
+#endif
+  AddWeightedRow(i_g, i_f, 1.0 - o.alpha, o.alpha, dst, n);
+  const bool finite = RowIsFinite(dst, static_cast<size_t>(n));
+  ClampUnitRow(dst, n);
+  return finite;
+}
+
+// Three-channel `simplified` with both filters exact (subsample 1): one segment-layout Input
+// feeds both guided_segments streams (each input row transposed once), the boost runs on the
+// segment rows (it is element-wise) and one transpose writes the output row, which CLAHE's
+// binning then reads from cache.
+cv::Mat SimplifiedColorSegments(const SimplifiedOptions& o, const cv::Mat& image) {
+  cv::Mat out(image.size(), CV_32FC3), bins;
+  std::vector<float> lum(image.cols);
+  if (o.contrast) bins = ClaheNewBins(o.clahe, image.size());
+  const cv::Mat src = image.isContinuous() ? image : image.clone();
+  guided_segments::Input input(src, std::max(o.fine_radius, o.coarse_radius));
+  guided_segments::Stream fine(&input, o.fine_radius, static_cast<float>(o.fine_eps));
+  guided_segments::Stream coarse(&input, o.coarse_radius, static_cast<float>(o.coarse_eps));
+  guided_segments::Buffer boosted;
+  boosted.Assign(fine.SegmentFloats());
+  const int n = static_cast<int>(fine.SegmentFloats());
+  bool validated = false;
+  for (int y = 0; y < image.rows; ++y) {
+    const float* i_f = fine.RowSegments(y);
+    const float* i_g = coarse.RowSegments(y);
+    const bool finite = BoostRow(o, i_f, i_g, boosted.data, n, nullptr, nullptr);
+    if (!validated && !finite) {
+      ValidateEnhanceImage(image, "simplified");
+      validated = true;
+    }
+    float* dst = out.ptr<float>(y);
+    input.ToNatural(boosted.data, dst);
+    if (o.contrast) ClaheBinColorRow(o.clahe, dst, lum.data(), bins, y);
+  }
+  if (o.contrast) ClaheColorFromBins(o.clahe, bins, out);  // in [0, 1]
+  return out;
 }
 
 // Output images above this size are written with non-temporal stores by SimplifiedColor.
@@ -157,7 +209,13 @@ cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
       throw;
     }
   }
-  if (image.channels() == 3) return SimplifiedColor(o, fine, coarse, image);
+  if (image.channels() == 3) {
+    // Images over kStreamBytes keep SimplifiedColor: its non-temporal output stores (no
+    // read-for-ownership of the output) outweigh the shared transposes there.
+    const bool large = o.contrast && image.total() * 3 * sizeof(float) > kStreamBytes;
+    if (o.coarse_subsample == 1 && !large) return SimplifiedColorSegments(o, image);
+    return SimplifiedColor(o, fine, coarse, image);
+  }
   ValidateEnhanceImage(image, "simplified");
   const cv::Mat i_f = GuidedFilterSelf(fine, image);
   const cv::Mat i_g = GuidedFilterSelf(coarse, image);

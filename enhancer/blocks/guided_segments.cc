@@ -1,0 +1,240 @@
+#include "enhancer/blocks/guided_segments.h"
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <utility>
+
+#include "core/cpu.h"
+
+namespace turbid::guided_segments {
+namespace {
+
+// Portable vector of 8 floats (plain loops; no FMA contraction is relied on either way).
+struct Portable {
+  struct V {
+    float v[8];
+  };
+  static V Load(const float* p) {
+    V r;
+    std::memcpy(r.v, p, sizeof(r.v));
+    return r;
+  }
+  static void Store(float* p, const V& x) { std::memcpy(p, x.v, sizeof(x.v)); }
+  template <typename F>
+  static V Map(const V& a, const V& b, F f) {
+    V r;
+    for (int k = 0; k < 8; ++k) r.v[k] = f(a.v[k], b.v[k]);
+    return r;
+  }
+  static V Add(const V& a, const V& b) {
+    return Map(a, b, [](float x, float y) { return x + y; });
+  }
+  static V Sub(const V& a, const V& b) {
+    return Map(a, b, [](float x, float y) { return x - y; });
+  }
+  static V Mul(const V& a, const V& b) {
+    return Map(a, b, [](float x, float y) { return x * y; });
+  }
+  static V Div(const V& a, const V& b) {
+    return Map(a, b, [](float x, float y) { return x / y; });
+  }
+  static V Set1(float x) {
+    V r;
+    std::fill(r.v, r.v + 8, x);
+    return r;
+  }
+  static V MulAdd(const V& a, const V& b, const V& c) { return Add(Mul(a, b), c); }
+  static V NegMulAdd(const V& a, const V& b, const V& c) { return Sub(c, Mul(a, b)); }
+};
+
+#include "enhancer/blocks/guided_segments_kernels.h"  // NOLINT(build/include): the kernels, here
+
+void StageAPortable(const Geometry& g, float* c_i, float* c_ii, const float* add, const float* sub,
+                    bool update, const float* inv_x, float inv_y, float eps, float* a, float* b) {
+  StageAKernel<Portable>(g, c_i, c_ii, add, sub, update, inv_x, inv_y, eps, a, b);
+}
+
+void StageBPortable(const Geometry& g, float* c_a, float* c_b, const float* add_a,
+                    const float* sub_a, const float* add_b, const float* sub_b, bool update,
+                    const float* inv_x, float inv_y, const float* guide, float* q) {
+  StageBKernel<Portable>(g, c_a, c_b, add_a, sub_a, add_b, sub_b, update, inv_x, inv_y, guide, q);
+}
+
+void TransposeInPortable(const Geometry& g, const float* const* src, float* seg) {
+  for (int k = 0; k < 8; ++k) {
+    for (int j = 0; j < g.lh8 * 3; ++j) seg[j * 8 + k] = src[k][j];
+  }
+}
+
+void TransposeOutPortable(const Geometry& g, const float* seg, float* out, int limit) {
+  for (int k = 0; k < 8; ++k) {
+    const int base = k * g.L * 3;
+    const int count = std::min(g.L * 3, limit - base);
+    for (int j = 0; j < count; ++j) out[base + j] = seg[j * 8 + k];
+  }
+}
+
+// The window's pixel count along one axis of n pixels at position p (clipped window).
+int Count(int p, int r, int n) { return std::min(p + r, n - 1) - std::max(p - r, 0) + 1; }
+
+constexpr int kAnchorRows = 64;  // vertical sums recomputed directly every this many rows
+
+}  // namespace
+
+void Buffer::Assign(size_t count) {
+  storage.assign(count + 16, 0.0f);
+  const uintptr_t p = reinterpret_cast<uintptr_t>(storage.data());
+  data = storage.data() + ((64 - p % 64) % 64) / sizeof(float);
+}
+
+Geometry MakeGeometry(int cols, int r) {
+  Geometry g;
+  g.cols = cols;
+  g.r = r;
+  g.L = (cols + 63) / 64 * 8;
+  g.la = g.L + 2 * r;
+  g.lh = g.L + 4 * r;
+  g.lh8 = (g.lh + 7) / 8 * 8;
+  return g;
+}
+
+Kernels PortableKernels() {
+  Kernels k;
+  k.stage_a = StageAPortable;
+  k.stage_b = StageBPortable;
+  k.transpose_in = TransposeInPortable;
+  k.transpose_out = TransposeOutPortable;
+  return k;
+}
+
+Kernels ChosenKernels() {
+  const Kernels avx2 = KernelCpuLevel() >= CpuLevel::kAvx2Fma ? Avx2FmaKernels() : Kernels{};
+  return avx2.stage_a != nullptr ? avx2 : PortableKernels();
+}
+
+Input::Input(const cv::Mat& image, int halo)
+    : image_(image), g_(MakeGeometry(image.cols, halo)), k_(ChosenKernels()), ring_(2 * halo + 2) {
+  CV_Assert(image.type() == CV_32FC3 && image.isContinuous() && halo >= 1);
+  stride_ = static_cast<size_t>(g_.lh8) * 24;
+  edges_.Assign(static_cast<size_t>(8 * g_.lh8) * 3);
+  seg_.Assign(ring_ * stride_);
+}
+
+const float* Input::Row(int y) {
+  while (next_ <= y) {
+    const int t = next_++;
+    const float* row = image_.ptr<float>(t);
+    const float* src[8];
+    for (int k = 0; k < 8; ++k) {
+      const int p0 = k * g_.L - 2 * g_.r, p1 = p0 + g_.lh8;  // the segment's pixels [p0, p1)
+      if (p0 >= 0 && p1 <= g_.cols) {
+        src[k] = row + static_cast<ptrdiff_t>(p0) * 3;  // inside the image: read in place
+        continue;
+      }
+      // Past an edge: the pixels inside the image copied, the rest stays zero.
+      float* e = edges_.data + static_cast<size_t>(k) * g_.lh8 * 3;
+      const int i0 = std::max(p0, 0), i1 = std::min(p1, g_.cols);
+      if (i1 > i0) {
+        std::memcpy(e + static_cast<ptrdiff_t>(i0 - p0) * 3, row + static_cast<ptrdiff_t>(i0) * 3,
+                    sizeof(float) * (i1 - i0) * 3);
+      }
+      src[k] = e;
+    }
+    k_.transpose_in(g_, src, seg_.data + static_cast<size_t>(t % ring_) * stride_);
+  }
+  CV_DbgAssert(y > next_ - 1 - ring_);
+  return seg_.data + static_cast<size_t>(y % ring_) * stride_;
+}
+
+void Input::ToNatural(const float* seg, float* dst) const {
+  k_.transpose_out(g_, seg, dst, g_.cols * 3);
+}
+
+Stream::Stream(std::unique_ptr<Input> own, Input* input, int r, float eps)
+    : own_(std::move(own)),
+      input_(input != nullptr ? input : own_.get()),
+      r_(r),
+      h_(input_->rows()),
+      eps_(eps),
+      g_(MakeGeometry(input_->image().cols, r)),
+      k_(ChosenKernels()) {
+  CV_Assert(r >= 1 && r <= input_->halo());
+  ring_ = 2 * r + 2;
+  offset_ = static_cast<size_t>(2 * (input_->halo() - r)) * 24;
+  c_stride_ = static_cast<size_t>(g_.lh8) * 24;
+  ab_stride_ = static_cast<size_t>(g_.la) * 24;
+  a_.Assign(ring_ * ab_stride_);
+  b_.Assign(ring_ * ab_stride_);
+  c_i_.Assign(c_stride_);
+  c_ii_.Assign(c_stride_);
+  c_a_.Assign(ab_stride_);
+  c_b_.Assign(ab_stride_);
+  q_seg_.Assign(static_cast<size_t>(g_.L) * 24);
+  inv_xa_.Assign(static_cast<size_t>(g_.la) * 8);
+  inv_xb_.Assign(static_cast<size_t>(g_.L) * 8);
+  for (int k = 0; k < 8; ++k) {
+    for (int j = 0; j < g_.la; ++j) {
+      const int p = k * g_.L + j - r;  // a-column j holds pixel s = j - r of segment k
+      inv_xa_.data[j * 8 + k] =
+          p >= 0 && p < g_.cols ? 1.0f / static_cast<float>(Count(p, r, g_.cols)) : 0.0f;
+    }
+    for (int s = 0; s < g_.L; ++s) {
+      const int p = k * g_.L + s;
+      inv_xb_.data[s * 8 + k] =
+          p < g_.cols ? 1.0f / static_cast<float>(Count(p, r, g_.cols)) : 0.0f;
+    }
+  }
+}
+
+// Direct vertical sums of rows [max(t - r, 0), min(t + r, h - 1)] (row(y) gives each), n floats;
+// the second plane: the squares of the first's rows (kSquare) or rows2(y).
+template <bool kSquare, typename Row0, typename Row1>
+void DirectColumns(int t, int r, int h, size_t n, float* c0, float* c1, Row0 row0, Row1 row1) {
+  std::fill(c0, c0 + n, 0.0f);
+  std::fill(c1, c1 + n, 0.0f);
+  for (int y = std::max(t - r, 0); y <= std::min(t + r, h - 1); ++y) {
+    const float* p = row0(y);
+    const float* q = row1(y);
+    for (size_t i = 0; i < n; ++i) {
+      c0[i] += p[i];
+      c1[i] += kSquare ? p[i] * p[i] : q[i];
+    }
+  }
+}
+
+void Stream::StageA(int y) {
+  input_->Row(std::min(y + r_, h_ - 1));  // transposed up to there
+  const bool anchor = y % kAnchorRows == 0;
+  if (anchor) {
+    auto row = [&](int yy) { return InRow(yy); };
+    DirectColumns<true>(y, r_, h_, c_stride_, c_i_.data, c_ii_.data, row, row);
+  }
+  const float* add = y + r_ < h_ ? InRow(y + r_) : nullptr;
+  const float* sub = y - r_ - 1 >= 0 ? InRow(y - r_ - 1) : nullptr;
+  const float inv_y = 1.0f / static_cast<float>(Count(y, r_, h_));
+  k_.stage_a(g_, c_i_.data, c_ii_.data, add, sub, !anchor, inv_xa_.data, inv_y, eps_, ARow(y),
+             BRow(y));
+}
+
+const float* Stream::RowSegments(int t) {
+  const int need = std::min(t + r_, h_ - 1);
+  while (next_a_ <= need) StageA(next_a_++);
+  const bool anchor = t % kAnchorRows == 0;
+  if (anchor) {
+    DirectColumns<false>(
+        t, r_, h_, ab_stride_, c_a_.data, c_b_.data,
+        [&](int yy) { return static_cast<const float*>(ARow(yy)); },
+        [&](int yy) { return static_cast<const float*>(BRow(yy)); });
+  }
+  const bool has_add = t + r_ < h_, has_sub = t - r_ - 1 >= 0;
+  const float inv_y = 1.0f / static_cast<float>(Count(t, r_, h_));
+  k_.stage_b(g_, c_a_.data, c_b_.data, has_add ? ARow(t + r_) : nullptr,
+             has_sub ? ARow(t - r_ - 1) : nullptr, has_add ? BRow(t + r_) : nullptr,
+             has_sub ? BRow(t - r_ - 1) : nullptr, !anchor, inv_xb_.data, inv_y, InRow(t),
+             q_seg_.data);
+  return q_seg_.data;
+}
+
+}  // namespace turbid::guided_segments

@@ -1,0 +1,137 @@
+// The self-guided filter of an interleaved three-channel image (each channel its own guide, He 2013
+// Alg. 1) with O(1) box sums per value in both directions, streamed by rows (issue 29 item 6).
+//
+// Layout: a row of `cols` pixels is cut into 8 segments of L pixels (L a multiple of 8, 8 L >=
+// cols); segment k is lane k of every 8-float vector. A "segment row" holds, per column s of the
+// segment (with a halo on both sides) and per channel c, one vector: lane k = pixel k L + s,
+// channel c (zero outside [0, cols)). In this layout the horizontal box sums are running sums
+// along s, lane by lane, with no shuffles: S(s) = S(s - 1) + c(s + r) - c(s - r - 1). Input rows
+// are transposed into it once, output rows back once (8 x 8 transposes).
+//
+// Per stream: stage A keeps running column sums of I and I^2 over the window's rows (float,
+// recomputed directly every kAnchorRows rows so rounding cannot drift), forms the window sums
+// (re-started from a direct sum every 64 columns), and a = var / (var + eps), b = m (1 - a) into a
+// ring of 2r + 2 segment rows; stage B, r rows behind, does the same for a and b and writes
+// q = (sum a * I + sum b) / N. Window: clipped to the image, N the number of pixels inside it (as
+// GuidedFilter). Equal to the whole-image filter to float rounding (tests: a double-precision
+// transcription; the AVX2 path uses FMA). Results do not depend on threads (one stream, one
+// thread).
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <vector>
+
+namespace turbid::guided_segments {
+
+// Zero-filled floats from a 64-byte line on (each segment column is 96 bytes: every vector is
+// 32-byte aligned).
+struct Buffer {
+  std::vector<float> storage;
+  float* data = nullptr;
+  void Assign(size_t count);
+};
+
+// The geometry shared by the row kernels (all counts in columns of the segment layout, one
+// column = 3 channels x 8 lanes = 24 floats).
+struct Geometry {
+  int cols = 0;  // image width in pixels
+  int r = 0;     // radius
+  int L = 0;     // pixels per segment (multiple of 8)
+  int la = 0;    // columns of a, b rows: s in [-r, L + r)
+  int lh = 0;    // columns of input rows and stage A's column sums: s in [-2r, L + 2r)
+  int lh8 = 0;   // lh rounded up to 8 (the transposes work on blocks of 8 columns)
+};
+
+Geometry MakeGeometry(int cols, int r);
+
+// Row kernels of one path (portable loops, or AVX2 + FMA). Arrays are segment rows (24 floats a
+// column). Stage A: column sums c_i, c_ii (lh columns) updated with segment rows add / sub
+// (either null: absent; update false: the sums are current already), window sums over columns
+// [j, j + 2r] for j in [0, la), coefficients into a, b (la columns); inv_x: 1 / (window count
+// along x) per a-column and lane (0 outside the image, which makes a = b = 0 there).
+// Stage B: the same on c_a, c_b (la columns) from rows of a and b, output for s in [0, L) with
+// guide (the input segment row, at its column s + 2r) into q.
+struct Kernels {
+  void (*stage_a)(const Geometry& g, float* c_i, float* c_ii, const float* add, const float* sub,
+                  bool update, const float* inv_x, float inv_y, float eps, float* a,
+                  float* b) = nullptr;
+  void (*stage_b)(const Geometry& g, float* c_a, float* c_b, const float* add_a, const float* sub_a,
+                  const float* add_b, const float* sub_b, bool update, const float* inv_x,
+                  float inv_y, const float* guide, float* q) = nullptr;
+  // Natural rows -> segment row of lh8 columns: src[k] holds segment k's lh8 pixels from pixel
+  // k L - 2r on (zeros outside the image).
+  void (*transpose_in)(const Geometry& g, const float* const* src, float* seg) = nullptr;
+  // Segment row of L columns -> natural row: the first `limit` values of the 8 L pixels.
+  void (*transpose_out)(const Geometry& g, const float* seg, float* out, int limit) = nullptr;
+};
+
+Kernels PortableKernels();
+// AVX2 + FMA kernels where this build has them (GCC or Clang on x86-64), else null members.
+Kernels Avx2FmaKernels();
+// The kernels this process uses: AVX2 + FMA where KernelCpuLevel() allows, else portable.
+Kernels ChosenKernels();
+
+// The rows of an image (CV_32FC3, continuous) in the segment layout with a halo of 2 `halo`
+// columns each side, for filters of radius <= halo; transposed once each, on demand, kept in a
+// ring of 2 halo + 2 rows. One Input can feed several Streams of the same image.
+class Input {
+ public:
+  Input(const cv::Mat& image, int halo);
+  // Segment row y (column 0: pixel -2 halo), transposing the rows up to y first; y at most
+  // 2 halo + 1 rows behind the last row asked for.
+  const float* Row(int y);
+  int halo() const { return g_.r; }
+  int rows() const { return image_.rows; }
+  const cv::Mat& image() const { return image_; }
+  // A segment row of L columns (an output) -> natural row `dst` (cols * 3 floats).
+  void ToNatural(const float* seg, float* dst) const;
+
+ private:
+  const cv::Mat image_;
+  Geometry g_;
+  Kernels k_;
+  int ring_;
+  size_t stride_;
+  Buffer edges_;  // segments reaching past the image: their pixels, zero-padded
+  Buffer seg_;    // the ring of segment rows
+  int next_ = 0;
+};
+
+// The streamed filter (radius r >= 1, eps > 0) of one image: owning its Input, or reading a
+// shared one (halo >= r). Row(t, dst) writes output row t (cols * 3 floats); RowSegments(t) gives
+// it in the segment layout (L columns, valid until the next call); rows in order 0, 1, ...
+class Stream {
+ public:
+  Stream(const cv::Mat& image, int r, float eps)
+      : Stream(std::make_unique<Input>(image, r), nullptr, r, eps) {}
+  Stream(Input* input, int r, float eps) : Stream(nullptr, input, r, eps) {}
+  void Row(int t, float* dst) { input_->ToNatural(RowSegments(t), dst); }
+  const float* RowSegments(int t);
+  // Floats per segment row of output (L columns x 24).
+  size_t SegmentFloats() const { return static_cast<size_t>(g_.L) * 24; }
+
+ private:
+  Stream(std::unique_ptr<Input> own, Input* input, int r, float eps);
+  const float* InRow(int y) { return input_->Row(y) + offset_; }
+  float* ARow(int y) { return a_.data + static_cast<size_t>(y % ring_) * ab_stride_; }
+  float* BRow(int y) { return b_.data + static_cast<size_t>(y % ring_) * ab_stride_; }
+  void StageA(int y);
+
+  std::unique_ptr<Input> own_;
+  Input* input_;
+  const int r_, h_;
+  const float eps_;
+  Geometry g_;
+  Kernels k_;
+  int ring_;
+  size_t offset_, c_stride_, ab_stride_;
+  Buffer a_, b_;                   // rings of segment rows of a and b
+  Buffer c_i_, c_ii_, c_a_, c_b_;  // column sums
+  Buffer inv_xa_, inv_xb_;         // 1 / window count along x: a-columns, output columns
+  Buffer q_seg_;                   // one output row in the segment layout
+  int next_a_ = 0;
+};
+
+}  // namespace turbid::guided_segments
