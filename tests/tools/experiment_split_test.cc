@@ -26,8 +26,7 @@ TEST(ExperimentSplit, RoleIsReadKeptAndWrittenIntoTheProtocol) {
     EXPECT_EQ(e.ToJson()["split"], role);
     EXPECT_EQ(ExperimentFromResolvedJson(e.ToJson(), "e.json").split, role);
     EXPECT_EQ(ProtocolJson(e)["split"]["role"], role);
-    EXPECT_NE(ProtocolMarkdown(e).find(std::string("- split (") + role + "): "),
-              std::string::npos)
+    EXPECT_NE(ProtocolMarkdown(e).find(std::string("- split (") + role + "): "), std::string::npos)
         << ProtocolMarkdown(e);
   }
   // Not said: no key in the resolved file, null in the protocol, no role in the Markdown.

@@ -136,7 +136,8 @@ std::string ProtocolMarkdown(const Experiment& e) {
   }
   md << "\n- ground truth: " << p["ground_truth"].get<std::string>() << "\n"
      << "- resize policy: " << p["resize_policy"].get<std::string>() << "\n"
-     << "- split" << (p["split"]["role"].is_null() ? "" : " (" + p["split"]["role"].get<std::string>() + ")")
+     << "- split"
+     << (p["split"]["role"].is_null() ? "" : " (" + p["split"]["role"].get<std::string>() + ")")
      << ": " << p["split"]["items"].get<int>() << " items over";
   for (const json& s : p["split"]["scenes"]) {
     md << " " << s["name"].get<std::string>() << " (" << s["source"].get<std::string>() << ")";
