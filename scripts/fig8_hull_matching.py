@@ -11,8 +11,14 @@ the paper's three figures: active sets (pairs with more than 10 correspondences)
 of correspondences and the mean number of RANSAC homography inliers in the active sets. A fourth
 column, the inlier ratio against CLAHE, is the paper's claim (>= 2x for the proposed method).
 
+Domain (issue 32): by default every image is matched as the camera writes it, sRGB 8-bit codes
+(``--domain coded``: turbid.srgb_encode(..., dtype=uint8) / 255, the way the field's matchers see
+frames); ``--domain linear`` matches the linear float images as before (the matcher scales [0, 1]
+to 8 bits linearly).
+
 Usage: PYTHONPATH=build/python python3 scripts/fig8_hull_matching.py [--betas 0.4,0.7,1.0]
        [--frames 10] [--detector orb] [--methods none,clahe,tarel,simplified,full] [--csv FILE]
+       [--domain coded|linear]
 Deterministic: the same arguments print the same table.
 """
 import argparse
@@ -93,7 +99,13 @@ def main():
     ap.add_argument("--detector", default="orb")
     ap.add_argument("--methods", default="none,clahe,tarel,simplified,full,full_literal")
     ap.add_argument("--csv", default="")
+    ap.add_argument("--domain", choices=["coded", "linear"], default="coded")
     args = ap.parse_args()
+
+    def as_matched(image):
+        if args.domain == "linear":
+            return image
+        return turbid.srgb_encode(image, dtype="uint8").astype(np.float32) / 255.0
 
     ref = turbid.Scene.builtin("hull")
     n, d = plane_of(ref)
@@ -125,6 +137,7 @@ def main():
                 images = degraded
             else:
                 images = [turbid.enhance(img, method) for img in degraded]
+            images = [as_matched(img) for img in images]
             res = [turbid.match_features(images[a], images[b], args.detector) for a, b in pairs]
             active = [x for x in res if x["active"]]
             corr = float(np.mean([x["correspondences"] for x in active])) if active else 0.0
@@ -135,7 +148,8 @@ def main():
     for r in rows:
         base = by_clahe.get(r["beta"], 0.0)
         r["inliers_vs_clahe"] = round(r["inliers"] / base, 2) if base > 0 else float("nan")
-    print(f"detector {args.detector}, {args.frames} frames, {len(pairs)} pairs per level")
+    print(f"detector {args.detector}, {args.frames} frames, {len(pairs)} pairs per level, "
+          f"matched {args.domain}")
     print("| beta | method | active sets | mean correspondences | mean inliers | inliers / CLAHE |")
     print("|---|---|---|---|---|---|")
     for r in rows:

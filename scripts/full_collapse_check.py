@@ -7,8 +7,13 @@ degraded input (standard deviation >= 0.02) collapses when the output's standard
 below half the input's, or half its values are within 1/255 of 0 or 1 (as CollapsedTileShare in
 tests/enhancer/full_blind_test.cc). Prints one line per image; exits 1 when any tile collapsed.
 
+With --real, the real underwater frames of $TURBID_DATA instead (the evaluation split's frames
+without a clean image: seathru_d1_d3, flsea, euvp_funiegan A and uieb_waternet; images only, so
+`full` runs without a scene or sidecar: frontal plane, no LED, sRGB assumed for its CLAHE), each
+read as sRGB and checked against itself as the degraded input.
+
 Usage: PYTHONPATH=build/python TURBID_DATA=../shared/data python3 scripts/full_collapse_check.py
-       [--method full] [EXPERIMENT.json ...]
+       [--method full] [--real] [EXPERIMENT.json ...]
 """
 import argparse
 import json
@@ -61,13 +66,40 @@ def check(path, method):
     return failures
 
 
+REAL_FRAMES = ("seathru_d1_d3/*_image.png", "flsea/*[0-9].tiff", "euvp_funiegan/A/*.jpg",
+               "uieb_waternet/*.png")
+
+
+def check_real(method):
+    import glob
+    data = os.environ.get("TURBID_DATA")
+    if not data:
+        sys.exit("TURBID_DATA is not set: the real frames are read from it")
+    failures = 0
+    for pattern in REAL_FRAMES:
+        for path in sorted(glob.glob(os.path.join(data, pattern))):
+            image = turbid.read_image(path)
+            degraded = np.asarray(image, dtype=np.float64)
+            output = np.asarray(turbid.enhance(image, method), dtype=np.float64)
+            bad, textured = collapsed_tiles(output, degraded)
+            failures += bad
+            print(f"real     {os.path.relpath(path, data):50s} {method}: {bad} of {textured} "
+                  f"textured tiles collapsed")
+    return failures
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("experiments", nargs="*", default=["scenes/experiments/demo.json",
                                                              "scenes/experiments/table1.json"])
     parser.add_argument("--method", default="full")
+    parser.add_argument("--real", action="store_true",
+                        help="the real underwater frames of $TURBID_DATA instead of experiments")
     args = parser.parse_args()
-    failures = sum(check(path, args.method) for path in args.experiments)
+    if args.real:
+        failures = check_real(args.method)
+    else:
+        failures = sum(check(path, args.method) for path in args.experiments)
     print(f"{failures} collapsed tile(s)")
     return 1 if failures else 0
 

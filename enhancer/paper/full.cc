@@ -96,6 +96,7 @@ FullResult FullEnhanceImpl(const FullOptions& o, const cv::Mat& image, const Sce
   std::vector<double> beta;
   enhancer_internal::LinearUpsampler t_rows;  // the streamed path's t, when one beta
   ResolveLightsAndBeta(o, sidecar, channels, &lights, &beta, &r);
+  paper_internal::ResolveClaheEncoding(o, sidecar, &r);
   const bool any_beta = std::any_of(beta.begin(), beta.end(), [](double b) { return b > 0; });
   const bool need_light = o.light && !lights.lights.empty();
   const bool need_geometry = need_light || (o.dehaze && any_beta);

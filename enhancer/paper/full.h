@@ -18,6 +18,7 @@
 #include "enhancer/blocks/clahe.h"
 #include "enhancer/blocks/deconvolution.h"
 #include "enhancer/registry.h"
+#include "scenes/camera_encoding.h"
 #include "scenes/scene.h"
 #include "simulator/light.h"
 #include "simulator/render_record.h"
@@ -35,12 +36,25 @@ namespace turbid {
 // `light_scaling=blind` the LED power is not used: its scale is estimated from the image. Reading
 // the water's beta (`beta_source=auto`) or the light's power in image units
 // (`light_scaling=physical`) makes the method privileged (IsPrivileged in enhancer/registry.h).
-// CLAHE of blind `full`: adapthisteq's defaults with Rayleigh alpha 0.3 (FullOptions::clahe).
-inline ClaheOptions BlindFullClahe() {
+// Where step 5 equalises (clahe_domain, docs/methods.md "The CLAHE domain"):
+//   kEncoded — the camera-coded image: the restored linear image is clipped to [0, 1], coded with
+//              the camera's transfer curve (the render sidecar's camera.encoding; sRGB when the
+//              method is given no sidecar camera), equalised there (the paper's adapthisteq on its
+//              camera's 8-bit frames, Rayleigh alpha 0.4) and decoded back to linear. The default.
+//   kLinear  — linear light, as before issue 32 (with blind `full`'s alpha 0.3 when the key is
+//              named in JSON without clahe_alpha: FullOptionsFromJson).
+enum class ClaheDomain { kEncoded, kLinear };
+std::string ClaheDomainName(ClaheDomain domain);  // "encoded" / "linear"
+
+// CLAHE of blind `full` with clahe_domain linear (the default before issue 32): adapthisteq's
+// defaults with Rayleigh alpha 0.3.
+inline ClaheOptions LinearDomainFullClahe() {
   ClaheOptions c;
   c.alpha = 0.3;
   return c;
 }
+// The alpha blind `full` uses with clahe_domain linear unless clahe_alpha is named.
+inline constexpr double kLinearDomainFullAlpha = 0.3;
 
 struct FullOptions {
   bool denoise = true;        // step 1 (§III-A.1)
@@ -93,11 +107,13 @@ struct FullOptions {
   double psf_forward_scatter = 0.9;    // q (paper: 0.9)
   DeconvolutionOptions deconvolution;  // Wiener, NSR 0.01
   bool contrast = true;                // step 5 (§III-A.5)
-  // 8x8 tiles, clip 0.01, 256 bins, Rayleigh. alpha 0.3 for blind `full`, 0.4 (adapthisteq's and
-  // the paper's) for the variants: the paper equalised camera-encoded frames, where Rayleigh(0.4)
-  // has a mean of 0.47 encoded, 0.25 in linear light; `full` works in linear light, where 0.4 aims
-  // at a mean of 0.47 (twice as bright) and 0.3 at 0.37 (docs/methods.md, "The CLAHE target").
-  ClaheOptions clahe = BlindFullClahe();
+  // Where CLAHE equalises (above): the camera-coded image, as the paper did, by default.
+  ClaheDomain clahe_domain = ClaheDomain::kEncoded;
+  // 8x8 tiles, clip 0.01, 256 bins, Rayleigh alpha 0.4: adapthisteq's defaults, the paper's. The
+  // paper equalised camera-encoded frames, where Rayleigh(0.4) has a mean of 0.47 coded, 0.25 in
+  // linear light. With clahe_domain linear, blind `full` used alpha 0.3 (a linear mean of 0.37;
+  // docs/methods.md, "The CLAHE target"), which JSON's {"clahe_domain": "linear"} restores.
+  ClaheOptions clahe;
   // Brightness-keeping CLAHE target (ClaheOptions::keep_mean): alpha chosen per image so that the
   // mapped mean is max(mean entering CLAHE, clahe_min_mean) instead of the fixed clahe.alpha, whose
   // Rayleigh(0.4) target lifts every restored scene towards mid-grey. Off by default: which is
@@ -133,6 +149,10 @@ struct FullResult {
   std::vector<double> light_scale;
   double exposure_scale = 1.0;  // J_plane was divided by this before deblurring (>= 1)
   double clahe_alpha = 0.0;     // the CLAHE target parameter used (0 when CLAHE is off)
+  // The curve CLAHE equalised through: the camera's encoding (clahe_domain encoded) or kLinear
+  // (clahe_domain linear, or a linear camera); clahe_encoding_source says where it came from.
+  CameraEncoding clahe_encoding = CameraEncoding::kLinear;
+  std::string clahe_encoding_source;
   cv::Mat dehazed;              // J_plane (eq. 6), after the exposure scale
   cv::Mat deblurred;            // J_deblur
   std::optional<Plane> plane;

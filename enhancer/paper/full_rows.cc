@@ -220,9 +220,8 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
   }
   const int k = WienerInverseKernel(psf.kernel, o.deconvolution.nsr).rows / 2;
   if (k > o.deconvolution.spatial_max_radius) return false;
-  ClaheOptions clahe = o.clahe;
-  clahe.keep_mean = o.clahe_target_mean;
-  clahe.min_mean = o.clahe_min_mean;
+  const CameraEncoding coding = r->clahe_encoding;
+  const ClaheOptions clahe = StepClaheOptions(o, coding);
   const int n = src.values(), ring = std::min(2 * k + 1, out.rows);
   cv::Mat rows(ring, n, CV_32F), bins;
   if (o.contrast) bins = ClaheNewBins(clahe, out.size());
@@ -238,13 +237,19 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
       [&](int y, const float* row) {
         float* dst = out.ptr<float>(y);  // its denoised values were read for ring row y
         ClampUnitCopyRow(row, dst, n);
-        if (o.contrast) ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
+        if (!o.contrast) return;
+        // Coded in place when CLAHE equalises the camera-coded image (decoded after it).
+        if (coding != CameraEncoding::kLinear) ClaheEncodeRow(dst, dst, n, coding);
+        ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
       });
   if (!streamed) return false;  // another deblur path after all: nothing was read or written
   r->steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
                      ", PSF radius " + std::to_string(psf.radius_px));
   ClaheStats stats;
-  if (o.contrast) ClaheColorFromBins(clahe, bins, out, &stats);  // in [0, 1]
+  if (o.contrast) {
+    ClaheColorFromBins(clahe, bins, out, &stats);  // in [0, 1]
+    ClaheDecodeImage(out, coding);
+  }
   ContrastStepLog(o, clahe, stats, r);
   return true;
 }

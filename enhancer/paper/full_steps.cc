@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "core/error.h"
 #include "enhancer/blocks/guided_filter.h"
@@ -344,6 +345,10 @@ void ContrastStepLog(const FullOptions& o, const ClaheOptions& clahe, const Clah
               FormatNumber(stats.input_mean) + ")";
     }
   }
+  what += o.clahe_domain == ClaheDomain::kLinear
+              ? ", on linear light"
+              : ", on " + CameraEncodingName(r->clahe_encoding) + "-coded values (" +
+                    r->clahe_encoding_source + "), decoded back to linear";
   r->steps.push_back(what);
 }
 
@@ -351,7 +356,18 @@ void ContrastStepLog(const FullOptions& o, const ClaheOptions& clahe, const Clah
 // its rows straight into CLAHE's bin indices: no full-size deblurred image.
 cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps, FullResult* r) {
   const int channels = current.channels();
+  const CameraEncoding coding = r->clahe_encoding;
+  const bool coded = coding != CameraEncoding::kLinear;
+  const ClaheOptions clahe = StepClaheOptions(o, coding);
   cv::Mat bins;
+  // One row into CLAHE's bins, coded first when CLAHE equalises the camera-coded image.
+  const auto bin_row = [&](const float* row, int y) {
+    if (!coded) return ClaheBinRow(clahe, row, bins, y);
+    thread_local std::vector<float> buffer;
+    buffer.resize(static_cast<size_t>(bins.cols));
+    ClaheEncodeRow(row, buffer.data(), bins.cols, coding);
+    ClaheBinRow(clahe, buffer.data(), bins, y);
+  };
   if (o.deblur) {
     PsfOptions p;
     p.optical_thickness = o.psf_optical_thickness;
@@ -364,9 +380,8 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
       if (!keep_steps && o.contrast && channels == 1) {
         bins = ClaheNewBins(o.clahe, current.size());
         try {
-          streamed =
-              DeconvolveRows(o.deconvolution, current, psf.kernel,
-                             [&](int y, const float* row) { ClaheBinRow(o.clahe, row, bins, y); });
+          streamed = DeconvolveRows(o.deconvolution, current, psf.kernel,
+                                    [&](int y, const float* row) { bin_row(row, y); });
         } catch (const Error&) {
           streamed = false;  // non-finite values: the general path below
         }
@@ -383,9 +398,6 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
   }
   if (bins.empty()) r->deblurred = current;
 
-  ClaheOptions clahe = o.clahe;
-  clahe.keep_mean = o.clahe_target_mean;
-  clahe.min_mean = o.clahe_min_mean;
   ClaheStats stats;
   cv::Mat out;
   if (!bins.empty()) {
@@ -395,7 +407,7 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
     // Non-finite values (ClampUnit turns NaN into 0) take the general path below.
     bins = ClaheNewBins(clahe, current.size());
     try {
-      for (int y = 0; y < current.rows; ++y) ClaheBinRow(clahe, current.ptr<float>(y), bins, y);
+      for (int y = 0; y < current.rows; ++y) bin_row(current.ptr<float>(y), y);
       out = ClaheFromBins(clahe, bins, &stats);
     } catch (const Error&) {
       out.release();
@@ -404,11 +416,25 @@ cv::Mat DeblurAndContrast(const FullOptions& o, cv::Mat current, bool keep_steps
   if (out.empty()) {
     out = current.clone();
     ClampUnit(out);
+    if (o.contrast && coded) {
+      const int n = out.cols * out.channels();
+      for (int y = 0; y < out.rows; ++y)
+        ClaheEncodeRow(out.ptr<float>(y), out.ptr<float>(y), n, coding);
+    }
     if (o.contrast) out = Clahe(clahe, out, &stats);
     ClampUnit(out);
   }
+  if (o.contrast) ClaheDecodeImage(out, coding);
   ContrastStepLog(o, clahe, stats, r);
   return out;
+}
+
+ClaheOptions StepClaheOptions(const FullOptions& o, CameraEncoding encoding) {
+  ClaheOptions clahe = o.clahe;
+  clahe.keep_mean = o.clahe_target_mean;
+  // The floor is a linear mean (middle grey); in the coded domain the kept means are of codes.
+  clahe.min_mean = ClaheEncodeValue(o.clahe_min_mean, encoding);
+  return clahe;
 }
 
 }  // namespace paper_internal

@@ -99,11 +99,18 @@ const Fields<FullOptions>& FullFields() {
           .Member("psf_forward_scatter", &O::psf_forward_scatter, "PSF q (paper: 0.9)")
           .Nested("", &O::deconvolution, DeconvolutionFields())
           .Member("contrast", &O::contrast, "step 5: CLAHE")
+          .Choice("clahe_domain", &O::clahe_domain,
+                  {{ClaheDomainName(ClaheDomain::kEncoded), ClaheDomain::kEncoded},
+                   {ClaheDomainName(ClaheDomain::kLinear), ClaheDomain::kLinear}},
+                  "encoded: CLAHE on the camera-coded image (the sidecar camera's encoding, sRGB "
+                  "without one), decoded back to linear | linear: on linear light (before issue "
+                  "32; `full` then uses clahe_alpha 0.3 unless it is named)")
           .Member("clahe_target_mean", &O::clahe_target_mean,
                   "CLAHE alpha chosen per image so the output keeps the restored image's mean (at "
                   "least clahe_min_mean) instead of clahe_alpha; naming clahe_alpha implies false")
           .Member("clahe_min_mean", &O::clahe_min_mean,
-                  "floor of the kept mean (an underexposed image is brought up to it), [0, 0.6]")
+                  "floor of the kept mean (an underexposed image is brought up to it), linear, "
+                  "[0, 0.6]; clahe_domain encoded: coded with the camera's curve")
           .Nested("clahe_", &O::clahe, ClaheFields());
   return fields;
 }
@@ -170,7 +177,17 @@ FullOptions FullOptionsFromJson(const nlohmann::json& params, const std::string&
     // An alpha the user names is the alpha they want, unless clahe_target_mean says otherwise.
     if (params.contains("clahe_alpha")) o.clahe_target_mean = false;
   }
-  return ReadMethodParams(variant, params, paper_internal::FullFields(), o);
+  o = ReadMethodParams(variant, params, paper_internal::FullFields(), o);
+  // clahe_domain linear named without clahe_alpha: blind `full` as before issue 32, bit for bit.
+  const bool alpha_named = params.is_object() && params.contains("clahe_alpha");
+  if (variant == "full" && o.clahe_domain == ClaheDomain::kLinear && !alpha_named) {
+    o.clahe.alpha = kLinearDomainFullAlpha;
+  }
+  return o;
+}
+
+std::string ClaheDomainName(ClaheDomain domain) {
+  return domain == ClaheDomain::kEncoded ? "encoded" : "linear";
 }
 
 }  // namespace turbid

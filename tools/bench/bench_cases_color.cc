@@ -94,6 +94,21 @@ void AddColorCases(std::vector<BenchCase>& cases, const InputsFn& in) {
     c.goal = {0.0, is_full ? 15.0 : 10.0, source + ", 1360x1024"};
     cases.push_back(c);
 
+    if (is_full) {
+      // Issue 32: CLAHE on the camera-coded image (the default) against linear light (the
+      // default before), the same image: the cost of coding and decoding around step 5.
+      BenchCase d;
+      d.name = "enhance/full/clahe_encoded";
+      d.peer_name = "full with clahe_domain linear (before issue 32)";
+      d.ours = Full(in, HullColor);
+      d.peer = [in] {
+        const Pick p = HullColor(in());
+        static const FullOptions linear = FullOptionsFromJson({{"clahe_domain", "linear"}});
+        benchmark::DoNotOptimize(FullEnhance(linear, *p.image, p.scene, nullptr).data);
+      };
+      d.goal = {0.0, 0.0, "issue 32 item 2 (reference ratio), 1360x1024 colour"};
+      cases.push_back(d);
+    }
     BenchCase s;
     s.name = "enhance/" + method + "/color640";
     s.ours = run(in, Seafloor);

@@ -101,6 +101,7 @@ json Experiment::ToJson() const {
   out["metrics"] = metric_list;
   out["ground_truth"] = ground_truth;
   out["score_domain"] = ScoreDomainName(score_domain);
+  if (!split.empty()) out["split"] = split;
   out["best_excludes"] = best_excludes;
   out["thumbnail_width"] = thumbnail_width;
   out["items"] = ItemCount();
@@ -181,6 +182,7 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     }
     e.ground_truth = in.at("ground_truth").get<std::string>();
     e.score_domain = ScoreDomainFromName(in.value("score_domain", "linear"), source);
+    e.split = in.value("split", "");
     e.best_excludes = in.at("best_excludes").get<std::vector<std::string>>();
     e.thumbnail_width =
         static_cast<int>(ResolvedInteger(in.at("thumbnail_width"), 0, 4096, source, "thumbnail_width"));
@@ -545,6 +547,10 @@ void ParseScoring(const ExperimentInput& x, const std::set<std::string>& labels,
                           e.ground_truth + "'");
   }
   e.score_domain = ScoreDomainFromName(x.String("score_domain", "encoded"), file);
+  e.split = x.String("split", "");
+  if (!e.split.empty() && e.split != "tuning" && e.split != "evaluation") {
+    throw Error(file, "'split' must be \"tuning\" or \"evaluation\"");
+  }
   if (in.contains("best_excludes")) {
     if (!in["best_excludes"].is_array()) {
       throw Error(file, "'best_excludes' must be an array of method labels");
@@ -609,7 +615,7 @@ Experiment ParseExperiment(const json& in, const std::string& file, const Harnes
   CheckKeys(in,
             {"name", "description", "seed", "scenes", "scale", "render", "grid", "samples", "level",
              "level_bins", "seed_path", "methods", "reference_methods", "metrics", "ground_truth",
-             "score_domain", "best_excludes", "thumbnails", "$schema", "comment"},
+             "score_domain", "split", "best_excludes", "thumbnails", "$schema", "comment"},
             file, "the experiment");
   Experiment e;
   e.source_path = file;

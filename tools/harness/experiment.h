@@ -116,6 +116,9 @@ struct Experiment {
   // Where full-reference metrics compare (tools/harness/score_domain.h): camera-coded by default;
   // a resolved file without the key was scored before it existed, in linear light.
   ScoreDomain score_domain = ScoreDomain::kEncoded;
+  // The split's role (docs/methods.md "Tuning and evaluation splits"): "tuning" (defaults are
+  // chosen on it), "evaluation" (they are only reported on it) or "" (not said).
+  std::string split;
   // Method labels never marked best (floor/identity rows, and every privileged method).
   std::vector<std::string> best_excludes;
   int thumbnail_width = 160;  // thumbnails saved during the sweep for the report (0: none)

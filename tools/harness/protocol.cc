@@ -82,7 +82,9 @@ json ProtocolJson(const Experiment& e) {
                                        : (builtin ? "built-in (synthetic)" : "scene file")},
          {"scale", s.scale}});
   }
-  out["split"] = {{"scenes", scenes}, {"items", e.ItemCount()}};
+  out["split"] = {{"role", e.split.empty() ? json() : json(e.split)},
+                  {"scenes", scenes},
+                  {"items", e.ItemCount()}};
   out["seeds"] = {{"render", e.seed},
                   {"seed_path", e.seed_path},
                   {"samples", e.sample_count > 0 ? json(e.sample_seed) : json()},
@@ -134,7 +136,9 @@ std::string ProtocolMarkdown(const Experiment& e) {
   }
   md << "\n- ground truth: " << p["ground_truth"].get<std::string>() << "\n"
      << "- resize policy: " << p["resize_policy"].get<std::string>() << "\n"
-     << "- split: " << p["split"]["items"].get<int>() << " items over";
+     << "- split"
+     << (p["split"]["role"].is_null() ? "" : " (" + p["split"]["role"].get<std::string>() + ")")
+     << ": " << p["split"]["items"].get<int>() << " items over";
   for (const json& s : p["split"]["scenes"]) {
     md << " " << s["name"].get<std::string>() << " (" << s["source"].get<std::string>() << ")";
   }
