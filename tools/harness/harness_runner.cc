@@ -12,10 +12,10 @@
 #include "core/error.h"
 #include "core/safe_name.h"
 #include "enhancer/registry.h"
+#include "metrics/frontend.h"
 #include "metrics/registry.h"
 #include "scenes/builtin.h"
 #include "scenes/image_io.h"
-#include "metrics/frontend.h"
 #include "scenes/scene_loader.h"
 #include "scenes/sequence.h"
 #include "simulator/render.h"
@@ -111,6 +111,19 @@ RenderOptions ItemRenderOptions(const Experiment& experiment, const ItemSpec& it
   return RenderOptionsFromJson(item.render_options);
 }
 
+// World-space marine snow along a sequence: the frame's pose and time, and (unless the experiment
+// sets one) the seed all frames of the condition share, so the particles stay in the world.
+void ApplySequenceToSnow(const Sequence& sequence, const ItemSpec& item, RenderOptions* options) {
+  if (item.frame < 0 || options->snow.mode != "world") return;
+  const Pose& pose = sequence.pose(item.frame);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) options->snow.camera_to_world[i * 4 + j] = pose.rotation(i, j);
+    options->snow.camera_to_world[i * 4 + 3] = pose.position_m[i];
+  }
+  options->snow.time_s = sequence.timestamp_s(item.frame);
+  if (options->snow.world_seed == 0) options->snow.world_seed = item.sequence_seed;
+}
+
 }  // namespace
 
 HarnessCatalog RegistryCatalog() {
@@ -155,7 +168,7 @@ HarnessCatalog RegistryCatalog() {
     ParseSceneFile(spec);  // strict schema and referenced files, without reading the images
   };
   catalog.sequence_frames = [](const std::string& spec, double scale, const json& trajectory,
-                                json* resolved) {
+                               json* resolved) {
     *resolved = json();
     if (IsBuiltinSpec(spec)) {
       if (trajectory.is_null()) return 0;
@@ -223,7 +236,7 @@ struct HarnessRunner::SceneContext {
   Scene scene;
   std::unique_ptr<Renderer> renderer;
   std::map<std::string, double> reference_metrics;
-  std::atomic<bool> loaded{false};  // scene and renderer are set (Cost reads them)
+  std::atomic<bool> loaded{false};     // scene and renderer are set (Cost reads them)
   std::unique_ptr<Sequence> sequence;  // a sequence scene (scene: its frame 0)
 };
 
@@ -476,7 +489,8 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
   RenderResult render;
   CameraCoding camera;
   try {
-    const RenderOptions options = ItemRenderOptions(experiment_, item);
+    RenderOptions options = ItemRenderOptions(experiment_, item);
+    if (item.frame >= 0) ApplySequenceToSnow(*Context(item.scene_index).sequence, item, &options);
     camera.encoding = options.camera.encoding;
     camera.bit_depth = options.camera.bit_depth;
     render = s.renderer->Render(options);
@@ -509,8 +523,8 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
       continue;
     }
     cv::Mat output;
-    result.methods.push_back(RunMethod(method, item, s.scene, render, target,
-                                       original_cache.get(), frontend ? &output : nullptr));
+    result.methods.push_back(RunMethod(method, item, s.scene, render, target, original_cache.get(),
+                                       frontend ? &output : nullptr));
     if (frontend && result.methods.back().error.empty()) outputs[method.label] = output;
   }
   if (frontend) {
@@ -539,7 +553,8 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
 std::shared_ptr<const FrameRecord> HarnessRunner::FrameRecordOf(const ItemSpec& item) const {
   const ScopedStage timed(options_.profile, "front end: recompute a paired frame");
   ItemScene s = SceneFor(item);
-  const RenderOptions options = ItemRenderOptions(experiment_, item);
+  RenderOptions options = ItemRenderOptions(experiment_, item);
+  ApplySequenceToSnow(*Context(item.scene_index).sequence, item, &options);
   CameraCoding camera;
   camera.encoding = options.camera.encoding;
   camera.bit_depth = options.camera.bit_depth;
