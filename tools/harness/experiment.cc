@@ -363,7 +363,7 @@ std::set<std::string> ParseRenderGridAndSamples(const ExperimentInput& x, Experi
   int64_t items = SaturatingProduct(std::max(1, e.sample_count), scene_frames);
   for (const auto& entry : e.grid)
     items = SaturatingProduct(items, static_cast<int64_t>(entry.second.size()));
-  CheckItemCount(file, "the sweep (scenes x frames x grid points x samples)", items);
+  CheckItemCount(file, "the sweep (scenes x grid points x samples)", items);
   return swept;
 }
 
