@@ -234,6 +234,8 @@ const Fields<SceneFileKeys>& KeyFields(const std::string& type) {
   return tables.at(type);
 }
 
+}  // namespace
+
 // "${NAME}" in a path is replaced by the environment variable NAME (e.g. ${TURBID_DATA}, where the
 // real datasets live), so that committed scene files can name data that is not committed. An unset
 // or empty variable is an error naming it; "$" not followed by "{" is kept as is.
@@ -259,6 +261,8 @@ std::string ExpandEnvironment(const std::string& path, const std::string& json_p
   }
   return out + path.substr(at);
 }
+
+namespace {
 
 std::string Resolve(const fs::path& folder, const std::string& raw, const std::string& json_path) {
   const fs::path p(ExpandEnvironment(raw, json_path));

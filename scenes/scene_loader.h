@@ -104,6 +104,9 @@ struct SceneFileSpec {
 // Parses and checks a scene JSON file (no image is read; multi-frame types list their frames).
 // json_path may end in "#KEY" (see LoadScene). Throws Error("<json>: <problem>").
 SceneFileSpec ParseSceneFile(const std::string& json_path);
+// "${NAME}" in a path replaced by the environment variable NAME (scene files, rgbd_sequence
+// files); Error("<json_path>: ...") for an unset or empty variable or a missing '}'.
+std::string ExpandEnvironment(const std::string& path, const std::string& json_path);
 // Reads the files a spec names and builds a validated Scene.
 Scene BuildScene(const SceneFileSpec& spec);
 

@@ -214,9 +214,14 @@ RgbdSequenceSpec ParseRgbdSequenceFile(const std::string& json_path) {
   RgbdSequenceFields().Read(root, &spec, json_path);
   for (const char* key : {"type", "associations", "groundtruth", "camera"})
     if (!root.contains(key)) throw Error(json_path, std::string("missing key '") + key + "'");
+  // "${TURBID_DATA}/..." as in scene files; relative paths are relative to the file's folder.
   const fs::path folder = fs::path(json_path).parent_path();
-  spec.associations = (folder / spec.associations).string();
-  spec.groundtruth = (folder / spec.groundtruth).string();
+  const auto resolve = [&](const std::string& raw) {
+    const fs::path p(ExpandEnvironment(raw, json_path));
+    return p.is_absolute() ? p.string() : (folder / p).string();
+  };
+  spec.associations = resolve(spec.associations);
+  spec.groundtruth = resolve(spec.groundtruth);
   return spec;
 }
 
@@ -239,6 +244,36 @@ std::unique_ptr<Sequence> LoadRgbdSequence(const std::string& json_path) {
     poses.push_back(
         NearestPose(gt, f.t + spec.time_offset_s, spec.max_time_difference_s, spec.groundtruth));
   return std::make_unique<RgbdSequence>(spec, std::move(frames), std::move(poses));
+}
+
+bool IsRgbdSequenceFile(const std::string& path) {
+  std::error_code ec;
+  if (fs::path(path).extension() != ".json" || !fs::is_regular_file(path, ec)) return false;
+  try {
+    const json root = ReadJsonFile(path);
+    return root.is_object() && root.contains("type") && root["type"] == "rgbd_sequence";
+  } catch (const Error&) {
+    return false;
+  }
+}
+
+std::unique_ptr<Sequence> OpenSequence(const std::string& spec, double builtin_scale,
+                                       const json& trajectory, const std::string& source) {
+  const bool builtin = spec.rfind("builtin:", 0) == 0 ||
+                       (spec.find('/') == std::string::npos && fs::path(spec).extension().empty());
+  if (!builtin) {
+    if (!trajectory.is_null())
+      throw Error(source, "'trajectory' is for built-in scenes; '" + spec +
+                              "' is a file (an rgbd_sequence file brings its own poses)");
+    return LoadRgbdSequence(spec);
+  }
+  TrajectoryOptions options;
+  TrajectoryFields().Read(trajectory, &options, source, "trajectory");
+  std::string why;
+  if (!options.Check(&why)) throw Error(source, "trajectory: " + why);
+  BuiltinSceneOptions scene;
+  scene.scale = builtin_scale;
+  return MakeBuiltinSequence(spec.substr(spec.rfind(':') + 1), scene, options);
 }
 
 void WriteTumSequence(const Sequence& sequence, const std::string& folder, bool overwrite) {

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -67,6 +68,16 @@ struct RgbdSequenceSpec {
 // Error("<file>: <problem>").
 RgbdSequenceSpec ParseRgbdSequenceFile(const std::string& json_path);
 std::unique_ptr<Sequence> LoadRgbdSequence(const std::string& json_path);
+
+// Whether `path` is a JSON file whose "type" is "rgbd_sequence" (false for anything else,
+// including files that cannot be read: their own loader reports those).
+bool IsRgbdSequenceFile(const std::string& path);
+
+// A sequence as an experiment names it: a built-in scene ("builtin:NAME" or a bare name) at
+// `builtin_scale` flown along `trajectory` (TrajectoryFields keys, strict; read with `source` in
+// messages), or an rgbd_sequence file (`trajectory` must be null). Throws Error.
+std::unique_ptr<Sequence> OpenSequence(const std::string& spec, double builtin_scale,
+                                       const nlohmann::json& trajectory, const std::string& source);
 
 // Writes `sequence` as a TUM RGB-D folder that LoadRgbdSequence reads back: rgb/NNNNNN.png (8-bit
 // sRGB, gray scenes as gray), depth/NNNNNN.png (16-bit, 5000 per metre, 0 = invalid),

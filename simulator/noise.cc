@@ -177,8 +177,104 @@ bool SnowOptions::Check(std::string* why) const {
   if (!InRange(albedo_min, 0.0, 1.0)) return fail("albedo_min: must be in [0, 1]");
   if (!InRange(albedo_max, albedo_min, 1.0)) return fail("albedo_max: must be in [albedo_min, 1]");
   if (!InRange(blur_px, 0.3, 50.0)) return fail("blur_px: must be in [0.3, 50] pixels");
+  if (mode != "per_frame" && mode != "world") return fail("mode: must be per_frame or world");
+  if (!InRange(time_s, -1e6, 1e6)) return fail("time_s: must be in [-1e6, 1e6] s");
+  for (double c : current_m_per_s)
+    if (!InRange(c, -10.0, 10.0)) return fail("current_m_per_s: each must be in [-10, 10] m/s");
+  for (double c : camera_to_world)
+    if (!std::isfinite(c) || std::abs(c) > 1e6) return fail("camera_to_world: must be finite");
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      double dot = 0.0;  // rows of R orthonormal within 1e-6
+      for (int k = 0; k < 3; ++k) dot += camera_to_world[i * 4 + k] * camera_to_world[j * 4 + k];
+      if (std::abs(dot - (i == j ? 1.0 : 0.0)) > 1e-6)
+        return fail("camera_to_world: its rotation must be orthonormal");
+    }
+  }
   return true;
 }
+
+namespace {
+
+constexpr uint64_t kSnowWorldStream = 3;
+constexpr double kSnowCellM = 1.0;  // world snow: particles are drawn per cube of this side
+
+// World-space snow: the particles of the 1 m cells the frustum (near_m..far_m) overlaps, in the
+// particles' rest frame (world minus current x time). A cell (i, j, k) holds floor(d) particles
+// plus one with probability frac(d), d = density x 1 m^3, each from (world_seed, cell, index):
+// position uniform in the cell, size log-uniform, albedo uniform. Those inside the frustum and the
+// image are handed to add(u, v, z, camera point, diameter, albedo) in cell order.
+template <typename Add>
+void DrawWorldSnow(const SnowOptions& options, const CameraIntrinsics& camera, int w, int h,
+                   uint64_t seed, double log_size_min, double log_size_max, int* particles,
+                   const Add& add) {
+  const auto& m = options.camera_to_world;
+  const cv::Matx33d r(m[0], m[1], m[2], m[4], m[5], m[6], m[8], m[9], m[10]);
+  const cv::Vec3d drift = cv::Vec3d(options.current_m_per_s[0], options.current_m_per_s[1],
+                                    options.current_m_per_s[2]) *
+                          options.time_s;
+  const cv::Vec3d origin = cv::Vec3d(m[3], m[7], m[11]) - drift;  // camera in the rest frame
+  cv::Vec3d lo(1e300, 1e300, 1e300), hi(-1e300, -1e300, -1e300);
+  for (double z : {options.near_m, options.far_m}) {
+    for (double u : {-0.5, w - 0.5}) {
+      for (double v : {-0.5, h - 0.5}) {
+        const cv::Vec3d corner = r * camera.BackProject(u, v, z) + origin;
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::min(lo[a], corner[a]);
+          hi[a] = std::max(hi[a], corner[a]);
+        }
+      }
+    }
+  }
+  int64_t cell_lo[3], cell_hi[3];
+  double cells = 1.0;
+  for (int a = 0; a < 3; ++a) {
+    cell_lo[a] = static_cast<int64_t>(std::floor(lo[a] / kSnowCellM));
+    cell_hi[a] = static_cast<int64_t>(std::floor(hi[a] / kSnowCellM));
+    cells *= static_cast<double>(cell_hi[a] - cell_lo[a] + 1);
+  }
+  const double per_cell = options.density_per_m3 * kSnowCellM * kSnowCellM * kSnowCellM;
+  if (!(cells * (per_cell + 1.0) <= 1e6))
+    throw Error("snow: world mode would draw " + std::to_string(cells * per_cell) +
+                " particles in the cells around the frustum (at most 1e6)");
+  const uint64_t key =
+      RandomKey(options.world_seed != 0 ? options.world_seed : seed, kSnowWorldStream);
+  const cv::Matx33d rt = r.t();
+  const int whole = static_cast<int>(std::floor(per_cell));
+  const double fraction = per_cell - whole;
+  *particles = 0;
+  for (int64_t i = cell_lo[0]; i <= cell_hi[0]; ++i) {
+    for (int64_t j = cell_lo[1]; j <= cell_hi[1]; ++j) {
+      for (int64_t k = cell_lo[2]; k <= cell_hi[2]; ++k) {
+        // The cell's own stream, keyed by its integer coordinates.
+        uint64_t cell = RandomBits(key, static_cast<uint64_t>(i) * 0x9E3779B97F4A7C15ULL);
+        cell = RandomBits(cell, static_cast<uint64_t>(j) * 0xC2B2AE3D27D4EB4FULL);
+        cell = RandomBits(cell, static_cast<uint64_t>(k) * 0x165667B19E3779F9ULL);
+        const int count = whole + (RandomUniform(cell, 0) < fraction ? 1 : 0);
+        for (int n = 0; n < count; ++n) {
+          const uint64_t base = 8 + static_cast<uint64_t>(n) * 8;
+          const cv::Vec3d rest((i + RandomUniform(cell, base + 0)) * kSnowCellM,
+                               (j + RandomUniform(cell, base + 1)) * kSnowCellM,
+                               (k + RandomUniform(cell, base + 2)) * kSnowCellM);
+          const cv::Vec3d point = rt * (rest - origin);
+          const double z = point[2];
+          if (!(z >= options.near_m && z <= options.far_m)) continue;
+          const double u = camera.fx * point[0] / z + camera.cx;
+          const double v = camera.fy * point[1] / z + camera.cy;
+          if (!(u >= -0.5 && u < w - 0.5 && v >= -0.5 && v < h - 0.5)) continue;
+          ++*particles;
+          const double diameter = std::exp(log_size_min + RandomUniform(cell, base + 3) *
+                                                              (log_size_max - log_size_min));
+          const double albedo = options.albedo_min + RandomUniform(cell, base + 4) *
+                                                         (options.albedo_max - options.albedo_min);
+          add(u, v, z, point, diameter, albedo);
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
 
 namespace internal {
 
@@ -201,27 +297,16 @@ SnowSplats DrawMarineSnow(const SnowOptions& options, const IrradianceOptions& l
   if (!(expected <= 1e6))
     throw Error("snow: density_per_m3 x frustum volume gives " + std::to_string(expected) +
                 " particles (at most 1e6)");
-  snow.particles = static_cast<int>(std::llround(expected));
-  const uint64_t key = RandomKey(seed, kSnowStream);
-  const double near3 = std::pow(options.near_m, 3), far3 = std::pow(options.far_m, 3);
-  const double log_size_min = std::log(options.size_min_m),
-               log_size_max = std::log(options.size_max_m);
   const double focal = std::sqrt(std::abs(camera.fx * camera.fy));
-  for (int i = 0; i < snow.particles; ++i) {
-    const uint64_t base = static_cast<uint64_t>(i) * 8;
-    const double u = RandomUniform(key, base + 0) * w - 0.5;
-    const double v = RandomUniform(key, base + 1) * h - 0.5;
-    const double z = std::cbrt(near3 + RandomUniform(key, base + 2) * (far3 - near3));
-    const double diameter =
-        std::exp(log_size_min + RandomUniform(key, base + 3) * (log_size_max - log_size_min));
-    const double albedo = options.albedo_min +
-                          RandomUniform(key, base + 4) * (options.albedo_max - options.albedo_min);
-    const cv::Vec3d point = camera.BackProject(u, v, z);
+  // One particle at image position (u, v), depth z, camera-frame point `point`: hidden behind the
+  // scene, or lit, attenuated and splatted.
+  const auto add = [&](double u, double v, double z, const cv::Vec3d& point, double diameter,
+                       double albedo) {
     const double range = cv::norm(point);
     const int px = std::clamp(static_cast<int>(std::lround(u)), 0, w - 1);
     const int py = std::clamp(static_cast<int>(std::lround(v)), 0, h - 1);
     const float surface = range_m.at<float>(py, px);
-    if (!std::isnan(surface) && surface <= range) continue;  // behind the scene
+    if (!std::isnan(surface) && surface <= range) return;  // behind the scene
     ++snow.visible;
     const std::vector<double> lit = IrradianceAtPoint(lights, point, std::nullopt, beta_per_m);
     const double radius_px = 0.5 * diameter * focal / z;
@@ -244,6 +329,26 @@ SnowSplats DrawMarineSnow(const SnowOptions& options, const IrradianceOptions& l
     for (int x = splat.x0; x <= splat.x1; ++x)
       snow.gx.push_back(static_cast<float>(std::exp((x - u) * (x - u) * splat.inv)));
     snow.splats.push_back(splat);
+  };
+  const double log_size_min = std::log(options.size_min_m),
+               log_size_max = std::log(options.size_max_m);
+  if (options.mode == "world") {
+    DrawWorldSnow(options, camera, w, h, seed, log_size_min, log_size_max, &snow.particles, add);
+  } else {
+    snow.particles = static_cast<int>(std::llround(expected));
+    const uint64_t key = RandomKey(seed, kSnowStream);
+    const double near3 = std::pow(options.near_m, 3), far3 = std::pow(options.far_m, 3);
+    for (int i = 0; i < snow.particles; ++i) {
+      const uint64_t base = static_cast<uint64_t>(i) * 8;
+      const double u = RandomUniform(key, base + 0) * w - 0.5;
+      const double v = RandomUniform(key, base + 1) * h - 0.5;
+      const double z = std::cbrt(near3 + RandomUniform(key, base + 2) * (far3 - near3));
+      const double diameter =
+          std::exp(log_size_min + RandomUniform(key, base + 3) * (log_size_max - log_size_min));
+      const double albedo = options.albedo_min + RandomUniform(key, base + 4) *
+                                                     (options.albedo_max - options.albedo_min);
+      add(u, v, z, camera.BackProject(u, v, z), diameter, albedo);
+    }
   }
   // Rows -> splats (counting sort; each row lists its splats in drawing order).
   for (const SnowSplats::Splat& s : snow.splats)

@@ -5,6 +5,7 @@
 // index), so the bytes do not depend on the thread count or the order of evaluation.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
@@ -41,6 +42,17 @@ struct SnowOptions {
   // Particles are drawn as flux-preserving Gaussian blobs with sigma^2 = R^2/2 + blur_px^2 (R: the
   // projected radius in pixels; blur_px: defocus and forward-scatter blur), pixels, in [0.3, 50].
   double blur_px = 0.7;
+  // "per_frame" (the default): particles are drawn anew in each render's frustum from `seed`.
+  // "world": particles live in the world, in 1 m cells (each cell's particles drawn from
+  // (world_seed, cell)), drifting with current_m_per_s; a render sees those in its frustum from
+  // the camera pose camera_to_world at time_s, so along a sequence they move with parallax and
+  // stay the same particles (docs/model.md "Marine snow").
+  std::string mode = "per_frame";
+  // world: camera-to-world [R | p] row-major (R orthonormal, metres); identity by default.
+  std::array<double, 12> camera_to_world{1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+  double time_s = 0.0;                             // world: seconds, [-1e6, 1e6]
+  std::array<double, 3> current_m_per_s{0, 0, 0};  // world: drift velocity in the world, [-10, 10]
+  uint64_t world_seed = 0;  // world: seeds the particles (0: the render's seed)
 
   bool Check(std::string* why) const;
 };

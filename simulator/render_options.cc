@@ -199,7 +199,14 @@ const Fields<SnowOptions>& SnowFields() {
           .Member("size_max_m", &O::size_max_m, "largest particle diameter, m")
           .Member("albedo_min", &O::albedo_min, "lowest particle albedo")
           .Member("albedo_max", &O::albedo_max, "highest particle albedo")
-          .Member("blur_px", &O::blur_px, "particle blur, pixels");
+          .Member("blur_px", &O::blur_px, "particle blur, pixels")
+          .String("mode", &O::mode, "per_frame (drawn per render) or world (live in the world)")
+          .Array("camera_to_world", &O::camera_to_world, 12,
+                 "world mode: camera-to-world [R | p], row-major, metres")
+          .Number("time_s", &O::time_s, "world mode: time, s", NumberRange::Between(-1e6, 1e6))
+          .Array("current_m_per_s", &O::current_m_per_s, 3,
+                 "world mode: particle drift in the world, m/s", NumberRange::Between(-10, 10))
+          .Unsigned("world_seed", &O::world_seed, "world mode: particle seed (0: the seed)");
   return fields;
 }
 

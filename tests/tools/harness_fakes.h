@@ -31,9 +31,9 @@ inline HarnessCatalog FakeCatalog() {
     }
   };
   catalog.find_metric = [](const std::string& name) {
-    if (name == "up") return HarnessMetricInfo{"up", true, true, false};
-    if (name == "down") return HarnessMetricInfo{"down", false, true, false};
-    if (name == "nr") return HarnessMetricInfo{"nr", true, false, false};
+    if (name == "up") return HarnessMetricInfo{"up", true, true, false, false};
+    if (name == "down") return HarnessMetricInfo{"down", false, true, false, false};
+    if (name == "nr") return HarnessMetricInfo{"nr", true, false, false, false};
     throw Error("unknown metric '" + name + "'");
   };
   catalog.resolve_render = [](const nlohmann::json& options) {

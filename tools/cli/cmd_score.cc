@@ -473,7 +473,7 @@ Experiment ResultsExperiment(const ScoreArgs& args, const std::vector<Record>& r
     if (seen.insert(record.at(args.level)).second) s->levels.push_back(record.at(args.level));
   }
   e.grid.emplace_back(args.level, s->levels);
-  e.scenes.push_back({"", "", "dataset", 1.0});
+  e.scenes.push_back({"", "", "dataset", 1.0, {}, 0});
   for (const HarnessMetricInfo& m : e.metrics) {
     s->metric_names.push_back(m.name);
     if (!m.needs_reference && !m.needs_original) s->reference_only.push_back(m.name);

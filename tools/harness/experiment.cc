@@ -64,7 +64,12 @@ json Experiment::ToJson() const {
   out["seed"] = seed;
   json scene_list = json::array();
   for (const ExperimentScene& scene : scenes) {
-    scene_list.push_back({{"spec", scene.spec}, {"name", scene.name}, {"scale", scene.scale}});
+    json entry = {{"spec", scene.spec}, {"name", scene.name}, {"scale", scene.scale}};
+    if (scene.IsSequence()) {  // only then: single-frame experiments keep their bytes
+      entry["frames"] = scene.frames;
+      if (!scene.trajectory.is_null()) entry["trajectory"] = scene.trajectory;
+    }
+    scene_list.push_back(entry);
   }
   out["scenes"] = scene_list;
   out["render"] = render;
@@ -97,6 +102,7 @@ json Experiment::ToJson() const {
                            {"higher_is_better", m.higher_is_better},
                            {"needs_reference", m.needs_reference},
                            {"needs_original", m.needs_original}});
+    if (m.sequence) metric_list.back()["sequence"] = true;
   }
   out["metrics"] = metric_list;
   out["ground_truth"] = ground_truth;
@@ -141,6 +147,10 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
       scene.load_spec = scene.spec;
       scene.name = s.at("name").get<std::string>();
       scene.scale = s.at("scale").get<double>();
+      if (s.contains("frames"))
+        scene.frames =
+            static_cast<int>(ResolvedInteger(s.at("frames"), 1, 100000000, source, "frames"));
+      if (s.contains("trajectory")) scene.trajectory = s.at("trajectory");
       e.scenes.push_back(scene);
     }
     e.render = in.at("render");
@@ -177,8 +187,8 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     }
     for (const json& m : in.at("metrics")) {
       e.metrics.push_back({m.at("name").get<std::string>(), m.at("higher_is_better").get<bool>(),
-                           m.at("needs_reference").get<bool>(),
-                           m.at("needs_original").get<bool>()});
+                           m.at("needs_reference").get<bool>(), m.at("needs_original").get<bool>(),
+                           m.value("sequence", false)});
     }
     e.ground_truth = in.at("ground_truth").get<std::string>();
     e.score_domain = ScoreDomainFromName(in.value("score_domain", "linear"), source);
@@ -241,7 +251,7 @@ void ParseScenes(const ExperimentInput& x, Experiment* out) {
     scene.scale = default_scale;
     json object = entry.is_string() ? json{{"spec", entry}} : entry;
     if (!object.is_object()) throw Error(file, "each scene must be a string or an object");
-    CheckKeys(object, {"spec", "name", "scale"}, file, "a scene");
+    CheckKeys(object, {"spec", "name", "scale", "trajectory"}, file, "a scene");
     if (!object.contains("spec") || !object["spec"].is_string() ||
         object["spec"].get<std::string>().empty()) {
       throw Error(file, "each scene needs a 'spec' string (builtin:NAME or a scene file)");
@@ -281,9 +291,18 @@ void ParseScenes(const ExperimentInput& x, Experiment* out) {
                   "scene name '" + scene.name + "' is used twice (give each a unique 'name')");
     }
     try {
-      catalog.check_scene(scene.load_spec);
+      const json trajectory = object.contains("trajectory") ? object["trajectory"] : json();
+      if (!builtin && !trajectory.is_null())
+        throw Error("'trajectory' is for built-in scenes (an rgbd_sequence file has its poses)");
+      if (catalog.sequence_frames) {
+        scene.frames = catalog.sequence_frames(scene.load_spec, scene.scale, trajectory,
+                                               &scene.trajectory);
+      } else if (!trajectory.is_null()) {
+        throw Error("sequences are not supported here");
+      }
+      if (!scene.IsSequence()) catalog.check_scene(scene.load_spec);
     } catch (const Error& error) {
-      throw Error(file, std::string("scene '") + scene.spec + "': " + error.what());
+      throw Error(file, std::string("scene '") + PrintableName(scene.spec) + "': " + error.what());
     }
     if (!builtin && scene.scale != 1.0) {
       throw Error(file, "scene '" + scene.spec + "': 'scale' applies to built-in scenes only");
@@ -344,8 +363,9 @@ std::set<std::string> ParseRenderGridAndSamples(const ExperimentInput& x, Experi
     throw Error(file, "empty grid: give 'grid' and/or 'samples' with at least one parameter");
   }
   // Counted without overflow and checked against the item limit before anything is expanded.
-  int64_t items = SaturatingProduct(std::max(1, e.sample_count),
-                                    static_cast<int64_t>(e.scenes.size()));
+  int64_t scene_frames = 0;  // a sequence's frames are items each
+  for (const ExperimentScene& scene : e.scenes) scene_frames += std::max(1, scene.frames);
+  int64_t items = SaturatingProduct(std::max(1, e.sample_count), scene_frames);
   for (const auto& entry : e.grid)
     items = SaturatingProduct(items, static_cast<int64_t>(entry.second.size()));
   CheckItemCount(file, "the sweep (scenes x grid points x samples)", items);
@@ -531,6 +551,17 @@ void ParseMetrics(const ExperimentInput& x, Experiment* out) {
       e.metrics.push_back(catalog.find_metric(name));
     } catch (const Error& error) {
       throw Error(file, std::string("metric '") + name + "': " + error.what());
+    }
+  }
+  // Front-end metrics score pairs of frames: every scene must be a sequence.
+  for (const HarnessMetricInfo& metric : e.metrics) {
+    if (!metric.sequence) continue;
+    for (const ExperimentScene& scene : e.scenes) {
+      if (!scene.IsSequence())
+        throw Error(file, "metric '" + metric.name + "' scores sequences, and scene '" +
+                              scene.name +
+                              "' is a single frame (give it a 'trajectory' or use an "
+                              "rgbd_sequence file)");
     }
   }
 }

@@ -35,6 +35,9 @@ struct HarnessMetricInfo {
   bool higher_is_better = true;
   bool needs_reference = false;
   bool needs_original = false;
+  // A front-end metric of sequences (tools/harness/sweep_sequence.h): scored on pairs of frames
+  // of a sequence scene, for each method and for the clean frames (the ground-truth column).
+  bool sequence = false;
 };
 
 // Name checks and option resolution, injected so that parsing is testable without the modules.
@@ -51,6 +54,13 @@ struct HarnessCatalog {
   std::function<ResolvedRender(const nlohmann::json& render_options)> resolve_render;
   // Checks a scene spec ("builtin:NAME", a bare built-in name, or a scene JSON path).
   std::function<void(const std::string& spec)> check_scene;
+  // Sequences (docs/experiments.md "Sequences"): the number of frames of `spec` flown along
+  // `trajectory` (a built-in scene; null for none) or of an rgbd_sequence file, 0 when the scene
+  // is a single frame (then check_scene checks it); *resolved receives the trajectory with every
+  // default (null for files). Throws Error. Unset: no scene is a sequence.
+  std::function<int(const std::string& spec, double scale, const nlohmann::json& trajectory,
+                    nlohmann::json* resolved)>
+      sequence_frames;
   // Name of the identity row (the degraded input scored as it is); never sent to check_method.
   std::string identity_method = "none";
   // Where each item's seed goes in the render options when the experiment does not say.
@@ -66,6 +76,11 @@ struct ExperimentScene {
                           // (not saved: shards on other machines resolve it themselves)
   std::string name;       // unique short id used in item ids, tables and file names ([A-Za-z0-9_-])
   double scale = 1.0;     // built-in scenes: output size scale in (0, 1]; must be 1 for scene files
+  // Sequences: the built-in scene's trajectory with every default (null for rgbd_sequence files
+  // and single frames) and the frame count (0: a single frame). Each frame is an item.
+  nlohmann::json trajectory;
+  int frames = 0;
+  bool IsSequence() const { return frames > 0; }
 };
 
 struct ExperimentMethod {
@@ -127,11 +142,17 @@ struct Experiment {
   std::vector<std::shared_ptr<const RenderOptions>> condition_render;
 
   int ConditionCount() const;  // grid points x max(1, sample_count)
+  // Items of one scene: conditions x frames (a sequence) or conditions.
+  int SceneItemCount(int scene) const;
+  bool HasSequenceMetrics() const;
   // > 0: the items are listed, not expanded from the grid (a dataset scored by `turbid score
   // --results`); ItemCount() returns it.
   int listed_items = 0;
   int ItemCount() const {
-    return listed_items > 0 ? listed_items : ConditionCount() * static_cast<int>(scenes.size());
+    if (listed_items > 0) return listed_items;
+    int count = 0;
+    for (int s = 0; s < static_cast<int>(scenes.size()); ++s) count += SceneItemCount(s);
+    return count;
   }
   // The resolved experiment as canonical JSON: what is saved as DIR/experiment.json and compared
   // on resume and merge.
@@ -160,6 +181,10 @@ struct ItemSpec {
   // render_options without the seed, which the item runner sets from `seed`.
   std::shared_ptr<const RenderOptions> render;
   uint64_t seed = 0;
+  // Sequences: the frame (0-based; -1 for a single-frame scene) and the seed its scene and
+  // condition share over all frames (what stays fixed along the sequence, e.g. world-space snow).
+  int frame = -1;
+  uint64_t sequence_seed = 0;
 };
 
 // Every item in the global order; deterministic.

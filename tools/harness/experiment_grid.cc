@@ -333,6 +333,24 @@ int Experiment::ConditionCount() const {
   return count * std::max(1, sample_count);
 }
 
+int Experiment::SceneItemCount(int scene) const {
+  return ConditionCount() * std::max(1, scenes.at(static_cast<size_t>(scene)).frames);
+}
+
+bool Experiment::HasSequenceMetrics() const {
+  for (const HarnessMetricInfo& metric : metrics)
+    if (metric.sequence) return true;
+  return false;
+}
+
+namespace {
+std::string ZeroPadded(int number, int width) {
+  std::string text = std::to_string(number);
+  text.insert(0, static_cast<size_t>(std::max(0, width - static_cast<int>(text.size()))), '0');
+  return text;
+}
+}  // namespace
+
 std::vector<ItemSpec> ExpandItems(const Experiment& e) {
   const int conditions = e.ConditionCount();
   const int width = std::max(4, static_cast<int>(std::to_string(conditions - 1).size()));
@@ -357,35 +375,45 @@ std::vector<ItemSpec> ExpandItems(const Experiment& e) {
   std::vector<ItemSpec> items;
   items.reserve(static_cast<size_t>(e.ItemCount()));
   for (int s = 0; s < static_cast<int>(e.scenes.size()); ++s) {
+    // A sequence's frames are items, frame-major within a condition: item f of condition c is
+    // "<scene>-c<c>-f<f>" and frames of one condition are consecutive (pairs meet early).
+    const int frames = e.scenes[s].frames;
+    const int frame_width = std::max(4, static_cast<int>(std::to_string(frames - 1).size()));
     for (int c = 0; c < conditions; ++c) {
-      ItemSpec item;
-      item.index = static_cast<int>(items.size());
-      item.scene_index = s;
-      item.condition = c;
-      std::string number = std::to_string(c);
-      number.insert(0, static_cast<size_t>(std::max(0, width - static_cast<int>(number.size()))),
-                    '0');
-      item.id = e.scenes[s].name + "-c" + number;
-      item.params = params[c];
-      item.level = labels[c];
-      const json& level = params[c][e.level_path];
-      if (binned != nullptr) {
-        item.level_value = 0.5 * (BinEdge(*binned, e.level_bins, bins[c]) +
-                                  BinEdge(*binned, e.level_bins, bins[c] + 1));
-      } else if (level.is_number()) {
-        item.level_value = level.get<double>();
-      } else if (level.is_object() && level.contains("x")) {
-        item.level_value = level["x"].get<double>();
-      } else {
-        item.level_value = rank[labels[c]];
+      const uint64_t mixed =
+          MixSeed(MixSeed(e.seed) ^ ((static_cast<uint64_t>(s) << 32) | static_cast<uint64_t>(c)));
+      for (int f = (frames > 0 ? 0 : -1); f < frames; ++f) {
+        ItemSpec item;
+        item.index = static_cast<int>(items.size());
+        item.scene_index = s;
+        item.condition = c;
+        item.id = e.scenes[s].name + "-c" + ZeroPadded(c, width);
+        item.params = params[c];
+        item.level = labels[c];
+        const json& level = params[c][e.level_path];
+        if (binned != nullptr) {
+          item.level_value = 0.5 * (BinEdge(*binned, e.level_bins, bins[c]) +
+                                    BinEdge(*binned, e.level_bins, bins[c] + 1));
+        } else if (level.is_number()) {
+          item.level_value = level.get<double>();
+        } else if (level.is_object() && level.contains("x")) {
+          item.level_value = level["x"].get<double>();
+        } else {
+          item.level_value = rank[labels[c]];
+        }
+        item.seed = mixed >> 33;
+        item.sequence_seed = item.seed;
+        if (f >= 0) {
+          // Each frame its own sensor noise: a seed per frame, keyed by the condition's.
+          item.frame = f;
+          item.id += "-f" + ZeroPadded(f, frame_width);
+          item.seed = MixSeed(mixed ^ MixSeed(static_cast<uint64_t>(f) + 1)) >> 33;
+        }
+        item.render_options = ConditionRenderOptions(e, item.params);
+        if (!e.seed_path.empty()) SetJsonPath(item.render_options, e.seed_path, item.seed);
+        if (!e.condition_render.empty()) item.render = e.condition_render[c];
+        items.push_back(std::move(item));
       }
-      item.seed = MixSeed(MixSeed(e.seed) ^
-                          ((static_cast<uint64_t>(s) << 32) | static_cast<uint64_t>(c))) >>
-                  33;
-      item.render_options = ConditionRenderOptions(e, item.params);
-      if (!e.seed_path.empty()) SetJsonPath(item.render_options, e.seed_path, item.seed);
-      if (!e.condition_render.empty()) item.render = e.condition_render[c];
-      items.push_back(std::move(item));
     }
   }
   return items;

@@ -12,12 +12,15 @@
 #include "core/error.h"
 #include "core/safe_name.h"
 #include "enhancer/registry.h"
+#include "metrics/frontend.h"
 #include "metrics/registry.h"
 #include "scenes/builtin.h"
 #include "scenes/image_io.h"
 #include "scenes/scene_loader.h"
+#include "scenes/sequence.h"
 #include "simulator/render.h"
 #include "tools/harness/external_method.h"
+#include "tools/harness/sweep_sequence.h"
 
 namespace turbid {
 namespace {
@@ -108,6 +111,19 @@ RenderOptions ItemRenderOptions(const Experiment& experiment, const ItemSpec& it
   return RenderOptionsFromJson(item.render_options);
 }
 
+// World-space marine snow along a sequence: the frame's pose and time, and (unless the experiment
+// sets one) the seed all frames of the condition share, so the particles stay in the world.
+void ApplySequenceToSnow(const Sequence& sequence, const ItemSpec& item, RenderOptions* options) {
+  if (item.frame < 0 || options->snow.mode != "world") return;
+  const Pose& pose = sequence.pose(item.frame);
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) options->snow.camera_to_world[i * 4 + j] = pose.rotation(i, j);
+    options->snow.camera_to_world[i * 4 + 3] = pose.position_m[i];
+  }
+  options->snow.time_s = sequence.timestamp_s(item.frame);
+  if (options->snow.world_seed == 0) options->snow.world_seed = item.sequence_seed;
+}
+
 }  // namespace
 
 HarnessCatalog RegistryCatalog() {
@@ -131,9 +147,11 @@ HarnessCatalog RegistryCatalog() {
     return IsPrivileged(name, params);
   };
   catalog.find_metric = [](const std::string& name) {
+    if (const std::optional<FrontendMetric> frontend = ParseFrontendMetric(name))
+      return HarnessMetricInfo{name, frontend->higher_is_better, false, false, true};
     const MetricInfo& info = FindMetric(name);
     return HarnessMetricInfo{info.name, info.higher_is_better, info.needs_reference,
-                             info.needs_original};
+                             info.needs_original, false};
   };
   catalog.resolve_render = [](const json& options) {
     auto parsed = std::make_shared<const RenderOptions>(RenderOptionsFromJson(options));
@@ -148,6 +166,19 @@ HarnessCatalog RegistryCatalog() {
       throw Error("unknown built-in scene '" + name + "'");
     }
     ParseSceneFile(spec);  // strict schema and referenced files, without reading the images
+  };
+  catalog.sequence_frames = [](const std::string& spec, double scale, const json& trajectory,
+                               json* resolved) {
+    *resolved = json();
+    if (IsBuiltinSpec(spec)) {
+      if (trajectory.is_null()) return 0;
+      TrajectoryOptions options;
+      TrajectoryFields().Read(trajectory, &options, "trajectory");
+      *resolved = TrajectoryFields().ToJson(options);
+    } else if (!IsRgbdSequenceFile(spec)) {
+      return 0;
+    }
+    return OpenSequence(spec, scale, trajectory, "trajectory")->size();
   };
   catalog.default_seed_path = kRenderSeedPath;
   return catalog;
@@ -205,7 +236,8 @@ struct HarnessRunner::SceneContext {
   Scene scene;
   std::unique_ptr<Renderer> renderer;
   std::map<std::string, double> reference_metrics;
-  std::atomic<bool> loaded{false};  // scene and renderer are set (Cost reads them)
+  std::atomic<bool> loaded{false};     // scene and renderer are set (Cost reads them)
+  std::unique_ptr<Sequence> sequence;  // a sequence scene (scene: its frame 0)
 };
 
 HarnessRunner::HarnessRunner(const Experiment& experiment, std::string out_dir,
@@ -213,6 +245,7 @@ HarnessRunner::HarnessRunner(const Experiment& experiment, std::string out_dir,
     : experiment_(experiment), out_dir_(std::move(out_dir)), options_(options) {
   for (const HarnessMetricInfo& metric : experiment_.metrics) {
     metric_names_.push_back(metric.name);
+    if (metric.sequence) continue;  // scored on pairs of frames (sequence_)
     if (!metric.needs_reference && !metric.needs_original) {
       reference_only_metrics_.push_back(metric.name);
     }
@@ -223,6 +256,17 @@ HarnessRunner::HarnessRunner(const Experiment& experiment, std::string out_dir,
     contexts_.push_back(std::make_unique<SceneContext>());
   }
   CheckCommandsAllowed(experiment_, options_.allow_commands, options_.allow_commands_how);
+  if (experiment_.HasSequenceMetrics()) {
+    for (const ExperimentMethod& method : experiment_.methods) {
+      if (method.IsExternal())
+        throw Error(experiment_.source_path,
+                    "method '" + method.label +
+                        "' is external: front-end metrics run registry methods only (a frame's "
+                        "pair may have to be recomputed in this process)");
+    }
+    sequence_ = std::make_unique<SequenceScorer>(experiment_, options_.profile);
+    specs_ = ExpandItems(experiment_);
+  }
   for (const ExperimentMethod& method : experiment_.methods) {
     if (!method.IsExternal() || method.external.at("kind") != "python") continue;
     const std::string key = method.external.at("python").get<std::string>();
@@ -242,7 +286,14 @@ HarnessRunner::SceneContext& HarnessRunner::Context(int scene_index) const {
     const ScopedStage timed(options_.profile, "scene: load, clean scores, thumbnail");
     try {
       const ExperimentScene& spec = experiment_.scenes[static_cast<size_t>(scene_index)];
-      context.scene = LoadExperimentScene(spec);
+      if (spec.IsSequence()) {
+        context.sequence =
+            OpenSequence(spec.load_spec, spec.scale, spec.trajectory, experiment_.source_path);
+        context.scene = context.sequence->Frame(0);
+        context.scene.name = spec.name;
+      } else {
+        context.scene = LoadExperimentScene(spec);
+      }
       context.renderer = std::make_unique<Renderer>(context.scene);
       // The clean ground truth does not depend on the swept parameters: score it once.
       if (experiment_.ground_truth == "clean" && !reference_only_metrics_.empty()) {
@@ -301,6 +352,22 @@ HarnessRunner::ItemScene HarnessRunner::SceneFor(const ItemSpec& item) const {
   const ExperimentScene& scene_spec = experiment_.scenes[static_cast<size_t>(item.scene_index)];
   // Without reuse every item starts from nothing: load, a fresh renderer, ground-truth scores.
   ItemScene s;
+  if (item.frame >= 0) {
+    // A sequence frame: rendered (or read) now, with its own renderer and clean scores.
+    const Sequence& sequence = *Context(item.scene_index).sequence;
+    const ScopedStage timed(options_.profile, "scene: sequence frame");
+    s.fresh = std::make_unique<SceneContext>();
+    s.fresh->scene = sequence.Frame(item.frame);
+    s.fresh->renderer = std::make_unique<Renderer>(s.fresh->scene);
+    s.scene = &s.fresh->scene;
+    s.renderer = s.fresh->renderer.get();
+    if (experiment_.ground_truth == "clean" && !reference_only_metrics_.empty()) {
+      MetricInputs inputs;
+      inputs.image = s.scene->image;
+      s.reference_metrics = ComputeMetrics(reference_only_metrics_, inputs);
+    }
+    return s;
+  }
   if (options_.reuse) {
     SceneContext& context = Context(item.scene_index);
     s.scene = &context.scene;
@@ -358,8 +425,8 @@ ScoreTarget HarnessRunner::GroundTruth(const ItemSpec& item, ItemScene& s,
 // One (not batch) method on the item, scored; its failure is the row's error.
 MethodResult HarnessRunner::RunMethod(const ExperimentMethod& method, const ItemSpec& item,
                                       const Scene* scene, const RenderResult& render,
-                                      const ScoreTarget& target,
-                                      OriginalCache* original_cache) const {
+                                      const ScoreTarget& target, OriginalCache* original_cache,
+                                      cv::Mat* output) const {
   MethodResult row;
   row.label = method.label;
   cv::Mat enhanced;
@@ -381,6 +448,7 @@ MethodResult HarnessRunner::RunMethod(const ExperimentMethod& method, const Item
       options_.profile->Add("method " + method.label, row.time_ms);
     Score(item.id, method.name == "none" && !method.IsExternal() ? "" : method.label, enhanced,
           target, render.image, &row, original_cache);
+    if (output != nullptr) *output = enhanced;
   } catch (const OutputError&) {
     throw;  // our own write failed (full disk...): not the method's failure; the sweep stops
   } catch (const std::exception& error) {
@@ -391,8 +459,28 @@ MethodResult HarnessRunner::RunMethod(const ExperimentMethod& method, const Item
   return row;
 }
 
+namespace {
+// Publishes a claimed frame record on every path out of Run (null when none was built).
+struct ClaimGuard {
+  SequenceScorer* scorer = nullptr;
+  int index = -1;
+  void Publish(std::shared_ptr<const FrameRecord> record) {
+    if (scorer != nullptr) scorer->Publish(index, std::move(record));
+    scorer = nullptr;
+  }
+  ~ClaimGuard() { Publish(nullptr); }
+};
+}  // namespace
+
 ItemResult HarnessRunner::Run(const ItemTask& task) const {
   const ItemSpec& item = *task.spec;
+  // A sequence frame tells the other threads that its record is on the way (sweep_sequence.h).
+  ClaimGuard claim;
+  const bool frontend = sequence_ != nullptr && item.frame >= 0;
+  if (frontend && task.only.empty() && sequence_->Claim(item)) {
+    claim.scorer = sequence_.get();
+    claim.index = item.index;
+  }
   ItemScene s = SceneFor(item);
   ItemResult result;
   result.width = s.scene->width();
@@ -401,7 +489,8 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
   RenderResult render;
   CameraCoding camera;
   try {
-    const RenderOptions options = ItemRenderOptions(experiment_, item);
+    RenderOptions options = ItemRenderOptions(experiment_, item);
+    if (item.frame >= 0) ApplySequenceToSnow(*Context(item.scene_index).sequence, item, &options);
     camera.encoding = options.camera.encoding;
     camera.bit_depth = options.camera.bit_depth;
     render = s.renderer->Render(options);
@@ -418,6 +507,7 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
   const ScoreTarget target = GroundTruth(item, s, render, camera, &result);
 
   bool batch_pending = false;
+  std::map<std::string, cv::Mat> outputs;  // front end: each method's output by label
   // The degraded image's visible-edge analysis, shared by the scores of every method of the item.
   const std::shared_ptr<OriginalCache> original_cache = NewOriginalCache();
   for (const ExperimentMethod& method : experiment_.methods) {
@@ -432,8 +522,23 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
       result.methods.push_back(std::move(row));
       continue;
     }
-    result.methods.push_back(
-        RunMethod(method, item, s.scene, render, target, original_cache.get()));
+    cv::Mat output;
+    result.methods.push_back(RunMethod(method, item, s.scene, render, target, original_cache.get(),
+                                       frontend ? &output : nullptr));
+    if (frontend && result.methods.back().error.empty()) outputs[method.label] = output;
+  }
+  if (frontend) {
+    const Sequence& sequence = *Context(item.scene_index).sequence;
+    outputs[""] = s.scene->image;
+    const std::shared_ptr<const FrameRecord> record =
+        sequence_->Build(*s.scene, sequence.pose(item.frame), camera, outputs);
+    claim.Publish(record);
+    sequence_->Score(
+        item, *record,
+        [&](int index) {
+          return sequence_->Take(index, [&] { return FrameRecordOf(specs_.at(index)); });
+        },
+        &result);
   }
   if (batch_pending) {
     auto pending = std::make_unique<Pending>();
@@ -443,6 +548,40 @@ ItemResult HarnessRunner::Run(const ItemTask& task) const {
     pending_[item.id] = std::move(pending);
   }
   return result;
+}
+
+std::shared_ptr<const FrameRecord> HarnessRunner::FrameRecordOf(const ItemSpec& item) const {
+  const ScopedStage timed(options_.profile, "front end: recompute a paired frame");
+  ItemScene s = SceneFor(item);
+  RenderOptions options = ItemRenderOptions(experiment_, item);
+  ApplySequenceToSnow(*Context(item.scene_index).sequence, item, &options);
+  CameraCoding camera;
+  camera.encoding = options.camera.encoding;
+  camera.bit_depth = options.camera.bit_depth;
+  std::map<std::string, cv::Mat> outputs;
+  outputs[""] = s.scene->image;
+  try {
+    const RenderResult render = s.renderer->Render(options);
+    for (const ExperimentMethod& method : experiment_.methods) {
+      try {
+        if (method.name == "none") {
+          outputs[method.label] = render.image;
+          continue;
+        }
+        EnhanceInput input;
+        input.image = render.image;
+        input.scene = s.scene;
+        input.sidecar = &render.sidecar;
+        outputs[method.label] = Enhance(method.name, method.params, input);
+      } catch (const std::exception&) {
+        // failed here as in its own item: the method has no frame (its pair values are NaN)
+      }
+    }
+  } catch (const Error&) {
+    return std::make_shared<FrameRecord>();  // the render failed: no frame has a pair
+  }
+  const Sequence& sequence = *Context(item.scene_index).sequence;
+  return sequence_->Build(*s.scene, sequence.pose(item.frame), camera, outputs);
 }
 
 void HarnessRunner::Score(const std::string& id, const std::string& label, const cv::Mat& enhanced,

@@ -21,6 +21,8 @@ namespace turbid {
 
 struct RenderResult;
 struct Scene;
+struct FrameRecord;
+class SequenceScorer;
 
 // Name checks and option resolution read from the registries (methods, metrics), the simulator's
 // strict RenderOptionsFromJson and the scene loader.
@@ -110,7 +112,10 @@ class HarnessRunner {
   // One method (not a batch one) on the item, scored; a failure is the row's error.
   MethodResult RunMethod(const ExperimentMethod& method, const ItemSpec& item, const Scene* scene,
                          const RenderResult& render, const ScoreTarget& target,
-                         OriginalCache* original_cache) const;
+                         OriginalCache* original_cache, cv::Mat* output = nullptr) const;
+  // A sequence frame's front-end record made from scratch (render + methods, no scores), for a
+  // pair whose other frame no thread of this run computes (tools/harness/sweep_sequence.h).
+  std::shared_ptr<const FrameRecord> FrameRecordOf(const ItemSpec& item) const;
   // FinishBatch's parts: the tasks waiting for a batch method, a waiting item's images, and the
   // "python" and "command" batch runs.
   std::vector<size_t> BatchMembers(const std::vector<ItemTask>& tasks,
@@ -151,6 +156,8 @@ class HarnessRunner {
   // The full-reference metrics and the others, when full-reference ones are scored coded.
   std::vector<std::string> coded_metrics_, linear_metrics_;
   std::vector<std::unique_ptr<SceneContext>> contexts_;
+  std::unique_ptr<SequenceScorer> sequence_;  // front-end metrics (null: none asked)
+  std::vector<ItemSpec> specs_;                // every item, when sequence_ is set
   mutable std::mutex pending_mutex_;
   mutable std::map<std::string, std::unique_ptr<Pending>> pending_;  // by item id
 };
