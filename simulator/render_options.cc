@@ -173,6 +173,10 @@ const Fields<PsfOptions>& PsfFields() {
   static const Fields<O> fields =
       Fields<O>()
           .Member("enabled", &O::enabled, "false: no blur")
+          .Choice("model", &O::model,
+                  {{"paper", PsfModel::kPaper}, {"small_angle", PsfModel::kSmallAngle}},
+                  "eq. 7's kernel, or ballistic + small-angle glow from the water's b and phase")
+          .Member("glow_levels", &O::glow_levels, "small_angle: glow widths per image")
           .Member("optical_thickness", &O::optical_thickness, "optical thickness tau")
           .Member("forward_scatter", &O::forward_scatter, "forward-scatter parameter p")
           .Member("pixels_per_unit", &O::pixels_per_unit, "kernel scale, pixels per unit")
