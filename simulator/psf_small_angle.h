@@ -70,7 +70,8 @@ cv::Mat ApplySmallAnglePsf(const PsfOptions& options, const VeilWater& water,
 
 // One float32 plane blurred by the normalised sampled Gaussian exp(-(i^2/(2 sx^2) + j^2/(2 sy^2)))
 // (sigma 0: a delta along that axis) under BORDER_REFLECT_101 repeated as often as the kernel
-// needs (the mirrored image is periodic: a DFT of the (2W - 2) x (2H - 2) extension).
+// needs (separable: each row, then each column, mirrored by 8 sigma + 2 pixels each side and
+// convolved through a DFT of a fast length).
 cv::Mat MirroredGaussianBlur(const cv::Mat& plane, double sigma_x_px, double sigma_y_px);
 
 }  // namespace turbid
