@@ -184,6 +184,14 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
   d.backscatter = ChannelValues(d.water.backscatter_rgb, d.water.backscatter_gray, channels);
   d.backscatter_on = options.water.backscatter;
   RenderPlan& plan = d.plan;
+  if (options.ambient == AmbientModel::kDerived && options.model != ImageModel::kUwcnn) {
+    d.backscatter = DerivedBackscatter(d.water, channels);
+    d.backscatter_on = true;
+    plan.steps.push_back(
+        "ambient: derived, B_inf = (b/c) E_A H = " + ListText(d.backscatter) +
+        " (single scattering of a diffuse downwelling light, infinite water, view elevation " +
+        Format(d.water.ambient_view_elevation_deg) + " deg)");
+  }
   bool& lights_used = d.lights_used;
   DecideModel(options, channels, max_range, d);
   const std::string what = channels == 1 ? "1 channel (gray)" : "3 channels (BGR)";
