@@ -545,8 +545,8 @@ struct TurbidityScratch {
 };
 
 // One channel of output row y (into oc): e^{-T} J + s sum_classes ((1 - w) G_k + w G_{k+1}) S.
-void TurbidityChannelRow(const TurbidityPsf& plan, const ClassTables& t, MirroredRing& ring,
-                         int c, int y, TurbidityScratch& w, float* oc) {
+void TurbidityChannelRow(const TurbidityPsf& plan, const ClassTables& t, MirroredRing& ring, int c,
+                         int y, TurbidityScratch& w, float* oc) {
   const int radius = t.radius, width = ring.width, wide = ring.wide;
   // V_b(x) = J(y + b, x) + J(y - b, x), V_0 = J(y, x), on the padded columns.
   const float* centre = ring.Slot(c, y);
@@ -570,8 +570,8 @@ void TurbidityChannelRow(const TurbidityPsf& plan, const ClassTables& t, Mirrore
     const int a = t.classes[j].a, b = t.classes[j].b;
     const float* va = w.v.data() + static_cast<size_t>(a) * wide + radius;
     const float* vb = w.v.data() + static_cast<size_t>(b) * wide + radius;
-    AccumulateClass(a, b, w.v.data() + radius, va, vb, w.s.data(), w.sw.data(),
-                    t.table.data() + j, t.step.data() + j, n_classes, w.runs.data()->data(),
+    AccumulateClass(a, b, w.v.data() + radius, va, vb, w.s.data(), w.sw.data(), t.table.data() + j,
+                    t.step.data() + j, n_classes, w.runs.data()->data(),
                     static_cast<int>(w.runs.size()), oc);
   }
 }
@@ -599,7 +599,8 @@ cv::Mat ApplyTurbidityPsf(const TurbidityPsf& plan, const cv::Mat& image) {
       for (int c = 0; c < ch; ++c)
         for (int x = 0; x < width; ++x) w.tc[static_cast<size_t>(c) * width + x] = tr[x * ch + c];
       for (int c = 0; c < ch; ++c)
-        TurbidityChannelRow(plan, tables, ring, c, y, w, w.o.data() + static_cast<size_t>(c) * width);
+        TurbidityChannelRow(plan, tables, ring, c, y, w,
+                            w.o.data() + static_cast<size_t>(c) * width);
       float* dst = out.ptr<float>(y);
       for (int c = 0; c < ch; ++c)
         for (int x = 0; x < width; ++x) dst[x * ch + c] = w.o[static_cast<size_t>(c) * width + x];

@@ -23,7 +23,8 @@ std::vector<float> GaussianResponse(int n, double sigma) {
     // with |m| > 3 are below e^{-2 pi^2 6.25} of the leading one.
     auto sum = [&](double nu) {
       double s = 0.0;
-      for (int m = -3; m <= 3; ++m) s += std::exp(-2.0 * kPi * kPi * sigma * sigma * (nu - m) * (nu - m));
+      for (int m = -3; m <= 3; ++m)
+        s += std::exp(-2.0 * kPi * kPi * sigma * sigma * (nu - m) * (nu - m));
       return s;
     };
     const double norm = sum(0.0);
@@ -98,8 +99,8 @@ LevelMap MapLevels(const SmallAngleChannel& ch, const cv::Mat& range_m,
              cv::Mat(range_m.size(), CV_32FC1)};
   const int levels = static_cast<int>(sigma_rad.size());
   const double log_lo = std::log(sigma_rad.front());
-  const double step = levels > 1 ? std::log(sigma_rad.back() / sigma_rad.front()) / (levels - 1)
-                                 : 1.0;
+  const double step =
+      levels > 1 ? std::log(sigma_rad.back() / sigma_rad.front()) / (levels - 1) : 1.0;
   for (int y = 0; y < range_m.rows; ++y) {
     const float* r = range_m.ptr<float>(y);
     int* k = m.lower.ptr<int>(y);
@@ -140,8 +141,9 @@ std::vector<double> PlanLevels(const PsfOptions& options,
   if (!(hi > 0.0)) return {};
   if (hi <= lo * (1.0 + 1e-9)) return {hi};
   // No finer than 2 % per level (the glow is smooth in sigma^2; the reference test measures it).
-  const int n = std::min(options.glow_levels,
-                         std::max(2, static_cast<int>(std::ceil(std::log(hi / lo) / std::log(1.02))) + 1));
+  const int n =
+      std::min(options.glow_levels,
+               std::max(2, static_cast<int>(std::ceil(std::log(hi / lo) / std::log(1.02))) + 1));
   std::vector<double> sigma(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) sigma[i] = lo * std::pow(hi / lo, static_cast<double>(i) / (n - 1));
   sigma.back() = hi;
@@ -234,14 +236,14 @@ cv::Mat ApplySmallAnglePsf(const PsfOptions& options, const VeilWater& water,
   ThrowIfInvalid(options, "psf");
   const int channels = image.channels();
   CV_Assert(image.depth() == CV_32F && range_m.type() == CV_32FC1 &&
-            range_m.size() == image.size() &&
-            static_cast<int>(water.c_per_m.size()) == channels);
+            range_m.size() == image.size() && static_cast<int>(water.c_per_m.size()) == channels);
   const std::vector<SmallAngleChannel> chans = SmallAngleChannels(water);
   double min_r = std::numeric_limits<double>::infinity(), max_r = 0.0;
   for (int y = 0; y < range_m.rows; ++y) {
     const float* r = range_m.ptr<float>(y);
     for (int x = 0; x < range_m.cols; ++x)
-      if (!std::isnan(r[x])) min_r = std::min<double>(min_r, r[x]), max_r = std::max<double>(max_r, r[x]);
+      if (!std::isnan(r[x]))
+        min_r = std::min<double>(min_r, r[x]), max_r = std::max<double>(max_r, r[x]);
   }
   if (report) *report = SmallAngleReport{};
   if (!(max_r >= min_r)) return image.clone();  // open water only: t = 0 everywhere

@@ -54,7 +54,7 @@ double GlowFactor(const SmallAngleChannel& channel, double range_m);
 
 // What ApplySmallAnglePsf did, for the sidecar and the tests.
 struct SmallAngleReport {
-  std::vector<double> sigma_rad;  // per-axis angular sigma of each level, ascending
+  std::vector<double> sigma_rad;                  // per-axis angular sigma of each level, ascending
   double sigma_min_px = 0.0, sigma_max_px = 0.0;  // over the pixels (x axis)
   bool exact = false;  // one width per channel: every pixel got its own kernel
 };

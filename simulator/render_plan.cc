@@ -99,8 +99,8 @@ void DecideModel(const RenderOptions& options, int channels, double max_range, D
 // psf.model "small_angle": b = omega c of the water and its phase function.
 void DecideSmallAnglePsf(const RenderOptions& options, Decisions& d) {
   const int channels = static_cast<int>(d.beta.size());
-  const std::vector<double> albedo = ChannelValues(
-      d.water.scattering_albedo_rgb, d.water.scattering_albedo_gray, channels);
+  const std::vector<double> albedo =
+      ChannelValues(d.water.scattering_albedo_rgb, d.water.scattering_albedo_gray, channels);
   d.psf_water.c_per_m = d.beta;
   d.psf_water.b_per_m.clear();
   for (int c = 0; c < channels; ++c) d.psf_water.b_per_m.push_back(albedo[c] * d.beta[c]);

@@ -101,11 +101,14 @@ double AmbientBackscatterShare(const PhaseFunction& phase, double view_elevation
 }
 
 std::vector<double> DerivedBackscatter(const WaterOptions& water, int channels) {
-  const double h = AmbientBackscatterShare(PhaseFunction(water.phase), water.ambient_view_elevation_deg);
+  const double h =
+      AmbientBackscatterShare(PhaseFunction(water.phase), water.ambient_view_elevation_deg);
   const std::vector<double> omega =
       ChannelValues(water.scattering_albedo_rgb, water.scattering_albedo_gray, channels);
-  const std::vector<double> ambient = ChannelValues(water.ambient_rgb, water.ambient_gray, channels);
-  const std::vector<double> beta = ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, channels);
+  const std::vector<double> ambient =
+      ChannelValues(water.ambient_rgb, water.ambient_gray, channels);
+  const std::vector<double> beta =
+      ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, channels);
   std::vector<double> out(static_cast<size_t>(channels));
   for (int c = 0; c < channels; ++c) out[c] = beta[c] > 0.0 ? omega[c] * ambient[c] * h : 0.0;
   return out;

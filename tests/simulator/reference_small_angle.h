@@ -75,8 +75,9 @@ inline cv::Mat ReferenceSmallAnglePsf(const VeilWater& water, const CameraIntrin
           const double tau = bf * r;
           const double psi2 = theta2 * (tau > 1e-8 ? tau / (1.0 - std::exp(-tau)) : 1.0) / 3.0;
           const double sigma = std::sqrt(psi2 / 2.0);
-          value += std::expm1(tau) * ReferenceGaussianAt(image, c, x, y, std::abs(camera.fx) * sigma,
-                                                         std::abs(camera.fy) * sigma);
+          value +=
+              std::expm1(tau) * ReferenceGaussianAt(image, c, x, y, std::abs(camera.fx) * sigma,
+                                                    std::abs(camera.fy) * sigma);
         }
         out.ptr<double>(y)[x * ch + c] = value;
       }

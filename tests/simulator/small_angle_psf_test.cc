@@ -1,8 +1,6 @@
 // psf.model "small_angle" (simulator/psf_small_angle.h): closed forms of the energy and width,
 // the channel order of the blur, the focal-length scaling, any kernel at any image size, and the
 // slow per-pixel reference (reference_small_angle.h) per water type and scene.
-#include "simulator/psf_small_angle.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +11,7 @@
 
 #include "core/error.h"
 #include "scenes/builtin.h"
+#include "simulator/psf_small_angle.h"
 #include "simulator/render.h"
 #include "tests/simulator/reference_small_angle.h"
 #include "tests/simulator/test_scenes.h"
@@ -114,15 +113,14 @@ TEST(SmallAnglePsf, FiguresAtTheDefaults) {
   w.c_per_m = {0.7};
   w.b_per_m = {0.56};
   const SmallAngleChannel ch = SmallAngleChannels(w)[0];
-  std::cout << "b_f = " << ch.forward_per_m << " 1/m, <theta^2> within 90 deg = "
-            << ch.mean_square_angle_rad2 << " rad^2\n";
+  std::cout << "b_f = " << ch.forward_per_m
+            << " 1/m, <theta^2> within 90 deg = " << ch.mean_square_angle_rad2 << " rad^2\n";
   for (double r : {0.5, 1.0, 2.0, 5.0, 10.0}) {
     const double rms = std::sqrt(GlowMeanSquareAngle(ch, r));
     std::cout << "r = " << r << " m: glow / ballistic = " << GlowFactor(ch, r)
-              << ", glow share of the received = "
-              << GlowFactor(ch, r) / (1 + GlowFactor(ch, r)) << ", rms angle = " << rms
-              << " rad (" << rms * 180 / kPi << " deg), sigma per axis at fx = 500 px: "
-              << 500 * rms / std::sqrt(2.0) << " px\n";
+              << ", glow share of the received = " << GlowFactor(ch, r) / (1 + GlowFactor(ch, r))
+              << ", rms angle = " << rms << " rad (" << rms * 180 / kPi
+              << " deg), sigma per axis at fx = 500 px: " << 500 * rms / std::sqrt(2.0) << " px\n";
   }
   EXPECT_NEAR(ch.forward_per_m, 0.56 * (1 - 0.0183), 1e-5);
   EXPECT_GT(ch.mean_square_angle_rad2, 0.0);
@@ -171,7 +169,7 @@ TEST(SmallAnglePsf, BlurFollowsScatteringNotAttenuation) {
   o.snow.enabled = false;
   o.sensor.enabled = false;
   o.camera.bit_depth = 32;
-  o.water.beta_rgb_per_m = {0.4, 0.5, 1.2};          // R, G, B: blue attenuates most here
+  o.water.beta_rgb_per_m = {0.4, 0.5, 1.2};               // R, G, B: blue attenuates most here
   o.water.scattering_albedo_rgb = {0.125, 0.6, 0.29167};  // b = 0.05, 0.3, 0.35 (R, G, B)
   o.psf.model = PsfModel::kSmallAngle;
   o.maps.transmission = true;

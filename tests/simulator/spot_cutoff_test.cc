@@ -40,8 +40,10 @@ TEST(SpotCutoff, IrradianceIsZeroBeyondTheCutoffAndUnchangedWithin) {
   EXPECT_GT(inside, 100);
   EXPECT_GT(outside, 100);
   // The point form agrees.
-  const std::vector<double> beyond = IrradianceAtPoint(spot, {1.5, 0, 2}, cv::Vec3d(0, 0, -1), {0.5});
-  const std::vector<double> within = IrradianceAtPoint(spot, {0.3, 0, 2}, cv::Vec3d(0, 0, -1), {0.5});
+  const std::vector<double> beyond =
+      IrradianceAtPoint(spot, {1.5, 0, 2}, cv::Vec3d(0, 0, -1), {0.5});
+  const std::vector<double> within =
+      IrradianceAtPoint(spot, {0.3, 0, 2}, cv::Vec3d(0, 0, -1), {0.5});
   EXPECT_EQ(beyond[0], 0.0);
   EXPECT_GT(within[0], 0.0);
   // Checked and read from the options.
@@ -65,7 +67,7 @@ TEST(SpotCutoff, VeilHonoursTheCutoffAgainstTheReference) {
       const double slow = testing::ReferenceVeil(spot, w, ray, range)[0];
       const double full = SingleScatterVeilAlongRay(open, w, ray, range)[0];
       EXPECT_LE(fast, full);  // part of every view ray lies outside a 20-degree beam
-      if (slow == 0.0) {  // a ray that never enters the beam
+      if (slow == 0.0) {      // a ray that never enters the beam
         EXPECT_EQ(fast, 0.0) << ray;
         EXPECT_GT(full, 0.0) << ray;
         continue;
