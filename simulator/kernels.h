@@ -22,6 +22,7 @@ struct LightRowConstants {
   float power = 0;                // U0
   double order = 1.0;             // Lambertian order m
   int integer_order = -1;         // m when it is a small integer (0..8), else -1
+  float cos_cutoff = 0.0f;        // spot cut-off: no light where cos phi < this (0: none)
   float color[3] = {0, 0, 0};     // colour in image channel order ({gray} or {B, G, R})
 };
 std::vector<LightRowConstants> LightConstantsFor(const IrradianceOptions& options, int channels);

@@ -18,12 +18,20 @@ bool Finite3(const cv::Vec3d& v) {
 }
 
 // Per-light constants used in the inner loops.
+}  // namespace
+
+double CosCutoff(double cutoff_angle_deg) {
+  return cutoff_angle_deg >= 90.0 ? 0.0 : std::cos(cutoff_angle_deg * M_PI / 180.0);
+}
+
+namespace {
 struct LightConstants {
   cv::Vec3d position;
   cv::Vec3d axis;  // unit
   double power = 0.0;
   double order = 1.0;      // m
   int integer_order = -1;  // m when it is a small integer (cheap power), else -1
+  double cos_cutoff = 0.0;  // no light where cos phi < this (0: the profile's own edge)
 };
 
 LightConstants Constants(const LightOptions& light) {
@@ -35,6 +43,7 @@ LightConstants Constants(const LightOptions& light) {
   const double rounded = std::round(k.order);
   if (std::abs(k.order - rounded) < 1e-9 && rounded >= 0 && rounded <= 8)
     k.integer_order = static_cast<int>(rounded);
+  k.cos_cutoff = CosCutoff(light.cutoff_angle_deg);
   return k;
 }
 
@@ -60,6 +69,8 @@ bool LightOptions::Check(std::string* why) const {
       half_power_angle_deg >= 90.0)
     return fail("half_power_angle_deg: must be in (0, 90) degrees");
   // Below ~0.5 deg the order m exceeds 1e5: cos^m underflows everywhere but on the axis.
+  if (!std::isfinite(cutoff_angle_deg) || cutoff_angle_deg <= 0.0 || cutoff_angle_deg > 90.0)
+    return fail("cutoff_angle_deg: must be in (0, 90] degrees");
   if (half_power_angle_deg < 0.5) return fail("half_power_angle_deg: must be at least 0.5 degrees");
   for (double c : color_rgb)
     if (!std::isfinite(c) || c < 0.0 || c > 10.0)
@@ -113,6 +124,7 @@ std::vector<LightRowConstants> LightConstantsFor(const IrradianceOptions& option
     r.power = static_cast<float>(k.power);
     r.order = k.order;
     r.integer_order = k.integer_order;
+    r.cos_cutoff = static_cast<float>(k.cos_cutoff);
     const std::vector<double> color = ChannelValues(light.color_rgb, GrayColor(light), channels);
     for (int c = 0; c < channels; ++c) r.color[c] = static_cast<float>(color[c]);
     out.push_back(r);
@@ -232,6 +244,11 @@ void LightGeometryRow(const LightRowContext& context, const LightRowConstants& l
     GeometryRowKernel<false>(context.ray_x.data(), ray_y, z, n, width, light.position, light.axis,
                              light.power, context.min_cos, context.min_distance, l_out, g_out,
                              cos_scratch);
+  // Spot cut-off: cos phi below it counts as 0 (beyond the beam). Only with a cut-off below 90
+  // degrees (cos phi is already clamped to [0, 1]).
+  if (light.cos_cutoff > 0.0f)
+    for (int x = 0; x < width; ++x)
+      cos_scratch[x] = cos_scratch[x] >= light.cos_cutoff ? cos_scratch[x] : 0.0f;
   // cos^m(phi): small integer orders by multiplication, otherwise exp(m log cos phi).
   if (light.integer_order == 0) {
     std::fill(cos_scratch, cos_scratch + width, 1.0f);  // 1 * (no factor)
@@ -361,7 +378,8 @@ std::vector<double> IrradianceAtPoint(const IrradianceOptions& options, const cv
     const cv::Vec3d v = point_m - k.position;
     const double l_true = cv::norm(v);
     const double l = std::max(l_true, options.min_distance_m);
-    const double cphi = l_true > 1e-12 ? std::clamp(k.axis.dot(v) / l_true, 0.0, 1.0) : 1.0;
+    double cphi = l_true > 1e-12 ? std::clamp(k.axis.dot(v) / l_true, 0.0, 1.0) : 1.0;
+    if (cphi < k.cos_cutoff) cphi = 0.0;  // beyond the spot cut-off
     double cpsi = 1.0;
     if (normal && l_true > 1e-12) cpsi = -normal->dot(v) / l_true;
     double incidence;

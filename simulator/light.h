@@ -35,6 +35,9 @@ struct LightOptions {
   // Half-power angle Phi_half, degrees, in [0.5, 90): m = -ln2/ln(cos Phi_half). 60 deg gives m = 1
   // (an ideal Lambertian emitter); narrower beams give larger m.
   double half_power_angle_deg = 60.0;
+  // Spot cut-off, degrees, in (0, 90]: no light beyond this angle from the axis (a reflector's or
+  // housing's hard edge). 90 (default): none beyond the cos^m profile's own edge.
+  double cutoff_angle_deg = 90.0;
   // Relative spectral power per channel R, G, B, each in [0, 10]; gray images use their mean.
   Rgb color_rgb{1.0, 1.0, 1.0};
 
@@ -63,6 +66,9 @@ struct IrradianceOptions {
 };
 
 // m = -ln 2 / ln(cos Phi_half), Phi_half in degrees in (0, 90).
+// cos of a spot cut-off angle (degrees); 0 at 90 (no cut-off beyond the profile's edge).
+double CosCutoff(double cutoff_angle_deg);
+
 double LambertianOrder(double half_power_angle_deg);
 
 // The beta-independent part of E_L for every light: distance l (metres, clamped as above) and the

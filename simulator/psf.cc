@@ -68,6 +68,10 @@ double ProfileFromSquare(double p, double log_a, double r2) {
 
 }  // namespace
 
+std::string PsfModelName(PsfModel model) {
+  return model == PsfModel::kSmallAngle ? "small_angle" : "paper";
+}
+
 bool PsfOptions::Check(std::string* why) const {
   auto fail = [&](const std::string& message) {
     if (why) *why = message;
@@ -86,6 +90,11 @@ bool PsfOptions::Check(std::string* why) const {
   if (depth_levels < 2 || depth_levels > 32) return fail("depth_levels: must be in [2, 32]");
   if (thickness_levels < 2 || thickness_levels > 64)
     return fail("thickness_levels: must be in [2, 64]");
+  if (glow_levels < 2 || glow_levels > 64) return fail("glow_levels: must be in [2, 64]");
+  if (model == PsfModel::kSmallAngle && (turbidity_dependent || depth_dependent))
+    return fail(
+        "model small_angle sets the blur from the water's scattering; turbidity_dependent and "
+        "depth_dependent are eq. 7's range models (use them with model paper)");
   if (turbidity_dependent && depth_dependent)
     return fail(
         "turbidity_dependent and depth_dependent are two range models of the blur; enable one");
@@ -444,103 +453,157 @@ cv::Mat TurbidityPsf::BlendLevels(const std::vector<cv::Mat>& per_level) const {
   return out;
 }
 
-cv::Mat ApplyTurbidityPsf(const TurbidityPsf& plan, const cv::Mat& image) {
-  CV_Assert(image.depth() == CV_32F && image.size() == plan.map.size() &&
-            image.channels() == plan.map.channels() && plan.map.depth() == CV_32F);
-  const int ch = image.channels(), width = image.cols, height = image.rows;
-  const int levels = static_cast<int>(plan.glow.size());
-  // Every g_k is radially symmetric and zero outside its disc, so its weight at offset (dx, dy)
-  // depends only on the class (a, b) = (max(|dx|, |dy|), min(|dx|, |dy|)) with a^2 + b^2 <= R^2.
-  // Per pixel the whole kernel is e^{-T} delta + s ((1 - w) g_k + w g_{k+1}), s = 1 - e^{-T}, so
-  //   out = e^{-T} J + s sum_classes ((1 - w) G_k + w G_{k+1}) S_class,
-  // S_class the sum of J over the class's offsets: the sums do not depend on the level, and within
-  // a run of pixels that share k the weights are two numbers per class (vectorised over the run).
-  int radius = 0;
-  for (const Psf& g : plan.glow) radius = std::max(radius, g.is_delta ? 0 : g.radius_px);
+namespace {
+
+// Every g_k is radially symmetric and zero outside its disc, so its weight at offset (dx, dy)
+// depends only on the class (a, b) = (max(|dx|, |dy|), min(|dx|, |dy|)) with a^2 + b^2 <= R^2.
+// table[k * classes + j] = g_k at class j, step = g_{k+1} - g_k.
+struct ClassTables {
   struct Class {
     int a, b;
   };
+  int radius = 0;
   std::vector<Class> classes;
-  for (int a = 0; a <= radius; ++a)
+  std::vector<float> table, step;
+};
+
+ClassTables MakeClassTables(const TurbidityPsf& plan) {
+  ClassTables t;
+  const int levels = static_cast<int>(plan.glow.size());
+  for (const Psf& g : plan.glow) t.radius = std::max(t.radius, g.is_delta ? 0 : g.radius_px);
+  for (int a = 0; a <= t.radius; ++a)
     for (int b = 0; b <= a; ++b)
-      if (a * a + b * b <= radius * radius) classes.push_back({a, b});
-  const size_t n_classes = classes.size();
-  std::vector<float> table(static_cast<size_t>(levels) * n_classes, 0.0f);
-  std::vector<float> step(table.size(), 0.0f);  // G_{k+1} - G_k
+      if (a * a + b * b <= t.radius * t.radius) t.classes.push_back({a, b});
+  const size_t n_classes = t.classes.size();
+  t.table.assign(static_cast<size_t>(levels) * n_classes, 0.0f);
+  t.step.assign(t.table.size(), 0.0f);
   for (int k = 0; k < levels; ++k) {
     const Psf& g = plan.glow[static_cast<size_t>(k)];
     const int r = g.is_delta ? 0 : g.radius_px;
     for (size_t j = 0; j < n_classes; ++j) {
-      const int a = classes[j].a, b = classes[j].b;
+      const int a = t.classes[j].a, b = t.classes[j].b;
       if (a > r) continue;
-      table[k * n_classes + j] = g.is_delta ? 1.0f : g.kernel.at<float>(r + b, r + a);
+      t.table[k * n_classes + j] = g.is_delta ? 1.0f : g.kernel.at<float>(r + b, r + a);
     }
   }
   for (int k = 0; k + 1 < levels; ++k)
     for (size_t j = 0; j < n_classes; ++j)
-      step[k * n_classes + j] = table[(k + 1) * n_classes + j] - table[k * n_classes + j];
+      t.step[k * n_classes + j] = t.table[(k + 1) * n_classes + j] - t.table[k * n_classes + j];
+  return t;
+}
 
-  cv::Mat out(image.size(), image.type());
-  const int wide = width + 2 * radius, ring = 2 * radius + 1;
-  cv::parallel_for_(cv::Range(0, height), [&](const cv::Range& rows) {
-    // Per channel, a ring of the 2R + 1 source rows around y, mirrored by R columns each side.
-    const size_t plane = static_cast<size_t>(ring) * wide;
-    std::vector<float> source(plane * ch);
-    std::vector<float> v(static_cast<size_t>(radius + 1) * wide), s(width), sw(width), e(width),
-        wc(width), tc(static_cast<size_t>(width) * ch), o(static_cast<size_t>(width) * ch);
-    std::vector<int> k(width);
-    std::vector<std::array<int, 3>> runs;  // [x0, x1), level
-    const auto slot = [&](int c, int yy) {
-      return source.data() + c * plane + static_cast<size_t>((yy + ring * height) % ring) * wide;
-    };
-    const auto load = [&](int yy) {
-      const float* src = image.ptr<float>(cv::borderInterpolate(yy, height, cv::BORDER_REFLECT_101));
-      for (int c = 0; c < ch; ++c) {
-        float* dst = slot(c, yy);
-        for (int x = 0; x < width; ++x) dst[radius + x] = src[x * ch + c];
-        for (int i = 1; i <= radius; ++i) {
-          dst[radius - i] = dst[radius + cv::borderInterpolate(-i, width, cv::BORDER_REFLECT_101)];
-          dst[radius + width - 1 + i] =
-              dst[radius + cv::borderInterpolate(width - 1 + i, width, cv::BORDER_REFLECT_101)];
-        }
+// Per channel, a ring of the 2R + 1 source rows around the current row, mirrored by R columns
+// each side (BORDER_REFLECT_101).
+struct MirroredRing {
+  const cv::Mat& image;
+  int radius, ch, width, height, wide, ring;
+  size_t plane;
+  std::vector<float> source;
+
+  MirroredRing(const cv::Mat& image_in, int radius_in)
+      : image(image_in),
+        radius(radius_in),
+        ch(image_in.channels()),
+        width(image_in.cols),
+        height(image_in.rows),
+        wide(image_in.cols + 2 * radius_in),
+        ring(2 * radius_in + 1),
+        plane(static_cast<size_t>(ring) * wide),
+        source(plane * ch) {}
+
+  float* Slot(int c, int yy) {
+    return source.data() + c * plane + static_cast<size_t>((yy + ring * height) % ring) * wide;
+  }
+  void Load(int yy) {
+    const float* src = image.ptr<float>(cv::borderInterpolate(yy, height, cv::BORDER_REFLECT_101));
+    for (int c = 0; c < ch; ++c) {
+      float* dst = Slot(c, yy);
+      for (int x = 0; x < width; ++x) dst[radius + x] = src[x * ch + c];
+      for (int i = 1; i <= radius; ++i) {
+        dst[radius - i] = dst[radius + cv::borderInterpolate(-i, width, cv::BORDER_REFLECT_101)];
+        dst[radius + width - 1 + i] =
+            dst[radius + cv::borderInterpolate(width - 1 + i, width, cv::BORDER_REFLECT_101)];
       }
-    };
-    for (int yy = rows.start - radius; yy < rows.start + radius; ++yy) load(yy);
+    }
+  }
+};
+
+// Per-band scratch of the turbidity PSF.
+struct TurbidityScratch {
+  std::vector<float> v, s, sw, e, wc, tc, o;
+  std::vector<int> k;
+  std::vector<std::array<int, 3>> runs;  // [x0, x1), level
+  TurbidityScratch(int radius, int wide, int width, int ch)
+      : v(static_cast<size_t>(radius + 1) * wide),
+        s(width),
+        sw(width),
+        e(width),
+        wc(width),
+        tc(static_cast<size_t>(width) * ch),
+        o(static_cast<size_t>(width) * ch),
+        k(width) {}
+};
+
+// One channel of output row y (into oc): e^{-T} J + s sum_classes ((1 - w) G_k + w G_{k+1}) S.
+void TurbidityChannelRow(const TurbidityPsf& plan, const ClassTables& t, MirroredRing& ring, int c,
+                         int y, TurbidityScratch& w, float* oc) {
+  const int radius = t.radius, width = ring.width, wide = ring.wide;
+  // V_b(x) = J(y + b, x) + J(y - b, x), V_0 = J(y, x), on the padded columns.
+  const float* centre = ring.Slot(c, y);
+  std::copy(centre, centre + wide, w.v.data());
+  for (int b = 1; b <= radius; ++b)
+    AddRows(ring.Slot(c, y - b), ring.Slot(c, y + b), wide,
+            w.v.data() + static_cast<size_t>(b) * wide);
+  plan.Coefficients(w.tc.data() + static_cast<size_t>(c) * width, width, w.k.data(), w.wc.data(),
+                    w.e.data());
+  StartRow(w.e.data(), w.wc.data(), centre + radius, width, w.s.data(), w.sw.data(), oc);
+  w.runs.clear();
+  int x0 = 0;
+  for (int x = 1; x <= width; ++x) {
+    if (x == width || w.k[x] != w.k[x0]) {
+      w.runs.push_back({x0, x, w.k[x0]});
+      x0 = x;
+    }
+  }
+  const size_t n_classes = t.classes.size();
+  for (size_t j = 0; j < n_classes; ++j) {
+    const int a = t.classes[j].a, b = t.classes[j].b;
+    const float* va = w.v.data() + static_cast<size_t>(a) * wide + radius;
+    const float* vb = w.v.data() + static_cast<size_t>(b) * wide + radius;
+    AccumulateClass(a, b, w.v.data() + radius, va, vb, w.s.data(), w.sw.data(), t.table.data() + j,
+                    t.step.data() + j, n_classes, w.runs.data()->data(),
+                    static_cast<int>(w.runs.size()), oc);
+  }
+}
+
+}  // namespace
+
+cv::Mat ApplyTurbidityPsf(const TurbidityPsf& plan, const cv::Mat& image) {
+  CV_Assert(image.depth() == CV_32F && image.size() == plan.map.size() &&
+            image.channels() == plan.map.channels() && plan.map.depth() == CV_32F);
+  const int ch = image.channels(), width = image.cols;
+  // Per pixel the whole kernel is e^{-T} delta + s ((1 - w) g_k + w g_{k+1}), s = 1 - e^{-T}, so
+  //   out = e^{-T} J + s sum_classes ((1 - w) G_k + w G_{k+1}) S_class,
+  // S_class the sum of J over the class's offsets: the sums do not depend on the level, and within
+  // a run of pixels that share k the weights are two numbers per class (vectorised over the run).
+  const ClassTables tables = MakeClassTables(plan);
+  const int radius = tables.radius;
+  cv::Mat out(image.size(), image.type());
+  cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
+    MirroredRing ring(image, radius);
+    TurbidityScratch w(radius, ring.wide, width, ch);
+    for (int yy = rows.start - radius; yy < rows.start + radius; ++yy) ring.Load(yy);
     for (int y = rows.start; y < rows.end; ++y) {
-      load(y + radius);
+      ring.Load(y + radius);
       const float* tr = plan.map.ptr<float>(y);
       for (int c = 0; c < ch; ++c)
-        for (int x = 0; x < width; ++x) tc[static_cast<size_t>(c) * width + x] = tr[x * ch + c];
-      for (int c = 0; c < ch; ++c) {
-        // V_b(x) = J(y + b, x) + J(y - b, x), V_0 = J(y, x), on the padded columns.
-        const float* centre = slot(c, y);
-        std::copy(centre, centre + wide, v.data());
-        for (int b = 1; b <= radius; ++b)
-          AddRows(slot(c, y - b), slot(c, y + b), wide, v.data() + static_cast<size_t>(b) * wide);
-        plan.Coefficients(tc.data() + static_cast<size_t>(c) * width, width, k.data(), wc.data(),
-                          e.data());
-        float* oc = o.data() + static_cast<size_t>(c) * width;
-        StartRow(e.data(), wc.data(), centre + radius, width, s.data(), sw.data(), oc);
-        runs.clear();
-        int x0 = 0;
-        for (int x = 1; x <= width; ++x) {
-          if (x == width || k[x] != k[x0]) {
-            runs.push_back({x0, x, k[x0]});
-            x0 = x;
-          }
-        }
-        for (size_t j = 0; j < n_classes; ++j) {
-          const int a = classes[j].a, b = classes[j].b;
-          const float* va = v.data() + static_cast<size_t>(a) * wide + radius;
-          const float* vb = v.data() + static_cast<size_t>(b) * wide + radius;
-          AccumulateClass(a, b, v.data() + radius, va, vb, s.data(), sw.data(), table.data() + j,
-                          step.data() + j, n_classes, runs.data()->data(),
-                          static_cast<int>(runs.size()), oc);
-        }
-      }
+        for (int x = 0; x < width; ++x) w.tc[static_cast<size_t>(c) * width + x] = tr[x * ch + c];
+      for (int c = 0; c < ch; ++c)
+        TurbidityChannelRow(plan, tables, ring, c, y, w,
+                            w.o.data() + static_cast<size_t>(c) * width);
       float* dst = out.ptr<float>(y);
       for (int c = 0; c < ch; ++c)
-        for (int x = 0; x < width; ++x) dst[x * ch + c] = o[static_cast<size_t>(c) * width + x];
+        for (int x = 0; x < width; ++x) dst[x * ch + c] = w.o[static_cast<size_t>(c) * width + x];
     }
   });
   return out;

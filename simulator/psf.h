@@ -19,8 +19,18 @@
 
 namespace turbid {
 
+// "paper": eq. 7's generalized Gaussian (optical_thickness, forward_scatter, ... below).
+// "small_angle": forward scatter from the water's scattering (simulator/psf_small_angle.h):
+// ballistic e^{-c r} J plus a glow carrying (e^{-(c - b_f) r} - e^{-c r}) J.
+enum class PsfModel { kPaper, kSmallAngle };
+std::string PsfModelName(PsfModel model);  // "paper" | "small_angle"
+
 struct PsfOptions {
   bool enabled = true;  // false: no blur (J * h = J)
+  PsfModel model = PsfModel::kPaper;
+  // small_angle: glow widths blurred per image (levels geometric in the angular width, the glow
+  // interpolated linearly in the variance between the two around each pixel), in [2, 64].
+  int glow_levels = 16;
   // Optical thickness T, dimensionless, in [1e-4, 100]. p = sqrt(T). Paper (§III-A.4): T = 4: p
   // = 2.
   double optical_thickness = 4.0;

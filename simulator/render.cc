@@ -15,6 +15,7 @@
 #include "core/row_kernel.h"
 #include "simulator/image_pool.h"
 #include "simulator/kernels.h"
+#include "simulator/psf_small_angle.h"
 #include "simulator/render_plan.h"
 #include "simulator/veil.h"
 #include "turbid_version.h"
@@ -485,7 +486,7 @@ float* RenderPass::ETarget(int y, float* scratch) {
 void RenderPass::PlanBlur() {
   if (d.blur) {
     if (d.psf.separable && !d.psf.kernel_1d.empty() && !options.psf.depth_dependent &&
-        !options.psf.turbidity_dependent)
+        !options.psf.turbidity_dependent && options.psf.model == PsfModel::kPaper)
       blur.emplace(d.psf, width, size.height, channels);
     else
       whole_image_blur = true;
@@ -511,7 +512,9 @@ void RenderPass::WholeImagePassA() {
           RowA(y, scratch, ETarget(y, e_scratch.data()), lit.ptr<float>(y));
       },
       stripes);
-  if (whole_image_blur && options.psf.turbidity_dependent) {
+  if (whole_image_blur && options.psf.model == PsfModel::kSmallAngle) {
+    blurred = ApplySmallAnglePsf(options.psf, d.psf_water, scene.camera, range_m, lit);
+  } else if (whole_image_blur && options.psf.turbidity_dependent) {
     turbidity = PlanTurbidityPsf(options.psf, ThicknessMap(d, range_m, channels));
     blurred = ApplyTurbidityPsf(*turbidity, lit);
   } else if (whole_image_blur) {

@@ -106,6 +106,8 @@ const Fields<WaterOptions>& WaterFields() {
                  "single-scattering albedo b/c, R G B (physical terms only)")
           .Member("scattering_albedo_gray", &O::scattering_albedo_gray,
                   "single-scattering albedo b/c for gray images")
+          .Member("ambient_view_elevation_deg", &O::ambient_view_elevation_deg,
+                  "ambient \"derived\": optical axis above the horizontal, degrees")
           .Custom(
               "phase", "object", "", "phase function (keys: section water.phase)",
               [](const json& v, O& out) {
@@ -127,6 +129,7 @@ const Fields<LightOptions>& LightFields() {
           .Array("axis_in_camera", &O::axis_in_camera, 3, "emission axis, camera frame")
           .Member("power", &O::power, "U0, image units * m^2")
           .Member("half_power_angle_deg", &O::half_power_angle_deg, "half-power angle, degrees")
+          .Member("cutoff_angle_deg", &O::cutoff_angle_deg, "spot cut-off from the axis, degrees")
           .Array("color_rgb", &O::color_rgb, 3, "relative power per channel, R G B");
   return fields;
 }
@@ -173,6 +176,10 @@ const Fields<PsfOptions>& PsfFields() {
   static const Fields<O> fields =
       Fields<O>()
           .Member("enabled", &O::enabled, "false: no blur")
+          .Choice("model", &O::model,
+                  {{"paper", PsfModel::kPaper}, {"small_angle", PsfModel::kSmallAngle}},
+                  "eq. 7's kernel, or ballistic + small-angle glow from the water's b and phase")
+          .Member("glow_levels", &O::glow_levels, "small_angle: glow widths per image")
           .Member("optical_thickness", &O::optical_thickness, "optical thickness tau")
           .Member("forward_scatter", &O::forward_scatter, "forward-scatter parameter p")
           .Member("pixels_per_unit", &O::pixels_per_unit, "kernel scale, pixels per unit")
@@ -299,6 +306,9 @@ const Fields<RenderOptions>& OptionsFields() {
     f.Choice("veil", &RenderOptions::veil,
              {{"paper", VeilModel::kPaper}, {"single_scatter", VeilModel::kSingleScatter}},
              "lights' veil: eq. 2's (1 - t) E_L, or single scattering along the view ray");
+    f.Choice("ambient", &RenderOptions::ambient,
+             {{"typed", AmbientModel::kTyped}, {"derived", AmbientModel::kDerived}},
+             "ambient backscatter B_inf: water.backscatter_*, or from E_A, b, c and the phase");
     AddSection(f, "revised", &RenderOptions::revised, RevisedFields(), "model \"revised\"");
     AddSection(f, "uwcnn", &RenderOptions::uwcnn, UwcnnFields(), "model \"uwcnn\"",
                ApplyUwcnnPreset);

@@ -57,6 +57,10 @@ struct RenderOptions {
   // (1 - t) E_L (default); "single_scatter" = the lamps' single-scattered radiance integrated
   // along each view ray with the water's b, c and phase function.
   VeilModel veil = VeilModel::kPaper;
+  // The ambient backscatter B_inf (simulator/water.h): "typed" = water.backscatter_* (default);
+  // "derived" = omega E_A H from the ambient light, b, c and the phase function, and the
+  // (1 - t) B_inf term on.
+  AmbientModel ambient = AmbientModel::kTyped;
   WaterOptions water;
   IrradianceOptions light;
   PsfOptions psf;

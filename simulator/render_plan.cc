@@ -96,6 +96,28 @@ void DecideModel(const RenderOptions& options, int channels, double max_range, D
   }
 }
 
+// psf.model "small_angle": b = omega c of the water and its phase function.
+void DecideSmallAnglePsf(const RenderOptions& options, Decisions& d) {
+  const int channels = static_cast<int>(d.beta.size());
+  const std::vector<double> albedo =
+      ChannelValues(d.water.scattering_albedo_rgb, d.water.scattering_albedo_gray, channels);
+  d.psf_water.c_per_m = d.beta;
+  d.psf_water.b_per_m.clear();
+  for (int c = 0; c < channels; ++c) d.psf_water.b_per_m.push_back(albedo[c] * d.beta[c]);
+  d.psf_water.phase = d.water.phase;
+  d.blur = std::any_of(d.psf_water.b_per_m.begin(), d.psf_water.b_per_m.end(),
+                       [](double b) { return b > 0.0; });
+  if (!d.blur) {
+    d.plan.skipped.push_back("psf: small_angle with b = 0: no forward scattering");
+    return;
+  }
+  d.plan.steps.push_back(
+      "psf: small_angle, ballistic exp(-c r) J + glow (exp(-(c - b_f) r) - exp(-c r)) J, b = " +
+      ListText(d.psf_water.b_per_m) + " 1/m, b_f = b (1 - b_b/b), phase " + d.water.phase.model +
+      ", Gaussian glow <psi^2> = b_f r <theta^2> / (3 (1 - exp(-b_f r))) x focal length, up to " +
+      std::to_string(options.psf.glow_levels) + " widths");
+}
+
 // The PSF kernel and whether (and how) J is blurred.
 void DecidePsf(const RenderOptions& options, Decisions& d) {
   RenderPlan& plan = d.plan;
@@ -103,7 +125,9 @@ void DecidePsf(const RenderOptions& options, Decisions& d) {
     plan.skipped.push_back("psf: disabled");
   } else {
     d.psf = PsfKernel(options.psf);
-    if (options.psf.turbidity_dependent) {
+    if (options.psf.model == PsfModel::kSmallAngle) {
+      DecideSmallAnglePsf(options, d);
+    } else if (options.psf.turbidity_dependent) {
       d.blur = true;
       plan.steps.push_back(
           "psf: turbidity-dependent, T = beta r per pixel and channel, h = exp(-T) delta + (1 - "
@@ -160,6 +184,14 @@ Decisions Decide(const RenderOptions& options, const Scene& scene, double min_ra
   d.backscatter = ChannelValues(d.water.backscatter_rgb, d.water.backscatter_gray, channels);
   d.backscatter_on = options.water.backscatter;
   RenderPlan& plan = d.plan;
+  if (options.ambient == AmbientModel::kDerived && options.model != ImageModel::kUwcnn) {
+    d.backscatter = DerivedBackscatter(d.water, channels);
+    d.backscatter_on = true;
+    plan.steps.push_back(
+        "ambient: derived, B_inf = (b/c) E_A H = " + ListText(d.backscatter) +
+        " (single scattering of a diffuse downwelling light, infinite water, view elevation " +
+        Format(d.water.ambient_view_elevation_deg) + " deg)");
+  }
   bool& lights_used = d.lights_used;
   DecideModel(options, channels, max_range, d);
   const std::string what = channels == 1 ? "1 channel (gray)" : "3 channels (BGR)";

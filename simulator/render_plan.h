@@ -42,6 +42,8 @@ struct Decisions {
   bool uniform_range = false;
   bool blur = false;
   Psf psf;
+  // psf.model "small_angle": the water's c, b (image channel order) and phase function.
+  VeilWater psf_water;
   RenderPlan plan;
 };
 

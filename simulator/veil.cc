@@ -18,6 +18,7 @@ constexpr double kPi = 3.14159265358979323846;
 struct Lamp {
   cv::Vec3d position, axis;
   double order = 1.0;
+  double cos_cutoff = 0.0;  // spot cut-off (0: none)
   double weight[3] = {0, 0, 0};
 };
 
@@ -47,7 +48,7 @@ struct Context {
       const double l_true = std::sqrt(v.dot(v));
       if (l_true <= 0.0) continue;
       const double cos_phi = lamp.axis.dot(v) / l_true;
-      if (cos_phi <= 0.0) continue;
+      if (cos_phi <= 0.0 || cos_phi < lamp.cos_cutoff) continue;
       const double l = std::max(l_true, min_distance);
       const double profile = lamp.order == 1.0   ? cos_phi
                              : lamp.order == 2.0 ? cos_phi * cos_phi
@@ -136,6 +137,7 @@ Context MakeContext(const IrradianceOptions& light, const VeilWater& water,
     lamp.position = o.position_in_camera_m;
     lamp.axis = o.axis_in_camera / cv::norm(o.axis_in_camera);
     lamp.order = LambertianOrder(o.half_power_angle_deg);
+    lamp.cos_cutoff = CosCutoff(o.cutoff_angle_deg);
     // m = 1 (60 degrees) comes out as 1 + 2e-16: take whole orders as such (no pow).
     if (std::abs(lamp.order - std::round(lamp.order)) < 1e-9) lamp.order = std::round(lamp.order);
     const std::vector<double> colour = ChannelValues(

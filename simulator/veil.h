@@ -50,7 +50,9 @@ struct VeilWater {
 };
 
 struct VeilQuadrature {
-  int grid_step_px = 8;    // coarse grid of view rays, pixels (>= 1; 1: every pixel exact)
+  // Coarse grid of view rays, pixels: 0 (default) = the pixels spanning 5 degrees of field at the
+  // shorter focal length (1..64); >= 1 that step (1: every pixel exact).
+  int grid_step_px = 0;
   int segments = 48;       // M: breakpoints in u
   int phase_table = 8192;  // phase function samples uniform in cos theta
 };

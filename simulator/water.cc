@@ -73,11 +73,54 @@ bool InRange(double v, double lo, double hi) { return std::isfinite(v) && v >= l
 
 }  // namespace
 
+std::string AmbientModelName(AmbientModel model) {
+  return model == AmbientModel::kDerived ? "derived" : "typed";
+}
+
+double AmbientBackscatterShare(const PhaseFunction& phase, double view_elevation_deg) {
+  constexpr double kPi = 3.14159265358979323846;
+  const double e = -view_elevation_deg * kPi / 180.0;  // elevation of -d, towards the camera
+  const double tan_e = std::tan(e);
+  // A(theta) / (2 pi): the share of the cone at theta around -d whose directions travel down.
+  auto share = [&](double theta) {
+    if (std::abs(e) >= kPi / 2 - 1e-12) return (e > 0) == (theta > kPi / 2) ? 1.0 : 0.0;
+    const double k = -std::cos(theta) / std::sin(theta) * tan_e;
+    return 1.0 - std::acos(std::clamp(k, -1.0, 1.0)) / kPi;
+  };
+  // H = integral share(theta) dF(theta), F = PhaseFunction::FractionWithin: midpoint share on a
+  // uniform grid in theta (the share is constant near 0 and pi, where p peaks).
+  constexpr int kSteps = 8192;
+  double h = 0.0, f0 = 0.0;
+  for (int i = 1; i <= kSteps; ++i) {
+    const double theta1 = kPi * i / kSteps;
+    const double f1 = i == kSteps ? 1.0 : phase.FractionWithin(theta1);
+    h += share(kPi * (i - 0.5) / kSteps) * (f1 - f0);
+    f0 = f1;
+  }
+  return h;
+}
+
+std::vector<double> DerivedBackscatter(const WaterOptions& water, int channels) {
+  const double h =
+      AmbientBackscatterShare(PhaseFunction(water.phase), water.ambient_view_elevation_deg);
+  const std::vector<double> omega =
+      ChannelValues(water.scattering_albedo_rgb, water.scattering_albedo_gray, channels);
+  const std::vector<double> ambient =
+      ChannelValues(water.ambient_rgb, water.ambient_gray, channels);
+  const std::vector<double> beta =
+      ChannelValues(water.beta_rgb_per_m, water.beta_gray_per_m, channels);
+  std::vector<double> out(static_cast<size_t>(channels));
+  for (int c = 0; c < channels; ++c) out[c] = beta[c] > 0.0 ? omega[c] * ambient[c] * h : 0.0;
+  return out;
+}
+
 bool WaterOptions::Check(std::string* why) const {
   auto fail = [&](const std::string& message) {
     if (why) *why = message;
     return false;
   };
+  if (!std::isfinite(ambient_view_elevation_deg) || std::abs(ambient_view_elevation_deg) > 90.0)
+    return fail("ambient_view_elevation_deg: must be in [-90, 90] degrees");
   if (type != "custom" && TypeIndex(type) < 0)
     return fail("type: unknown water type '" + type +
                 "' (custom, I, IA, IB, II, III, 1C, 3C, 5C, 7C, 9C)");

@@ -50,6 +50,9 @@ struct WaterOptions {
   // 0.86 for 3C). The paper model does not read these.
   Rgb scattering_albedo_rgb{0.8, 0.8, 0.8};
   double scattering_albedo_gray = 0.8;  // omega for gray images, [0, 1]
+  // Elevation of the camera's optical axis above the horizontal, degrees, in [-90, 90] (-90:
+  // looking straight down), for ambient "derived" (AmbientBackscatterShare).
+  double ambient_view_elevation_deg = 0.0;
   // The phase function of that scattering (simulator/phase_function.h), JSON "phase": {...}.
   PhaseFunctionOptions phase;
   // Water from its inherent optical properties (simulator/iop.h): "" (off), a Jerlov type
@@ -94,6 +97,27 @@ std::string CanonicalJerlovType(const std::string& type);
 // type spelled canonically ("C3" -> "3C"); with iop set, beta_* = c and scattering_albedo_* = b / c
 // from the spectra (simulator/iop.h). Throws Error for an unknown type or an unreadable file.
 WaterOptions ResolveWater(const WaterOptions& options);
+
+// The ambient backscatter B_inf: "typed" (water.backscatter_*, default) or "derived" from the
+// ambient light, b, c and the phase function (DerivedBackscatter; docs/model.md "Ambient
+// backscatter"). Render option "ambient".
+enum class AmbientModel { kTyped, kDerived };
+std::string AmbientModelName(AmbientModel model);  // "typed" | "derived"
+
+// H(elevation): the share of single scattering that turns ambient light travelling downwards
+// (uniform radiance over the downward hemisphere) into the direction back along a view ray of that
+// elevation (degrees, -90 = looking straight down):
+//   H = integral over downward directions w of p(angle(w, -d)) dw
+//     = integral_0^pi p(theta) sin(theta) A(theta) dtheta,  A = 2 pi - 2 acos(clamp(-cot(theta)
+//       tan(e), -1, 1)), e = -elevation the elevation of -d.
+// 1/2 at the horizontal for every phase function, b_b/b looking straight down, 1 - b_b/b up.
+double AmbientBackscatterShare(const PhaseFunction& phase, double view_elevation_deg);
+
+// B_inf per channel (image order) of an infinite homogeneous water under a diffuse downwelling
+// ambient light of irradiance E_A (image units) in single scattering:
+//   B_inf,c = pi integral_0^inf b_c (E_A,c / pi) H e^{-c_c s} ds = (b_c / c_c) E_A,c H
+// = omega_c E_A,c H (0 where c = 0). `water` resolved (ResolveWater).
+std::vector<double> DerivedBackscatter(const WaterOptions& water, int channels);
 
 // Per-channel values in image channel order: {gray} for 1 channel, {B, G, R} for 3.
 std::vector<double> ChannelValues(const Rgb& rgb, double gray, int channels);

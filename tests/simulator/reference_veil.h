@@ -33,6 +33,9 @@ inline std::vector<double> ReferenceIntegrand(const IrradianceOptions& light, co
     if (distance == 0.0) continue;
     const double cos_emission = axis.dot(to_point) / distance;
     if (cos_emission <= 0.0) continue;
+    if (lamp.cutoff_angle_deg < 90.0 &&
+        cos_emission < std::cos(lamp.cutoff_angle_deg * 3.14159265358979323846 / 180.0))
+      continue;  // beyond the spot cut-off
     const double l = std::max(distance, light.min_distance_m);
     const double m = LambertianOrder(lamp.half_power_angle_deg);
     // Scattering angle: between the lamp's ray (to_point / distance) and the way back to the
