@@ -329,7 +329,8 @@ void SetUpPaperRows(Truth& truth, const Scene& scene, const WaterOptions& water,
   }
 }
 
-// Any other model or veil ("revised", "uwcnn" linear, veil "single_scatter"): the truth maps are
+// Any other model, veil or ambient ("revised", "uwcnn" linear, veil "single_scatter", ambient
+// "derived"): the truth maps are
 // the simulator's own, from one render of the scene with reflectance 1 everywhere, noise-free,
 // unblurred and unquantised: its J is E (what multiplies the reflectance), its maps give t, the
 // veil actually added and the snow layer (the noise map with the sensor off). Never re-derived.
@@ -360,7 +361,8 @@ void TruthPlanesFromRenderer(Truth& truth, const Scene& scene, bool remove_snow)
             truth.veil.size() == scene.image.size() &&
             truth.irradiance.size() == scene.image.size());
   truth.steps.push_back("truth maps: the simulator's own (model " + ImageModelName(ro.model) +
-                        ", veil " + VeilModelName(ro.veil) +
+                        ", veil " + VeilModelName(ro.veil) + ", ambient " +
+                        AmbientModelName(ro.ambient) +
                         "): t, E and the veil from a noise-free render at reflectance 1");
   truth.steps.push_back(o.snow.enabled ? "snow: re-rendered from the seed and subtracted"
                                        : "snow: none subtracted");
@@ -383,7 +385,12 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
   const bool zero_beta = truth.zero_beta =
       std::all_of(beta.begin(), beta.end(), [](double b) { return b == 0; });
   truth.range_m = TruthRange(scene, zero_beta);
-  if (ro.model != ImageModel::kPaper || ro.veil != VeilModel::kPaper) {
+  if (ro.psf.enabled && ro.psf.model == PsfModel::kSmallAngle) {
+    // Its per-pixel glow is not one of the blurs BlurModel inverts.
+    throw Error(method + ": psf.model \"small_angle\" is not inverted (render with the paper PSF)");
+  }
+  if (ro.model != ImageModel::kPaper || ro.veil != VeilModel::kPaper ||
+      ro.ambient != AmbientModel::kTyped) {
     TruthPlanesFromRenderer(truth, scene, remove_snow);
   } else {
     planes = planes || zero_beta;

@@ -464,7 +464,8 @@ TEST(Oracle, InvertsRevisedUwcnnAndSingleScatterRenders) {
        {Case{"revised", ImageModel::kRevised, VeilModel::kPaper},
         Case{"paper + single_scatter", ImageModel::kPaper, VeilModel::kSingleScatter},
         Case{"revised + single_scatter", ImageModel::kRevised, VeilModel::kSingleScatter},
-        Case{"uwcnn linear", ImageModel::kUwcnn, VeilModel::kPaper}}) {
+        Case{"uwcnn linear", ImageModel::kUwcnn, VeilModel::kPaper},
+        Case{"ambient derived", ImageModel::kPaper, VeilModel::kPaper}}) {
     for (const char* name : {"seafloor", "hull"}) {
       const Scene scene = Builtin(name, 0.125);
       RenderOptions o = NoiseFreeFloat(false, false);
@@ -473,6 +474,7 @@ TEST(Oracle, InvertsRevisedUwcnnAndSingleScatterRenders) {
       o.veil = c.veil;
       o.uwcnn.domain = UwcnnDomain::kLinear;
       o.uwcnn.type = "II";
+      if (std::string(c.what) == "ambient derived") o.ambient = AmbientModel::kDerived;
       const RenderResult r = Render(o, scene);
       double hi = 0;
       cv::minMaxLoc(r.image.reshape(1), nullptr, &hi);
@@ -498,6 +500,10 @@ TEST(Oracle, InvertsRevisedUwcnnAndSingleScatterRenders) {
     }
   }
   const Scene scene = Builtin("seafloor", 0.125);
+  RenderOptions small_angle = NoiseFreeFloat(false, false);
+  small_angle.psf.model = PsfModel::kSmallAngle;
+  const RenderResult s = Render(small_angle, scene);
+  EXPECT_THROW(OracleExactEnhance(OracleExactOptions{}, s.image, scene, s.sidecar), Error);
   RenderOptions o = NoiseFreeFloat(false, false);
   o.model = ImageModel::kUwcnn;  // domain "encoded" by default
   const RenderResult r = Render(o, scene);
