@@ -485,6 +485,7 @@ TEST(Oracle, InvertsRevisedUwcnnAndSingleScatterRenders) {
       RenderRecord as_paper = r.sidecar;
       as_paper.options->model = ImageModel::kPaper;
       as_paper.options->veil = VeilModel::kPaper;
+      as_paper.options->ambient = AmbientModel::kTyped;
       EXPECT_GT(MaxAbsDiff(OracleExactEnhance(OracleExactOptions{}, r.image, scene, as_paper).image,
                            scene.image),
                 0.02)
