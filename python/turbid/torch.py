@@ -442,6 +442,19 @@ def _check_supported(P):
     if model == "revised" and P.raw("water.iop") and P.raw("revised.from_iop"):
         raise ValueError("turbid.torch: revised with water.iop (tabulated beta^D(r)) is not in the "
                          "differentiable model; set revised.from_iop false")
+    # Options newer than the differentiable model: refused by name, never rendered another way.
+    if P.raw("psf.model") != "paper":
+        raise ValueError("turbid.torch: psf.model %r is not in the differentiable model (paper)"
+                         % P.raw("psf.model"))
+    if P.raw("ambient") != "typed":
+        raise ValueError("turbid.torch: ambient %r is not in the differentiable model (typed)"
+                         % P.raw("ambient"))
+    if P.raw("snow.mode") != "per_frame":
+        raise ValueError("turbid.torch: snow.mode %r is not in the differentiable model "
+                         "(per_frame)" % P.raw("snow.mode"))
+    if any(light.get("cutoff_angle_deg", 90.0) < 90.0 for light in P.raw("light.lights")):
+        raise ValueError("turbid.torch: a spot cut-off (light.lights[k].cutoff_angle_deg < 90) is "
+                         "not in the differentiable model")
     if any(k[0] == "snow" for k in P.tensors):
         raise ValueError("turbid.torch: snow parameters are fixed numbers (the draw is not "
                          "differentiable)")
