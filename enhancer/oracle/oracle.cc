@@ -329,8 +329,8 @@ void SetUpPaperRows(Truth& truth, const Scene& scene, const WaterOptions& water,
   }
 }
 
-// Any other model, veil or ambient ("revised", "uwcnn" linear, veil "single_scatter", ambient
-// "derived"): the truth maps are
+// Any other model, veil, ambient or snow ("revised", "uwcnn" linear, veil "single_scatter",
+// ambient "derived", snow.mode "world"): the truth maps are
 // the simulator's own, from one render of the scene with reflectance 1 everywhere, noise-free,
 // unblurred and unquantised: its J is E (what multiplies the reflectance), its maps give t, the
 // veil actually added and the snow layer (the noise map with the sensor off). Never re-derived.
@@ -390,7 +390,7 @@ Truth ResolveTruth(const std::string& method, const cv::Mat& image, const Scene&
     throw Error(method + ": psf.model \"small_angle\" is not inverted (render with the paper PSF)");
   }
   if (ro.model != ImageModel::kPaper || ro.veil != VeilModel::kPaper ||
-      ro.ambient != AmbientModel::kTyped) {
+      ro.ambient != AmbientModel::kTyped || ro.snow.mode != "per_frame") {
     TruthPlanesFromRenderer(truth, scene, remove_snow);
   } else {
     planes = planes || zero_beta;

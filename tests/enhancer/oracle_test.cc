@@ -465,7 +465,8 @@ TEST(Oracle, InvertsRevisedUwcnnAndSingleScatterRenders) {
         Case{"paper + single_scatter", ImageModel::kPaper, VeilModel::kSingleScatter},
         Case{"revised + single_scatter", ImageModel::kRevised, VeilModel::kSingleScatter},
         Case{"uwcnn linear", ImageModel::kUwcnn, VeilModel::kPaper},
-        Case{"ambient derived", ImageModel::kPaper, VeilModel::kPaper}}) {
+        Case{"ambient derived", ImageModel::kPaper, VeilModel::kPaper},
+        Case{"world snow", ImageModel::kPaper, VeilModel::kPaper}}) {
     for (const char* name : {"seafloor", "hull"}) {
       const Scene scene = Builtin(name, 0.125);
       RenderOptions o = NoiseFreeFloat(false, false);
@@ -475,6 +476,10 @@ TEST(Oracle, InvertsRevisedUwcnnAndSingleScatterRenders) {
       o.uwcnn.domain = UwcnnDomain::kLinear;
       o.uwcnn.type = "II";
       if (std::string(c.what) == "ambient derived") o.ambient = AmbientModel::kDerived;
+      if (std::string(c.what) == "world snow") {
+        o.snow.mode = "world";
+        o.light.lights[0].power = 1.0;  // world particles near the lamp would clip at 2
+      }
       const RenderResult r = Render(o, scene);
       double hi = 0;
       cv::minMaxLoc(r.image.reshape(1), nullptr, &hi);
@@ -486,6 +491,7 @@ TEST(Oracle, InvertsRevisedUwcnnAndSingleScatterRenders) {
       as_paper.options->model = ImageModel::kPaper;
       as_paper.options->veil = VeilModel::kPaper;
       as_paper.options->ambient = AmbientModel::kTyped;
+      as_paper.options->snow.mode = "per_frame";
       EXPECT_GT(MaxAbsDiff(OracleExactEnhance(OracleExactOptions{}, r.image, scene, as_paper).image,
                            scene.image),
                 0.02)
