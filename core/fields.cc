@@ -104,7 +104,7 @@ std::string IntegerProblem(const nlohmann::json& v, int64_t lo, int64_t hi, int6
 
 std::string UnsignedProblem(const nlohmann::json& v, uint64_t* out) {
   const std::optional<uint64_t> value = JsonUnsigned(v);
-  if (!value) return "expected an integer in [0, 2^64 - 1], got " + Shown(v);
+  if (!value) return "must be an integer in [0, 18446744073709551615], got " + Shown(v);
   *out = *value;
   return "";
 }

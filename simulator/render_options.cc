@@ -289,10 +289,7 @@ void ApplyUwcnnPreset(const json& section, UwcnnOptions& uwcnn) {
 std::string ReadSeed(const json& s, RenderOptions& o) {
   // Parsed text gives non-negative integers as unsigned, but a json built in code may hold a
   // signed one; negative ones and floats (also integers beyond 2^64 - 1) are refused.
-  if (!s.is_number_unsigned() && !(s.is_number_integer() && s.get<int64_t>() >= 0))
-    return "must be an integer in [0, 18446744073709551615]";
-  o.seed = s.get<uint64_t>();
-  return "";
+  return fields_detail::UnsignedProblem(s, &o.seed);
 }
 
 const Fields<RenderOptions>& OptionsFields() {

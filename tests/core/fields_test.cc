@@ -108,7 +108,7 @@ TEST(Fields, ErrorsNameTheSourceTheKeyAndTheProblem) {
   EXPECT_EQ(ReadError(json::parse(R"({"tiles": 1})")),
             "f.json: 'params.tiles': must be in [2, 1024], got 1");
   EXPECT_EQ(ReadError(json::parse(R"({"seed": -1})")),
-            "f.json: 'params.seed': expected an integer in [0, 2^64 - 1], got -1");
+            "f.json: 'params.seed': must be an integer in [0, 18446744073709551615], got -1");
   EXPECT_EQ(ReadError(json::parse(R"({"denoise": 1})")),
             "f.json: 'params.denoise': expected true or false, got 1");
   EXPECT_EQ(ReadError(json::parse(R"({"shape": "oval"})")),

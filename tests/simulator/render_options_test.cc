@@ -138,7 +138,7 @@ TEST(RenderOptions, WrongTypesNameTheDottedKey) {
   EXPECT_EQ(ErrorOf({{"model", "fog"}}),
             "render options: 'model': expected one of paper, revised, uwcnn, got \"fog\"");
   EXPECT_EQ(ErrorOf({{"seed", 1.5}}),
-            "render options: 'seed': must be an integer in [0, 18446744073709551615]");
+            "render options: 'seed': must be an integer in [0, 18446744073709551615], got 1.5");
   // Value checks (the sections' Check) keep their wording.
   EXPECT_EQ(ErrorOf({{"camera", {{"bit_depth", 12}}}}),
             "render options: camera.bit_depth: must be 8, 16 or 32 (float)");

@@ -1,17 +1,17 @@
 // Regression tests of what the fuzzers of fuzz/ found (docs/reliability.md, "Fuzzing"): each input
 // that once escaped as a non-turbid::Error exception or a sanitizer report is now a one-line Error
-// naming the file and the key. The crash inputs themselves replay in fuzz/<name>.replay (build-san).
+// naming the file and the key. The crash inputs themselves replay in fuzz/<name>.replay
+// (build-san).
 #include <gtest/gtest.h>
-
-#include <nlohmann/json.hpp>
 
 #include <fstream>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "core/error.h"
-#include "tests/support/test_support.h"
 #include "simulator/render.h"
+#include "tests/support/test_support.h"
 #include "tools/harness/generate.h"
 #include "tools/harness/manifest.h"
 #include "tools/harness/sweep.h"
@@ -58,17 +58,21 @@ TEST(FuzzFindings, GenerateConfigWrongTypesAreErrorsNamingTheKey) {
   } cases[] = {
       // generate_fuzzer: {"scenes": [...], "scale": {"count": 2, ...}} escaped as a JSON
       // library type_error without the file or the key.
-      {"scale", json::object(), "gen.json: scale: must be a number"},
-      {"seed", -1, "gen.json: seed: must be an integer in [0, 18446744073709551615]"},
-      {"seed", 1.5, "gen.json: seed: must be an integer in [0, 18446744073709551615]"},
-      {"format", 3, "gen.json: format: png or exr"},
-      {"base", json::array(), "gen.json: base: must be an object"},
-      {"random", {{"count", 1e300}}, "gen.json: random.count: must be an integer in [1, 1e6]"},
-      {"random", {{"count", "2"}}, "gen.json: random.count: must be an integer in [1, 1e6]"},
+      {"scale", json::object(), "gen.json: 'scale': expected a number, got {}"},
+      {"seed", -1, "gen.json: 'seed': must be an integer in [0, 18446744073709551615], got -1"},
+      {"seed", 1.5, "gen.json: 'seed': must be an integer in [0, 18446744073709551615], got 1.5"},
+      {"format", 3, "gen.json: 'format': expected one of png, exr, got 3"},
+      {"base", json::array(), "gen.json: 'base': expected an object, got []"},
+      {"random", {{"count", 1e300}}, "gen.json: 'random.count': expected an integer, got 1e+300"},
+      {"random", {{"count", "2"}}, "gen.json: 'random.count': expected an integer, got \"2\""},
+      {"random", {{"count", 0}}, "gen.json: 'random.count': must be in [1, 1000000], got 0"},
       {"random",
        {{"seed", "x"}},
-       "gen.json: random.seed: must be an integer in [0, 18446744073709551615]"},
-      {"random", {{"params", json::array({1, 2})}}, "gen.json: random.params: must be an object"},
+       "gen.json: 'random.seed': must be an integer in [0, 18446744073709551615], got \"x\""},
+      {"random",
+       {{"params", json::array({1, 2})}},
+       "gen.json: 'random.params': expected an object, got [1,2]"},
+      {"random", json::array(), "gen.json: 'random': expected an object, got []"},
   };
   for (const auto& c : cases) {
     json config = base;

@@ -97,7 +97,7 @@ TEST(HarnessCli, BadExperimentsAreRejectedBeforeAnyWork) {
       {"\"hautiere_e\"]", "\"hautiere_e\", \"nosuch\"]", "unknown metric 'nosuch'"},
       {"\"water.beta_gray_per_m\": 1.2,", "\"water.beta_gray_per_m\": -1.2,", "beta"},
       {"\"grid\": {", "\"grid\": {}, \"unused\": {", "unknown key 'unused'"},
-      {"\"scale\": 0.1", "\"scale\": 0", "'scale' must be in (0, 1]"},
+      {"\"scale\": 0.1", "\"scale\": 0", "'scale': must be in (0, 1]"},
       {"\"builtin:hull\"", "\"builtin:nosuch\"", "nosuch"},
   };
   for (const auto& c : cases) {

@@ -31,8 +31,9 @@ TEST(HarnessExperiment, ParsesAndAddsReferenceRows) {
   const Experiment e = ParseExperiment(FakeExperimentJson(), "exp.json", FakeCatalog());
   EXPECT_EQ(e.name, "fake");
   ASSERT_EQ(e.methods.size(), 5u);
-  EXPECT_EQ(e.methods[0].label, "none");    // the degraded input, always first
-  EXPECT_EQ(e.methods[1].label, "oracle");  // the oracle-parameter LMMSE reference, added because it exists
+  EXPECT_EQ(e.methods[0].label, "none");  // the degraded input, always first
+  EXPECT_EQ(e.methods[1].label,
+            "oracle");  // the oracle-parameter LMMSE reference, added because it exists
   EXPECT_EQ(e.methods[2].label, "fake_a");
   EXPECT_EQ(e.methods[3].label, "fake_a2");
   EXPECT_EQ(e.methods[3].params, json({{"gain", 2}}));
@@ -185,7 +186,52 @@ TEST(HarnessExperiment, BadFilesAreRejectedWithOneLineErrors) {
   expect_error(in, "'samples.count'");
   in = FakeExperimentJson();
   in["scale"] = 1.5;
-  expect_error(in, "'scale' must be in (0, 1]");
+  expect_error(in, "'scale': must be in (0, 1]");
+}
+
+// Every object of an experiment file is read through its field table: unknown keys and wrong
+// types anywhere are one line naming the key's whole path (issue 29 item 1).
+TEST(HarnessExperiment, EveryObjectNamesTheKeyPath) {
+  const auto error_of = [](const json& in) -> std::string {
+    try {
+      ParseExperiment(in, "exp.json", FakeCatalog());
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  json in = FakeExperimentJson();
+  in["scenes"] = json::array({"builtin:a", {{"spec", "builtin:b"}, {"name", "b"}, {"scale", 2}}});
+  EXPECT_EQ(error_of(in), "exp.json: 'scenes[1].scale': must be in (0, 1], got 2");
+  in["scenes"][1] = {{"spec", "builtin:b"}, {"nmae", "b"}};
+  EXPECT_EQ(error_of(in),
+            "exp.json: unknown key 'scenes[1].nmae' (known: spec, name, scale, trajectory)");
+  in["scenes"][1] = {{"spec", "builtin:b"}, {"name", 7}};  // was silently the default name
+  EXPECT_EQ(error_of(in), "exp.json: 'scenes[1].name': expected a string, got 7");
+  in = FakeExperimentJson();
+  in["samples"]["cout"] = 3;
+  EXPECT_EQ(error_of(in), "exp.json: unknown key 'samples.cout' (known: count, seed, params)");
+  in = FakeExperimentJson();
+  in["methods"] = json::array({{{"name", "fake_a"}, {"label", false}}});  // was silently the name
+  EXPECT_EQ(error_of(in), "exp.json: 'methods[0].label': expected a string, got false");
+  in["methods"] = json::array({{{"name", "fake_a"}, {"parms", json::object()}}});
+  EXPECT_EQ(error_of(in), "exp.json: unknown key 'methods[0].parms' (known: name, label, params)");
+  in = FakeExperimentJson();
+  in["metrics"] = json::array({"ssim", 3});
+  EXPECT_EQ(error_of(in), "exp.json: 'metrics': [1]: expected a string, got 3");
+  in = FakeExperimentJson();
+  in["thumbnails"] = 5000;
+  EXPECT_EQ(error_of(in),
+            "exp.json: 'thumbnails': expected true, false or a width in pixels in [0, 4096], got "
+            "5000");
+  in["thumbnails"] = false;
+  EXPECT_EQ(ParseExperiment(in, "exp.json", FakeCatalog()).thumbnail_width, 0);
+  in = FakeExperimentJson();
+  in["split"] = "train";
+  EXPECT_EQ(error_of(in), "exp.json: 'split': expected one of tuning, evaluation, got \"train\"");
+  in = FakeExperimentJson();
+  in["level_bins"] = 2.5;
+  EXPECT_EQ(error_of(in), "exp.json: 'level_bins': expected an integer, got 2.5");
 }
 
 // An edited resolved experiment.json: integers that are floats out of range, strings or

@@ -84,7 +84,7 @@ TEST(LimitsCli, HugeSweepsAndDatasetsAreRefusedUpFront) {
   const CliRun big_scale =
       RunTurbid({"sweep", dir.Write("scaled.json", scaled), "--out", dir.File("never")});
   EXPECT_EQ(big_scale.exit_code, 1);
-  ExpectOneErrorLine(big_scale.err, "'scale' must be in (0, 1]");
+  ExpectOneErrorLine(big_scale.err, "'scale': must be in (0, 1]");
 
   // The variable moves the limit: 6 items pass at 6 and are refused at 5.
   const std::string small = dir.Write("small.json", kExperiment);

@@ -168,11 +168,11 @@ TEST_F(MessagesCli, SeedsOutsideTheRangeNameTheKey) {
   for (const std::string bad : {"-1", "18446744073709551616", "1.5", "\"7\""}) {
     const std::string exp = dir.Write("e.json", ExperimentWith("seed", bad));
     ExpectRefused(RunTurbid({"sweep", exp, "--out", dir.File("s"), "--dry-run"}), 1,
-                  "e.json: 'seed' " + range);
+                  "e.json: 'seed': " + range);
     const std::string gen =
         dir.Write("g.json", R"({"scenes": ["builtin:hull"], "scale": 0.05, "seed": )" + bad + "}");
     ExpectRefused(RunTurbid({"generate", gen, "--out", dir.File("g")}), 1,
-                  "g.json: seed: " + range);
+                  "g.json: 'seed': " + range);
     const std::string params = dir.Write("p.json", R"({"seed": )" + bad + "}");
     ExpectRefused(RunTurbid({"render", "--scene", "builtin:hull", "--scale", "0.05", "--params",
                              params, "--out", dir.File("r.png")}),
@@ -183,7 +183,7 @@ TEST_F(MessagesCli, SeedsOutsideTheRangeNameTheKey) {
       "metrics": ["ssim"], "samples": {"count": 2, "seed": -4,
       "params": {"water.beta_gray_per_m": {"uniform": [0.1, 0.5]}}}})");
   ExpectRefused(RunTurbid({"sweep", samples, "--out", dir.File("s"), "--dry-run"}), 1,
-                "s.json: 'samples.seed' " + range);
+                "s.json: 'samples.seed': " + range);
   // 2^63 and more are seeds like any other (the experiment reader refused them as negative).
   const std::string big = dir.Write("big.json", ExperimentWith("seed", "18446744073709551615"));
   const CliRun dry = RunTurbid({"sweep", big, "--out", dir.File("s"), "--dry-run"});

@@ -92,7 +92,8 @@ TEST(ScoreDomain, ExperimentKeyDefaultsToEncodedAndIsStrict) {
     ParseExperiment(in, "x.json", FakeCatalog());
     FAIL() << "srgb8 accepted";
   } catch (const Error& error) {
-    EXPECT_NE(std::string(error.what()).find("x.json: unknown score domain 'srgb8'"),
+    EXPECT_NE(std::string(error.what())
+                  .find("x.json: 'score_domain': expected one of encoded, linear, got \"srgb8\""),
               std::string::npos)
         << error.what();
   }

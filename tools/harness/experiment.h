@@ -164,6 +164,9 @@ struct Experiment {
 Experiment ParseExperiment(const nlohmann::json& json, const std::string& source_path,
                            const HarnessCatalog& catalog);
 Experiment LoadExperimentFile(const std::string& path, const HarnessCatalog& catalog);
+// The top-level keys an experiment file may hold, from its field table (docs/experiments.md's
+// table of keys is checked against it).
+std::vector<std::string> ExperimentFileKeys();
 // Reads DIR/experiment.json written by a sweep (no catalog needed: it is already resolved).
 Experiment ExperimentFromResolvedJson(const nlohmann::json& json, const std::string& source);
 

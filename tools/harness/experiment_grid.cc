@@ -12,6 +12,16 @@
 
 namespace turbid {
 
+bool IsSafeName(const std::string& name) {
+  if (name.empty() || name.size() > 64) return false;
+  for (char c : name) {
+    const bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                    c == '_' || c == '-' || c == '.';
+    if (!ok) return false;
+  }
+  return name != "." && name != "..";
+}
+
 using nlohmann::json;
 // Axis names and level labels reach the tables (CSV, Markdown), the plots and `regress` as text:
 // a control character (a newline above all) would split their rows and lines. Shown JSON-quoted

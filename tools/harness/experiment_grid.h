@@ -11,6 +11,10 @@
 
 namespace turbid {
 
+// A name that may become a file or folder name: 1-64 characters of [A-Za-z0-9_.-], not "." or
+// "..". (Scene names and method labels also refuse '.'.)
+bool IsSafeName(const std::string& name);
+
 // Axis names and level labels reach the tables (CSV, Markdown), the plots and `regress` as text:
 // throws Error(file, ...) for a control character (a newline above all) in `text`.
 void CheckLabelText(const std::string& file, const std::string& what, const std::string& text);

@@ -25,6 +25,7 @@
 #include "scenes/scene_loader.h"
 #include "simulator/noise.h"
 #include "simulator/render.h"
+#include "tools/harness/config_fields.h"
 #include "tools/harness/experiment_grid.h"
 #include "tools/harness/param_tree.h"
 #include "tools/harness/tables.h"
@@ -83,32 +84,6 @@ std::string FileEncodingName(const json& params, const std::string& format) {
   if (format == "exr") return "linear";
   RenderOptions options = RenderOptionsFromJson(params);
   return CameraEncodingName(options.camera.FileEncoding());
-}
-
-// Typed reads of a config's optional keys: absent gives `fallback`; a value of the wrong type is an
-// Error naming the file and the key (nlohmann's value() throws its own type_error, and converts a
-// float or negative number to an integer silently or with undefined behaviour).
-double ConfigNumber(const json& object, const char* key, double fallback, const std::string& file,
-                    const std::string& where) {
-  if (!object.contains(key)) return fallback;
-  if (!object[key].is_number()) throw Error(file, where + key + ": must be a number");
-  return object[key].get<double>();
-}
-
-uint64_t ConfigSeed(const json& object, const char* key, uint64_t fallback, const std::string& file,
-                    const std::string& where) {
-  if (!object.contains(key)) return fallback;
-  const json& v = object[key];
-  if (!v.is_number_unsigned() && !(v.is_number_integer() && v.get<int64_t>() >= 0))
-    throw Error(file, where + key + ": must be an integer in [0, 18446744073709551615]");
-  return v.get<uint64_t>();
-}
-
-const json& ConfigObject(const json& object, const char* key, const json& fallback,
-                         const std::string& file, const std::string& where) {
-  if (!object.contains(key)) return fallback;
-  if (!object[key].is_object()) throw Error(file, where + key + ": must be an object");
-  return object[key];
 }
 
 }  // namespace
@@ -177,13 +152,64 @@ json GeneratePreset(const std::string& name) {
 
 namespace {
 
+// The keys of a generate config as written (absent: nullopt / null), checked for type and range
+// by their field tables (core/fields.h); docs/cli/render.md's table is checked against them.
+struct GenerateKeys {
+  json scenes;
+  std::optional<double> scale;
+  json base, grid, random;
+  std::optional<uint64_t> seed;
+  std::string format = "png";
+  std::optional<std::string> preset;
+  json water_from;
+};
+
+struct RandomKeys {
+  std::optional<int64_t> count;
+  std::optional<uint64_t> seed;
+  json params;
+};
+
+const Fields<GenerateKeys>& GenerateKeyFields() {
+  static const Fields<GenerateKeys> fields = [] {
+    using K = GenerateKeys;
+    using config_fields::Shape;
+    Fields<K> f;
+    config_fields::Raw(f, "scenes", &K::scenes, Shape::kArray, "scene specs");
+    config_fields::OptionalNumber(f, "scale", &K::scale, "built-in scene scale",
+                                  NumberRange::Any());
+    config_fields::OptionalUnsigned(f, "seed", &K::seed, "the dataset's seed");
+    f.Choice("format", &K::format, {{"png", std::string("png")}, {"exr", std::string("exr")}},
+             "image file format");
+    config_fields::Raw(f, "base", &K::base, Shape::kObject, "render parameters of every item");
+    config_fields::Raw(f, "grid", &K::grid, Shape::kObject, "path -> list of values");
+    config_fields::Raw(f, "water_from", &K::water_from, Shape::kAny, "fitted water file(s)");
+    config_fields::Raw(f, "random", &K::random, Shape::kObject, "random draws");
+    config_fields::OptionalString(f, "preset", &K::preset, "uwcnn_nyu or uwcnn_constant_b");
+    return f;
+  }();
+  return fields;
+}
+
+const Fields<RandomKeys>& RandomKeyFields() {
+  static const Fields<RandomKeys> fields = [] {
+    using config_fields::Shape;
+    Fields<RandomKeys> f;
+    config_fields::OptionalInteger(f, "count", &RandomKeys::count, "draws per grid point", 1,
+                                   1000000);
+    config_fields::OptionalUnsigned(f, "seed", &RandomKeys::seed, "the draws' seed");
+    config_fields::Raw(f, "params", &RandomKeys::params, Shape::kObject, "path -> distribution");
+    return f;
+  }();
+  return fields;
+}
+
 // The named preset's base and random draws (empty without "preset").
-json ReadPreset(const json& config, const std::string& config_path) {
+json ReadPreset(const GenerateKeys& keys, const std::string& config_path) {
   json preset = {{"base", json::object()}, {"random_params", json::object()}};
-  if (config.contains("preset")) {
-    if (!config["preset"].is_string()) throw Error(config_path, "preset: must be a string");
+  if (keys.preset) {
     try {
-      preset = GeneratePreset(config["preset"].get<std::string>());
+      preset = GeneratePreset(*keys.preset);
     } catch (const Error& e) {
       throw Error(config_path, e.what());
     }
@@ -191,30 +217,15 @@ json ReadPreset(const json& config, const std::string& config_path) {
   return preset;
 }
 
-// random.count, checked before the grid is expanded (1 without a "random" object).
-int64_t RandomCount(const json& config, const std::string& config_path) {
-  if (config.contains("random") && config["random"].is_object()) {
-    const json& count = config["random"].value("count", json(1));
-    if (!count.is_number_integer() || count.get<int64_t>() < 1 || count.get<int64_t>() > 1000000)
-      throw Error(config_path, "random.count: must be an integer in [1, 1e6]");
-  }
-  return config.contains("random") && config["random"].is_object()
-             ? config["random"].value("count", json(1)).get<int64_t>()
-             : 1;
-}
-
 // Grid: cartesian product over dotted parameter paths, in key order. Its size (times the
 // samples) is checked against the item limit before the product is built.
-std::vector<json> GridCombos(const json& config, int64_t samples, const std::string& config_path) {
+std::vector<json> GridCombos(const json& grid, int64_t samples, const std::string& config_path) {
   std::vector<json> combos = {json::object()};
-  if (!config.contains("grid")) return combos;
-  const json& grid = config["grid"];
-  if (!grid.is_object())
-    throw Error(config_path, "grid: must be an object of path -> array of values");
+  if (grid.is_null()) return combos;
   int64_t points = samples;
   for (auto it = grid.begin(); it != grid.end(); ++it) {
     if (!it.value().is_array() || it.value().empty())
-      throw Error(config_path, "grid." + it.key() + ": must be a non-empty array");
+      throw Error(config_path, "'grid." + it.key() + "': must be a non-empty array");
     points = SaturatingProduct(points, static_cast<int64_t>(it.value().size()));
   }
   CheckItemCount(config_path, "the dataset (grid points x random.count)", points);
@@ -231,24 +242,13 @@ std::vector<json> GridCombos(const json& config, int64_t samples, const std::str
   return combos;
 }
 
-// The "random" block (its count checked by RandomCount), with the preset's draws under it.
-void ReadRandom(const json& config, int64_t samples, const json& preset,
-                const std::string& config_path, GenerateConfig* out) {
-  out->random_seed = out->seed;
-  if (config.contains("random")) {
-    const json& random = config["random"];
-    if (!random.is_object()) throw Error(config_path, "random: must be an object");
-    for (auto it = random.begin(); it != random.end(); ++it) {
-      if (it.key() != "count" && it.key() != "seed" && it.key() != "params")
-        throw Error(config_path, "unknown key 'random." + it.key() + "' (known: count, seed, params)");
-    }
-    out->samples = static_cast<int>(samples);  // checked before the grid was expanded
-    out->random_seed = ConfigSeed(random, "seed", out->seed, config_path, "random.");
-    const json empty = json::object();
-    out->random_params =
-        FlattenSamplers(ConfigObject(random, "params", empty, config_path, "random."), config_path,
-                        "random.params");
-  }
+// The "random" block, with the preset's draws under it.
+void ReadRandom(const RandomKeys& random, const json& preset, const std::string& config_path,
+                GenerateConfig* out) {
+  out->samples = static_cast<int>(random.count.value_or(1));
+  out->random_seed = random.seed.value_or(out->seed);
+  out->random_params = FlattenSamplers(random.params.is_null() ? json::object() : random.params,
+                                       config_path, "random.params");
   if (!preset["random_params"].empty()) {
     json params = preset["random_params"];
     for (auto it = out->random_params.begin(); it != out->random_params.end(); ++it)
@@ -258,11 +258,11 @@ void ReadRandom(const json& config, int64_t samples, const json& preset,
 }
 
 // The scene specs, a multi-frame scene file (nyu_v2, folder) standing for every frame it selects.
-void ReadScenes(const json& config, const std::string& config_path, GenerateConfig* out) {
+void ReadScenes(const json& scenes, const std::string& config_path, GenerateConfig* out) {
   LoadSceneOptions scene_options;
   scene_options.builtin_scale = out->scale;
   ThrowIfInvalid(scene_options, config_path + ": scale");
-  for (const json& spec : config["scenes"]) {
+  for (const json& spec : scenes) {
     if (!spec.is_string()) throw Error(config_path, "scenes: entries must be strings");
     for (const std::string& one : ExpandSceneSpec(spec.get<std::string>()))
       out->scene_specs.push_back(one);
@@ -274,9 +274,8 @@ void ReadScenes(const json& config, const std::string& config_path, GenerateConf
 }
 
 // "water_from": one fit file or a non-empty list of them (each read and checked now).
-void ReadWaterFrom(const json& config, const std::string& config_path, GenerateConfig* out) {
-  if (!config.contains("water_from")) return;
-  const json& value = config["water_from"];
+void ReadWaterFrom(const json& value, const std::string& config_path, GenerateConfig* out) {
+  if (value.is_null()) return;
   const char* expected =
       "water_from: a fit file (turbid water fit --out) or a non-empty list of them";
   std::vector<std::string> paths;
@@ -295,6 +294,8 @@ void ReadWaterFrom(const json& config, const std::string& config_path, GenerateC
 }
 
 }  // namespace
+
+std::vector<std::string> GenerateConfigKeys() { return GenerateKeyFields().Keys(); }
 
 WaterSource ReadWaterSource(const std::string& path) {
   if (path.empty()) throw Error("water_from: an empty file name");
@@ -340,36 +341,26 @@ json DrawItemParams(const GenerateConfig& config, size_t g, uint64_t draw_index)
 
 GenerateConfig ParseGenerateConfig(const json& config, const std::string& config_path) {
   if (!config.is_object()) throw Error(config_path, "must be a JSON object");
-  for (auto it = config.begin(); it != config.end(); ++it)
-    if (it.key() != "scenes" && it.key() != "scale" && it.key() != "base" && it.key() != "grid" &&
-        it.key() != "random" && it.key() != "seed" && it.key() != "format" &&
-        it.key() != "preset" && it.key() != "water_from")
-      throw Error(config_path,
-                  it.key() +
-                      ": unknown key (scenes, scale, base, grid, random, seed, format, "
-                      "preset, water_from)");
-  const json preset = ReadPreset(config, config_path);
-  if (!config.contains("scenes") || !config["scenes"].is_array() || config["scenes"].empty())
+  GenerateKeys keys;
+  GenerateKeyFields().Read(config, &keys, config_path);
+  RandomKeys random;
+  RandomKeyFields().Read(keys.random, &random, config_path, "random");
+  const json preset = ReadPreset(keys, config_path);
+  if (!keys.scenes.is_array() || keys.scenes.empty())
     throw Error(config_path, "scenes: a non-empty array of scene specs is required");
   GenerateConfig out;
   out.source = config_path;
-  const json empty = json::object();
-  out.scale = ConfigNumber(config, "scale", 1.0, config_path, "");
-  out.seed = ConfigSeed(config, "seed", 0, config_path, "");
-  if (config.contains("format") && !config["format"].is_string())
-    throw Error(config_path, "format: png or exr");
-  out.format = config.value("format", std::string("png"));
-  if (out.format != "png" && out.format != "exr") throw Error(config_path, "format: png or exr");
+  out.scale = keys.scale.value_or(1.0);
+  out.seed = keys.seed.value_or(0);
+  out.format = keys.format;
   // A preset's base and random draws come first; the config's own entries override them.
   out.base = preset["base"];
-  out.base.merge_patch(
-      ExpandDottedKeys(ConfigObject(config, "base", empty, config_path, ""), config_path));
+  if (!keys.base.is_null()) out.base.merge_patch(ExpandDottedKeys(keys.base, config_path));
   RenderOptionsFromJson(out.base);  // fail early on a bad base
-  const int64_t samples = RandomCount(config, config_path);
-  out.combos = GridCombos(config, samples, config_path);
-  ReadRandom(config, samples, preset, config_path, &out);
-  ReadWaterFrom(config, config_path, &out);
-  ReadScenes(config, config_path, &out);
+  out.combos = GridCombos(keys.grid, random.count.value_or(1), config_path);
+  ReadRandom(random, preset, config_path, &out);
+  ReadWaterFrom(keys.water_from, config_path, &out);
+  ReadScenes(keys.scenes, config_path, &out);
   return out;
 }
 

@@ -53,6 +53,9 @@ nlohmann::json GeneratePreset(const std::string& name);
 
 // Checks the config object; throws Error("<source>: <problem>") on the first problem.
 GenerateConfig ParseGenerateConfig(const nlohmann::json& config, const std::string& source);
+// The top-level keys a generate config may hold, from its field table (docs/cli/render.md's
+// table is checked against it).
+std::vector<std::string> GenerateConfigKeys();
 
 // Every item in order (scene-major, then grid point, then sample); `scene_names` are the loaded
 // scenes' names (for the ids). Throws Error("<source>: item N: <problem>") for a bad combination.
