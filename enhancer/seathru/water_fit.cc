@@ -178,15 +178,11 @@ double AttenuationFit::Beta(int c, double r) const {
   return a[c] * std::exp(b[c] * r) + this->c[c] * std::exp(d[c] * r);
 }
 
-BackscatterFit FitBackscatter(const std::vector<WaterFitFrame>& frames,
-                              const WaterFitOptions& options) {
-  CheckFrames(frames);
-  double lo, hi;
-  long long count;
-  RangeBounds(frames, &lo, &hi, &count);
-  if (count == 0) throw Error("water fit", "no pixel with a valid range");
-  const int bins = options.range_bins;
-  const double width = std::max(hi - lo, 1e-9) / bins;
+namespace {
+
+// The valid pixels of every frame, by range bin: (R + G + B, r, (R, G, B)).
+std::vector<std::vector<Pixel>> PixelsByRangeBin(const std::vector<WaterFitFrame>& frames,
+                                                 double lo, double width, int bins) {
   std::vector<std::vector<Pixel>> per_bin(static_cast<size_t>(bins));
   for (const WaterFitFrame& f : frames) {
     for (int y = 0; y < f.image.rows; ++y) {
@@ -200,55 +196,71 @@ BackscatterFit FitBackscatter(const std::vector<WaterFitFrame>& frames,
       }
     }
   }
-  BackscatterFit fit;
+  return per_bin;
+}
+
+// The darkest dark_percent % of each bin (by R + G + B); fills the bins' ranges and medians.
+std::vector<Pixel> DarkestPixels(std::vector<std::vector<Pixel>>& per_bin, double lo, double width,
+                                 double dark_percent, BackscatterFit* fit) {
   std::vector<Pixel> dark;
-  for (int b = 0; b < bins; ++b) {
-    std::vector<Pixel>& v = per_bin[static_cast<size_t>(b)];
+  for (size_t b = 0; b < per_bin.size(); ++b) {
+    std::vector<Pixel>& v = per_bin[b];
     if (v.empty()) continue;
-    const size_t keep = std::max<size_t>(
-        1, static_cast<size_t>(std::ceil(v.size() * options.dark_percent / 100.0)));
+    const size_t keep =
+        std::max<size_t>(1, static_cast<size_t>(std::ceil(v.size() * dark_percent / 100.0)));
     std::nth_element(v.begin(), v.begin() + static_cast<long>(keep - 1), v.end(),
                      [](const Pixel& a, const Pixel& b) { return a.sum < b.sum; });
-    fit.bin_range_m.push_back(lo + (b + 0.5) * width);
+    fit->bin_range_m.push_back(lo + (static_cast<double>(b) + 0.5) * width);
     Rgb3 median{};
     for (int c = 0; c < 3; ++c) {
       std::vector<double> values;
       for (size_t i = 0; i < keep; ++i) values.push_back(v[i].rgb[c]);
       median[c] = Median(values);
     }
-    fit.bin_dark_median.push_back(median);
+    fit->bin_dark_median.push_back(median);
     dark.insert(dark.end(), v.begin(), v.begin() + static_cast<long>(keep));
   }
-  if (fit.bin_range_m.size() < 2)
-    throw Error("water fit", "the valid ranges fill fewer than 2 range bins (" +
-                                 std::to_string(lo) + ".." + std::to_string(hi) + " m)");
-  // Variable projection: for each (β^B, β') on a grid, B∞ and J' are a box-constrained linear
-  // least-squares problem; the best grid point starts Levenberg-Marquardt.
-  const size_t n = dark.size();
-  std::vector<std::vector<double>> e(kBetaGrid, std::vector<double>(n));
-  for (int k = 0; k < kBetaGrid; ++k)
-    for (size_t i = 0; i < n; ++i) e[k][i] = std::exp(-kBetaMax * k / (kBetaGrid - 1) * dark[i].r);
-  std::vector<double> suu(kBetaGrid), svv(kBetaGrid);
-  std::vector<std::vector<double>> suv(kBetaGrid, std::vector<double>(kBetaGrid));
-  for (int j = 0; j < kBetaGrid; ++j) {
-    for (size_t i = 0; i < n; ++i) {
-      suu[j] += (1 - e[j][i]) * (1 - e[j][i]);
-      svv[j] += e[j][i] * e[j][i];
-    }
-    for (int k = 0; k < kBetaGrid; ++k) {
-      double s = 0;
-      for (size_t i = 0; i < n; ++i) s += (1 - e[j][i]) * e[k][i];
-      suv[j][k] = s;
+  return dark;
+}
+
+// Variable projection: for each (β^B, β') on a grid, B∞ and J' are a box-constrained linear
+// least-squares problem. The grid's exponentials and their channel-independent sums, once.
+struct ProjectionGrid {
+  std::vector<std::vector<double>> e;  // e[k][i] = exp(-β_k r_i)
+  std::vector<double> suu, svv;
+  std::vector<std::vector<double>> suv;
+
+  explicit ProjectionGrid(const std::vector<Pixel>& dark)
+      : e(kBetaGrid, std::vector<double>(dark.size())),
+        suu(kBetaGrid),
+        svv(kBetaGrid),
+        suv(kBetaGrid, std::vector<double>(kBetaGrid)) {
+    const size_t n = dark.size();
+    for (int k = 0; k < kBetaGrid; ++k)
+      for (size_t i = 0; i < n; ++i) e[k][i] = std::exp(-Beta(k) * dark[i].r);
+    for (int j = 0; j < kBetaGrid; ++j) {
+      for (size_t i = 0; i < n; ++i) {
+        suu[j] += (1 - e[j][i]) * (1 - e[j][i]);
+        svv[j] += e[j][i] * e[j][i];
+      }
+      for (int k = 0; k < kBetaGrid; ++k) {
+        double s = 0;
+        for (size_t i = 0; i < n; ++i) s += (1 - e[j][i]) * e[k][i];
+        suv[j][k] = s;
+      }
     }
   }
-  for (int c = 0; c < 3; ++c) {
+  static double Beta(int k) { return kBetaMax * k / (kBetaGrid - 1); }
+
+  // The best grid point for channel c: p = {B∞, β^B, J', β'}.
+  void Best(const std::vector<Pixel>& dark, int c, double p[4]) const {
     std::vector<double> suy(kBetaGrid), svy(kBetaGrid);
     for (int k = 0; k < kBetaGrid; ++k)
-      for (size_t i = 0; i < n; ++i) {
+      for (size_t i = 0; i < dark.size(); ++i) {
         suy[k] += (1 - e[k][i]) * dark[i].rgb[c];
         svy[k] += e[k][i] * dark[i].rgb[c];
       }
-    double best = std::numeric_limits<double>::infinity(), p[4] = {0, 0, 0, 0};
+    double best = std::numeric_limits<double>::infinity();
     for (int j = 0; j < kBetaGrid; ++j)
       for (int k = 0; k < kBetaGrid; ++k) {
         double bb, jj;
@@ -256,11 +268,37 @@ BackscatterFit FitBackscatter(const std::vector<WaterFitFrame>& frames,
         if (q < best) {
           best = q;
           p[0] = bb;
-          p[1] = kBetaMax * j / (kBetaGrid - 1);
+          p[1] = Beta(j);
           p[2] = jj;
-          p[3] = kBetaMax * k / (kBetaGrid - 1);
+          p[3] = Beta(k);
         }
       }
+  }
+};
+
+}  // namespace
+
+BackscatterFit FitBackscatter(const std::vector<WaterFitFrame>& frames,
+                              const WaterFitOptions& options) {
+  CheckFrames(frames);
+  double lo, hi;
+  long long count;
+  RangeBounds(frames, &lo, &hi, &count);
+  if (count == 0) throw Error("water fit", "no pixel with a valid range");
+  const int bins = options.range_bins;
+  const double width = std::max(hi - lo, 1e-9) / bins;
+  std::vector<std::vector<Pixel>> per_bin = PixelsByRangeBin(frames, lo, width, bins);
+  BackscatterFit fit;
+  const std::vector<Pixel> dark = DarkestPixels(per_bin, lo, width, options.dark_percent, &fit);
+  if (fit.bin_range_m.size() < 2)
+    throw Error("water fit", "the valid ranges fill fewer than 2 range bins (" +
+                                 std::to_string(lo) + ".." + std::to_string(hi) + " m)");
+  // The best grid point starts Levenberg-Marquardt.
+  const ProjectionGrid grid(dark);
+  const size_t n = dark.size();
+  for (int c = 0; c < 3; ++c) {
+    double p[4] = {0, 0, 0, 0};
+    grid.Best(dark, c, p);
     PolishBackscatter(dark, c, p);
     fit.b_inf[c] = p[0];
     fit.beta_b[c] = p[1];
