@@ -101,6 +101,40 @@ uint64_t ResolvedSeed(const json& value, const std::string& source, const char* 
   if (!v) throw Error(source, std::string("'") + key + "' must be an integer in [0, 2^64 - 1]");
   return *v;
 }
+
+// The entries of a resolved file's lists (json::exception on a missing key or a wrong type, which
+// the caller turns into one line naming the file).
+ExperimentScene ResolvedScene(const json& s, const std::string& source) {
+  ExperimentScene scene;
+  scene.spec = s.at("spec").get<std::string>();
+  scene.load_spec = scene.spec;
+  scene.name = s.at("name").get<std::string>();
+  scene.scale = s.at("scale").get<double>();
+  if (s.contains("frames"))
+    scene.frames =
+        static_cast<int>(ResolvedInteger(s.at("frames"), 1, 100000000, source, "frames"));
+  if (s.contains("trajectory")) scene.trajectory = s.at("trajectory");
+  return scene;
+}
+SampledParam ResolvedSampled(const json& p) {
+  SampledParam param;
+  param.path = p.at("path").get<std::string>();
+  param.distribution = p.at("distribution").get<std::string>();
+  param.low = p.at("low").get<double>();
+  param.high = p.at("high").get<double>();
+  param.choices = p.at("choices");
+  return param;
+}
+ExperimentMethod ResolvedMethod(const json& m, const std::string& source) {
+  ExperimentMethod method;
+  method.name = m.at("name").get<std::string>();
+  method.label = m.at("label").get<std::string>();
+  method.params = m.at("params");
+  method.privileged = m.value("privileged", false);
+  if (m.contains("external")) method.external = m.at("external");
+  method.base_dir = fs::path(source).parent_path().string();
+  return method;
+}
 }  // namespace
 
 Experiment ExperimentFromResolvedJson(const json& in, const std::string& source) {
@@ -113,18 +147,7 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     e.name = in.at("name").get<std::string>();
     e.description = in.at("description").get<std::string>();
     e.seed = ResolvedSeed(in.at("seed"), source, "seed");
-    for (const json& s : in.at("scenes")) {
-      ExperimentScene scene;
-      scene.spec = s.at("spec").get<std::string>();
-      scene.load_spec = scene.spec;
-      scene.name = s.at("name").get<std::string>();
-      scene.scale = s.at("scale").get<double>();
-      if (s.contains("frames"))
-        scene.frames =
-            static_cast<int>(ResolvedInteger(s.at("frames"), 1, 100000000, source, "frames"));
-      if (s.contains("trajectory")) scene.trajectory = s.at("trajectory");
-      e.scenes.push_back(scene);
-    }
+    for (const json& s : in.at("scenes")) e.scenes.push_back(ResolvedScene(s, source));
     e.render = in.at("render");
     e.render_resolved = in.at("render_resolved");
     for (const json& g : in.at("grid")) {
@@ -134,29 +157,12 @@ Experiment ExperimentFromResolvedJson(const json& in, const std::string& source)
     e.sample_count =
         static_cast<int>(ResolvedInteger(samples.at("count"), 0, 1000000, source, "samples.count"));
     e.sample_seed = ResolvedSeed(samples.at("seed"), source, "samples.seed");
-    for (const json& p : samples.at("params")) {
-      SampledParam param;
-      param.path = p.at("path").get<std::string>();
-      param.distribution = p.at("distribution").get<std::string>();
-      param.low = p.at("low").get<double>();
-      param.high = p.at("high").get<double>();
-      param.choices = p.at("choices");
-      e.sampled.push_back(param);
-    }
+    for (const json& p : samples.at("params")) e.sampled.push_back(ResolvedSampled(p));
     e.level_path = in.at("level").at("path").get<std::string>();
     e.level_bins =
         static_cast<int>(ResolvedInteger(in.at("level").at("bins"), 0, 100, source, "level.bins"));
     e.seed_path = in.at("seed_path").get<std::string>();
-    for (const json& m : in.at("methods")) {
-      ExperimentMethod method;
-      method.name = m.at("name").get<std::string>();
-      method.label = m.at("label").get<std::string>();
-      method.params = m.at("params");
-      method.privileged = m.value("privileged", false);
-      if (m.contains("external")) method.external = m.at("external");
-      method.base_dir = fs::path(source).parent_path().string();
-      e.methods.push_back(method);
-    }
+    for (const json& m : in.at("methods")) e.methods.push_back(ResolvedMethod(m, source));
     for (const json& m : in.at("metrics")) {
       e.metrics.push_back({m.at("name").get<std::string>(), m.at("higher_is_better").get<bool>(),
                            m.at("needs_reference").get<bool>(), m.at("needs_original").get<bool>(),
