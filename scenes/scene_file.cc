@@ -637,6 +637,62 @@ std::vector<std::string> ExpandSceneSpec(const std::string& spec) {
   return out;
 }
 
+namespace {
+
+// The scene's camera: the file's intrinsics (checked against the image size) or, for a frame
+// without intrinsics, an unknown one.
+void SetCamera(const SceneFileSpec& spec, cv::Size size, Scene* scene) {
+  if (spec.camera_unknown) {
+    scene->camera = UnknownCamera(size.width, size.height);
+    scene->camera_unknown = true;
+  } else {
+    if (!spec.camera) throw Error(spec.source, "no camera intrinsics");
+    scene->camera = *spec.camera;
+  }
+  if ((scene->camera.width != 0 && scene->camera.width != size.width) ||
+      (scene->camera.height != 0 && scene->camera.height != size.height))
+    throw Error(spec.source, "camera size " + std::to_string(scene->camera.width) + "x" +
+                                 std::to_string(scene->camera.height) + " differs from image " +
+                                 spec.image + " (" + SizeText(size) + ")");
+  scene->camera.width = size.width;
+  scene->camera.height = size.height;
+}
+
+// Metric depth from the geometry file: disparity (stereo) or depth in file units, with its
+// invalid values, erosion, stretch and range-to-depth conversion.
+void SetDepth(const SceneFileSpec& spec, const std::string& geometry_path,
+              const RawDepthFile& raw_file, cv::Size size, Scene* scene) {
+  const cv::Mat& raw = raw_file.values;
+  if (spec.type == "stereo") {
+    if (raw.channels() != 1)
+      throw Error(geometry_path,
+                  "disparity must have 1 channel, found " + std::to_string(raw.channels()));
+    for (int y = 0; y < raw.rows; ++y)
+      for (int x = 0; x < raw.cols; ++x)
+        if (raw.at<float>(y, x) < 0.0f)
+          throw Error(geometry_path, "negative disparity at pixel (" + std::to_string(x) + ", " +
+                                         std::to_string(y) + ")");
+    scene->depth_m = DepthFromDisparity(raw / spec.disparity_scale, scene->camera.fx,
+                                        spec.baseline_m, spec.doffs_px);
+  } else {
+    double depth_scale = spec.depth_scale;
+    if (depth_scale == 0.0) {  // folder without "depth_scale"
+      if (raw_file.integer)
+        throw Error(spec.source, "'depth_scale' is required for integer depth files such as " +
+                                     geometry_path + " (file units per metre, e.g. 1000 for mm)");
+      depth_scale = 1.0;
+    }
+    // Invalid first (0 -> NaN), erosion on the file's own grid (where bilinear downsampling left
+    // its one-pixel seam of spurious values), then the stretch onto the image.
+    scene->depth_m =
+        ErodeValidDepth(DepthFromRaw(geometry_path, raw, depth_scale), spec.depth_erode_px);
+    if (raw.size() != size) scene->depth_m = StretchNearest(scene->depth_m, size);
+    if (spec.depth_is_range) scene->depth_m = DepthFromRange(scene->camera, scene->depth_m);
+  }
+}
+
+}  // namespace
+
 Scene BuildScene(const SceneFileSpec& spec) {
   if (spec.type == "builtin") {
     BuiltinSceneOptions options;
@@ -661,20 +717,7 @@ Scene BuildScene(const SceneFileSpec& spec) {
   scene.image = ReadImage(spec.image, image_options);
   CheckImageRange(spec.image, scene.image);
   const cv::Size size = scene.image.size();
-  if (spec.camera_unknown) {
-    scene.camera = UnknownCamera(size.width, size.height);
-    scene.camera_unknown = true;
-  } else {
-    if (!spec.camera) throw Error(spec.source, "no camera intrinsics");
-    scene.camera = *spec.camera;
-  }
-  if ((scene.camera.width != 0 && scene.camera.width != size.width) ||
-      (scene.camera.height != 0 && scene.camera.height != size.height))
-    throw Error(spec.source, "camera size " + std::to_string(scene.camera.width) + "x" +
-                                 std::to_string(scene.camera.height) + " differs from image " +
-                                 spec.image + " (" + SizeText(size) + ")");
-  scene.camera.width = size.width;
-  scene.camera.height = size.height;
+  SetCamera(spec, size, &scene);
 
   const std::string& geometry_path = spec.type == "stereo" ? spec.disparity : spec.depth;
   const RawDepthFile raw_file = ReadRawDepthFile(geometry_path);
@@ -684,32 +727,7 @@ Scene BuildScene(const SceneFileSpec& spec) {
     throw Error(geometry_path, "size " + SizeText(raw.size()) + " differs from image " +
                                    spec.image + " (" + SizeText(size) +
                                    "; \"depth_resize\": \"stretch_nearest\" stretches it)");
-  if (spec.type == "stereo") {
-    if (raw.channels() != 1)
-      throw Error(geometry_path,
-                  "disparity must have 1 channel, found " + std::to_string(raw.channels()));
-    for (int y = 0; y < raw.rows; ++y)
-      for (int x = 0; x < raw.cols; ++x)
-        if (raw.at<float>(y, x) < 0.0f)
-          throw Error(geometry_path, "negative disparity at pixel (" + std::to_string(x) + ", " +
-                                         std::to_string(y) + ")");
-    scene.depth_m = DepthFromDisparity(raw / spec.disparity_scale, scene.camera.fx, spec.baseline_m,
-                                       spec.doffs_px);
-  } else {
-    double depth_scale = spec.depth_scale;
-    if (depth_scale == 0.0) {  // folder without "depth_scale"
-      if (raw_file.integer)
-        throw Error(spec.source, "'depth_scale' is required for integer depth files such as " +
-                                     geometry_path + " (file units per metre, e.g. 1000 for mm)");
-      depth_scale = 1.0;
-    }
-    // Invalid first (0 -> NaN), erosion on the file's own grid (where bilinear downsampling left
-    // its one-pixel seam of spurious values), then the stretch onto the image.
-    scene.depth_m =
-        ErodeValidDepth(DepthFromRaw(geometry_path, raw, depth_scale), spec.depth_erode_px);
-    if (raw.size() != size) scene.depth_m = StretchNearest(scene.depth_m, size);
-    if (spec.depth_is_range) scene.depth_m = DepthFromRange(scene.camera, scene.depth_m);
-  }
+  SetDepth(spec, geometry_path, raw_file, size, &scene);
   if (cv::countNonZero(scene.depth_m == scene.depth_m) == 0)
     throw Error(geometry_path, "no valid depth pixel (all zero, unknown or non-finite)");
   scene.normals = NormalsFromDepth(
