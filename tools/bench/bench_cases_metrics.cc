@@ -18,7 +18,10 @@
 
 namespace turbid::bench {
 
-void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in) {
+namespace {
+
+// The sweep's full-reference scores in the encoded domain against the same on linear floats.
+BenchCase EncodedDomainCase(const InputsFn& in) {
   {
     // The sweep's full-reference scores in the encoded domain (issue 32 item 1): code the result
     // (sRGB 8-bit, once per image; the reference is coded once per item, outside the loop) and
@@ -59,8 +62,14 @@ void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in) {
              Format("%.4f", ComputeMetrics(names, l).at("ssim"));
     };
     c.goal = {0.8, 0.0, "issue 32 item 1 (scoring coded must not slow sweeps noticeably)"};
-    cases.push_back(c);
+    return c;
   }
+}
+
+}  // namespace
+
+void AddMetricsCases(std::vector<BenchCase>& cases, const InputsFn& in) {
+  cases.push_back(EncodedDomainCase(in));
   for (VisibleEdgeVariant variant : {VisibleEdgeVariant::kPaper, VisibleEdgeVariant::kIfsttar}) {
     BenchCase c;
     c.name = "metrics/visible_edges/pair/" + VisibleEdgeVariantName(variant);
