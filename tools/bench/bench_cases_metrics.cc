@@ -22,48 +22,46 @@ namespace {
 
 // The sweep's full-reference scores in the encoded domain against the same on linear floats.
 BenchCase EncodedDomainCase(const InputsFn& in) {
-  {
-    // The sweep's full-reference scores in the encoded domain (issue 32 item 1): code the result
-    // (sRGB 8-bit, once per image; the reference is coded once per item, outside the loop) and
-    // score SSIM + PSNR + MSE on the codes, against the same metrics on the linear floats.
-    BenchCase c;
-    c.name = "metrics/full_reference/encoded_domain";
-    c.peer_name = "the same metrics on linear floats";
-    const CameraCoding camera{CameraEncoding::kSrgb, 8};
-    const auto reference = std::make_shared<cv::Mat>();
-    const auto coded_reference = [in, camera, reference]() -> const cv::Mat& {
-      if (reference->empty()) *reference = EncodeForScoring(in().seafloor.image, camera);
-      return *reference;
-    };
-    const std::vector<std::string> names = {"ssim", "psnr", "mse"};
-    c.ours = [in, camera, coded_reference, names] {
-      MetricInputs m;
-      m.reference = coded_reference();
-      m.image = EncodeForScoring(in().seafloor_degraded_linear, camera);
-      m.data_range = camera.DataRange();
-      benchmark::DoNotOptimize(ComputeMetrics(names, m).size());
-    };
-    c.peer = [in, names] {
-      MetricInputs m;
-      m.reference = in().seafloor.image;
-      m.image = in().seafloor_degraded_linear;
-      benchmark::DoNotOptimize(ComputeMetrics(names, m).size());
-    };
-    c.agreement = [in, camera, coded_reference, names] {
-      MetricInputs m;
-      m.reference = coded_reference();
-      m.image = EncodeForScoring(in().seafloor_degraded_linear, camera);
-      m.data_range = camera.DataRange();
-      const double coded = ComputeMetrics(names, m).at("ssim");
-      MetricInputs l;
-      l.reference = in().seafloor.image;
-      l.image = in().seafloor_degraded_linear;
-      return "SSIM encoded " + Format("%.4f", coded) + ", linear " +
-             Format("%.4f", ComputeMetrics(names, l).at("ssim"));
-    };
-    c.goal = {0.8, 0.0, "issue 32 item 1 (scoring coded must not slow sweeps noticeably)"};
-    return c;
-  }
+  // The sweep's full-reference scores in the encoded domain (issue 32 item 1): code the result
+  // (sRGB 8-bit, once per image; the reference is coded once per item, outside the loop) and
+  // score SSIM + PSNR + MSE on the codes, against the same metrics on the linear floats.
+  BenchCase c;
+  c.name = "metrics/full_reference/encoded_domain";
+  c.peer_name = "the same metrics on linear floats";
+  const CameraCoding camera{CameraEncoding::kSrgb, 8};
+  const auto reference = std::make_shared<cv::Mat>();
+  const auto coded_reference = [in, camera, reference]() -> const cv::Mat& {
+    if (reference->empty()) *reference = EncodeForScoring(in().seafloor.image, camera);
+    return *reference;
+  };
+  const std::vector<std::string> names = {"ssim", "psnr", "mse"};
+  c.ours = [in, camera, coded_reference, names] {
+    MetricInputs m;
+    m.reference = coded_reference();
+    m.image = EncodeForScoring(in().seafloor_degraded_linear, camera);
+    m.data_range = camera.DataRange();
+    benchmark::DoNotOptimize(ComputeMetrics(names, m).size());
+  };
+  c.peer = [in, names] {
+    MetricInputs m;
+    m.reference = in().seafloor.image;
+    m.image = in().seafloor_degraded_linear;
+    benchmark::DoNotOptimize(ComputeMetrics(names, m).size());
+  };
+  c.agreement = [in, camera, coded_reference, names] {
+    MetricInputs m;
+    m.reference = coded_reference();
+    m.image = EncodeForScoring(in().seafloor_degraded_linear, camera);
+    m.data_range = camera.DataRange();
+    const double coded = ComputeMetrics(names, m).at("ssim");
+    MetricInputs l;
+    l.reference = in().seafloor.image;
+    l.image = in().seafloor_degraded_linear;
+    return "SSIM encoded " + Format("%.4f", coded) + ", linear " +
+           Format("%.4f", ComputeMetrics(names, l).at("ssim"));
+  };
+  c.goal = {0.8, 0.0, "issue 32 item 1 (scoring coded must not slow sweeps noticeably)"};
+  return c;
 }
 
 }  // namespace
