@@ -236,11 +236,13 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
       psf.kernel,
       [&](int y, const float* row) {
         float* dst = out.ptr<float>(y);  // its denoised values were read for ring row y
-        ClampUnitCopyRow(row, dst, n);
-        if (!o.contrast) return;
-        // Coded in place when CLAHE equalises the camera-coded image (decoded after it).
-        if (coding != CameraEncoding::kLinear) ClaheEncodeRow(dst, dst, n, coding);
-        ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
+        // Clamped, and coded when CLAHE equalises the camera-coded image (decoded after it).
+        if (o.contrast && coding != CameraEncoding::kLinear) {
+          ClaheEncodeRow(row, dst, n, coding);  // clamps to [0, 1] first
+        } else {
+          ClampUnitCopyRow(row, dst, n);
+        }
+        if (o.contrast) ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
       });
   if (!streamed) return false;  // another deblur path after all: nothing was read or written
   r->steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
