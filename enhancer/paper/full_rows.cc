@@ -5,6 +5,7 @@
 // the denoised image's buffer. Full-size buffers: the denoised image (then the output), the
 // upsampled t and E_L maps (one channel each when one beta), CLAHE's bins.
 #include <algorithm>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -249,8 +250,12 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
                      ", PSF radius " + std::to_string(psf.radius_px));
   ClaheStats stats;
   if (o.contrast) {
-    ClaheColorFromBins(clahe, bins, out, &stats);  // in [0, 1]
-    ClaheDecodeImage(out, coding);
+    // In [0, 1]; each row decoded while in cache when CLAHE equalised the coded image.
+    std::function<void(float*, int)> decode;
+    if (coding != CameraEncoding::kLinear) {
+      decode = [&](float* row, int) { ClaheDecodeRow(row, n, coding); };
+    }
+    ClaheColorFromBins(clahe, bins, out, &stats, decode);
   }
   ContrastStepLog(o, clahe, stats, r);
   return true;
