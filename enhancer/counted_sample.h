@@ -103,8 +103,10 @@ class CountedSample {
     const __m256i abs_mask = _mm256_set1_epi32(0x7fffffff);
     const __m256i inf = _mm256_set1_epi32(0x7f800000);
     const __m256i sign = _mm256_set1_epi32(static_cast<int>(kSign));
-    uint32_t* h0 = hist_[0].data();
-    uint32_t* h1 = hist_[1].data();
+    uint32_t* const h0 = hist_[0].data();
+    uint32_t* const h1 = hist_[1].data();
+    uint32_t* const keys = keys_.get();
+    size_t count = n_;  // kept in a register (the counters' stores could alias n_)
     int i = 0;
     for (; i + 16 <= n; i += 16) {
       const __m256i a = _mm256_permutevar8x32_epi32(
@@ -114,18 +116,27 @@ class CountedSample {
       const __m256i u = _mm256_permute2x128_si256(a, b, 0x20);  // row[i], row[i + 2], ...
       const __m256i finite = _mm256_cmpgt_epi32(inf, _mm256_and_si256(u, abs_mask));
       if (_mm256_movemask_ps(_mm256_castsi256_ps(finite)) != 0xff) {
+        n_ = count;
         AddEverySecondFiniteFrom(row, i, i + 16);
+        count = n_;
         continue;
       }
-      uint32_t* keys = keys_.get() + n_;
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(keys),
-                          _mm256_xor_si256(u, _mm256_or_si256(_mm256_srai_epi32(u, 31), sign)));
-      for (int j = 0; j < 8; j += 2) {
-        ++h0[keys[j] >> (32 - kTopBits)];
-        ++h1[keys[j + 1] >> (32 - kTopBits)];
-      }
-      n_ += 8;
+      const __m256i key = _mm256_xor_si256(u, _mm256_or_si256(_mm256_srai_epi32(u, 31), sign));
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(keys + count), key);
+      // The buckets taken from the register (reading the stored keys back waited on the store).
+      const __m256i top = _mm256_srli_epi32(key, 32 - kTopBits);
+      const __m128i lo = _mm256_castsi256_si128(top), hi = _mm256_extracti128_si256(top, 1);
+      ++h0[_mm_cvtsi128_si32(lo)];
+      ++h1[_mm_extract_epi32(lo, 1)];
+      ++h0[_mm_extract_epi32(lo, 2)];
+      ++h1[_mm_extract_epi32(lo, 3)];
+      ++h0[_mm_cvtsi128_si32(hi)];
+      ++h1[_mm_extract_epi32(hi, 1)];
+      ++h0[_mm_extract_epi32(hi, 2)];
+      ++h1[_mm_extract_epi32(hi, 3)];
+      count += 8;
     }
+    n_ = count;
     return i;
   }
 

@@ -578,7 +578,7 @@ cv::Mat ClaheGrayT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, 
 // from): each row's equalised luminance, then the ratio.
 template <typename Index>
 void ClaheColorInPlaceT(const ClaheOptions& o, const cv::Mat& idx, cv::Mat& image,
-                        ClaheStats* stats) {
+                        ClaheStats* stats, const std::function<void(float*, int)>& after_row) {
   const Padding p = ComputePadding(o, idx.rows, idx.cols);
   std::vector<float> eq(idx.cols), lum(idx.cols);
   ClaheRowsT<Index>(
@@ -586,6 +586,7 @@ void ClaheColorInPlaceT(const ClaheOptions& o, const cv::Mat& idx, cv::Mat& imag
       [&](int y, const float* e) {
         const float* next = y + 1 < image.rows ? image.ptr<float>(y + 1) : nullptr;
         LuminanceRatioRowInPlace(image.ptr<float>(y), e, idx.cols, lum.data(), next, o.rgb);
+        if (after_row) after_row(image.ptr<float>(y), y);
       });
 }
 
@@ -718,7 +719,7 @@ void ClaheBinColorRow(const ClaheOptions& options, const float* bgr, float* lum,
 }
 
 void ClaheColorFromBins(const ClaheOptions& options, const cv::Mat& bins, cv::Mat& image,
-                        ClaheStats* stats) {
+                        ClaheStats* stats, const std::function<void(float*, int)>& after_row) {
   ThrowIfInvalid(options, "clahe");
   const int want = options.bins <= 256 ? CV_8UC1 : CV_16UC1;
   if (bins.empty() || bins.type() != want) {
@@ -728,9 +729,9 @@ void ClaheColorFromBins(const ClaheOptions& options, const cv::Mat& bins, cv::Ma
     throw Error("clahe: colour image must be float32 BGR of the bins' size");
   }
   if (bins.depth() == CV_8U) {
-    ClaheColorInPlaceT<uint8_t>(options, bins, image, stats);
+    ClaheColorInPlaceT<uint8_t>(options, bins, image, stats, after_row);
   } else {
-    ClaheColorInPlaceT<uint16_t>(options, bins, image, stats);
+    ClaheColorInPlaceT<uint16_t>(options, bins, image, stats, after_row);
   }
 }
 

@@ -21,6 +21,7 @@
 // Input values are binned over [0,1] (clamped); output is in [0,1].
 #pragma once
 
+#include <functional>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -89,11 +90,13 @@ cv::Mat ClaheFromBins(const ClaheOptions& options, const cv::Mat& bins,
 // The same for colour: ClaheBinColorRow bins row y's Rec. 709 luminance (written to `lum`,
 // bins.cols floats) from `width` BGR pixels in [0, 1] (R, G, B when options.rgb);
 // ClaheColorFromBins equalises and rescales `image` (CV_32FC3, those rows) in place. The result
-// equals Clahe(options, image).
+// equals Clahe(options, image). `after_row(row, y)`, when given, is called on each row (3 * cols
+// floats) as soon as it is final, while it is still in cache (e.g. a curve applied per row).
 void ClaheBinColorRow(const ClaheOptions& options, const float* bgr, float* lum, cv::Mat& bins,
                       int y);
 void ClaheColorFromBins(const ClaheOptions& options, const cv::Mat& bins, cv::Mat& image,
-                        ClaheStats* stats = nullptr);
+                        ClaheStats* stats = nullptr,
+                        const std::function<void(float*, int)>& after_row = {});
 
 // The per-tile mapping tables (tiles_y*tiles_x rows, `bins` columns, output values in [0,1]) of
 // a one-channel image after padding: exposed so tests can pin known histograms.

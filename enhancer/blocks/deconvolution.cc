@@ -6,6 +6,12 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define TURBID_HAVE_TAPS_FMA 1
+#endif
+
+#include "core/cpu.h"
 #include "core/error.h"
 #include "core/row_kernel.h"
 
@@ -173,18 +179,77 @@ void HorizontalTapsAny(const float* ext, const float* r, float* acc, int w, int 
   }
 }
 
+#ifdef TURBID_HAVE_TAPS_FMA
+// VerticalTaps and HorizontalTaps with fused multiply-adds, 8 values at a time (issue 29 item 6:
+// outputs may move within float rounding; half the floating-point operations). The last w % 8
+// values take the same fused steps one at a time.
 template <int K>
-bool TapsUpTo(int k, const float* const* rows, const float* c, float* tmp, int w) {
+__attribute__((target("avx2,fma"))) void VerticalTapsFma(const float* const* rows, const float* c,
+                                                         float* __restrict out, int w) {
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    __m256 s = _mm256_mul_ps(_mm256_set1_ps(c[0]), _mm256_loadu_ps(rows[0] + x));
+    for (int j = 1; j < K; ++j) {
+      s = _mm256_fmadd_ps(_mm256_set1_ps(c[j]), _mm256_loadu_ps(rows[j] + x), s);
+    }
+    _mm256_storeu_ps(out + x, s);
+  }
+  for (; x < w; ++x) {
+    float s = c[0] * rows[0][x];
+    for (int j = 1; j < K; ++j) s = std::fma(c[j], rows[j][x], s);
+    out[x] = s;
+  }
+}
+template <int K, int S>
+__attribute__((target("avx2,fma"))) void HorizontalTapsFma(const float* __restrict ext,
+                                                           const float* r, float* __restrict acc,
+                                                           int w) {
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    __m256 s = _mm256_mul_ps(_mm256_set1_ps(r[0]), _mm256_loadu_ps(ext + x));
+    for (int i = 1; i < K; ++i) {
+      s = _mm256_fmadd_ps(_mm256_set1_ps(r[i]), _mm256_loadu_ps(ext + x + S * i), s);
+    }
+    _mm256_storeu_ps(acc + x, _mm256_add_ps(_mm256_loadu_ps(acc + x), s));
+  }
+  for (; x < w; ++x) {
+    float s = r[0] * ext[x];
+    for (int i = 1; i < K; ++i) s = std::fma(r[i], ext[x + S * i], s);
+    acc[x] += s;
+  }
+}
+#endif
+
+// Whether the tap kernels use FMA (KernelCpuLevel at least avx2+fma; tests lower the cap).
+bool TapsUseFma() {
+#ifdef TURBID_HAVE_TAPS_FMA
+  return KernelCpuLevel() >= CpuLevel::kAvx2Fma;
+#else
+  return false;
+#endif
+}
+
+template <int K>
+bool TapsUpTo(int k, bool fma, const float* const* rows, const float* c, float* tmp, int w) {
   if (k == K) {
+#ifdef TURBID_HAVE_TAPS_FMA
+    if (fma) return VerticalTapsFma<K>(rows, c, tmp, w), true;
+#endif
     VerticalTaps<K>(rows, c, tmp, w);
     return true;
   }
-  if constexpr (K > 3) return TapsUpTo<K - 2>(k, rows, c, tmp, w);
+  if constexpr (K > 3) return TapsUpTo<K - 2>(k, fma, rows, c, tmp, w);
   return false;
 }
 template <int K>
-bool HTapsUpTo(int k, int stride, const float* ext, const float* r, float* acc, int w) {
+bool HTapsUpTo(int k, bool fma, int stride, const float* ext, const float* r, float* acc, int w) {
   if (k == K) {
+#ifdef TURBID_HAVE_TAPS_FMA
+    if (fma) {
+      if (stride == 3) return HorizontalTapsFma<K, 3>(ext, r, acc, w), true;
+      if (stride == 1) return HorizontalTapsFma<K, 1>(ext, r, acc, w), true;
+    }
+#endif
     if (stride == 3) {
       HorizontalTaps<K, 3>(ext, r, acc, w);
     } else {
@@ -192,7 +257,7 @@ bool HTapsUpTo(int k, int stride, const float* ext, const float* r, float* acc, 
     }
     return true;
   }
-  if constexpr (K > 3) return HTapsUpTo<K - 2>(k, stride, ext, r, acc, w);
+  if constexpr (K > 3) return HTapsUpTo<K - 2>(k, fma, stride, ext, r, acc, w);
   return false;
 }
 
@@ -244,6 +309,7 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
   // stays in L1 for every term (whole rows, term after term, were read again from L2). Each
   // value's sum is VerticalTaps's, wherever the strips start.
   constexpr int kStrip = 512;
+  const bool fma = TapsUseFma();
   for (int y = 0; y < h; ++y) {
     for (int j = 0; j < kr; ++j) in_rows[j] = source(Reflect101(y + j - ry, h));
     for (int x0 = 0; x0 < n; x0 += kStrip) {
@@ -251,7 +317,7 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
       for (int j = 0; j < kr; ++j) strip_rows[j] = in_rows[j] + x0;
       for (int t = 0; t < terms; ++t) {
         float* mid = ext.data() + t * ext_n + static_cast<size_t>(rx) * c + x0;
-        if (!TapsUpTo<25>(kr, strip_rows.data(), cols[t].data(), mid, len)) {
+        if (!TapsUpTo<25>(kr, fma, strip_rows.data(), cols[t].data(), mid, len)) {
           VerticalTapsAny(strip_rows.data(), cols[t].data(), mid, len, kr);
         }
       }
@@ -265,7 +331,7 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
       for (int x = w + rx; x < w + 2 * rx; ++x) {
         std::copy_n(mid + col_src[x] * c, c, e + static_cast<size_t>(x) * c);
       }
-      if (!HTapsUpTo<25>(kc, c, e, rows[t].data(), acc.data(), n)) {
+      if (!HTapsUpTo<25>(kc, fma, c, e, rows[t].data(), acc.data(), n)) {
         HorizontalTapsAny(e, rows[t].data(), acc.data(), n, kc, c);
       }
     }

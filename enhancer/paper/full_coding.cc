@@ -8,22 +8,30 @@
 
 #include "core/row_kernel.h"
 #include "enhancer/paper/full_internal.h"
+#include "enhancer/paper/kernels.h"
+#include "enhancer/simd_switch.h"
+
+#ifdef TURBID_HAVE_DEHAZE_AVX2
+#include <immintrin.h>
+#endif
 
 namespace turbid::paper_internal {
 namespace {
 
 // IEC 61966-2-1 in double (the same curve as scenes/image_io.h's LinearToSrgb / SrgbToLinear).
+constexpr double kEncodeKnee = 0.0031308, kDecodeKnee = 0.04045;
 double SrgbEncode(double v) {
-  return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
+  return v <= kEncodeKnee ? 12.92 * v : 1.055 * std::pow(v, 1.0 / 2.4) - 0.055;
 }
 double SrgbDecode(double c) {
-  return c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
+  return c <= kDecodeKnee ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4);
 }
 
-// A curve on [0, 1] tabulated at n + 1 equally spaced points and read by linear interpolation.
-// Error bound h^2 / 8 max|f''| (h = 1/n): the encoding's largest curvature is just above its
-// linear segment (|f''| ~ 2400 at v = 0.0031), 7e-8 with n = 65536; the decoding's |f''| <= 3.1,
-// 2.3e-8 with n = 4096. Both below the float rounding of the exact curve at 1 (6e-8).
+// A curve on [0, 1] tabulated at n + 1 equally spaced points and read by linear interpolation
+// (the portable path). Error bound h^2 / 8 max|f''| (h = 1/n): the encoding's largest curvature
+// is just above its linear segment (|f''| ~ 2400 at v = 0.0031), 7e-8 with n = 65536; the
+// decoding's |f''| <= 3.1, 2.3e-8 with n = 4096. Both below the float rounding of the exact curve
+// at 1 (6e-8).
 struct Table {
   Table(int size, double (*f)(double)) : n(size), y(size + 1) {
     for (int i = 0; i <= n; ++i) y[i] = static_cast<float>(f(static_cast<double>(i) / n));
@@ -32,17 +40,17 @@ struct Table {
   std::vector<float> y;
 };
 
-// v[i] <- the table at v[i] clamped to [0, 1] (NaN -> 0, as ClampUnit), in place. A plain loop
-// for the compiler (AVX2 gathers in its clone).
-TURBID_ROW_KERNEL void LookUpRow(float* __restrict v, int count, const float* __restrict y,
+// out[i] <- the table at in[i] clamped to [0, 1] (NaN -> 0, as ClampUnit); in == out allowed. A
+// plain loop for the compiler (AVX2 gathers in its clone).
+TURBID_ROW_KERNEL void LookUpRow(const float* in, float* out, int count, const float* __restrict y,
                                  int n) {
   const float scale = static_cast<float>(n);
   for (int i = 0; i < count; ++i) {
-    const float c = std::min(v[i] > 0.0f ? v[i] : 0.0f, 1.0f);
+    const float c = std::min(in[i] > 0.0f ? in[i] : 0.0f, 1.0f);
     const float x = c * scale;
     const int k = std::min(static_cast<int>(x), n - 1);
     const float f = x - static_cast<float>(k);
-    v[i] = y[k] + f * (y[k + 1] - y[k]);
+    out[i] = y[k] + f * (y[k + 1] - y[k]);
   }
 }
 
@@ -53,6 +61,126 @@ const Table& EncodeTable() {
 const Table& DecodeTable() {
   static const Table table(4096, SrgbDecode);
   return table;
+}
+
+#ifdef TURBID_HAVE_DEHAZE_AVX2
+// x^p for x in [2^-15, 1] without tables in memory (the AVX2 path): x = m 2^e with m in [1, 2),
+// x^p = m^p 2^(p e); m^p is a degree-9 polynomial in t = 2 m - 3 (Chebyshev interpolation at 10
+// nodes, computed here in double; its error for p = 1/2.4 and 2.4 is below 1e-8 relative, so the
+// float evaluation's rounding, a few 1e-8, dominates), 2^(p e) one of 16 floats picked by a lane
+// permute. Tested against the double-precision curve (full_color_kernels_test.cc).
+constexpr int kDegree = 9;
+struct PowPoly {
+  explicit PowPoly(double p) {
+    constexpr int n = kDegree + 1;
+    double cheb[n] = {};
+    for (int k = 0; k < n; ++k) {
+      const double t = std::cos(M_PI * (k + 0.5) / n), f = std::pow((t + 3.0) / 2.0, p);
+      for (int j = 0; j < n; ++j) cheb[j] += 2.0 / n * f * std::cos(j * M_PI * (k + 0.5) / n);
+    }
+    cheb[0] /= 2.0;
+    // Monomial coefficients of sum_j cheb[j] T_j(t), with T_j built by T_{j+1} = 2 t T_j - T_{j-1}.
+    double mono[n] = {}, prev[n] = {}, cur[n] = {}, next[n];
+    prev[0] = 1.0;  // T_0
+    cur[1] = 1.0;   // T_1
+    mono[0] = cheb[0];
+    for (int j = 1; j < n; ++j) {
+      for (int i = 0; i < n; ++i) mono[i] += cheb[j] * cur[i];
+      for (int i = 0; i < n; ++i) next[i] = (i > 0 ? 2.0 * cur[i - 1] : 0.0) - prev[i];
+      std::copy(cur, cur + n, prev);
+      std::copy(next, next + n, cur);
+    }
+    for (int i = 0; i < n; ++i) c[i] = static_cast<float>(mono[i]);
+    for (int e = 0; e < 16; ++e) scale[e] = static_cast<float>(std::exp2(-p * e));
+  }
+  float c[kDegree + 1];
+  float scale[16];  // 2^(p e) for e = 0, -1, ..., -15
+};
+
+const PowPoly& EncodePoly() {
+  static const PowPoly poly(1.0 / 2.4);
+  return poly;
+}
+const PowPoly& DecodePoly() {
+  static const PowPoly poly(2.4);
+  return poly;
+}
+
+__attribute__((target("avx2,fma"))) inline __m256 Pow8(__m256 x, const PowPoly& q) {
+  const __m256i bits = _mm256_castps_si256(x);
+  // -e = 127 - the biased exponent: 0 ... 15 in range (outside, the caller's blend drops it).
+  const __m256i minus_e = _mm256_sub_epi32(_mm256_set1_epi32(127), _mm256_srli_epi32(bits, 23));
+  const __m256 m = _mm256_castsi256_ps(_mm256_or_si256(
+      _mm256_and_si256(bits, _mm256_set1_epi32(0x007fffff)), _mm256_set1_epi32(0x3f800000)));
+  const __m256 t = _mm256_fmsub_ps(m, _mm256_set1_ps(2.0f), _mm256_set1_ps(3.0f));
+  __m256 r = _mm256_set1_ps(q.c[kDegree]);
+  for (int i = kDegree - 1; i >= 0; --i) r = _mm256_fmadd_ps(r, t, _mm256_set1_ps(q.c[i]));
+  const __m256 lo = _mm256_permutevar8x32_ps(_mm256_loadu_ps(q.scale), minus_e);
+  const __m256 hi = _mm256_permutevar8x32_ps(_mm256_loadu_ps(q.scale + 8), minus_e);
+  // Bit 3 of -e (0 ... 15) moved to the sign bit picks the upper eight.
+  const __m256 s = _mm256_blendv_ps(lo, hi, _mm256_castsi256_ps(_mm256_slli_epi32(minus_e, 28)));
+  return _mm256_mul_ps(r, s);
+}
+
+__attribute__((target("avx2,fma"))) inline __m256 ClampUnit8(__m256 v) {
+  // max_ps returns its second operand when the first is NaN: NaN -> 0.
+  return _mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(1.0f));
+}
+
+__attribute__((target("avx2,fma"))) inline __m256 Encode8(__m256 v, const PowPoly& q) {
+  const __m256 c = ClampUnit8(v);
+  const __m256 curve = _mm256_fmadd_ps(Pow8(c, q), _mm256_set1_ps(1.055f), _mm256_set1_ps(-0.055f));
+  const __m256 linear = _mm256_mul_ps(c, _mm256_set1_ps(12.92f));
+  const __m256 knee = _mm256_cmp_ps(c, _mm256_set1_ps(static_cast<float>(kEncodeKnee)), _CMP_LE_OQ);
+  return _mm256_min_ps(_mm256_blendv_ps(curve, linear, knee), _mm256_set1_ps(1.0f));
+}
+
+__attribute__((target("avx2,fma"))) inline __m256 Decode8(__m256 v, const PowPoly& q) {
+  const __m256 c = ClampUnit8(v);
+  const __m256 x = _mm256_fmadd_ps(c, _mm256_set1_ps(static_cast<float>(1.0 / 1.055)),
+                                   _mm256_set1_ps(static_cast<float>(0.055 / 1.055)));
+  const __m256 linear = _mm256_mul_ps(c, _mm256_set1_ps(static_cast<float>(1.0 / 12.92)));
+  const __m256 knee = _mm256_cmp_ps(c, _mm256_set1_ps(static_cast<float>(kDecodeKnee)), _CMP_LE_OQ);
+  return _mm256_min_ps(_mm256_blendv_ps(Pow8(x, q), linear, knee), _mm256_set1_ps(1.0f));
+}
+
+// out[i] <- the curve at in[i] clamped to [0, 1]; in == out allowed. The last n % 8 values go
+// through an 8-value buffer (the same arithmetic).
+template <bool kEncode>
+__attribute__((target("avx2,fma"))) inline __m256 Curve8(__m256 v, const PowPoly& q) {
+  if constexpr (kEncode) return Encode8(v, q);
+  return Decode8(v, q);
+}
+
+template <bool kEncode>
+__attribute__((target("avx2,fma"))) void CurveRowAvx2(const float* in, float* out, int n) {
+  const PowPoly& q = kEncode ? EncodePoly() : DecodePoly();
+  int i = 0;
+  for (; i + 8 <= n; i += 8) _mm256_storeu_ps(out + i, Curve8<kEncode>(_mm256_loadu_ps(in + i), q));
+  if (i < n) {
+    float tail[8] = {};
+    std::copy(in + i, in + n, tail);
+    _mm256_storeu_ps(tail, Curve8<kEncode>(_mm256_loadu_ps(tail), q));
+    std::copy(tail, tail + (n - i), out + i);
+  }
+}
+
+bool UseCurveAvx2() {
+  static const bool fma = CpuHasFma();
+  return fma && enhancer_internal::UseHandWrittenAvx2();
+}
+#endif
+
+// The sRGB curve (encode or decode) of a row, clamped to [0, 1] first; in == out allowed.
+void SrgbCurveRow(const float* in, float* out, int n, bool encode) {
+#ifdef TURBID_HAVE_DEHAZE_AVX2
+  if (UseCurveAvx2()) {
+    encode ? CurveRowAvx2<true>(in, out, n) : CurveRowAvx2<false>(in, out, n);
+    return;
+  }
+#endif
+  const Table& table = encode ? EncodeTable() : DecodeTable();
+  LookUpRow(in, out, n, table.y.data(), table.n);
 }
 
 }  // namespace
@@ -71,23 +199,24 @@ void ResolveClaheEncoding(const FullOptions& o, const RenderRecord* sidecar, Ful
 }
 
 void ClaheEncodeRow(const float* in, float* out, int n, CameraEncoding encoding) {
-  if (in != out) std::copy(in, in + n, out);
   if (encoding == CameraEncoding::kSrgb) {
-    const Table& table = EncodeTable();
-    LookUpRow(out, n, table.y.data(), table.n);
+    SrgbCurveRow(in, out, n, true);
   } else {
-    for (int i = 0; i < n; ++i) out[i] = std::min(out[i] > 0.0f ? out[i] : 0.0f, 1.0f);
+    for (int i = 0; i < n; ++i) out[i] = std::min(in[i] > 0.0f ? in[i] : 0.0f, 1.0f);
   }
+}
+
+void ClaheDecodeRow(float* row, int n, CameraEncoding encoding) {
+  if (encoding == CameraEncoding::kSrgb) SrgbCurveRow(row, row, n, false);
 }
 
 void ClaheDecodeImage(cv::Mat& image, CameraEncoding encoding) {
   if (encoding != CameraEncoding::kSrgb) return;
   CV_Assert(image.depth() == CV_32F);
   const int per_row = image.cols * image.channels();
-  const Table& table = DecodeTable();
   cv::parallel_for_(cv::Range(0, image.rows), [&](const cv::Range& rows) {
     for (int y = rows.start; y < rows.end; ++y)
-      LookUpRow(image.ptr<float>(y), per_row, table.y.data(), table.n);
+      SrgbCurveRow(image.ptr<float>(y), image.ptr<float>(y), per_row, false);
   });
 }
 

@@ -77,11 +77,13 @@ void ContrastStepLog(const FullOptions& o, const ClaheOptions& clahe, const Clah
                      FullResult* r);
 // The CLAHE domain (full_coding.cc): the curve step 5 equalises through (r->clahe_encoding and
 // its source) from clahe_domain and the sidecar's camera; a row clipped to [0, 1] (NaN -> 0) and
-// coded with it (in == out allowed); an equalised image (values in [0, 1]) decoded in place (a
-// no-op for kLinear); one linear value coded (clamped).
+// coded with it (in == out allowed); an equalised image (values in [0, 1]) or one row decoded in
+// place (a no-op for kLinear); one linear value coded (clamped). With AVX2 and FMA the sRGB
+// curve is a polynomial (within 1e-6 relative of the double curve), otherwise tables.
 void ResolveClaheEncoding(const FullOptions& o, const RenderRecord* sidecar, FullResult* r);
 void ClaheEncodeRow(const float* in, float* out, int n, CameraEncoding encoding);
 void ClaheDecodeImage(cv::Mat& image, CameraEncoding encoding);
+void ClaheDecodeRow(float* row, int n, CameraEncoding encoding);
 double ClaheEncodeValue(double v, CameraEncoding encoding);
 // The CLAHE options of step 5: o.clahe with the brightness-keeping target, its floor coded.
 ClaheOptions StepClaheOptions(const FullOptions& o, CameraEncoding encoding);

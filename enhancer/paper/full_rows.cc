@@ -5,6 +5,7 @@
 // the denoised image's buffer. Full-size buffers: the denoised image (then the output), the
 // upsampled t and E_L maps (one channel each when one beta), CLAHE's bins.
 #include <algorithm>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -236,19 +237,25 @@ bool DeblurAndContrastRows(const FullOptions& o, ColorRowSource& src, cv::Mat& o
       psf.kernel,
       [&](int y, const float* row) {
         float* dst = out.ptr<float>(y);  // its denoised values were read for ring row y
-        ClampUnitCopyRow(row, dst, n);
-        if (!o.contrast) return;
-        // Coded in place when CLAHE equalises the camera-coded image (decoded after it).
-        if (coding != CameraEncoding::kLinear) ClaheEncodeRow(dst, dst, n, coding);
-        ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
+        // Clamped, and coded when CLAHE equalises the camera-coded image (decoded after it).
+        if (o.contrast && coding != CameraEncoding::kLinear) {
+          ClaheEncodeRow(row, dst, n, coding);  // clamps to [0, 1] first
+        } else {
+          ClampUnitCopyRow(row, dst, n);
+        }
+        if (o.contrast) ClaheBinColorRow(clahe, dst, lum.data(), bins, y);
       });
   if (!streamed) return false;  // another deblur path after all: nothing was read or written
   r->steps.push_back("deblur: " + DeconvolutionMethodName(o.deconvolution.method) +
                      ", PSF radius " + std::to_string(psf.radius_px));
   ClaheStats stats;
   if (o.contrast) {
-    ClaheColorFromBins(clahe, bins, out, &stats);  // in [0, 1]
-    ClaheDecodeImage(out, coding);
+    // In [0, 1]; each row decoded while in cache when CLAHE equalised the coded image.
+    std::function<void(float*, int)> decode;
+    if (coding != CameraEncoding::kLinear) {
+      decode = [&](float* row, int) { ClaheDecodeRow(row, n, coding); };
+    }
+    ClaheColorFromBins(clahe, bins, out, &stats, decode);
   }
   ContrastStepLog(o, clahe, stats, r);
   return true;
