@@ -20,9 +20,19 @@ struct BaseInfo {
   bool needs_detector;
 };
 constexpr BaseInfo kBases[] = {
-    {"matches", true, true},        {"inliers", true, true},      {"inlier_ratio", true, true},
-    {"track_survival", true, true}, {"rpe_rot_deg", false, true}, {"rpe_trans_deg", false, true},
-    {"rpe_trans_m", false, true},   {"pose_failed", false, true}, {"flicker", false, false},
+    {"matches", true, true},
+    {"inliers", true, true},
+    {"inlier_ratio", true, true},
+    {"track_survival", true, true},
+    {"rpe_rot_deg", false, true},
+    {"rpe_trans_deg", false, true},
+    {"rpe_trans_m", false, true},
+    {"pose_failed", false, true},
+    {"flicker", false, false},
+    {"keypoints", true, true},
+    {"active", true, true},
+    {"correspondences", true, true},
+    {"homography_inliers", true, true},
 };
 
 // OpenCV's essential-matrix code assumes positive focal lengths (it divides its threshold by
@@ -59,6 +69,10 @@ bool FrontendOptions::Check(std::string* why) const {
     return fail("RANSAC confidences must be in (0, 1)");
   if (min_pose_inliers < 5 || pnp_iterations < 1) return fail("min_pose_inliers must be >= 5");
   if (!(flicker_depth_tolerance > 0)) return fail("flicker_depth_tolerance must be > 0");
+  if (active_min_matches < 0) return fail("active_min_matches must be >= 0");
+  if (!(homography_threshold_px > 0) || homography_iterations < 1 ||
+      !(homography_confidence > 0 && homography_confidence < 1))
+    return fail("homography RANSAC: threshold > 0, iterations >= 1, confidence in (0, 1)");
   return true;
 }
 
@@ -134,6 +148,10 @@ double FrontendPair::Get(const std::string& base) const {
   if (base == "rpe_trans_deg") return rpe_trans_deg;
   if (base == "rpe_trans_m") return rpe_trans_m;
   if (base == "pose_failed") return pose_failed;
+  if (base == "keypoints") return keypoints;
+  if (base == "active") return active;
+  if (base == "correspondences") return correspondences;
+  if (base == "homography_inliers") return homography_inliers;
   throw Error("front-end metrics: no pair value '" + base + "'");
 }
 
@@ -181,6 +199,18 @@ double PnpTranslationError(const FrontendOptions& options, const FrontendFrame& 
   return cv::norm(t - b_from_a.position_m);
 }
 
+// Inliers of a RANSAC homography a -> b (the paper's Fig. 8 "inliers"); 0 below 4 matches or
+// without a model.
+double HomographyInliers(const FrontendOptions& options, const std::vector<cv::Point2f>& pa,
+                         const std::vector<cv::Point2f>& pb) {
+  if (pa.size() < 4) return 0.0;
+  cv::Mat mask;
+  const cv::Mat h =
+      cv::findHomography(pa, pb, cv::RANSAC, options.homography_threshold_px, mask,
+                         options.homography_iterations, options.homography_confidence);
+  return h.empty() ? 0.0 : static_cast<double>(cv::countNonZero(mask));
+}
+
 }  // namespace
 
 FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetector detector,
@@ -215,6 +245,13 @@ FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetecto
       }
     }
     out.rpe_trans_m = PnpTranslationError(options, a, pa, pb, k, b_from_a);
+  }
+  out.keypoints = static_cast<double>(fb.points.size());
+  out.active = out.matches > options.active_min_matches ? 1.0 : 0.0;
+  out.correspondences = out.homography_inliers = kNan;
+  if (out.active > 0) {
+    out.correspondences = out.matches;
+    out.homography_inliers = HomographyInliers(options, pa, pb);
   }
   out.inlier_ratio = out.matches > 0 ? out.inliers / out.matches : 0.0;
   out.track_survival =
