@@ -213,8 +213,17 @@ double HomographyInliers(const FrontendOptions& options, const std::vector<cv::P
 
 }  // namespace
 
+unsigned FrontendPartOf(const std::string& base) {
+  if (base == "inliers" || base == "inlier_ratio" || base == "track_survival" ||
+      base == "rpe_rot_deg" || base == "rpe_trans_deg" || base == "pose_failed")
+    return kFrontendEssential;
+  if (base == "rpe_trans_m") return kFrontendPnp;
+  if (base == "homography_inliers") return kFrontendHomography;
+  return 0u;
+}
+
 FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetector detector,
-                                  const FrontendFrame& a, const FrontendFrame& b) {
+                                  const FrontendFrame& a, const FrontendFrame& b, unsigned parts) {
   const FrontendFeatures& fa = a.features.at(detector);
   const FrontendFeatures& fb = b.features.at(detector);
   std::vector<cv::Point2f> pa, pb;
@@ -227,7 +236,7 @@ FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetecto
   const cv::Matx33d flip = AxisFlip(a.camera);
   Pose b_from_a = Relative(b.pose, a.pose);
   b_from_a = {flip * b_from_a.rotation * flip, flip * b_from_a.position_m};
-  if (pa.size() >= 5) {
+  if (pa.size() >= 5 && (parts & kFrontendEssential)) {
     cv::Mat mask;
     cv::Mat e = cv::findEssentialMat(pa, pb, k, cv::RANSAC, options.essential_confidence,
                                      options.essential_threshold_px, mask);
@@ -244,18 +253,23 @@ FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetecto
                                      b_from_a.position_m);
       }
     }
-    out.rpe_trans_m = PnpTranslationError(options, a, pa, pb, k, b_from_a);
   }
+  if (pa.size() >= 5 && (parts & kFrontendPnp))
+    out.rpe_trans_m = PnpTranslationError(options, a, pa, pb, k, b_from_a);
   out.keypoints = static_cast<double>(fb.points.size());
   out.active = out.matches > options.active_min_matches ? 1.0 : 0.0;
   out.correspondences = out.homography_inliers = kNan;
   if (out.active > 0) {
     out.correspondences = out.matches;
-    out.homography_inliers = HomographyInliers(options, pa, pb);
+    if (parts & kFrontendHomography) out.homography_inliers = HomographyInliers(options, pa, pb);
   }
   out.inlier_ratio = out.matches > 0 ? out.inliers / out.matches : 0.0;
   out.track_survival =
       fa.points.empty() ? 0.0 : out.inliers / static_cast<double>(fa.points.size());
+  if (!(parts & kFrontendEssential)) {
+    out.inliers = out.inlier_ratio = out.track_survival = out.rpe_rot_deg = out.rpe_trans_deg =
+        out.pose_failed = kNan;
+  }
   return out;
 }
 

@@ -114,9 +114,24 @@ struct FrontendPair {
   double keypoints = 0, active = 0, correspondences = 0, homography_inliers = 0;
   double Get(const std::string& base) const;  // by metric base; throws Error for others
 };
+// The parts of a pair's evaluation beyond matching (which is always done: matches, keypoints,
+// active, correspondences). EvaluateFrontendPair computes the parts asked for; the values of the
+// others are NaN. A sweep asks for the parts its metrics need (SequenceScorer).
+enum FrontendPart : unsigned {
+  // Essential-matrix RANSAC and recoverPose: inliers, inlier_ratio, track_survival, rpe_rot_deg,
+  // rpe_trans_deg, pose_failed.
+  kFrontendEssential = 1u,
+  kFrontendPnp = 2u,         // solvePnPRansac: rpe_trans_m
+  kFrontendHomography = 4u,  // findHomography: homography_inliers
+  kFrontendAllParts = 7u,
+};
+// The part a metric base needs (0: matching only, or flicker).
+unsigned FrontendPartOf(const std::string& base);
+
 // The pair (a, b) with `detector`'s features (both frames must hold them).
 FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetector detector,
-                                  const FrontendFrame& a, const FrontendFrame& b);
+                                  const FrontendFrame& a, const FrontendFrame& b,
+                                  unsigned parts = kFrontendAllParts);
 
 // mean |b - W(a)| (8-bit luma levels) over the pixels of b whose warp into a is valid (depth of b
 // finite, lands inside a, a's depth there within flicker_depth_tolerance of the prediction); W(a)

@@ -197,8 +197,8 @@ TEST(FrontendPair, HomographyInliersAndActiveSetsOnAPlane) {
   cv::Mat descriptors(350, 32, CV_8U);
   rng.fill(descriptors, cv::RNG::UNIFORM, 0, 256);
   const FrontendFrame a = Projected(camera, Turned(0, 0, {0, 0, 0}), world, descriptors, nullptr);
-  FrontendFrame b = Projected(camera, Turned(4.0, -2.0, {0.2, 0.05, 0.1}), world, descriptors,
-                              nullptr);
+  FrontendFrame b =
+      Projected(camera, Turned(4.0, -2.0, {0.2, 0.05, 0.1}), world, descriptors, nullptr);
   std::vector<cv::Point2f>& pb = b.features[FeatureDetector::kOrb].points;
   for (size_t i = 300; i < pb.size(); ++i) {
     const double angle = rng.uniform(0.0, 2 * CV_PI), r = rng.uniform(60.0, 100.0);
@@ -260,6 +260,16 @@ TEST(FrontendPair, Fig8FiguresEqualScorePairs) {
     EXPECT_EQ(r.active, m.active ? 1.0 : 0.0);
     EXPECT_EQ(r.correspondences, m.correspondences);
     EXPECT_EQ(r.homography_inliers, m.inliers);
+    // Asked for the homography part only (as a sweep with only Fig. 8 metrics asks): the same
+    // figures, and the parts not asked for are NaN.
+    const FrontendPair h = EvaluateFrontendPair(options, d, a, b, kFrontendHomography);
+    EXPECT_EQ(h.matches, r.matches);
+    EXPECT_EQ(h.homography_inliers, r.homography_inliers);
+    EXPECT_TRUE(std::isnan(h.inliers) && std::isnan(h.pose_failed) && std::isnan(h.rpe_trans_m));
+    const FrontendPair e = EvaluateFrontendPair(options, d, a, b, kFrontendEssential);
+    EXPECT_EQ(e.inliers, r.inliers);
+    EXPECT_EQ(e.rpe_rot_deg, r.rpe_rot_deg);
+    EXPECT_TRUE(std::isnan(e.homography_inliers) && std::isnan(e.rpe_trans_m));
   }
 }
 

@@ -22,7 +22,10 @@ SequenceScorer::SequenceScorer(const Experiment& experiment, StageProfile* profi
     if (!metric) throw Error("metric '" + info.name + "' is not a front-end metric");
     metrics_.push_back(*metric);
     skips.insert(metric->skip);
-    if (metric->base != "flicker") detectors.insert(metric->detector);
+    if (metric->base != "flicker") {
+      detectors.insert(metric->detector);
+      parts_[metric->detector] |= FrontendPartOf(metric->base);
+    }
   }
   skips_.assign(skips.begin(), skips.end());
   detectors_.assign(detectors.begin(), detectors.end());
@@ -119,7 +122,10 @@ void SequenceScorer::Score(
     const auto key = std::make_tuple(k, detector, label);
     auto it = pairs.find(key);
     if (it == pairs.end())
-      it = pairs.emplace(key, EvaluateFrontendPair(options_, detector, a->second, b->second)).first;
+      it = pairs
+               .emplace(key, EvaluateFrontendPair(options_, detector, a->second, b->second,
+                                                  parts_.at(detector)))
+               .first;
     return &it->second;
   };
   const auto difference_of = [&](int k, const std::string& label, const FrameRecord& before) {
