@@ -275,6 +275,11 @@ FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetecto
 
 double WarpedTemporalDifference(const FrontendOptions& options, const FrontendFrame& a,
                                 const FrontendFrame& b) {
+  return WarpedTemporalDifference(MakeTemporalWarp(options, a, b), a.gray8, b.gray8);
+}
+
+TemporalWarp MakeTemporalWarp(const FrontendOptions& options, const FrontendFrame& a,
+                              const FrontendFrame& b) {
   const Pose a_from_b = Relative(a.pose, b.pose);
   const cv::Matx33d r = a_from_b.rotation;
   const cv::Vec3d t = a_from_b.position_m;
@@ -300,14 +305,20 @@ double WarpedTemporalDifference(const FrontendOptions& options, const FrontendFr
       ok[x] = 1;
     }
   }
+  return {map_x, map_y, valid};
+}
+
+double WarpedTemporalDifference(const TemporalWarp& warp, const cv::Mat& gray_a,
+                                const cv::Mat& gray_b) {
+  const cv::Mat& valid = warp.valid;
   cv::Mat source, warped;
-  a.gray8.convertTo(source, CV_32F);
-  cv::remap(source, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  gray_a.convertTo(source, CV_32F);
+  cv::remap(source, warped, warp.map_x, warp.map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   double sum = 0.0;
   int64_t n = 0;
   for (int y = 0; y < warped.rows; ++y) {
     const float* w = warped.ptr<float>(y);
-    const uint8_t* g = b.gray8.ptr<uint8_t>(y);
+    const uint8_t* g = gray_b.ptr<uint8_t>(y);
     const uint8_t* ok = valid.ptr<uint8_t>(y);
     for (int x = 0; x < warped.cols; ++x) {
       if (!ok[x]) continue;

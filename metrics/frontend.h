@@ -140,4 +140,16 @@ FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetecto
 double WarpedTemporalDifference(const FrontendOptions& options, const FrontendFrame& a,
                                 const FrontendFrame& b);
 
+// The same in two steps: the warp depends only on the frames' depth, cameras and poses, so a
+// sweep computes it once per pair and applies it to the luma of every method.
+struct TemporalWarp {
+  cv::Mat map_x, map_y;  // where each pixel of b lands in a (CV_32F)
+  cv::Mat valid;         // CV_8U, 1 where the warp is valid
+};
+TemporalWarp MakeTemporalWarp(const FrontendOptions& options, const FrontendFrame& a,
+                              const FrontendFrame& b);
+// mean |gray_b - W(gray_a)| over the valid pixels (8-bit luma images of a and b); NaN when none.
+double WarpedTemporalDifference(const TemporalWarp& warp, const cv::Mat& gray_a,
+                                const cv::Mat& gray_b);
+
 }  // namespace turbid

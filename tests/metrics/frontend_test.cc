@@ -226,7 +226,9 @@ TEST(FrontendPair, HomographyInliersAndActiveSetsOnAPlane) {
     EXPECT_EQ(small.active, n > 10 ? 1.0 : 0.0) << n;
     EXPECT_EQ(std::isnan(small.correspondences), n <= 10) << n;
     EXPECT_EQ(std::isnan(small.homography_inliers), n <= 10) << n;
-    if (n > 10) EXPECT_EQ(small.homography_inliers, n);
+    if (n > 10) {
+      EXPECT_EQ(small.homography_inliers, n);
+    }
   }
 }
 
