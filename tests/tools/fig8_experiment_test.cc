@@ -39,6 +39,17 @@ TEST(Fig8Experiment, ShippedFileParsesAndDryRuns) {
   EXPECT_NE(run.out.find("6 methods, 14 metrics"), std::string::npos) << run.out;
 }
 
+// The speed cases of docs/performance-harness.md (turbid bench --sweep FILE) are valid.
+TEST(Fig8Experiment, SequenceSpeedCasesDryRun) {
+  for (const char* name : {"sequence_speed.json", "sequence_speed_orb.json"}) {
+    const fs::path path = Fig8Path().parent_path() / "examples" / name;
+    const CliRun run = RunTurbid({"sweep", path.string(), "--out", "/nonexistent/never",
+                                  "--dry-run"});
+    ASSERT_EQ(run.exit_code, 0) << name << ": " << run.err;
+    EXPECT_NE(run.out.find("100 items"), std::string::npos) << run.out;
+  }
+}
+
 TEST(Fig8Experiment, SmallRunGivesThePapersFigures) {
   std::ifstream in(Fig8Path());
   json j = json::parse(in);
