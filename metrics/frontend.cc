@@ -20,9 +20,19 @@ struct BaseInfo {
   bool needs_detector;
 };
 constexpr BaseInfo kBases[] = {
-    {"matches", true, true},        {"inliers", true, true},      {"inlier_ratio", true, true},
-    {"track_survival", true, true}, {"rpe_rot_deg", false, true}, {"rpe_trans_deg", false, true},
-    {"rpe_trans_m", false, true},   {"pose_failed", false, true}, {"flicker", false, false},
+    {"matches", true, true},
+    {"inliers", true, true},
+    {"inlier_ratio", true, true},
+    {"track_survival", true, true},
+    {"rpe_rot_deg", false, true},
+    {"rpe_trans_deg", false, true},
+    {"rpe_trans_m", false, true},
+    {"pose_failed", false, true},
+    {"flicker", false, false},
+    {"keypoints", true, true},
+    {"active", true, true},
+    {"correspondences", true, true},
+    {"homography_inliers", true, true},
 };
 
 // OpenCV's essential-matrix code assumes positive focal lengths (it divides its threshold by
@@ -59,6 +69,10 @@ bool FrontendOptions::Check(std::string* why) const {
     return fail("RANSAC confidences must be in (0, 1)");
   if (min_pose_inliers < 5 || pnp_iterations < 1) return fail("min_pose_inliers must be >= 5");
   if (!(flicker_depth_tolerance > 0)) return fail("flicker_depth_tolerance must be > 0");
+  if (active_min_matches < 0) return fail("active_min_matches must be >= 0");
+  if (!(homography_threshold_px > 0) || homography_iterations < 1 ||
+      !(homography_confidence > 0 && homography_confidence < 1))
+    return fail("homography RANSAC: threshold > 0, iterations >= 1, confidence in (0, 1)");
   return true;
 }
 
@@ -134,6 +148,10 @@ double FrontendPair::Get(const std::string& base) const {
   if (base == "rpe_trans_deg") return rpe_trans_deg;
   if (base == "rpe_trans_m") return rpe_trans_m;
   if (base == "pose_failed") return pose_failed;
+  if (base == "keypoints") return keypoints;
+  if (base == "active") return active;
+  if (base == "correspondences") return correspondences;
+  if (base == "homography_inliers") return homography_inliers;
   throw Error("front-end metrics: no pair value '" + base + "'");
 }
 
@@ -181,10 +199,31 @@ double PnpTranslationError(const FrontendOptions& options, const FrontendFrame& 
   return cv::norm(t - b_from_a.position_m);
 }
 
+// Inliers of a RANSAC homography a -> b (the paper's Fig. 8 "inliers"); 0 below 4 matches or
+// without a model.
+double HomographyInliers(const FrontendOptions& options, const std::vector<cv::Point2f>& pa,
+                         const std::vector<cv::Point2f>& pb) {
+  if (pa.size() < 4) return 0.0;
+  cv::Mat mask;
+  const cv::Mat h =
+      cv::findHomography(pa, pb, cv::RANSAC, options.homography_threshold_px, mask,
+                         options.homography_iterations, options.homography_confidence);
+  return h.empty() ? 0.0 : static_cast<double>(cv::countNonZero(mask));
+}
+
 }  // namespace
 
+unsigned FrontendPartOf(const std::string& base) {
+  if (base == "inliers" || base == "inlier_ratio" || base == "track_survival" ||
+      base == "rpe_rot_deg" || base == "rpe_trans_deg" || base == "pose_failed")
+    return kFrontendEssential;
+  if (base == "rpe_trans_m") return kFrontendPnp;
+  if (base == "homography_inliers") return kFrontendHomography;
+  return 0u;
+}
+
 FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetector detector,
-                                  const FrontendFrame& a, const FrontendFrame& b) {
+                                  const FrontendFrame& a, const FrontendFrame& b, unsigned parts) {
   const FrontendFeatures& fa = a.features.at(detector);
   const FrontendFeatures& fb = b.features.at(detector);
   std::vector<cv::Point2f> pa, pb;
@@ -197,7 +236,7 @@ FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetecto
   const cv::Matx33d flip = AxisFlip(a.camera);
   Pose b_from_a = Relative(b.pose, a.pose);
   b_from_a = {flip * b_from_a.rotation * flip, flip * b_from_a.position_m};
-  if (pa.size() >= 5) {
+  if (pa.size() >= 5 && (parts & kFrontendEssential)) {
     cv::Mat mask;
     cv::Mat e = cv::findEssentialMat(pa, pb, k, cv::RANSAC, options.essential_confidence,
                                      options.essential_threshold_px, mask);
@@ -214,16 +253,33 @@ FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetecto
                                      b_from_a.position_m);
       }
     }
+  }
+  if (pa.size() >= 5 && (parts & kFrontendPnp))
     out.rpe_trans_m = PnpTranslationError(options, a, pa, pb, k, b_from_a);
+  out.keypoints = static_cast<double>(fb.points.size());
+  out.active = out.matches > options.active_min_matches ? 1.0 : 0.0;
+  out.correspondences = out.homography_inliers = kNan;
+  if (out.active > 0) {
+    out.correspondences = out.matches;
+    if (parts & kFrontendHomography) out.homography_inliers = HomographyInliers(options, pa, pb);
   }
   out.inlier_ratio = out.matches > 0 ? out.inliers / out.matches : 0.0;
   out.track_survival =
       fa.points.empty() ? 0.0 : out.inliers / static_cast<double>(fa.points.size());
+  if (!(parts & kFrontendEssential)) {
+    out.inliers = out.inlier_ratio = out.track_survival = out.rpe_rot_deg = out.rpe_trans_deg =
+        out.pose_failed = kNan;
+  }
   return out;
 }
 
 double WarpedTemporalDifference(const FrontendOptions& options, const FrontendFrame& a,
                                 const FrontendFrame& b) {
+  return WarpedTemporalDifference(MakeTemporalWarp(options, a, b), a.gray8, b.gray8);
+}
+
+TemporalWarp MakeTemporalWarp(const FrontendOptions& options, const FrontendFrame& a,
+                              const FrontendFrame& b) {
   const Pose a_from_b = Relative(a.pose, b.pose);
   const cv::Matx33d r = a_from_b.rotation;
   const cv::Vec3d t = a_from_b.position_m;
@@ -249,14 +305,20 @@ double WarpedTemporalDifference(const FrontendOptions& options, const FrontendFr
       ok[x] = 1;
     }
   }
+  return {map_x, map_y, valid};
+}
+
+double WarpedTemporalDifference(const TemporalWarp& warp, const cv::Mat& gray_a,
+                                const cv::Mat& gray_b) {
+  const cv::Mat& valid = warp.valid;
   cv::Mat source, warped;
-  a.gray8.convertTo(source, CV_32F);
-  cv::remap(source, warped, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  gray_a.convertTo(source, CV_32F);
+  cv::remap(source, warped, warp.map_x, warp.map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   double sum = 0.0;
   int64_t n = 0;
   for (int y = 0; y < warped.rows; ++y) {
     const float* w = warped.ptr<float>(y);
-    const uint8_t* g = b.gray8.ptr<uint8_t>(y);
+    const uint8_t* g = gray_b.ptr<uint8_t>(y);
     const uint8_t* ok = valid.ptr<uint8_t>(y);
     for (int x = 0; x < warped.cols; ++x) {
       if (!ok[x]) continue;

@@ -45,6 +45,14 @@ struct FrontendOptions {
   // Flicker: a warped pixel counts when the first frame's depth where it lands agrees with the
   // predicted depth within this fraction (occlusions and disocclusions are left out).
   double flicker_depth_tolerance = 0.05;
+  // The paper's Fig. 8 (Cho & Kim 2019): a pair is an "active set" when it has MORE than
+  // active_min_matches ratio-test matches (10); its homography inliers come from a RANSAC
+  // homography (cv::findHomography) with this reprojection threshold in pixels, iteration cap and
+  // confidence (OpenCV's defaults 3, 2000, 0.995; the same as turbid score --pairs).
+  int active_min_matches = 10;
+  double homography_threshold_px = 3.0;
+  int homography_iterations = 2000;
+  double homography_confidence = 0.995;
   bool Check(std::string* why) const;
 };
 
@@ -61,6 +69,13 @@ struct FrontendOptions {
 //   flicker          mean |E_b - W(E_a)| - mean |C_b - W(C_a)|: the enhanced frames' temporal
 //                    difference after warping with the known motion, in excess of the clean
 //                    frames' (8-bit luma levels; WarpedTemporalDifference)  (lower)
+// The paper's Fig. 8 figures (its "active sets", "correspondences" and "inliers"):
+//   keypoints        keypoints detected in the second frame                 (higher)
+//   active           1 when the pair has more than active_min_matches matches, else 0: its mean
+//                    is the share of active sets                            (higher)
+//   correspondences  matches of an active pair; NaN (left out of the mean) for the others, so the
+//                    mean is the paper's mean over the active sets          (higher)
+//   homography_inliers  RANSAC homography inliers of an active pair; NaN for the others (higher)
 // The detector prefix defaults to orb; _kN pairs frame i - N with frame i (N in [1, 1000],
 // default 1: consecutive frames).
 struct FrontendMetric {
@@ -96,11 +111,27 @@ struct FrontendFrame {
 struct FrontendPair {
   double matches = 0, inliers = 0, inlier_ratio = 0, track_survival = 0;
   double rpe_rot_deg = 0, rpe_trans_deg = 0, rpe_trans_m = 0, pose_failed = 0;
+  double keypoints = 0, active = 0, correspondences = 0, homography_inliers = 0;
   double Get(const std::string& base) const;  // by metric base; throws Error for others
 };
+// The parts of a pair's evaluation beyond matching (which is always done: matches, keypoints,
+// active, correspondences). EvaluateFrontendPair computes the parts asked for; the values of the
+// others are NaN. A sweep asks for the parts its metrics need (SequenceScorer).
+enum FrontendPart : unsigned {
+  // Essential-matrix RANSAC and recoverPose: inliers, inlier_ratio, track_survival, rpe_rot_deg,
+  // rpe_trans_deg, pose_failed.
+  kFrontendEssential = 1u,
+  kFrontendPnp = 2u,         // solvePnPRansac: rpe_trans_m
+  kFrontendHomography = 4u,  // findHomography: homography_inliers
+  kFrontendAllParts = 7u,
+};
+// The part a metric base needs (0: matching only, or flicker).
+unsigned FrontendPartOf(const std::string& base);
+
 // The pair (a, b) with `detector`'s features (both frames must hold them).
 FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetector detector,
-                                  const FrontendFrame& a, const FrontendFrame& b);
+                                  const FrontendFrame& a, const FrontendFrame& b,
+                                  unsigned parts = kFrontendAllParts);
 
 // mean |b - W(a)| (8-bit luma levels) over the pixels of b whose warp into a is valid (depth of b
 // finite, lands inside a, a's depth there within flicker_depth_tolerance of the prediction); W(a)
@@ -108,5 +139,17 @@ FrontendPair EvaluateFrontendPair(const FrontendOptions& options, FeatureDetecto
 // valid.
 double WarpedTemporalDifference(const FrontendOptions& options, const FrontendFrame& a,
                                 const FrontendFrame& b);
+
+// The same in two steps: the warp depends only on the frames' depth, cameras and poses, so a
+// sweep computes it once per pair and applies it to the luma of every method.
+struct TemporalWarp {
+  cv::Mat map_x, map_y;  // where each pixel of b lands in a (CV_32F)
+  cv::Mat valid;         // CV_8U, 1 where the warp is valid
+};
+TemporalWarp MakeTemporalWarp(const FrontendOptions& options, const FrontendFrame& a,
+                              const FrontendFrame& b);
+// mean |gray_b - W(gray_a)| over the valid pixels (8-bit luma images of a and b); NaN when none.
+double WarpedTemporalDifference(const TemporalWarp& warp, const cv::Mat& gray_a,
+                                const cv::Mat& gray_b);
 
 }  // namespace turbid

@@ -1,17 +1,13 @@
 // The built-in hull scene: a painted steel plate with weld seams, rivets, rust streaks and fouling
 // (docs/formats.md); its texture's fractal sums have an AVX2 version (same values).
-#include <opencv2/core.hpp>
-
-#if defined(__x86_64__) && defined(__GNUC__)
-#include <immintrin.h>
-#endif
-
 #include <atomic>
+#include <opencv2/core.hpp>
 #include <vector>
 
 #include "core/cpu.h"
 #include "scenes/builtin_internal.h"
 #include "scenes/builtin_model.h"
+#include "scenes/builtin_noise_x4.h"
 
 namespace turbid {
 namespace builtin_model {
@@ -90,87 +86,15 @@ cv::Vec3d HullTexture(const SurfacePoint& p) {
   return HullTextureFrom(u, v, HullNoiseAt(u, v));
 }
 
-// Four points at a time: HullNoiseAt's operations, in the same order, on AVX2 lanes (no FMA, so
-// every product and sum rounds as in the scalar code; floor is exact, the lattice hash is the same
-// 32-bit integer arithmetic). The cell coordinates go through int32, exact while |floor| < 2^31:
-// lanes outside (never on the built-in plates) are redone by the scalar code.
-#if defined(__x86_64__) && defined(__GNUC__)
-#define TURBID_BUILTIN_AVX2 1
-// AVX2 without FMA: no product and sum may be fused into one rounding.
+// Four points at a time: HullNoiseAt's operations, in the same order, on AVX2 lanes
+// (scenes/builtin_noise_x4.h); lanes outside the int32 cell range are redone by the scalar code.
+#ifdef TURBID_BUILTIN_AVX2
 #if defined(__clang__)
 #pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
 #else
 #pragma GCC push_options
 #pragma GCC target("avx2")
 #endif
-
-inline __m128i MixX4(__m128i h) {
-  h = _mm_xor_si128(h, _mm_srli_epi32(h, 16));
-  h = _mm_mullo_epi32(h, _mm_set1_epi32(static_cast<int>(0x7feb352du)));
-  h = _mm_xor_si128(h, _mm_srli_epi32(h, 15));
-  h = _mm_mullo_epi32(h, _mm_set1_epi32(static_cast<int>(0x846ca68bu)));
-  h = _mm_xor_si128(h, _mm_srli_epi32(h, 16));
-  return h;
-}
-
-// Lattice(x, y, 0, seed) for four cells; `seed_term` = seed * 0x9e3779b9 (z = 0 adds nothing).
-inline __m256d Lattice2X4(__m128i x, __m128i y, __m128i seed_term) {
-  const __m128i sum = _mm_add_epi32(
-      _mm_add_epi32(_mm_mullo_epi32(x, _mm_set1_epi32(static_cast<int>(0x8da6b343u))),
-                    _mm_mullo_epi32(y, _mm_set1_epi32(static_cast<int>(0xd8163841u)))),
-      seed_term);
-  // uint32 -> double, exactly: flip the sign bit, convert as int32, add 2^31 back.
-  const __m128i h = _mm_xor_si128(MixX4(sum), _mm_set1_epi32(INT32_MIN));
-  const __m256d d = _mm256_add_pd(_mm256_cvtepi32_pd(h), _mm256_set1_pd(2147483648.0));
-  return _mm256_mul_pd(d, _mm256_set1_pd(1.0 / 4294967296.0));
-}
-
-inline __m256d FadeX4(__m256d t) {
-  const __m256d t3 = _mm256_mul_pd(_mm256_mul_pd(t, t), t);
-  const __m256d inner = _mm256_sub_pd(_mm256_mul_pd(t, _mm256_set1_pd(6.0)), _mm256_set1_pd(15.0));
-  return _mm256_mul_pd(t3, _mm256_add_pd(_mm256_mul_pd(t, inner), _mm256_set1_pd(10.0)));
-}
-
-inline __m256d LerpX4(__m256d a, __m256d b, __m256d t) {
-  return _mm256_add_pd(a, _mm256_mul_pd(_mm256_sub_pd(b, a), t));
-}
-
-// Lanes whose cell coordinate is outside [-2^31, 2^31) (or NaN) are flagged in *outside.
-inline __m128i CellX4(__m256d f, __m256d* outside) {
-  const __m256d inside = _mm256_and_pd(_mm256_cmp_pd(f, _mm256_set1_pd(-2147483648.0), _CMP_GE_OQ),
-                                       _mm256_cmp_pd(f, _mm256_set1_pd(2147483648.0), _CMP_LT_OQ));
-  *outside =
-      _mm256_or_pd(*outside, _mm256_xor_pd(inside, _mm256_castsi256_pd(_mm256_set1_epi32(-1))));
-  return _mm256_cvttpd_epi32(f);
-}
-
-inline __m256d Noise2X4(__m256d x, __m256d y, uint32_t seed, __m256d* outside) {
-  const __m256d fx = _mm256_floor_pd(x), fy = _mm256_floor_pd(y);
-  const __m128i ix = CellX4(fx, outside), iy = CellX4(fy, outside);
-  const __m128i one = _mm_set1_epi32(1);
-  const __m128i ix1 = _mm_add_epi32(ix, one), iy1 = _mm_add_epi32(iy, one);
-  const __m128i seed_term = _mm_set1_epi32(static_cast<int>(seed * 0x9e3779b9u));
-  const __m256d tx = FadeX4(_mm256_sub_pd(x, fx)), ty = FadeX4(_mm256_sub_pd(y, fy));
-  const __m256d a = LerpX4(Lattice2X4(ix, iy, seed_term), Lattice2X4(ix1, iy, seed_term), tx);
-  const __m256d b = LerpX4(Lattice2X4(ix, iy1, seed_term), Lattice2X4(ix1, iy1, seed_term), tx);
-  return LerpX4(a, b, ty);
-}
-
-inline __m256d Fbm2X4(__m256d x, __m256d y, int octaves, uint32_t seed, __m256d* outside) {
-  __m256d sum = _mm256_setzero_pd();
-  double amplitude = 1.0, norm = 0.0;
-  for (int i = 0; i < octaves; ++i) {
-    sum = _mm256_add_pd(
-        sum, _mm256_mul_pd(_mm256_set1_pd(amplitude), Noise2X4(x, y, seed + 101u * i, outside)));
-    norm += amplitude;
-    x = _mm256_add_pd(_mm256_mul_pd(x, _mm256_set1_pd(2.03)), _mm256_set1_pd(17.1));
-    y = _mm256_sub_pd(_mm256_mul_pd(y, _mm256_set1_pd(2.03)), _mm256_set1_pd(5.3));
-    amplitude *= 0.5;
-  }
-  return _mm256_div_pd(sum, _mm256_set1_pd(norm));
-}
-
-inline __m256d MulX4(__m256d a, double b) { return _mm256_mul_pd(a, _mm256_set1_pd(b)); }
 
 // HullNoiseAt(u[k], v[k]) for k < n.
 void HullNoiseAvx2(const double* u, const double* v, int n, HullNoise* out) {

@@ -6,13 +6,18 @@
 namespace turbid::builtin_internal {
 
 // false makes the textures that have a vectorised version (the hull's) use their scalar code
-// instead; both give the same bytes. Default true. Process-wide.
+// instead; both give the same bytes (hull and seafloor sand). Default true. Process-wide.
 void SetBuiltinVectorTextures(bool enabled);
 
 // The hull texture's four fractal sums at n plate points (u[k], v[k]), metres, as the texture
 // computes them (vectorised unless switched off): out[4k .. 4k + 3] = paint, speckle, streaks,
 // fouling patch.
 void BuiltinHullNoiseForTest(const double* u, const double* v, int n, double* out);
+
+// The seafloor sand texture's five value-noise terms at n plane points (u[k], v[k]), metres, as
+// the texture computes them (vectorised unless switched off): out[5k .. 5k + 4] = shade, ripple
+// phase, grain, patch, patch grain.
+void BuiltinSandNoiseForTest(const double* u, const double* v, int n, double* out);
 
 // The cellular noise of the textures (hull barnacles, seafloor pebbles): the distance from (x, y)
 // to the nearest of the 3 x 3 cells' feature points (std::hypot) and that point's id.

@@ -1,8 +1,12 @@
 // The built-in seafloor scene (docs/formats.md): its textures and model.
 #include <cmath>
 #include <opencv2/core.hpp>
+#include <vector>
 
+#include "core/cpu.h"
+#include "scenes/builtin_internal.h"
 #include "scenes/builtin_model.h"
+#include "scenes/builtin_noise_x4.h"
 
 namespace turbid::builtin_model {
 namespace {
@@ -11,18 +15,29 @@ namespace {
 // Seafloor: sloped sand plane with ripples, shell fragments and sediment patches; rocks as
 // spheres and boxes partly sunk into it. Colours are RGB albedos.
 
-cv::Vec3d SandTexture(const SurfacePoint& p) {
-  const double u = p.local[0], v = p.local[1];
+// The sand texture's value noise, which every point needs (SandNoiseAvx2 computes the same values
+// four points at a time); SandTextureFrom does the rest.
+struct SandNoise {
+  double shade, phase, grain, patch, patch_grain;
+};
+
+SandNoise SandNoiseAt(double u, double v) {
+  return {Fbm2(u * 2.5, v * 2.5, 4, 31u), Fbm2(u * 1.5, v * 1.5, 3, 32u),
+          Noise2(u * 140, v * 140, 33u), Fbm2(u * 0.9 + 5, v * 0.9, 4, 34u),
+          Noise2(u * 60, v * 60, 35u)};
+}
+
+cv::Vec3d SandTextureFrom(double u, double v, const SandNoise& noise) {
   const cv::Vec3d sand{0.60, 0.53, 0.38};
-  double shade = 0.85 + 0.30 * (Fbm2(u * 2.5, v * 2.5, 4, 31u) - 0.5);
-  const double phase = 2.0 * kPi * (v / 0.11 + 0.8 * Fbm2(u * 1.5, v * 1.5, 3, 32u));
+  double shade = 0.85 + 0.30 * (noise.shade - 0.5);
+  const double phase = 2.0 * kPi * (v / 0.11 + 0.8 * noise.phase);
   const double ripple = std::sin(phase);
-  shade *= 0.88 + 0.12 * ripple * std::abs(ripple) + 0.05 * (Noise2(u * 140, v * 140, 33u) - 0.5);
+  shade *= 0.88 + 0.12 * ripple * std::abs(ripple) + 0.05 * (noise.grain - 0.5);
   cv::Vec3d color = sand * shade;
   // Sediment / algae patches.
-  const double patch = SmoothStep(0.58, 0.66, Fbm2(u * 0.9 + 5, v * 0.9, 4, 34u));
-  color = MixColor(color, cv::Vec3d(0.22, 0.28, 0.16) * (0.8 + 0.4 * Noise2(u * 60, v * 60, 35u)),
-                   patch * 0.85);
+  const double patch = SmoothStep(0.58, 0.66, noise.patch);
+  color =
+      MixColor(color, cv::Vec3d(0.22, 0.28, 0.16) * (0.8 + 0.4 * noise.patch_grain), patch * 0.85);
   // Shell fragments and pebbles.
   const Cell cell = Cellular2(u / 0.06, v / 0.06, 36u);
   const double size = 0.12 + 0.18 * Lattice(static_cast<int64_t>(cell.id * 1e6), 0, 0, 37u);
@@ -30,6 +45,74 @@ cv::Vec3d SandTexture(const SurfacePoint& p) {
     color = cell.id < 0.5 ? cv::Vec3d(0.88, 0.84, 0.76) : cv::Vec3d(0.18, 0.16, 0.15);
   }
   return color;
+}
+
+cv::Vec3d SandTexture(const SurfacePoint& p) {
+  const double u = p.local[0], v = p.local[1];
+  return SandTextureFrom(u, v, SandNoiseAt(u, v));
+}
+
+#ifdef TURBID_BUILTIN_AVX2
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+
+// SandNoiseAt(u[k], v[k]) for k < n, four points at a time (scenes/builtin_noise_x4.h).
+void SandNoiseAvx2(const double* u, const double* v, int n, SandNoise* out) {
+  int k = 0;
+  for (; k + 4 <= n; k += 4) {
+    const __m256d uu = _mm256_loadu_pd(u + k), vv = _mm256_loadu_pd(v + k);
+    __m256d outside = _mm256_setzero_pd();
+    alignas(32) double lanes[5][4];
+    _mm256_store_pd(lanes[0], Fbm2X4(MulX4(uu, 2.5), MulX4(vv, 2.5), 4, 31u, &outside));
+    _mm256_store_pd(lanes[1], Fbm2X4(MulX4(uu, 1.5), MulX4(vv, 1.5), 3, 32u, &outside));
+    _mm256_store_pd(lanes[2], Noise2X4(MulX4(uu, 140), MulX4(vv, 140), 33u, &outside));
+    _mm256_store_pd(lanes[3], Fbm2X4(_mm256_add_pd(MulX4(uu, 0.9), _mm256_set1_pd(5)),
+                                     MulX4(vv, 0.9), 4, 34u, &outside));
+    _mm256_store_pd(lanes[4], Noise2X4(MulX4(uu, 60), MulX4(vv, 60), 35u, &outside));
+    if (_mm256_movemask_pd(outside) != 0) {
+      for (int i = 0; i < 4; ++i) out[k + i] = SandNoiseAt(u[k + i], v[k + i]);
+      continue;
+    }
+    for (int i = 0; i < 4; ++i)
+      out[k + i] = {lanes[0][i], lanes[1][i], lanes[2][i], lanes[3][i], lanes[4][i]};
+  }
+  for (; k < n; ++k) out[k] = SandNoiseAt(u[k], v[k]);
+}
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+#endif  // TURBID_BUILTIN_AVX2
+
+// SandNoiseAt for n points: the AVX2 version where the CPU has it (same values).
+void SandNoiseBatch(const double* u, const double* v, int n, SandNoise* out) {
+#ifdef TURBID_BUILTIN_AVX2
+  static const bool avx2 = CpuHas(CpuLevel::kAvx2);
+  if (avx2 && BuiltinVectorTexturesEnabled()) {
+    SandNoiseAvx2(u, v, n, out);
+    return;
+  }
+#endif
+  for (int k = 0; k < n; ++k) out[k] = SandNoiseAt(u[k], v[k]);
+}
+
+void SandTextureBatch(const SurfacePoint* points, int n, cv::Vec3d* rgb) {
+  thread_local std::vector<double> u, v;  // per thread: see HullTextureBatch
+  thread_local std::vector<SandNoise> noise;
+  u.resize(n);
+  v.resize(n);
+  noise.resize(n);
+  for (int k = 0; k < n; ++k) {
+    u[k] = points[k].local[0];
+    v[k] = points[k].local[1];
+  }
+  SandNoiseBatch(u.data(), v.data(), n, noise.data());
+  for (int k = 0; k < n; ++k) rgb[k] = SandTextureFrom(u[k], v[k], noise[k]);
 }
 
 cv::Vec3d RockTexture(const SurfacePoint& p, const cv::Vec3d& tint, uint32_t seed) {
@@ -56,6 +139,7 @@ Model SeafloorModel() {
   const cv::Vec3d n = Normalized({0.10, -0.80, -0.60});  // towards the camera (y is down)
   const cv::Vec3d base{0, 0, 2.5};
   model.objects.push_back(MakePlane(base, n, {1, 0, 0}, SandTexture));
+  model.objects.back().texture_batch = SandTextureBatch;
   // The seabed's in-plane axes, copied: the push_backs below reallocate model.objects, so a
   // reference to the plane would dangle.
   const cv::Vec3d seabed_u = model.objects.back().axis_u;
@@ -93,3 +177,17 @@ Model SeafloorModel() {
 }
 
 }  // namespace turbid::builtin_model
+
+namespace turbid::builtin_internal {
+
+void BuiltinSandNoiseForTest(const double* u, const double* v, int n, double* out) {
+  std::vector<builtin_model::SandNoise> noise(static_cast<size_t>(n));
+  builtin_model::SandNoiseBatch(u, v, n, noise.data());
+  for (int k = 0; k < n; ++k) {
+    const builtin_model::SandNoise& s = noise[static_cast<size_t>(k)];
+    const double values[5] = {s.shade, s.phase, s.grain, s.patch, s.patch_grain};
+    for (int i = 0; i < 5; ++i) out[5 * k + i] = values[i];
+  }
+}
+
+}  // namespace turbid::builtin_internal

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
+#include "metrics/feature_matching.h"
 #include "scenes/sequence.h"
 
 namespace turbid {
@@ -33,7 +34,12 @@ TEST(FrontendMetricNames, GrammarDetectorsSkipsAndDirections) {
   for (const char* bad : {"ssim", "sift_flicker", "rpe_rot_deg_k0", "rpe_rot_deg_k01",
                           "rpe_rot_deg_k1001", "akaze_matches", "matches_k", "rpe_rot"})
     EXPECT_FALSE(ParseFrontendMetric(bad)) << bad;
-  EXPECT_EQ(FrontendMetricBases().size(), 9u);
+  EXPECT_EQ(FrontendMetricBases().size(), 13u);
+  const auto h = ParseFrontendMetric("sift_homography_inliers_k2");
+  ASSERT_TRUE(h);
+  EXPECT_EQ(h->base, "homography_inliers");
+  EXPECT_EQ(h->skip, 2);
+  EXPECT_TRUE(ParseFrontendMetric("active") && ParseFrontendMetric("orb_keypoints"));
 }
 
 // Frame b of a pair whose features are exact projections of world points (unique random binary
@@ -175,6 +181,97 @@ TEST(FrontendPair, CleanBuiltinFramesHaveNearZeroPoseError) {
     std::printf("%s: temporal difference %.3f, +20: %.3f\n", c.scene, same, shifted);
     EXPECT_LT(same, 6.0);
     EXPECT_GT(shifted - same, 12.0);
+  }
+}
+
+// The paper's Fig. 8 figures on a closed form: 300 points of a plane seen from two cameras (a
+// homography maps one view onto the other exactly) plus 50 matches moved 60-100 px off their true
+// position: the homography keeps exactly the 300. A pair with 10 matches is no active set (the
+// paper: "more than 10 correspondences"), with 11 it is.
+TEST(FrontendPair, HomographyInliersAndActiveSetsOnAPlane) {
+  const CameraIntrinsics camera{500.0, 500.0, 319.5, 239.5, 640, 480};
+  cv::RNG rng(11);
+  std::vector<cv::Vec3d> world;
+  for (int i = 0; i < 350; ++i)
+    world.emplace_back(rng.uniform(-1.5, 1.5), rng.uniform(-1.0, 1.0), 4.0);
+  cv::Mat descriptors(350, 32, CV_8U);
+  rng.fill(descriptors, cv::RNG::UNIFORM, 0, 256);
+  const FrontendFrame a = Projected(camera, Turned(0, 0, {0, 0, 0}), world, descriptors, nullptr);
+  FrontendFrame b =
+      Projected(camera, Turned(4.0, -2.0, {0.2, 0.05, 0.1}), world, descriptors, nullptr);
+  std::vector<cv::Point2f>& pb = b.features[FeatureDetector::kOrb].points;
+  for (size_t i = 300; i < pb.size(); ++i) {
+    const double angle = rng.uniform(0.0, 2 * CV_PI), r = rng.uniform(60.0, 100.0);
+    pb[i] += cv::Point2f(static_cast<float>(r * std::cos(angle)),
+                         static_cast<float>(r * std::sin(angle)));
+  }
+  FrontendFrame a_ = a;
+  a_.depth_m = b.depth_m = cv::Mat(480, 640, CV_32F, cv::Scalar(0));
+  const FrontendOptions options;
+  const FrontendPair r = EvaluateFrontendPair(options, FeatureDetector::kOrb, a_, b);
+  EXPECT_EQ(r.matches, 350);
+  EXPECT_EQ(r.keypoints, 350);
+  EXPECT_EQ(r.active, 1.0);
+  EXPECT_EQ(r.correspondences, 350);
+  EXPECT_EQ(r.homography_inliers, 300);
+  for (const int n : {10, 11}) {
+    FrontendFrame a_n = a_, b_n = b;
+    for (FrontendFrame* f : {&a_n, &b_n}) {
+      FrontendFeatures& ff = f->features[FeatureDetector::kOrb];
+      ff.points.resize(static_cast<size_t>(n));
+      ff.descriptors = ff.descriptors.rowRange(0, n).clone();
+    }
+    const FrontendPair small = EvaluateFrontendPair(options, FeatureDetector::kOrb, a_n, b_n);
+    EXPECT_EQ(small.matches, n);
+    EXPECT_EQ(small.active, n > 10 ? 1.0 : 0.0) << n;
+    EXPECT_EQ(std::isnan(small.correspondences), n <= 10) << n;
+    EXPECT_EQ(std::isnan(small.homography_inliers), n <= 10) << n;
+    if (n > 10) {
+      EXPECT_EQ(small.homography_inliers, n);
+    }
+  }
+}
+
+// The Fig. 8 figures of the front end are those of `turbid score --pairs` (MatchFeatures, the code
+// scripts/fig8_hull_matching.py used): on two clean hull frames 3 cm apart, the same detector
+// budget gives the same keypoints, correspondences and homography inliers, exactly.
+TEST(FrontendPair, Fig8FiguresEqualScorePairs) {
+  TrajectoryOptions trajectory;
+  trajectory.kind = "pass";
+  trajectory.frames = 3;
+  trajectory.altitude_m = 1.06;
+  BuiltinSceneOptions scene;
+  scene.scale = 0.5;
+  const auto sequence = MakeBuiltinSequence("hull", scene, trajectory);
+  FrontendOptions options;
+  options.orb_features = options.sift_features = 2000;
+  const FrontendFrame a = CleanFrame(*sequence, 0, options);
+  const FrontendFrame b = CleanFrame(*sequence, 2, options);
+  for (FeatureDetector d : {FeatureDetector::kOrb, FeatureDetector::kSift}) {
+    SCOPED_TRACE(FeatureDetectorName(d));
+    const FrontendPair r = EvaluateFrontendPair(options, d, a, b);
+    FeatureMatchOptions match;
+    match.detector = d;
+    match.max_features = 2000;
+    const PairMatchResult m = MatchFeatures(match, a.gray8, b.gray8, 255.0);
+    std::printf("hull %s: keypoints %.0f matches %.0f homography inliers %.0f\n",
+                FeatureDetectorName(d).c_str(), r.keypoints, r.matches, r.homography_inliers);
+    EXPECT_GT(m.correspondences, 100);
+    EXPECT_EQ(r.keypoints, m.keypoints_b);
+    EXPECT_EQ(r.matches, m.correspondences);
+    EXPECT_EQ(r.active, m.active ? 1.0 : 0.0);
+    EXPECT_EQ(r.correspondences, m.correspondences);
+    EXPECT_EQ(r.homography_inliers, m.inliers);
+    // Asked for the homography part only (as a sweep with only Fig. 8 metrics asks): the same
+    // figures, and the parts not asked for are NaN.
+    const FrontendPair h = EvaluateFrontendPair(options, d, a, b, kFrontendHomography);
+    EXPECT_EQ(h.matches, r.matches);
+    EXPECT_EQ(h.homography_inliers, r.homography_inliers);
+    EXPECT_TRUE(std::isnan(h.inliers) && std::isnan(h.pose_failed) && std::isnan(h.rpe_trans_m));
+    const FrontendPair e = EvaluateFrontendPair(options, d, a, b, kFrontendEssential);
+    EXPECT_EQ(e.inliers, r.inliers);
+    EXPECT_EQ(e.rpe_rot_deg, r.rpe_rot_deg);
+    EXPECT_TRUE(std::isnan(e.homography_inliers) && std::isnan(e.rpe_trans_m));
   }
 }
 

@@ -22,7 +22,10 @@ SequenceScorer::SequenceScorer(const Experiment& experiment, StageProfile* profi
     if (!metric) throw Error("metric '" + info.name + "' is not a front-end metric");
     metrics_.push_back(*metric);
     skips.insert(metric->skip);
-    if (metric->base != "flicker") detectors.insert(metric->detector);
+    if (metric->base != "flicker") {
+      detectors.insert(metric->detector);
+      parts_[metric->detector] |= FrontendPartOf(metric->base);
+    }
   }
   skips_.assign(skips.begin(), skips.end());
   detectors_.assign(detectors.begin(), detectors.end());
@@ -111,6 +114,7 @@ void SequenceScorer::Score(
   // Pair values per (skip, detector, label) and temporal differences per (skip, label).
   std::map<std::tuple<int, FeatureDetector, std::string>, FrontendPair> pairs;
   std::map<std::pair<int, std::string>, double> differences;
+  std::map<int, TemporalWarp> warps;  // by skip: depth and poses only, shared by every label
   const auto pair_of = [&](int k, FeatureDetector detector, const std::string& label,
                            const FrameRecord& before) -> const FrontendPair* {
     const auto a = before.frames.find(label);
@@ -119,7 +123,10 @@ void SequenceScorer::Score(
     const auto key = std::make_tuple(k, detector, label);
     auto it = pairs.find(key);
     if (it == pairs.end())
-      it = pairs.emplace(key, EvaluateFrontendPair(options_, detector, a->second, b->second)).first;
+      it = pairs
+               .emplace(key, EvaluateFrontendPair(options_, detector, a->second, b->second,
+                                                  parts_.at(detector)))
+               .first;
     return &it->second;
   };
   const auto difference_of = [&](int k, const std::string& label, const FrameRecord& before) {
@@ -128,8 +135,19 @@ void SequenceScorer::Score(
     if (a == before.frames.end() || b == own.frames.end()) return kNan;
     const auto key = std::make_pair(k, label);
     auto it = differences.find(key);
-    if (it == differences.end())
-      it = differences.emplace(key, WarpedTemporalDifference(options_, a->second, b->second)).first;
+    if (it == differences.end()) {
+      auto warp = warps.find(k);
+      if (warp == warps.end()) {
+        // The clean frames' depth, cameras and poses: the same in every label's frame.
+        const FrontendFrame& clean_a = before.frames.count("") ? before.frames.at("") : a->second;
+        const FrontendFrame& clean_b = own.frames.count("") ? own.frames.at("") : b->second;
+        warp = warps.emplace(k, MakeTemporalWarp(options_, clean_a, clean_b)).first;
+      }
+      it = differences
+               .emplace(key,
+                        WarpedTemporalDifference(warp->second, a->second.gray8, b->second.gray8))
+               .first;
+    }
     return it->second;
   };
   const auto value = [&](const FrontendMetric& m, const std::string& label) {

@@ -77,7 +77,8 @@ class SequenceScorer {
   std::vector<FrontendMetric> metrics_;
   std::vector<int> skips_;  // distinct, ascending
   std::vector<FeatureDetector> detectors_;
-  std::vector<int> scene_frames_;  // frames of each scene
+  std::map<FeatureDetector, unsigned> parts_;  // FrontendPart bits the detector's metrics need
+  std::vector<int> scene_frames_;              // frames of each scene
   std::mutex mutex_;
   std::map<int, Entry> entries_;  // by item index
 };
