@@ -175,14 +175,13 @@ Scene SampleScene(const Scene& s, const SampleSpec& spec) {
   return out;
 }
 
-// Where a sample's arrays go: new arrays (`into` None), or the caller's (a row of a batch that
+// Where a sample's arrays go: new arrays (`into` None or without the name), or the caller's (a row of a batch that
 // RenderDataset.__getitems__ allocated once, in shared memory inside DataLoader workers), checked
 // for dtype, shape, C order and writability so that the pixels can be written straight in.
 py::array Target(const py::object& into, const char* name, const std::vector<py::ssize_t>& shape,
                  const py::dtype& dtype) {
-  if (into.is_none()) return py::array(dtype, shape);
+  if (into.is_none() || !into.cast<py::dict>().contains(name)) return py::array(dtype, shape);
   const py::dict d = into.cast<py::dict>();
-  if (!d.contains(name)) throw py::value_error(std::string("render_sample: no array for ") + name);
   py::array a = d[name].cast<py::array>();
   bool ok = a.dtype().is(dtype) && a.ndim() == static_cast<py::ssize_t>(shape.size()) &&
             (a.flags() & py::array::c_style) && a.writeable();

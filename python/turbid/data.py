@@ -30,6 +30,7 @@ from . import Scene, _config, _dumps, _int, _seed, set_num_threads
 __all__ = ["RenderDataset", "DegradeTransform", "collate", "BucketBatchSampler", "draw_params"]
 
 _MAPS = ("transmission", "light", "veil", "psf", "noise")
+_LISTED = ("psf",)  # per-sample kernels of their own sizes: batched as lists
 
 
 def draw_params(random, index, base=None, seed=0):
@@ -273,9 +274,11 @@ class RenderDataset:
         """DataLoader's batch fetch (``batch_size=N``, torch >= 1.13): the samples rendered into
         one batch (see :meth:`batch`); :func:`collate` returns that batch as is, any other
         collate_fn sees the per-sample views."""
+        if type(self).__getitem__ is not RenderDataset.__getitem__:
+            return [self[i] for i in indices]  # a subclass's own samples
         indices = [self._index(i) for i in indices]
         sizes = {self.sample_size(i) for i in indices}
-        if not indices or len(sizes) > 1:
+        if len(indices) < 2 or len(sizes) > 1:
             return [self._render(i) for i in indices]  # collate names the sizes
         first = self._render(indices[0])
         n = len(indices)
@@ -283,7 +286,7 @@ class RenderDataset:
         shared = torch is not None and torch.utils.data.get_worker_info() is not None
         arrays, batch = {}, {}
         for key, value in first.items():
-            if isinstance(value, _np.ndarray):
+            if isinstance(value, _np.ndarray) and key not in _LISTED:
                 batch[key], arrays[key] = _batch_array(torch, shared, (n,) + value.shape,
                                                        value.dtype)
                 arrays[key][0] = value
@@ -396,8 +399,8 @@ def _shape_text(shape):
 
 def collate(samples):
     """Stacks a list of dict samples into a batch: arrays become one array per key (torch
-    tensors when torch is imported, as DataLoader's default collate gives), ``params``, ``id``
-    and ``K`` stay lists. Samples of different sizes raise one ValueError naming the sizes and
+    tensors when torch is imported, as DataLoader's default collate gives), ``params``, ``id``,
+    ``K`` and the ``psf`` kernels (one size per sample) stay lists. Samples of different sizes raise one ValueError naming the sizes and
     their items (use ``crop=`` / ``size=``, or :class:`BucketBatchSampler`)."""
     if isinstance(samples, _Batch):
         return samples.batch  # rendered straight into the batch (RenderDataset.__getitems__)
@@ -408,6 +411,9 @@ def collate(samples):
     for key in samples[0]:
         values = [s[key] for s in samples]
         first = values[0]
+        if key in _LISTED:
+            out[key] = values
+            continue
         if torch is not None and isinstance(first, torch.Tensor):
             values = [v.numpy() for v in values]
             first = values[0]
