@@ -79,8 +79,8 @@ __attribute__((target("avx2"))) int DecodedCodesAvx2(const SrgbTables& t, const 
   for (; i + 8 <= n; i += 8) {
     // max(x, 0) returns its second operand, 0, for NaN: NaN -> 0 as the scalar clip.
     const __m256 v = _mm256_min_ps(_mm256_max_ps(_mm256_loadu_ps(in + i), zero), one);
-    __m256i q = _mm256_i32gather_epi32(t.first.data(), _mm256_cvttps_epi32(_mm256_mul_ps(v, bins)),
-                                       4);
+    __m256i q =
+        _mm256_i32gather_epi32(t.first.data(), _mm256_cvttps_epi32(_mm256_mul_ps(v, bins)), 4);
     for (;;) {
       const __m256 reached = _mm256_cmp_ps(v, _mm256_i32gather_ps(thresholds, q, 4), _CMP_GE_OQ);
       if (_mm256_testz_ps(reached, reached)) break;

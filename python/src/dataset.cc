@@ -175,9 +175,10 @@ Scene SampleScene(const Scene& s, const SampleSpec& spec) {
   return out;
 }
 
-// Where a sample's arrays go: new arrays (`into` None or without the name), or the caller's (a row of a batch that
-// RenderDataset.__getitems__ allocated once, in shared memory inside DataLoader workers), checked
-// for dtype, shape, C order and writability so that the pixels can be written straight in.
+// Where a sample's arrays go: new arrays (`into` None or without the name), or the caller's (a row
+// of a batch that RenderDataset.__getitems__ allocated once, in shared memory inside DataLoader
+// workers), checked for dtype, shape, C order and writability so that the pixels can be written
+// straight in.
 py::array Target(const py::object& into, const char* name, const std::vector<py::ssize_t>& shape,
                  const py::dtype& dtype) {
   if (into.is_none() || !into.cast<py::dict>().contains(name)) return py::array(dtype, shape);
@@ -202,9 +203,8 @@ py::array EmitImage(const py::object& into, const char* name, const cv::Mat& m, 
     py::array a = WrapNumpy(m);
     return c == 1 ? py::array(a.attr("reshape")(m.rows, m.cols, 1)) : a;
   }
-  const std::vector<py::ssize_t> shape =
-      planar ? std::vector<py::ssize_t>{c, m.rows, m.cols}
-             : std::vector<py::ssize_t>{m.rows, m.cols, c};
+  const std::vector<py::ssize_t> shape = planar ? std::vector<py::ssize_t>{c, m.rows, m.cols}
+                                                : std::vector<py::ssize_t>{m.rows, m.cols, c};
   py::array out = Target(into, name, shape, py::dtype::of<float>());
   float* dst = static_cast<float*>(out.mutable_data());
   WorkScope release;
@@ -363,10 +363,9 @@ void DefineDataset(py::module_& m) {
         return RenderSample(*scene.renderer, spec, params_text, maps, lit, float_output, planar,
                             into);
       },
-      py::arg("scene"), py::arg("params_text"), py::arg("crop_h"), py::arg("crop_w"),
-      py::arg("y0"), py::arg("x0"), py::arg("size_h"), py::arg("size_w"), py::arg("channels"),
-      py::arg("maps"), py::arg("lit"), py::arg("float_output"), py::arg("planar"),
-      py::arg("into") = py::none());
+      py::arg("scene"), py::arg("params_text"), py::arg("crop_h"), py::arg("crop_w"), py::arg("y0"),
+      py::arg("x0"), py::arg("size_h"), py::arg("size_w"), py::arg("channels"), py::arg("maps"),
+      py::arg("lit"), py::arg("float_output"), py::arg("planar"), py::arg("into") = py::none());
   m.def("prefault", &Prefault);
   m.def("draw_params", [](const std::string& base_text, const std::string& random_text,
                           uint64_t random_seed, uint64_t seed, uint64_t index) {

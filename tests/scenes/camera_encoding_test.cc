@@ -130,8 +130,7 @@ TEST(CameraEncoding, SrgbQuantiserIsTheSameAtEveryCpuLevel) {
         values.push_back(v);
     }
     for (int i = 0; i < 20000; ++i) values.push_back(uniform(rng));
-    for (float v : {std::nanf(""), -1.0f, 0.0f, 1.0f, 2.0f, -0.0f, 1e-30f})
-      values.push_back(v);
+    for (float v : {std::nanf(""), -1.0f, 0.0f, 1.0f, 2.0f, -0.0f, 1e-30f}) values.push_back(v);
     while (values.size() % 3 != 0 || values.size() % 8 == 0) values.push_back(0.5f);
     std::vector<float> results[2][2];
     const CpuLevel caps[2] = {CpuLevel::kScalar, CpuLevel::kAvx512};
