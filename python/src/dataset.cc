@@ -10,10 +10,6 @@
 #if defined(__GLIBC__)
 #include <malloc.h>
 #endif
-#if defined(__linux__)
-#include <sys/mman.h>
-#include <unistd.h>
-#endif
 
 #include <cmath>
 #include <memory>
@@ -311,24 +307,6 @@ bool KeepFreedMemory() {
 #endif
 }
 
-// Populates a writable array's pages in one call (madvise MADV_POPULATE_WRITE, Linux >= 5.14)
-// instead of one page fault per 4 KiB as the pixels are written: a batch's fresh shared memory.
-// False where the system cannot (the pages then fault in as usual).
-bool Prefault(const py::array& a) {
-#if defined(__linux__)
-  constexpr int kPopulateWrite = 23;  // MADV_POPULATE_WRITE (older headers lack the name)
-  const long page = sysconf(_SC_PAGESIZE);
-  if (!a.writeable() || a.nbytes() == 0 || page <= 0) return false;
-  const auto begin = reinterpret_cast<uintptr_t>(a.data());
-  const uintptr_t first = begin / page * page;
-  const uintptr_t end = begin + static_cast<uintptr_t>(a.nbytes());
-  py::gil_scoped_release release;
-  return madvise(reinterpret_cast<void*>(first), end - first, kPopulateWrite) == 0;
-#else
-  return false;
-#endif
-}
-
 }  // namespace
 
 void DefineDataset(py::module_& m) {
@@ -366,7 +344,6 @@ void DefineDataset(py::module_& m) {
       py::arg("scene"), py::arg("params_text"), py::arg("crop_h"), py::arg("crop_w"), py::arg("y0"),
       py::arg("x0"), py::arg("size_h"), py::arg("size_w"), py::arg("channels"), py::arg("maps"),
       py::arg("lit"), py::arg("float_output"), py::arg("planar"), py::arg("into") = py::none());
-  m.def("prefault", &Prefault);
   m.def("draw_params", [](const std::string& base_text, const std::string& random_text,
                           uint64_t random_seed, uint64_t seed, uint64_t index) {
     json params = ExpandDottedParams(ParseJsonText(base_text, "base"), "base");

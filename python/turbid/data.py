@@ -363,8 +363,8 @@ class DegradeTransform:
 
 
 def _batch_array(torch, shared, shape, dtype):
-    """An uninitialised batch array: a torch tensor (in shared memory in a DataLoader worker,
-    its pages populated in one call) when torch is imported, else NumPy; and its NumPy view."""
+    """An uninitialised batch array: a torch tensor (in shared memory in a DataLoader worker)
+    when torch is imported, else NumPy; and its NumPy view."""
     if torch is None:
         a = _np.empty(shape, dtype)
         return a, a
@@ -374,7 +374,6 @@ def _batch_array(torch, shared, shape, dtype):
         numel = int(_np.prod(shape))
         t = elem.new(elem.storage()._new_shared(numel)).resize_(shape)
         a = t.numpy()
-        _turbid.prefault(a)
     else:
         t = torch.empty(shape, dtype=kind)
         a = t.numpy()
