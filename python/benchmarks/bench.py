@@ -90,10 +90,26 @@ def usage():
             kids.ru_minflt)
 
 
-def loader(images=512):
-    """turbid.data through a torch DataLoader with 2 workers: 256 x 256 random crops and full
-    640 x 480 frames of the seafloor scene with a random sampler; images/s (wall) and CPU
-    milliseconds per image (all processes)."""
+class _PerSample:
+    """The dataset without its batch fetch: DataLoader renders each sample into its own arrays
+    and collate stacks them (the path before RenderDataset.__getitems__)."""
+
+    def __init__(self, ds):
+        self.ds = ds
+
+    def __len__(self):
+        return len(self.ds)
+
+    def __getitem__(self, i):
+        return self.ds[i]
+
+
+def loader(images=512, rounds=2):
+    """turbid.data through a torch DataLoader with 2 workers, batch 32: 256 x 256 random crops
+    and full 640 x 480 frames of the seafloor / room scenes with a random sampler; the batch path
+    (RenderDataset.__getitems__: rendered into one shared-memory batch) and the per-sample path
+    (each sample its own arrays, stacked by collate), alternated round by round. images/s (wall)
+    and CPU milliseconds per image, all processes (the figure that matters on a shared machine)."""
     try:
         import torch
         from torch.utils.data import DataLoader
@@ -105,22 +121,26 @@ def loader(images=512):
                   "water.type": {"choice": ["I", "II", "3C", "5C"]},
                   "psf.forward_scatter": {"uniform": [0.2, 0.8]},
                   "snow.density_per_m3": {"log_uniform": [0.5, 20]}}}}
+    workers = 2
     for name, kw in (("256x256 crops", {"crop": 256}), ("640x480 frames", {})):
         ds = data.RenderDataset(config, channel_axis=-3, with_params=False, **kw)
-        for workers in (2,):
-            dl = DataLoader(ds, batch_size=32, num_workers=workers, shuffle=True,
-                            collate_fn=data.collate)
-            next(iter(dl))  # start-up (fork, first scene load) not counted
-            u0, t0 = usage(), time.perf_counter()
-            count = sum(b["degraded"].shape[0] for b in dl)
-            wall = time.perf_counter() - t0
-            d = [b - a for a, b in zip(u0, usage())]
-            print("RenderDataset %s, DataLoader num_workers=%d, batch 32: %.0f images/s, "
-                  "%.2f ms CPU per image (%d images, %d cores); per image: workers %.2f ms user "
-                  "+ %.2f ms system, %.0f page faults; main process %.2f ms"
-                  % (name, workers, count / wall, 1e3 * sum(d[:4]) / count, count,
-                     os.cpu_count(), 1e3 * d[2] / count, 1e3 * d[3] / count, d[5] / count,
-                     1e3 * (d[0] + d[1]) / count))
+        for r in range(rounds):
+            for path, dataset in (("batch", ds), ("per-sample", _PerSample(ds))):
+                dl = DataLoader(dataset, batch_size=32, num_workers=workers, shuffle=True,
+                                collate_fn=data.collate)
+                it = iter(dl)
+                next(it)  # start-up (fork, first scene load) not counted
+                u0, t0 = usage(), time.perf_counter()
+                count = sum(b["degraded"].shape[0] for b in it)
+                wall = time.perf_counter() - t0
+                d = [b - a for a, b in zip(u0, usage())]
+                print("RenderDataset %s, %s path, num_workers=%d, batch 32: %.0f images/s, "
+                      "%.2f ms CPU per image (%d images, %d cores); per image: workers %.2f ms "
+                      "user + %.2f ms system, %.0f page faults; main process %.2f ms"
+                      % (name, path, workers, count / wall, 1e3 * sum(d[:4]) / count, count,
+                         os.cpu_count(), 1e3 * d[2] / count, 1e3 * d[3] / count, d[5] / count,
+                         1e3 * (d[0] + d[1]) / count))
+                del it, dl
 
 
 if __name__ == "__main__":

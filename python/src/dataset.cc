@@ -171,31 +171,85 @@ Scene SampleScene(const Scene& s, const SampleSpec& spec) {
   return out;
 }
 
-// An image as NumPy in its final layout: H x W x C RGB, or C x H x W RGB with `planar` (one pass
-// that also reorders B, G, R when `bgr`). Gray images are H x W x 1 / 1 x H x W.
-py::array ToLayout(const cv::Mat& m, bool bgr, bool planar) {
+// Where a sample's arrays go: new arrays (`into` None or without the name), or the caller's (a row
+// of a batch that RenderDataset.__getitems__ allocated once, in shared memory inside DataLoader
+// workers), checked for dtype, shape, C order and writability so that the pixels can be written
+// straight in.
+py::array Target(const py::object& into, const char* name, const std::vector<py::ssize_t>& shape,
+                 const py::dtype& dtype) {
+  if (into.is_none() || !into.cast<py::dict>().contains(name)) return py::array(dtype, shape);
+  const py::dict d = into.cast<py::dict>();
+  py::array a = d[name].cast<py::array>();
+  bool ok = a.dtype().is(dtype) && a.ndim() == static_cast<py::ssize_t>(shape.size()) &&
+            (a.flags() & py::array::c_style) && a.writeable();
+  for (size_t k = 0; ok && k < shape.size(); ++k) ok = a.shape(k) == shape[k];
+  if (!ok)
+    throw py::value_error(std::string("render_sample: the array for ") + name +
+                          " is not a writable C-ordered array of the sample's shape and dtype");
+  return a;
+}
+
+// An image in its final layout: H x W x C RGB, or C x H x W RGB with `planar` (one pass that
+// also reorders B, G, R when `bgr`). Gray images are H x W x 1 / 1 x H x W. A new array over
+// an RGB-ordered render is the render's own buffer (no copy).
+py::array EmitImage(const py::object& into, const char* name, const cv::Mat& m, bool bgr,
+                    bool planar) {
   const int c = m.channels();
-  if (!planar) {
-    py::array a = bgr ? ToNumpy(m) : WrapNumpy(m);
+  if (into.is_none() && !planar && !bgr) {
+    py::array a = WrapNumpy(m);
     return c == 1 ? py::array(a.attr("reshape")(m.rows, m.cols, 1)) : a;
   }
-  py::array_t<float> out({c, m.rows, m.cols});
-  std::vector<cv::Mat> planes;
-  for (int k = 0; k < c; ++k)
-    planes.emplace_back(m.rows, m.cols, CV_32F, out.mutable_data() + k * m.total());
-  if (bgr && c == 3) std::swap(planes[0], planes[2]);
+  const std::vector<py::ssize_t> shape = planar ? std::vector<py::ssize_t>{c, m.rows, m.cols}
+                                                : std::vector<py::ssize_t>{m.rows, m.cols, c};
+  py::array out = Target(into, name, shape, py::dtype::of<float>());
+  float* dst = static_cast<float*>(out.mutable_data());
   WorkScope release;
-  cv::split(m, planes);
+  if (planar) {
+    std::vector<cv::Mat> planes;
+    for (int k = 0; k < c; ++k) planes.emplace_back(m.rows, m.cols, CV_32F, dst + k * m.total());
+    if (bgr && c == 3) std::swap(planes[0], planes[2]);
+    cv::split(m, planes);
+  } else {
+    cv::Mat d(m.rows, m.cols, m.type(), dst);
+    if (bgr && c == 3)
+      cv::cvtColor(m, d, cv::COLOR_BGR2RGB);
+    else
+      m.copyTo(d);
+  }
   return out;
 }
 
-// A rendered sample: {"degraded", "clean" (J with `lit`), "depth", "valid", "K", maps...}.
+// A one-channel float map (depth; the psf map) as H x W, or H x W x C RGB for a colour map.
+py::array EmitPlain(const py::object& into, const char* name, const cv::Mat& m) {
+  if (m.channels() != 1) return EmitImage(into, name, m, /*bgr=*/true, /*planar=*/false);
+  py::array out = Target(into, name, {m.rows, m.cols}, py::dtype::of<float>());
+  cv::Mat d(m.rows, m.cols, CV_32F, out.mutable_data());
+  WorkScope release;
+  m.copyTo(d);
+  return out;
+}
+
+// valid: depth finite and positive, H x W bool.
+py::array EmitValid(const py::object& into, const cv::Mat& depth) {
+  py::array out = Target(into, "valid", {depth.rows, depth.cols}, py::dtype::of<bool>());
+  auto* dst = static_cast<uint8_t*>(out.mutable_data());
+  WorkScope release;
+  for (int y = 0; y < depth.rows; ++y) {
+    const float* d = depth.ptr<float>(y);
+    uint8_t* v = dst + static_cast<size_t>(y) * depth.cols;
+    for (int x = 0; x < depth.cols; ++x) v[x] = d[x] > 0.0f;  // NaN compares false
+  }
+  return out;
+}
+
+// A rendered sample: {"degraded", "clean" (J with `lit`), "depth", "valid", "K", maps...}, in new
+// arrays or written into `into`'s (then the same arrays are returned in the dict).
 py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::string& params_text,
-                      const std::string& maps, bool lit, bool float_output, bool planar) {
+                      const std::string& maps, bool lit, bool float_output, bool planar,
+                      const py::object& into) {
   const json params = ParseJsonText(params_text, "params");
   RenderResult result;
   std::unique_ptr<Renderer> own;  // the cropped / resized scene's
-  cv::Mat valid;
   {
     WorkScope release;
     RenderOptions options = RenderOptionsFromJson(params);
@@ -205,18 +259,13 @@ py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::s
     if (!spec.Identity(full.scene()))
       own = std::make_unique<Renderer>(SampleScene(full.scene(), spec));
     result = (own ? *own : full).Render(options);
-    const cv::Mat& depth = (own ? *own : full).scene().depth_m;
-    valid = (depth == depth) & (depth > 0);  // 255 where finite and positive
   }
   const Scene& scene = (own ? *own : full).scene();
   py::dict out;
-  out["degraded"] = ToLayout(result.image, /*bgr=*/false, planar);  // R, G, B already
-  out["clean"] = ToLayout(lit ? result.lit : scene.image, /*bgr=*/true, planar);
-  out["depth"] = ToNumpy(scene.depth_m);
-  py::array_t<bool> v({valid.rows, valid.cols});
-  cv::Mat dst(valid.rows, valid.cols, CV_8U, v.mutable_data());
-  valid.convertTo(dst, CV_8U, 1.0 / 255.0);
-  out["valid"] = v;
+  out["degraded"] = EmitImage(into, "degraded", result.image, /*bgr=*/false, planar);  // RGB
+  out["clean"] = EmitImage(into, "clean", lit ? result.lit : scene.image, /*bgr=*/true, planar);
+  out["depth"] = EmitPlain(into, "depth", scene.depth_m);
+  out["valid"] = EmitValid(into, scene.depth_m);
   const std::pair<const char*, const cv::Mat*> named[] = {{"transmission", &result.transmission},
                                                           {"light", &result.light},
                                                           {"veil", &result.veil},
@@ -224,7 +273,8 @@ py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::s
                                                           {"noise", &result.noise}};
   for (const auto& [name, mat] : named)
     if (!mat->empty())
-      out[name] = std::string(name) == "psf" ? ToNumpy(*mat) : ToLayout(*mat, true, planar);
+      out[name] = std::string(name) == "psf" ? EmitPlain(into, name, *mat)
+                                             : EmitImage(into, name, *mat, true, planar);
   const CameraIntrinsics& c = scene.camera;
   out["K"] = py::make_tuple(c.fx, c.fy, c.cx, c.cy);
   return out;
@@ -281,13 +331,19 @@ void DefineDataset(py::module_& m) {
       .def_property_readonly("format", [](const GeneratePlan& p) { return p.config.format; });
   m.def("crop_origin", &CropOrigin);
   m.def("keep_freed_memory", &KeepFreedMemory);
-  m.def("render_sample", [](const PyScene& scene, const std::string& params_text, int crop_h,
-                            int crop_w, int y0, int x0, int size_h, int size_w, int channels,
-                            const std::string& maps, bool lit, bool float_output, bool planar) {
-    const SampleSpec spec =
-        MakeSpec(scene.scene(), crop_h, crop_w, y0, x0, size_h, size_w, channels);
-    return RenderSample(*scene.renderer, spec, params_text, maps, lit, float_output, planar);
-  });
+  m.def(
+      "render_sample",
+      [](const PyScene& scene, const std::string& params_text, int crop_h, int crop_w, int y0,
+         int x0, int size_h, int size_w, int channels, const std::string& maps, bool lit,
+         bool float_output, bool planar, const py::object& into) {
+        const SampleSpec spec =
+            MakeSpec(scene.scene(), crop_h, crop_w, y0, x0, size_h, size_w, channels);
+        return RenderSample(*scene.renderer, spec, params_text, maps, lit, float_output, planar,
+                            into);
+      },
+      py::arg("scene"), py::arg("params_text"), py::arg("crop_h"), py::arg("crop_w"), py::arg("y0"),
+      py::arg("x0"), py::arg("size_h"), py::arg("size_w"), py::arg("channels"), py::arg("maps"),
+      py::arg("lit"), py::arg("float_output"), py::arg("planar"), py::arg("into") = py::none());
   m.def("draw_params", [](const std::string& base_text, const std::string& random_text,
                           uint64_t random_seed, uint64_t seed, uint64_t index) {
     json params = ExpandDottedParams(ParseJsonText(base_text, "base"), "base");

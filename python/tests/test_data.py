@@ -227,6 +227,57 @@ def test_collate_names_sizes_and_buckets_group_them():
     assert list(sampler) != batches or len(batches) < 3
 
 
+def assert_same_batch(got, want):
+    assert set(got) == set(want)
+    for key, value in want.items():
+        if hasattr(value, "shape"):
+            assert got[key].dtype == value.dtype and tuple(got[key].shape) == tuple(value.shape)
+            assert np.array_equal(np.asarray(got[key]), np.asarray(value), equal_nan=True), key
+        elif key == "psf":  # kernels of their own sizes: a list
+            assert all(np.array_equal(a, b) for a, b in zip(got[key], value, strict=True))
+        else:
+            assert got[key] == value, key
+
+
+def test_batches_are_rendered_into_one_batch():
+    # ds.batch / ds[[...]] / __getitems__: the bytes collate gives over the single samples.
+    for kw in ({}, {"channel_axis": -3, "maps": ("transmission", "psf")}, {"crop": 40}):
+        ds = data.RenderDataset(CONFIG, **kw)
+        order = [6, 1, 3, 3]
+        want = data.collate([ds[i] for i in order])
+        assert_same_batch(ds.batch(order), want)
+        assert_same_batch(ds[np.array(order)], want)
+        got = ds.__getitems__(order)
+        assert data.collate(got) is got.batch  # no copy
+        assert_same_batch(data.collate(list(got)), want)  # the per-sample views
+        assert all(np.shares_memory(s["degraded"], got.batch["degraded"]) for s in got)
+    mixed = data.RenderDataset({"scenes": ["builtin:seafloor", "builtin:hull"], "scale": 0.125,
+                                "seed": 1, "random": dict(SAMPLER, count=1)}, channels=None)
+    with pytest.raises(ValueError, match="different sizes in one batch"):
+        mixed.batch([0, 1])
+    with pytest.raises(ValueError, match="render_sample: the array for degraded"):
+        ds._render(0, {"degraded": np.zeros((2, 2, 3), np.float32)})
+
+
+def test_dataloader_batches_come_in_shared_memory():
+    torch = pytest.importorskip("torch", reason="python3-torch is not installed")
+    from torch.utils.data import BatchSampler, DataLoader, SequentialSampler
+    ds = data.RenderDataset(CONFIG, channel_axis=-3, with_params=False)
+    want = [data.collate([ds[i] for i in range(k, min(k + 3, len(ds)))])
+            for k in range(0, len(ds), 3)]
+    loaders = [DataLoader(ds, batch_size=3, num_workers=2, collate_fn=data.collate),
+               DataLoader(ds, batch_size=3, num_workers=2),  # torch's default_collate
+               DataLoader(ds, batch_size=None, num_workers=2,
+                          sampler=BatchSampler(SequentialSampler(ds), 3, drop_last=False))]
+    for loader in loaders:
+        got = list(loader)
+        assert len(got) == len(want)
+        for g, w in zip(got, want):
+            for key in ("degraded", "clean", "depth", "valid", "index"):
+                assert g[key].is_shared() and torch.equal(g[key], w[key]), key
+            assert g["id"] == w["id"]
+
+
 def test_worker_threads_are_set_automatically():
     torch = pytest.importorskip("torch")
     from torch.utils.data import DataLoader

@@ -30,6 +30,7 @@ from . import Scene, _config, _dumps, _int, _seed, set_num_threads
 __all__ = ["RenderDataset", "DegradeTransform", "collate", "BucketBatchSampler", "draw_params"]
 
 _MAPS = ("transmission", "light", "veil", "psf", "noise")
+_LISTED = ("psf",)  # per-sample kernels of their own sizes: batched as lists
 
 
 def draw_params(random, index, base=None, seed=0):
@@ -109,11 +110,11 @@ class _SampleOptions:
                                      self.crop_mode == "random")
         return ch, cw, y0, x0
 
-    def render(self, core, params_text, window, float_output):
+    def render(self, core, params_text, window, float_output, into=None):
         ch, cw, y0, x0 = window
         return _turbid.render_sample(core, params_text, ch, cw, y0, x0, self.size[0],
                                      self.size[1], self.channels or 0, ",".join(self.maps),
-                                     self.lit, float_output, self.channels_first)
+                                     self.lit, float_output, self.channels_first, into)
 
 
 def _worker_threads(threads):
@@ -236,8 +237,13 @@ class RenderDataset:
         return _json.loads(self._plan.params(self._index(index), epoch))
 
     def __getitem__(self, index):
+        if isinstance(index, (list, tuple)) or (isinstance(index, _np.ndarray) and index.ndim == 1):
+            return self.batch(index)
         if isinstance(index, slice) or not isinstance(index, (int, _np.integer)):
-            raise TypeError("RenderDataset index must be an int")
+            raise TypeError("RenderDataset index must be an int (or a list of ints: a batch)")
+        return self._render(index)
+
+    def _render(self, index, into=None):
         if self._pid != _os.getpid():
             self._pid = _os.getpid()
             _worker_threads(self.threads)
@@ -246,12 +252,56 @@ class RenderDataset:
         scene = self._plan.scene(scene_index)
         params_text = self._plan.params(i, self.epoch)
         window = self._options.window(self._plan.seed, self.epoch, i, scene.height, scene.width)
-        sample = self._options.render(scene, params_text, window, self._plan.format == "exr")
+        sample = self._options.render(scene, params_text, window, self._plan.format == "exr",
+                                      into)
         sample["index"] = i
         sample["id"] = item_id
         if self.with_params:
             sample["params"] = _json.loads(params_text)
         return sample
+
+    def batch(self, indices):
+        """The samples ``indices`` rendered straight into one batch: the dict :func:`collate`
+        would return for ``[ds[i] for i in indices]`` (the same bytes), without per-sample
+        arrays or the stacking copy. Inside a DataLoader worker its tensors are allocated once in
+        shared memory, so they reach the main process without another copy. ``ds[[i, j, ...]]``
+        is the same (for ``DataLoader(ds, batch_size=None, sampler=BatchSampler(...))``).
+        Samples of different sizes raise collate's error naming them."""
+        samples = self.__getitems__(indices)
+        return collate(samples)
+
+    def __getitems__(self, indices):
+        """DataLoader's batch fetch (``batch_size=N``, torch >= 1.13): the samples rendered into
+        one batch (see :meth:`batch`); :func:`collate` returns that batch as is, any other
+        collate_fn sees the per-sample views."""
+        if type(self).__getitem__ is not RenderDataset.__getitem__:
+            return [self[i] for i in indices]  # a subclass's own samples
+        indices = [self._index(i) for i in indices]
+        sizes = {self.sample_size(i) for i in indices}
+        if len(indices) < 2 or len(sizes) > 1:
+            return [self._render(i) for i in indices]  # collate names the sizes
+        first = self._render(indices[0])
+        n = len(indices)
+        torch = _sys.modules.get("torch")
+        shared = torch is not None and torch.utils.data.get_worker_info() is not None
+        arrays, batch = {}, {}
+        for key, value in first.items():
+            if isinstance(value, _np.ndarray) and key not in _LISTED:
+                batch[key], arrays[key] = _batch_array(torch, shared, (n,) + value.shape,
+                                                       value.dtype)
+                arrays[key][0] = value
+        for j in range(1, n):
+            into = {key: a[j] for key, a in arrays.items()}
+            rest = self._render(indices[j], into)
+            for key in first:
+                if key not in arrays:
+                    batch.setdefault(key, [first[key]]).append(rest[key])
+        for key in first:
+            if key not in arrays:
+                batch.setdefault(key, [first[key]])
+        if torch is not None:
+            batch["index"] = torch.tensor(batch["index"])
+        return _Batch(batch, n)
 
 
 class DegradeTransform:
@@ -312,15 +362,47 @@ class DegradeTransform:
         return sample
 
 
+def _batch_array(torch, shared, shape, dtype):
+    """An uninitialised batch array: a torch tensor (in shared memory in a DataLoader worker)
+    when torch is imported, else NumPy; and its NumPy view."""
+    if torch is None:
+        a = _np.empty(shape, dtype)
+        return a, a
+    kind = {_np.dtype(_np.float32): torch.float32, _np.dtype(bool): torch.bool}[_np.dtype(dtype)]
+    if shared:  # as torch's default_collate allocates its output in workers
+        elem = torch.empty(0, dtype=kind)
+        numel = int(_np.prod(shape))
+        t = elem.new(elem.storage()._new_shared(numel)).resize_(shape)
+        a = t.numpy()
+    else:
+        t = torch.empty(shape, dtype=kind)
+        a = t.numpy()
+    return t, a
+
+
+class _Batch(list):
+    """What RenderDataset.__getitems__ returns: the per-sample views of one rendered batch (what
+    any collate_fn expects) and ``.batch``, the collated dict, which :func:`collate` returns
+    without copying."""
+
+    def __init__(self, batch, n):
+        super().__init__(
+            {k: v[j] for k, v in batch.items()}
+            for j in range(n))
+        self.batch = batch
+
+
 def _shape_text(shape):
     return "x".join(str(n) for n in shape)
 
 
 def collate(samples):
     """Stacks a list of dict samples into a batch: arrays become one array per key (torch
-    tensors when torch is imported, as DataLoader's default collate gives), ``params``, ``id``
-    and ``K`` stay lists. Samples of different sizes raise one ValueError naming the sizes and
+    tensors when torch is imported, as DataLoader's default collate gives), ``params``, ``id``,
+    ``K`` and the ``psf`` kernels (one size per sample) stay lists. Samples of different sizes raise one ValueError naming the sizes and
     their items (use ``crop=`` / ``size=``, or :class:`BucketBatchSampler`)."""
+    if isinstance(samples, _Batch):
+        return samples.batch  # rendered straight into the batch (RenderDataset.__getitems__)
     if not samples:
         raise ValueError("collate: an empty batch")
     torch = _sys.modules.get("torch")
@@ -328,6 +410,9 @@ def collate(samples):
     for key in samples[0]:
         values = [s[key] for s in samples]
         first = values[0]
+        if key in _LISTED:
+            out[key] = values
+            continue
         if torch is not None and isinstance(first, torch.Tensor):
             values = [v.numpy() for v in values]
             first = values[0]

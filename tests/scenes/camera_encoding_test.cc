@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "core/cpu.h"
 #include "core/error.h"
 #include "tests/support/test_support.h"
 
@@ -111,6 +112,41 @@ TEST(CameraEncoding, SrgbCodesAreExactAtEveryThreshold) {
       const size_t j = i - i % 3 + (2 - i % 3);  // R <-> B within each pixel
       ASSERT_EQ(swapped[j], expected) << "bits " << bits << " v " << values[i];
     }
+  }
+}
+
+// The vector kernel (AVX2 where the CPU has it) and the portable loop give the same bits: values
+// next to every 8-bit threshold, random values, NaN, negatives, values above 1 and a row length
+// that leaves a tail; plain and R <-> B.
+TEST(CameraEncoding, SrgbQuantiserIsTheSameAtEveryCpuLevel) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> uniform(-0.1f, 1.1f);
+  for (int bits : {8, 16}) {
+    std::vector<float> values;
+    const int levels = (1 << bits) - 1;
+    for (int k = 0; k < levels; k += bits == 8 ? 1 : 13) {
+      const float near = static_cast<float>(DecodeReference((k + 0.5) / levels));
+      for (float v : {std::nextafter(near, 0.0f), near, std::nextafter(near, 2.0f)})
+        values.push_back(v);
+    }
+    for (int i = 0; i < 20000; ++i) values.push_back(uniform(rng));
+    for (float v : {std::nanf(""), -1.0f, 0.0f, 1.0f, 2.0f, -0.0f, 1e-30f}) values.push_back(v);
+    while (values.size() % 3 != 0 || values.size() % 8 == 0) values.push_back(0.5f);
+    std::vector<float> results[2][2];
+    const CpuLevel caps[2] = {CpuLevel::kScalar, CpuLevel::kAvx512};
+    for (int c = 0; c < 2; ++c) {
+      SetCpuLevelCap(caps[c]);
+      results[c][0] = results[c][1] = values;
+      QuantiseEncodedRow(results[c][0].data(), static_cast<int>(values.size()),
+                         CameraEncoding::kSrgb, bits);
+      QuantiseEncodedRowSwapRB(results[c][1].data(), static_cast<int>(values.size()),
+                               CameraEncoding::kSrgb, bits);
+    }
+    SetCpuLevelCap(CpuLevel::kAvx512);
+    for (int k = 0; k < 2; ++k)
+      for (size_t i = 0; i < values.size(); ++i)
+        ASSERT_EQ(results[0][k][i], results[1][k][i])
+            << "bits " << bits << " v " << values[i] << (k ? " (R <-> B)" : "");
   }
 }
 
