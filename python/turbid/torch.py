@@ -23,6 +23,7 @@ import turbid as _turbid
 # The PSF (psf.cc) and the noise, camera and snow draw (noise.cc, camera_encoding.cc) live in their
 # own files; their public names are this module's.
 from ._torch_noise import _seeds, camera, sensor_noise, snow_particles, standard_normals
+from ._torch_light import Lamp as _Lamp
 from ._torch_psf import apply_psf, psf_kernel, turbidity_psf
 
 __all__ = ["render", "resolve", "Params", "range_from_depth", "normals_from_depth",
@@ -277,55 +278,27 @@ def irradiance(P, depth, K, normals, beta, n, c, like):
                             (-rl).expand_as(z)], dim=1)
         nn = torch.where(bad, facing, nn)
     nx, ny, nz = nn[:, 0:1], nn[:, 1:2], nn[:, 2:3]
-    eq5 = P.raw("light.incidence") == "paper_eq5"
-    min_cos = P.raw("light.min_cos_incidence")
-    min_l = P.raw("light.min_distance_m")
+    geo = {"px": px, "py": py, "pz": pz, "nx": nx, "ny": ny, "nz": nz,
+           "valid": None if all_valid else valid, "eq5": P.raw("light.incidence") == "paper_eq5",
+           "min_cos": P.raw("light.min_cos_incidence"), "min_l": P.raw("light.min_distance_m")}
     total = None
     for i, light in enumerate(lights):
         base = "light.lights.%d." % i
-        pos = P.get(base + "position_in_camera_m", like, n).reshape(-1, 3, 1, 1)
-        axis = P.get(base + "axis_in_camera", like, n).reshape(-1, 3, 1, 1)
+        pos = P.get(base + "position_in_camera_m", like, n)
+        axis = P.get(base + "axis_in_camera", like, n)
         axis = axis / torch.linalg.vector_norm(axis, dim=1, keepdim=True)
-        power = P.scalar(base + "power", like, n)
+        power = P.get(base + "power", like, n)
         color = P.get(base + "color_rgb", like, n)
         if c == 1:
             color = color.mean(dim=1, keepdim=True)
         color = color.reshape(-1, c, 1, 1)
-        vx, vy, vz = px - pos[:, 0:1], py - pos[:, 1:2], pz - pos[:, 2:3]
-        l_true = torch.sqrt(vx * vx + vy * vy + vz * vz)
-        along = axis[:, 0:1] * vx + axis[:, 1:2] * vy + axis[:, 2:3] * vz
-        facing = -(nx * vx + ny * vy + nz * vz)
-        apart = l_true > 1e-12
-        if bool(apart.all()):
-            inv = 1.0 / l_true
-            cphi, cpsi = along * inv, facing * inv
-        else:  # a light at a surface point: head-on there (cos phi = cos psi = 1)
-            inv = 1.0 / torch.where(apart, l_true, torch.ones_like(l_true))
-            one = torch.ones_like(l_true)
-            cphi = torch.where(apart, along * inv, one)
-            cpsi = torch.where(apart, facing * inv, one)
-        l = torch.clamp(l_true, min=min_l)
-        if eq5:
-            incidence = torch.where(cpsi > 0, 1.0 / torch.clamp(cpsi, min=min_cos),
-                                    torch.zeros_like(cpsi))
-        else:
-            incidence = torch.clamp(cpsi, min=0.0)
-        cphi = torch.clamp(cphi, 0.0, 1.0)
+        if ("light", "lights", i, "color_rgb") not in P.tensors and bool((color == 1).all()):
+            color = None  # white light (the default): one product fewer
         order = _lambertian_order(light["half_power_angle_deg"])
         rounded = round(order)
-        if abs(order - rounded) < 1e-9 and 0 <= rounded <= 8:
-            beam = cphi ** int(rounded) if rounded != 1 else cphi
-        else:
-            beam = torch.exp(order * torch.log(torch.clamp(cphi, min=1e-30)))
-        # g is finite (l >= min_distance_m, incidence <= 1 / min_cos_incidence).
-        g = power * incidence / (l * l) * beam
-        if not all_valid:
-            g = torch.where(valid, g, torch.zeros_like(g))
-            l = torch.where(valid, l, torch.zeros_like(l))
-        if ("light", "lights", i, "color_rgb") not in P.tensors and bool((color == 1).all()):
-            e = g * torch.exp(-beta * l)  # white light (the default): one product fewer
-        else:
-            e = color * g * torch.exp(-beta * l)
+        whole = abs(order - rounded) < 1e-9 and 0 <= rounded <= 8
+        e = _Lamp.apply(pos, axis, power, beta, color,
+                        dict(geo, order=float(rounded) if whole else order, whole=whole))
         total = e if total is None else total + e
     return total
 
