@@ -127,3 +127,49 @@ def test_gray_and_two_lights_gradcheck():
     args = tuple(torch.tensor(v, dtype=torch.float64, requires_grad=True) for v in (
         [0.05, 0.25, 0.02], [-0.3, -0.1, 0.1], [6.0], [0.6]))
     assert torch.autograd.gradcheck(f, args, eps=1e-6, atol=1e-7)
+
+
+@pytest.mark.parametrize("lights,backscatter", [(True, True), (False, True), (True, False)])
+def test_fused_composition_gradcheck(lights, backscatter):
+    """The paper model's fused eq. 2 (t_B = t), open water included: gradients in the albedo, beta
+    (per image), B_inf and the lamp's power; and its output equals the unfused composition (the
+    path taken when maps are asked for)."""
+    rho, depth, K = scene(n=2, holes=True)
+    normals = tilted_normals(depth)
+
+    def f(albedo, beta, bs, power):
+        params = {"psf": {"enabled": False}, "snow": {"enabled": False},
+                  "sensor": {"enabled": False},
+                  "water": {"beta_rgb_per_m": beta, "backscatter": backscatter,
+                            "backscatter_rgb": bs},
+                  "light": {"lights": [{"power": power}] if lights else []}}
+        return tt.render(albedo, depth, K, params, normals=normals)
+
+    args = (rho.clone(), torch.tensor([[0.7, 0.4, 0.2], [0.3, 0.5, 0.9]], dtype=torch.float64),
+            torch.tensor([0.05, 0.2, 0.25], dtype=torch.float64),
+            torch.tensor([6.0, 2.0], dtype=torch.float64))
+    args = tuple(a.requires_grad_() for a in args)
+    assert torch.autograd.gradcheck(f, args, eps=1e-6, atol=1e-7)
+    params = {"psf": {"enabled": False}, "snow": {"enabled": False}, "sensor": {"enabled": False},
+              "water": {"beta_rgb_per_m": args[1], "backscatter": backscatter,
+                        "backscatter_rgb": args[2]},
+              "light": {"lights": [{"power": args[3]}] if lights else []}}
+    fused = tt.render(rho, depth, K, params, normals=normals)
+    plain, _ = tt.render(rho, depth, K, params, normals=normals, maps=["veil"])
+    assert float((fused - plain).abs().max()) <= 1e-12
+
+
+def test_fused_noise_gradcheck():
+    """Sensor noise with read noise (the fused path): gradients in the image (negative values
+    included: no shot noise there), photons_at_white and read_noise per image."""
+    from turbid._torch_noise import sensor_noise
+    image = torch.from_numpy(np.random.default_rng(3).uniform(-0.2, 1.0, (2, 3, 4, 5)))
+    image.requires_grad_()
+
+    def f(img, photons, read):
+        P = tt.resolve({"sensor": {"photons_at_white": photons, "read_noise": read}})
+        return sensor_noise(img, P, [1, 2])
+
+    args = (image, torch.tensor([300.0, 80.0], dtype=torch.float64, requires_grad=True),
+            torch.tensor([0.01, 0.03], dtype=torch.float64, requires_grad=True))
+    assert torch.autograd.gradcheck(f, args, eps=1e-6, atol=1e-7)

@@ -35,9 +35,11 @@ class Lamp(torch.autograd.Function):
         ctx.shapes = [None if t is None else t.shape for t in (pos, axis, power, beta, color)]
         pos, axis = pos.reshape(-1, 3, 1, 1), axis.reshape(-1, 3, 1, 1)
         vx, vy, vz = geo["px"] - pos[:, 0:1], geo["py"] - pos[:, 1:2], geo["pz"] - pos[:, 2:3]
-        l_true = torch.sqrt((vx * vx).addcmul_(vy, vy).addcmul_(vz, vz))
-        along = (vx * axis[:, 0:1]).addcmul_(vy, axis[:, 1:2]).addcmul_(vz, axis[:, 2:3])
-        facing = (vx * geo["nx"]).addcmul_(vy, geo["ny"]).addcmul_(vz, geo["nz"]).neg_()
+        # In the order of operations of turbid.torch's earlier op-by-op E_L (no fused
+        # multiply-adds: the renderer's rounding to ~1e-7).
+        l_true = (vx * vx).add_(vy * vy).add_(vz * vz).sqrt_()
+        along = (axis[:, 0:1] * vx).add_(axis[:, 1:2] * vy).add_(axis[:, 2:3] * vz)
+        facing = (geo["nx"] * vx).add_(geo["ny"] * vy).add_(geo["nz"] * vz).neg_()
         apart = l_true > 1e-12
         all_apart = bool(apart.all())
         if all_apart:
@@ -60,18 +62,18 @@ class Lamp(torch.autograd.Function):
             beam = cphi_c if order == 1 else cphi_c ** int(order)
         else:
             beam = torch.exp(order * torch.log(torch.clamp(cphi_c, min=1e-30)))
-        g0 = incidence / (l * l) * beam  # g / power
+        # g in the order of operations of light.cc (the rounding of E_L is the renderer's).
+        g = power.reshape(-1, 1, 1, 1) * incidence / (l * l) * beam
         valid = geo["valid"]
         if valid is not None:
-            g0 = torch.where(valid, g0, torch.zeros_like(g0))
+            g = torch.where(valid, g, torch.zeros_like(g))
             l = torch.where(valid, l, torch.zeros_like(l))
-        g = g0 * power.reshape(-1, 1, 1, 1)
         ex = (l * beta).neg_().exp_()
         e = ex * g
         if color is not None:
             e = e.mul_(color)
         ctx.save_for_backward(pos, axis, power, beta, color, vx, vy, vz, inv, cphi, cpsi, l_true,
-                              l, incidence, beam, g0, g, ex)
+                              l, incidence, beam, g, ex)
         ctx.geo = geo
         ctx.all_apart = all_apart
         return e
@@ -79,7 +81,7 @@ class Lamp(torch.autograd.Function):
     @staticmethod
     def backward(ctx, grad):
         (pos, axis, power, beta, color, vx, vy, vz, inv, cphi, cpsi, l_true, l, incidence, beam,
-         g0, g, ex) = ctx.saved_tensors
+         g, ex) = ctx.saved_tensors
         geo = ctx.geo
         n, c = grad.shape[:2]
         need = ctx.needs_input_grad
@@ -90,7 +92,8 @@ class Lamp(torch.autograd.Function):
         if color is not None:
             gx = gx.mul_(color)
         d_g = gx.sum(1, keepdim=True)  # dL/dg
-        if need[2]:
+        if need[2]:  # g / power, 0 where invalid (l = 0 there)
+            g0 = incidence / torch.where(l > 0, l * l, torch.ones_like(l)) * beam * (l > 0)
             grads[2] = _to(_dot(d_g, g0)[:, 0], ctx.shapes[2])
         if need[3]:
             grads[3] = _to(-_dot(gx, g * l), ctx.shapes[3])
@@ -139,3 +142,71 @@ class Lamp(torch.autograd.Function):
             dv = axis.reshape(-1, 3) * sum_a1 - _dot(ns, a2) + _dot(vs, bc)
             grads[0] = _to(-dv, ctx.shapes[0])
         return tuple(grads)
+
+
+class Veiled(torch.autograd.Function):
+    """I = J_b t + (1 - t)(E_L + B_inf), t = exp(-beta r) (0 where ``valid`` is False): eq. 2
+    composed when t_B = t (the paper model), in the renderer's order of operations (ComposeVeil
+    of render.cc), with three full-size tensors in forward and two or three in backward
+    (autograd's graph of the same: five and six). e (N x C x H x W) or None, bs (B x C x 1 x 1)
+    or None, beta (B x C x 1 x 1); r (N x 1 x H x W, 0 where invalid) and valid (bool or None)
+    are constants."""
+
+    @staticmethod
+    def forward(ctx, jb, e, beta, bs, r, valid):
+        t = (r * beta).neg_().exp_()
+        if valid is not None:
+            t = t.mul_(valid)
+        v = e if bs is None else (bs if e is None else e + bs)
+        if v is None:
+            out = jb * t
+        else:
+            out = torch.rsub(t, 1.0).mul_(v).addcmul_(jb, t)
+        ctx.save_for_backward(jb, v, beta, r, t)
+        ctx.shapes = [None if x is None else x.shape for x in (beta, bs)]
+        return out
+
+    @staticmethod
+    def backward(ctx, grad):
+        jb, v, beta, r, t = ctx.saved_tensors
+        need = ctx.needs_input_grad
+        g_jb = grad * t
+        g_e = g_beta = g_bs = None
+        if need[1]:
+            g_e = grad - g_jb
+        if need[3]:
+            g_bs = _to((grad.sum((2, 3)) - g_jb.sum((2, 3)))[..., None, None], ctx.shapes[1])
+        if need[2]:
+            d = jb.clone() if v is None else jb - v
+            g_beta = _to(-_dot(d.mul_(g_jb), r)[..., None, None], ctx.shapes[0])
+        return g_jb if need[0] else None, g_e, g_beta, g_bs, None, None
+
+
+class Noisy(torch.autograd.Function):
+    """I + z sqrt(max(I, 0) shot + read^2) for read > 0 (the sensor noise by reparameterisation,
+    noise.cc): two full-size tensors in forward, three in backward. shot = 1 / photons (0: no shot
+    noise) and read are B x 1 x 1 x 1; z the standard normals (constant)."""
+
+    @staticmethod
+    def forward(ctx, image, shot, read, z):
+        sd = torch.clamp(image, min=0.0).mul_(shot).add_(read * read).sqrt_()
+        ctx.save_for_backward(image, shot, read, z, sd)
+        ctx.shapes = (shot.shape, read.shape)
+        return torch.addcmul(image, z, sd)
+
+    @staticmethod
+    def backward(ctx, grad):
+        image, shot, read, z, sd = ctx.saved_tensors
+        need = ctx.needs_input_grad
+        q = (grad * z).div_(sd)  # dL/d sd
+        g_shot = g_read = None
+        if need[1]:
+            n = q.shape[0]
+            relu = torch.clamp(image, min=0.0).reshape(n, -1, 1)
+            g_shot = _to(0.5 * torch.bmm(q.reshape(n, 1, -1), relu).reshape(n), ctx.shapes[0])
+        if need[2]:
+            g_read = _to(q.sum((1, 2, 3)) * read.reshape(-1), ctx.shapes[1])
+        g_image = None
+        if need[0]:
+            g_image = q.mul_(0.5 * shot).mul_(image >= 0).add_(grad)
+        return g_image, g_shot, g_read, None

@@ -153,9 +153,10 @@ def sensor_noise(image, P, seeds, normals=None, source="turbid"):
     shot = torch.where(photons > 0, 1.0 / torch.where(photons > 0, photons,
                                                        torch.ones_like(photons)),
                        torch.zeros_like(photons))
-    variance = torch.addcmul(read * read, torch.clamp(image, min=0.0), shot)
     if bool((read > 0).all()):
-        return torch.addcmul(image, z, torch.sqrt(variance))
+        from ._torch_light import Noisy
+        return Noisy.apply(image, shot, read, z)
+    variance = torch.addcmul(read * read, torch.clamp(image, min=0.0), shot)
     # d sqrt(v) at v = 0 is infinite: keep the gradient finite where there is no noise at all.
     safe = torch.where(variance > 0, variance, torch.ones_like(variance))
     return image + z * torch.where(variance > 0, torch.sqrt(safe), torch.zeros_like(variance))

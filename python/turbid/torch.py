@@ -23,7 +23,7 @@ import turbid as _turbid
 # The PSF (psf.cc) and the noise, camera and snow draw (noise.cc, camera_encoding.cc) live in their
 # own files; their public names are this module's.
 from ._torch_noise import _seeds, camera, sensor_noise, snow_particles, standard_normals
-from ._torch_light import Lamp as _Lamp
+from ._torch_light import Lamp as _Lamp, Veiled as _Veiled
 from ._torch_psf import apply_psf, psf_kernel, turbidity_psf
 
 __all__ = ["render", "resolve", "Params", "range_from_depth", "normals_from_depth",
@@ -518,23 +518,28 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
         jb = turbidity_psf(lit, thickness.expand(n, c, h, w), P)
     else:
         jb = apply_psf(lit, psf_kernel(P, rho, n))
-    if model == "revised":
-        beta_b = P.channels("revised", "beta_b_rgb_per_m", "beta_b_gray_per_m", rho, n, c)
-        t = keep(torch.exp(-beta_d * r0))
-        t_b = keep(torch.exp(-beta_b * r0))
-        bs = P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
-    else:
-        t = t_b = keep(torch.exp(-beta * r0))
+    if model == "paper" and maps is None:  # eq. 2 fused (t_B = t): python/turbid/_torch_light.py
         bs = (P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
               if P.raw("water.backscatter") else None)
-    veil_light = e if bs is None else (bs if e is None else e + bs)
-    if veil_light is None:
-        image, veil = jb * t, None
-    elif t_b is t and maps is None:  # jb t + (1 - t) v = v + t (jb - v): two passes fewer
-        image, veil = torch.addcmul(veil_light, t, jb - veil_light), None
+        image = _Veiled.apply(jb, e, beta, bs, r0, None if bool(valid.all()) else valid)
     else:
-        veil = (1.0 - t_b) * veil_light
-        image = torch.addcmul(veil, jb, t)
+        if model == "revised":
+            beta_b = P.channels("revised", "beta_b_rgb_per_m", "beta_b_gray_per_m", rho, n, c)
+            t = keep(torch.exp(-beta_d * r0))
+            t_b = keep(torch.exp(-beta_b * r0))
+            bs = P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
+        else:
+            t = t_b = keep(torch.exp(-beta * r0))
+            bs = (P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
+                  if P.raw("water.backscatter") else None)
+        veil_light = e if bs is None else (bs if e is None else e + bs)
+        if veil_light is None:
+            image, veil = jb * t, None
+        elif t_b is t and maps is None:  # jb t + (1 - t) v = v + t (jb - v): two passes fewer
+            image, veil = torch.addcmul(veil_light, t, jb - veil_light), None
+        else:
+            veil = (1.0 - t_b) * veil_light
+            image = torch.addcmul(veil, jb, t)
     if snow["enabled"] and snow["density_per_m3"] > 0:
         image = image + snow_layer(P, K, r, beta, ambient, rho, _seeds(seed, P, n))
     sensor = P.raw("sensor")
