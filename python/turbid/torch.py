@@ -25,8 +25,9 @@ import turbid as _turbid
 from ._torch_noise import _seeds, camera, sensor_noise, snow_particles, standard_normals
 from ._torch_light import Lamp as _Lamp, Veiled as _Veiled
 from ._torch_psf import apply_psf, psf_kernel, turbidity_psf
+from ._torch_veil import single_scatter_veil
 
-__all__ = ["render", "resolve", "Params", "range_from_depth", "normals_from_depth",
+__all__ = ["render", "resolve", "Params", "range_from_depth", "normals_from_depth", "single_scatter_veil",
            "irradiance", "psf_kernel", "apply_psf", "turbidity_psf", "sensor_noise",
            "standard_normals", "camera", "snow_particles", "snow_layer"]
 
@@ -409,9 +410,6 @@ def _check_supported(P):
     if model not in ("paper", "revised"):
         raise ValueError("turbid.torch: model %r is not in the differentiable model (paper, "
                          "revised)" % model)
-    if P.raw("veil") != "paper":
-        raise ValueError("turbid.torch: veil %r is not in the differentiable model (paper)"
-                         % P.raw("veil"))
     if model == "revised" and P.raw("water.iop") and P.raw("revised.from_iop"):
         raise ValueError("turbid.torch: revised with water.iop (tabulated beta^D(r)) is not in the "
                          "differentiable model; set revised.from_iop false")
@@ -432,6 +430,29 @@ def _check_supported(P):
         raise ValueError("turbid.torch: snow parameters are fixed numbers (the draw is not "
                          "differentiable)")
     return model
+
+
+def _single_scatter(P, K, r, beta, like, n, c):
+    """V of veil "single_scatter" (python/turbid/_torch_veil.py) for the batch, or None."""
+    lamps = []
+    for i, light in enumerate(P.raw("light.lights")):
+        base = "light.lights.%d." % i
+        axis = P.get(base + "axis_in_camera", like, n)
+        colour = P.get(base + "color_rgb", like, n)
+        order = _lambertian_order(light["half_power_angle_deg"])
+        if abs(order - round(order)) < 1e-9:  # whole orders as such (veil.cc)
+            order = float(round(order))
+        cutoff = light.get("cutoff_angle_deg", 90.0)
+        lamps.append({
+            "on": light["power"] > 0 or ("light", "lights", i, "power") in P.tensors,
+            "position": P.get(base + "position_in_camera_m", like, n),
+            "axis": axis / torch.linalg.vector_norm(axis, dim=1, keepdim=True),
+            "power": P.get(base + "power", like, n),
+            "colour": colour.mean(dim=1, keepdim=True) if c == 1 else colour,
+            "order": order,
+            "cos_cutoff": 0.0 if cutoff >= 90.0 else _math.cos(cutoff * _math.pi / 180.0)})
+    parts = [t.expand(n).tolist() for t in _intrinsics(K, n, like.device)]
+    return single_scatter_veil(P, parts, r, beta, like, n, c, lamps)
 
 
 def _map_outputs(maps, t, e, veil, lit, rho, channels_last):
@@ -518,7 +539,8 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
         jb = turbidity_psf(lit, thickness.expand(n, c, h, w), P)
     else:
         jb = apply_psf(lit, psf_kernel(P, rho, n))
-    if model == "paper" and maps is None:  # eq. 2 fused (t_B = t): python/turbid/_torch_light.py
+    single = P.raw("veil") == "single_scatter"
+    if model == "paper" and maps is None and not single:  # eq. 2 fused (t_B = t): _torch_light.py
         bs = (P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
               if P.raw("water.backscatter") else None)
         image = _Veiled.apply(jb, e, beta, bs, r0, None if bool(valid.all()) else valid)
@@ -532,14 +554,20 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
             t = t_b = keep(torch.exp(-beta * r0))
             bs = (P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
                   if P.raw("water.backscatter") else None)
-        veil_light = e if bs is None else (bs if e is None else e + bs)
-        if veil_light is None:
-            image, veil = jb * t, None
-        elif t_b is t and maps is None:  # jb t + (1 - t) v = v + t (jb - v): two passes fewer
-            image, veil = torch.addcmul(veil_light, t, jb - veil_light), None
+        if single:  # I = J_b t + ((1 - t_B) B_inf + V): ComposeSingleScatter of render.cc
+            v = _single_scatter(P, K, r, beta, rho, n, c)
+            veil = (1.0 - t_b) * bs if bs is not None else None
+            veil = v if veil is None else (veil if v is None else veil + v)
+            image = jb * t if veil is None else torch.addcmul(veil, jb, t)
         else:
-            veil = (1.0 - t_b) * veil_light
-            image = torch.addcmul(veil, jb, t)
+            veil_light = e if bs is None else (bs if e is None else e + bs)
+            if veil_light is None:
+                image, veil = jb * t, None
+            elif t_b is t and maps is None:  # jb t + (1 - t) v = v + t (jb - v)
+                image, veil = torch.addcmul(veil_light, t, jb - veil_light), None
+            else:
+                veil = (1.0 - t_b) * veil_light
+                image = torch.addcmul(veil, jb, t)
     if snow["enabled"] and snow["density_per_m3"] > 0:
         image = image + snow_layer(P, K, r, beta, ambient, rho, _seeds(seed, P, n))
     sensor = P.raw("sensor")
