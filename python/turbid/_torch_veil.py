@@ -153,28 +153,26 @@ def _veil_of(lamps, c, min_l, table, fx, fy, cx, cy, r, a, dtype):
     t3 = t2 * t
     h00, h01 = 2 * t3 - 3 * t2 + 1, -2 * t3 + 3 * t2
     h10, h11 = (t3 - 2 * t2 + t) * (1.0 / m), (t3 - t2) * (1.0 / m)
-    # The four tables around each pixel: node (row j, column k), entries seg and seg + 1.
+    # The four tables around each pixel (node row j or j + 1, column k or k + 1): for each node
+    # and segment the four numbers Hermite needs, F and G at the segment's two ends, gathered at
+    # once (B x 4C x pixels, channels first: the image's layout).
+    bn = max(bt, r.shape[0])
+    ends = torch.stack([f[:, :, :-1], f[:, :, 1:], g[:, :, :-1], g[:, :, 1:]], 1)  # B4RMC
+    ends = ends.permute(0, 1, 4, 2, 3).reshape(bt, 4 * ch, -1).expand(bn, -1, -1)
     by = torch.tensor(before_y, device=dev).reshape(1, 1, h, 1)
     bx = torch.tensor(before_x, device=dev).reshape(1, 1, 1, w)
-    wy = weight_y.to(device=dev, dtype=dtype).reshape(1, 1, h, 1)
-    wx = weight_x.to(device=dev, dtype=dtype).reshape(1, 1, 1, w)
-    bn = max(bt, r.shape[0])
-    flat_f = f.expand(bn, -1, -1, -1).reshape(bn, -1, ch)  # B x (ny nx (M + 1)) x C
-    flat_g = g.expand(bn, -1, -1, -1).reshape(bn, -1, ch)
-    seg = seg.expand(bn, 1, h, w)
+    base = ((by * nx + bx) * m + seg).expand(bn, 1, h, w).reshape(bn, 1, h * w)
+    wy = weight_y.to(device=dev, dtype=dtype).reshape(1, 1, 1, h, 1)
+    wx = weight_x.to(device=dev, dtype=dtype).reshape(1, 1, 1, 1, w)
 
-    def at(table, dj, dk, ds):
-        index = ((by + dj) * nx + (bx + dk)) * (m + 1) + seg + ds  # B x 1 x H x W
-        index = index.reshape(bn, -1, 1).expand(-1, -1, ch)
-        return torch.gather(table, 1, index).reshape(bn, h, w, ch).permute(0, 3, 1, 2)
+    def corner(dj, dk):
+        index = (base + (dj * nx + dk) * m).expand(bn, 4 * ch, h * w)
+        return torch.gather(ends, 2, index).reshape(bn, 4, ch, h, w)
 
-    def lerp(table, ds):
-        left = (1 - wy) * at(table, 0, 0, ds) + wy * at(table, 1, 0, ds)
-        right = (1 - wy) * at(table, 0, 1, ds) + wy * at(table, 1, 1, ds)
-        return (1 - wx) * left + wx * right
-
-    value = (h00 * lerp(flat_f, 0) + h01 * lerp(flat_f, 1) + h10 * lerp(flat_g, 0)
-             + h11 * lerp(flat_g, 1))
+    left = (1 - wy) * corner(0, 0) + wy * corner(1, 0)  # as the renderer: rows first
+    right = (1 - wy) * corner(0, 1) + wy * corner(1, 1)
+    v = (1 - wx) * left + wx * right
+    value = h00 * v[:, 0] + h01 * v[:, 1] + h10 * v[:, 2] + h11 * v[:, 3]
     return torch.clamp(value, min=0.0)
 
 
