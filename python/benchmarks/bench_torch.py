@@ -65,12 +65,16 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--learn-psf", action="store_true")
     ap.add_argument("--no-noise", action="store_true")
+    ap.add_argument("--cache-memory", action="store_true",
+                    help="turbid.torch.cache_host_memory(): keep freed memory for reuse")
     ap.add_argument("--veil", default="paper", choices=["paper", "single_scatter"],
                     help="the lamps' veil: eq. 2's or the single-scatter integral")
     ap.add_argument("--noise", default="turbid", choices=["turbid", "torch"],
                     help="the normals of the sensor noise: the renderer's stream or torch's")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
+    if args.cache_memory and not tt.cache_host_memory():
+        print("cache_host_memory: no glibc mallopt here")
     turbid.set_num_threads(args.threads)
     n, s = args.batch, args.size
     scene, image, depth, normals, c = scene_crop(s)
@@ -126,9 +130,10 @@ def main():
     fw = timed(forward, args.rounds, fw_counts)
     cp = timed(cpp, args.rounds)
     pixels = n * s * s
-    print("batch %d x 3 x %d x %d, %d threads, noise %s, PSF %s, veil %s" % (
+    print("batch %d x 3 x %d x %d, %d threads, noise %s, PSF %s, veil %s%s" % (
         n, s, s, args.threads, "off" if args.no_noise else "on (%s normals)" % args.noise,
-        "learned (2-D kernel)" if args.learn_psf else "fixed (separable)", args.veil))
+        "learned (2-D kernel)" if args.learn_psf else "fixed (separable)", args.veil,
+        ", freed memory cached" if args.cache_memory else ""))
     print("torch forward + backward: %.3f s wall (CPU %.3f s); goal <= 2 s" % fb)
     print("torch forward:            %.3f s wall (CPU %.3f s), %.1f Mpx/s" % (
         fw[0], fw[1], pixels / fw[0] / 1e6))

@@ -42,6 +42,7 @@
 #include "simulator/noise.h"
 #include "simulator/phase_function.h"
 #include "simulator/render.h"
+#include "simulator/water.h"
 #include "tools/harness/experiment.h"
 #include "tools/harness/generate.h"
 #include "tools/harness/harness_runner.h"
@@ -532,6 +533,11 @@ void DefineData(py::module_& m) {
     if (n < 2) throw Error("phase_table", "n >= 2");
     const std::vector<float> t = PhaseFunction(o.water.phase).TabulateByCosine(n);
     return py::array_t<float>(static_cast<py::ssize_t>(t.size()), t.data());
+  });
+  m.def("_ambient_share", [](const std::string& params_text) {  // H of ambient "derived"
+    const RenderOptions o = RenderOptionsFromJson(ParseJsonText(params_text, "params"));
+    return AmbientBackscatterShare(PhaseFunction(o.water.phase),
+                                   o.water.ambient_view_elevation_deg);
   });
   m.def("_cpp_enhance_seconds", [](const py::array& image, const std::string& method, int n) {
     const ArrayView v = ViewArray(image, "image");

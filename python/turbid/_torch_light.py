@@ -57,6 +57,8 @@ class Lamp(torch.autograd.Function):
         else:
             incidence = torch.clamp(cpsi, min=0.0)
         cphi_c = torch.clamp(cphi, 0.0, 1.0)
+        if geo["cos_cutoff"] > 0:  # spot cut-off: cos phi below it counts as 0 (light.cc)
+            cphi_c = torch.where(cphi_c >= geo["cos_cutoff"], cphi_c, torch.zeros_like(cphi_c))
         order = geo["order"]
         if geo["whole"]:
             beam = cphi_c if order == 1 else cphi_c ** int(order)
@@ -112,6 +114,8 @@ class Lamp(torch.autograd.Function):
         d_beam = scaled.mul_(incidence)
         order = geo["order"]
         inside = (cphi >= 0) & (cphi <= 1)
+        if geo["cos_cutoff"] > 0:
+            inside = inside & (torch.clamp(cphi, 0.0, 1.0) >= geo["cos_cutoff"])
         if geo["whole"]:
             k = int(order)
             slope = torch.zeros_like(cphi) if k == 0 else (

@@ -14,6 +14,7 @@ tensor, with a leading N for one value per image (``beta`` N x 3, a light's ``po
 ``position_in_camera_m`` N x 3). Importing this module needs torch; ``import turbid`` does not.
 """
 
+import json as _json
 import math as _math
 
 import numpy as _np
@@ -29,7 +30,7 @@ from ._torch_veil import single_scatter_veil
 
 __all__ = ["render", "resolve", "Params", "range_from_depth", "normals_from_depth", "single_scatter_veil",
            "irradiance", "psf_kernel", "apply_psf", "turbidity_psf", "sensor_noise",
-           "standard_normals", "camera", "snow_particles", "snow_layer"]
+           "standard_normals", "camera", "snow_particles", "snow_layer", "cache_host_memory"]
 
 # ---- parameters ---------------------------------------------------------------------------------
 
@@ -136,6 +137,30 @@ class Params:
 def resolve(params):
     """:class:`Params` of ``params`` (the dict :func:`turbid.render` takes, tensors allowed)."""
     return params if isinstance(params, Params) else Params(params)
+
+
+def cache_host_memory(enabled=True):
+    """Keep freed host memory in the process for reuse (glibc's malloc; opt-in, process-wide).
+
+    glibc serves blocks above 32 MB (a 64 x 3 x 256 x 256 float batch is 50 MB) by mmap and
+    returns them to the kernel on free, so every large temporary tensor is faulted in, page by
+    page, anew: in the 64-image benchmark a third to a half of the forward + backward CPU time
+    (python/benchmarks/bench_torch.py prints the system time and the page faults). This sets
+    M_MMAP_MAX = 0 and a 2 GB M_TRIM_THRESHOLD, so freed blocks stay in the heap and are reused
+    (what a caching allocator, or jemalloc / tcmalloc by LD_PRELOAD, does; PyTorch's CUDA
+    allocator caches device memory the same way). The cost: the process keeps its peak memory.
+    ``enabled=False`` restores glibc's defaults. Returns False where there is no glibc mallopt
+    (nothing changed)."""
+    import ctypes
+    import ctypes.util
+    try:
+        mallopt = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").mallopt
+    except (OSError, AttributeError):
+        return False
+    m_trim_threshold, m_mmap_max = -1, -4
+    if enabled:
+        return bool(mallopt(m_mmap_max, 0)) and bool(mallopt(m_trim_threshold, 2 ** 31 - 1))
+    return bool(mallopt(m_mmap_max, 65536)) and bool(mallopt(m_trim_threshold, 128 * 1024))
 
 
 # ---- geometry -----------------------------------------------------------------------------------
@@ -248,6 +273,12 @@ def _depth4(depth):
 # ---- light --------------------------------------------------------------------------------------
 
 
+def _cos_cutoff(light):
+    """CosCutoff of light.cc: cos of the spot cut-off, 0 for none (90 degrees)."""
+    cutoff = light.get("cutoff_angle_deg", 90.0)
+    return 0.0 if cutoff >= 90.0 else _math.cos(cutoff * _math.pi / 180.0)
+
+
 def _lambertian_order(half_power_angle_deg):
     return -_math.log(2.0) / _math.log(_math.cos(half_power_angle_deg * _math.pi / 180.0))
 
@@ -299,7 +330,8 @@ def irradiance(P, depth, K, normals, beta, n, c, like):
         rounded = round(order)
         whole = abs(order - rounded) < 1e-9 and 0 <= rounded <= 8
         e = _Lamp.apply(pos, axis, power, beta, color,
-                        dict(geo, order=float(rounded) if whole else order, whole=whole))
+                        dict(geo, order=float(rounded) if whole else order, whole=whole,
+                             cos_cutoff=_cos_cutoff(light)))
         total = e if total is None else total + e
     return total
 
@@ -327,6 +359,9 @@ def _light_at_points(P, points, beta, like, i, n, c):
         apart = l_true > 1e-12
         cphi = torch.where(apart, torch.clamp((vec @ axis) / torch.where(
             apart, l_true, torch.ones_like(l_true)), 0.0, 1.0), torch.ones_like(l_true))
+        cos_cutoff = _cos_cutoff(light)
+        if cos_cutoff > 0:  # beyond the spot cut-off (IrradianceAtPoint)
+            cphi = torch.where(cphi < cos_cutoff, torch.zeros_like(cphi), cphi)
         order = _lambertian_order(light["half_power_angle_deg"])
         l = torch.clamp(l_true, min=min_l)
         g = power * torch.pow(cphi, order) / (l * l)
@@ -417,19 +452,34 @@ def _check_supported(P):
     if P.raw("psf.model") != "paper":
         raise ValueError("turbid.torch: psf.model %r is not in the differentiable model (paper)"
                          % P.raw("psf.model"))
-    if P.raw("ambient") != "typed":
-        raise ValueError("turbid.torch: ambient %r is not in the differentiable model (typed)"
-                         % P.raw("ambient"))
     if P.raw("snow.mode") != "per_frame":
         raise ValueError("turbid.torch: snow.mode %r is not in the differentiable model "
                          "(per_frame)" % P.raw("snow.mode"))
-    if any(light.get("cutoff_angle_deg", 90.0) < 90.0 for light in P.raw("light.lights")):
-        raise ValueError("turbid.torch: a spot cut-off (light.lights[k].cutoff_angle_deg < 90) is "
-                         "not in the differentiable model")
     if any(k[0] == "snow" for k in P.tensors):
         raise ValueError("turbid.torch: snow parameters are fixed numbers (the draw is not "
                          "differentiable)")
     return model
+
+
+_SHARES = {}
+
+
+def _derived_backscatter(P, beta, ambient, like, n, c):
+    """B_inf of ambient "derived" (DerivedBackscatter of water.cc): omega E_A H per channel, 0
+    where beta is 0 (B x C x 1 x 1; differentiable in omega and E_A, H from the renderer: it
+    depends only on the phase function and the view elevation); None for ambient "typed"."""
+    if P.raw("ambient") != "derived":
+        return None
+    water = P.raw("water")
+    key = (_json.dumps(water["phase"], sort_keys=True), water["ambient_view_elevation_deg"])
+    if key not in _SHARES:
+        text = _json.dumps({"water": {"phase": water["phase"],
+                                      "ambient_view_elevation_deg": key[1]}})
+        import turbid._turbid as native
+        _SHARES[key] = native._ambient_share(text)
+    omega = P.channels("water", "scattering_albedo_rgb", "scattering_albedo_gray", like, n, c)
+    value = omega * ambient * _SHARES[key]
+    return torch.where(beta > 0, value, torch.zeros_like(value))
 
 
 def _single_scatter(P, K, r, beta, like, n, c):
@@ -442,7 +492,6 @@ def _single_scatter(P, K, r, beta, like, n, c):
         order = _lambertian_order(light["half_power_angle_deg"])
         if abs(order - round(order)) < 1e-9:  # whole orders as such (veil.cc)
             order = float(round(order))
-        cutoff = light.get("cutoff_angle_deg", 90.0)
         lamps.append({
             "on": light["power"] > 0 or ("light", "lights", i, "power") in P.tensors,
             "position": P.get(base + "position_in_camera_m", like, n),
@@ -450,7 +499,7 @@ def _single_scatter(P, K, r, beta, like, n, c):
             "power": P.get(base + "power", like, n),
             "colour": colour.mean(dim=1, keepdim=True) if c == 1 else colour,
             "order": order,
-            "cos_cutoff": 0.0 if cutoff >= 90.0 else _math.cos(cutoff * _math.pi / 180.0)})
+            "cos_cutoff": _cos_cutoff(light)})
     parts = [t.expand(n).tolist() for t in _intrinsics(K, n, like.device)]
     return single_scatter_veil(P, parts, r, beta, like, n, c, lamps)
 
@@ -540,9 +589,11 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
     else:
         jb = apply_psf(lit, psf_kernel(P, rho, n))
     single = P.raw("veil") == "single_scatter"
+    derived = _derived_backscatter(P, beta, ambient, rho, n, c)
     if model == "paper" and maps is None and not single:  # eq. 2 fused (t_B = t): _torch_light.py
-        bs = (P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
-              if P.raw("water.backscatter") else None)
+        bs = derived if derived is not None else (
+            P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
+            if P.raw("water.backscatter") else None)
         image = _Veiled.apply(jb, e, beta, bs, r0, None if bool(valid.all()) else valid)
     else:
         if model == "revised":
@@ -554,6 +605,7 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
             t = t_b = keep(torch.exp(-beta * r0))
             bs = (P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
                   if P.raw("water.backscatter") else None)
+        bs = derived if derived is not None else bs
         if single:  # I = J_b t + ((1 - t_B) B_inf + V): ComposeSingleScatter of render.cc
             v = _single_scatter(P, K, r, beta, rho, n, c)
             veil = (1.0 - t_b) * bs if bs is not None else None
