@@ -198,3 +198,12 @@ print(faults())
     pages = (64 << 20) // 4096
     assert out["default"] > pages // 2, out
     assert out["cached"] < pages // 20, out
+
+
+def test_native_normals_equal_the_transcription():
+    """The renderer's RandomNormals (turbid._turbid._standard_normals, what the noise uses) and
+    the NumPy transcription of noise.cc give the same bits."""
+    import turbid._turbid as native
+    from turbid._torch_noise import standard_normals
+    for seed, count in ((0, 1), (7, 1001), (2 ** 40 + 3, 4096)):
+        assert np.array_equal(native._standard_normals(seed, count), standard_normals(seed, count))
