@@ -146,7 +146,8 @@ def cache_host_memory(enabled=True):
     returns them to the kernel on free, so every large temporary tensor is faulted in, page by
     page, anew: in the 64-image benchmark a third to a half of the forward + backward CPU time
     (python/benchmarks/bench_torch.py prints the system time and the page faults). This sets
-    M_MMAP_MAX = 0 and a 2 GB M_TRIM_THRESHOLD, so freed blocks stay in the heap and are reused
+    M_MMAP_MAX = 0, a 2 GB M_TRIM_THRESHOLD and one arena, so freed blocks stay in the heap and
+    are reused once a loop has run a step or two
     (what a caching allocator, or jemalloc / tcmalloc by LD_PRELOAD, does; PyTorch's CUDA
     allocator caches device memory the same way). The cost: the process keeps its peak memory.
     ``enabled=False`` restores glibc's defaults. Returns False where there is no glibc mallopt
@@ -157,9 +158,10 @@ def cache_host_memory(enabled=True):
         mallopt = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").mallopt
     except (OSError, AttributeError):
         return False
-    m_trim_threshold, m_mmap_max = -1, -4
-    if enabled:
-        return bool(mallopt(m_mmap_max, 0)) and bool(mallopt(m_trim_threshold, 2 ** 31 - 1))
+    m_trim_threshold, m_mmap_max, m_arena_max = -1, -4, -8
+    if enabled:  # one arena: a thread on another arena would mmap blocks above its 64 MB heaps
+        return (bool(mallopt(m_arena_max, 1)) and bool(mallopt(m_mmap_max, 0))
+                and bool(mallopt(m_trim_threshold, 2 ** 31 - 1)))
     return bool(mallopt(m_mmap_max, 65536)) and bool(mallopt(m_trim_threshold, 128 * 1024))
 
 
