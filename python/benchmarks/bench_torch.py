@@ -9,9 +9,14 @@ and position with requires_grad, the paper model with its lamp and veil, eq. 7's
 separable Gaussian; --learn-psf makes T and q tensors, which takes the 2-D kernel), sensor noise
 (the renderer's normals) and no camera quantiser (a training loss reads linear light). Snow off on
 both sides. Times are wall clock (median of the rounds) with torch and turbid limited to --threads;
-CPU time of the process is printed beside them (the machine may be shared).
+CPU time of the process is printed beside them (the machine may be shared), and the system
+CPU time and page faults within it: with glibc's malloc most of the system time is the kernel
+zeroing fresh pages for each large temporary; a caching allocator removes it (e.g.
+GLIBC_TUNABLES=glibc.malloc.mmap_max=0:glibc.malloc.trim_threshold=4294967295, or jemalloc /
+tcmalloc by LD_PRELOAD, as PyTorch's CPU performance guide recommends).
 """
 import argparse
+import resource
 import time
 
 import numpy as np
@@ -32,13 +37,23 @@ def scene_crop(size):
                                     normals=normals), image, depth, normals, c
 
 
-def timed(fn, rounds):
-    walls, cpus = [], []
+def timed(fn, rounds, counts=None):
+    """Median wall and process CPU seconds of fn over the rounds; ``counts`` (a dict) receives the
+    median system-CPU seconds and minor page faults per round (fresh memory the allocator took
+    from the kernel: glibc returns blocks above 32 MB to the system on free, so every large
+    temporary tensor is faulted in anew)."""
+    walls, cpus, syss, faults = [], [], [], []
     for _ in range(rounds):
+        r0 = resource.getrusage(resource.RUSAGE_SELF)
         w, p = time.perf_counter(), time.process_time()
         fn()
         walls.append(time.perf_counter() - w)
         cpus.append(time.process_time() - p)
+        r1 = resource.getrusage(resource.RUSAGE_SELF)
+        syss.append(r1.ru_stime - r0.ru_stime)
+        faults.append(r1.ru_minflt - r0.ru_minflt)
+    if counts is not None:
+        counts.update(sys=float(np.median(syss)), faults=int(np.median(faults)))
     return float(np.median(walls)), float(np.median(cpus))
 
 
@@ -50,10 +65,16 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--learn-psf", action="store_true")
     ap.add_argument("--no-noise", action="store_true")
+    ap.add_argument("--cache-memory", action="store_true",
+                    help="turbid.torch.cache_host_memory(): keep freed memory for reuse")
+    ap.add_argument("--veil", default="paper", choices=["paper", "single_scatter"],
+                    help="the lamps' veil: eq. 2's or the single-scatter integral")
     ap.add_argument("--noise", default="turbid", choices=["turbid", "torch"],
                     help="the normals of the sensor noise: the renderer's stream or torch's")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
+    if args.cache_memory and not tt.cache_host_memory():
+        print("cache_host_memory: no glibc mallopt here")
     turbid.set_num_threads(args.threads)
     n, s = args.batch, args.size
     scene, image, depth, normals, c = scene_crop(s)
@@ -78,7 +99,8 @@ def main():
                           "backscatter_rgb": v["binf"], "ambient_rgb": v["ambient"]},
                 "light": {"lights": [{"power": v["power"], "position_in_camera_m": v["position"]}]},
                 "psf": {"optical_thickness": v["T"], "forward_scatter": v["q"]},
-                "snow": {"enabled": False}, "sensor": {"enabled": not args.no_noise}}
+                "snow": {"enabled": False}, "sensor": {"enabled": not args.no_noise},
+                "veil": args.veil}
 
     def forward_backward():
         for leaf in leaves.values():
@@ -96,23 +118,28 @@ def main():
                    "light": {"lights": [{"power": float(leaves["power"][i]),
                                          "position_in_camera_m": leaves["position"][i].tolist()}]},
                    "snow": {"enabled": False}, "sensor": {"enabled": not args.no_noise},
-                   "camera": {"bit_depth": 32}} for i in range(n)]
+                   "camera": {"bit_depth": 32}, "veil": args.veil} for i in range(n)]
 
     def cpp():
         for i in range(n):
             turbid.render(scene, cpp_params[i], seed=1 + i).image
 
     forward_backward()  # warm-up (allocator, tables)
-    fb = timed(forward_backward, args.rounds)
-    fw = timed(forward, args.rounds)
+    fb_counts, fw_counts = {}, {}
+    fb = timed(forward_backward, args.rounds, fb_counts)
+    fw = timed(forward, args.rounds, fw_counts)
     cp = timed(cpp, args.rounds)
     pixels = n * s * s
-    print("batch %d x 3 x %d x %d, %d threads, noise %s, PSF %s" % (
+    print("batch %d x 3 x %d x %d, %d threads, noise %s, PSF %s, veil %s%s" % (
         n, s, s, args.threads, "off" if args.no_noise else "on (%s normals)" % args.noise,
-        "learned (2-D kernel)" if args.learn_psf else "fixed (separable)"))
+        "learned (2-D kernel)" if args.learn_psf else "fixed (separable)", args.veil,
+        ", freed memory cached" if args.cache_memory else ""))
     print("torch forward + backward: %.3f s wall (CPU %.3f s); goal <= 2 s" % fb)
     print("torch forward:            %.3f s wall (CPU %.3f s), %.1f Mpx/s" % (
         fw[0], fw[1], pixels / fw[0] / 1e6))
+    print("  of which system CPU (page faults of fresh memory): forward + backward %.3f s "
+          "(%d faults), forward %.3f s (%d faults)" % (fb_counts["sys"], fb_counts["faults"],
+                                                       fw_counts["sys"], fw_counts["faults"]))
     print("turbid.render (C++):      %.3f s wall (CPU %.3f s), %.1f Mpx/s" % (
         cp[0], cp[1], pixels / cp[0] / 1e6))
     print("forward throughput torch / C++: %.2f (wall), %.2f (CPU)" % (cp[0] / fw[0],
@@ -150,6 +177,38 @@ def stages(rho, leaves, params, args):
     r = timed(lambda: torch.randn(n, c, h, w, generator=g), args.rounds)
     print("noise normals: renderer's stream (NumPy) %.3f s wall (CPU %.3f), torch.randn %.3f s "
           "(CPU %.3f)" % (*z, *r))
+    from turbid._torch_noise import _normals_of_seed
+    nat = timed(lambda: [_normals_of_seed(i, c * h * w) for i in range(n)], args.rounds)
+    print("noise normals: the renderer's RandomNormals (turbid._turbid, used when built) "
+          "%.3f s wall (CPU %.3f)" % nat)
+    veil_stage(rho, leaves, params, args)
+
+
+def veil_stage(rho, leaves, params, args):
+    """The single-scatter veil alone (tables on the ray grid + per-pixel interpolation), forward
+    and forward + backward, against one elementwise pass."""
+    p = params(leaves)
+    p["veil"] = "single_scatter"
+    scene, _, depth, _, c = scene_crop(args.size)
+    d = torch.from_numpy(depth)[None, None].expand(rho.shape[0], -1, -1, -1)
+    K = torch.tensor([[c["fx"], 0.0, c["cx"]], [0.0, c["fy"], c["cy"]], [0.0, 0.0, 1.0]])
+    r = tt.range_from_depth(d, K)
+    n, ch = rho.shape[:2]
+    P = tt.resolve(p)
+    beta = P.channels("water", "beta_rgb_per_m", "beta_gray_per_m", rho, n, ch)
+
+    def veil():
+        return tt._single_scatter(P, K, r, beta, rho, n, ch)
+
+    def veil_fb():
+        for leaf in leaves.values():
+            leaf.grad = None
+        veil().sum().backward()
+
+    with torch.no_grad():
+        f = timed(veil, args.rounds)
+    print("single-scatter veil alone: forward %.3f s wall (CPU %.3f), forward + backward %.3f s "
+          "(CPU %.3f)" % (*f, *timed(veil_fb, args.rounds)))
 
 
 if __name__ == "__main__":

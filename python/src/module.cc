@@ -39,7 +39,10 @@
 #include "core/json_io.h"
 #include "core/limits.h"
 #include "scenes/scene_loader.h"
+#include "simulator/noise.h"
+#include "simulator/phase_function.h"
 #include "simulator/render.h"
+#include "simulator/water.h"
 #include "tools/harness/experiment.h"
 #include "tools/harness/generate.h"
 #include "tools/harness/harness_runner.h"
@@ -513,6 +516,28 @@ void DefineData(py::module_& m) {
     const double t0 = ProcessCpuSeconds();
     for (int i = 0; i < n; ++i) scene.renderer->Render(options);
     return (ProcessCpuSeconds() - t0) / n;
+  });
+  // For turbid.torch (python/turbid/_torch_*.py): the sensor stream's standard normals of a seed
+  // (RandomNormals, float32) and the water's phase function tabulated by cos theta as the
+  // single-scatter veil uses it (simulator/veil.cc).
+  m.def("_standard_normals", [](uint64_t seed, int64_t count) {
+    if (count < 0 || count > (int64_t{1} << 31) - 1) throw Error("standard_normals", "count");
+    py::array_t<float> out(count);
+    float* p = out.mutable_data();
+    WorkScope release;
+    RandomNormals(RandomKey(seed, 2), 0, static_cast<int>(count), p);
+    return out;
+  });
+  m.def("_phase_table", [](const std::string& params_text, int n) {
+    const RenderOptions o = RenderOptionsFromJson(ParseJsonText(params_text, "params"));
+    if (n < 2) throw Error("phase_table", "n >= 2");
+    const std::vector<float> t = PhaseFunction(o.water.phase).TabulateByCosine(n);
+    return py::array_t<float>(static_cast<py::ssize_t>(t.size()), t.data());
+  });
+  m.def("_ambient_share", [](const std::string& params_text) {  // H of ambient "derived"
+    const RenderOptions o = RenderOptionsFromJson(ParseJsonText(params_text, "params"));
+    return AmbientBackscatterShare(PhaseFunction(o.water.phase),
+                                   o.water.ambient_view_elevation_deg);
   });
   m.def("_cpp_enhance_seconds", [](const py::array& image, const std::string& method, int n) {
     const ArrayView v = ViewArray(image, "image");

@@ -324,9 +324,7 @@ def test_errors_name_the_problem():
         tt.render(rho, depth, K, merged(OFF, {"water": {"beta_rgb_per_m": torch.ones(2, 3)}}))
     # Options the C++ renderer has and the differentiable model does not: refused by name.
     for extra, name in [({"psf": {"model": "small_angle"}}, "small_angle"),
-                        ({"ambient": "derived"}, "ambient"),
-                        ({"snow": {"mode": "world"}}, "snow.mode"),
-                        ({"light": {"lights": [{"cutoff_angle_deg": 30.0}]}}, "cut-off")]:
+                        ({"snow": {"mode": "world"}}, "snow.mode")]:
         with pytest.raises(ValueError, match=name):
             tt.render(rho, depth, K, merged(OFF, extra))
 

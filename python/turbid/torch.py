@@ -14,6 +14,7 @@ tensor, with a leading N for one value per image (``beta`` N x 3, a light's ``po
 ``position_in_camera_m`` N x 3). Importing this module needs torch; ``import turbid`` does not.
 """
 
+import json as _json
 import math as _math
 
 import numpy as _np
@@ -23,11 +24,13 @@ import turbid as _turbid
 # The PSF (psf.cc) and the noise, camera and snow draw (noise.cc, camera_encoding.cc) live in their
 # own files; their public names are this module's.
 from ._torch_noise import _seeds, camera, sensor_noise, snow_particles, standard_normals
+from ._torch_light import Lamp as _Lamp, Veiled as _Veiled
 from ._torch_psf import apply_psf, psf_kernel, turbidity_psf
+from ._torch_veil import single_scatter_veil
 
-__all__ = ["render", "resolve", "Params", "range_from_depth", "normals_from_depth",
+__all__ = ["render", "resolve", "Params", "range_from_depth", "normals_from_depth", "single_scatter_veil",
            "irradiance", "psf_kernel", "apply_psf", "turbidity_psf", "sensor_noise",
-           "standard_normals", "camera", "snow_particles", "snow_layer"]
+           "standard_normals", "camera", "snow_particles", "snow_layer", "cache_host_memory"]
 
 # ---- parameters ---------------------------------------------------------------------------------
 
@@ -134,6 +137,32 @@ class Params:
 def resolve(params):
     """:class:`Params` of ``params`` (the dict :func:`turbid.render` takes, tensors allowed)."""
     return params if isinstance(params, Params) else Params(params)
+
+
+def cache_host_memory(enabled=True):
+    """Keep freed host memory in the process for reuse (glibc's malloc; opt-in, process-wide).
+
+    glibc serves blocks above 32 MB (a 64 x 3 x 256 x 256 float batch is 50 MB) by mmap and
+    returns them to the kernel on free, so every large temporary tensor is faulted in, page by
+    page, anew: in the 64-image benchmark a third to a half of the forward + backward CPU time
+    (python/benchmarks/bench_torch.py prints the system time and the page faults). This sets
+    M_MMAP_MAX = 0, a 2 GB M_TRIM_THRESHOLD and one arena, so freed blocks stay in the heap and
+    are reused once a loop has run a step or two
+    (what a caching allocator, or jemalloc / tcmalloc by LD_PRELOAD, does; PyTorch's CUDA
+    allocator caches device memory the same way). The cost: the process keeps its peak memory.
+    ``enabled=False`` restores glibc's defaults. Returns False where there is no glibc mallopt
+    (nothing changed)."""
+    import ctypes
+    import ctypes.util
+    try:
+        mallopt = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").mallopt
+    except (OSError, AttributeError):
+        return False
+    m_trim_threshold, m_mmap_max, m_arena_max = -1, -4, -8
+    if enabled:  # one arena: a thread on another arena would mmap blocks above its 64 MB heaps
+        return (bool(mallopt(m_arena_max, 1)) and bool(mallopt(m_mmap_max, 0))
+                and bool(mallopt(m_trim_threshold, 2 ** 31 - 1)))
+    return bool(mallopt(m_mmap_max, 65536)) and bool(mallopt(m_trim_threshold, 128 * 1024))
 
 
 # ---- geometry -----------------------------------------------------------------------------------
@@ -246,6 +275,12 @@ def _depth4(depth):
 # ---- light --------------------------------------------------------------------------------------
 
 
+def _cos_cutoff(light):
+    """CosCutoff of light.cc: cos of the spot cut-off, 0 for none (90 degrees)."""
+    cutoff = light.get("cutoff_angle_deg", 90.0)
+    return 0.0 if cutoff >= 90.0 else _math.cos(cutoff * _math.pi / 180.0)
+
+
 def _lambertian_order(half_power_angle_deg):
     return -_math.log(2.0) / _math.log(_math.cos(half_power_angle_deg * _math.pi / 180.0))
 
@@ -277,55 +312,28 @@ def irradiance(P, depth, K, normals, beta, n, c, like):
                             (-rl).expand_as(z)], dim=1)
         nn = torch.where(bad, facing, nn)
     nx, ny, nz = nn[:, 0:1], nn[:, 1:2], nn[:, 2:3]
-    eq5 = P.raw("light.incidence") == "paper_eq5"
-    min_cos = P.raw("light.min_cos_incidence")
-    min_l = P.raw("light.min_distance_m")
+    geo = {"px": px, "py": py, "pz": pz, "nx": nx, "ny": ny, "nz": nz,
+           "valid": None if all_valid else valid, "eq5": P.raw("light.incidence") == "paper_eq5",
+           "min_cos": P.raw("light.min_cos_incidence"), "min_l": P.raw("light.min_distance_m")}
     total = None
     for i, light in enumerate(lights):
         base = "light.lights.%d." % i
-        pos = P.get(base + "position_in_camera_m", like, n).reshape(-1, 3, 1, 1)
-        axis = P.get(base + "axis_in_camera", like, n).reshape(-1, 3, 1, 1)
+        pos = P.get(base + "position_in_camera_m", like, n)
+        axis = P.get(base + "axis_in_camera", like, n)
         axis = axis / torch.linalg.vector_norm(axis, dim=1, keepdim=True)
-        power = P.scalar(base + "power", like, n)
+        power = P.get(base + "power", like, n)
         color = P.get(base + "color_rgb", like, n)
         if c == 1:
             color = color.mean(dim=1, keepdim=True)
         color = color.reshape(-1, c, 1, 1)
-        vx, vy, vz = px - pos[:, 0:1], py - pos[:, 1:2], pz - pos[:, 2:3]
-        l_true = torch.sqrt(vx * vx + vy * vy + vz * vz)
-        along = axis[:, 0:1] * vx + axis[:, 1:2] * vy + axis[:, 2:3] * vz
-        facing = -(nx * vx + ny * vy + nz * vz)
-        apart = l_true > 1e-12
-        if bool(apart.all()):
-            inv = 1.0 / l_true
-            cphi, cpsi = along * inv, facing * inv
-        else:  # a light at a surface point: head-on there (cos phi = cos psi = 1)
-            inv = 1.0 / torch.where(apart, l_true, torch.ones_like(l_true))
-            one = torch.ones_like(l_true)
-            cphi = torch.where(apart, along * inv, one)
-            cpsi = torch.where(apart, facing * inv, one)
-        l = torch.clamp(l_true, min=min_l)
-        if eq5:
-            incidence = torch.where(cpsi > 0, 1.0 / torch.clamp(cpsi, min=min_cos),
-                                    torch.zeros_like(cpsi))
-        else:
-            incidence = torch.clamp(cpsi, min=0.0)
-        cphi = torch.clamp(cphi, 0.0, 1.0)
+        if ("light", "lights", i, "color_rgb") not in P.tensors and bool((color == 1).all()):
+            color = None  # white light (the default): one product fewer
         order = _lambertian_order(light["half_power_angle_deg"])
         rounded = round(order)
-        if abs(order - rounded) < 1e-9 and 0 <= rounded <= 8:
-            beam = cphi ** int(rounded) if rounded != 1 else cphi
-        else:
-            beam = torch.exp(order * torch.log(torch.clamp(cphi, min=1e-30)))
-        # g is finite (l >= min_distance_m, incidence <= 1 / min_cos_incidence).
-        g = power * incidence / (l * l) * beam
-        if not all_valid:
-            g = torch.where(valid, g, torch.zeros_like(g))
-            l = torch.where(valid, l, torch.zeros_like(l))
-        if ("light", "lights", i, "color_rgb") not in P.tensors and bool((color == 1).all()):
-            e = g * torch.exp(-beta * l)  # white light (the default): one product fewer
-        else:
-            e = color * g * torch.exp(-beta * l)
+        whole = abs(order - rounded) < 1e-9 and 0 <= rounded <= 8
+        e = _Lamp.apply(pos, axis, power, beta, color,
+                        dict(geo, order=float(rounded) if whole else order, whole=whole,
+                             cos_cutoff=_cos_cutoff(light)))
         total = e if total is None else total + e
     return total
 
@@ -353,6 +361,9 @@ def _light_at_points(P, points, beta, like, i, n, c):
         apart = l_true > 1e-12
         cphi = torch.where(apart, torch.clamp((vec @ axis) / torch.where(
             apart, l_true, torch.ones_like(l_true)), 0.0, 1.0), torch.ones_like(l_true))
+        cos_cutoff = _cos_cutoff(light)
+        if cos_cutoff > 0:  # beyond the spot cut-off (IrradianceAtPoint)
+            cphi = torch.where(cphi < cos_cutoff, torch.zeros_like(cphi), cphi)
         order = _lambertian_order(light["half_power_angle_deg"])
         l = torch.clamp(l_true, min=min_l)
         g = power * torch.pow(cphi, order) / (l * l)
@@ -436,9 +447,6 @@ def _check_supported(P):
     if model not in ("paper", "revised"):
         raise ValueError("turbid.torch: model %r is not in the differentiable model (paper, "
                          "revised)" % model)
-    if P.raw("veil") != "paper":
-        raise ValueError("turbid.torch: veil %r is not in the differentiable model (paper)"
-                         % P.raw("veil"))
     if model == "revised" and P.raw("water.iop") and P.raw("revised.from_iop"):
         raise ValueError("turbid.torch: revised with water.iop (tabulated beta^D(r)) is not in the "
                          "differentiable model; set revised.from_iop false")
@@ -446,19 +454,56 @@ def _check_supported(P):
     if P.raw("psf.model") != "paper":
         raise ValueError("turbid.torch: psf.model %r is not in the differentiable model (paper)"
                          % P.raw("psf.model"))
-    if P.raw("ambient") != "typed":
-        raise ValueError("turbid.torch: ambient %r is not in the differentiable model (typed)"
-                         % P.raw("ambient"))
     if P.raw("snow.mode") != "per_frame":
         raise ValueError("turbid.torch: snow.mode %r is not in the differentiable model "
                          "(per_frame)" % P.raw("snow.mode"))
-    if any(light.get("cutoff_angle_deg", 90.0) < 90.0 for light in P.raw("light.lights")):
-        raise ValueError("turbid.torch: a spot cut-off (light.lights[k].cutoff_angle_deg < 90) is "
-                         "not in the differentiable model")
     if any(k[0] == "snow" for k in P.tensors):
         raise ValueError("turbid.torch: snow parameters are fixed numbers (the draw is not "
                          "differentiable)")
     return model
+
+
+_SHARES = {}
+
+
+def _derived_backscatter(P, beta, ambient, like, n, c):
+    """B_inf of ambient "derived" (DerivedBackscatter of water.cc): omega E_A H per channel, 0
+    where beta is 0 (B x C x 1 x 1; differentiable in omega and E_A, H from the renderer: it
+    depends only on the phase function and the view elevation); None for ambient "typed"."""
+    if P.raw("ambient") != "derived":
+        return None
+    water = P.raw("water")
+    key = (_json.dumps(water["phase"], sort_keys=True), water["ambient_view_elevation_deg"])
+    if key not in _SHARES:
+        text = _json.dumps({"water": {"phase": water["phase"],
+                                      "ambient_view_elevation_deg": key[1]}})
+        import turbid._turbid as native
+        _SHARES[key] = native._ambient_share(text)
+    omega = P.channels("water", "scattering_albedo_rgb", "scattering_albedo_gray", like, n, c)
+    value = omega * ambient * _SHARES[key]
+    return torch.where(beta > 0, value, torch.zeros_like(value))
+
+
+def _single_scatter(P, K, r, beta, like, n, c):
+    """V of veil "single_scatter" (python/turbid/_torch_veil.py) for the batch, or None."""
+    lamps = []
+    for i, light in enumerate(P.raw("light.lights")):
+        base = "light.lights.%d." % i
+        axis = P.get(base + "axis_in_camera", like, n)
+        colour = P.get(base + "color_rgb", like, n)
+        order = _lambertian_order(light["half_power_angle_deg"])
+        if abs(order - round(order)) < 1e-9:  # whole orders as such (veil.cc)
+            order = float(round(order))
+        lamps.append({
+            "on": light["power"] > 0 or ("light", "lights", i, "power") in P.tensors,
+            "position": P.get(base + "position_in_camera_m", like, n),
+            "axis": axis / torch.linalg.vector_norm(axis, dim=1, keepdim=True),
+            "power": P.get(base + "power", like, n),
+            "colour": colour.mean(dim=1, keepdim=True) if c == 1 else colour,
+            "order": order,
+            "cos_cutoff": _cos_cutoff(light)})
+    parts = [t.expand(n).tolist() for t in _intrinsics(K, n, like.device)]
+    return single_scatter_veil(P, parts, r, beta, like, n, c, lamps)
 
 
 def _map_outputs(maps, t, e, veil, lit, rho, channels_last):
@@ -545,23 +590,38 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
         jb = turbidity_psf(lit, thickness.expand(n, c, h, w), P)
     else:
         jb = apply_psf(lit, psf_kernel(P, rho, n))
-    if model == "revised":
-        beta_b = P.channels("revised", "beta_b_rgb_per_m", "beta_b_gray_per_m", rho, n, c)
-        t = keep(torch.exp(-beta_d * r0))
-        t_b = keep(torch.exp(-beta_b * r0))
-        bs = P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
+    single = P.raw("veil") == "single_scatter"
+    derived = _derived_backscatter(P, beta, ambient, rho, n, c)
+    if model == "paper" and maps is None and not single:  # eq. 2 fused (t_B = t): _torch_light.py
+        bs = derived if derived is not None else (
+            P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
+            if P.raw("water.backscatter") else None)
+        image = _Veiled.apply(jb, e, beta, bs, r0, None if bool(valid.all()) else valid)
     else:
-        t = t_b = keep(torch.exp(-beta * r0))
-        bs = (P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
-              if P.raw("water.backscatter") else None)
-    veil_light = e if bs is None else (bs if e is None else e + bs)
-    if veil_light is None:
-        image, veil = jb * t, None
-    elif t_b is t and maps is None:  # jb t + (1 - t) v = v + t (jb - v): two passes fewer
-        image, veil = torch.addcmul(veil_light, t, jb - veil_light), None
-    else:
-        veil = (1.0 - t_b) * veil_light
-        image = torch.addcmul(veil, jb, t)
+        if model == "revised":
+            beta_b = P.channels("revised", "beta_b_rgb_per_m", "beta_b_gray_per_m", rho, n, c)
+            t = keep(torch.exp(-beta_d * r0))
+            t_b = keep(torch.exp(-beta_b * r0))
+            bs = P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
+        else:
+            t = t_b = keep(torch.exp(-beta * r0))
+            bs = (P.channels("water", "backscatter_rgb", "backscatter_gray", rho, n, c)
+                  if P.raw("water.backscatter") else None)
+        bs = derived if derived is not None else bs
+        if single:  # I = J_b t + ((1 - t_B) B_inf + V): ComposeSingleScatter of render.cc
+            v = _single_scatter(P, K, r, beta, rho, n, c)
+            veil = (1.0 - t_b) * bs if bs is not None else None
+            veil = v if veil is None else (veil if v is None else veil + v)
+            image = jb * t if veil is None else torch.addcmul(veil, jb, t)
+        else:
+            veil_light = e if bs is None else (bs if e is None else e + bs)
+            if veil_light is None:
+                image, veil = jb * t, None
+            elif t_b is t and maps is None:  # jb t + (1 - t) v = v + t (jb - v)
+                image, veil = torch.addcmul(veil_light, t, jb - veil_light), None
+            else:
+                veil = (1.0 - t_b) * veil_light
+                image = torch.addcmul(veil, jb, t)
     if snow["enabled"] and snow["density_per_m3"] > 0:
         image = image + snow_layer(P, K, r, beta, ambient, rho, _seeds(seed, P, n))
     sensor = P.raw("sensor")
