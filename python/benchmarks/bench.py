@@ -1,6 +1,6 @@
 """Binding overhead, thread scaling and loader throughput of the turbid package.
 
-Run: PYTHONPATH=build/python python3 python/benchmarks/bench.py [--loader]   (docs/performance.md)
+Run: PYTHONPATH=build/python python3 python/benchmarks/bench.py [--loader [--rounds N] [--no-touch]]   (docs/performance.md)
 """
 import os
 import resource
@@ -81,13 +81,19 @@ def scaling(n=40):
           " (x%.2f)" % (rates[1], rates[2], rates[2] / rates[1]))
 
 
-def usage():
-    """(main user, main system, workers user, workers system) seconds and (main, workers) minor
-    page faults."""
-    own = resource.getrusage(resource.RUSAGE_SELF)
-    kids = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return (own.ru_utime, own.ru_stime, kids.ru_utime, kids.ru_stime, own.ru_minflt,
-            kids.ru_minflt)
+class _Timed(data.RenderDataset):
+    """RenderDataset whose batch fetch counts, in the worker, the CPU its thread spends in
+    __getitems__ (the renders, written into the batch's shared-memory rows) and the page faults."""
+
+    fetch_cpu = 0.0
+    fetch_faults = 0
+
+    def __getitems__(self, indices):
+        t0, f0 = time.thread_time(), resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+        out = super().__getitems__(indices)
+        _Timed.fetch_cpu += time.thread_time() - t0
+        _Timed.fetch_faults += resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0
+        return out
 
 
 class _PerSample:
@@ -101,15 +107,35 @@ class _PerSample:
         return len(self.ds)
 
     def __getitem__(self, i):
-        return self.ds[i]
+        t0, f0 = time.thread_time(), resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+        out = self.ds[i]
+        _Timed.fetch_cpu += time.thread_time() - t0
+        _Timed.fetch_faults += resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0
+        return out
 
 
-def loader(images=512, rounds=2):
+def _tagged_collate(samples):
+    """turbid.data.collate, plus the worker's own counters (read in the worker: process CPU of
+    all its threads, the fetch's CPU, page faults), so that each process is counted alone."""
+    import torch
+    batch = data.collate(samples)
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    batch["_worker"] = (torch.utils.data.get_worker_info().id, time.process_time(),
+                        _Timed.fetch_cpu, ru.ru_minflt, _Timed.fetch_faults)
+    return batch
+
+
+def loader(images=512, rounds=2, touch=True):
     """turbid.data through a torch DataLoader with 2 workers, batch 32: 256 x 256 random crops
     and full 640 x 480 frames of the seafloor / room scenes with a random sampler; the batch path
     (RenderDataset.__getitems__: rendered into one shared-memory batch) and the per-sample path
     (each sample its own arrays, stacked by collate), alternated round by round. images/s (wall)
-    and CPU milliseconds per image, all processes (the figure that matters on a shared machine)."""
+    and CPU milliseconds per image, each process counted alone (the workers read their own
+    counters, from the first batch each delivered to its last; the main process its own), split
+    into: the fetch (renders into the batch, incl. the page faults of its fresh shared-memory
+    pages), the worker's rest (collate, pickling, handing the file descriptors over) and the main
+    process (receiving, mapping, and with ``touch`` reading every page of the batch, as training
+    does)."""
     try:
         import torch
         from torch.utils.data import DataLoader
@@ -123,30 +149,47 @@ def loader(images=512, rounds=2):
                   "snow.density_per_m3": {"log_uniform": [0.5, 20]}}}}
     workers = 2
     for name, kw in (("256x256 crops", {"crop": 256}), ("640x480 frames", {})):
-        ds = data.RenderDataset(config, channel_axis=-3, with_params=False, **kw)
+        ds = _Timed(config, channel_axis=-3, with_params=False, **kw)
         for r in range(rounds):
             for path, dataset in (("batch", ds), ("per-sample", _PerSample(ds))):
                 dl = DataLoader(dataset, batch_size=32, num_workers=workers, shuffle=True,
-                                collate_fn=data.collate)
+                                collate_fn=_tagged_collate)
+                first, last, count = {}, {}, 0
                 it = iter(dl)
-                next(it)  # start-up (fork, first scene load) not counted
-                u0, t0 = usage(), time.perf_counter()
-                count = sum(b["degraded"].shape[0] for b in it)
+                b = next(it)  # start-up (fork, first batches) not counted
+                first[b["_worker"][0]] = b["_worker"][1:]
+                m0 = time.process_time()
+                f0 = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+                t0 = time.perf_counter()
+                for b in it:
+                    w = b["_worker"][0]
+                    if w not in first:  # each worker counted from its own first batch on
+                        first[w] = b["_worker"][1:]
+                        continue
+                    last[w] = b["_worker"][1:]
+                    count += b["degraded"].shape[0]
+                    if touch:
+                        for key in ("degraded", "clean", "depth", "valid"):
+                            b[key].view(-1)[::1024].max()  # one value per 4 KiB page
                 wall = time.perf_counter() - t0
-                d = [b - a for a, b in zip(u0, usage())]
+                main = time.process_time() - m0
+                main_faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0
+                d = [sum(last[w][k] - first[w][k] for w in last) for k in range(4)]
+                ms = 1e3 / count
                 print("RenderDataset %s, %s path, num_workers=%d, batch 32: %.0f images/s, "
-                      "%.2f ms CPU per image (%d images, %d cores); per image: workers %.2f ms "
-                      "user + %.2f ms system, %.0f page faults; main process %.2f ms"
-                      % (name, path, workers, count / wall, 1e3 * sum(d[:4]) / count, count,
-                         os.cpu_count(), 1e3 * d[2] / count, 1e3 * d[3] / count, d[5] / count,
-                         1e3 * (d[0] + d[1]) / count))
+                      "%.2f ms CPU per image (%d images, %d cores): workers %.2f ms (fetch %.2f "
+                      "with %.0f page faults, rest %.2f), main process %.2f ms (%.0f faults)"
+                      % (name, path, workers, count / wall, (d[0] + main) * ms, count,
+                         os.cpu_count(), d[0] * ms, d[1] * ms, d[3] / count, (d[0] - d[1]) * ms,
+                         main * ms, main_faults / count))
                 del it, dl
 
 
 if __name__ == "__main__":
     print("turbid", turbid.__version__)
     if "--loader" in sys.argv:
-        loader()
+        rounds = int(sys.argv[sys.argv.index("--rounds") + 1]) if "--rounds" in sys.argv else 2
+        loader(rounds=rounds, touch="--no-touch" not in sys.argv)
         sys.exit(0)
     overhead()
     scaling()

@@ -318,7 +318,7 @@ void DefineDataset(py::module_& m) {
              if (i < 0 || i >= static_cast<int64_t>(p.items.size()))
                throw py::index_error("item " + std::to_string(i) + " out of range");
              const GenerateItem& it = p.items[i];
-             return py::make_tuple(it.id, it.scene, it.params.dump());
+             return py::make_tuple(it.id, it.scene);  // no params: ItemParams per epoch
            })
       .def("params",
            [](const GeneratePlan& p, int64_t i, uint64_t epoch) {

@@ -178,20 +178,27 @@ class RenderDataset:
             threads = _int(threads, "threads", 1, 4096)
         self.threads = threads
         self._pid = None
-        self._plan = _turbid.GeneratePlan(_config(config, "config"))
-        # Crops larger than a scene fail now, not in a worker.
+        self._load_plan()  # crops larger than a scene fail now, not in a worker
+
+    def _load_plan(self):
+        self._plan = _turbid.GeneratePlan(_config(self.config, "config"))
+        # Per scene, looked up per sample: (scene, frame height, frame width, sample size).
+        self._scenes = []
         for s in range(self._plan.scene_count):
-            self._sample_size(s)
+            scene = self._plan.scene(s)
+            self._scenes.append((scene, scene.height, scene.width, self._sample_size(s)))
+        self._exr = self._plan.format == "exr"
 
     def __getstate__(self):
         state = dict(self.__dict__)
         state["_plan"] = None
+        state["_scenes"] = None
         state["_pid"] = None
         return state
 
     def __setstate__(self, state):
         self.__dict__.update(state)
-        self._plan = _turbid.GeneratePlan(_config(self.config, "config"))
+        self._load_plan()
 
     def __len__(self):
         return len(self._plan)
@@ -229,7 +236,7 @@ class RenderDataset:
 
     def sample_size(self, index):
         """(height, width) of sample ``index`` without rendering it (for bucketing)."""
-        return self._sample_size(self._plan.item(self._index(index))[1])
+        return self._scenes[self._plan.item(self._index(index))[1]][3]
 
     def params(self, index, epoch=None):
         """The resolved render parameters of item ``index`` in ``epoch`` (default: the current)."""
@@ -248,12 +255,11 @@ class RenderDataset:
             self._pid = _os.getpid()
             _worker_threads(self.threads)
         i = self._index(index)
-        item_id, scene_index, _ = self._plan.item(i)
-        scene = self._plan.scene(scene_index)
+        item_id, scene_index = self._plan.item(i)
+        scene, height, width, _ = self._scenes[scene_index]
         params_text = self._plan.params(i, self.epoch)
-        window = self._options.window(self._plan.seed, self.epoch, i, scene.height, scene.width)
-        sample = self._options.render(scene, params_text, window, self._plan.format == "exr",
-                                      into)
+        window = self._options.window(self._plan.seed, self.epoch, i, height, width)
+        sample = self._options.render(scene, params_text, window, self._exr, into)
         sample["index"] = i
         sample["id"] = item_id
         if self.with_params:
