@@ -71,6 +71,10 @@ def main():
                     help="the lamps' veil: eq. 2's or the single-scatter integral")
     ap.add_argument("--noise", default="turbid", choices=["turbid", "torch"],
                     help="the normals of the sensor noise: the renderer's stream or torch's")
+    ap.add_argument("--chunk-images", type=int, default=None,
+                    help="render's chunk_images (default: automatic; 0: the whole batch at once)")
+    ap.add_argument("--compare-chunks", action="store_true",
+                    help="forward + backward with chunk_images 0 and automatic, alternating")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     if args.cache_memory and not tt.cache_host_memory():
@@ -105,12 +109,14 @@ def main():
     def forward_backward():
         for leaf in leaves.values():
             leaf.grad = None
-        out = tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise)
+        out = tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise,
+                        chunk_images=chunk[0])
         out.square().mean().backward()
 
     def forward():
         with torch.no_grad():
-            tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise)
+            tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise,
+                      chunk_images=chunk[0])
 
     cpp_params = [{"water": {"beta_rgb_per_m": leaves["beta"][i].tolist(), "backscatter": True,
                              "backscatter_rgb": leaves["binf"][i].tolist(),
@@ -124,6 +130,10 @@ def main():
         for i in range(n):
             turbid.render(scene, cpp_params[i], seed=1 + i).image
 
+    chunk = [args.chunk_images]
+    if args.compare_chunks:
+        compare_chunks(forward_backward, chunk, args.rounds)
+        return
     forward_backward()  # warm-up (allocator, tables)
     fb_counts, fw_counts = {}, {}
     fb = timed(forward_backward, args.rounds, fb_counts)
@@ -145,6 +155,26 @@ def main():
     print("forward throughput torch / C++: %.2f (wall), %.2f (CPU)" % (cp[0] / fw[0],
                                                                      cp[1] / fw[1]))
     stages(rho, leaves, params, args)
+
+
+def compare_chunks(forward_backward, chunk, rounds):
+    """Forward + backward in one pass (chunk_images=0) and in chunks (automatic), alternating
+    round by round (the machine's load falls on both alike): medians of wall, CPU, system CPU
+    and minor page faults."""
+    results = {0: [], None: []}
+    for setting in (0, None):  # warm-up
+        chunk[0] = setting
+        forward_backward()
+    for _ in range(rounds):
+        for setting in (0, None):
+            chunk[0] = setting
+            counts = {}
+            wall, cpu = timed(forward_backward, 1, counts)
+            results[setting].append((wall, cpu, counts["sys"], counts["faults"]))
+    for setting, name in ((0, "one pass (chunk_images=0)"), (None, "chunked (automatic)")):
+        wall, cpu, sys_, faults = np.median(np.array(results[setting]), axis=0)
+        print("forward + backward, %-26s %.3f s wall, CPU %.3f s, system %.3f s, %d page faults"
+              % (name + ":", wall, cpu, sys_, faults))
 
 
 def stages(rho, leaves, params, args):
