@@ -556,7 +556,9 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
     3 x 256 x 256), none on other devices; 0: the whole batch at once. Small chunks keep the
     temporaries below glibc's 32 MB mmap threshold, so the heap reuses them chunk after chunk
     instead of the kernel faulting in fresh pages for each (docs/python.md, "Differentiable
-    model": about half the CPU time of a 64-image forward + backward).
+    model": about half the CPU time of a 64-image forward + backward). On a machine whose cores
+    other jobs share, run with OMP_WAIT_POLICY=passive: the chunks' more numerous OpenMP regions
+    otherwise spin while a thread waits for a core.
     """
     rho = _images(albedo, channel_axis)
     P = resolve(params)
