@@ -2,7 +2,7 @@
 model, and forward-only throughput against turbid.render (C++) in the same run.
 
 Run: PYTHONPATH=build/python python3 python/benchmarks/bench_torch.py [--batch 64] [--size 256]
-     [--threads 2] [--rounds 3]
+     [--threads 2] [--rounds 3] [--chunk-images N] [--compare-chunks [0,auto,...]]
 
 The batch: seafloor (built-in) cut to size x size, per-image water (beta, B_inf, E_A), lamp power
 and position with requires_grad, the paper model with its lamp and veil, eq. 7's PSF (T = 4: the
@@ -13,7 +13,10 @@ CPU time of the process is printed beside them (the machine may be shared), and 
 CPU time and page faults within it: with glibc's malloc most of the system time is the kernel
 zeroing fresh pages for each large temporary; a caching allocator removes it (e.g.
 GLIBC_TUNABLES=glibc.malloc.mmap_max=0:glibc.malloc.trim_threshold=4294967295, or jemalloc /
-tcmalloc by LD_PRELOAD, as PyTorch's CPU performance guide recommends).
+tcmalloc by LD_PRELOAD, as PyTorch's CPU performance guide recommends). render's default chunks
+of images (chunk_images) keep the temporaries below glibc's mmap threshold instead;
+--compare-chunks times the forward + backward alone for each chunk_images setting given (0: one
+pass, auto: the default), alternating round by round.
 """
 import argparse
 import resource
@@ -71,6 +74,11 @@ def main():
                     help="the lamps' veil: eq. 2's or the single-scatter integral")
     ap.add_argument("--noise", default="turbid", choices=["turbid", "torch"],
                     help="the normals of the sensor noise: the renderer's stream or torch's")
+    ap.add_argument("--chunk-images", type=int, default=None,
+                    help="render's chunk_images (default: automatic; 0: the whole batch at once)")
+    ap.add_argument("--compare-chunks", nargs="?", const="0,auto", default=None,
+                    help="forward + backward with these chunk_images (default 0,auto: one pass "
+                    "and automatic chunks), alternating round by round; nothing else")
     args = ap.parse_args()
     torch.set_num_threads(args.threads)
     if args.cache_memory and not tt.cache_host_memory():
@@ -105,12 +113,14 @@ def main():
     def forward_backward():
         for leaf in leaves.values():
             leaf.grad = None
-        out = tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise)
+        out = tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise,
+                        chunk_images=chunk[0])
         out.square().mean().backward()
 
     def forward():
         with torch.no_grad():
-            tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise)
+            tt.render(rho, d, K, params(leaves), seed=1, normals=nrm, noise=args.noise,
+                      chunk_images=chunk[0])
 
     cpp_params = [{"water": {"beta_rgb_per_m": leaves["beta"][i].tolist(), "backscatter": True,
                              "backscatter_rgb": leaves["binf"][i].tolist(),
@@ -124,6 +134,11 @@ def main():
         for i in range(n):
             turbid.render(scene, cpp_params[i], seed=1 + i).image
 
+    chunk = [args.chunk_images]
+    if args.compare_chunks:
+        compare_chunks(forward_backward, chunk, args.rounds, [
+            None if x == "auto" else int(x) for x in args.compare_chunks.split(",")])
+        return
     forward_backward()  # warm-up (allocator, tables)
     fb_counts, fw_counts = {}, {}
     fb = timed(forward_backward, args.rounds, fb_counts)
@@ -145,6 +160,27 @@ def main():
     print("forward throughput torch / C++: %.2f (wall), %.2f (CPU)" % (cp[0] / fw[0],
                                                                      cp[1] / fw[1]))
     stages(rho, leaves, params, args)
+
+
+def compare_chunks(forward_backward, chunk, rounds, settings):
+    """Forward + backward with each chunk_images setting (0: one pass, None: automatic),
+    alternating round by round (the machine's load falls on all alike): medians of wall, CPU,
+    system CPU and minor page faults."""
+    results = {s: [] for s in settings}
+    for setting in settings:  # warm-up
+        chunk[0] = setting
+        forward_backward()
+    for _ in range(rounds):
+        for setting in settings:
+            chunk[0] = setting
+            counts = {}
+            wall, cpu = timed(forward_backward, 1, counts)
+            results[setting].append((wall, cpu, counts["sys"], counts["faults"]))
+    for setting in settings:
+        name = {0: "one pass", None: "automatic chunks"}.get(setting, "chunks of %s" % setting)
+        wall, cpu, sys_, faults = np.median(np.array(results[setting]), axis=0)
+        print("forward + backward, chunk_images=%-5s (%s): %.3f s wall, CPU %.3f s, system %.3f s, "
+              "%d page faults" % (setting, name, wall, cpu, sys_, faults))
 
 
 def stages(rho, leaves, params, args):

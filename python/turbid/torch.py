@@ -16,6 +16,7 @@ tensor, with a leading N for one value per image (``beta`` N x 3, a light's ``po
 
 import json as _json
 import math as _math
+import numbers as _numbers
 
 import numpy as _np
 import torch
@@ -525,7 +526,7 @@ def _map_outputs(maps, t, e, veil, lit, rho, channels_last):
 
 
 def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_axis=-3,
-           maps=None, noise="turbid"):
+           maps=None, noise="turbid", chunk_images=None):
     """Degrade a batch with the forward model, differentiably (docs/model.md; the C++ renderer's
     equations).
 
@@ -546,6 +547,18 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
     snow is the renderer's particles for each image's seed, added as a differentiable overlay
     (the draw itself is fixed). ``maps``: a list of "transmission", "light", "veil", "lit"
     returns (I, {name: tensor}) as well.
+
+    ``chunk_images``: how many images go through the model at a time; the chunks' outputs are
+    concatenated (torch.cat: its backward only slices), with every result, value and gradient,
+    the same as in one pass (the per-image parameters, K, seeds, normals and snow draws are
+    sliced, never redrawn; the PSF kernels are made once for the batch). None (the default):
+    on CPU as many as keep each per-image tensor of the chunk within 8 MB (10 float images of
+    3 x 256 x 256), none on other devices; 0: the whole batch at once. Small chunks keep the
+    temporaries below glibc's 32 MB mmap threshold, so the heap reuses them chunk after chunk
+    instead of the kernel faulting in fresh pages for each (docs/python.md, "Differentiable
+    model": about half the CPU time of a 64-image forward + backward). On a machine whose cores
+    other jobs share, run with OMP_WAIT_POLICY=passive: the chunks' more numerous OpenMP regions
+    otherwise spin while a thread waits for a core.
     """
     rho = _images(albedo, channel_axis)
     P = resolve(params)
@@ -555,6 +568,77 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
         raise ValueError("depth: shape %s for albedo %s" % (tuple(depth.shape), tuple(rho.shape)))
     depth = depth.expand(n, 1, h, w)
     model = _check_supported(P)
+    if normals is not None:
+        normals = torch.as_tensor(normals, device=rho.device)
+        if normals.ndim == 3:
+            normals = normals[None]
+        if channel_axis in (-1, 3):
+            normals = normals.permute(0, 3, 1, 2)
+        normals = normals.expand(n, 3, h, w)
+    seeds = _seeds(seed, P, n)
+    kernel = None
+    if P.raw("psf.enabled") and not P.raw("psf.turbidity_dependent"):
+        kernel = psf_kernel(P, rho, n)  # once for the batch (its radius is the batch's largest)
+    size = _chunk_size(chunk_images, rho)
+    if size >= n:
+        image, out = _render(rho, depth, K, P, model, seeds, normals, maps, noise, kernel)
+    else:
+        K = torch.as_tensor(K, dtype=torch.float64)  # as _intrinsics reads it
+        _intrinsics(K, n, rho.device)  # its errors for the whole batch
+        parts = []
+        for first in range(0, n, size):
+            part = slice(first, min(first + size, n))
+            parts.append(_render(
+                rho[part], depth[part], _batch_slice(K, part, n, True), _params_slice(P, part, n),
+                model, seeds[part], None if normals is None else normals[part], maps, noise,
+                None if kernel is None else (_batch_slice(kernel[0], part, n), kernel[1])))
+        image = torch.cat([p[0] for p in parts])
+        out = None if maps is None else {k: torch.cat([p[1][k] for p in parts]) for k in maps}
+    if channel_axis in (-1, 3):
+        image = image.permute(0, 2, 3, 1)
+        out = None if out is None else {k: v.permute(0, 2, 3, 1) for k, v in out.items()}
+    return image if maps is None else (image, out)
+
+
+_CHUNK_BYTES = 8 << 20
+
+
+def _chunk_size(chunk_images, rho):
+    """Images per chunk of :func:`render` (``chunk_images`` as documented there)."""
+    if chunk_images is None:
+        if rho.device.type != "cpu":
+            return rho.shape[0]
+        per_image = rho[0].numel() * rho.element_size()
+        return max(1, _CHUNK_BYTES // max(per_image, 1))
+    if isinstance(chunk_images, bool) or not isinstance(chunk_images, _numbers.Integral) \
+            or chunk_images < 0:
+        raise ValueError("chunk_images: None (automatic), 0 (off) or a positive integer, got %r"
+                         % (chunk_images,))
+    return rho.shape[0] if chunk_images == 0 else int(chunk_images)
+
+
+def _batch_slice(t, part, n, intrinsics=False):
+    """t[part] where t has one row per image (a leading n; for ``intrinsics``, only an
+    N x 3 x 3 or N x 4 K), else t (shared by the batch)."""
+    if t.ndim == 0 or t.shape[0] != n or n == 1:
+        return t
+    if intrinsics and not (t.ndim == 3 or (t.ndim == 2 and t.shape[-1] == 4)):
+        return t
+    return t[part]
+
+
+def _params_slice(P, part, n):
+    """P with its per-image tensors (a leading n) cut to ``part``; shared values as they are."""
+    sliced = object.__new__(Params)
+    sliced.given, sliced.plain = P.given, P.plain
+    sliced.tensors = {k: _batch_slice(v, part, n) for k, v in P.tensors.items()}
+    return sliced
+
+
+def _render(rho, depth, K, P, model, seeds, normals, maps, noise, kernel):
+    """The model on rho (N x C x H x W), depth (N x 1 x H x W), normals (N x 3 x H x W or None):
+    (image, {name: map} or None), N x C x H x W; ``kernel`` the PSF's (psf_kernel) or None."""
+    n, c, h, w = rho.shape
     snow = P.raw("snow")
     valid = _valid(depth)
     r = range_from_depth(depth, K).to(rho.dtype)
@@ -565,16 +649,8 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
         keep = (lambda t: t * valid)  # noqa: E731
     beta = P.channels("water", "beta_rgb_per_m", "beta_gray_per_m", rho, n, c)
     ambient = P.channels("water", "ambient_rgb", "ambient_gray", rho, n, c)
-    if normals is None:
-        if P.raw("light.lights"):
-            normals = normals_from_depth(depth, K)
-    else:
-        normals = torch.as_tensor(normals, device=rho.device)
-        if normals.ndim == 3:
-            normals = normals[None]
-        if channel_axis in (-1, 3):
-            normals = normals.permute(0, 3, 1, 2)
-        normals = normals.expand(n, 3, h, w)
+    if normals is None and P.raw("light.lights"):
+        normals = normals_from_depth(depth, K)
     e = irradiance(P, depth, K, normals, beta, n, c, rho)
     lit = (ambient + e) * rho if e is not None else ambient * rho
     if model == "revised":
@@ -589,7 +665,7 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
             thickness = torch.where(valid, thickness, torch.full_like(thickness, float("nan")))
         jb = turbidity_psf(lit, thickness.expand(n, c, h, w), P)
     else:
-        jb = apply_psf(lit, psf_kernel(P, rho, n))
+        jb = apply_psf(lit, kernel)
     single = P.raw("veil") == "single_scatter"
     derived = _derived_backscatter(P, beta, ambient, rho, n, c)
     if model == "paper" and maps is None and not single:  # eq. 2 fused (t_B = t): _torch_light.py
@@ -623,15 +699,13 @@ def render(albedo, depth, K, params=None, seed=None, *, normals=None, channel_ax
                 veil = (1.0 - t_b) * veil_light
                 image = torch.addcmul(veil, jb, t)
     if snow["enabled"] and snow["density_per_m3"] > 0:
-        image = image + snow_layer(P, K, r, beta, ambient, rho, _seeds(seed, P, n))
+        image = image + snow_layer(P, K, r, beta, ambient, rho, seeds)
     sensor = P.raw("sensor")
     if sensor["enabled"] and (sensor["photons_at_white"] > 0 or sensor["read_noise"] > 0 or any(
             k[0] == "sensor" for k in P.tensors)):
-        image = sensor_noise(image, P, _seeds(seed, P, n), source=noise)
+        image = sensor_noise(image, P, seeds, source=noise)
     if "camera" in P.given:
         image = camera(image, P)
-    if channel_axis in (-1, 3):
-        image = image.permute(0, 2, 3, 1)
     if maps is None:
-        return image
-    return image, _map_outputs(maps, t, e, veil, lit, rho, channel_axis in (-1, 3))
+        return image, None
+    return image, _map_outputs(maps, t, e, veil, lit, rho, False)
