@@ -157,7 +157,8 @@ struct SurfacePoint {
 
 using Texture = std::function<cv::Vec3d(const SurfacePoint&)>;  // RGB albedo, linear
 // Optional: the same texture for n points at once (rgb[k] = texture(points[k]), the same values).
-using TextureBatch = void (*)(const SurfacePoint* points, int n, cv::Vec3d* rgb);
+// A std::function so that a batch can carry its object's parameters (the rocks' tint and seed).
+using TextureBatch = std::function<void(const SurfacePoint* points, int n, cv::Vec3d* rgb)>;
 
 struct Object {
   enum class Kind { kPlane, kSphere, kBox };
@@ -169,7 +170,7 @@ struct Object {
   cv::Vec3d half_size{0, 0, 0};
   double radius = 0.0;
   Texture texture;
-  TextureBatch texture_batch = nullptr;
+  TextureBatch texture_batch;
 
   // Ray parameter of the first hit with t > t_min, or kNoHit; fills the hit's normal and local
   // coordinates.
