@@ -14,9 +14,9 @@ void SetBuiltinVectorTextures(bool enabled);
 // fouling patch.
 void BuiltinHullNoiseForTest(const double* u, const double* v, int n, double* out);
 
-// The seafloor sand texture's five value-noise terms at n plane points (u[k], v[k]), metres, as
-// the texture computes them (vectorised unless switched off): out[5k .. 5k + 4] = shade, ripple
-// phase, grain, patch, patch grain.
+// The seafloor sand texture's five value-noise terms and its shells' cellular noise at n plane
+// points (u[k], v[k]), metres, as the texture computes them (vectorised unless switched off):
+// out[7k .. 7k + 6] = shade, ripple phase, grain, patch, patch grain, shell distance, shell id.
 void BuiltinSandNoiseForTest(const double* u, const double* v, int n, double* out);
 
 // The seafloor rock texture's three fractal sums (Fbm3) at n points of a rock's own frame

@@ -111,6 +111,27 @@ struct Cell {
 // (within a few ulps of hypot^2) is within a relative 1e-9 of the least: the others' hypot is
 // certainly larger than the nearest's, and leaving them out changes neither the least distance nor
 // its first index. The id is looked up for the winner only.
+//
+// CellularNearest is that second step, given the 3 x 3 candidates' offsets dx, dy from the point,
+// their squared distances d2 (element c at [c * stride]; c = 3 * row + column around the cell
+// (ix, iy)) and the least d2; shared with the AVX2 version (scenes/builtin_seafloor.cc).
+inline Cell CellularNearest(int64_t ix, int64_t iy, const double* dx, const double* dy,
+                            const double* d2, int stride, double least, uint32_t seed) {
+  const double bound = least * (1.0 + 1e-9) + 1e-300;
+  Cell best{1e9, 0.0};
+  int best_c = -1;
+  for (int c = 0; c < 9; ++c) {
+    if (!(d2[c * stride] <= bound)) continue;
+    const double d = std::hypot(dx[c * stride], dy[c * stride]);
+    if (d < best.distance) {
+      best.distance = d;
+      best_c = c;
+    }
+  }
+  if (best_c >= 0) best.id = Lattice(ix - 1 + best_c % 3, iy - 1 + best_c / 3, 3, seed);
+  return best;
+}
+
 inline Cell Cellular2(double x, double y, uint32_t seed) {
   const auto ix = static_cast<int64_t>(std::floor(x)), iy = static_cast<int64_t>(std::floor(y));
   double dx[9], dy[9], d2[9];
@@ -123,19 +144,7 @@ inline Cell Cellular2(double x, double y, uint32_t seed) {
     d2[c] = dx[c] * dx[c] + dy[c] * dy[c];
     least = std::min(least, d2[c]);
   }
-  const double bound = least * (1.0 + 1e-9) + 1e-300;
-  Cell best{1e9, 0.0};
-  int best_c = -1;
-  for (int c = 0; c < 9; ++c) {
-    if (!(d2[c] <= bound)) continue;
-    const double d = std::hypot(dx[c], dy[c]);
-    if (d < best.distance) {
-      best.distance = d;
-      best_c = c;
-    }
-  }
-  if (best_c >= 0) best.id = Lattice(ix - 1 + best_c % 3, iy - 1 + best_c / 3, 3, seed);
-  return best;
+  return CellularNearest(ix, iy, dx, dy, d2, 1, least, seed);
 }
 
 inline cv::Vec3d Gray(double v) { return {v, v, v}; }

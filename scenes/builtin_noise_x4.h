@@ -11,6 +11,9 @@
 #include <immintrin.h>
 
 #include <cstdint>
+#include <limits>
+
+#include "scenes/builtin_model.h"
 
 namespace turbid::builtin_model {
 
@@ -133,6 +136,44 @@ inline __m256d Fbm3X4(__m256d x, __m256d y, __m256d z, int octaves, uint32_t see
     amplitude *= 0.5;
   }
   return _mm256_div_pd(sum, _mm256_set1_pd(norm));
+}
+
+// Cellular2 (scenes/builtin_model.h) for four points: the 3 x 3 candidates' lattice hashes and
+// squared distances on AVX2 (the scalar operations, in order), the nearest (hypot, only for the
+// few candidates near the least) with the scalar CellularNearest. false (out untouched) when a
+// lane's cell is outside +-2^30 or NaN: the caller uses Cellular2 there.
+inline bool Cellular2X4(__m256d x, __m256d y, uint32_t seed, Cell* out) {
+  const __m256d fx = _mm256_floor_pd(x), fy = _mm256_floor_pd(y);
+  const __m256d limit = _mm256_set1_pd(1073741824.0);
+  const __m256d neg_limit = _mm256_set1_pd(-1073741824.0);
+  const __m256d inside = _mm256_and_pd(
+      _mm256_and_pd(_mm256_cmp_pd(fx, neg_limit, _CMP_GE_OQ), _mm256_cmp_pd(fx, limit, _CMP_LE_OQ)),
+      _mm256_and_pd(_mm256_cmp_pd(fy, neg_limit, _CMP_GE_OQ), _mm256_cmp_pd(fy, limit, _CMP_LE_OQ)));
+  if (_mm256_movemask_pd(inside) != 0xf) return false;
+  const __m128i ix = _mm256_cvttpd_epi32(fx), iy = _mm256_cvttpd_epi32(fy);
+  const __m128i seed_term = _mm_set1_epi32(static_cast<int>(seed * 0x9e3779b9u));
+  const __m128i z1 = _mm_set1_epi32(1), z2 = _mm_set1_epi32(2);
+  alignas(32) double dx[9][4], dy[9][4], d2[9][4], least[4];
+  __m256d low = _mm256_set1_pd(std::numeric_limits<double>::infinity());
+  for (int c = 0; c < 9; ++c) {
+    const __m128i i = _mm_add_epi32(ix, _mm_set1_epi32(c % 3 - 1));
+    const __m128i j = _mm_add_epi32(iy, _mm_set1_epi32(c / 3 - 1));
+    const __m256d px = _mm256_add_pd(_mm256_cvtepi32_pd(i), Lattice3X4(i, j, z1, seed_term));
+    const __m256d py = _mm256_add_pd(_mm256_cvtepi32_pd(j), Lattice3X4(i, j, z2, seed_term));
+    const __m256d ddx = _mm256_sub_pd(px, x), ddy = _mm256_sub_pd(py, y);
+    const __m256d dd = _mm256_add_pd(_mm256_mul_pd(ddx, ddx), _mm256_mul_pd(ddy, ddy));
+    _mm256_store_pd(dx[c], ddx);
+    _mm256_store_pd(dy[c], ddy);
+    _mm256_store_pd(d2[c], dd);
+    low = _mm256_min_pd(dd, low);  // std::min(low, dd): dd < low ? dd : low
+  }
+  _mm256_store_pd(least, low);
+  alignas(16) int32_t cx[4], cy[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(cx), ix);
+  _mm_store_si128(reinterpret_cast<__m128i*>(cy), iy);
+  for (int l = 0; l < 4; ++l)
+    out[l] = CellularNearest(cx[l], cy[l], &dx[0][l], &dy[0][l], &d2[0][l], 4, least[l], seed);
+  return true;
 }
 
 #if defined(__clang__)

@@ -15,19 +15,20 @@ namespace {
 // Seafloor: sloped sand plane with ripples, shell fragments and sediment patches; rocks as
 // spheres and boxes partly sunk into it. Colours are RGB albedos.
 
-// The sand texture's value noise, which every point needs (SandNoiseAvx2 computes the same values
+// The sand texture's value and cellular noise, which every point needs (SandNoiseAvx2 computes the same values
 // four points at a time); SandTextureFrom does the rest.
 struct SandNoise {
   double shade, phase, grain, patch, patch_grain;
+  Cell shell;  // the shell fragments' cellular noise
 };
 
 SandNoise SandNoiseAt(double u, double v) {
-  return {Fbm2(u * 2.5, v * 2.5, 4, 31u), Fbm2(u * 1.5, v * 1.5, 3, 32u),
-          Noise2(u * 140, v * 140, 33u), Fbm2(u * 0.9 + 5, v * 0.9, 4, 34u),
-          Noise2(u * 60, v * 60, 35u)};
+  return {Fbm2(u * 2.5, v * 2.5, 4, 31u),        Fbm2(u * 1.5, v * 1.5, 3, 32u),
+          Noise2(u * 140, v * 140, 33u),         Fbm2(u * 0.9 + 5, v * 0.9, 4, 34u),
+          Noise2(u * 60, v * 60, 35u),           Cellular2(u / 0.06, v / 0.06, 36u)};
 }
 
-cv::Vec3d SandTextureFrom(double u, double v, const SandNoise& noise) {
+cv::Vec3d SandTextureFrom(double v, const SandNoise& noise) {
   const cv::Vec3d sand{0.60, 0.53, 0.38};
   double shade = 0.85 + 0.30 * (noise.shade - 0.5);
   const double phase = 2.0 * kPi * (v / 0.11 + 0.8 * noise.phase);
@@ -39,7 +40,7 @@ cv::Vec3d SandTextureFrom(double u, double v, const SandNoise& noise) {
   color =
       MixColor(color, cv::Vec3d(0.22, 0.28, 0.16) * (0.8 + 0.4 * noise.patch_grain), patch * 0.85);
   // Shell fragments and pebbles.
-  const Cell cell = Cellular2(u / 0.06, v / 0.06, 36u);
+  const Cell& cell = noise.shell;
   const double size = 0.12 + 0.18 * Lattice(static_cast<int64_t>(cell.id * 1e6), 0, 0, 37u);
   if (cell.distance < size) {
     color = cell.id < 0.5 ? cv::Vec3d(0.88, 0.84, 0.76) : cv::Vec3d(0.18, 0.16, 0.15);
@@ -49,7 +50,7 @@ cv::Vec3d SandTextureFrom(double u, double v, const SandNoise& noise) {
 
 cv::Vec3d SandTexture(const SurfacePoint& p) {
   const double u = p.local[0], v = p.local[1];
-  return SandTextureFrom(u, v, SandNoiseAt(u, v));
+  return SandTextureFrom(v, SandNoiseAt(u, v));
 }
 
 #ifdef TURBID_BUILTIN_AVX2
@@ -77,8 +78,14 @@ void SandNoiseAvx2(const double* u, const double* v, int n, SandNoise* out) {
       for (int i = 0; i < 4; ++i) out[k + i] = SandNoiseAt(u[k + i], v[k + i]);
       continue;
     }
+    Cell shell[4];
+    const __m256d divisor = _mm256_set1_pd(0.06);
+    if (!Cellular2X4(_mm256_div_pd(uu, divisor), _mm256_div_pd(vv, divisor), 36u, shell)) {
+      for (int i = 0; i < 4; ++i) out[k + i] = SandNoiseAt(u[k + i], v[k + i]);
+      continue;
+    }
     for (int i = 0; i < 4; ++i)
-      out[k + i] = {lanes[0][i], lanes[1][i], lanes[2][i], lanes[3][i], lanes[4][i]};
+      out[k + i] = {lanes[0][i], lanes[1][i], lanes[2][i], lanes[3][i], lanes[4][i], shell[i]};
   }
   for (; k < n; ++k) out[k] = SandNoiseAt(u[k], v[k]);
 }
@@ -112,7 +119,7 @@ void SandTextureBatch(const SurfacePoint* points, int n, cv::Vec3d* rgb) {
     v[k] = points[k].local[1];
   }
   SandNoiseBatch(u.data(), v.data(), n, noise.data());
-  for (int k = 0; k < n; ++k) rgb[k] = SandTextureFrom(u[k], v[k], noise[k]);
+  for (int k = 0; k < n; ++k) rgb[k] = SandTextureFrom(v[k], noise[k]);
 }
 
 // The rock texture's three fractal sums, which every point needs (RockNoiseAvx2 computes the same
@@ -270,8 +277,9 @@ void BuiltinSandNoiseForTest(const double* u, const double* v, int n, double* ou
   builtin_model::SandNoiseBatch(u, v, n, noise.data());
   for (int k = 0; k < n; ++k) {
     const builtin_model::SandNoise& s = noise[static_cast<size_t>(k)];
-    const double values[5] = {s.shade, s.phase, s.grain, s.patch, s.patch_grain};
-    for (int i = 0; i < 5; ++i) out[5 * k + i] = values[i];
+    const double values[7] = {s.shade, s.phase,       s.grain,         s.patch,
+                              s.patch_grain, s.shell.distance, s.shell.id};
+    for (int i = 0; i < 7; ++i) out[7 * k + i] = values[i];
   }
 }
 
