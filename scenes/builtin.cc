@@ -102,7 +102,8 @@ struct AlbedoScratch {
 };
 
 // Clamped albedos of n sample rays (world frame) of the rows scratch->rows_v, whose objects are
-// scratch->objects (RowObjects): each is the texture of the nearest hit, or the background. Objects with a batch texture get all their points in one call.
+// scratch->objects (RowObjects): each is the texture of the nearest hit, or the background. Objects
+// with a batch texture get all their points in one call.
 void Albedos(const Model& model, const cv::Vec3d* dirs_world, int n, cv::Vec3d* rgb,
              AlbedoScratch* scratch) {
   std::vector<SurfacePoint>& points = scratch->points;

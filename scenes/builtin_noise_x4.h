@@ -148,7 +148,8 @@ inline bool Cellular2X4(__m256d x, __m256d y, uint32_t seed, Cell* out) {
   const __m256d neg_limit = _mm256_set1_pd(-1073741824.0);
   const __m256d inside = _mm256_and_pd(
       _mm256_and_pd(_mm256_cmp_pd(fx, neg_limit, _CMP_GE_OQ), _mm256_cmp_pd(fx, limit, _CMP_LE_OQ)),
-      _mm256_and_pd(_mm256_cmp_pd(fy, neg_limit, _CMP_GE_OQ), _mm256_cmp_pd(fy, limit, _CMP_LE_OQ)));
+      _mm256_and_pd(_mm256_cmp_pd(fy, neg_limit, _CMP_GE_OQ),
+                    _mm256_cmp_pd(fy, limit, _CMP_LE_OQ)));
   if (_mm256_movemask_pd(inside) != 0xf) return false;
   const __m128i ix = _mm256_cvttpd_epi32(fx), iy = _mm256_cvttpd_epi32(fy);
   const __m128i seed_term = _mm_set1_epi32(static_cast<int>(seed * 0x9e3779b9u));

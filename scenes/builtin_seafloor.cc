@@ -15,17 +15,17 @@ namespace {
 // Seafloor: sloped sand plane with ripples, shell fragments and sediment patches; rocks as
 // spheres and boxes partly sunk into it. Colours are RGB albedos.
 
-// The sand texture's value and cellular noise, which every point needs (SandNoiseAvx2 computes the same values
-// four points at a time); SandTextureFrom does the rest.
+// The sand texture's value and cellular noise, which every point needs (SandNoiseAvx2 computes the
+// same values four points at a time); SandTextureFrom does the rest.
 struct SandNoise {
   double shade, phase, grain, patch, patch_grain;
   Cell shell;  // the shell fragments' cellular noise
 };
 
 SandNoise SandNoiseAt(double u, double v) {
-  return {Fbm2(u * 2.5, v * 2.5, 4, 31u),        Fbm2(u * 1.5, v * 1.5, 3, 32u),
-          Noise2(u * 140, v * 140, 33u),         Fbm2(u * 0.9 + 5, v * 0.9, 4, 34u),
-          Noise2(u * 60, v * 60, 35u),           Cellular2(u / 0.06, v / 0.06, 36u)};
+  return {Fbm2(u * 2.5, v * 2.5, 4, 31u), Fbm2(u * 1.5, v * 1.5, 3, 32u),
+          Noise2(u * 140, v * 140, 33u),  Fbm2(u * 0.9 + 5, v * 0.9, 4, 34u),
+          Noise2(u * 60, v * 60, 35u),    Cellular2(u / 0.06, v / 0.06, 36u)};
 }
 
 cv::Vec3d SandTextureFrom(double v, const SandNoise& noise) {
@@ -277,7 +277,7 @@ void BuiltinSandNoiseForTest(const double* u, const double* v, int n, double* ou
   builtin_model::SandNoiseBatch(u, v, n, noise.data());
   for (int k = 0; k < n; ++k) {
     const builtin_model::SandNoise& s = noise[static_cast<size_t>(k)];
-    const double values[7] = {s.shade, s.phase,       s.grain,         s.patch,
+    const double values[7] = {s.shade,       s.phase,          s.grain,   s.patch,
                               s.patch_grain, s.shell.distance, s.shell.id};
     for (int i = 0; i < 7; ++i) out[7 * k + i] = values[i];
   }

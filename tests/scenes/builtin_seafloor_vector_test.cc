@@ -49,11 +49,13 @@ TEST(BuiltinSeafloorVector, SandNoiseIsBitIdentical) {
     int differing = 0;
     for (int k = 0; k < n; ++k) {
       const Cell shell = Cellular2(u[k] / 0.06, v[k] / 0.06, 36u);
-      const double want[7] = {
-          Fbm2(u[k] * 2.5, v[k] * 2.5, 4, 31u), Fbm2(u[k] * 1.5, v[k] * 1.5, 3, 32u),
-          Noise2(u[k] * 140, v[k] * 140, 33u), Fbm2(u[k] * 0.9 + 5, v[k] * 0.9, 4, 34u),
-          Noise2(u[k] * 60, v[k] * 60, 35u),   shell.distance,
-          shell.id};
+      const double want[7] = {Fbm2(u[k] * 2.5, v[k] * 2.5, 4, 31u),
+                              Fbm2(u[k] * 1.5, v[k] * 1.5, 3, 32u),
+                              Noise2(u[k] * 140, v[k] * 140, 33u),
+                              Fbm2(u[k] * 0.9 + 5, v[k] * 0.9, 4, 34u),
+                              Noise2(u[k] * 60, v[k] * 60, 35u),
+                              shell.distance,
+                              shell.id};
       if (std::memcmp(want, &got[7 * static_cast<size_t>(k)], sizeof(want)) != 0) ++differing;
     }
     EXPECT_EQ(differing, 0) << "of " << n;
