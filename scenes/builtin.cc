@@ -39,13 +39,13 @@ int Trace(const Model& model, const std::vector<int>& objects, const cv::Vec3d& 
           SurfacePoint* hit, double* t_hit) {
   int best = -1;
   double best_t = kNoHit;
-  SurfacePoint candidate;
   for (const int i : objects) {
-    const double t = model.objects[i].Intersect(model.camera_in_world, dir_world, 1e-6, &candidate);
+    // Fills *hit only when nearer than the best so far: *hit ends as the nearest's.
+    const double t =
+        model.objects[i].Intersect(model.camera_in_world, dir_world, 1e-6, hit, best_t);
     if (t < best_t) {
       best_t = t;
       best = i;
-      *hit = candidate;
     }
   }
   *t_hit = best_t;
@@ -126,18 +126,18 @@ void Albedos(const Model& model, const cv::Vec3d* dirs_world, int n, cv::Vec3d* 
   if (any_batch) {
     std::vector<SurfacePoint>& group = scratch->group;
     std::vector<cv::Vec3d>& group_rgb = scratch->group_rgb;
-    for (size_t o = 0; o < model.objects.size(); ++o) {
+    for (const int o : scratch->objects) {  // the only objects the row's rays can hit
       if (!model.objects[o].texture_batch) continue;
       group.clear();
       for (int k = 0; k < n; ++k)
-        if (owner[k] == static_cast<int>(o)) group.push_back(points[k]);
+        if (owner[k] == o) group.push_back(points[k]);
       if (group.empty()) continue;
       group_rgb.resize(group.size());
       model.objects[o].texture_batch(group.data(), static_cast<int>(group.size()),
                                      group_rgb.data());
       size_t next = 0;
       for (int k = 0; k < n; ++k)
-        if (owner[k] == static_cast<int>(o)) rgb[k] = group_rgb[next++];
+        if (owner[k] == o) rgb[k] = group_rgb[next++];
     }
   }
   for (int k = 0; k < n; ++k) rgb[k] = ClampAlbedo(rgb[k]);

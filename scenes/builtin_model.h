@@ -182,15 +182,15 @@ struct Object {
   TextureBatch texture_batch;
 
   // Ray parameter of the first hit with t > t_min, or kNoHit; fills the hit's normal and local
-  // coordinates.
-  double Intersect(const cv::Vec3d& origin, const cv::Vec3d& dir, double t_min,
-                   SurfacePoint* hit) const {
+  // coordinates. A hit at t >= t_max counts as none (kNoHit, *hit untouched).
+  double Intersect(const cv::Vec3d& origin, const cv::Vec3d& dir, double t_min, SurfacePoint* hit,
+                   double t_max = kNoHit) const {
     switch (kind) {
       case Kind::kPlane: {
         const double denom = axis_w.dot(dir);
         if (std::abs(denom) < 1e-12) return kNoHit;
         const double t = axis_w.dot(center - origin) / denom;
-        if (!(t > t_min)) return kNoHit;
+        if (!(t > t_min) || !(t < t_max)) return kNoHit;
         hit->world = origin + dir * t;
         const cv::Vec3d rel = hit->world - center;
         hit->local = {rel.dot(axis_u), rel.dot(axis_v), 0.0};
@@ -205,7 +205,7 @@ struct Object {
         const double root = std::sqrt(disc);
         double t = (-b - root) / a;
         if (!(t > t_min)) t = (-b + root) / a;
-        if (!(t > t_min)) return kNoHit;
+        if (!(t > t_min) || !(t < t_max)) return kNoHit;
         hit->world = origin + dir * t;
         hit->local = hit->world - center;
         hit->normal_world = hit->local / radius;
@@ -237,7 +237,8 @@ struct Object {
           }
           t_far = std::min(t_far, t1);
         }
-        if (t_near > t_far || !(t_near > t_min)) return kNoHit;  // camera is never inside a box
+        if (t_near > t_far || !(t_near > t_min) || !(t_near < t_max))
+          return kNoHit;  // camera is never inside a box
         hit->world = origin + dir * t_near;
         const cv::Vec3d p = hit->world - center;
         hit->local = {p.dot(axis_u), p.dot(axis_v), p.dot(axis_w)};
