@@ -154,7 +154,7 @@ inline bool Cellular2X4(__m256d x, __m256d y, uint32_t seed, Cell* out) {
   const __m128i ix = _mm256_cvttpd_epi32(fx), iy = _mm256_cvttpd_epi32(fy);
   const __m128i seed_term = _mm_set1_epi32(static_cast<int>(seed * 0x9e3779b9u));
   const __m128i z1 = _mm_set1_epi32(1), z2 = _mm_set1_epi32(2);
-  alignas(32) double dx[9][4], dy[9][4], d2[9][4], least[4];
+  alignas(32) double dx[36], dy[36], d2[36], least[4];  // candidate c, lane l at [4c + l]
   __m256d low = _mm256_set1_pd(std::numeric_limits<double>::infinity());
   for (int c = 0; c < 9; ++c) {
     const __m128i i = _mm_add_epi32(ix, _mm_set1_epi32(c % 3 - 1));
@@ -163,9 +163,9 @@ inline bool Cellular2X4(__m256d x, __m256d y, uint32_t seed, Cell* out) {
     const __m256d py = _mm256_add_pd(_mm256_cvtepi32_pd(j), Lattice3X4(i, j, z2, seed_term));
     const __m256d ddx = _mm256_sub_pd(px, x), ddy = _mm256_sub_pd(py, y);
     const __m256d dd = _mm256_add_pd(_mm256_mul_pd(ddx, ddx), _mm256_mul_pd(ddy, ddy));
-    _mm256_store_pd(dx[c], ddx);
-    _mm256_store_pd(dy[c], ddy);
-    _mm256_store_pd(d2[c], dd);
+    _mm256_store_pd(dx + 4 * c, ddx);
+    _mm256_store_pd(dy + 4 * c, ddy);
+    _mm256_store_pd(d2 + 4 * c, dd);
     low = _mm256_min_pd(dd, low);  // std::min(low, dd): dd < low ? dd : low
   }
   _mm256_store_pd(least, low);
@@ -173,7 +173,7 @@ inline bool Cellular2X4(__m256d x, __m256d y, uint32_t seed, Cell* out) {
   _mm_store_si128(reinterpret_cast<__m128i*>(cx), ix);
   _mm_store_si128(reinterpret_cast<__m128i*>(cy), iy);
   for (int l = 0; l < 4; ++l)
-    out[l] = CellularNearest(cx[l], cy[l], &dx[0][l], &dy[0][l], &d2[0][l], 4, least[l], seed);
+    out[l] = CellularNearest(cx[l], cy[l], dx + l, dy + l, d2 + l, 4, least[l], seed);
   return true;
 }
 
