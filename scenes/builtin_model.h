@@ -111,6 +111,27 @@ struct Cell {
 // (within a few ulps of hypot^2) is within a relative 1e-9 of the least: the others' hypot is
 // certainly larger than the nearest's, and leaving them out changes neither the least distance nor
 // its first index. The id is looked up for the winner only.
+//
+// CellularNearest is that second step, given the 3 x 3 candidates' offsets dx, dy from the point,
+// their squared distances d2 (element c at [c * stride]; c = 3 * row + column around the cell
+// (ix, iy)) and the least d2; shared with the AVX2 version (scenes/builtin_seafloor.cc).
+inline Cell CellularNearest(int64_t ix, int64_t iy, const double* dx, const double* dy,
+                            const double* d2, int stride, double least, uint32_t seed) {
+  const double bound = least * (1.0 + 1e-9) + 1e-300;
+  Cell best{1e9, 0.0};
+  int best_c = -1;
+  for (int c = 0; c < 9; ++c) {
+    if (!(d2[c * stride] <= bound)) continue;
+    const double d = std::hypot(dx[c * stride], dy[c * stride]);
+    if (d < best.distance) {
+      best.distance = d;
+      best_c = c;
+    }
+  }
+  if (best_c >= 0) best.id = Lattice(ix - 1 + best_c % 3, iy - 1 + best_c / 3, 3, seed);
+  return best;
+}
+
 inline Cell Cellular2(double x, double y, uint32_t seed) {
   const auto ix = static_cast<int64_t>(std::floor(x)), iy = static_cast<int64_t>(std::floor(y));
   double dx[9], dy[9], d2[9];
@@ -123,19 +144,7 @@ inline Cell Cellular2(double x, double y, uint32_t seed) {
     d2[c] = dx[c] * dx[c] + dy[c] * dy[c];
     least = std::min(least, d2[c]);
   }
-  const double bound = least * (1.0 + 1e-9) + 1e-300;
-  Cell best{1e9, 0.0};
-  int best_c = -1;
-  for (int c = 0; c < 9; ++c) {
-    if (!(d2[c] <= bound)) continue;
-    const double d = std::hypot(dx[c], dy[c]);
-    if (d < best.distance) {
-      best.distance = d;
-      best_c = c;
-    }
-  }
-  if (best_c >= 0) best.id = Lattice(ix - 1 + best_c % 3, iy - 1 + best_c / 3, 3, seed);
-  return best;
+  return CellularNearest(ix, iy, dx, dy, d2, 1, least, seed);
 }
 
 inline cv::Vec3d Gray(double v) { return {v, v, v}; }
@@ -157,7 +166,8 @@ struct SurfacePoint {
 
 using Texture = std::function<cv::Vec3d(const SurfacePoint&)>;  // RGB albedo, linear
 // Optional: the same texture for n points at once (rgb[k] = texture(points[k]), the same values).
-using TextureBatch = void (*)(const SurfacePoint* points, int n, cv::Vec3d* rgb);
+// A std::function so that a batch can carry its object's parameters (the rocks' tint and seed).
+using TextureBatch = std::function<void(const SurfacePoint* points, int n, cv::Vec3d* rgb)>;
 
 struct Object {
   enum class Kind { kPlane, kSphere, kBox };
@@ -169,18 +179,18 @@ struct Object {
   cv::Vec3d half_size{0, 0, 0};
   double radius = 0.0;
   Texture texture;
-  TextureBatch texture_batch = nullptr;
+  TextureBatch texture_batch;
 
   // Ray parameter of the first hit with t > t_min, or kNoHit; fills the hit's normal and local
-  // coordinates.
-  double Intersect(const cv::Vec3d& origin, const cv::Vec3d& dir, double t_min,
-                   SurfacePoint* hit) const {
+  // coordinates. A hit at t >= t_max counts as none (kNoHit, *hit untouched).
+  double Intersect(const cv::Vec3d& origin, const cv::Vec3d& dir, double t_min, SurfacePoint* hit,
+                   double t_max = kNoHit) const {
     switch (kind) {
       case Kind::kPlane: {
         const double denom = axis_w.dot(dir);
         if (std::abs(denom) < 1e-12) return kNoHit;
         const double t = axis_w.dot(center - origin) / denom;
-        if (!(t > t_min)) return kNoHit;
+        if (!(t > t_min) || !(t < t_max)) return kNoHit;
         hit->world = origin + dir * t;
         const cv::Vec3d rel = hit->world - center;
         hit->local = {rel.dot(axis_u), rel.dot(axis_v), 0.0};
@@ -195,7 +205,7 @@ struct Object {
         const double root = std::sqrt(disc);
         double t = (-b - root) / a;
         if (!(t > t_min)) t = (-b + root) / a;
-        if (!(t > t_min)) return kNoHit;
+        if (!(t > t_min) || !(t < t_max)) return kNoHit;
         hit->world = origin + dir * t;
         hit->local = hit->world - center;
         hit->normal_world = hit->local / radius;
@@ -227,7 +237,8 @@ struct Object {
           }
           t_far = std::min(t_far, t1);
         }
-        if (t_near > t_far || !(t_near > t_min)) return kNoHit;  // camera is never inside a box
+        if (t_near > t_far || !(t_near > t_min) || !(t_near < t_max))
+          return kNoHit;  // camera is never inside a box
         hit->world = origin + dir * t_near;
         const cv::Vec3d p = hit->world - center;
         hit->local = {p.dot(axis_u), p.dot(axis_v), p.dot(axis_w)};
