@@ -68,6 +68,8 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--learn-psf", action="store_true")
     ap.add_argument("--no-noise", action="store_true")
+    ap.add_argument("--snow", action="store_true",
+                    help="marine snow on (the renderer's default particles), in both renders")
     ap.add_argument("--cache-memory", action="store_true",
                     help="turbid.torch.cache_host_memory(): keep freed memory for reuse")
     ap.add_argument("--veil", default="paper", choices=["paper", "single_scatter"],
@@ -107,7 +109,7 @@ def main():
                           "backscatter_rgb": v["binf"], "ambient_rgb": v["ambient"]},
                 "light": {"lights": [{"power": v["power"], "position_in_camera_m": v["position"]}]},
                 "psf": {"optical_thickness": v["T"], "forward_scatter": v["q"]},
-                "snow": {"enabled": False}, "sensor": {"enabled": not args.no_noise},
+                "snow": {"enabled": args.snow}, "sensor": {"enabled": not args.no_noise},
                 "veil": args.veil}
 
     def forward_backward():
@@ -127,7 +129,7 @@ def main():
                              "ambient_rgb": leaves["ambient"][i].tolist()},
                    "light": {"lights": [{"power": float(leaves["power"][i]),
                                          "position_in_camera_m": leaves["position"][i].tolist()}]},
-                   "snow": {"enabled": False}, "sensor": {"enabled": not args.no_noise},
+                   "snow": {"enabled": args.snow}, "sensor": {"enabled": not args.no_noise},
                    "camera": {"bit_depth": 32}, "veil": args.veil} for i in range(n)]
 
     def cpp():
@@ -145,10 +147,10 @@ def main():
     fw = timed(forward, args.rounds, fw_counts)
     cp = timed(cpp, args.rounds)
     pixels = n * s * s
-    print("batch %d x 3 x %d x %d, %d threads, noise %s, PSF %s, veil %s%s" % (
+    print("batch %d x 3 x %d x %d, %d threads, noise %s, PSF %s, veil %s, snow %s%s" % (
         n, s, s, args.threads, "off" if args.no_noise else "on (%s normals)" % args.noise,
         "learned (2-D kernel)" if args.learn_psf else "fixed (separable)", args.veil,
-        ", freed memory cached" if args.cache_memory else ""))
+        "on" if args.snow else "off", ", freed memory cached" if args.cache_memory else ""))
     print("torch forward + backward: %.3f s wall (CPU %.3f s); goal <= 2 s" % fb)
     print("torch forward:            %.3f s wall (CPU %.3f s), %.1f Mpx/s" % (
         fw[0], fw[1], pixels / fw[0] / 1e6))
