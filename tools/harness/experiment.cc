@@ -1,23 +1,14 @@
 #include "tools/harness/experiment.h"
 
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <map>
 #include <optional>
-#include <set>
-#include <sstream>
+#include <stdexcept>
+#include <string>
 
 #include "core/error.h"
 #include "core/json_io.h"
-#include "core/limits.h"
 #include "core/safe_name.h"
-#include "tools/harness/config_fields.h"
 #include "tools/harness/experiment_grid.h"
-#include "tools/harness/external_method.h"
-#include "tools/harness/param_tree.h"
 
 namespace turbid {
 namespace {
