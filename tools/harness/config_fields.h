@@ -119,6 +119,26 @@ void OptionalStrings(Fields<T>& f, std::string key,
            });
 }
 
+// A block of seeded random draws, the same three keys in an experiment's "samples" and a
+// generate config's "random": draws per grid point, their seed (absent: the file's seed) and
+// {path: distribution} (read by param_tree.h's FlattenSamplers).
+struct DrawKeys {
+  std::optional<int64_t> count;
+  std::optional<uint64_t> seed;
+  Json params;
+};
+
+inline const Fields<DrawKeys>& DrawKeyFields() {
+  static const Fields<DrawKeys> fields = [] {
+    Fields<DrawKeys> f;
+    OptionalInteger(f, "count", &DrawKeys::count, "draws per grid point", 1, 1000000);
+    OptionalUnsigned(f, "seed", &DrawKeys::seed, "the draws' seed");
+    Raw(f, "params", &DrawKeys::params, Shape::kObject, "{path: distribution}");
+    return f;
+  }();
+  return fields;
+}
+
 }  // namespace turbid::config_fields
 
 #endif  // TURBID_TOOLS_HARNESS_CONFIG_FIELDS_H_

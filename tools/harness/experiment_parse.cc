@@ -55,13 +55,6 @@ struct SceneKeys {
   json trajectory;
 };
 
-// 'samples'.
-struct SamplesKeys {
-  std::optional<int64_t> count;
-  std::optional<uint64_t> seed;
-  json params;
-};
-
 // An object entry of 'methods' naming a registry method (external methods have their own tables,
 // external_method_spec.cc).
 struct MethodKeys {
@@ -133,18 +126,6 @@ const Fields<SceneKeys>& SceneKeyFields() {
                                   NumberRange::AboveUpTo(0.0, 1.0));
     config_fields::Raw(f, "trajectory", &SceneKeys::trajectory, Shape::kObject,
                        "a built-in scene flown along a trajectory");
-    return f;
-  }();
-  return fields;
-}
-
-const Fields<SamplesKeys>& SamplesKeyFields() {
-  static const Fields<SamplesKeys> fields = [] {
-    Fields<SamplesKeys> f;
-    config_fields::OptionalInteger(f, "count", &SamplesKeys::count, "draws per grid point", 1,
-                                   1000000);
-    config_fields::OptionalUnsigned(f, "seed", &SamplesKeys::seed, "the draws' seed");
-    config_fields::Raw(f, "params", &SamplesKeys::params, Shape::kObject, "{path: distribution}");
     return f;
   }();
   return fields;
@@ -256,8 +237,8 @@ void ParseScenes(const ExperimentInput& x, Experiment* out) {
 // experiment's.
 void ParseSamples(const ExperimentInput& x, std::set<std::string>* swept, Experiment* out) {
   const std::string& file = x.file;
-  SamplesKeys keys;
-  SamplesKeyFields().Read(x.keys.samples, &keys, file, "samples");
+  config_fields::DrawKeys keys;
+  config_fields::DrawKeyFields().Read(x.keys.samples, &keys, file, "samples");
   if (!keys.count) throw Error(file, "'samples.count' is required (an integer in [1, 1000000])");
   out->sample_count = static_cast<int>(*keys.count);
   out->sample_seed = keys.seed.value_or(out->seed);

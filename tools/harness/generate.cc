@@ -164,12 +164,6 @@ struct GenerateKeys {
   json water_from;
 };
 
-struct RandomKeys {
-  std::optional<int64_t> count;
-  std::optional<uint64_t> seed;
-  json params;
-};
-
 const Fields<GenerateKeys>& GenerateKeyFields() {
   static const Fields<GenerateKeys> fields = [] {
     using K = GenerateKeys;
@@ -186,19 +180,6 @@ const Fields<GenerateKeys>& GenerateKeyFields() {
     config_fields::Raw(f, "water_from", &K::water_from, Shape::kAny, "fitted water file(s)");
     config_fields::Raw(f, "random", &K::random, Shape::kObject, "random draws");
     config_fields::OptionalString(f, "preset", &K::preset, "uwcnn_nyu or uwcnn_constant_b");
-    return f;
-  }();
-  return fields;
-}
-
-const Fields<RandomKeys>& RandomKeyFields() {
-  static const Fields<RandomKeys> fields = [] {
-    using config_fields::Shape;
-    Fields<RandomKeys> f;
-    config_fields::OptionalInteger(f, "count", &RandomKeys::count, "draws per grid point", 1,
-                                   1000000);
-    config_fields::OptionalUnsigned(f, "seed", &RandomKeys::seed, "the draws' seed");
-    config_fields::Raw(f, "params", &RandomKeys::params, Shape::kObject, "path -> distribution");
     return f;
   }();
   return fields;
@@ -243,8 +224,8 @@ std::vector<json> GridCombos(const json& grid, int64_t samples, const std::strin
 }
 
 // The "random" block, with the preset's draws under it.
-void ReadRandom(const RandomKeys& random, const json& preset, const std::string& config_path,
-                GenerateConfig* out) {
+void ReadRandom(const config_fields::DrawKeys& random, const json& preset,
+                const std::string& config_path, GenerateConfig* out) {
   out->samples = static_cast<int>(random.count.value_or(1));
   out->random_seed = random.seed.value_or(out->seed);
   out->random_params = FlattenSamplers(random.params.is_null() ? json::object() : random.params,
@@ -343,8 +324,8 @@ GenerateConfig ParseGenerateConfig(const json& config, const std::string& config
   if (!config.is_object()) throw Error(config_path, "must be a JSON object");
   GenerateKeys keys;
   GenerateKeyFields().Read(config, &keys, config_path);
-  RandomKeys random;
-  RandomKeyFields().Read(keys.random, &random, config_path, "random");
+  config_fields::DrawKeys random;
+  config_fields::DrawKeyFields().Read(keys.random, &random, config_path, "random");
   const json preset = ReadPreset(keys, config_path);
   if (!keys.scenes.is_array() || keys.scenes.empty())
     throw Error(config_path, "scenes: a non-empty array of scene specs is required");
