@@ -274,6 +274,38 @@ void DrawWorldSnow(const SnowOptions& options, const CameraIntrinsics& camera, i
   }
 }
 
+// The camera-relative mode: `particles` drawn uniformly in the frustum volume between near_m and
+// far_m (z from the cube-root law), each handed to `add` in drawing order.
+template <typename Add>
+void DrawFrustumSnow(const SnowOptions& options, const CameraIntrinsics& camera, int w, int h,
+                     uint64_t seed, int particles, double log_size_min, double log_size_max,
+                     const Add& add) {
+  const uint64_t key = RandomKey(seed, kSnowStream);
+  const double near3 = std::pow(options.near_m, 3), far3 = std::pow(options.far_m, 3);
+  for (int i = 0; i < particles; ++i) {
+    const uint64_t base = static_cast<uint64_t>(i) * 8;
+    const double u = RandomUniform(key, base + 0) * w - 0.5;
+    const double v = RandomUniform(key, base + 1) * h - 0.5;
+    const double z = std::cbrt(near3 + RandomUniform(key, base + 2) * (far3 - near3));
+    const double diameter =
+        std::exp(log_size_min + RandomUniform(key, base + 3) * (log_size_max - log_size_min));
+    const double albedo = options.albedo_min + RandomUniform(key, base + 4) *
+                                                   (options.albedo_max - options.albedo_min);
+    add(u, v, z, camera.BackProject(u, v, z), diameter, albedo);
+  }
+}
+
+// Rows -> splats (counting sort; each row lists its splats in drawing order).
+void IndexSplatRows(int h, internal::SnowSplats* snow) {
+  for (const internal::SnowSplats::Splat& s : snow->splats)
+    for (int y = s.y0; y <= s.y1; ++y) ++snow->row_start[y + 1];
+  for (int y = 0; y < h; ++y) snow->row_start[y + 1] += snow->row_start[y];
+  snow->row_index.resize(snow->row_start[h]);
+  std::vector<int> fill(snow->row_start.begin(), snow->row_start.end() - 1);
+  for (int i = 0; i < static_cast<int>(snow->splats.size()); ++i)
+    for (int y = snow->splats[i].y0; y <= snow->splats[i].y1; ++y) snow->row_index[fill[y]++] = i;
+}
+
 }  // namespace
 
 namespace internal {
@@ -336,28 +368,9 @@ SnowSplats DrawMarineSnow(const SnowOptions& options, const IrradianceOptions& l
     DrawWorldSnow(options, camera, w, h, seed, log_size_min, log_size_max, &snow.particles, add);
   } else {
     snow.particles = static_cast<int>(std::llround(expected));
-    const uint64_t key = RandomKey(seed, kSnowStream);
-    const double near3 = std::pow(options.near_m, 3), far3 = std::pow(options.far_m, 3);
-    for (int i = 0; i < snow.particles; ++i) {
-      const uint64_t base = static_cast<uint64_t>(i) * 8;
-      const double u = RandomUniform(key, base + 0) * w - 0.5;
-      const double v = RandomUniform(key, base + 1) * h - 0.5;
-      const double z = std::cbrt(near3 + RandomUniform(key, base + 2) * (far3 - near3));
-      const double diameter =
-          std::exp(log_size_min + RandomUniform(key, base + 3) * (log_size_max - log_size_min));
-      const double albedo = options.albedo_min + RandomUniform(key, base + 4) *
-                                                     (options.albedo_max - options.albedo_min);
-      add(u, v, z, camera.BackProject(u, v, z), diameter, albedo);
-    }
+    DrawFrustumSnow(options, camera, w, h, seed, snow.particles, log_size_min, log_size_max, add);
   }
-  // Rows -> splats (counting sort; each row lists its splats in drawing order).
-  for (const SnowSplats::Splat& s : snow.splats)
-    for (int y = s.y0; y <= s.y1; ++y) ++snow.row_start[y + 1];
-  for (int y = 0; y < h; ++y) snow.row_start[y + 1] += snow.row_start[y];
-  snow.row_index.resize(snow.row_start[h]);
-  std::vector<int> fill(snow.row_start.begin(), snow.row_start.end() - 1);
-  for (int i = 0; i < static_cast<int>(snow.splats.size()); ++i)
-    for (int y = snow.splats[i].y0; y <= snow.splats[i].y1; ++y) snow.row_index[fill[y]++] = i;
+  IndexSplatRows(h, &snow);
   return snow;
 }
 
