@@ -289,8 +289,8 @@ void DrawFrustumSnow(const SnowOptions& options, const CameraIntrinsics& camera,
     const double z = std::cbrt(near3 + RandomUniform(key, base + 2) * (far3 - near3));
     const double diameter =
         std::exp(log_size_min + RandomUniform(key, base + 3) * (log_size_max - log_size_min));
-    const double albedo = options.albedo_min + RandomUniform(key, base + 4) *
-                                                   (options.albedo_max - options.albedo_min);
+    const double albedo = options.albedo_min +
+                          RandomUniform(key, base + 4) * (options.albedo_max - options.albedo_min);
     add(u, v, z, camera.BackProject(u, v, z), diameter, albedo);
   }
 }
