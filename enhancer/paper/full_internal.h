@@ -2,9 +2,9 @@
 // full_steps.cc, full_light.cc) and the streamed colour path (full_rows.cc).
 #pragma once
 
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
