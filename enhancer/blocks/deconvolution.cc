@@ -261,7 +261,8 @@ __attribute__((target("avx2,fma"))) void VerticalTapsEvenFma(const float* const*
     }
   }
 }
-template <int K, int S>
+// kAdd: acc += the sum (later terms); else acc = the sum (the first term: no zero-filled acc).
+template <int K, int S, bool kAdd>
 __attribute__((target("avx2,fma"))) void HorizontalTapsEvenFma(const float* __restrict ext,
                                                                const float* r,
                                                                float* __restrict acc, int w) {
@@ -276,12 +277,12 @@ __attribute__((target("avx2,fma"))) void HorizontalTapsEvenFma(const float* __re
                                      _mm256_loadu_ps(ext + x + S * (K - 1 - i)));
       s = _mm256_fmadd_ps(tap[i], p, s);
     }
-    _mm256_storeu_ps(acc + x, _mm256_add_ps(_mm256_loadu_ps(acc + x), s));
+    _mm256_storeu_ps(acc + x, kAdd ? _mm256_add_ps(_mm256_loadu_ps(acc + x), s) : s);
   }
   for (; x < w; ++x) {
     float s = r[H] * ext[x + S * H];
     for (int i = 0; i < H; ++i) s = std::fma(r[i], ext[x + S * i] + ext[x + S * (K - 1 - i)], s);
-    acc[x] += s;
+    acc[x] = kAdd ? acc[x] + s : s;
   }
 }
 
@@ -298,13 +299,18 @@ bool EvenTaps(int k, const float* const* rows, const float* const* c, float* con
   return false;
 }
 template <int K = 15>
-bool EvenHTaps(int k, int stride, const float* ext, const float* r, float* acc, int w) {
+bool EvenHTaps(int k, int stride, bool add, const float* ext, const float* r, float* acc, int w) {
   if (k == K && (stride == 1 || stride == 3)) {
-    stride == 3 ? HorizontalTapsEvenFma<K, 3>(ext, r, acc, w)
-                : HorizontalTapsEvenFma<K, 1>(ext, r, acc, w);
+    if (stride == 3) {
+      add ? HorizontalTapsEvenFma<K, 3, true>(ext, r, acc, w)
+          : HorizontalTapsEvenFma<K, 3, false>(ext, r, acc, w);
+    } else {
+      add ? HorizontalTapsEvenFma<K, 1, true>(ext, r, acc, w)
+          : HorizontalTapsEvenFma<K, 1, false>(ext, r, acc, w);
+    }
     return true;
   }
-  if constexpr (K > 5) return EvenHTaps<K - 2>(k, stride, ext, r, acc, w);
+  if constexpr (K > 5) return EvenHTaps<K - 2>(k, stride, add, ext, r, acc, w);
   return false;
 }
 
@@ -452,7 +458,13 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
       }
     }
     // Then per term its border and its horizontal pass, added into acc in order of the terms.
-    std::fill(acc.begin(), acc.end(), 0.0f);
+    // (The even kernels store the first term's sums: no zero fill.)
+#ifdef TURBID_HAVE_TAPS_FMA
+    const bool stores = even && (c == 1 || c == 3);
+#else
+    const bool stores = false;
+#endif
+    if (!stores) std::fill(acc.begin(), acc.end(), 0.0f);
     for (int t = 0; t < terms; ++t) {
       float* e = ext.data() + t * ext_n;
       const float* mid = e + static_cast<size_t>(rx) * c;
@@ -461,7 +473,7 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
         std::copy_n(mid + col_src[x] * c, c, e + static_cast<size_t>(x) * c);
       }
 #ifdef TURBID_HAVE_TAPS_FMA
-      if (even && EvenHTaps(kc, c, e, rows[t].data(), acc.data(), n)) continue;
+      if (even && EvenHTaps(kc, c, t > 0, e, rows[t].data(), acc.data(), n)) continue;
 #endif
       if (!HTapsUpTo<25>(kc, fma, c, e, rows[t].data(), acc.data(), n)) {
         HorizontalTapsAny(e, rows[t].data(), acc.data(), n, kc, c);
