@@ -186,12 +186,15 @@ void HorizontalTapsAny(const float* ext, const float* r, float* acc, int w, int 
 template <int K>
 __attribute__((target("avx2,fma"))) void VerticalTapsFma(const float* const* rows, const float* c,
                                                          float* __restrict out, int w) {
+  // Pointers and taps in locals: the stores cannot alias them, so they stay in registers (the
+  // same arithmetic).
+  const float* r[K];
+  __m256 tap[K];
+  for (int j = 0; j < K; ++j) r[j] = rows[j], tap[j] = _mm256_set1_ps(c[j]);
   int x = 0;
   for (; x + 8 <= w; x += 8) {
-    __m256 s = _mm256_mul_ps(_mm256_set1_ps(c[0]), _mm256_loadu_ps(rows[0] + x));
-    for (int j = 1; j < K; ++j) {
-      s = _mm256_fmadd_ps(_mm256_set1_ps(c[j]), _mm256_loadu_ps(rows[j] + x), s);
-    }
+    __m256 s = _mm256_mul_ps(tap[0], _mm256_loadu_ps(r[0] + x));
+    for (int j = 1; j < K; ++j) s = _mm256_fmadd_ps(tap[j], _mm256_loadu_ps(r[j] + x), s);
     _mm256_storeu_ps(out + x, s);
   }
   for (; x < w; ++x) {
