@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "core/cpu.h"
+#include "core/error.h"
 #include "enhancer/blocks/clahe.h"
 #include "enhancer/blocks/deconvolution.h"
 #include "enhancer/blocks/guided_filter.h"
@@ -26,8 +28,6 @@
 #include "enhancer/select.h"
 #include "enhancer/simd_switch.h"
 #include "scenes/builtin.h"
-#include "core/cpu.h"
-#include "core/error.h"
 #include "scenes/image_io.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
@@ -114,8 +114,8 @@ cv::Mat ReferenceSimplified(const SimplifiedOptions& o, const cv::Mat& image) {
     // The streamed path's boost in float (issue 29 item 6, third round; simplified_rows.h, whose
     // test bounds it against double precision): one FMA with the AVX2 + FMA kernel, a product
     // and a sum with the portable one.
-    const bool fma = KernelCpuLevel() >= CpuLevel::kAvx2Fma &&
-                     simplified_internal::BoostOutAvx2Fma() != nullptr;
+    const bool fma =
+        KernelCpuLevel() >= CpuLevel::kAvx2Fma && simplified_internal::BoostOutAvx2Fma() != nullptr;
     const float alpha = static_cast<float>(o.alpha);
     out.create(image.size(), CV_32FC3);
     const float* f = i_f.ptr<float>();
