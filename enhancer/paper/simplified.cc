@@ -12,6 +12,7 @@
 #include "enhancer/method.h"
 #include "enhancer/paper/full_internal.h"
 #include "enhancer/paper/kernels.h"
+#include "enhancer/paper/simplified_rows.h"
 #include "enhancer/simd_switch.h"
 
 #if defined(__x86_64__)
@@ -82,59 +83,49 @@ cv::Mat SimplifiedGray(const SimplifiedOptions& o, const GuidedFilterOptions& fi
   return o.contrast ? ClaheFromBins(o.clahe, bins) : out;
 }
 
-// The boost I_g + alpha (I_f - I_g) of n values, clamped to [0, 1] into dst; whether every value
-// was finite. next_dst / stream_dst: BoostClampRowAvx2's prefetch and non-temporal targets.
-bool BoostRow(const SimplifiedOptions& o, const float* i_f, const float* i_g, float* dst, int n,
-              [[maybe_unused]] float* next_dst, [[maybe_unused]] float* stream_dst) {
-#ifdef TURBID_HAVE_BOOST_AVX2
-  static const bool fma = CpuHasFma();
-  if (enhancer_internal::UseHandWrittenAvx2()) {
-    return fma ? BoostClampRowAvx2<true>(i_g, i_f, 1.0 - o.alpha, o.alpha, dst, n, next_dst,
-                                         stream_dst)
-               : BoostClampRowAvx2<false>(i_g, i_f, 1.0 - o.alpha, o.alpha, dst, n, next_dst,
-                                          stream_dst);
-  }
-#endif
-  AddWeightedRow(i_g, i_f, 1.0 - o.alpha, o.alpha, dst, n);
-  const bool finite = RowIsFinite(dst, static_cast<size_t>(n));
-  ClampUnitRow(dst, n);
-  return finite;
-}
+// Output images above this size are written with non-temporal stores (they do not stay in the
+// last-level cache until CLAHE's pass reads them back; smaller ones do, and keep plain stores).
+constexpr size_t kStreamBytes = size_t{8} << 20;
 
 // Three-channel `simplified` with both filters exact (subsample 1): one segment-layout Input
-// feeds both guided_segments streams (each input row transposed once), the boost runs on the
-// segment rows (it is element-wise) and one transpose writes the output row, which CLAHE's
-// binning then reads from cache.
+// feeds both guided_segments streams (each input row transposed once); the boost, the clamp, the
+// output row and CLAHE's luminance are one pass over the two segment rows (simplified_rows.h),
+// then the luminance row is binned and the colour CLAHE runs in place.
 cv::Mat SimplifiedColorSegments(const SimplifiedOptions& o, const cv::Mat& image) {
   cv::Mat out(image.size(), CV_32FC3), bins;
-  std::vector<float> lum(image.cols);
   if (o.contrast) bins = ClaheNewBins(o.clahe, image.size());
   const cv::Mat src = image.isContinuous() ? image : image.clone();
   guided_segments::Input input(src, std::max(o.fine_radius, o.coarse_radius));
   guided_segments::Stream fine(&input, o.fine_radius, static_cast<float>(o.fine_eps));
   guided_segments::Stream coarse(&input, o.coarse_radius, static_cast<float>(o.coarse_eps));
-  guided_segments::Buffer boosted;
-  boosted.Assign(fine.SegmentFloats());
-  const int n = static_cast<int>(fine.SegmentFloats());
+  guided_segments::Buffer lum;
+  lum.Assign(fine.SegmentFloats() / 3);  // 8 L luminance values
+  const simplified_internal::BoostOutFn boost_out = simplified_internal::ChosenBoostOut();
+  simplified_internal::BoostOutArgs args;
+  args.L = static_cast<int>(fine.SegmentFloats() / 24);
+  args.cols = image.cols;
+  args.alpha = static_cast<float>(o.alpha);
+  args.rgb = o.clahe.rgb;
+  args.stream = out.total() * out.elemSize() > kStreamBytes;
+  args.lum = o.contrast ? lum.data : nullptr;
   bool validated = false;
   for (int y = 0; y < image.rows; ++y) {
-    const float* i_f = fine.RowSegments(y);
-    const float* i_g = coarse.RowSegments(y);
-    const bool finite = BoostRow(o, i_f, i_g, boosted.data, n, nullptr, nullptr);
+    args.i_f = fine.RowSegments(y);
+    args.i_g = coarse.RowSegments(y);
+    args.dst = out.ptr<float>(y);
+    const bool finite = boost_out(args);
     if (!validated && !finite) {
       ValidateEnhanceImage(image, "simplified");
       validated = true;
     }
-    float* dst = out.ptr<float>(y);
-    input.ToNatural(boosted.data, dst);
-    if (o.contrast) ClaheBinColorRow(o.clahe, dst, lum.data(), bins, y);
+    if (o.contrast) ClaheBinRow(o.clahe, lum.data, bins, y);
   }
+#if defined(__x86_64__)
+  if (args.stream) _mm_sfence();  // the non-temporal stores ordered before CLAHE's reads
+#endif
   if (o.contrast) ClaheColorFromBins(o.clahe, bins, out);  // in [0, 1]
   return out;
 }
-
-// Output images above this size are written with non-temporal stores by SimplifiedColor.
-constexpr size_t kStreamBytes = size_t{8} << 20;
 
 // Three-channel `simplified`, streamed as the gray path is: both guided filters interleaved by
 // rows, the boost, the clamp and CLAHE's luminance binning per row into the output buffer, then
@@ -210,10 +201,7 @@ cv::Mat SimplifiedEnhance(const SimplifiedOptions& o, const cv::Mat& image) {
     }
   }
   if (image.channels() == 3) {
-    // Images over kStreamBytes keep SimplifiedColor: its non-temporal output stores (no
-    // read-for-ownership of the output) outweigh the shared transposes there.
-    const bool large = o.contrast && image.total() * 3 * sizeof(float) > kStreamBytes;
-    if (o.coarse_subsample == 1 && !large) return SimplifiedColorSegments(o, image);
+    if (o.coarse_subsample == 1) return SimplifiedColorSegments(o, image);
     return SimplifiedColor(o, fine, coarse, image);
   }
   ValidateEnhanceImage(image, "simplified");

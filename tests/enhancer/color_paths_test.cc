@@ -16,16 +16,18 @@
 #include <string>
 #include <vector>
 
+#include "core/cpu.h"
+#include "core/error.h"
 #include "enhancer/blocks/clahe.h"
 #include "enhancer/blocks/deconvolution.h"
 #include "enhancer/blocks/guided_filter.h"
 #include "enhancer/method.h"
 #include "enhancer/paper/full.h"
 #include "enhancer/paper/simplified.h"
+#include "enhancer/paper/simplified_rows.h"
 #include "enhancer/select.h"
 #include "enhancer/simd_switch.h"
 #include "scenes/builtin.h"
-#include "core/error.h"
 #include "scenes/image_io.h"
 #include "simulator/psf.h"
 #include "simulator/render.h"
@@ -108,7 +110,24 @@ cv::Mat ReferenceSimplified(const SimplifiedOptions& o, const cv::Mat& image) {
   const cv::Mat i_f = GuidedFilterSelf(fine, image);  // checked against the plane-by-plane one
   const cv::Mat i_g = GuidedFilterSelf(coarse, image);
   cv::Mat out;
-  cv::addWeighted(i_g, 1.0 - o.alpha, i_f, o.alpha, 0.0, out);
+  if (o.coarse_subsample == 1) {
+    // The streamed path's boost in float (issue 29 item 6, third round; simplified_rows.h, whose
+    // test bounds it against double precision): one FMA with the AVX2 + FMA kernel, a product
+    // and a sum with the portable one.
+    const bool fma =
+        KernelCpuLevel() >= CpuLevel::kAvx2Fma && simplified_internal::BoostOutAvx2Fma() != nullptr;
+    const float alpha = static_cast<float>(o.alpha);
+    out.create(image.size(), CV_32FC3);
+    const float* f = i_f.ptr<float>();
+    const float* g = i_g.ptr<float>();
+    float* q = out.ptr<float>();
+    for (size_t i = 0; i < out.total() * 3; ++i) {
+      const float d = f[i] - g[i];
+      q[i] = fma ? std::fma(alpha, d, g[i]) : g[i] + alpha * d;
+    }
+  } else {
+    cv::addWeighted(i_g, 1.0 - o.alpha, i_f, o.alpha, 0.0, out);
+  }
   ReferenceClampUnit(out);
   if (o.contrast) out = ReferenceClahe(o.clahe, out);
   ReferenceClampUnit(out);
