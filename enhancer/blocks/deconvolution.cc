@@ -393,6 +393,29 @@ int Reflect101(int i, int n) {
   return i < n ? i : period - i;
 }
 
+// The separable terms of a 2-D kernel from its SVD, until the captured energy reaches 1 - 1e-7:
+// per term the vertical taps (kernel.rows) and the horizontal ones (kernel.cols).
+void SeparableTerms(const cv::Mat& kernel, std::vector<std::vector<float>>* cols,
+                    std::vector<std::vector<float>>* rows) {
+  cv::Mat k64;
+  kernel.convertTo(k64, CV_64F);
+  cv::SVD svd(k64, cv::SVD::FULL_UV);
+  const double total = cv::sum(svd.w.mul(svd.w))[0];
+  const int kr = kernel.rows, kc = kernel.cols;
+  double captured = 0.0;
+  for (int i = 0; i < svd.w.rows; ++i) {
+    const double s = svd.w.at<double>(i);
+    captured += s * s;
+    std::vector<float> c(kr), r(kc);
+    // Correlation, as cv::sepFilter2D: out(y, x) = sum c[j] r[i] in(y + j - ry, x + i - rx).
+    for (int j = 0; j < kr; ++j) c[j] = static_cast<float>(svd.u.at<double>(j, i) * std::sqrt(s));
+    for (int j = 0; j < kc; ++j) r[j] = static_cast<float>(svd.vt.at<double>(i, j) * std::sqrt(s));
+    cols->push_back(std::move(c));
+    rows->push_back(std::move(r));
+    if (captured >= (1.0 - 1e-7) * total) break;
+  }
+}
+
 // Applies a 2-D kernel as a sum of separable terms from its SVD (terms until the captured energy
 // reaches 1 - 1e-7), mirrored borders (BORDER_REFLECT_101), streamed by rows: per output row and
 // term, a vertical pass over the kernel's rows into a mirrored row buffer, then a horizontal pass
@@ -402,25 +425,10 @@ int Reflect101(int i, int n) {
 void ApplySeparableRowsFrom(int h, int w, int channels,
                             const std::function<const float*(int)>& source, const cv::Mat& kernel,
                             const std::function<void(int, const float*)>& emit) {
-  cv::Mat k64;
-  kernel.convertTo(k64, CV_64F);
-  cv::SVD svd(k64, cv::SVD::FULL_UV);
-  const double total = cv::sum(svd.w.mul(svd.w))[0];
   const int kr = kernel.rows, kc = kernel.cols;
   const int ry = kr / 2, rx = kc / 2;
   std::vector<std::vector<float>> cols, rows;  // per term: vertical taps (kr), horizontal (kc)
-  double captured = 0.0;
-  for (int i = 0; i < svd.w.rows; ++i) {
-    const double s = svd.w.at<double>(i);
-    captured += s * s;
-    std::vector<float> c(kr), r(kc);
-    // Correlation, as cv::sepFilter2D: out(y, x) = sum c[j] r[i] in(y + j - ry, x + i - rx).
-    for (int j = 0; j < kr; ++j) c[j] = static_cast<float>(svd.u.at<double>(j, i) * std::sqrt(s));
-    for (int j = 0; j < kc; ++j) r[j] = static_cast<float>(svd.vt.at<double>(i, j) * std::sqrt(s));
-    cols.push_back(std::move(c));
-    rows.push_back(std::move(r));
-    if (captured >= (1.0 - 1e-7) * total) break;
-  }
+  SeparableTerms(kernel, &cols, &rows);
   const int c = channels, n = w * c;  // values per row
   const int terms = static_cast<int>(cols.size());
   const size_t ext_n = static_cast<size_t>(w + 2 * rx) * c;
