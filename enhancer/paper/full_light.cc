@@ -323,6 +323,30 @@ int LightScaleStride(const cv::Mat& denoised) {
   return std::max(1, static_cast<int>(std::floor(std::sqrt(denoised.total() / 65536.0))));
 }
 
+// Channel c's largest veil weight (1 - t) L on the grid, at least +0. Four running maxima (one
+// chain waited on each maxss); the same value as one: a NaN product never replaces a maximum.
+float LargestVeilWeight(const cv::Mat& denoised, GridRows light, GridRows transmission, int stride,
+                        int c) {
+  const int lc = light.channels(), tc = transmission.channels();
+  const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
+  float m[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  for (int y = 0; y < denoised.rows; y += stride) {
+    const float* t = transmission(y);
+    const float* l = light(y);
+    int x = 0, k = 0;
+    for (; x + 3 * stride < denoised.cols; x += 4 * stride) {
+      for (int j = 0; j < 4; ++j) {
+        const int xj = x + j * stride;
+        m[j] = std::max(m[j], (1.0f - t[xj * tc + t_at]) * l[xj * lc + l_at]);
+      }
+    }
+    for (; x < denoised.cols; x += stride, k = (k + 1) & 3) {
+      m[k] = std::max(m[k], (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
+    }
+  }
+  return std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
+}
+
 // EstimateLightScale on maps given as GridRows (the checks done, `stride` > 0).
 std::vector<LightScaleEstimate> EstimateLightScaleGrid(const cv::Mat& denoised, GridRows light,
                                                        GridRows transmission, double percentile,
@@ -338,25 +362,7 @@ std::vector<LightScaleEstimate> EstimateLightScaleGrid(const cv::Mat& denoised, 
       w_max[c] = w_max[0];
       continue;
     }
-    const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
-    // Four running maxima (one chain waited on each maxss); the same value: a NaN product never
-    // replaces a maximum, and every maximum starts at +0.
-    float m[4] = {w_max[c], w_max[c], w_max[c], w_max[c]};
-    for (int y = 0; y < denoised.rows; y += stride) {
-      const float* t = transmission(y);
-      const float* l = light(y);
-      int x = 0, k = 0;
-      for (; x + 3 * stride < denoised.cols; x += 4 * stride) {
-        for (int j = 0; j < 4; ++j) {
-          const int xj = x + j * stride;
-          m[j] = std::max(m[j], (1.0f - t[xj * tc + t_at]) * l[xj * lc + l_at]);
-        }
-      }
-      for (; x < denoised.cols; x += stride, k = (k + 1) & 3) {
-        m[k] = std::max(m[k], (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
-      }
-    }
-    w_max[c] = std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
+    w_max[c] = LargestVeilWeight(denoised, light, transmission, stride, c);
   }
   std::vector<bool> active(ch);
   std::vector<float> w_min(ch);
