@@ -14,8 +14,8 @@ namespace turbid::enhancer_internal {
 // selection on order-preserving integer keys of the bits, 11 bits per pass: each pass counts the
 // candidates' digits, keeps the bucket holding rank k; the last few are sorted. `values` is
 // used as scratch (its contents are lost), so the selection allocates nothing of its size.
-template <typename Float, typename Key>
-inline Float SelectKth(std::vector<Float>& values, size_t k) {
+template <typename Float, typename Key, typename Alloc = std::allocator<Float>>
+inline Float SelectKth(std::vector<Float, Alloc>& values, size_t k) {
   static_assert(sizeof(Float) == sizeof(Key) && (sizeof(Key) == 4 || sizeof(Key) == 8));
   constexpr int kBits = 11, kTotal = 8 * sizeof(Key);
   constexpr Key kSign = Key{1} << (kTotal - 1);

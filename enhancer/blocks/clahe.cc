@@ -286,6 +286,24 @@ void TileHistogram(const cv::Mat& idx, const Padding& p, const std::vector<int>&
   }
 }
 
+// sum_b counts[b] * (weights ? weights[b] : b) in double, in four partial sums (one running sum
+// was kept in memory by the compiler, each bin waiting on the last one's store; issue 29 item 6
+// lets the order of the sum change).
+double WeightedSum(const int* counts, const float* weights, int bins) {
+  double acc[4] = {0.0, 0.0, 0.0, 0.0};
+  int b = 0;
+  for (; b + 4 <= bins; b += 4) {
+    for (int j = 0; j < 4; ++j) {
+      const double w = weights != nullptr ? weights[b + j] : static_cast<double>(b + j);
+      acc[j] += static_cast<double>(counts[b + j]) * w;
+    }
+  }
+  for (; b < bins; ++b) {
+    acc[0] += static_cast<double>(counts[b]) * (weights != nullptr ? weights[b] : b);
+  }
+  return (acc[0] + acc[1]) + (acc[2] + acc[3]);
+}
+
 // The tiles' mappings (one row of bins per tile, tiles in row order); keep_mean chooses alpha
 // from all tiles' clipped histograms first.
 template <typename Index>
@@ -310,29 +328,20 @@ cv::Mat MappingsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, C
   if (!match && static_cast<double>(pixels) < static_cast<double>(o.tiles_x) * o.tiles_y * bins) {
     memo.assign(static_cast<size_t>(pixels) + 1, -1.0f);
   }
-  // The means of ClaheStats (and keep_mean's target) only where asked for; summed in registers
-  // (a sum kept in memory across the loop waits on its own store at every bin).
+  // The means of ClaheStats (and keep_mean's target) only where asked for (WeightedSum per tile).
   const bool want_means = match || stats != nullptr;
   double bin_sum = 0.0, mapped_sum = 0.0;
   for (int ty = 0; ty < o.tiles_y; ++ty) {
     for (int tx = 0; tx < o.tiles_x; ++tx) {
       TileHistogram<Index>(idx, p, row_src, col_src, tx, ty, sub, hist);
-      if (want_means) {
-        double acc = bin_sum;
-        for (int b = 0; b < bins; ++b) acc += static_cast<double>(b) * hist[b];
-        bin_sum = acc;
-      }
+      if (want_means) bin_sum += WeightedSum(hist.data(), nullptr, bins);
       if (!match) {
         std::vector<int> counts;
         if (want_means) counts = hist;
         ClipHistogram(o, hist, pixels);
         const std::vector<float> m =
             ShapeMapping(fixed, hist, pixels, memo.empty() ? nullptr : &memo);
-        if (want_means) {
-          double acc = mapped_sum;
-          for (int b = 0; b < bins; ++b) acc += static_cast<double>(counts[b]) * m[b];
-          mapped_sum = acc;
-        }
+        if (want_means) mapped_sum += WeightedSum(counts.data(), m.data(), bins);
         std::copy(m.begin(), m.end(), maps.ptr<float>(ty * o.tiles_x + tx));
         continue;
       }

@@ -186,12 +186,15 @@ void HorizontalTapsAny(const float* ext, const float* r, float* acc, int w, int 
 template <int K>
 __attribute__((target("avx2,fma"))) void VerticalTapsFma(const float* const* rows, const float* c,
                                                          float* __restrict out, int w) {
+  // Pointers and taps in locals: the stores cannot alias them, so they stay in registers (the
+  // same arithmetic).
+  const float* r[K];
+  __m256 tap[K];
+  for (int j = 0; j < K; ++j) r[j] = rows[j], tap[j] = _mm256_set1_ps(c[j]);
   int x = 0;
   for (; x + 8 <= w; x += 8) {
-    __m256 s = _mm256_mul_ps(_mm256_set1_ps(c[0]), _mm256_loadu_ps(rows[0] + x));
-    for (int j = 1; j < K; ++j) {
-      s = _mm256_fmadd_ps(_mm256_set1_ps(c[j]), _mm256_loadu_ps(rows[j] + x), s);
-    }
+    __m256 s = _mm256_mul_ps(tap[0], _mm256_loadu_ps(r[0] + x));
+    for (int j = 1; j < K; ++j) s = _mm256_fmadd_ps(tap[j], _mm256_loadu_ps(r[j] + x), s);
     _mm256_storeu_ps(out + x, s);
   }
   for (; x < w; ++x) {
@@ -217,6 +220,126 @@ __attribute__((target("avx2,fma"))) void HorizontalTapsFma(const float* __restri
     for (int i = 1; i < K; ++i) s = std::fma(r[i], ext[x + S * i], s);
     acc[x] += s;
   }
+}
+
+// Even-symmetric taps (c[j] = c[K - 1 - j]; the spatial Wiener inverse of a radially symmetric
+// PSF, every term of its SVD): the mirrored inputs are added first, so K / 2 + 1 multiply-adds
+// per value instead of K, and the vertical pass reads the K rows once for up to two terms.
+// Outputs move within float rounding (issue 29 item 6). The last w % 8 values take the same
+// steps one at a time.
+template <int K, int T>
+__attribute__((target("avx2,fma"))) void VerticalTapsEvenFma(const float* const* rows,
+                                                             const float* const* c,
+                                                             float* const* out, int w) {
+  constexpr int H = K / 2;
+  // Pointers and taps in locals: the stores cannot alias them, so they stay in registers.
+  const float* r[K];
+  for (int j = 0; j < K; ++j) r[j] = rows[j];
+  float* o[T];
+  __m256 tap[T][H + 1];
+  for (int t = 0; t < T; ++t) {
+    o[t] = out[t];
+    for (int j = 0; j <= H; ++j) tap[t][j] = _mm256_set1_ps(c[t][j]);
+  }
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    __m256 p[H];
+    for (int j = 0; j < H; ++j) {
+      p[j] = _mm256_add_ps(_mm256_loadu_ps(r[j] + x), _mm256_loadu_ps(r[K - 1 - j] + x));
+    }
+    const __m256 mid = _mm256_loadu_ps(r[H] + x);
+    for (int t = 0; t < T; ++t) {
+      __m256 s = _mm256_mul_ps(tap[t][H], mid);
+      for (int j = 0; j < H; ++j) s = _mm256_fmadd_ps(tap[t][j], p[j], s);
+      _mm256_storeu_ps(o[t] + x, s);
+    }
+  }
+  for (; x < w; ++x) {
+    float p[H];
+    for (int j = 0; j < H; ++j) p[j] = rows[j][x] + rows[K - 1 - j][x];
+    for (int t = 0; t < T; ++t) {
+      float s = c[t][H] * rows[H][x];
+      for (int j = 0; j < H; ++j) s = std::fma(c[t][j], p[j], s);
+      out[t][x] = s;
+    }
+  }
+}
+// kAdd: acc += the sum (later terms); else acc = the sum (the first term: no zero-filled acc).
+template <int K, int S, bool kAdd>
+__attribute__((target("avx2,fma"))) void HorizontalTapsEvenFma(const float* __restrict ext,
+                                                               const float* r,
+                                                               float* __restrict acc, int w) {
+  constexpr int H = K / 2;
+  __m256 tap[H + 1];
+  for (int i = 0; i <= H; ++i) tap[i] = _mm256_set1_ps(r[i]);
+  int x = 0;
+  for (; x + 8 <= w; x += 8) {
+    __m256 s = _mm256_mul_ps(tap[H], _mm256_loadu_ps(ext + x + S * H));
+    for (int i = 0; i < H; ++i) {
+      const __m256 p = _mm256_add_ps(_mm256_loadu_ps(ext + x + S * i),
+                                     _mm256_loadu_ps(ext + x + S * (K - 1 - i)));
+      s = _mm256_fmadd_ps(tap[i], p, s);
+    }
+    _mm256_storeu_ps(acc + x, kAdd ? _mm256_add_ps(_mm256_loadu_ps(acc + x), s) : s);
+  }
+  for (; x < w; ++x) {
+    float s = r[H] * ext[x + S * H];
+    for (int i = 0; i < H; ++i) s = std::fma(r[i], ext[x + S * i] + ext[x + S * (K - 1 - i)], s);
+    acc[x] = kAdd ? acc[x] + s : s;
+  }
+}
+
+// The even-tap passes for K in {5, 7, ..., 15} (false: another K, the general kernels serve).
+template <int K = 15>
+bool EvenTaps(int k, const float* const* rows, const float* const* c, float* const* out, int w,
+              int terms) {
+  if (k == K) {
+    terms == 2 ? VerticalTapsEvenFma<K, 2>(rows, c, out, w)
+               : VerticalTapsEvenFma<K, 1>(rows, c, out, w);
+    return true;
+  }
+  if constexpr (K > 5) return EvenTaps<K - 2>(k, rows, c, out, w, terms);
+  return false;
+}
+template <int K = 15>
+bool EvenHTaps(int k, int stride, bool add, const float* ext, const float* r, float* acc, int w) {
+  if (k == K && (stride == 1 || stride == 3)) {
+    if (stride == 3) {
+      add ? HorizontalTapsEvenFma<K, 3, true>(ext, r, acc, w)
+          : HorizontalTapsEvenFma<K, 3, false>(ext, r, acc, w);
+    } else {
+      add ? HorizontalTapsEvenFma<K, 1, true>(ext, r, acc, w)
+          : HorizontalTapsEvenFma<K, 1, false>(ext, r, acc, w);
+    }
+    return true;
+  }
+  if constexpr (K > 5) return EvenHTaps<K - 2>(k, stride, add, ext, r, acc, w);
+  return false;
+}
+
+// Whether every term's vertical and horizontal taps are even within 1e-5 of the term's largest
+// tap (the SVD of a symmetric kernel gives them so up to its rounding); if so they are all made
+// exactly even (the mean of each mirrored pair). K odd, 5 to 15.
+bool MakeTapsEven(std::vector<std::vector<float>>& cols, std::vector<std::vector<float>>& rows) {
+  std::vector<std::vector<float>*> terms;
+  for (auto& v : cols) terms.push_back(&v);
+  for (auto& v : rows) terms.push_back(&v);
+  for (const std::vector<float>* t : terms) {
+    const std::vector<float>& v = *t;
+    const int k = static_cast<int>(v.size());
+    if (k % 2 == 0 || k < 5 || k > 15) return false;
+    float big = 0.0f;
+    for (float a : v) big = std::max(big, std::abs(a));
+    for (int j = 0; j < k / 2; ++j) {
+      if (!(std::abs(v[j] - v[k - 1 - j]) <= 1e-5f * big)) return false;
+    }
+  }
+  for (std::vector<float>* t : terms) {
+    std::vector<float>& v = *t;
+    const int k = static_cast<int>(v.size());
+    for (int j = 0; j < k / 2; ++j) v[j] = v[k - 1 - j] = 0.5f * (v[j] + v[k - 1 - j]);
+  }
+  return true;
 }
 #endif
 
@@ -270,6 +393,29 @@ int Reflect101(int i, int n) {
   return i < n ? i : period - i;
 }
 
+// The separable terms of a 2-D kernel from its SVD, until the captured energy reaches 1 - 1e-7:
+// per term the vertical taps (kernel.rows) and the horizontal ones (kernel.cols).
+void SeparableTerms(const cv::Mat& kernel, std::vector<std::vector<float>>* cols,
+                    std::vector<std::vector<float>>* rows) {
+  cv::Mat k64;
+  kernel.convertTo(k64, CV_64F);
+  cv::SVD svd(k64, cv::SVD::FULL_UV);
+  const double total = cv::sum(svd.w.mul(svd.w))[0];
+  const int kr = kernel.rows, kc = kernel.cols;
+  double captured = 0.0;
+  for (int i = 0; i < svd.w.rows; ++i) {
+    const double s = svd.w.at<double>(i);
+    captured += s * s;
+    std::vector<float> c(kr), r(kc);
+    // Correlation, as cv::sepFilter2D: out(y, x) = sum c[j] r[i] in(y + j - ry, x + i - rx).
+    for (int j = 0; j < kr; ++j) c[j] = static_cast<float>(svd.u.at<double>(j, i) * std::sqrt(s));
+    for (int j = 0; j < kc; ++j) r[j] = static_cast<float>(svd.vt.at<double>(i, j) * std::sqrt(s));
+    cols->push_back(std::move(c));
+    rows->push_back(std::move(r));
+    if (captured >= (1.0 - 1e-7) * total) break;
+  }
+}
+
 // Applies a 2-D kernel as a sum of separable terms from its SVD (terms until the captured energy
 // reaches 1 - 1e-7), mirrored borders (BORDER_REFLECT_101), streamed by rows: per output row and
 // term, a vertical pass over the kernel's rows into a mirrored row buffer, then a horizontal pass
@@ -279,25 +425,10 @@ int Reflect101(int i, int n) {
 void ApplySeparableRowsFrom(int h, int w, int channels,
                             const std::function<const float*(int)>& source, const cv::Mat& kernel,
                             const std::function<void(int, const float*)>& emit) {
-  cv::Mat k64;
-  kernel.convertTo(k64, CV_64F);
-  cv::SVD svd(k64, cv::SVD::FULL_UV);
-  const double total = cv::sum(svd.w.mul(svd.w))[0];
   const int kr = kernel.rows, kc = kernel.cols;
   const int ry = kr / 2, rx = kc / 2;
   std::vector<std::vector<float>> cols, rows;  // per term: vertical taps (kr), horizontal (kc)
-  double captured = 0.0;
-  for (int i = 0; i < svd.w.rows; ++i) {
-    const double s = svd.w.at<double>(i);
-    captured += s * s;
-    std::vector<float> c(kr), r(kc);
-    // Correlation, as cv::sepFilter2D: out(y, x) = sum c[j] r[i] in(y + j - ry, x + i - rx).
-    for (int j = 0; j < kr; ++j) c[j] = static_cast<float>(svd.u.at<double>(j, i) * std::sqrt(s));
-    for (int j = 0; j < kc; ++j) r[j] = static_cast<float>(svd.vt.at<double>(i, j) * std::sqrt(s));
-    cols.push_back(std::move(c));
-    rows.push_back(std::move(r));
-    if (captured >= (1.0 - 1e-7) * total) break;
-  }
+  SeparableTerms(kernel, &cols, &rows);
   const int c = channels, n = w * c;  // values per row
   const int terms = static_cast<int>(cols.size());
   const size_t ext_n = static_cast<size_t>(w + 2 * rx) * c;
@@ -310,6 +441,11 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
   // value's sum is VerticalTaps's, wherever the strips start.
   constexpr int kStrip = 512;
   const bool fma = TapsUseFma();
+#ifdef TURBID_HAVE_TAPS_FMA
+  // Even taps (a symmetric kernel, 5 to 15 wide): the folded FMA kernels, two terms per vertical
+  // pass.
+  const bool even = fma && MakeTapsEven(cols, rows);
+#endif
   for (int y = 0; y < h; ++y) {
     for (int j = 0; j < kr; ++j) in_rows[j] = source(Reflect101(y + j - ry, h));
     for (int x0 = 0; x0 < n; x0 += kStrip) {
@@ -317,13 +453,29 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
       for (int j = 0; j < kr; ++j) strip_rows[j] = in_rows[j] + x0;
       for (int t = 0; t < terms; ++t) {
         float* mid = ext.data() + t * ext_n + static_cast<size_t>(rx) * c + x0;
+#ifdef TURBID_HAVE_TAPS_FMA
+        if (even) {
+          const int pair = std::min(2, terms - t);
+          const float* taps[2] = {cols[t].data(), cols[t + pair - 1].data()};
+          float* outs[2] = {mid, mid + (pair - 1) * ext_n};
+          EvenTaps(kr, strip_rows.data(), taps, outs, len, pair);
+          t += pair - 1;
+          continue;
+        }
+#endif
         if (!TapsUpTo<25>(kr, fma, strip_rows.data(), cols[t].data(), mid, len)) {
           VerticalTapsAny(strip_rows.data(), cols[t].data(), mid, len, kr);
         }
       }
     }
     // Then per term its border and its horizontal pass, added into acc in order of the terms.
-    std::fill(acc.begin(), acc.end(), 0.0f);
+    // (The even kernels store the first term's sums: no zero fill.)
+#ifdef TURBID_HAVE_TAPS_FMA
+    const bool stores = even && (c == 1 || c == 3);
+#else
+    const bool stores = false;
+#endif
+    if (!stores) std::fill(acc.begin(), acc.end(), 0.0f);
     for (int t = 0; t < terms; ++t) {
       float* e = ext.data() + t * ext_n;
       const float* mid = e + static_cast<size_t>(rx) * c;
@@ -331,6 +483,9 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
       for (int x = w + rx; x < w + 2 * rx; ++x) {
         std::copy_n(mid + col_src[x] * c, c, e + static_cast<size_t>(x) * c);
       }
+#ifdef TURBID_HAVE_TAPS_FMA
+      if (even && EvenHTaps(kc, c, t > 0, e, rows[t].data(), acc.data(), n)) continue;
+#endif
       if (!HTapsUpTo<25>(kc, fma, c, e, rows[t].data(), acc.data(), n)) {
         HorizontalTapsAny(e, rows[t].data(), acc.data(), n, kc, c);
       }

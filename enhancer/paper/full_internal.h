@@ -2,9 +2,11 @@
 // full_steps.cc, full_light.cc) and the streamed colour path (full_rows.cc).
 #pragma once
 
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "enhancer/blocks/clahe.h"
@@ -19,8 +21,32 @@ void ClampUnit(cv::Mat& m);
 bool Fail(std::string* why, const std::string& message);
 // %g-style number for the step log (0.7, not 0.700000).
 std::string FormatNumber(double v);
+// A vector whose resize leaves new elements uninitialised (scratch that is written before it is
+// read: no memset of megabytes per call).
+template <typename T>
+struct UninitializedAllocator : std::allocator<T> {
+  template <typename U>
+  struct rebind {
+    using other = UninitializedAllocator<U>;
+  };
+  UninitializedAllocator() = default;
+  template <typename U>
+  UninitializedAllocator(const UninitializedAllocator<U>&) noexcept {}
+  template <typename U>
+  void construct(U* p) noexcept {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <typename U, typename... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+  }
+};
+template <typename T>
+using ScratchVector = std::vector<T, UninitializedAllocator<T>>;
+
 // The value at `percentile` (%) of `values` (no NaN), by rank floor(p/100 (n - 1)).
 double PercentileOf(std::vector<float>& values, double percentile);
+double PercentileOf(ScratchVector<float>& values, double percentile);
 
 // Geometry (full_steps.cc): the camera for an image (scene's, sidecar's, else a pinhole), the
 // dehazing plane, a camera at 1/subsample, the plane's z-depth capped at max_range_m, a bilinear
@@ -79,7 +105,8 @@ void ContrastStepLog(const FullOptions& o, const ClaheOptions& clahe, const Clah
 // its source) from clahe_domain and the sidecar's camera; a row clipped to [0, 1] (NaN -> 0) and
 // coded with it (in == out allowed); an equalised image (values in [0, 1]) or one row decoded in
 // place (a no-op for kLinear); one linear value coded (clamped). With AVX2 and FMA the sRGB
-// curve is a polynomial (within 1e-6 relative of the double curve), otherwise tables.
+// curve is a polynomial (within 1e-5 relative of the double curve, ~1e-6 measured), otherwise
+// tables.
 void ResolveClaheEncoding(const FullOptions& o, const RenderRecord* sidecar, FullResult* r);
 void ClaheEncodeRow(const float* in, float* out, int n, CameraEncoding encoding);
 void ClaheDecodeImage(cv::Mat& image, CameraEncoding encoding);

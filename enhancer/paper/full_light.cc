@@ -218,8 +218,8 @@ bool SolveVeil(const VeilSums3& s, int c, cv::Vec3d* solution) {
 }
 
 // FitVeilModel for three channels whose samples share t and L (`v`: four floats per sample).
-void FitVeilModel3(const std::vector<float>& t, const std::vector<float>& l,
-                   const std::vector<float>& v, bool ok[3], cv::Vec3d fit[3]) {
+void FitVeilModel3(const ScratchVector<float>& t, const ScratchVector<float>& l,
+                   const ScratchVector<float>& v, bool ok[3], cv::Vec3d fit[3]) {
   const size_t n = t.size();
   for (int c = 0; c < 3; ++c) ok[c] = n >= 16;
   if (n < 16) return;
@@ -232,8 +232,8 @@ void FitVeilModel3(const std::vector<float>& t, const std::vector<float>& l,
                     {fit[0][1], fit[1][1], fit[2][1], 0.0},
                     {fit[0][2], fit[1][2], fit[2][2], 0.0},
                     {0.0, 0.0, 0.0, 0.0}};
-  std::vector<double> r[3] = {std::vector<double>(n), std::vector<double>(n),
-                              std::vector<double>(n)};
+  ScratchVector<double> r[3] = {ScratchVector<double>(n), ScratchVector<double>(n),
+                                ScratchVector<double>(n)};
   VeilResiduals3(t.data(), l.data(), v.data(), n, coef, r[0].data(), r[1].data(), r[2].data());
   for (int c = 0; c < 3; ++c) {
     if (ok[c]) coef[3][c] = enhancer_internal::SelectKth<double, uint64_t>(r[c], n * 8 / 10);
@@ -277,9 +277,10 @@ bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmi
                        float w_min, double percentile, std::vector<LightScaleEstimate>* out) {
   const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
                           static_cast<size_t>((denoised.cols + stride - 1) / stride);
-  std::vector<float> ts(expected), ls(expected), vs(4 * expected);
-  std::vector<float> ratios[3] = {std::vector<float>(expected), std::vector<float>(expected),
-                                  std::vector<float>(expected)};
+  // Written before read, so not zero-filled (ScratchVector).
+  ScratchVector<float> ts(expected), ls(expected), vs(4 * expected);
+  ScratchVector<float> ratios[3] = {ScratchVector<float>(expected), ScratchVector<float>(expected),
+                                    ScratchVector<float>(expected)};
   size_t n = 0, m = 0;  // samples, ratios
   for (int y = 0; y < denoised.rows; y += stride) {
     const float* in = denoised.ptr<float>(y);
@@ -292,8 +293,10 @@ bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmi
       if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) return false;
       const float w = static_cast<float>((1.0 - ti) * li);
       if (w >= w_min) {
+        // One division per pixel (issue 29 item 6: a ratio may move by a double rounding).
+        const double inv_w = 1.0 / w;
         for (int c = 0; c < 3; ++c) {
-          ratios[c][m] = static_cast<float>(std::max(static_cast<double>(v[c]), 0.0) / w);
+          ratios[c][m] = static_cast<float>(std::max(static_cast<double>(v[c]), 0.0) * inv_w);
         }
         ++m;
       }
@@ -320,6 +323,30 @@ int LightScaleStride(const cv::Mat& denoised) {
   return std::max(1, static_cast<int>(std::floor(std::sqrt(denoised.total() / 65536.0))));
 }
 
+// Channel c's largest veil weight (1 - t) L on the grid, at least +0. Four running maxima (one
+// chain waited on each maxss); the same value as one: a NaN product never replaces a maximum.
+float LargestVeilWeight(const cv::Mat& denoised, GridRows light, GridRows transmission, int stride,
+                        int c) {
+  const int lc = light.channels(), tc = transmission.channels();
+  const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
+  float m[4] = {0.0f, 0.0f, 0.0f, 0.0f};
+  for (int y = 0; y < denoised.rows; y += stride) {
+    const float* t = transmission(y);
+    const float* l = light(y);
+    int x = 0, k = 0;
+    for (; x + 3 * stride < denoised.cols; x += 4 * stride) {
+      for (int j = 0; j < 4; ++j) {
+        const int xj = x + j * stride;
+        m[j] = std::max(m[j], (1.0f - t[xj * tc + t_at]) * l[xj * lc + l_at]);
+      }
+    }
+    for (; x < denoised.cols; x += stride, k = (k + 1) & 3) {
+      m[k] = std::max(m[k], (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
+    }
+  }
+  return std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
+}
+
 // EstimateLightScale on maps given as GridRows (the checks done, `stride` > 0).
 std::vector<LightScaleEstimate> EstimateLightScaleGrid(const cv::Mat& denoised, GridRows light,
                                                        GridRows transmission, double percentile,
@@ -335,14 +362,7 @@ std::vector<LightScaleEstimate> EstimateLightScaleGrid(const cv::Mat& denoised, 
       w_max[c] = w_max[0];
       continue;
     }
-    const int l_at = lc == 1 ? 0 : c, t_at = tc == 1 ? 0 : c;
-    for (int y = 0; y < denoised.rows; y += stride) {
-      const float* t = transmission(y);
-      const float* l = light(y);
-      for (int x = 0; x < denoised.cols; x += stride) {
-        w_max[c] = std::max(w_max[c], (1.0f - t[x * tc + t_at]) * l[x * lc + l_at]);
-      }
-    }
+    w_max[c] = LargestVeilWeight(denoised, light, transmission, stride, c);
   }
   std::vector<bool> active(ch);
   std::vector<float> w_min(ch);

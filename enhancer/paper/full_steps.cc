@@ -131,6 +131,10 @@ double PercentileOf(std::vector<float>& values, double percentile) {
   const size_t k = static_cast<size_t>(std::floor(percentile / 100.0 * (values.size() - 1)));
   return enhancer_internal::SelectKth<float, uint32_t>(values, k);
 }
+double PercentileOf(ScratchVector<float>& values, double percentile) {
+  const size_t k = static_cast<size_t>(std::floor(percentile / 100.0 * (values.size() - 1)));
+  return enhancer_internal::SelectKth<float, uint32_t>(values, k);
+}
 
 // %g-style number for the step log (0.7, not 0.700000).
 std::string FormatNumber(double v) {

@@ -225,7 +225,9 @@ TEST(FullColorKernels, SrgbCurveRowsMatchTheDoubleCurve) {
         const double want = is_encode ? encode(c) : decode(c);
         const double err = std::abs(out[i] - want) / (want + 1e-3);
         worst = std::max(worst, err);
-        ASSERT_LE(std::abs(out[i] - want), polynomial ? 1e-6 * want + 1e-9 : 1.5e-5 * want + 1e-7)
+        // Issue 29 item 6's rule for moved float outputs: 1e-5 relative (the polynomials,
+        // degree 6 / 5, measure ~1e-6; the tables 1.5e-5 near the encoding's knee).
+        ASSERT_LE(std::abs(out[i] - want), polynomial ? 1e-5 * want + 1e-9 : 1.5e-5 * want + 1e-7)
             << (is_encode ? "encode " : "decode ") << in[i] << " avx2 " << avx2;
         ASSERT_EQ(out[i], in_place[i]);
       }

@@ -100,11 +100,12 @@ bool SameBits(const cv::Mat& a, const cv::Mat& b) {
 }
 
 TEST(StreamedPaths, SeparableKernelEqualsPreOptimisationImplementation) {
-  // Bit for bit with the CPU level capped below FMA, within 1e-5 relative at the machine's level.
-  // Kernels of rank 1 to 5 (2 to 4 terms share the strips) and of full rank (every term), 3 to
-  // 27 wide (27: the loops for kernels wider than 25), the Wiener inverse of the default PSF;
-  // images smaller than the kernel, odd sizes, rows shorter and longer than a strip (512 values)
-  // and not a multiple of it, gray and colour.
+  // Bit for bit with the CPU level capped below FMA, within 1e-5 relative at the machine's level
+  // (FMA; symmetric kernels also folded, their taps made exactly even). Kernels of rank 1 to 5 (2
+  // to 4 terms share the strips) and of full rank (every term), 3 to 27 wide (27: the loops for
+  // kernels wider than 25), the Wiener inverse of the default PSF; images smaller than the kernel,
+  // odd sizes, rows shorter and longer than a strip (512 values) and not a multiple of it, gray and
+  // colour.
   cv::RNG rng(11);
   std::vector<cv::Mat> kernels;
   for (int k : {3, 5, 9, 15, 27}) {
@@ -122,6 +123,25 @@ TEST(StreamedPaths, SeparableKernelEqualsPreOptimisationImplementation) {
     cv::Mat full(k, k, CV_32F);
     rng.fill(full, cv::RNG::UNIFORM, -1.0, 1.0);
     kernels.push_back(full);
+  }
+  // Symmetric kernels (every SVD term even: the folded even-tap kernels at the FMA level), of
+  // rank 1 to 3, 5 to 15 wide, and one with an odd term (a mirror-antisymmetric part: the
+  // general kernels).
+  for (int k : {5, 9, 15}) {
+    for (int rank : {1, 2, 3}) {
+      cv::Mat kernel(k, k, CV_32F, cv::Scalar(0));
+      for (int t = 0; t < rank; ++t) {
+        cv::Mat a(k, 1, CV_32F);
+        rng.fill(a, cv::RNG::UNIFORM, -1.0, 1.0);
+        for (int j = 0; j < k / 2; ++j) a.at<float>(k - 1 - j) = a.at<float>(j);
+        kernel += a * a.t();
+      }
+      kernels.push_back(kernel);
+    }
+    cv::Mat odd(k, 1, CV_32F);
+    rng.fill(odd, cv::RNG::UNIFORM, -1.0, 1.0);
+    for (int j = 0; j <= k / 2; ++j) odd.at<float>(k - 1 - j) = -odd.at<float>(j);
+    kernels.push_back(kernels.back() + 0.5 * odd * odd.t());
   }
   kernels.push_back(WienerInverseKernel(PsfKernel(PsfOptions{}).kernel, 1e-3));
   const std::vector<cv::Size> sizes = {{1, 1},   {3, 2},    {7, 5},     {23, 37},
