@@ -115,7 +115,8 @@ TEST(CameraEncoding, SrgbCodesAreExactAtEveryThreshold) {
   }
 }
 
-// The vector kernel (AVX2 where the CPU has it) and the portable loop give the same bits: values
+// The vector kernels (AVX-512 and AVX2 where the CPU has them: the 8-bit one-step table's and the
+// search's) and the portable loop give the same bits: values
 // next to every 8-bit threshold, random values, NaN, negatives, values above 1 and a row length
 // that leaves a tail; plain and R <-> B.
 TEST(CameraEncoding, SrgbQuantiserIsTheSameAtEveryCpuLevel) {
@@ -132,9 +133,9 @@ TEST(CameraEncoding, SrgbQuantiserIsTheSameAtEveryCpuLevel) {
     for (int i = 0; i < 20000; ++i) values.push_back(uniform(rng));
     for (float v : {std::nanf(""), -1.0f, 0.0f, 1.0f, 2.0f, -0.0f, 1e-30f}) values.push_back(v);
     while (values.size() % 3 != 0 || values.size() % 8 == 0) values.push_back(0.5f);
-    std::vector<float> results[2][2];
-    const CpuLevel caps[2] = {CpuLevel::kScalar, CpuLevel::kAvx512};
-    for (int c = 0; c < 2; ++c) {
+    std::vector<float> results[3][2];
+    const CpuLevel caps[3] = {CpuLevel::kScalar, CpuLevel::kAvx512, CpuLevel::kAvx2};
+    for (int c = 0; c < 3; ++c) {
       SetCpuLevelCap(caps[c]);
       results[c][0] = results[c][1] = values;
       QuantiseEncodedRow(results[c][0].data(), static_cast<int>(values.size()),
@@ -143,10 +144,12 @@ TEST(CameraEncoding, SrgbQuantiserIsTheSameAtEveryCpuLevel) {
                                CameraEncoding::kSrgb, bits);
     }
     SetCpuLevelCap(CpuLevel::kAvx512);
-    for (int k = 0; k < 2; ++k)
-      for (size_t i = 0; i < values.size(); ++i)
-        ASSERT_EQ(results[0][k][i], results[1][k][i])
-            << "bits " << bits << " v " << values[i] << (k ? " (R <-> B)" : "");
+    for (int c = 1; c < 3; ++c)
+      for (int k = 0; k < 2; ++k)
+        for (size_t i = 0; i < values.size(); ++i)
+          ASSERT_EQ(results[0][k][i], results[c][k][i])
+              << "bits " << bits << " v " << values[i] << (k ? " (R <-> B)" : "") << " level "
+              << static_cast<int>(caps[c]);
   }
 }
 
