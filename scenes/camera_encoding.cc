@@ -60,8 +60,9 @@ struct SrgbTables {
 
   // The one-step table (8 bits): for each of kStepBins + 1 bins of width 2^-13 (v * 2^13 is exact
   // in float, so bin i holds exactly the v in [i, i + 1) / 2^13), {the first threshold above the
-  // codes every v of the bin reaches, the decoded code below it, the decoded code above it, 0}:
-  // the decoded code of v is step[4 i + 1 + (v >= step[4 i])]. Built only when every bin holds at
+  // codes every v of the bin reaches, the decoded code below it, the decoded code above it, the
+  // code below it}: the decoded code of v is step[4 i + 1 + (v >= step[4 i])], its code
+  // step[4 i + 3] + (v >= step[4 i]). Built only when every bin holds at
   // most one threshold (checked below; true for 8 bits: thresholds are >= 3e-4 apart, bins 1.2e-4).
   static constexpr int kStepBins = 8192;
   std::vector<float> step;
@@ -76,6 +77,7 @@ struct SrgbTables {
       table[4 * i] = threshold[q];
       table[4 * i + 1] = decoded[q];
       table[4 * i + 2] = decoded[std::min(q + 1, levels)];
+      table[4 * i + 3] = static_cast<float>(q);  // the code below (EncodeCodesRow8)
     }
     step = std::move(table);
   }
@@ -151,6 +153,24 @@ __attribute__((target("avx512f"))) int StepCodesAvx512(const SrgbTables& t, cons
   }
   return i;
 }
+
+// The codes (bytes) by the one-step table, sixteen at a time.
+__attribute__((target("avx512f"))) int StepCodeBytesAvx512(const SrgbTables& t, const float* in,
+                                                           int n, uint8_t* out) {
+  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.0f);
+  const __m512 bins = _mm512_set1_ps(static_cast<float>(SrgbTables::kStepBins));
+  const float* step = t.step.data();
+  int i = 0;
+  for (; i + 16 <= n; i += 16) {
+    const __m512 v = _mm512_min_ps(_mm512_max_ps(_mm512_loadu_ps(in + i), zero), one);
+    const __m512i at = _mm512_slli_epi32(_mm512_cvttps_epi32(_mm512_mul_ps(v, bins)), 2);
+    const __mmask16 above = _mm512_cmp_ps_mask(v, _mm512_i32gather_ps(at, step, 4), _CMP_GE_OQ);
+    const __m512 below = _mm512_i32gather_ps(_mm512_add_epi32(at, _mm512_set1_epi32(3)), step, 4);
+    const __m512i code = _mm512_cvttps_epi32(_mm512_mask_add_ps(below, above, below, one));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), _mm512_cvtepi32_epi8(code));
+  }
+  return i;
+}
 #endif
 
 // The decoded sRGB codes of n values, from `in` to `out` (may be the same).
@@ -214,6 +234,26 @@ void QuantiseEncodedRowSwapRB(float* values, int n, CameraEncoding encoding, int
   }
   DecodedCodes(TablesFor(bits), values, n, values);
   for (int i = 0; i < n; i += 3) std::swap(values[i], values[i + 2]);
+}
+
+void EncodeCodesRow8(const float* in, int n, CameraEncoding encoding, uint8_t* out) {
+  int i = 0;
+  if (encoding == CameraEncoding::kLinear) {
+    for (; i < n; ++i) {
+      const float v = std::min(in[i] > 0.0f ? in[i] : 0.0f, 1.0f);  // NaN -> 0
+      out[i] = static_cast<uint8_t>(static_cast<int>(v * 255.0f + 0.5f));
+    }
+    return;
+  }
+  const SrgbTables& tables = TablesFor(8);
+#if defined(__x86_64__) && defined(__GNUC__)
+  if (!tables.step.empty() && KernelCpuLevel() >= CpuLevel::kAvx512)
+    i = StepCodeBytesAvx512(tables, in, n, out);
+#endif
+  for (; i < n; ++i) {
+    const float v = std::min(in[i] > 0.0f ? in[i] : 0.0f, 1.0f);  // NaN -> 0
+    out[i] = static_cast<uint8_t>(tables.Code(v));
+  }
 }
 
 cv::Mat QuantiseEncoded(const cv::Mat& linear, CameraEncoding encoding, int bits) {
