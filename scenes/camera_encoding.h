@@ -12,6 +12,7 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <cstdint>
 #include <string>
 
 #include "scenes/image_io.h"
@@ -40,5 +41,8 @@ cv::Mat QuantiseEncoded(const cv::Mat& linear, CameraEncoding encoding, int bits
 // written with this encoding and bit depth stores, i.e. the raw values `turbid score` reads back.
 // Same clipping and thresholds as QuantiseEncoded (NaN becomes 0).
 cv::Mat EncodeCodes(const cv::Mat& linear, CameraEncoding encoding, int bits);
+// The 8-bit codes of n values as bytes: the codes QuantiseEncodedRow(..., 8) decodes (same
+// clipping and thresholds; NaN becomes 0), i.e. the bytes of the 8-bit file.
+void EncodeCodesRow8(const float* in, int n, CameraEncoding encoding, uint8_t* out);
 
 }  // namespace turbid

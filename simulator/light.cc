@@ -9,6 +9,7 @@
 #include "core/row_kernel.h"
 #include "simulator/fast_math.h"
 #include "simulator/kernels.h"
+#include "simulator/wide_kernel.h"
 
 namespace turbid {
 namespace {
@@ -150,12 +151,12 @@ namespace {
 // without branches (selects) so that it vectorises; the AVX2 clone computes the same values (no
 // FMA contraction).
 template <bool kEq5>
-TURBID_ROW_KERNEL void GeometryRowKernel(const float* __restrict ray_x, float ry,
-                                         const float* __restrict z, const float* __restrict normals,
-                                         int width, const float* position, const float* axis,
-                                         float power, float min_cos, float min_l,
-                                         float* __restrict l_out, float* __restrict g_out,
-                                         float* __restrict cos_phi) {
+TURBID_WIDE_KERNEL void GeometryRowKernel(const float* __restrict ray_x, float ry,
+                                          const float* __restrict z,
+                                          const float* __restrict normals, int width,
+                                          const float* position, const float* axis, float power,
+                                          float min_cos, float min_l, float* __restrict l_out,
+                                          float* __restrict g_out, float* __restrict cos_phi) {
   const float nan = std::numeric_limits<float>::quiet_NaN();
   const float lx = position[0], ly = position[1], lz = position[2];
   const float ax = axis[0], ay = axis[1], az = axis[2];
@@ -302,9 +303,9 @@ namespace {
 // out[x, c] += colour[c] g[x] exp(-beta[c] l[x]) for one row; NaN l (invalid depth) has g = 0.
 // kStore: out = ... instead (the first light; 0 + v = v, up to the sign of a zero).
 template <int kChannels, bool kStore>
-TURBID_ROW_KERNEL void AccumulateLightKernel(const float* __restrict l, const float* __restrict g,
-                                             int width, const float* neg_beta, const float* color,
-                                             float* __restrict out) {
+TURBID_WIDE_KERNEL void AccumulateLightKernel(const float* __restrict l, const float* __restrict g,
+                                              int width, const float* neg_beta, const float* color,
+                                              float* __restrict out) {
   for (int x = 0; x < width; ++x) {
     const float range = std::max(0.0f, l[x]);  // NaN -> 0 without a branch
     for (int c = 0; c < kChannels; ++c) {

@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/row_kernel.h"
 #include "simulator/kernels.h"
+#include "simulator/wide_kernel.h"
 
 namespace turbid {
 namespace {
@@ -91,10 +92,10 @@ inline void FastSinCos2Pi(float u, float* sin_out, float* cos_out) {
 namespace {
 
 // Box-Muller for pairs low0 .. low0 + n - 1 (32-bit counter, fixed high word): a straight loop
-// the compiler vectorises; an AVX2 clone is picked at run time where the CPU has it (same results:
-// integer hashing and the same float operations, no FMA contraction across clones).
-TURBID_ROW_KERNEL void NormalPairs(uint32_t low0, uint32_t high, uint32_t k1, uint32_t k2, int n,
-                                   float* cos_part, float* sin_part) {
+// the compiler vectorises; an AVX-512 or AVX2 clone is picked at run time where the CPU has it
+// (same results: integer hashing and the same float operations, no FMA contraction in any clone).
+TURBID_WIDE_KERNEL void NormalPairs(uint32_t low0, uint32_t high, uint32_t k1, uint32_t k2, int n,
+                                    float* cos_part, float* sin_part) {
   for (int j = 0; j < n; ++j) {
     const uint32_t a = Hash32((low0 + static_cast<uint32_t>(j)) ^ k1) ^ high;
     const uint32_t b1 = Hash32(a ^ k2), b2 = Hash32((a + 0x9e3779b9U) ^ k2);
@@ -116,9 +117,9 @@ TURBID_ROW_KERNEL void ScaleNoise(const float* normals, float shot, float read2,
 }
 
 // ScaleNoise for normals given as pair halves: sample 2j is cos_part[j], 2j + 1 is sin_part[j].
-TURBID_ROW_KERNEL void ScaleNoisePairs(const float* __restrict cos_part,
-                                       const float* __restrict sin_part, float shot, float read2,
-                                       int pairs, float* __restrict p) {
+TURBID_WIDE_KERNEL void ScaleNoisePairs(const float* __restrict cos_part,
+                                        const float* __restrict sin_part, float shot, float read2,
+                                        int pairs, float* __restrict p) {
   for (int j = 0; j < pairs; ++j) {
     p[2 * j] += cos_part[j] * std::sqrt(std::max(p[2 * j], 0.0f) * shot + read2);
     p[2 * j + 1] += sin_part[j] * std::sqrt(std::max(p[2 * j + 1], 0.0f) * shot + read2);

@@ -18,6 +18,7 @@
 #include "simulator/psf_small_angle.h"
 #include "simulator/render_plan.h"
 #include "simulator/veil.h"
+#include "simulator/wide_kernel.h"
 #include "turbid_version.h"
 
 namespace turbid {
@@ -71,8 +72,8 @@ TURBID_ROW_KERNEL void RangeStatsRow(const float* r, int width, RangeStats* stat
 
 // J = (E_A + E_L) rho for one row; e == nullptr: no artificial light.
 template <int kChannels>
-TURBID_ROW_KERNEL void LitRow(const float* rho, const float* e, const float* ambient, int width,
-                              float* out) {
+TURBID_WIDE_KERNEL void LitRow(const float* rho, const float* e, const float* ambient, int width,
+                               float* out) {
   if (!e) {
     for (int x = 0; x < width; ++x)
       for (int c = 0; c < kChannels; ++c)
@@ -108,19 +109,19 @@ struct SeparableBlur {
 
 // out = k0 c[i] + sum_j k_j (a_j[i] + b_j[i]) with a_j, b_j = rows (vertical) or shifted views of
 // one padded row (horizontal); one vectorised pass per tap pair.
-TURBID_ROW_KERNEL void TapCentre(const float* c, float k0, int n, float* out) {
+TURBID_WIDE_KERNEL void TapCentre(const float* c, float k0, int n, float* out) {
   for (int i = 0; i < n; ++i) out[i] = k0 * c[i];
 }
 
-TURBID_ROW_KERNEL void TapPair(const float* a, const float* b, float kj, int n, float* out) {
+TURBID_WIDE_KERNEL void TapPair(const float* a, const float* b, float kj, int n, float* out) {
   for (int i = 0; i < n; ++i) out[i] += kj * (a[i] + b[i]);
 }
 
 // The centre and three tap pairs in one pass (the paper's kernel has R = 3): the same sums in the
 // same order as TapCentre and three TapPair passes.
-TURBID_ROW_KERNEL void Taps3(const float* c, const float* a1, const float* b1, const float* a2,
-                             const float* b2, const float* a3, const float* b3, const float* k,
-                             int n, float* out) {
+TURBID_WIDE_KERNEL void Taps3(const float* c, const float* a1, const float* b1, const float* a2,
+                              const float* b2, const float* a3, const float* b3, const float* k,
+                              int n, float* out) {
   for (int i = 0; i < n; ++i)
     out[i] =
         ((k[0] * c[i] + k[1] * (a1[i] + b1[i])) + k[2] * (a2[i] + b2[i])) + k[3] * (a3[i] + b3[i]);
@@ -153,14 +154,14 @@ void BlurRow(const SeparableBlur& blur, const float* const* rows, int width, flo
 }
 
 // I = Jb t (no veiling term).
-TURBID_ROW_KERNEL void ComposePlain(const float* jb, const float* t, int n, float* out) {
+TURBID_WIDE_KERNEL void ComposePlain(const float* jb, const float* t, int n, float* out) {
   for (int i = 0; i < n; ++i) out[i] = jb[i] * t[i];
 }
 
 // I = Jb t + (1 - t)(E_L + B_inf). kInPlace: out holds E_L on entry; e == nullptr: E_L = 0.
 template <int kChannels, bool kInPlace>
-TURBID_ROW_KERNEL void ComposeVeil(const float* jb, const float* t, const float* e, const float* bs,
-                                   int width, float* out) {
+TURBID_WIDE_KERNEL void ComposeVeil(const float* jb, const float* t, const float* e,
+                                    const float* bs, int width, float* out) {
   for (int x = 0; x < width; ++x)
     for (int c = 0; c < kChannels; ++c) {
       const int i = x * kChannels + c;

@@ -7,6 +7,7 @@
 #include "core/row_kernel.h"
 #include "simulator/fast_math.h"
 #include "simulator/iop.h"
+#include "simulator/wide_kernel.h"
 
 namespace turbid {
 namespace {
@@ -216,8 +217,8 @@ namespace {
 
 // t[x, c] = exp(-beta[c] r[x]); NaN range (open water) gives 0.
 template <int kChannels>
-TURBID_ROW_KERNEL void TransmissionRow(const float* r, int width, const float* neg_beta,
-                                       float* out) {
+TURBID_WIDE_KERNEL void TransmissionRow(const float* r, int width, const float* neg_beta,
+                                        float* out) {
   for (int x = 0; x < width; ++x) {
     // max(0, NaN) is 0 and keep is 0 for NaN: arithmetic selects keep the loop vectorisable.
     const float range = std::max(0.0f, r[x]);

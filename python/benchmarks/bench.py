@@ -1,6 +1,7 @@
 """Binding overhead, thread scaling and loader throughput of the turbid package.
 
-Run: PYTHONPATH=build/python python3 python/benchmarks/bench.py [--loader [--rounds N] [--no-touch]]   (docs/performance.md)
+Run: PYTHONPATH=build/python python3 python/benchmarks/bench.py [--loader [--rounds N] [--no-touch]
+     [--dtype uint8] [--path batch]]   (docs/python.md)
 """
 import os
 import resource
@@ -125,7 +126,7 @@ def _tagged_collate(samples):
     return batch
 
 
-def loader(images=512, rounds=2, touch=True):
+def loader(images=512, rounds=2, touch=True, dtype="float32", paths=("batch", "per-sample")):
     """turbid.data through a torch DataLoader with 2 workers, batch 32: 256 x 256 random crops
     and full 640 x 480 frames of the seafloor / room scenes with a random sampler; the batch path
     (RenderDataset.__getitems__: rendered into one shared-memory batch) and the per-sample path
@@ -135,7 +136,8 @@ def loader(images=512, rounds=2, touch=True):
     into: the fetch (renders into the batch, incl. the page faults of its fresh shared-memory
     pages), the worker's rest (collate, pickling, handing the file descriptors over) and the main
     process (receiving, mapping, and with ``touch`` reading every page of the batch, as training
-    does)."""
+    does). ``dtype``: RenderDataset's (float32 or the opt-in uint8 camera codes); ``paths``:
+    which of the two paths to run."""
     try:
         import torch
         from torch.utils.data import DataLoader
@@ -149,9 +151,13 @@ def loader(images=512, rounds=2, touch=True):
                   "snow.density_per_m3": {"log_uniform": [0.5, 20]}}}}
     workers = 2
     for name, kw in (("256x256 crops", {"crop": 256}), ("640x480 frames", {})):
+        if dtype != "float32":
+            kw["dtype"] = dtype
         ds = _Timed(config, channel_axis=-3, with_params=False, **kw)
         for r in range(rounds):
             for path, dataset in (("batch", ds), ("per-sample", _PerSample(ds))):
+                if path not in paths:
+                    continue
                 dl = DataLoader(dataset, batch_size=32, num_workers=workers, shuffle=True,
                                 collate_fn=_tagged_collate)
                 first, last, count = {}, {}, 0
@@ -170,16 +176,17 @@ def loader(images=512, rounds=2, touch=True):
                     count += b["degraded"].shape[0]
                     if touch:
                         for key in ("degraded", "clean", "depth", "valid"):
-                            b[key].view(-1)[::1024].max()  # one value per 4 KiB page
+                            v = b[key].view(-1)
+                            v[::4096 // v.element_size()].max()  # one value per 4 KiB page
                 wall = time.perf_counter() - t0
                 main = time.process_time() - m0
                 main_faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - f0
                 d = [sum(last[w][k] - first[w][k] for w in last) for k in range(4)]
                 ms = 1e3 / count
-                print("RenderDataset %s, %s path, num_workers=%d, batch 32: %.0f images/s, "
+                print("RenderDataset %s %s, %s path, num_workers=%d, batch 32: %.0f images/s, "
                       "%.2f ms CPU per image (%d images, %d cores): workers %.2f ms (fetch %.2f "
                       "with %.0f page faults, rest %.2f), main process %.2f ms (%.0f faults)"
-                      % (name, path, workers, count / wall, (d[0] + main) * ms, count,
+                      % (name, dtype, path, workers, count / wall, (d[0] + main) * ms, count,
                          os.cpu_count(), d[0] * ms, d[1] * ms, d[3] / count, (d[0] - d[1]) * ms,
                          main * ms, main_faults / count))
                 del it, dl
@@ -189,7 +196,10 @@ if __name__ == "__main__":
     print("turbid", turbid.__version__)
     if "--loader" in sys.argv:
         rounds = int(sys.argv[sys.argv.index("--rounds") + 1]) if "--rounds" in sys.argv else 2
-        loader(rounds=rounds, touch="--no-touch" not in sys.argv)
+        dtype = sys.argv[sys.argv.index("--dtype") + 1] if "--dtype" in sys.argv else "float32"
+        paths = ((sys.argv[sys.argv.index("--path") + 1],) if "--path" in sys.argv
+                 else ("batch", "per-sample"))
+        loader(rounds=rounds, touch="--no-touch" not in sys.argv, dtype=dtype, paths=paths)
         sys.exit(0)
     overhead()
     scaling()

@@ -22,6 +22,7 @@
 #include "core/error.h"
 #include "python/src/common.h"
 #include "scenes/builtin.h"
+#include "scenes/camera_encoding.h"
 #include "scenes/scene_loader.h"
 #include "simulator/render.h"
 #include "simulator/render_options.h"
@@ -219,6 +220,36 @@ py::array EmitImage(const py::object& into, const char* name, const cv::Mat& m, 
   return out;
 }
 
+// An image as 8-bit camera codes (uint8, RenderDataset's dtype="uint8"), laid out as EmitImage
+// lays out floats: the bytes of the 8-bit file (EncodeCodesRow8), B, G, R reordered when `bgr`.
+py::array EmitCodes(const py::object& into, const char* name, const cv::Mat& m, bool bgr,
+                    bool planar, CameraEncoding encoding) {
+  const int c = m.channels(), w = m.cols, plane = m.rows * m.cols;
+  const std::vector<py::ssize_t> shape = planar ? std::vector<py::ssize_t>{c, m.rows, m.cols}
+                                                : std::vector<py::ssize_t>{m.rows, m.cols, c};
+  py::array out = Target(into, name, shape, py::dtype::of<uint8_t>());
+  uint8_t* dst = static_cast<uint8_t*>(out.mutable_data());
+  WorkScope release;
+  const bool direct = c == 1 || (!planar && !bgr);
+  std::vector<uint8_t> row(direct ? 0 : static_cast<size_t>(w) * c);
+  for (int y = 0; y < m.rows; ++y) {
+    uint8_t* codes = direct ? dst + static_cast<size_t>(y) * w * c : row.data();
+    EncodeCodesRow8(m.ptr<float>(y), w * c, encoding, codes);
+    if (direct) continue;
+    for (int k = 0; k < 3; ++k) {
+      const int from = bgr ? 2 - k : k;
+      if (planar) {
+        uint8_t* p = dst + static_cast<size_t>(k) * plane + static_cast<size_t>(y) * w;
+        for (int x = 0; x < w; ++x) p[x] = codes[3 * x + from];
+      } else {
+        uint8_t* p = dst + static_cast<size_t>(y) * w * 3 + k;
+        for (int x = 0; x < w; ++x) p[3 * x] = codes[3 * x + from];
+      }
+    }
+  }
+  return out;
+}
+
 // A one-channel float map (depth; the psf map) as H x W, or H x W x C RGB for a colour map.
 py::array EmitPlain(const py::object& into, const char* name, const cv::Mat& m) {
   if (m.channels() != 1) return EmitImage(into, name, m, /*bgr=*/true, /*planar=*/false);
@@ -243,17 +274,26 @@ py::array EmitValid(const py::object& into, const cv::Mat& depth) {
 }
 
 // A rendered sample: {"degraded", "clean" (J with `lit`), "depth", "valid", "K", maps...}, in new
-// arrays or written into `into`'s (then the same arrays are returned in the dict).
+// arrays or written into `into`'s (then the same arrays are returned in the dict). `codes8`:
+// degraded and clean as the 8-bit camera's codes (uint8) instead of float32: the render runs
+// unquantised (clipped, the same values before the quantiser) and the codes are taken once.
 py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::string& params_text,
                       const std::string& maps, bool lit, bool float_output, bool planar,
-                      const py::object& into) {
+                      const py::object& into, bool codes8) {
   const json params = ParseJsonText(params_text, "params");
   RenderResult result;
   std::unique_ptr<Renderer> own;  // the cropped / resized scene's
+  CameraEncoding encoding = CameraEncoding::kSrgb;
   {
     WorkScope release;
     RenderOptions options = RenderOptionsFromJson(params);
-    if (float_output) options.camera.bit_depth = 32;
+    if (codes8 && (float_output || options.camera.bit_depth != 8))
+      throw Error("dtype='uint8': 8-bit camera codes only, and this item's camera writes " +
+                  (float_output ? std::string("float (format exr)")
+                                : std::to_string(options.camera.bit_depth) + "-bit codes") +
+                  " (use dtype='float32', or camera.bit_depth 8)");
+    encoding = options.camera.encoding;
+    if (float_output || codes8) options.camera.bit_depth = 32;
     options.maps = MapSelection::FromList(maps);
     options.rgb_image = true;
     if (!spec.Identity(full.scene()))
@@ -262,8 +302,14 @@ py::dict RenderSample(const Renderer& full, const SampleSpec& spec, const std::s
   }
   const Scene& scene = (own ? *own : full).scene();
   py::dict out;
-  out["degraded"] = EmitImage(into, "degraded", result.image, /*bgr=*/false, planar);  // RGB
-  out["clean"] = EmitImage(into, "clean", lit ? result.lit : scene.image, /*bgr=*/true, planar);
+  const cv::Mat& clean = lit ? result.lit : scene.image;
+  if (codes8) {
+    out["degraded"] = EmitCodes(into, "degraded", result.image, /*bgr=*/false, planar, encoding);
+    out["clean"] = EmitCodes(into, "clean", clean, /*bgr=*/true, planar, encoding);
+  } else {
+    out["degraded"] = EmitImage(into, "degraded", result.image, /*bgr=*/false, planar);  // RGB
+    out["clean"] = EmitImage(into, "clean", clean, /*bgr=*/true, planar);
+  }
   out["depth"] = EmitPlain(into, "depth", scene.depth_m);
   out["valid"] = EmitValid(into, scene.depth_m);
   const std::pair<const char*, const cv::Mat*> named[] = {{"transmission", &result.transmission},
@@ -335,15 +381,16 @@ void DefineDataset(py::module_& m) {
       "render_sample",
       [](const PyScene& scene, const std::string& params_text, int crop_h, int crop_w, int y0,
          int x0, int size_h, int size_w, int channels, const std::string& maps, bool lit,
-         bool float_output, bool planar, const py::object& into) {
+         bool float_output, bool planar, const py::object& into, bool codes8) {
         const SampleSpec spec =
             MakeSpec(scene.scene(), crop_h, crop_w, y0, x0, size_h, size_w, channels);
         return RenderSample(*scene.renderer, spec, params_text, maps, lit, float_output, planar,
-                            into);
+                            into, codes8);
       },
       py::arg("scene"), py::arg("params_text"), py::arg("crop_h"), py::arg("crop_w"), py::arg("y0"),
       py::arg("x0"), py::arg("size_h"), py::arg("size_w"), py::arg("channels"), py::arg("maps"),
-      py::arg("lit"), py::arg("float_output"), py::arg("planar"), py::arg("into") = py::none());
+      py::arg("lit"), py::arg("float_output"), py::arg("planar"), py::arg("into") = py::none(),
+      py::arg("codes8") = false);
   m.def("draw_params", [](const std::string& base_text, const std::string& random_text,
                           uint64_t random_seed, uint64_t seed, uint64_t index) {
     json params = ExpandDottedParams(ParseJsonText(base_text, "base"), "base");

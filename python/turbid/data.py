@@ -27,7 +27,8 @@ import numpy as _np
 from . import _turbid, _arrays
 from . import Scene, _config, _dumps, _int, _seed, set_num_threads
 
-__all__ = ["RenderDataset", "DegradeTransform", "collate", "BucketBatchSampler", "draw_params"]
+__all__ = ["RenderDataset", "DegradeTransform", "collate", "BucketBatchSampler", "draw_params",
+           "decode_codes"]
 
 _MAPS = ("transmission", "light", "veil", "psf", "noise")
 _LISTED = ("psf",)  # per-sample kernels of their own sizes: batched as lists
@@ -110,11 +111,55 @@ class _SampleOptions:
                                      self.crop_mode == "random")
         return ch, cw, y0, x0
 
-    def render(self, core, params_text, window, float_output, into=None):
+    def render(self, core, params_text, window, float_output, into=None, codes8=False):
         ch, cw, y0, x0 = window
         return _turbid.render_sample(core, params_text, ch, cw, y0, x0, self.size[0],
                                      self.size[1], self.channels or 0, ",".join(self.maps),
-                                     self.lit, float_output, self.channels_first, into)
+                                     self.lit, float_output, self.channels_first, into, codes8)
+
+
+_CODE_TABLES = {}
+
+
+def decode_codes(codes, encoding="srgb"):
+    """8-bit camera codes (uint8, e.g. a ``dtype="uint8"`` batch's ``degraded`` / ``clean``) ->
+    float32 linear values, by a 256-entry table on the codes' device (a CUDA tensor stays on the
+    GPU): the same float32 values the ``dtype="float32"`` path gives for ``degraded``, bit for bit
+    (tested). ``encoding``: "srgb" (default) or "linear" (the camera's ``encoding``). NumPy
+    arrays give NumPy arrays."""
+    if encoding not in ("srgb", "linear"):
+        raise ValueError("encoding: 'srgb' or 'linear', not %r" % (encoding,))
+    table = _CODE_TABLES.get(encoding)
+    if table is None:
+        c = _np.arange(256, dtype=_np.float64) / 255.0
+        if encoding == "srgb":  # IEC 61966-2-1 in double, rounded once (as the renderer's table)
+            c = _np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+        else:
+            c = (_np.arange(256, dtype=_np.float32) / _np.float32(255)).astype(_np.float64)
+        table = _CODE_TABLES[encoding] = c.astype(_np.float32)
+    torch = _sys.modules.get("torch")
+    if torch is not None and isinstance(codes, torch.Tensor):
+        if codes.dtype != torch.uint8:
+            raise TypeError("decode_codes: uint8 codes, not %s" % (codes.dtype,))
+        return torch.from_numpy(table).to(codes.device)[codes.long()]
+    codes = _np.asarray(codes)
+    if codes.dtype != _np.uint8:
+        raise TypeError("decode_codes: uint8 codes, not %s" % (codes.dtype,))
+    return table[codes]
+
+
+def _image_dtype(dtype):
+    """RenderDataset's ``dtype``: "float32" or "uint8" from a name, a NumPy or a torch dtype."""
+    name = str(dtype).replace("torch.", "") if dtype is not None else "None"
+    if not isinstance(dtype, str) and not name.startswith(("float32", "uint8")):
+        try:
+            name = _np.dtype(dtype).name
+        except TypeError:
+            pass
+    if name not in ("float32", "uint8"):
+        raise ValueError("dtype: 'float32' (default) or 'uint8' (8-bit camera codes), not %r"
+                         % (dtype,))
+    return name
 
 
 def _worker_threads(threads):
@@ -144,6 +189,13 @@ class RenderDataset:
       ``"format": "exr"``);
     * ``clean``: the clean image rho the renderer saw (``ground_truth="lit"``: J = (E_A + E_L)
       rho), float32 linear, same layout;
+    * with ``dtype="uint8"`` (or ``torch.uint8``), ``degraded`` and ``clean`` are instead the 8-bit
+      camera codes (uint8, 0 .. 255: the bytes of generate's 8-bit PNGs, sRGB-coded unless the
+      camera says ``"encoding": "linear"``), as torchvision's ``decode_image`` gives a PNG: 11
+      instead of 29 bytes per pixel through a DataLoader. :func:`decode_codes` turns them into
+      the float path's values on the batch's device (``decode_codes(b["degraded"].cuda())``:
+      the same float32 bits as ``dtype="float32"`` gives for ``degraded``; for ``clean`` the
+      8-bit rounding of the float path's). Needs 8-bit camera items (not ``"format": "exr"``);
     * ``depth`` (H x W metres, NaN where unknown) and ``valid`` (H x W bool: depth known; pixels
       without depth render near-black, so mask the loss with it);
     * ``K``: (fx, fy, cx, cy) of the sample (after crop / resize); ``params``: the resolved render
@@ -163,7 +215,7 @@ class RenderDataset:
 
     def __init__(self, config, crop=None, crop_mode="random", size=None, channels=3, maps=(),
                  ground_truth="clean", channel_axis=-1, with_params=True, epoch=0,
-                 threads="auto", channels_first=None):
+                 threads="auto", channels_first=None, dtype="float32"):
         if channels_first is not None:  # the 0.x spelling
             channel_axis = -3 if channels_first else -1
         self.config = config
@@ -172,6 +224,8 @@ class RenderDataset:
         self._args = dict(crop=crop, crop_mode=crop_mode, size=size, channels=channels,
                           maps=tuple(self._options.maps), ground_truth=ground_truth,
                           channel_axis=channel_axis)
+        self.dtype = _image_dtype(dtype)
+        self._args["dtype"] = self.dtype if self.dtype != "float32" else None
         self.with_params = bool(with_params)
         self.epoch = _seed(epoch, "epoch")
         if threads not in ("auto", None):
@@ -188,6 +242,9 @@ class RenderDataset:
             scene = self._plan.scene(s)
             self._scenes.append((scene, scene.height, scene.width, self._sample_size(s)))
         self._exr = self._plan.format == "exr"
+        if self._exr and self.dtype == "uint8":
+            raise ValueError("dtype='uint8' needs 8-bit camera codes: the config's format is "
+                             "exr (float); use dtype='float32'")
 
     def __getstate__(self):
         state = dict(self.__dict__)
@@ -259,7 +316,8 @@ class RenderDataset:
         scene, height, width, _ = self._scenes[scene_index]
         params_text = self._plan.params(i, self.epoch)
         window = self._options.window(self._plan.seed, self.epoch, i, height, width)
-        sample = self._options.render(scene, params_text, window, self._exr, into)
+        sample = self._options.render(scene, params_text, window, self._exr, into,
+                                      self.dtype == "uint8")
         sample["index"] = i
         sample["id"] = item_id
         if self.with_params:
@@ -291,11 +349,17 @@ class RenderDataset:
         torch = _sys.modules.get("torch")
         shared = torch is not None and torch.utils.data.get_worker_info() is not None
         arrays, batch = {}, {}
-        for key, value in first.items():
-            if isinstance(value, _np.ndarray) and key not in _LISTED:
-                batch[key], arrays[key] = _batch_array(torch, shared, (n,) + value.shape,
-                                                       value.dtype)
-                arrays[key][0] = value
+        keys = [k for k, v in first.items() if isinstance(v, _np.ndarray) and k not in _LISTED]
+        if shared:  # one shared-memory block for all keys, sent as one file descriptor
+            batch = _BlockBatch(torch, [((n,) + first[k].shape, first[k].dtype) for k in keys]
+                                + [((n,), _np.int64)], keys + ["index"])
+            for key in keys:
+                arrays[key] = batch[key].numpy()
+        for key in keys:
+            if not shared:
+                batch[key], arrays[key] = _batch_array(torch, False, (n,) + first[key].shape,
+                                                       first[key].dtype)
+            arrays[key][0] = first[key]
         for j in range(1, n):
             into = {key: a[j] for key, a in arrays.items()}
             rest = self._render(indices[j], into)
@@ -305,7 +369,10 @@ class RenderDataset:
         for key in first:
             if key not in arrays:
                 batch.setdefault(key, [first[key]])
-        if torch is not None:
+        if shared:
+            batch.block_view("index").numpy()[:] = batch["index"]
+            batch["index"] = batch.block_view("index")
+        elif torch is not None:
             batch["index"] = torch.tensor(batch["index"])
         return _Batch(batch, n)
 
@@ -374,7 +441,8 @@ def _batch_array(torch, shared, shape, dtype):
     if torch is None:
         a = _np.empty(shape, dtype)
         return a, a
-    kind = {_np.dtype(_np.float32): torch.float32, _np.dtype(bool): torch.bool}[_np.dtype(dtype)]
+    kind = {_np.dtype(_np.float32): torch.float32, _np.dtype(bool): torch.bool,
+            _np.dtype(_np.uint8): torch.uint8}[_np.dtype(dtype)]
     if shared:  # as torch's default_collate allocates its output in workers
         elem = torch.empty(0, dtype=kind)
         numel = int(_np.prod(shape))
@@ -384,6 +452,56 @@ def _batch_array(torch, shared, shape, dtype):
         t = torch.empty(shape, dtype=kind)
         a = t.numpy()
     return t, a
+
+
+class _BlockBatch(dict):
+    """A DataLoader worker's batch whose arrays are views of one shared-memory block (64-byte
+    aligned places, one per key): it pickles as that block and the places, so the main process
+    receives one file descriptor per batch instead of one per key (each one a round trip to the
+    worker's resource sharer) and maps one block; it unpickles as a plain dict of tensors
+    (views of the block, ``is_shared()``). Keeping any one of them keeps the block."""
+
+    def __init__(self, torch, layout, keys):
+        super().__init__()
+        self._views, offset = {}, 0
+        for key, (shape, dtype) in zip(keys, layout):
+            kind = {_np.dtype(_np.float32): "float32", _np.dtype(bool): "bool",
+                    _np.dtype(_np.uint8): "uint8", _np.dtype(_np.int64): "int64"}[
+                        _np.dtype(dtype)]
+            nbytes = int(_np.prod(shape)) * _np.dtype(dtype).itemsize
+            self._views[key] = (offset, nbytes, kind, tuple(shape))
+            offset += -(-nbytes // 64) * 64
+        elem = torch.empty(0, dtype=torch.uint8)
+        self._block = elem.new(elem.storage()._new_shared(max(offset, 1)))
+        for key in keys[:-1]:
+            self[key] = self.block_view(key)
+
+    def block_view(self, key):
+        return _block_view(self._block, self._views[key])
+
+    def _is_view(self, key, value):
+        torch = _sys.modules["torch"]
+        if key not in self._views or not isinstance(value, torch.Tensor):
+            return False
+        view = self.block_view(key)
+        return (value.data_ptr() == view.data_ptr() and value.shape == view.shape
+                and value.dtype == view.dtype and value.stride() == view.stride())
+
+    def __reduce__(self):  # entries replaced after collate are pickled as they are
+        items = [(k, self._views[k] if self._is_view(k, v) else None,
+                  None if self._is_view(k, v) else v) for k, v in self.items()]
+        return (_rebuild_block_batch, (self._block, items))
+
+
+def _block_view(block, place):
+    torch = _sys.modules["torch"]
+    offset, nbytes, kind, shape = place
+    return block[offset:offset + nbytes].view(getattr(torch, kind)).view(shape)
+
+
+def _rebuild_block_batch(block, items):
+    return {key: _block_view(block, place) if place is not None else value
+            for key, place, value in items}
 
 
 class _Batch(list):

@@ -115,7 +115,8 @@ TEST(CameraEncoding, SrgbCodesAreExactAtEveryThreshold) {
   }
 }
 
-// The vector kernel (AVX2 where the CPU has it) and the portable loop give the same bits: values
+// The vector kernels (AVX-512 and AVX2 where the CPU has them: the 8-bit one-step table's and the
+// search's) and the portable loop give the same bits: values
 // next to every 8-bit threshold, random values, NaN, negatives, values above 1 and a row length
 // that leaves a tail; plain and R <-> B.
 TEST(CameraEncoding, SrgbQuantiserIsTheSameAtEveryCpuLevel) {
@@ -132,9 +133,9 @@ TEST(CameraEncoding, SrgbQuantiserIsTheSameAtEveryCpuLevel) {
     for (int i = 0; i < 20000; ++i) values.push_back(uniform(rng));
     for (float v : {std::nanf(""), -1.0f, 0.0f, 1.0f, 2.0f, -0.0f, 1e-30f}) values.push_back(v);
     while (values.size() % 3 != 0 || values.size() % 8 == 0) values.push_back(0.5f);
-    std::vector<float> results[2][2];
-    const CpuLevel caps[2] = {CpuLevel::kScalar, CpuLevel::kAvx512};
-    for (int c = 0; c < 2; ++c) {
+    std::vector<float> results[3][2];
+    const CpuLevel caps[3] = {CpuLevel::kScalar, CpuLevel::kAvx512, CpuLevel::kAvx2};
+    for (int c = 0; c < 3; ++c) {
       SetCpuLevelCap(caps[c]);
       results[c][0] = results[c][1] = values;
       QuantiseEncodedRow(results[c][0].data(), static_cast<int>(values.size()),
@@ -143,10 +144,52 @@ TEST(CameraEncoding, SrgbQuantiserIsTheSameAtEveryCpuLevel) {
                                CameraEncoding::kSrgb, bits);
     }
     SetCpuLevelCap(CpuLevel::kAvx512);
-    for (int k = 0; k < 2; ++k)
-      for (size_t i = 0; i < values.size(); ++i)
-        ASSERT_EQ(results[0][k][i], results[1][k][i])
-            << "bits " << bits << " v " << values[i] << (k ? " (R <-> B)" : "");
+    for (int c = 1; c < 3; ++c)
+      for (int k = 0; k < 2; ++k)
+        for (size_t i = 0; i < values.size(); ++i)
+          ASSERT_EQ(results[0][k][i], results[c][k][i])
+              << "bits " << bits << " v " << values[i] << (k ? " (R <-> B)" : "") << " level "
+              << static_cast<int>(caps[c]);
+  }
+}
+
+// The 8-bit code bytes (EncodeCodesRow8, AVX-512 where the CPU has it, and the portable loop) are
+// EncodeCodes' codes and decode to QuantiseEncodedRow's values: next to every threshold, random,
+// NaN, negative and above-1 values, a row length that leaves a tail; both encodings.
+TEST(CameraEncoding, CodeBytesAreTheQuantisersCodesAtEveryCpuLevel) {
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<float> uniform(-0.1f, 1.1f);
+  std::vector<float> values;
+  for (int k = 0; k < 255; ++k) {
+    for (double t : {DecodeReference((k + 0.5) / 255), (k + 0.5) / 255}) {
+      const float near = static_cast<float>(t);
+      for (float v : {std::nextafter(near, 0.0f), near, std::nextafter(near, 2.0f)})
+        values.push_back(v);
+    }
+  }
+  for (int i = 0; i < 20000; ++i) values.push_back(uniform(rng));
+  for (float v : {std::nanf(""), -1.0f, 0.0f, 1.0f, 2.0f, -0.0f, 1e-30f}) values.push_back(v);
+  values.push_back(0.5f);  // a tail of 16
+  const int n = static_cast<int>(values.size());
+  ASSERT_NE(n % 16, 0);
+  for (CameraEncoding encoding : {CameraEncoding::kSrgb, CameraEncoding::kLinear}) {
+    const cv::Mat row(1, n, CV_32FC1, values.data());
+    const cv::Mat codes = EncodeCodes(row, encoding, 8);
+    std::vector<float> decoded = values;
+    QuantiseEncodedRow(decoded.data(), n, encoding, 8);
+    for (CpuLevel cap : {CpuLevel::kScalar, CpuLevel::kAvx2, CpuLevel::kAvx512}) {
+      SetCpuLevelCap(cap);
+      std::vector<uint8_t> bytes(n, 77);
+      EncodeCodesRow8(values.data(), n, encoding, bytes.data());
+      SetCpuLevelCap(CpuLevel::kAvx512);
+      for (int i = 0; i < n; ++i) {
+        ASSERT_EQ(bytes[i], codes.at<float>(0, i))
+            << "v " << values[i] << " level " << static_cast<int>(cap);
+        float one = static_cast<float>(bytes[i]) / 255.0f;  // its decoded value, via the quantiser
+        if (encoding == CameraEncoding::kSrgb) one = static_cast<float>(DecodeReference(one));
+        ASSERT_NEAR(decoded[i], one, 1e-6) << "v " << values[i];
+      }
+    }
   }
 }
 
