@@ -407,7 +407,7 @@ bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmi
   if (!(w_max > 0.0f) || !std::isfinite(w_max)) return true;  // no channel is active
   const float w_min = static_cast<float>(support) * w_max;
   bool finite = true;
-  for (const ScratchVector<float>& col : cols) finite = finite && AllFinite(col.data() + 0, n);
+  for (const ScratchVector<float>& col : cols) finite = finite && AllFinite(col.data(), n);
   if (!finite && !DropUnlitSamples(cols, &n)) return false;
   for (ScratchVector<float>& col : cols) std::fill(col.begin() + n, col.begin() + RoundUp4(n), 0.f);
   const VeilColumns s{
