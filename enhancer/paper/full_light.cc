@@ -2,6 +2,8 @@
 // (range, physical, or blind: the veil fit of docs/methods.md, "Blind light scale").
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
@@ -135,114 +137,187 @@ bool FitVeilModel(const std::vector<VeilSample>& samples, cv::Vec3d* c) {
 }
 
 // ---- The three-channel fit with one t and one L map (the default `full` on colour): every grid
-// pixel gives each channel the same regressors (t, (1 - t) L, t L), so when every channel keeps
-// every pixel the three fits run side by side, one channel per vector lane (GCC/Clang vector
-// extensions; lane arithmetic is the scalar arithmetic above, so the bits are the same). Pass 0's
-// six regressor sums are the same for all three channels and summed once; pass 1 adds a
-// residual-rejected sample as +0.0, which leaves a sum started at +0.0 unchanged (such a sum is
-// never -0.0 in round-to-nearest), so the masked sums equal the skipping ones.
+// pixel gives each channel the same regressors (t, (1 - t) L, t L). The samples are kept as five
+// float columns (t, L and the three channels) and the kernels below run four samples per vector
+// (GCC/Clang vector extensions, no FMA: every clone rounds alike). A value a kernel writes per
+// sample (ratio, residual) is the scalar expression's, bit for bit; the normal equations' sums are
+// four partial sums per term, one per lane, added at the end as (lane 0 + lane 1) + (lane 2 +
+// lane 3). That order differs from FitVeilModel's sample order, so a fit may move by a few double
+// roundings (issue 29 item 6 allows 1e-5 relative). Pass 1 adds a residual-rejected sample as
+// +0.0, as do the pad lanes past the last sample (t = L = v = 0: every product is +0.0).
 typedef double VeilD4 __attribute__((vector_size(32)));
 typedef long long VeilL4 __attribute__((vector_size(32)));
+typedef float VeilF4 __attribute__((vector_size(16)));
+typedef int VeilI4 __attribute__((vector_size(16)));
 
-// The normal equations' sums s00, s01, s02, s11, s12, s22, b0, b1, b2; lane c: channel c (lane 3
-// unused).
-struct VeilSums3 {
-  VeilD4 s[9];
+// The samples' columns: sample i is t[i], l[i], v[c][i]. Each column holds n rounded up to a
+// multiple of 4 values, the pad ones +0.0.
+struct VeilColumns {
+  const float* t;
+  const float* l;
+  const float* v[3];
+  size_t n;
 };
 
-// Pass 0: v holds four floats per sample (three channels and a pad).
-TURBID_ROW_KERNEL void VeilSumsAll3(const float* __restrict t, const float* __restrict l,
-                                    const float* __restrict v, size_t n, VeilSums3* out) {
-  double s00 = 0, s01 = 0, s02 = 0, s11 = 0, s12 = 0, s22 = 0;
-  VeilD4 b0 = {0, 0, 0, 0}, b1 = b0, b2 = b0;
-  for (size_t i = 0; i < n; ++i) {
-    const double x0 = t[i], li = l[i];
-    const double x1 = (1.0 - x0) * li, x2 = x0 * li;
-    s00 += x0 * x0, s01 += x0 * x1, s02 += x0 * x2;
-    s11 += x1 * x1, s12 += x1 * x2, s22 += x2 * x2;
-    const VeilD4 x3 = {v[4 * i], v[4 * i + 1], v[4 * i + 2], 0.0};
-    b0 += x0 * x3, b1 += x1 * x3, b2 += x2 * x3;
+inline size_t RoundUp4(size_t n) { return (n + 3) & ~size_t{3}; }
+
+inline VeilF4 LoadF4(const float* p) {
+  VeilF4 f;
+  std::memcpy(&f, p, sizeof(f));
+  return f;
+}
+// The lanes' magnitudes (the sign bit cleared).
+constexpr VeilL4 kVeilAbs = {0x7fffffffffffffffLL, 0x7fffffffffffffffLL, 0x7fffffffffffffffLL,
+                             0x7fffffffffffffffLL};
+inline double SumLanes(const VeilD4& a) { return (a[0] + a[1]) + (a[2] + a[3]); }
+
+// Pass 0's sums: s00, s01, s02, s11, s12, s22 (every channel's), then b0, b1, b2 of channel 0, 1
+// and 2 (out[6 + 3 c + j]).
+TURBID_ROW_KERNEL void VeilSumsAll3(VeilColumns s, double out[15]) {
+  VeilD4 acc[15] = {};
+  for (size_t i = 0; i < s.n; i += 4) {
+    const VeilD4 x0 = __builtin_convertvector(LoadF4(s.t + i), VeilD4),
+                 l = __builtin_convertvector(LoadF4(s.l + i), VeilD4);
+    const VeilD4 x1 = (1.0 - x0) * l, x2 = x0 * l;
+    acc[0] += x0 * x0, acc[1] += x0 * x1, acc[2] += x0 * x2;
+    acc[3] += x1 * x1, acc[4] += x1 * x2, acc[5] += x2 * x2;
+    for (int c = 0; c < 3; ++c) {
+      const VeilD4 v = __builtin_convertvector(LoadF4(s.v[c] + i), VeilD4);
+      acc[6 + 3 * c] += x0 * v, acc[7 + 3 * c] += x1 * v, acc[8 + 3 * c] += x2 * v;
+    }
   }
-  const double shared[6] = {s00, s01, s02, s11, s12, s22};
-  for (int j = 0; j < 6; ++j) out->s[j] = VeilD4{shared[j], shared[j], shared[j], shared[j]};
-  out->s[6] = b0, out->s[7] = b1, out->s[8] = b2;
+  for (int j = 0; j < 15; ++j) out[j] = SumLanes(acc[j]);
 }
 
-// |c0 x0 + c1 x1 + c2 x2 - x3| of every sample, channel c's into r[c][i]; coef: c0, c1, c2.
-TURBID_ROW_KERNEL void VeilResiduals3(const float* __restrict t, const float* __restrict l,
-                                      const float* __restrict v, size_t n, const VeilD4* coef,
-                                      double* __restrict r0, double* __restrict r1,
-                                      double* __restrict r2) {
-  const VeilD4 c0 = coef[0], c1 = coef[1], c2 = coef[2];
-  for (size_t i = 0; i < n; ++i) {
-    const double x0 = t[i], li = l[i];
-    const double x1 = (1.0 - x0) * li, x2 = x0 * li;
-    const VeilD4 x3 = {v[4 * i], v[4 * i + 1], v[4 * i + 2], 0.0};
-    const VeilD4 d = c0 * x0 + c1 * x1 + c2 * x2 - x3;
-    r0[i] = std::abs(d[0]), r1[i] = std::abs(d[1]), r2[i] = std::abs(d[2]);
+// |c0 x0 + c1 x1 + c2 x2 - v| of every sample (pad lanes too), channel c's into r[c][i];
+// coef[j][c]: channel c's c_j.
+TURBID_ROW_KERNEL void VeilResiduals3(VeilColumns s, const double (*coef)[3], double* __restrict r0,
+                                      double* __restrict r1, double* __restrict r2) {
+  double* const r[3] = {r0, r1, r2};
+  for (size_t i = 0; i < s.n; i += 4) {
+    const VeilD4 x0 = __builtin_convertvector(LoadF4(s.t + i), VeilD4),
+                 l = __builtin_convertvector(LoadF4(s.l + i), VeilD4);
+    const VeilD4 x1 = (1.0 - x0) * l, x2 = x0 * l;
+    for (int c = 0; c < 3; ++c) {
+      const VeilD4 d = coef[0][c] * x0 + coef[1][c] * x1 + coef[2][c] * x2 -
+                       __builtin_convertvector(LoadF4(s.v[c] + i), VeilD4);
+      const VeilL4 abs_d = reinterpret_cast<VeilL4>(d) & kVeilAbs;
+      std::memcpy(r[c] + i, &abs_d, sizeof(abs_d));
+    }
   }
 }
 
-// Pass 1: channel c sums the samples whose residual (recomputed as above) is <= cut[c]; coef:
-// c0, c1, c2, cut.
-TURBID_ROW_KERNEL void VeilSumsKept3(const float* __restrict t, const float* __restrict l,
-                                     const float* __restrict v, size_t n, const VeilD4* coef,
-                                     VeilSums3* out) {
-  const VeilD4 c0 = coef[0], c1 = coef[1], c2 = coef[2], cut = coef[3];
-  const VeilL4 abs_bits = {0x7fffffffffffffffLL, 0x7fffffffffffffffLL, 0x7fffffffffffffffLL,
-                           0x7fffffffffffffffLL};
+// Pass 1's sums for channel c (s00 .. s22, b0, b1, b2), over the samples whose residual
+// (recomputed as above) is <= cut; coef: c0, c1, c2.
+TURBID_ROW_KERNEL void VeilSumsKept(VeilColumns s, int c, const double coef[3], double cut,
+                                    double out[9]) {
   VeilD4 acc[9] = {};
-  for (size_t i = 0; i < n; ++i) {
-    const double x0 = t[i], li = l[i];
-    const double x1 = (1.0 - x0) * li, x2 = x0 * li;
-    const VeilD4 x3 = {v[4 * i], v[4 * i + 1], v[4 * i + 2], 0.0};
-    const VeilD4 d = c0 * x0 + c1 * x1 + c2 * x2 - x3;
-    const VeilL4 keep = reinterpret_cast<VeilD4>(reinterpret_cast<VeilL4>(d) & abs_bits) <= cut;
-    const double q[6] = {x0 * x0, x0 * x1, x0 * x2, x1 * x1, x1 * x2, x2 * x2};
-    VeilD4 p[9] = {};
-    for (int j = 0; j < 6; ++j) p[j] = VeilD4{q[j], q[j], q[j], q[j]};
-    p[6] = x0 * x3, p[7] = x1 * x3, p[8] = x2 * x3;
+  for (size_t i = 0; i < s.n; i += 4) {
+    const VeilD4 x0 = __builtin_convertvector(LoadF4(s.t + i), VeilD4),
+                 l = __builtin_convertvector(LoadF4(s.l + i), VeilD4),
+                 v = __builtin_convertvector(LoadF4(s.v[c] + i), VeilD4);
+    const VeilD4 x1 = (1.0 - x0) * l, x2 = x0 * l;
+    const VeilD4 d = coef[0] * x0 + coef[1] * x1 + coef[2] * x2 - v;
+    const VeilL4 keep = reinterpret_cast<VeilD4>(reinterpret_cast<VeilL4>(d) & kVeilAbs) <= cut;
+    const VeilD4 p[9] = {x0 * x0, x0 * x1, x0 * x2, x1 * x1, x1 * x2,
+                         x2 * x2, x0 * v,  x1 * v,  x2 * v};
     for (int j = 0; j < 9; ++j) {
       acc[j] += reinterpret_cast<VeilD4>(reinterpret_cast<VeilL4>(p[j]) & keep);
     }
   }
-  for (int j = 0; j < 9; ++j) out->s[j] = acc[j];
+  for (int j = 0; j < 9; ++j) out[j] = SumLanes(acc[j]);
 }
 
-// Channel c's normal equations solved as FitVeilModel does: false when singular or ill-conditioned.
-bool SolveVeil(const VeilSums3& s, int c, cv::Vec3d* solution) {
-  const double s00 = s.s[0][c], s01 = s.s[1][c], s02 = s.s[2][c], s11 = s.s[3][c];
-  const double s12 = s.s[4][c], s22 = s.s[5][c];
-  const cv::Matx33d ata(s00, s01, s02, s01, s11, s12, s02, s12, s22);
-  return SolveVeilNormalEquations(ata, cv::Vec3d(s.s[6][c], s.s[7][c], s.s[8][c]), solution);
+// Channel c's veil ratios max(v, 0) / w, w = (1 - t) L (in double) rounded to float, of the
+// samples with w >= w_min, in sample order into r[c][0 ..) (each r[c] holds n rounded up to 4: a
+// rejected sample is written past the kept ones, then overwritten). The ratio is a float division:
+// the correctly rounded quotient, which is also the double quotient rounded to float (double
+// rounding is innocuous for a quotient of floats, 53 >= 2 * 24 + 2 bits), as the general loop's.
+// Returns how many samples were kept.
+TURBID_ROW_KERNEL size_t VeilRatios3(VeilColumns s, float w_min, float* __restrict r0,
+                                     float* __restrict r1, float* __restrict r2) {
+  const VeilI4 lane = {0, 1, 2, 3};
+  size_t m = 0;
+  for (size_t i = 0; i < s.n; i += 4) {
+    const int valid = s.n - i < 4 ? static_cast<int>(s.n - i) : 4;
+    const VeilD4 t = __builtin_convertvector(LoadF4(s.t + i), VeilD4),
+                 l = __builtin_convertvector(LoadF4(s.l + i), VeilD4);
+    const VeilF4 w = __builtin_convertvector((1.0 - t) * l, VeilF4);
+    const VeilI4 keep = (w >= w_min) & (lane < valid);
+    VeilF4 ratio[3];
+    for (int c = 0; c < 3; ++c) {
+      const VeilF4 v = LoadF4(s.v[c] + i);
+      const VeilF4 positive =  // std::max(v, 0): +0 where v < 0, else v (-0 stays)
+          reinterpret_cast<VeilF4>(reinterpret_cast<VeilI4>(v) & ~(v < 0.0f));
+      ratio[c] = positive / w;
+    }
+    for (int k = 0; k < 4; ++k) {  // branch-free compaction
+      r0[m] = ratio[0][k], r1[m] = ratio[1][k], r2[m] = ratio[2][k];
+      m += static_cast<size_t>(keep[k] & 1);
+    }
+  }
+  return m;
 }
 
-// FitVeilModel for three channels whose samples share t and L (`v`: four floats per sample).
-void FitVeilModel3(const ScratchVector<float>& t, const ScratchVector<float>& l,
-                   const ScratchVector<float>& v, bool ok[3], cv::Vec3d fit[3]) {
-  const size_t n = t.size();
+// The largest veil weight (1 - t) L (in float) of samples 0 .. n, at least +0: four running
+// maxima per lane; a NaN weight never replaces one, so the value is LargestVeilWeight's (the pad
+// samples' weight is +0).
+TURBID_ROW_KERNEL float LargestVeilWeightOf(const float* __restrict t, const float* __restrict l,
+                                            size_t n) {
+  VeilF4 m = {0.0f, 0.0f, 0.0f, 0.0f};
+  for (size_t i = 0; i < n; i += 4) {
+    const VeilF4 w = (1.0f - LoadF4(t + i)) * LoadF4(l + i);
+    const VeilI4 larger = w > m;
+    m = reinterpret_cast<VeilF4>((reinterpret_cast<VeilI4>(w) & larger) |
+                                 (reinterpret_cast<VeilI4>(m) & ~larger));
+  }
+  return std::max(std::max(m[0], m[1]), std::max(m[2], m[3]));
+}
+
+// True when none of p[0 .. n) is infinite or NaN.
+TURBID_ROW_KERNEL bool AllFinite(const float* p, size_t n) {
+  uint32_t largest = 0;  // the largest magnitude's bits
+  for (size_t i = 0; i < n; ++i) {
+    uint32_t u;
+    std::memcpy(&u, p + i, sizeof(u));
+    largest = std::max(largest, u & 0x7fffffffu);
+  }
+  return largest < 0x7f800000u;
+}
+
+// The normal equations (the shared sums s00 .. s22 and one channel's b0, b1, b2) solved as
+// FitVeilModel does: false when singular or ill-conditioned.
+bool SolveVeil(const double* s, const double* b, cv::Vec3d* solution) {
+  const cv::Matx33d ata(s[0], s[1], s[2], s[1], s[3], s[4], s[2], s[4], s[5]);
+  return SolveVeilNormalEquations(ata, cv::Vec3d(b[0], b[1], b[2]), solution);
+}
+
+// FitVeilModel for three channels whose samples share t and L.
+void FitVeilModel3(const VeilColumns& s, bool ok[3], cv::Vec3d fit[3]) {
+  const size_t n = s.n;
   for (int c = 0; c < 3; ++c) ok[c] = n >= 16;
   if (n < 16) return;
-  VeilSums3 sums;
-  VeilSumsAll3(t.data(), l.data(), v.data(), n, &sums);
-  for (int c = 0; c < 3; ++c) ok[c] = SolveVeil(sums, c, &fit[c]);
+  double sums[15];
+  VeilSumsAll3(s, sums);
+  for (int c = 0; c < 3; ++c) ok[c] = SolveVeil(sums, sums + 6 + 3 * c, &fit[c]);
   if (!ok[0] && !ok[1] && !ok[2]) return;
-  // The three channels' solutions (lanes) and, once selected, their residual cuts.
-  VeilD4 coef[4] = {{fit[0][0], fit[1][0], fit[2][0], 0.0},
-                    {fit[0][1], fit[1][1], fit[2][1], 0.0},
-                    {fit[0][2], fit[1][2], fit[2][2], 0.0},
-                    {0.0, 0.0, 0.0, 0.0}};
-  ScratchVector<double> r[3] = {ScratchVector<double>(n), ScratchVector<double>(n),
-                                ScratchVector<double>(n)};
-  VeilResiduals3(t.data(), l.data(), v.data(), n, coef, r[0].data(), r[1].data(), r[2].data());
-  for (int c = 0; c < 3; ++c) {
-    if (ok[c]) coef[3][c] = enhancer_internal::SelectKth<double, uint64_t>(r[c], n * 8 / 10);
+  double coef[3][3];  // coef[j][c]: channel c's c_j
+  for (int j = 0; j < 3; ++j) {
+    for (int c = 0; c < 3; ++c) coef[j][c] = ok[c] ? fit[c][j] : 0.0;
   }
-  VeilSumsKept3(t.data(), l.data(), v.data(), n, coef, &sums);
+  ScratchVector<double> r[3] = {ScratchVector<double>(RoundUp4(n)),
+                                ScratchVector<double>(RoundUp4(n)),
+                                ScratchVector<double>(RoundUp4(n))};
+  VeilResiduals3(s, coef, r[0].data(), r[1].data(), r[2].data());
   for (int c = 0; c < 3; ++c) {
     if (!ok[c]) continue;
-    ok[c] = SolveVeil(sums, c, &fit[c]) && std::isfinite(fit[c][0]) && std::isfinite(fit[c][1]) &&
-            std::isfinite(fit[c][2]);
+    r[c].resize(n);
+    const double cut = enhancer_internal::SelectKth<double, uint64_t>(r[c], n * 8 / 10);
+    const double channel_coef[3] = {coef[0][c], coef[1][c], coef[2][c]};
+    double kept[9];
+    VeilSumsKept(s, c, channel_coef, cut, kept);
+    ok[c] = SolveVeil(kept, kept + 6, &fit[c]) && std::isfinite(fit[c][0]) &&
+            std::isfinite(fit[c][1]) && std::isfinite(fit[c][2]);
   }
 }
 
@@ -269,47 +344,82 @@ struct GridRows {
   int channels() const { return m.channels(); }
 };
 
+// dst[j] = src[j * stride * step] for j < count (kStride > 0: stride is kStride).
+template <int kStride>
+void GatherColumn(const float* __restrict src, int step, int count, int stride,
+                  float* __restrict dst) {
+  const ptrdiff_t at = static_cast<ptrdiff_t>(kStride > 0 ? kStride : stride) * step;
+  for (int j = 0; j < count; ++j) dst[j] = src[j * at];
+}
+
+// Drops the samples (columns t, l, v0, v1, v2 of n) whose L is not finite, keeping the order;
+// false when a kept sample's value is not finite (EstimateLightScale's general loop then decides).
+bool DropUnlitSamples(ScratchVector<float> (&cols)[5], size_t* n) {
+  float* t = cols[0].data();
+  float* l = cols[1].data();
+  float* v[3] = {cols[2].data(), cols[3].data(), cols[4].data()};
+  size_t kept = 0;
+  for (size_t i = 0; i < *n; ++i) {
+    if (!std::isfinite(l[i])) continue;
+    if (!std::isfinite(v[0][i]) || !std::isfinite(v[1][i]) || !std::isfinite(v[2][i])) {
+      return false;
+    }
+    t[kept] = t[i], l[kept] = l[i];
+    for (int c = 0; c < 3; ++c) v[c][kept] = v[c][i];
+    ++kept;
+  }
+  *n = kept;
+  return true;
+}
+
 // EstimateLightScale for a three-channel image with one-channel t and L maps, when every channel
 // keeps every grid pixel (the sample sets are then the same; false, nothing written, when a
-// channel's value is not finite where L is). The ratios and samples are those of the general
-// loop, in grid order; the fits run side by side (FitVeilModel3).
+// channel's value is not finite where L is). w_max is taken from the grid columns (nothing
+// written when it is not positive and finite: no channel is active). The ratios and samples are
+// those of the general loop, in grid order; the fits run side by side (FitVeilModel3).
 bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmission, int stride,
-                       float w_min, double percentile, std::vector<LightScaleEstimate>* out) {
+                       double support, double percentile, std::vector<LightScaleEstimate>* out) {
   const size_t expected = static_cast<size_t>((denoised.rows + stride - 1) / stride) *
                           static_cast<size_t>((denoised.cols + stride - 1) / stride);
-  // Written before read, so not zero-filled (ScratchVector).
-  ScratchVector<float> ts(expected), ls(expected), vs(4 * expected);
-  ScratchVector<float> ratios[3] = {ScratchVector<float>(expected), ScratchVector<float>(expected),
-                                    ScratchVector<float>(expected)};
-  size_t n = 0, m = 0;  // samples, ratios
+  // Columns t, L, v0, v1, v2 of every grid pixel, in grid order (written before read, so not
+  // zero-filled: ScratchVector).
+  ScratchVector<float> cols[5];
+  for (ScratchVector<float>& col : cols) col.resize(RoundUp4(expected));
+  size_t n = 0;
   for (int y = 0; y < denoised.rows; y += stride) {
+    const int count = (denoised.cols + stride - 1) / stride;
     const float* in = denoised.ptr<float>(y);
-    const float* t = transmission(y);
-    const float* l = light(y);
-    for (int x = 0; x < denoised.cols; x += stride) {
-      const double ti = t[x], li = l[x];
-      if (!std::isfinite(li)) continue;
-      const float* v = in + 3 * x;
-      if (!std::isfinite(v[0]) || !std::isfinite(v[1]) || !std::isfinite(v[2])) return false;
-      const float w = static_cast<float>((1.0 - ti) * li);
-      if (w >= w_min) {
-        // One division per pixel (issue 29 item 6: a ratio may move by a double rounding).
-        const double inv_w = 1.0 / w;
-        for (int c = 0; c < 3; ++c) {
-          ratios[c][m] = static_cast<float>(std::max(static_cast<double>(v[c]), 0.0) * inv_w);
-        }
-        ++m;
+    if (stride == 2) {  // the usual stride (640 x 480 to 1023 x 767 pixels): a constant step
+      GatherColumn<2>(transmission(y), 1, count, 2, cols[0].data() + n);
+      GatherColumn<2>(light(y), 1, count, 2, cols[1].data() + n);
+      for (int c = 0; c < 3; ++c) GatherColumn<2>(in + c, 3, count, 2, cols[2 + c].data() + n);
+    } else {
+      GatherColumn<0>(transmission(y), 1, count, stride, cols[0].data() + n);
+      GatherColumn<0>(light(y), 1, count, stride, cols[1].data() + n);
+      for (int c = 0; c < 3; ++c) {
+        GatherColumn<0>(in + c, 3, count, stride, cols[2 + c].data() + n);
       }
-      ts[n] = t[x], ls[n] = l[x];
-      vs[4 * n] = v[0], vs[4 * n + 1] = v[1], vs[4 * n + 2] = v[2], vs[4 * n + 3] = 0.0f;
-      ++n;
     }
+    n += static_cast<size_t>(count);
   }
+  for (ScratchVector<float>& col : cols) std::fill(col.begin() + n, col.begin() + RoundUp4(n), 0.f);
+  const float w_max = LargestVeilWeightOf(cols[0].data(), cols[1].data(), n);
+  if (!(w_max > 0.0f) || !std::isfinite(w_max)) return true;  // no channel is active
+  const float w_min = static_cast<float>(support) * w_max;
+  bool finite = true;
+  for (const ScratchVector<float>& col : cols) finite = finite && AllFinite(col.data(), n);
+  if (!finite && !DropUnlitSamples(cols, &n)) return false;
+  for (ScratchVector<float>& col : cols) std::fill(col.begin() + n, col.begin() + RoundUp4(n), 0.f);
+  const VeilColumns s{
+      cols[0].data(), cols[1].data(), {cols[2].data(), cols[3].data(), cols[4].data()}, n};
+  ScratchVector<float> ratios[3] = {ScratchVector<float>(RoundUp4(n)),
+                                    ScratchVector<float>(RoundUp4(n)),
+                                    ScratchVector<float>(RoundUp4(n))};
+  const size_t m = VeilRatios3(s, w_min, ratios[0].data(), ratios[1].data(), ratios[2].data());
   if (m == 0) return true;  // no pixel carries the veil: no estimate, as in the general loop
-  ts.resize(n), ls.resize(n), vs.resize(4 * n);
   bool fit_ok[3];
   cv::Vec3d fit[3];
-  FitVeilModel3(ts, ls, vs, fit_ok, fit);
+  FitVeilModel3(s, fit_ok, fit);
   for (int c = 0; c < 3; ++c) {
     ratios[c].resize(m);
     SetLightScale(std::max(0.0, PercentileOf(ratios[c], percentile)), fit_ok[c], fit[c],
@@ -354,6 +464,10 @@ std::vector<LightScaleEstimate> EstimateLightScaleGrid(const cv::Mat& denoised, 
   const int ch = denoised.channels(), lc = light.channels(), tc = transmission.channels();
   CV_Assert(ch <= 4 && (lc == 1 || lc == ch) && (tc == 1 || tc == ch));
   std::vector<LightScaleEstimate> out(ch);
+  if (ch == 3 && lc == 1 && tc == 1 &&
+      LightScaleShared3(denoised, light, transmission, stride, support, percentile, &out)) {
+    return out;
+  }
   // Per channel: the largest veil weight w = (1 - t) L on the grid (one pass for every channel
   // when t and L have one channel each).
   std::vector<float> w_max(ch, 0.0f);
@@ -369,10 +483,6 @@ std::vector<LightScaleEstimate> EstimateLightScaleGrid(const cv::Mat& denoised, 
   for (int c = 0; c < ch; ++c) {
     active[c] = w_max[c] > 0.0f && std::isfinite(w_max[c]);
     w_min[c] = static_cast<float>(support) * w_max[c];
-  }
-  if (ch == 3 && lc == 1 && tc == 1 && active[0] &&
-      LightScaleShared3(denoised, light, transmission, stride, w_min[0], percentile, &out)) {
-    return out;
   }
   // One pass over the grid collects every channel's ratios and fit samples, each in grid order.
   std::vector<std::vector<float>> ratios(ch);
