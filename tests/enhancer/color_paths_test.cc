@@ -27,6 +27,7 @@
 #include "enhancer/paper/simplified_rows.h"
 #include "enhancer/select.h"
 #include "enhancer/simd_switch.h"
+#include "tests/enhancer/veil_fit_reference.h"
 #include "scenes/builtin.h"
 #include "scenes/image_io.h"
 #include "simulator/psf.h"
@@ -137,38 +138,6 @@ cv::Mat ReferenceSimplified(const SimplifiedOptions& o, const cv::Mat& image) {
 // EstimateLightScale (public) and the Immerkaer noise estimate behind adaptive denoising, as they
 // were: every channel in its own pass, the normal equations as cv::Matx sums, one float chain per
 // row.
-bool ReferenceFitVeilModel(const std::vector<cv::Vec4d>& samples, cv::Vec3d* c) {
-  if (samples.size() < 16) return false;
-  std::vector<char> use(samples.size(), 1);
-  for (int pass = 0; pass < 2; ++pass) {
-    cv::Matx33d ata = cv::Matx33d::zeros();
-    cv::Vec3d atb(0, 0, 0);
-    for (size_t i = 0; i < samples.size(); ++i) {
-      if (!use[i]) continue;
-      const cv::Vec3d x(samples[i][0], samples[i][1], samples[i][2]);
-      ata += x * x.t();
-      atb += x * samples[i][3];
-    }
-    cv::Vec3d solution;
-    if (!cv::solve(ata, atb, solution, cv::DECOMP_CHOLESKY)) return false;
-    cv::Vec3d eig;
-    cv::eigen(ata, eig);
-    if (!(eig[2] > 1e-9 * eig[0])) return false;
-    *c = solution;
-    if (pass == 1) break;
-    std::vector<double> residuals(samples.size());
-    for (size_t i = 0; i < samples.size(); ++i) {
-      residuals[i] = std::abs(solution[0] * samples[i][0] + solution[1] * samples[i][1] +
-                              solution[2] * samples[i][2] - samples[i][3]);
-    }
-    std::vector<double> sorted = residuals;
-    const size_t k = sorted.size() * 8 / 10;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
-    for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= sorted[k];
-  }
-  return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
-}
-
 double ReferencePercentile(std::vector<float>& values, double percentile) {
   const size_t k = static_cast<size_t>(std::floor(percentile / 100.0 * (values.size() - 1)));
   std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());

@@ -15,43 +15,12 @@
 #include <vector>
 
 #include "enhancer/paper/full.h"
+#include "tests/enhancer/veil_fit_reference.h"
 
 namespace turbid {
 namespace {
 
 constexpr double kFitTolerance = 1e-5;  // relative
-
-bool ReferenceFit(const std::vector<cv::Vec4d>& samples, cv::Vec3d* c) {
-  if (samples.size() < 16) return false;
-  std::vector<char> use(samples.size(), 1);
-  for (int pass = 0; pass < 2; ++pass) {
-    cv::Matx33d ata = cv::Matx33d::zeros();
-    cv::Vec3d atb(0, 0, 0);
-    for (size_t i = 0; i < samples.size(); ++i) {
-      if (!use[i]) continue;
-      const cv::Vec3d x(samples[i][0], samples[i][1], samples[i][2]);
-      ata += x * x.t();
-      atb += x * samples[i][3];
-    }
-    cv::Vec3d solution;
-    if (!cv::solve(ata, atb, solution, cv::DECOMP_CHOLESKY)) return false;
-    cv::Vec3d eig;
-    cv::eigen(ata, eig);
-    if (!(eig[2] > 1e-9 * eig[0])) return false;
-    *c = solution;
-    if (pass == 1) break;
-    std::vector<double> residuals(samples.size());
-    for (size_t i = 0; i < samples.size(); ++i) {
-      residuals[i] = std::abs(solution[0] * samples[i][0] + solution[1] * samples[i][1] +
-                              solution[2] * samples[i][2] - samples[i][3]);
-    }
-    std::vector<double> sorted = residuals;
-    const size_t k = sorted.size() * 8 / 10;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
-    for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= sorted[k];
-  }
-  return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
-}
 
 // EstimateLightScale for CV_32FC3 `img` and CV_32F `t`, `l` on the grid of `stride`.
 std::vector<LightScaleEstimate> Reference(const cv::Mat& img, const cv::Mat& l, const cv::Mat& t,
@@ -84,7 +53,7 @@ std::vector<LightScaleEstimate> Reference(const cv::Mat& img, const cv::Mat& l, 
     LightScaleEstimate& e = out[c];
     e.bound = std::max(0.0, static_cast<double>(ratios[k]));
     cv::Vec3d fit;
-    if (ReferenceFit(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
+    if (ReferenceFitVeilModel(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
       e.fit = fit[1];
       e.scale = std::min(e.fit, e.bound);
       e.source = e.fit <= e.bound ? "fit" : "bound";
