@@ -47,11 +47,11 @@ def test_batches_are_bit_identical_through_workers(dtype):
                         assert g[k] == w[k], (name, k)
                 if name in ("1 worker", "2 workers", "persistent"):
                     assert all(g[k].is_shared() for k in tensors), name
-    # Batches kept while later ones arrive keep their values (no block is reused).
+    # Batches kept while later ones arrive keep their values (no shared memory is reused).
     kept = list(DataLoader(ds, batch_size=3, num_workers=2, collate_fn=data.collate))
     for g, w in zip(kept, want):
         assert torch.equal(g["degraded"], w["degraded"])
-    # A collate wrapper that replaces an entry: the replacement arrives, not the block's view.
+    # A collate wrapper that replaces an entry: the replacement arrives, not the rendered array.
     got = list(DataLoader(ds, batch_size=3, num_workers=2, collate_fn=_replacing_collate))
     for g, w in zip(got, want):
         assert torch.equal(g["depth"], w["depth"] * 2)

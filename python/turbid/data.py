@@ -349,17 +349,11 @@ class RenderDataset:
         torch = _sys.modules.get("torch")
         shared = torch is not None and torch.utils.data.get_worker_info() is not None
         arrays, batch = {}, {}
-        keys = [k for k, v in first.items() if isinstance(v, _np.ndarray) and k not in _LISTED]
-        if shared:  # one shared-memory block for all keys, sent as one file descriptor
-            batch = _BlockBatch(torch, [((n,) + first[k].shape, first[k].dtype) for k in keys]
-                                + [((n,), _np.int64)], keys + ["index"])
-            for key in keys:
-                arrays[key] = batch[key].numpy()
-        for key in keys:
-            if not shared:
-                batch[key], arrays[key] = _batch_array(torch, False, (n,) + first[key].shape,
-                                                       first[key].dtype)
-            arrays[key][0] = first[key]
+        for key, value in first.items():
+            if isinstance(value, _np.ndarray) and key not in _LISTED:
+                batch[key], arrays[key] = _batch_array(torch, shared, (n,) + value.shape,
+                                                       value.dtype)
+                arrays[key][0] = value
         for j in range(1, n):
             into = {key: a[j] for key, a in arrays.items()}
             rest = self._render(indices[j], into)
@@ -369,10 +363,7 @@ class RenderDataset:
         for key in first:
             if key not in arrays:
                 batch.setdefault(key, [first[key]])
-        if shared:
-            batch.block_view("index").numpy()[:] = batch["index"]
-            batch["index"] = batch.block_view("index")
-        elif torch is not None:
+        if torch is not None:
             batch["index"] = torch.tensor(batch["index"])
         return _Batch(batch, n)
 
@@ -452,56 +443,6 @@ def _batch_array(torch, shared, shape, dtype):
         t = torch.empty(shape, dtype=kind)
         a = t.numpy()
     return t, a
-
-
-class _BlockBatch(dict):
-    """A DataLoader worker's batch whose arrays are views of one shared-memory block (64-byte
-    aligned places, one per key): it pickles as that block and the places, so the main process
-    receives one file descriptor per batch instead of one per key (each one a round trip to the
-    worker's resource sharer) and maps one block; it unpickles as a plain dict of tensors
-    (views of the block, ``is_shared()``). Keeping any one of them keeps the block."""
-
-    def __init__(self, torch, layout, keys):
-        super().__init__()
-        self._views, offset = {}, 0
-        for key, (shape, dtype) in zip(keys, layout):
-            kind = {_np.dtype(_np.float32): "float32", _np.dtype(bool): "bool",
-                    _np.dtype(_np.uint8): "uint8", _np.dtype(_np.int64): "int64"}[
-                        _np.dtype(dtype)]
-            nbytes = int(_np.prod(shape)) * _np.dtype(dtype).itemsize
-            self._views[key] = (offset, nbytes, kind, tuple(shape))
-            offset += -(-nbytes // 64) * 64
-        elem = torch.empty(0, dtype=torch.uint8)
-        self._block = elem.new(elem.storage()._new_shared(max(offset, 1)))
-        for key in keys[:-1]:
-            self[key] = self.block_view(key)
-
-    def block_view(self, key):
-        return _block_view(self._block, self._views[key])
-
-    def _is_view(self, key, value):
-        torch = _sys.modules["torch"]
-        if key not in self._views or not isinstance(value, torch.Tensor):
-            return False
-        view = self.block_view(key)
-        return (value.data_ptr() == view.data_ptr() and value.shape == view.shape
-                and value.dtype == view.dtype and value.stride() == view.stride())
-
-    def __reduce__(self):  # entries replaced after collate are pickled as they are
-        items = [(k, self._views[k] if self._is_view(k, v) else None,
-                  None if self._is_view(k, v) else v) for k, v in self.items()]
-        return (_rebuild_block_batch, (self._block, items))
-
-
-def _block_view(block, place):
-    torch = _sys.modules["torch"]
-    offset, nbytes, kind, shape = place
-    return block[offset:offset + nbytes].view(getattr(torch, kind)).view(shape)
-
-
-def _rebuild_block_batch(block, items):
-    return {key: _block_view(block, place) if place is not None else value
-            for key, place, value in items}
 
 
 class _Batch(list):
