@@ -138,21 +138,30 @@ __attribute__((target("avx2"))) int StepCodesAvx2(const SrgbTables& t, const flo
 }
 
 // GCC 12 warns of -Wmaybe-uninitialized inside avx512fintrin.h's own _mm512_undefined_* operands
-// (GCC bug 105593, fixed in its headers in GCC 13); silenced for these two kernels only.
+// (GCC bug 105593, fixed in its headers in GCC 13); silenced for the AVX-512 kernels below only.
 #if !defined(__clang__)
 #pragma GCC diagnostic push
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #endif
-__attribute__((target("avx512f"))) int StepCodesAvx512(const SrgbTables& t, const float* in,
-                                                       int n, float* out) {
-  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.0f);
+// Sixteen values' step-table entries: `at` the entry's first float (its threshold) and `above`
+// the lanes whose clipped value reached it.
+__attribute__((target("avx512f"))) inline void StepLookup16(const float* step, const float* in,
+                                                            __m512i* at, __mmask16* above) {
   const __m512 bins = _mm512_set1_ps(static_cast<float>(SrgbTables::kStepBins));
+  const __m512 v =
+      _mm512_min_ps(_mm512_max_ps(_mm512_loadu_ps(in), _mm512_setzero_ps()), _mm512_set1_ps(1.0f));
+  *at = _mm512_slli_epi32(_mm512_cvttps_epi32(_mm512_mul_ps(v, bins)), 2);
+  *above = _mm512_cmp_ps_mask(v, _mm512_i32gather_ps(*at, step, 4), _CMP_GE_OQ);
+}
+
+__attribute__((target("avx512f"))) int StepCodesAvx512(const SrgbTables& t, const float* in, int n,
+                                                       float* out) {
   const float* step = t.step.data();
   int i = 0;
   for (; i + 16 <= n; i += 16) {
-    const __m512 v = _mm512_min_ps(_mm512_max_ps(_mm512_loadu_ps(in + i), zero), one);
-    const __m512i at = _mm512_slli_epi32(_mm512_cvttps_epi32(_mm512_mul_ps(v, bins)), 2);
-    const __mmask16 above = _mm512_cmp_ps_mask(v, _mm512_i32gather_ps(at, step, 4), _CMP_GE_OQ);
+    __m512i at;
+    __mmask16 above;
+    StepLookup16(step, in + i, &at, &above);
     const __m512i pick = _mm512_mask_add_epi32(_mm512_add_epi32(at, _mm512_set1_epi32(1)), above,
                                                at, _mm512_set1_epi32(2));
     _mm512_storeu_ps(out + i, _mm512_i32gather_ps(pick, step, 4));
@@ -163,14 +172,13 @@ __attribute__((target("avx512f"))) int StepCodesAvx512(const SrgbTables& t, cons
 // The codes (bytes) by the one-step table, sixteen at a time.
 __attribute__((target("avx512f"))) int StepCodeBytesAvx512(const SrgbTables& t, const float* in,
                                                            int n, uint8_t* out) {
-  const __m512 zero = _mm512_setzero_ps(), one = _mm512_set1_ps(1.0f);
-  const __m512 bins = _mm512_set1_ps(static_cast<float>(SrgbTables::kStepBins));
+  const __m512 one = _mm512_set1_ps(1.0f);
   const float* step = t.step.data();
   int i = 0;
   for (; i + 16 <= n; i += 16) {
-    const __m512 v = _mm512_min_ps(_mm512_max_ps(_mm512_loadu_ps(in + i), zero), one);
-    const __m512i at = _mm512_slli_epi32(_mm512_cvttps_epi32(_mm512_mul_ps(v, bins)), 2);
-    const __mmask16 above = _mm512_cmp_ps_mask(v, _mm512_i32gather_ps(at, step, 4), _CMP_GE_OQ);
+    __m512i at;
+    __mmask16 above;
+    StepLookup16(step, in + i, &at, &above);
     const __m512 below = _mm512_i32gather_ps(_mm512_add_epi32(at, _mm512_set1_epi32(3)), step, 4);
     const __m512i code = _mm512_cvttps_epi32(_mm512_mask_add_ps(below, above, below, one));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(out + i), _mm512_cvtepi32_epi8(code));

@@ -408,8 +408,12 @@ bool LightScaleShared3(const cv::Mat& denoised, GridRows light, GridRows transmi
   const float w_min = static_cast<float>(support) * w_max;
   bool finite = true;
   for (const ScratchVector<float>& col : cols) finite = finite && AllFinite(col.data(), n);
-  if (!finite && !DropUnlitSamples(cols, &n)) return false;
-  for (ScratchVector<float>& col : cols) std::fill(col.begin() + n, col.begin() + RoundUp4(n), 0.f);
+  if (!finite) {  // some L is not finite (unlit): drop those samples, pad the columns again
+    if (!DropUnlitSamples(cols, &n)) return false;
+    for (ScratchVector<float>& col : cols) {
+      std::fill(col.begin() + n, col.begin() + RoundUp4(n), 0.f);
+    }
+  }
   const VeilColumns s{
       cols[0].data(), cols[1].data(), {cols[2].data(), cols[3].data(), cols[4].data()}, n};
   ScratchVector<float> ratios[3] = {ScratchVector<float>(RoundUp4(n)),

@@ -181,17 +181,8 @@ std::vector<LightScaleEstimate> ReferenceEstimateLightScale(const cv::Mat& denoi
       }
     }
     if (ratios.empty()) continue;
-    LightScaleEstimate& e = out[c];
-    e.bound = std::max(0.0, ReferencePercentile(ratios, percentile));
-    cv::Vec3d fit;
-    if (ReferenceFitVeilModel(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
-      e.fit = fit[1];
-      e.scale = std::min(e.fit, e.bound);
-      e.source = e.fit <= e.bound ? "fit" : "bound";
-    } else {
-      e.scale = e.bound;
-      e.source = "bound (no usable fit)";
-    }
+    ReferenceChooseLightScale(samples, std::max(0.0, ReferencePercentile(ratios, percentile)),
+                              &out[c]);
   }
   return out;
 }

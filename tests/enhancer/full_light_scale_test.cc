@@ -50,17 +50,7 @@ std::vector<LightScaleEstimate> Reference(const cv::Mat& img, const cv::Mat& l, 
     if (ratios.empty()) continue;
     const size_t k = static_cast<size_t>(std::floor(percentile / 100.0 * (ratios.size() - 1)));
     std::nth_element(ratios.begin(), ratios.begin() + static_cast<std::ptrdiff_t>(k), ratios.end());
-    LightScaleEstimate& e = out[c];
-    e.bound = std::max(0.0, static_cast<double>(ratios[k]));
-    cv::Vec3d fit;
-    if (ReferenceFitVeilModel(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
-      e.fit = fit[1];
-      e.scale = std::min(e.fit, e.bound);
-      e.source = e.fit <= e.bound ? "fit" : "bound";
-    } else {
-      e.scale = e.bound;
-      e.source = "bound (no usable fit)";
-    }
+    ReferenceChooseLightScale(samples, std::max(0.0, static_cast<double>(ratios[k])), &out[c]);
   }
   return out;
 }

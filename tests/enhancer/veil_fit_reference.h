@@ -1,7 +1,8 @@
 // The blind light scale's veil-model fit as a transcription in double, shared by the tests of
 // `full`'s light scale (color_paths_test.cc, full_light_scale_test.cc): the normal equations
 // summed sample by sample as cv::Matx, Cholesky, the 80 % residual trim by std::nth_element and a
-// second solve. samples[i] = (x0, x1, x2, y); false when the fit is refused.
+// second solve. samples[i] = (x0, x1, x2, y); false when the fit is refused. Then the choice
+// between the fit and the ratio bound.
 #pragma once
 
 #include <algorithm>
@@ -9,6 +10,8 @@
 #include <cstddef>
 #include <opencv2/core.hpp>
 #include <vector>
+
+#include "enhancer/paper/full.h"
 
 namespace turbid {
 
@@ -42,6 +45,22 @@ inline bool ReferenceFitVeilModel(const std::vector<cv::Vec4d>& samples, cv::Vec
     for (size_t i = 0; i < samples.size(); ++i) use[i] = residuals[i] <= sorted[k];
   }
   return std::isfinite((*c)[0]) && std::isfinite((*c)[1]) && std::isfinite((*c)[2]);
+}
+
+// One channel's estimate from its ratio bound and its samples: the fit when usable (0 < c1,
+// 0 <= c2 <= c1) and the smaller of fit and bound, else the bound.
+inline void ReferenceChooseLightScale(const std::vector<cv::Vec4d>& samples, double bound,
+                                      LightScaleEstimate* e) {
+  e->bound = bound;
+  cv::Vec3d fit;
+  if (ReferenceFitVeilModel(samples, &fit) && fit[1] > 0 && fit[2] >= 0 && fit[2] <= fit[1]) {
+    e->fit = fit[1];
+    e->scale = std::min(e->fit, e->bound);
+    e->source = e->fit <= e->bound ? "fit" : "bound";
+  } else {
+    e->scale = e->bound;
+    e->source = "bound (no usable fit)";
+  }
 }
 
 }  // namespace turbid
