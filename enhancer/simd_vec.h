@@ -1,0 +1,116 @@
+// Vector types for row kernels written once over their width (issue 29 item 6): Vec8 (AVX2 with
+// FMA, 8 floats) and Vec16 (AVX-512F, 16 floats) give the same operations under the same names,
+// each the same per-lane arithmetic, so a kernel gives the same bits at either width.
+//
+// A kernel template cannot carry a target attribute that depends on its vector type, and GCC and
+// Clang refuse to inline the types' target-specific operations into a function compiled without
+// that target. So a kernel's body is written once in a `.inc` file that its .cc includes twice,
+// in two namespaces, with `V` (the vector type) and TURBID_VEC_TARGET (its target attribute)
+// defined before each inclusion (TURBID_VEC8_TARGET / TURBID_VEC16_TARGET below). Callers pick
+// the 16-lane copy when KernelCpuLevel() >= CpuLevel::kAvx512.
+#pragma once
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define TURBID_HAVE_SIMD_VEC 1
+#include <immintrin.h>
+
+#define TURBID_VEC8_TARGET __attribute__((target("avx2,fma")))
+#define TURBID_VEC16_TARGET __attribute__((target("avx512f,avx2,fma")))
+#define TURBID_VEC8_OP __attribute__((always_inline, target("avx2,fma"))) static inline
+#define TURBID_VEC16_OP __attribute__((always_inline, target("avx512f,avx2,fma"))) static inline
+
+// GCC 12 warns of -Wmaybe-uninitialized inside avx512fintrin.h's own _mm512_undefined_* operands
+// (GCC bug 105593, fixed in its headers in GCC 13): the 16-lane copies are wrapped in these.
+#if defined(__clang__)
+#define TURBID_VEC16_WARNINGS_OFF
+#define TURBID_VEC16_WARNINGS_ON
+#else
+#define TURBID_VEC16_WARNINGS_OFF \
+  _Pragma("GCC diagnostic push") _Pragma("GCC diagnostic ignored \"-Wmaybe-uninitialized\"")
+#define TURBID_VEC16_WARNINGS_ON _Pragma("GCC diagnostic pop")
+#endif
+
+namespace turbid::simd {
+
+struct Vec8 {
+  using F = __m256;
+  using I = __m256i;
+  using Mask = __m256;  // all-ones lanes where true
+  static constexpr int kLanes = 8;
+  TURBID_VEC8_OP F Load(const float* p) { return _mm256_loadu_ps(p); }
+  TURBID_VEC8_OP void Store(float* p, F v) { _mm256_storeu_ps(p, v); }
+  TURBID_VEC8_OP F Set(float v) { return _mm256_set1_ps(v); }
+  TURBID_VEC8_OP F Zero() { return _mm256_setzero_ps(); }
+  TURBID_VEC8_OP F Add(F a, F b) { return _mm256_add_ps(a, b); }
+  TURBID_VEC8_OP F Sub(F a, F b) { return _mm256_sub_ps(a, b); }
+  TURBID_VEC8_OP F Mul(F a, F b) { return _mm256_mul_ps(a, b); }
+  TURBID_VEC8_OP F Div(F a, F b) { return _mm256_div_ps(a, b); }
+  // a b + c and a b - c, fused.
+  TURBID_VEC8_OP F MulAdd(F a, F b, F c) { return _mm256_fmadd_ps(a, b, c); }
+  TURBID_VEC8_OP F MulSub(F a, F b, F c) { return _mm256_fmsub_ps(a, b, c); }
+  // vminps / vmaxps: the second operand unless the first compares less / greater (NaN in a:
+  // b).
+  TURBID_VEC8_OP F Min(F a, F b) { return _mm256_min_ps(a, b); }
+  TURBID_VEC8_OP F Max(F a, F b) { return _mm256_max_ps(a, b); }
+  TURBID_VEC8_OP Mask LessEqual(F a, F b) { return _mm256_cmp_ps(a, b, _CMP_LE_OQ); }
+  // mask ? b : a.
+  TURBID_VEC8_OP F Select(Mask m, F a, F b) { return _mm256_blendv_ps(a, b, m); }
+  TURBID_VEC8_OP I Bits(F v) { return _mm256_castps_si256(v); }
+  TURBID_VEC8_OP F FromBits(I v) { return _mm256_castsi256_ps(v); }
+  TURBID_VEC8_OP I SetI(int v) { return _mm256_set1_epi32(v); }
+  TURBID_VEC8_OP I AddI(I a, I b) { return _mm256_add_epi32(a, b); }
+  TURBID_VEC8_OP I SubI(I a, I b) { return _mm256_sub_epi32(a, b); }
+  TURBID_VEC8_OP I AndI(I a, I b) { return _mm256_and_si256(a, b); }
+  TURBID_VEC8_OP I OrI(I a, I b) { return _mm256_or_si256(a, b); }
+  template <int kShift>
+  TURBID_VEC8_OP I ShiftRightI(I a) {
+    return _mm256_srli_epi32(a, kShift);
+  }
+  // table[index] per lane, index in 0 ... 15 (two permutes and a blend on bit 3).
+  TURBID_VEC8_OP F Lookup16(const float* table, I index) {
+    const F lo = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table), index);
+    const F hi = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 8), index);
+    return _mm256_blendv_ps(lo, hi, _mm256_castsi256_ps(_mm256_slli_epi32(index, 28)));
+  }
+};
+
+struct Vec16 {
+  using F = __m512;
+  using I = __m512i;
+  using Mask = __mmask16;
+  static constexpr int kLanes = 16;
+  TURBID_VEC16_OP F Load(const float* p) { return _mm512_loadu_ps(p); }
+  TURBID_VEC16_OP void Store(float* p, F v) { _mm512_storeu_ps(p, v); }
+  TURBID_VEC16_OP F Set(float v) { return _mm512_set1_ps(v); }
+  TURBID_VEC16_OP F Zero() { return _mm512_setzero_ps(); }
+  TURBID_VEC16_OP F Add(F a, F b) { return _mm512_add_ps(a, b); }
+  TURBID_VEC16_OP F Sub(F a, F b) { return _mm512_sub_ps(a, b); }
+  TURBID_VEC16_OP F Mul(F a, F b) { return _mm512_mul_ps(a, b); }
+  TURBID_VEC16_OP F Div(F a, F b) { return _mm512_div_ps(a, b); }
+  TURBID_VEC16_OP F MulAdd(F a, F b, F c) { return _mm512_fmadd_ps(a, b, c); }
+  TURBID_VEC16_OP F MulSub(F a, F b, F c) { return _mm512_fmsub_ps(a, b, c); }
+  // vminps / vmaxps as Vec8's (the same NaN rule).
+  TURBID_VEC16_OP F Min(F a, F b) { return _mm512_min_ps(a, b); }
+  TURBID_VEC16_OP F Max(F a, F b) { return _mm512_max_ps(a, b); }
+  TURBID_VEC16_OP Mask LessEqual(F a, F b) { return _mm512_cmp_ps_mask(a, b, _CMP_LE_OQ); }
+  TURBID_VEC16_OP F Select(Mask m, F a, F b) { return _mm512_mask_blend_ps(m, a, b); }
+  TURBID_VEC16_OP I Bits(F v) { return _mm512_castps_si512(v); }
+  TURBID_VEC16_OP F FromBits(I v) { return _mm512_castsi512_ps(v); }
+  TURBID_VEC16_OP I SetI(int v) { return _mm512_set1_epi32(v); }
+  TURBID_VEC16_OP I AddI(I a, I b) { return _mm512_add_epi32(a, b); }
+  TURBID_VEC16_OP I SubI(I a, I b) { return _mm512_sub_epi32(a, b); }
+  TURBID_VEC16_OP I AndI(I a, I b) { return _mm512_and_si512(a, b); }
+  TURBID_VEC16_OP I OrI(I a, I b) { return _mm512_or_si512(a, b); }
+  template <int kShift>
+  TURBID_VEC16_OP I ShiftRightI(I a) {
+    return _mm512_srli_epi32(a, kShift);
+  }
+  // table[index] per lane, index in 0 ... 15 (one permute).
+  TURBID_VEC16_OP F Lookup16(const float* table, I index) {
+    return _mm512_permutexvar_ps(index, _mm512_loadu_ps(table));
+  }
+};
+
+}  // namespace turbid::simd
+
+#endif
