@@ -260,7 +260,8 @@ std::vector<std::pair<std::string, cv::Mat>> RealFrames() {
 TEST(ColorPaths, SelectKthEqualsNthElement) {
   // The percentiles of `full` (t_med, exposure, light-scale bound, the fit's trim) use it.
   cv::RNG rng(17);
-  for (size_t n : {1, 2, 3, 17, 64, 65, 1000, 40000}) {
+  // Sizes on both sides of the four count tables (16384 candidates), with tails of 0 to 3.
+  for (size_t n : {1, 2, 3, 17, 64, 65, 1000, 16383, 16384, 16387, 40000, 100001}) {
     for (int kind = 0; kind < 4; ++kind) {
       std::vector<float> f(n);
       std::vector<double> d(n);
