@@ -66,6 +66,20 @@ struct Vec8 {
   TURBID_VEC8_OP I ShiftRightI(I a) {
     return _mm256_srli_epi32(a, kShift);
   }
+  TURBID_VEC8_OP I LoadI(const int* p) {
+    return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p));
+  }
+  // v[index] per lane, index in 0 ... 7.
+  TURBID_VEC8_OP F Permute(F v, I index) { return _mm256_permutevar8x32_ps(v, index); }
+  // Per lane float(double(v) s), s the lanes' doubles (lo: lanes 0 ... 3, hi: 4 ... 7).
+  using D = __m256d;
+  TURBID_VEC8_OP D LoadD(const double* p) { return _mm256_loadu_pd(p); }
+  TURBID_VEC8_OP F MulInDouble(F v, D lo, D hi) {
+    const __m128 a = _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(v)), lo));
+    const __m128 b =
+        _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(v, 1)), hi));
+    return _mm256_insertf128_ps(_mm256_castps128_ps256(a), b, 1);
+  }
   // table[index] per lane, index in 0 ... 15 (two permutes and a blend on bit 3).
   TURBID_VEC8_OP F Lookup16(const float* table, I index) {
     const F lo = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table), index);
@@ -104,6 +118,19 @@ struct Vec16 {
   template <int kShift>
   TURBID_VEC16_OP I ShiftRightI(I a) {
     return _mm512_srli_epi32(a, kShift);
+  }
+  TURBID_VEC16_OP I LoadI(const int* p) { return _mm512_loadu_si512(p); }
+  // v[index] per lane, index in 0 ... 15.
+  TURBID_VEC16_OP F Permute(F v, I index) { return _mm512_permutexvar_ps(index, v); }
+  // Per lane float(double(v) s), s the lanes' doubles (lo: lanes 0 ... 7, hi: 8 ... 15).
+  using D = __m512d;
+  TURBID_VEC16_OP D LoadD(const double* p) { return _mm512_loadu_pd(p); }
+  TURBID_VEC16_OP F MulInDouble(F v, D lo, D hi) {
+    const __m256 a = _mm512_cvtpd_ps(_mm512_mul_pd(_mm512_cvtps_pd(_mm512_castps512_ps256(v)), lo));
+    const __m256 b = _mm512_cvtpd_ps(_mm512_mul_pd(
+        _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1))), hi));
+    return _mm512_castpd_ps(
+        _mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(a)), _mm256_castps_pd(b), 1));
   }
   // table[index] per lane, index in 0 ... 15 (one permute).
   TURBID_VEC16_OP F Lookup16(const float* table, I index) {

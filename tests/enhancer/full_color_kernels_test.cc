@@ -122,13 +122,15 @@ cv::Mat BrightInput(cv::Size size, int seed) {
 
 TEST(FullColorKernels, FusedDehazeExposureDetailEqualsWholeImageSteps) {
   // Eq. 6 with the exposure scale, with and without the detail layer, with and without light,
-  // AVX2 on and off (the portable row path); FullEnhanceDetailed runs eq. 6, the exposure
+  // at every kernel level (below); FullEnhanceDetailed runs eq. 6, the exposure
   // division and cv::scaleAdd's detail as whole-image steps.
+  // Every kernel level: 16 lanes (avx512), 8 (avx2+fma), the portable rows (scalar).
   int exposed = 0;
-  for (bool avx2 : {true, false}) {
-    Avx2Switch s(avx2);
+  for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kAvx2Fma, CpuLevel::kScalar}) {
+    SetCpuLevelCap(level);
+    const char* avx2 = CpuLevelName(level);
     for (const cv::Size size :
-         {cv::Size(8, 6), cv::Size(13, 9), cv::Size(40, 31), cv::Size(129, 70)}) {
+         {cv::Size(8, 6), cv::Size(13, 9), cv::Size(40, 31), cv::Size(129, 70), cv::Size(47, 5)}) {
       const cv::Mat img = BrightInput(size, size.area());
       for (int variant = 0; variant < 4; ++variant) {
         FullOptions o;
@@ -140,10 +142,11 @@ TEST(FullColorKernels, FusedDehazeExposureDetailEqualsWholeImageSteps) {
         const FullResult slow = FullEnhanceDetailed(o, img, nullptr, nullptr);
         exposed += slow.exposure_scale > 1.0;
         EXPECT_TRUE(SameBits(FullEnhance(o, img, nullptr, nullptr), slow.image))
-            << size << " variant " << variant << " avx2 " << avx2;
+            << size << " variant " << variant << " level " << avx2;
       }
     }
   }
+  SetCpuLevelCap(CpuLevel::kAvx512);
   EXPECT_GT(exposed, 20) << "the inputs should make the exposure scale apply";
 }
 
