@@ -80,6 +80,13 @@ struct Vec8 {
         _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(v, 1)), hi));
     return _mm256_insertf128_ps(_mm256_castps128_ps256(a), b, 1);
   }
+  // a0 b0 a1 b1 ... a7 b7 at p (16 floats).
+  TURBID_VEC8_OP void StoreInterleaved(float* p, F a, F b) {
+    const F lo = _mm256_unpacklo_ps(a, b);  // a0 b0 a1 b1 | a4 b4 a5 b5
+    const F hi = _mm256_unpackhi_ps(a, b);  // a2 b2 a3 b3 | a6 b6 a7 b7
+    _mm256_storeu_ps(p, _mm256_permute2f128_ps(lo, hi, 0x20));
+    _mm256_storeu_ps(p + 8, _mm256_permute2f128_ps(lo, hi, 0x31));
+  }
   // table[index] per lane, index in 0 ... 15 (two permutes and a blend on bit 3).
   TURBID_VEC8_OP F Lookup16(const float* table, I index) {
     const F lo = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table), index);
@@ -131,6 +138,13 @@ struct Vec16 {
         _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1))), hi));
     return _mm512_castpd_ps(
         _mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(a)), _mm256_castps_pd(b), 1));
+  }
+  // a0 b0 a1 b1 ... a15 b15 at p (32 floats).
+  TURBID_VEC16_OP void StoreInterleaved(float* p, F a, F b) {
+    const I first = _mm512_setr_epi32(0, 16, 1, 17, 2, 18, 3, 19, 4, 20, 5, 21, 6, 22, 7, 23);
+    const I second = _mm512_add_epi32(first, _mm512_set1_epi32(8));
+    _mm512_storeu_ps(p, _mm512_permutex2var_ps(a, first, b));
+    _mm512_storeu_ps(p + 16, _mm512_permutex2var_ps(a, second, b));
   }
   // table[index] per lane, index in 0 ... 15 (one permute).
   TURBID_VEC16_OP F Lookup16(const float* table, I index) {

@@ -499,13 +499,15 @@ TEST(ColorPaths, ClaheRowLutsAndMappingsEqualPixelByPixelReference) {
       ClaheOptions o;
       o.tiles_x = c.tiles_x, o.tiles_y = c.tiles_y, o.bins = c.bins, o.distribution = d;
       const cv::Mat expect = ReferenceClaheGray(o, img);
-      for (bool avx2 : {true, false}) {
-        enhancer_internal::SetHandWrittenAvx2(avx2);
+      // Every kernel level (the row LUT's blend at 16 lanes, at 8, and the portable loops).
+      for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kAvx2Fma, CpuLevel::kScalar}) {
+        SetCpuLevelCap(level);
         EXPECT_TRUE(SameBits(Clahe(o, img), expect))
             << c.rows << "x" << c.cols << " tiles " << c.tiles_x << "x" << c.tiles_y << " bins "
-            << c.bins << " avx2 " << avx2 << " distribution " << static_cast<int>(d);
+            << c.bins << " level " << CpuLevelName(level) << " distribution "
+            << static_cast<int>(d);
       }
-      enhancer_internal::SetHandWrittenAvx2(true);
+      SetCpuLevelCap(CpuLevel::kAvx512);
     }
   }
 }
