@@ -47,6 +47,9 @@ void LaplacianAbsRow(const float* __restrict a, const float* __restrict b,
 // row y0 + k's sum.
 __attribute__((target("avx2"))) void LaplacianAbsSums8(const float* const* rows, int ch, int n,
                                                        float* row);
+// The same for sixteen rows (rows[0..17]) with AVX-512 (callers check KernelCpuLevel()).
+__attribute__((target("avx512f,avx2,fma"), optimize("fp-contract=off"))) void LaplacianAbsSums16(
+    const float* const* rows, int ch, int n, float* row);
 #endif
 
 #ifdef TURBID_HAVE_DEHAZE_AVX2

@@ -37,13 +37,16 @@ struct Avx2Switch {
 };
 
 TEST(FullColorKernels, NoiseEstimateEqualsReference) {
-  // Heights around the eight-row blocks (whole blocks, a short last block), widths with and
-  // without values past the last whole eight, gray and colour, small and large magnitudes.
-  for (bool avx2 : {true, false}) {
-    Avx2Switch s(avx2);
+  // Heights around the eight- and sixteen-row blocks (whole blocks, a short last block), widths
+  // with and without values past the last whole eight or sixteen, gray and colour, small and
+  // large magnitudes.
+  // Every kernel level: sixteen rows at once (avx512), eight (avx2), the portable loops.
+  for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kAvx2, CpuLevel::kScalar}) {
+    SetCpuLevelCap(level);
+    const char* avx2 = CpuLevelName(level);
     for (const cv::Size size :
          {cv::Size(3, 3), cv::Size(4, 10), cv::Size(10, 11), cv::Size(11, 17), cv::Size(34, 18),
-          cv::Size(35, 26), cv::Size(130, 81), cv::Size(257, 9)}) {
+          cv::Size(35, 26), cv::Size(130, 81), cv::Size(257, 9), cv::Size(21, 34)}) {
       for (int ch : {1, 3}) {
         for (double amplitude : {1.0, 1e30}) {
           cv::Mat img(size, CV_32FC(ch));
@@ -53,11 +56,12 @@ TEST(FullColorKernels, NoiseEstimateEqualsReference) {
           o.light = false, o.dehaze = false, o.deblur = false, o.contrast = false;
           const FullResult r = FullEnhanceDetailed(o, img, nullptr, nullptr);
           EXPECT_EQ(r.noise_sigma, ReferenceNoiseSigma(img))
-              << size << " ch " << ch << " x" << amplitude << " avx2 " << avx2;
+              << size << " ch " << ch << " x" << amplitude << " level " << avx2;
         }
       }
     }
   }
+  SetCpuLevelCap(CpuLevel::kAvx512);
 }
 
 // The k-th smallest as the pre-optimisation percentile found it (nth_element) and as SelectKth
