@@ -9,9 +9,52 @@
 #include <memory>
 #include <vector>
 
+#include "core/cpu.h"
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define TURBID_HAVE_SELECT_AVX512 1
+#endif
+
 namespace turbid::enhancer_internal {
 
 namespace select_detail {
+
+#ifdef TURBID_HAVE_SELECT_AVX512
+// (GCC 12 warns of -Wmaybe-uninitialized inside avx512fintrin.h's own _mm512_undefined_*
+// operands, GCC bug 105593; silenced for this kernel only.)
+#if !defined(__clang__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#endif
+// The keys among keys[0, count) whose digit (u >> s) & digits is `bucket`, moved to the front in
+// order, sixteen at a time (vpcompressd; each block's kept keys are stored over keys already
+// read, as kept <= i); returns how many.
+__attribute__((target("avx512f"))) inline size_t KeepBucketAvx512(uint32_t* keys, size_t count,
+                                                                  int s, uint32_t digits,
+                                                                  uint32_t bucket) {
+  const __m512i mask = _mm512_set1_epi32(static_cast<int>(digits));
+  const __m512i want = _mm512_set1_epi32(static_cast<int>(bucket));
+  const __m128i shift = _mm_cvtsi32_si128(s);
+  size_t kept = 0, i = 0;
+  for (; i + 16 <= count; i += 16) {
+    const __m512i u = _mm512_loadu_si512(keys + i);
+    const __mmask16 in =
+        _mm512_cmpeq_epi32_mask(_mm512_and_si512(_mm512_srl_epi32(u, shift), mask), want);
+    _mm512_storeu_si512(keys + kept, _mm512_maskz_compress_epi32(in, u));
+    kept += static_cast<size_t>(__builtin_popcount(in));
+  }
+  for (; i < count; ++i) {
+    const uint32_t u = keys[i];
+    keys[kept] = u;
+    kept += ((u >> s) & digits) == bucket;
+  }
+  return kept;
+}
+#if !defined(__clang__)
+#pragma GCC diagnostic pop
+#endif
+#endif
 
 // Radix selection of rank k among the `count` keys at `bytes` (order-preserving keys; used as
 // scratch), with `Count` counters. Large candidate sets are counted in four tables, the keys dealt
@@ -56,7 +99,17 @@ Key SelectKey(unsigned char* bytes, size_t count, size_t k) {
     // The bucket's keys moved to the front, without a branch per key (the bucket holds a
     // fraction of them at random places: a branch would be mispredicted often).
     size_t kept = 0;
-    for (i = 0; i < count; ++i) {
+    i = 0;
+#ifdef TURBID_HAVE_SELECT_AVX512
+    if constexpr (sizeof(Key) == 4) {
+      if (KernelCpuLevel() >= CpuLevel::kAvx512) {
+        kept = KeepBucketAvx512(reinterpret_cast<uint32_t*>(bytes), count, s, digits,
+                                static_cast<uint32_t>(bucket));
+        i = count;
+      }
+    }
+#endif
+    for (; i < count; ++i) {
       const Key u = get(i);
       set(kept, u);
       kept += ((u >> s) & digits) == bucket;

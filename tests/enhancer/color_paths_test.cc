@@ -274,10 +274,16 @@ TEST(ColorPaths, SelectKthEqualsNthElement) {
         d[i] = v;
       }
       for (size_t k : {size_t{0}, n / 3, n / 2, n * 8 / 10, n - 1}) {
-        std::vector<float> fs = f, f_scratch = f;  // SelectKth uses its input as scratch
+        std::vector<float> fs = f;
         std::nth_element(fs.begin(), fs.begin() + static_cast<std::ptrdiff_t>(k), fs.end());
-        EXPECT_EQ((enhancer_internal::SelectKth<float, uint32_t>(f_scratch, k)), fs[k])
-            << n << " " << k;
+        // Every kernel level (the float keys' bucket kept sixteen at a time with AVX-512).
+        for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kScalar}) {
+          SetCpuLevelCap(level);
+          std::vector<float> f_scratch = f;  // SelectKth uses its input as scratch
+          EXPECT_EQ((enhancer_internal::SelectKth<float, uint32_t>(f_scratch, k)), fs[k])
+              << n << " " << k << " " << CpuLevelName(level);
+        }
+        SetCpuLevelCap(CpuLevel::kAvx512);
         std::vector<double> ds = d, d_scratch = d;
         std::nth_element(ds.begin(), ds.begin() + static_cast<std::ptrdiff_t>(k), ds.end());
         EXPECT_EQ((enhancer_internal::SelectKth<double, uint64_t>(d_scratch, k)), ds[k])
