@@ -80,6 +80,21 @@ struct Vec8 {
         _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(v, 1)), hi));
     return _mm256_insertf128_ps(_mm256_castps128_ps256(a), b, 1);
   }
+  // Whether any lane of m is true.
+  TURBID_VEC8_OP bool Any(Mask m) { return _mm256_movemask_ps(m) != 0; }
+  // The three channels of 8 interleaved pixels (24 floats at p): two blends gather one channel's
+  // values (in the order 0 3 6 1 4 7 2 5 for channel 0, likewise rotated for 1 and 2) and one
+  // lane permutation puts them in order.
+  TURBID_VEC8_OP void Deinterleave3(const float* p, F* c) {
+    const F v0 = _mm256_loadu_ps(p), v1 = _mm256_loadu_ps(p + 8), v2 = _mm256_loadu_ps(p + 16);
+    // Lanes from v1 (0x92: 1, 4, 7) and v2 (0x24: 2, 5) for channel 0; rotated for the others.
+    const F t0 = _mm256_blend_ps(_mm256_blend_ps(v0, v1, 0x92), v2, 0x24);
+    const F t1 = _mm256_blend_ps(_mm256_blend_ps(v0, v1, 0x24), v2, 0x49);
+    const F t2 = _mm256_blend_ps(_mm256_blend_ps(v0, v1, 0x49), v2, 0x92);
+    c[0] = _mm256_permutevar8x32_ps(t0, _mm256_setr_epi32(0, 3, 6, 1, 4, 7, 2, 5));
+    c[1] = _mm256_permutevar8x32_ps(t1, _mm256_setr_epi32(1, 4, 7, 2, 5, 0, 3, 6));
+    c[2] = _mm256_permutevar8x32_ps(t2, _mm256_setr_epi32(2, 5, 0, 3, 6, 1, 4, 7));
+  }
   // a0 b0 a1 b1 ... a7 b7 at p (16 floats).
   TURBID_VEC8_OP void StoreInterleaved(float* p, F a, F b) {
     const F lo = _mm256_unpacklo_ps(a, b);  // a0 b0 a1 b1 | a4 b4 a5 b5
@@ -138,6 +153,21 @@ struct Vec16 {
         _mm512_cvtps_pd(_mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1))), hi));
     return _mm512_castpd_ps(
         _mm512_insertf64x4(_mm512_castps_pd(_mm512_castps256_ps512(a)), _mm256_castps_pd(b), 1));
+  }
+  TURBID_VEC16_OP bool Any(Mask m) { return m != 0; }
+  // The three channels of 16 interleaved pixels (48 floats at p): channel c's lane l is float
+  // 3 l + c; two-source permutes take those below 32 from v0 v1, then the rest from v2.
+  TURBID_VEC16_OP void Deinterleave3(const float* p, F* c) {
+    const F v0 = _mm512_loadu_ps(p), v1 = _mm512_loadu_ps(p + 16), v2 = _mm512_loadu_ps(p + 32);
+    const I a0 = _mm512_setr_epi32(0, 3, 6, 9, 12, 15, 18, 21, 24, 27, 30, 0, 0, 0, 0, 0);
+    const I b0 = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 17, 20, 23, 26, 29);
+    const I a1 = _mm512_setr_epi32(1, 4, 7, 10, 13, 16, 19, 22, 25, 28, 31, 0, 0, 0, 0, 0);
+    const I b1 = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 18, 21, 24, 27, 30);
+    const I a2 = _mm512_setr_epi32(2, 5, 8, 11, 14, 17, 20, 23, 26, 29, 0, 0, 0, 0, 0, 0);
+    const I b2 = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 16, 19, 22, 25, 28, 31);
+    c[0] = _mm512_permutex2var_ps(_mm512_permutex2var_ps(v0, a0, v1), b0, v2);
+    c[1] = _mm512_permutex2var_ps(_mm512_permutex2var_ps(v0, a1, v1), b1, v2);
+    c[2] = _mm512_permutex2var_ps(_mm512_permutex2var_ps(v0, a2, v1), b2, v2);
   }
   // a0 b0 a1 b1 ... a15 b15 at p (32 floats).
   TURBID_VEC16_OP void StoreInterleaved(float* p, F a, F b) {

@@ -372,18 +372,20 @@ TEST(ColorPaths, ClaheFromColorBinsEqualsWholeImage) {
 }
 
 TEST(ColorPaths, ClaheColorKernelsEqualPortableLoops) {
-  // The luminance and the ratio step (8 pixels per vector step, the rest one at a time) against
-  // the whole-image reference, with the portable loops as well: every width up to 3 vector steps
-  // past a multiple of 8, dark pixels (the gray branch) at every lane, values beyond [0, 1]
-  // (the ratio's clamp), -0, and the R, G, B order.
-  for (int width = 1; width <= 27; ++width) {
+  // The luminance and the ratio step (8 or 16 pixels per vector step, the rest one at a time)
+  // against the whole-image reference, with the portable loops as well: every width up to 3
+  // vector steps past a multiple of 16, dark pixels (the gray branch) at every lane, values beyond
+  // [0, 1] (the ratio's clamp), -0, and the R, G, B order.
+  for (int width = 1; width <= 51; ++width) {
     cv::Mat img = SmoothNoise(19, width, 41 + width) * 1.3;
     img -= cv::Scalar::all(0.1);
     for (int x = 0; x < width; x += 3) img.at<cv::Vec3f>(x % 19, x) = cv::Vec3f(0, 0, 0);
     if (width > 4) img.at<cv::Vec3f>(5, 4) = cv::Vec3f(-0.0f, 2e-7f, -0.0f);  // l <= 1e-6
     if (width > 9) img.at<cv::Vec3f>(7, 9) = cv::Vec3f(-0.5f, 0.2f, 0.9f);
-    for (bool avx2 : {true, false}) {
-      enhancer_internal::SetHandWrittenAvx2(avx2);
+    // Every kernel level: 16 pixels per vector step (avx512), 8 (avx2+fma), the portable loops.
+    for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kAvx2Fma, CpuLevel::kScalar}) {
+      SetCpuLevelCap(level);
+      const char* avx2 = CpuLevelName(level);
       for (bool rgb : {false, true}) {
         ClaheOptions o;
         o.rgb = rgb;
@@ -403,10 +405,10 @@ TEST(ColorPaths, ClaheColorKernelsEqualPortableLoops) {
         }
         cv::Mat out = img.clone();
         ClaheColorFromBins(o, bins, out);
-        EXPECT_TRUE(SameBits(out, expect)) << width << " avx2 " << avx2 << " rgb " << rgb;
+        EXPECT_TRUE(SameBits(out, expect)) << width << " level " << avx2 << " rgb " << rgb;
       }
     }
-    enhancer_internal::SetHandWrittenAvx2(true);
+    SetCpuLevelCap(CpuLevel::kAvx512);
   }
 }
 
