@@ -1,6 +1,7 @@
 // AVX-512 copies of guided_segments.h's row kernels with 16 lanes (16 segments a row: the same
-// source, guided_segments_kernels.h, over __m512) and their transposes (two groups of 8 lanes, the
-// AVX2 8 x 8 transpose each). Chosen at run time (Stream) where KernelCpuLevel() is kAvx512.
+// source, guided_segments_kernels.h, over __m512) and their 16 x 16 transposes. Chosen at run time
+// (Stream) where KernelCpuLevel() is kAvx512.
+#include <algorithm>
 #include <cstddef>
 
 #include "enhancer/blocks/guided_segments.h"
@@ -20,7 +21,7 @@
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
 #endif
 
-#include "enhancer/blocks/guided_segments_transpose.h"
+#include "enhancer/blocks/guided_segments_transpose16.h"
 
 namespace turbid::guided_segments {
 namespace {
@@ -67,15 +68,17 @@ void StageBAvx512(const Geometry& g, float* c_a, float* c_b, const float* add_a,
   StageBKernel<Avx512>(g, c_a, c_b, add_a, sub_a, add_b, sub_b, update, inv_x, inv_y, guide, q);
 }
 
-// Blocks of 8 floats of each segment's run -> 8 segment vectors, lanes 0-7 then 8-15.
+// Blocks of 16 floats of each segment's run (the last block of a run: what is left of it) -> 16
+// segment vectors.
 void TransposeInAvx512(const Geometry& g, const float* const* src, float* seg) {
-  __m256 r[8];
-  for (int j = 0; j < g.L * 3; j += 8) {
-    for (int h = 0; h < 16; h += 8) {
-      for (int k = 0; k < 8; ++k) r[k] = _mm256_loadu_ps(src[h + k] + j);
-      Transpose8(r);
-      for (int i = 0; i < 8; ++i)
-        _mm256_store_ps(seg + static_cast<ptrdiff_t>(j + i) * 16 + h, r[i]);
+  const int step = g.L * 3;
+  __m512 r[16];
+  for (int j = 0; j < step; j += 16) {
+    const __mmask16 valid = FirstLanes(step - j);
+    for (int k = 0; k < 16; ++k) r[k] = _mm512_maskz_loadu_ps(valid, src[k] + j);
+    Transpose16(r);
+    for (int i = 0; i < 16 && j + i < step; ++i) {
+      _mm512_store_ps(seg + static_cast<ptrdiff_t>(j + i) * 16, r[i]);
     }
   }
 }
@@ -83,23 +86,17 @@ void TransposeInAvx512(const Geometry& g, const float* const* src, float* seg) {
 // Values at or past `limit` are not written (the last segments' pixels past the image).
 void TransposeOutAvx512(const Geometry& g, const float* seg, float* out, int limit) {
   const int step = g.L * 3;
-  __m256 r[8];
-  for (int j = 0; j < step; j += 8) {
-    for (int h = 0; h < 16; h += 8) {
-      if ((h * step) + j >= limit) break;  // these segments lie past the image
-      for (int i = 0; i < 8; ++i)
-        r[i] = _mm256_load_ps(seg + static_cast<ptrdiff_t>(j + i) * 16 + h);
-      Transpose8(r);
-      for (int k = 0; k < 8; ++k) {
-        const int at = (h + k) * step + j;
-        if (at + 8 <= limit) {
-          _mm256_storeu_ps(out + at, r[k]);
-        } else if (at < limit) {
-          alignas(32) float tail[8];
-          _mm256_store_ps(tail, r[k]);
-          for (int i = 0; at + i < limit; ++i) out[at + i] = tail[i];
-        }
-      }
+  __m512 r[16];
+  for (int j = 0; j < step && j < limit; j += 16) {
+    for (int i = 0; i < 16; ++i) {
+      r[i] = j + i < step ? _mm512_load_ps(seg + static_cast<ptrdiff_t>(j + i) * 16)
+                          : _mm512_setzero_ps();
+    }
+    Transpose16(r);
+    for (int k = 0; k < 16; ++k) {
+      const int at = k * step + j;
+      if (at >= limit) break;
+      _mm512_mask_storeu_ps(out + at, FirstLanes(std::min(step - j, limit - at)), r[k]);
     }
   }
 }

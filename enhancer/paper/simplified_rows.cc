@@ -31,7 +31,10 @@ bool BoostOutPortable(const BoostOutArgs& a) {
 }
 
 BoostOutFn ChosenBoostOut() {
-  const BoostOutFn avx2 = KernelCpuLevel() >= CpuLevel::kAvx2Fma ? BoostOutAvx2Fma() : nullptr;
+  const CpuLevel level = KernelCpuLevel();
+  const BoostOutFn avx512 = level >= CpuLevel::kAvx512 ? BoostOutAvx512() : nullptr;
+  if (avx512 != nullptr) return avx512;
+  const BoostOutFn avx2 = level >= CpuLevel::kAvx2Fma ? BoostOutAvx2Fma() : nullptr;
   return avx2 != nullptr ? avx2 : BoostOutPortable;
 }
 

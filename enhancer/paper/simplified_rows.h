@@ -31,7 +31,10 @@ bool BoostOutPortable(const BoostOutArgs& a);
 // AVX2 + FMA: q = fma(alpha, i_f - i_g, i_g), 8 x 8 transposes (per group of 8 lanes); null where
 // the build has none.
 BoostOutFn BoostOutAvx2Fma();
-// The kernel this process uses (AVX2 + FMA where core/cpu.h's KernelCpuLevel() allows).
+// AVX-512: the 16-lane layout with 16 x 16 transposes (the 8-lane one: the AVX2 kernel); null
+// where the build has none.
+BoostOutFn BoostOutAvx512();
+// The kernel this process uses (AVX-512 or AVX2 + FMA where core/cpu.h's KernelCpuLevel() allows).
 BoostOutFn ChosenBoostOut();
 
 }  // namespace turbid::simplified_internal

@@ -56,9 +56,9 @@ bool BoostOutT(const BoostOutArgs& a) {
                wr = _mm256_set1_ps(0.2126f);
   const int K = a.lanes;
   __m256 finite = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
-  for (int j = 0; j < a.L; j += 8) {
-    for (int h = 0; h < K; h += 8) {  // lanes h .. h + 7
-      __m256 q[24];                   // vector t = 3 i + c: column j + i, channel c
+  for (int h = 0; h < K; h += 8) {  // lanes h .. h + 7, each group along its row
+    for (int j = 0; j < a.L; j += 8) {
+      __m256 q[24];  // vector t = 3 i + c: column j + i, channel c
       const float* f = a.i_f + static_cast<ptrdiff_t>(j) * 3 * K + h;
       const float* g = a.i_g + static_cast<ptrdiff_t>(j) * 3 * K + h;
       for (int t = 0; t < 24; ++t) {

@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "core/cpu.h"
 #include "enhancer/blocks/clahe_luminance.h"
 #include "enhancer/blocks/guided_segments.h"
 
@@ -29,8 +30,11 @@ constexpr double kTolerance = 1e-6;
 std::vector<std::pair<std::string, BoostOutFn>> KernelSets() {
   std::vector<std::pair<std::string, BoostOutFn>> sets = {
       {"portable", simplified_internal::BoostOutPortable}};
-  if (simplified_internal::BoostOutAvx2Fma() != nullptr) {
+  if (CpuHas(CpuLevel::kAvx2Fma) && simplified_internal::BoostOutAvx2Fma() != nullptr) {
     sets.emplace_back("avx2+fma", simplified_internal::BoostOutAvx2Fma());
+  }
+  if (CpuHas(CpuLevel::kAvx512) && simplified_internal::BoostOutAvx512() != nullptr) {
+    sets.emplace_back("avx512", simplified_internal::BoostOutAvx512());
   }
   return sets;
 }
