@@ -1,10 +1,9 @@
 // AVX-512 copy of simplified_rows.h's output step for the 16-lane layout (guided_segments' AVX-512
 // path): per block of 16 segment columns, the 48 boosted vectors (16 columns x 3 channels) are
 // clamped, their luminance formed lane by lane, and three 16 x 16 transposes write them, one
-// transpose the luminance. The 8-lane layout goes to the AVX2 kernel.
+// transpose the luminance. The 8-lane layout and non-temporal stores go to the AVX2 kernel.
 #include <algorithm>
 #include <cstddef>
-#include <cstdint>
 #include <limits>
 
 #include "enhancer/paper/simplified_rows.h"
@@ -35,24 +34,7 @@ namespace {
 using guided_segments::FirstLanes;
 using guided_segments::Transpose16;
 
-// Stores the first n (<= 16) floats of v at dst + at: non-temporal where kStream and all 16 are
-// written (dst + at is 32-byte aligned then: two 8-float halves where it is not 64-byte aligned).
-template <bool kStream>
-inline void Store16(float* dst, int at, int n, __m512 v) {
-  float* p = dst + at;
-  if (kStream && n == 16) {
-    if (reinterpret_cast<uintptr_t>(p) % 64 == 0) {
-      _mm512_stream_ps(p, v);
-    } else {
-      _mm256_stream_ps(p, _mm512_castps512_ps256(v));
-      _mm256_stream_ps(p + 8, _mm512_extractf32x8_ps(v, 1));
-    }
-  } else {
-    _mm512_mask_storeu_ps(p, FirstLanes(n), v);
-  }
-}
-
-template <bool kStream, bool kLum, bool kRgb>
+template <bool kLum, bool kRgb>
 bool BoostOut16T(const BoostOutArgs& a) {
   constexpr int b = kRgb ? 2 : 0, r = kRgb ? 0 : 2;
   const int step = 3 * a.L, limit = 3 * a.cols;
@@ -97,7 +79,8 @@ bool BoostOut16T(const BoostOutArgs& a) {
       for (int k = 0; k < 16; ++k) {
         const int at = k * step + part;
         if (at >= limit) break;
-        Store16<kStream>(a.dst, at, std::min(3 * (j + n) - part, limit - at), q[16 * m + k]);
+        _mm512_mask_storeu_ps(a.dst + at, FirstLanes(std::min(3 * (j + n) - part, limit - at)),
+                              q[16 * m + k]);
       }
     }
   }
@@ -108,12 +91,8 @@ bool BoostOut16(const BoostOutArgs& a) {
   // The 8-lane layout, and non-temporal stores: the AVX2 kernel (it writes 8 segments' runs at a
   // time, fewer than the write-combining buffers; 16 at a time measured slower).
   if (a.lanes != 16 || a.stream) return BoostOutAvx2Fma()(a);
-  const bool stream = false;
-  if (a.lum == nullptr) {
-    return stream ? BoostOut16T<true, false, false>(a) : BoostOut16T<false, false, false>(a);
-  }
-  if (a.rgb) return stream ? BoostOut16T<true, true, true>(a) : BoostOut16T<false, true, true>(a);
-  return stream ? BoostOut16T<true, true, false>(a) : BoostOut16T<false, true, false>(a);
+  if (a.lum == nullptr) return BoostOut16T<false, false>(a);
+  return a.rgb ? BoostOut16T<true, true>(a) : BoostOut16T<true, false>(a);
 }
 
 }  // namespace
