@@ -9,7 +9,7 @@
 // column sums carry a halo of r columns each side, and it is not computed: column s < 0 or
 // s >= L of segment k is a column of segment k - 1 or k + 1, one lane shift of the computed ones
 // (so every value is computed once). Input rows are transposed into the layout once, output rows
-// back once (8 x 8 transposes, per group of 8 lanes).
+// back once (8 x 8 transposes; 16 x 16 with 16 lanes).
 //
 // Per stream: stage A keeps running column sums of I and I^2 over the window's rows (float,
 // recomputed directly every kAnchorRows rows so rounding cannot drift), forms the window sums
