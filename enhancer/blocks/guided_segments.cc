@@ -13,6 +13,7 @@ namespace {
 
 // Portable vector of 8 floats (plain loops; no FMA contraction is relied on either way).
 struct Portable {
+  static constexpr int kLanes = 8;
   struct V {
     float v[8];
   };
@@ -46,6 +47,13 @@ struct Portable {
     return r;
   }
   static V MulAdd(const V& a, const V& b, const V& c) { return Add(Mul(a, b), c); }
+  using M = int;
+  static M ShiftBy(int m) { return m; }
+  static V Shifted(M m, const V& x) {
+    V r;
+    for (int k = 0; k < 8; ++k) r.v[k] = k + m >= 0 && k + m < 8 ? x.v[k + m] : 0.0f;
+    return r;
+  }
   static V NegMulAdd(const V& a, const V& b, const V& c) { return Sub(c, Mul(a, b)); }
 };
 
@@ -63,16 +71,16 @@ void StageBPortable(const Geometry& g, float* c_a, float* c_b, const float* add_
 }
 
 void TransposeInPortable(const Geometry& g, const float* const* src, float* seg) {
-  for (int k = 0; k < 8; ++k) {
-    for (int j = 0; j < g.lh8 * 3; ++j) seg[j * 8 + k] = src[k][j];
+  for (int k = 0; k < g.K; ++k) {
+    for (int j = 0; j < g.L * 3; ++j) seg[j * g.K + k] = src[k][j];
   }
 }
 
 void TransposeOutPortable(const Geometry& g, const float* seg, float* out, int limit) {
-  for (int k = 0; k < 8; ++k) {
+  for (int k = 0; k < g.K; ++k) {
     const int base = k * g.L * 3;
     const int count = std::min(g.L * 3, limit - base);
-    for (int j = 0; j < count; ++j) out[base + j] = seg[j * 8 + k];
+    for (int j = 0; j < count; ++j) out[base + j] = seg[j * g.K + k];
   }
 }
 
@@ -89,14 +97,13 @@ void Buffer::Assign(size_t count) {
   data = storage.data() + ((64 - p % 64) % 64) / sizeof(float);
 }
 
-Geometry MakeGeometry(int cols, int r) {
+Geometry MakeGeometry(int cols, int r, int lanes) {
   Geometry g;
+  g.K = lanes;
   g.cols = cols;
   g.r = r;
-  g.L = (cols + 63) / 64 * 8;
-  g.la = g.L + 2 * r;
-  g.lh = g.L + 4 * r;
-  g.lh8 = (g.lh + 7) / 8 * 8;
+  g.L = (cols + 8 * lanes - 1) / (8 * lanes) * 8;
+  g.lc = g.L + 2 * r;
   return g;
 }
 
@@ -106,19 +113,26 @@ Kernels PortableKernels() {
   k.stage_b = StageBPortable;
   k.transpose_in = TransposeInPortable;
   k.transpose_out = TransposeOutPortable;
+  k.lanes = Portable::kLanes;
   return k;
 }
 
 Kernels ChosenKernels() {
-  const Kernels avx2 = KernelCpuLevel() >= CpuLevel::kAvx2Fma ? Avx2FmaKernels() : Kernels{};
+  const CpuLevel level = KernelCpuLevel();
+  const Kernels avx512 = level >= CpuLevel::kAvx512 ? Avx512Kernels() : Kernels{};
+  if (avx512.stage_a != nullptr) return avx512;
+  const Kernels avx2 = level >= CpuLevel::kAvx2Fma ? Avx2FmaKernels() : Kernels{};
   return avx2.stage_a != nullptr ? avx2 : PortableKernels();
 }
 
 Input::Input(const cv::Mat& image, int halo)
-    : image_(image), g_(MakeGeometry(image.cols, halo)), k_(ChosenKernels()), ring_(2 * halo + 2) {
+    : image_(image),
+      k_(ChosenKernels()),
+      g_(MakeGeometry(image.cols, halo, k_.lanes)),
+      ring_(2 * halo + 2) {
   CV_Assert(image.type() == CV_32FC3 && image.isContinuous() && halo >= 1);
-  stride_ = static_cast<size_t>(g_.lh8) * 24;
-  edges_.Assign(static_cast<size_t>(8 * g_.lh8) * 3);
+  stride_ = static_cast<size_t>(g_.L) * 3 * g_.K;
+  edges_.Assign(static_cast<size_t>(g_.K * g_.L) * 3);
   seg_.Assign(ring_ * stride_);
 }
 
@@ -126,19 +140,17 @@ const float* Input::Row(int y) {
   while (next_ <= y) {
     const int t = next_++;
     const float* row = image_.ptr<float>(t);
-    const float* src[8];
-    for (int k = 0; k < 8; ++k) {
-      const int p0 = k * g_.L - 2 * g_.r, p1 = p0 + g_.lh8;  // the segment's pixels [p0, p1)
-      if (p0 >= 0 && p1 <= g_.cols) {
+    const float* src[16];
+    for (int k = 0; k < g_.K; ++k) {
+      const int p0 = k * g_.L, p1 = p0 + g_.L;  // the segment's pixels [p0, p1)
+      if (p1 <= g_.cols) {
         src[k] = row + static_cast<ptrdiff_t>(p0) * 3;  // inside the image: read in place
         continue;
       }
-      // Past an edge: the pixels inside the image copied, the rest stays zero.
-      float* e = edges_.data + static_cast<size_t>(k) * g_.lh8 * 3;
-      const int i0 = std::max(p0, 0), i1 = std::min(p1, g_.cols);
-      if (i1 > i0) {
-        std::memcpy(e + static_cast<ptrdiff_t>(i0 - p0) * 3, row + static_cast<ptrdiff_t>(i0) * 3,
-                    sizeof(float) * (i1 - i0) * 3);
+      // Past the image's end: the pixels inside it copied, the rest stays zero.
+      float* e = edges_.data + static_cast<size_t>(k) * g_.L * 3;
+      if (g_.cols > p0) {
+        std::memcpy(e, row + static_cast<ptrdiff_t>(p0) * 3, sizeof(float) * (g_.cols - p0) * 3);
       }
       src[k] = e;
     }
@@ -158,32 +170,25 @@ Stream::Stream(std::unique_ptr<Input> own, Input* input, int r, float eps)
       r_(r),
       h_(input_->rows()),
       eps_(eps),
-      g_(MakeGeometry(input_->image().cols, r)),
-      k_(ChosenKernels()) {
-  CV_Assert(r >= 1 && r <= input_->halo());
+      k_(ChosenKernels()),
+      g_(MakeGeometry(input_->image().cols, r, k_.lanes)) {
+  CV_Assert(r >= 1 && r <= input_->halo() && input_->lanes() == g_.K);
+  const int K = g_.K, col = 3 * K;  // lanes, floats a column
   ring_ = 2 * r + 2;
-  offset_ = static_cast<size_t>(2 * (input_->halo() - r)) * 24;
-  c_stride_ = static_cast<size_t>(g_.lh8) * 24;
-  ab_stride_ = static_cast<size_t>(g_.la) * 24;
+  c_stride_ = static_cast<size_t>(g_.lc) * col;
+  ab_stride_ = static_cast<size_t>(g_.L) * col;
   a_.Assign(ring_ * ab_stride_);
   b_.Assign(ring_ * ab_stride_);
   c_i_.Assign(c_stride_);
   c_ii_.Assign(c_stride_);
-  c_a_.Assign(ab_stride_);
-  c_b_.Assign(ab_stride_);
-  q_seg_.Assign(static_cast<size_t>(g_.L) * 24);
-  inv_xa_.Assign(static_cast<size_t>(g_.la) * 8);
-  inv_xb_.Assign(static_cast<size_t>(g_.L) * 8);
-  for (int k = 0; k < 8; ++k) {
-    for (int j = 0; j < g_.la; ++j) {
-      const int p = k * g_.L + j - r;  // a-column j holds pixel s = j - r of segment k
-      inv_xa_.data[j * 8 + k] =
-          p >= 0 && p < g_.cols ? 1.0f / static_cast<float>(Count(p, r, g_.cols)) : 0.0f;
-    }
+  c_a_.Assign(c_stride_);
+  c_b_.Assign(c_stride_);
+  q_seg_.Assign(static_cast<size_t>(g_.L) * col);
+  inv_x_.Assign(static_cast<size_t>(g_.L) * K);
+  for (int k = 0; k < K; ++k) {
     for (int s = 0; s < g_.L; ++s) {
       const int p = k * g_.L + s;
-      inv_xb_.data[s * 8 + k] =
-          p < g_.cols ? 1.0f / static_cast<float>(Count(p, r, g_.cols)) : 0.0f;
+      inv_x_.data[s * K + k] = p < g_.cols ? 1.0f / static_cast<float>(Count(p, r, g_.cols)) : 0.0f;
     }
   }
 }
@@ -209,12 +214,13 @@ void Stream::StageA(int y) {
   const bool anchor = y % kAnchorRows == 0;
   if (anchor) {
     auto row = [&](int yy) { return InRow(yy); };
-    DirectColumns<true>(y, r_, h_, c_stride_, c_i_.data, c_ii_.data, row, row);
+    const size_t main = static_cast<size_t>(r_) * 3 * g_.K;  // the columns s in [0, L)
+    DirectColumns<true>(y, r_, h_, ab_stride_, c_i_.data + main, c_ii_.data + main, row, row);
   }
   const float* add = y + r_ < h_ ? InRow(y + r_) : nullptr;
   const float* sub = y - r_ - 1 >= 0 ? InRow(y - r_ - 1) : nullptr;
   const float inv_y = 1.0f / static_cast<float>(Count(y, r_, h_));
-  k_.stage_a(g_, c_i_.data, c_ii_.data, add, sub, !anchor, inv_xa_.data, inv_y, eps_, ARow(y),
+  k_.stage_a(g_, c_i_.data, c_ii_.data, add, sub, !anchor, inv_x_.data, inv_y, eps_, ARow(y),
              BRow(y));
 }
 
@@ -223,8 +229,9 @@ const float* Stream::RowSegments(int t) {
   while (next_a_ <= need) StageA(next_a_++);
   const bool anchor = t % kAnchorRows == 0;
   if (anchor) {
+    const size_t main = static_cast<size_t>(r_) * 3 * g_.K;  // the columns s in [0, L)
     DirectColumns<false>(
-        t, r_, h_, ab_stride_, c_a_.data, c_b_.data,
+        t, r_, h_, ab_stride_, c_a_.data + main, c_b_.data + main,
         [&](int yy) { return static_cast<const float*>(ARow(yy)); },
         [&](int yy) { return static_cast<const float*>(BRow(yy)); });
   }
@@ -232,7 +239,7 @@ const float* Stream::RowSegments(int t) {
   const float inv_y = 1.0f / static_cast<float>(Count(t, r_, h_));
   k_.stage_b(g_, c_a_.data, c_b_.data, has_add ? ARow(t + r_) : nullptr,
              has_sub ? ARow(t - r_ - 1) : nullptr, has_add ? BRow(t + r_) : nullptr,
-             has_sub ? BRow(t - r_ - 1) : nullptr, !anchor, inv_xb_.data, inv_y, InRow(t),
+             has_sub ? BRow(t - r_ - 1) : nullptr, !anchor, inv_x_.data, inv_y, InRow(t),
              q_seg_.data);
   return q_seg_.data;
 }

@@ -20,6 +20,7 @@ namespace turbid::guided_segments {
 namespace {
 
 struct Avx2Fma {
+  static constexpr int kLanes = 8;
   using V = __m256;
   static V Load(const float* p) { return _mm256_load_ps(p); }
   static void Store(float* p, V x) { _mm256_store_ps(p, x); }
@@ -35,6 +36,20 @@ struct Avx2Fma {
   static V Set1(float x) { return _mm256_set1_ps(x); }
   static V MulAdd(V a, V b, V c) { return _mm256_fmadd_ps(a, b, c); }
   static V NegMulAdd(V a, V b, V c) { return _mm256_fnmadd_ps(a, b, c); }
+  struct M {
+    __m256i idx;
+    __m256 keep;
+  };
+  static M ShiftBy(int m) {
+    const __m256i idx =
+        _mm256_add_epi32(_mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), _mm256_set1_epi32(m));
+    const __m256i inside = _mm256_andnot_si256(_mm256_cmpgt_epi32(_mm256_setzero_si256(), idx),
+                                               _mm256_cmpgt_epi32(_mm256_set1_epi32(8), idx));
+    return {idx, _mm256_castsi256_ps(inside)};
+  }
+  static V Shifted(const M& m, V x) {
+    return _mm256_and_ps(_mm256_permutevar8x32_ps(x, m.idx), m.keep);
+  }
 };
 
 #include "enhancer/blocks/guided_segments_kernels.h"  // NOLINT(build/include): the kernels, here
@@ -53,7 +68,7 @@ void StageBAvx2(const Geometry& g, float* c_a, float* c_b, const float* add_a, c
 // Blocks of 8 floats of each segment's run -> 8 segment vectors.
 void TransposeInAvx2(const Geometry& g, const float* const* src, float* seg) {
   __m256 r[8];
-  for (int j = 0; j < g.lh8 * 3; j += 8) {
+  for (int j = 0; j < g.L * 3; j += 8) {
     for (int k = 0; k < 8; ++k) r[k] = _mm256_loadu_ps(src[k] + j);
     Transpose8(r);
     for (int i = 0; i < 8; ++i) _mm256_store_ps(seg + static_cast<ptrdiff_t>(j + i) * 8, r[i]);
@@ -88,6 +103,7 @@ Kernels Avx2FmaKernels() {
   k.stage_b = StageBAvx2;
   k.transpose_in = TransposeInAvx2;
   k.transpose_out = TransposeOutAvx2;
+  k.lanes = Avx2Fma::kLanes;
   return k;
 }
 

@@ -1,8 +1,10 @@
 // The 8 x 8 float transpose of the guided_segments layout (AVX2). Include only inside a region
-// compiled for AVX2 (a target pragma or attribute), after <immintrin.h>.
+// compiled for AVX2 (a target pragma or attribute), after <immintrin.h>. Internal to each file
+// (an unnamed namespace): files compiled for different targets (AVX2, AVX-512) have their own.
 #pragma once
 
 namespace turbid::guided_segments {
+namespace {
 
 // Rows r[0..7] (8 floats each) -> columns: out[i] lane k = r[k][i].
 inline void Transpose8(__m256 r[8]) {
@@ -24,4 +26,5 @@ inline void Transpose8(__m256 r[8]) {
   r[7] = _mm256_permute2f128_ps(u3, u7, 0x31);
 }
 
+}  // namespace
 }  // namespace turbid::guided_segments

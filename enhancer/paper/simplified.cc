@@ -99,10 +99,11 @@ cv::Mat SimplifiedColorSegments(const SimplifiedOptions& o, const cv::Mat& image
   guided_segments::Stream fine(&input, o.fine_radius, static_cast<float>(o.fine_eps));
   guided_segments::Stream coarse(&input, o.coarse_radius, static_cast<float>(o.coarse_eps));
   guided_segments::Buffer lum;
-  lum.Assign(fine.SegmentFloats() / 3);  // 8 L luminance values
+  lum.Assign(fine.SegmentFloats() / 3);  // K L luminance values (K lanes)
   const simplified_internal::BoostOutFn boost_out = simplified_internal::ChosenBoostOut();
   simplified_internal::BoostOutArgs args;
-  args.L = static_cast<int>(fine.SegmentFloats() / 24);
+  args.L = fine.L();
+  args.lanes = fine.lanes();
   args.cols = image.cols;
   args.alpha = static_cast<float>(o.alpha);
   args.rgb = o.clahe.rgb;

@@ -12,12 +12,12 @@ bool BoostOutPortable(const BoostOutArgs& a) {
   constexpr int kB = 0, kG = 1, kR = 2;
   const int b = a.rgb ? kR : kB, r = a.rgb ? kB : kR;
   bool finite = true;
-  for (int k = 0; k < 8; ++k) {
+  for (int k = 0; k < a.lanes; ++k) {
     for (int s = 0; s < a.L; ++s) {
       const int p = k * a.L + s;  // the pixel of lane k, column s
       float q[3];
       for (int c = 0; c < 3; ++c) {
-        const size_t at = (static_cast<size_t>(s) * 3 + c) * 8 + k;
+        const size_t at = (static_cast<size_t>(s) * 3 + c) * a.lanes + k;
         const float v = a.i_g[at] + a.alpha * (a.i_f[at] - a.i_g[at]);
         finite = finite && std::isfinite(v);
         const float x = v != v ? 0.0f : v;
@@ -31,7 +31,10 @@ bool BoostOutPortable(const BoostOutArgs& a) {
 }
 
 BoostOutFn ChosenBoostOut() {
-  const BoostOutFn avx2 = KernelCpuLevel() >= CpuLevel::kAvx2Fma ? BoostOutAvx2Fma() : nullptr;
+  const CpuLevel level = KernelCpuLevel();
+  const BoostOutFn avx512 = level >= CpuLevel::kAvx512 ? BoostOutAvx512() : nullptr;
+  if (avx512 != nullptr) return avx512;
+  const BoostOutFn avx2 = level >= CpuLevel::kAvx2Fma ? BoostOutAvx2Fma() : nullptr;
   return avx2 != nullptr ? avx2 : BoostOutPortable;
 }
 

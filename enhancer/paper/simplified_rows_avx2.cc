@@ -1,7 +1,7 @@
-// AVX2 + FMA copy of simplified_rows.h's output step: per block of 8 segment columns, the 24
-// boosted vectors (8 columns x 3 channels) are clamped, their luminance formed lane by lane (no
-// deinterleaving: a lane is a pixel), and three 8 x 8 transposes write them, one transpose the
-// luminance.
+// AVX2 + FMA copy of simplified_rows.h's output step: per block of 8 segment columns and group of
+// 8 lanes, the 24 boosted vectors (8 columns x 3 channels) are clamped, their luminance formed lane
+// by lane (no deinterleaving: a lane is a pixel), and three 8 x 8 transposes write them, one
+// transpose the luminance.
 #include <cstddef>
 #include <cstdint>
 #include <limits>
@@ -54,34 +54,37 @@ bool BoostOutT(const BoostOutArgs& a) {
   const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
   const __m256 wb = _mm256_set1_ps(0.0722f), wg = _mm256_set1_ps(0.7152f),
                wr = _mm256_set1_ps(0.2126f);
+  const int K = a.lanes;
   __m256 finite = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
-  for (int j = 0; j < a.L; j += 8) {
-    __m256 q[24];  // vector t = 3 i + c: column j + i, channel c
-    const float* f = a.i_f + static_cast<ptrdiff_t>(j) * 24;
-    const float* g = a.i_g + static_cast<ptrdiff_t>(j) * 24;
-    for (int t = 0; t < 24; ++t) {
-      const __m256 vg = _mm256_load_ps(g + t * 8);
-      const __m256 v = _mm256_fmadd_ps(va, _mm256_sub_ps(_mm256_load_ps(f + t * 8), vg), vg);
-      finite =
-          _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_and_ps(v, abs_mask), max_finite, _CMP_LE_OQ));
-      // NaN to 0, then max(min(x, 1), 0) as BoostClampRowAvx2.
-      const __m256 x = _mm256_and_ps(v, _mm256_cmp_ps(v, v, _CMP_ORD_Q));
-      q[t] = _mm256_max_ps(zero, _mm256_min_ps(one, x));
-    }
-    if (kLum) {
-      __m256 l[8];
-      for (int i = 0; i < 8; ++i) {
-        l[i] = _mm256_add_ps(
-            _mm256_add_ps(_mm256_mul_ps(wb, q[3 * i + b]), _mm256_mul_ps(wg, q[3 * i + 1])),
-            _mm256_mul_ps(wr, q[3 * i + r]));
+  for (int h = 0; h < K; h += 8) {  // lanes h .. h + 7, each group along its row
+    for (int j = 0; j < a.L; j += 8) {
+      __m256 q[24];  // vector t = 3 i + c: column j + i, channel c
+      const float* f = a.i_f + static_cast<ptrdiff_t>(j) * 3 * K + h;
+      const float* g = a.i_g + static_cast<ptrdiff_t>(j) * 3 * K + h;
+      for (int t = 0; t < 24; ++t) {
+        const __m256 vg = _mm256_load_ps(g + t * K);
+        const __m256 v = _mm256_fmadd_ps(va, _mm256_sub_ps(_mm256_load_ps(f + t * K), vg), vg);
+        finite = _mm256_and_ps(finite,
+                               _mm256_cmp_ps(_mm256_and_ps(v, abs_mask), max_finite, _CMP_LE_OQ));
+        // NaN to 0, then max(min(x, 1), 0) as BoostClampRowAvx2.
+        const __m256 x = _mm256_and_ps(v, _mm256_cmp_ps(v, v, _CMP_ORD_Q));
+        q[t] = _mm256_max_ps(zero, _mm256_min_ps(one, x));
       }
-      Transpose8(l);
-      for (int k = 0; k < 8; ++k) _mm256_storeu_ps(a.lum + k * a.L + j, l[k]);
-    }
-    for (int blk = 0; blk < 3; ++blk) {
-      Transpose8(q + blk * 8);
-      for (int k = 0; k < 8; ++k) {
-        StoreLimited<kStream>(a.dst, k * step + 3 * j + blk * 8, limit, q[blk * 8 + k]);
+      if (kLum) {
+        __m256 l[8];
+        for (int i = 0; i < 8; ++i) {
+          l[i] = _mm256_add_ps(
+              _mm256_add_ps(_mm256_mul_ps(wb, q[3 * i + b]), _mm256_mul_ps(wg, q[3 * i + 1])),
+              _mm256_mul_ps(wr, q[3 * i + r]));
+        }
+        Transpose8(l);
+        for (int k = 0; k < 8; ++k) _mm256_storeu_ps(a.lum + (h + k) * a.L + j, l[k]);
+      }
+      for (int blk = 0; blk < 3; ++blk) {
+        Transpose8(q + blk * 8);
+        for (int k = 0; k < 8; ++k) {
+          StoreLimited<kStream>(a.dst, (h + k) * step + 3 * j + blk * 8, limit, q[blk * 8 + k]);
+        }
       }
     }
   }

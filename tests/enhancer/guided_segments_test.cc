@@ -1,7 +1,8 @@
 // The colour (interleaved, self-guided) guided filter with O(1) running box sums
 // (enhancer/blocks/guided_segments.h, issue 29 item 6) against a double-precision transcription
 // of He 2013 Alg. 1 with the clipped window, written here. Tolerance: 1e-5 of max(1, |q|) (the
-// issue's 1e-5 relative; the data lie in [0, 1]). Both kernel sets (AVX2 + FMA, portable).
+// issue's 1e-5 relative; the data lie in [0, 1]). Every kernel set (AVX-512 with 16 lanes, AVX2 +
+// FMA, portable; each where the CPU has it), chosen through the CPU level's cap.
 #include "enhancer/blocks/guided_segments.h"
 
 #include <gtest/gtest.h>
@@ -13,13 +14,29 @@
 #include <thread>
 #include <vector>
 
+#include "core/cpu.h"
 #include "enhancer/blocks/guided_filter.h"
-#include "enhancer/simd_switch.h"
 
 namespace turbid {
 namespace {
 
 constexpr double kTolerance = 1e-5;
+
+// The caps that choose each kernel set (lower ones where the CPU lacks a level: then the same set
+// runs twice).
+constexpr CpuLevel kLevels[] = {CpuLevel::kAvx512, CpuLevel::kAvx2Fma, CpuLevel::kScalar};
+
+// The kernel sets this build and CPU have.
+std::vector<guided_segments::Kernels> KernelSets() {
+  std::vector<guided_segments::Kernels> sets = {guided_segments::PortableKernels()};
+  if (CpuHas(CpuLevel::kAvx2Fma) && guided_segments::Avx2FmaKernels().stage_a != nullptr) {
+    sets.push_back(guided_segments::Avx2FmaKernels());
+  }
+  if (CpuHas(CpuLevel::kAvx512) && guided_segments::Avx512Kernels().stage_a != nullptr) {
+    sets.push_back(guided_segments::Avx512Kernels());
+  }
+  return sets;
+}
 
 // Box means of a double plane over the window clipped to the image (sum / pixels inside).
 cv::Mat ClippedMean(const cv::Mat& p, int r) {
@@ -90,19 +107,21 @@ TEST(GuidedSegments, EqualsDoublePrecisionReference) {
   // sizes, heights past the 64-row re-anchoring, radii up to beyond the image.
   const cv::Size sizes[] = {{1, 1},  {2, 3},   {7, 5},   {5, 33},    {31, 2},   {63, 70},
                             {64, 9}, {65, 66}, {83, 61}, {130, 140}, {257, 40}, {640, 20}};
-  for (bool avx2 : {true, false}) {
-    enhancer_internal::SetHandWrittenAvx2(avx2);
+  for (CpuLevel level : kLevels) {
+    SetCpuLevelCap(level);
+    const int lanes = guided_segments::ChosenKernels().lanes;
     for (const cv::Size& size : sizes) {
       const cv::Mat img = Noise(size.height, size.width, size.area());
       for (int r : {1, 2, 3, 4, 8, 12, 13, 30}) {
         for (double eps : {0.003, 0.01, 0.16}) {
           const double err = WorstError(Filter(img, r, eps), DoubleReference(img, r, eps));
-          EXPECT_LE(err, kTolerance) << size << " r " << r << " eps " << eps << " avx2 " << avx2;
+          EXPECT_LE(err, kTolerance) << size << " r " << r << " eps " << eps << " level "
+                                     << static_cast<int>(level) << " lanes " << lanes;
         }
       }
     }
   }
-  enhancer_internal::SetHandWrittenAvx2(true);
+  SetCpuLevelCap(CpuLevel::kAvx512);
 }
 
 TEST(GuidedSegments, EqualsReferenceOnSharpEdgesAndFlatAreas) {
@@ -113,15 +132,15 @@ TEST(GuidedSegments, EqualsReferenceOnSharpEdgesAndFlatAreas) {
   img(cv::Rect(100, 50, 400, 120)).setTo(cv::Scalar(1.0, 0.0, 0.3));
   img(cv::Rect(900, 0, 3, 300)).setTo(cv::Scalar(0.0, 1.0, 0.7));
   Noise(100, 700, 5, 0).copyTo(img(cv::Rect(600, 190, 700, 100)));
-  for (bool avx2 : {true, false}) {
-    enhancer_internal::SetHandWrittenAvx2(avx2);
+  for (CpuLevel level : kLevels) {
+    SetCpuLevelCap(level);
     for (int r : {2, 4, 8}) {
       const double eps = r == 8 ? 0.16 : 0.01;
       const double err = WorstError(Filter(img, r, eps), DoubleReference(img, r, eps));
-      EXPECT_LE(err, kTolerance) << "r " << r << " avx2 " << avx2;
+      EXPECT_LE(err, kTolerance) << "r " << r << " level " << static_cast<int>(level);
     }
   }
-  enhancer_internal::SetHandWrittenAvx2(true);
+  SetCpuLevelCap(CpuLevel::kAvx512);
 }
 
 TEST(GuidedSegments, RowsEqualWholeImageAndThreadsDoNotMatter) {
@@ -148,37 +167,35 @@ TEST(GuidedSegments, RowsEqualWholeImageAndThreadsDoNotMatter) {
 }
 
 TEST(GuidedSegments, TransposesRoundTrip) {
-  for (int cols : {1, 63, 64, 65, 200}) {
-    for (int r : {1, 5}) {
-      const guided_segments::Geometry g = guided_segments::MakeGeometry(cols, r);
+  for (const guided_segments::Kernels& k : KernelSets()) {
+    for (int cols : {1, 63, 64, 65, 127, 128, 129, 200}) {
+      const guided_segments::Geometry g = guided_segments::MakeGeometry(cols, 3, k.lanes);
       ASSERT_EQ(g.L % 8, 0);
-      ASSERT_GE(8 * g.L, cols);
-      for (const auto& k :
-           {guided_segments::PortableKernels(), guided_segments::Avx2FmaKernels()}) {
-        if (k.transpose_in == nullptr) continue;
-        guided_segments::Buffer in, seg, out;
-        in.Assign(static_cast<size_t>(7 * g.L + g.lh8) * 3);
-        seg.Assign(static_cast<size_t>(g.lh8) * 24);
-        out.Assign(static_cast<size_t>(g.L) * 24);
-        for (int p = 0; p < cols * 3; ++p) in.data[2 * r * 3 + p] = static_cast<float>(p + 1);
-        const float* src[8];
-        for (int i = 0; i < 8; ++i) src[i] = in.data + static_cast<size_t>(i) * g.L * 3;
-        k.transpose_in(g, src, seg.data);
-        // Segment k, column s + 2r, channel c holds pixel k L + s (zero outside the image).
-        for (int seg_k = 0; seg_k < 8; ++seg_k) {
-          for (int s = -2 * r; s < g.L + 2 * r; ++s) {
-            const int p = seg_k * g.L + s;
-            for (int c = 0; c < 3; ++c) {
-              const float want = p >= 0 && p < cols ? static_cast<float>(p * 3 + c + 1) : 0.0f;
-              ASSERT_EQ(seg.data[((s + 2 * r) * 3 + c) * 8 + seg_k], want)
-                  << cols << " " << r << " " << seg_k << " " << s;
-            }
+      ASSERT_GE(g.K * g.L, cols);
+      ASSERT_LT(g.K * (g.L - 8), cols);
+      guided_segments::Buffer in, seg, out;
+      in.Assign(static_cast<size_t>(g.K * g.L) * 3);
+      seg.Assign(static_cast<size_t>(g.L) * 3 * g.K);
+      out.Assign(static_cast<size_t>(g.L) * 3 * g.K);
+      for (int p = 0; p < cols * 3; ++p) in.data[p] = static_cast<float>(p + 1);
+      const float* src[16];
+      for (int i = 0; i < g.K; ++i) src[i] = in.data + static_cast<size_t>(i) * g.L * 3;
+      k.transpose_in(g, src, seg.data);
+      // Segment k, column s, channel c holds pixel k L + s (zero past the image).
+      for (int seg_k = 0; seg_k < g.K; ++seg_k) {
+        for (int s = 0; s < g.L; ++s) {
+          const int p = seg_k * g.L + s;
+          for (int c = 0; c < 3; ++c) {
+            const float want = p < cols ? static_cast<float>(p * 3 + c + 1) : 0.0f;
+            ASSERT_EQ(seg.data[(s * 3 + c) * g.K + seg_k], want)
+                << cols << " lanes " << g.K << " " << seg_k << " " << s;
           }
         }
-        k.transpose_out(g, seg.data + static_cast<size_t>(2 * r) * 24, out.data, cols * 3);
-        for (int p = 0; p < cols * 3; ++p) ASSERT_EQ(out.data[p], static_cast<float>(p + 1));
-        for (int p = cols * 3; p < 8 * g.L * 3; ++p)
-          ASSERT_EQ(out.data[p], 0.0f) << "past the limit";
+      }
+      k.transpose_out(g, seg.data, out.data, cols * 3);
+      for (int p = 0; p < cols * 3; ++p) ASSERT_EQ(out.data[p], static_cast<float>(p + 1));
+      for (int p = cols * 3; p < g.K * g.L * 3; ++p) {
+        ASSERT_EQ(out.data[p], 0.0f) << "past the limit";
       }
     }
   }
