@@ -10,6 +10,7 @@
 #include "core/row_kernel.h"
 #include "enhancer/blocks/clahe_luminance.h"
 #include "enhancer/simd_switch.h"
+#include "enhancer/simd_vec.h"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -476,41 +477,28 @@ __attribute__((target("avx2"))) void InterpolateRowAvx2(const float* pairs, cons
   InterpolateRow(pairs, b + x, lo + x, wx + x, dst + x, n - x);
 }
 
-// BlendRows then PairRows in one pass, without the blended row in memory: per 8 values the blends
-// at i and i + bins (each blend value is formed twice, by the same operations, so it is the same
-// float both times), their difference, and the two interleaved with unpack and lane permutes.
-// Same operations in the same order as the two portable loops (no FMA), so bit-identical.
-__attribute__((target("avx2"))) inline __m256 Blend8(const float* up, const float* dn, __m256 w) {
-  const __m256 u = _mm256_loadu_ps(up);
-  return _mm256_add_ps(u, _mm256_mul_ps(w, _mm256_sub_ps(_mm256_loadu_ps(dn), u)));
-}
-__attribute__((target("avx2"))) inline void StorePairs8(float* pairs, __m256 left, __m256 diff) {
-  const __m256 lo = _mm256_unpacklo_ps(left, diff);  // l0 d0 l1 d1 | l4 d4 l5 d5
-  const __m256 hi = _mm256_unpackhi_ps(left, diff);  // l2 d2 l3 d3 | l6 d6 l7 d7
-  _mm256_storeu_ps(pairs, _mm256_permute2f128_ps(lo, hi, 0x20));
-  _mm256_storeu_ps(pairs + 8, _mm256_permute2f128_ps(lo, hi, 0x31));
-}
-__attribute__((target("avx2"))) void BlendPairRowsAvx2(const float* up, const float* dn, float wy,
-                                                       int n, int bins, float* pairs) {
-  const __m256 w = _mm256_set1_ps(wy), zero = _mm256_setzero_ps();
-  const int inner = std::max(n - bins, 0);  // values with a right neighbour column
-  auto blend = [&](int i) { return up[i] + wy * (dn[i] - up[i]); };
-  int i = 0;
-  for (; i + 8 <= inner; i += 8) {
-    const __m256 left = Blend8(up + i, dn + i, w), right = Blend8(up + i + bins, dn + i + bins, w);
-    StorePairs8(pairs + 2 * i, left, _mm256_sub_ps(right, left));
-  }
-  for (; i < inner; ++i) {
-    pairs[2 * i] = blend(i);
-    pairs[2 * i + 1] = blend(i + bins) - pairs[2 * i];
-  }
-  for (; i + 8 <= n; i += 8) {
-    const __m256 left = Blend8(up + i, dn + i, w);
-    StorePairs8(pairs + 2 * i, left, _mm256_sub_ps(zero, left));
-  }
-  for (; i < n; ++i) {
-    pairs[2 * i] = blend(i);
-    pairs[2 * i + 1] = 0.0f - pairs[2 * i];
+// BlendRows then PairRows in one pass at 8 and 16 lanes (clahe_blend_pairs.inc, written once
+// over the width; the same bits at both, and as the portable loops). Target attributes without
+// FMA: the blend's product and sum stay two roundings.
+namespace vec8 {
+using V = simd::Vec8;
+#define TURBID_VEC_TARGET __attribute__((target("avx2,fma"), optimize("fp-contract=off")))
+#include "enhancer/blocks/clahe_blend_pairs.inc"
+#undef TURBID_VEC_TARGET
+}  // namespace vec8
+TURBID_VEC16_WARNINGS_OFF
+namespace vec16 {
+using V = simd::Vec16;
+#define TURBID_VEC_TARGET __attribute__((target("avx512f,avx2,fma"), optimize("fp-contract=off")))
+#include "enhancer/blocks/clahe_blend_pairs.inc"
+#undef TURBID_VEC_TARGET
+}  // namespace vec16
+TURBID_VEC16_WARNINGS_ON
+void BlendPairRowsAvx2(const float* up, const float* dn, float wy, int n, int bins, float* pairs) {
+  if (KernelCpuLevel() >= CpuLevel::kAvx512) {
+    vec16::BlendPairRows(up, dn, wy, n, bins, pairs);
+  } else {
+    vec8::BlendPairRows(up, dn, wy, n, bins, pairs);
   }
 }
 #define TURBID_HAVE_BLEND_PAIRS_AVX2 1
@@ -549,7 +537,11 @@ void ClaheRowsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, Cla
     lo[x] = ix.lo[x] * bins;
     wx[x] = ix.w[x];
   }
-  std::vector<float> blend(row_len), pairs(2 * static_cast<size_t>(row_len));
+  // The pair LUT 64-byte aligned: the 16-lane blend's stores do not split cache lines.
+  std::vector<float> blend(row_len), pairs_buffer(2 * static_cast<size_t>(row_len) + 16);
+  float* const pairs =
+      pairs_buffer.data() +
+      (16 - reinterpret_cast<uintptr_t>(pairs_buffer.data()) / sizeof(float) % 16) % 16;
   const float* m = maps.ptr<float>(0);
   int lut_lo = -1, lut_hi = -1;
   float lut_w = -1.0f;
@@ -561,16 +553,16 @@ void ClaheRowsT(const ClaheOptions& o, const cv::Mat& idx, const Padding& p, Cla
       const float* dn = m + static_cast<size_t>(lut_hi) * row_len;
 #ifdef TURBID_HAVE_BLEND_PAIRS_AVX2
       if (enhancer_internal::UseHandWrittenAvx2()) {
-        BlendPairRowsAvx2(up, dn, lut_w, row_len, bins, pairs.data());
+        BlendPairRowsAvx2(up, dn, lut_w, row_len, bins, pairs);
       } else
 #endif
       {
         BlendRows(up, dn, lut_w, blend.data(), row_len);
-        PairRows(blend.data(), row_len, bins, pairs.data());
+        PairRows(blend.data(), row_len, bins, pairs);
       }
     }
     float* dst = row(y);
-    Interpolate(pairs.data(), idx.ptr<Index>(y), lo.data(), wx.data(), dst, idx.cols);
+    Interpolate(pairs, idx.ptr<Index>(y), lo.data(), wx.data(), dst, idx.cols);
     done(y, dst);
   }
 }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <functional>
 #include <opencv2/imgproc.hpp>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "core/cpu.h"
 #include "core/error.h"
 #include "core/row_kernel.h"
+#include "enhancer/simd_vec.h"
 
 namespace turbid {
 namespace {
@@ -180,142 +182,22 @@ void HorizontalTapsAny(const float* ext, const float* r, float* acc, int w, int 
 }
 
 #ifdef TURBID_HAVE_TAPS_FMA
-// VerticalTaps and HorizontalTaps with fused multiply-adds, 8 values at a time (issue 29 item 6:
-// outputs may move within float rounding; half the floating-point operations). The last w % 8
-// values take the same fused steps one at a time.
-template <int K>
-__attribute__((target("avx2,fma"))) void VerticalTapsFma(const float* const* rows, const float* c,
-                                                         float* __restrict out, int w) {
-  // Pointers and taps in locals: the stores cannot alias them, so they stay in registers (the
-  // same arithmetic).
-  const float* r[K];
-  __m256 tap[K];
-  for (int j = 0; j < K; ++j) r[j] = rows[j], tap[j] = _mm256_set1_ps(c[j]);
-  int x = 0;
-  for (; x + 8 <= w; x += 8) {
-    __m256 s = _mm256_mul_ps(tap[0], _mm256_loadu_ps(r[0] + x));
-    for (int j = 1; j < K; ++j) s = _mm256_fmadd_ps(tap[j], _mm256_loadu_ps(r[j] + x), s);
-    _mm256_storeu_ps(out + x, s);
-  }
-  for (; x < w; ++x) {
-    float s = c[0] * rows[0][x];
-    for (int j = 1; j < K; ++j) s = std::fma(c[j], rows[j][x], s);
-    out[x] = s;
-  }
-}
-template <int K, int S>
-__attribute__((target("avx2,fma"))) void HorizontalTapsFma(const float* __restrict ext,
-                                                           const float* r, float* __restrict acc,
-                                                           int w) {
-  int x = 0;
-  for (; x + 8 <= w; x += 8) {
-    __m256 s = _mm256_mul_ps(_mm256_set1_ps(r[0]), _mm256_loadu_ps(ext + x));
-    for (int i = 1; i < K; ++i) {
-      s = _mm256_fmadd_ps(_mm256_set1_ps(r[i]), _mm256_loadu_ps(ext + x + S * i), s);
-    }
-    _mm256_storeu_ps(acc + x, _mm256_add_ps(_mm256_loadu_ps(acc + x), s));
-  }
-  for (; x < w; ++x) {
-    float s = r[0] * ext[x];
-    for (int i = 1; i < K; ++i) s = std::fma(r[i], ext[x + S * i], s);
-    acc[x] += s;
-  }
-}
-
-// Even-symmetric taps (c[j] = c[K - 1 - j]; the spatial Wiener inverse of a radially symmetric
-// PSF, every term of its SVD): the mirrored inputs are added first, so K / 2 + 1 multiply-adds
-// per value instead of K, and the vertical pass reads the K rows once for up to two terms.
-// Outputs move within float rounding (issue 29 item 6). The last w % 8 values take the same
-// steps one at a time.
-template <int K, int T>
-__attribute__((target("avx2,fma"))) void VerticalTapsEvenFma(const float* const* rows,
-                                                             const float* const* c,
-                                                             float* const* out, int w) {
-  constexpr int H = K / 2;
-  // Pointers and taps in locals: the stores cannot alias them, so they stay in registers.
-  const float* r[K];
-  for (int j = 0; j < K; ++j) r[j] = rows[j];
-  float* o[T];
-  __m256 tap[T][H + 1];
-  for (int t = 0; t < T; ++t) {
-    o[t] = out[t];
-    for (int j = 0; j <= H; ++j) tap[t][j] = _mm256_set1_ps(c[t][j]);
-  }
-  int x = 0;
-  for (; x + 8 <= w; x += 8) {
-    __m256 p[H];
-    for (int j = 0; j < H; ++j) {
-      p[j] = _mm256_add_ps(_mm256_loadu_ps(r[j] + x), _mm256_loadu_ps(r[K - 1 - j] + x));
-    }
-    const __m256 mid = _mm256_loadu_ps(r[H] + x);
-    for (int t = 0; t < T; ++t) {
-      __m256 s = _mm256_mul_ps(tap[t][H], mid);
-      for (int j = 0; j < H; ++j) s = _mm256_fmadd_ps(tap[t][j], p[j], s);
-      _mm256_storeu_ps(o[t] + x, s);
-    }
-  }
-  for (; x < w; ++x) {
-    float p[H];
-    for (int j = 0; j < H; ++j) p[j] = rows[j][x] + rows[K - 1 - j][x];
-    for (int t = 0; t < T; ++t) {
-      float s = c[t][H] * rows[H][x];
-      for (int j = 0; j < H; ++j) s = std::fma(c[t][j], p[j], s);
-      out[t][x] = s;
-    }
-  }
-}
-// kAdd: acc += the sum (later terms); else acc = the sum (the first term: no zero-filled acc).
-template <int K, int S, bool kAdd>
-__attribute__((target("avx2,fma"))) void HorizontalTapsEvenFma(const float* __restrict ext,
-                                                               const float* r,
-                                                               float* __restrict acc, int w) {
-  constexpr int H = K / 2;
-  __m256 tap[H + 1];
-  for (int i = 0; i <= H; ++i) tap[i] = _mm256_set1_ps(r[i]);
-  int x = 0;
-  for (; x + 8 <= w; x += 8) {
-    __m256 s = _mm256_mul_ps(tap[H], _mm256_loadu_ps(ext + x + S * H));
-    for (int i = 0; i < H; ++i) {
-      const __m256 p = _mm256_add_ps(_mm256_loadu_ps(ext + x + S * i),
-                                     _mm256_loadu_ps(ext + x + S * (K - 1 - i)));
-      s = _mm256_fmadd_ps(tap[i], p, s);
-    }
-    _mm256_storeu_ps(acc + x, kAdd ? _mm256_add_ps(_mm256_loadu_ps(acc + x), s) : s);
-  }
-  for (; x < w; ++x) {
-    float s = r[H] * ext[x + S * H];
-    for (int i = 0; i < H; ++i) s = std::fma(r[i], ext[x + S * i] + ext[x + S * (K - 1 - i)], s);
-    acc[x] = kAdd ? acc[x] + s : s;
-  }
-}
-
-// The even-tap passes for K in {5, 7, ..., 15} (false: another K, the general kernels serve).
-template <int K = 15>
-bool EvenTaps(int k, const float* const* rows, const float* const* c, float* const* out, int w,
-              int terms) {
-  if (k == K) {
-    terms == 2 ? VerticalTapsEvenFma<K, 2>(rows, c, out, w)
-               : VerticalTapsEvenFma<K, 1>(rows, c, out, w);
-    return true;
-  }
-  if constexpr (K > 5) return EvenTaps<K - 2>(k, rows, c, out, w, terms);
-  return false;
-}
-template <int K = 15>
-bool EvenHTaps(int k, int stride, bool add, const float* ext, const float* r, float* acc, int w) {
-  if (k == K && (stride == 1 || stride == 3)) {
-    if (stride == 3) {
-      add ? HorizontalTapsEvenFma<K, 3, true>(ext, r, acc, w)
-          : HorizontalTapsEvenFma<K, 3, false>(ext, r, acc, w);
-    } else {
-      add ? HorizontalTapsEvenFma<K, 1, true>(ext, r, acc, w)
-          : HorizontalTapsEvenFma<K, 1, false>(ext, r, acc, w);
-    }
-    return true;
-  }
-  if constexpr (K > 5) return EvenHTaps<K - 2>(k, stride, add, ext, r, acc, w);
-  return false;
-}
+// The fused tap kernels at 8 and 16 lanes (deconvolution_taps.inc, written once over the width;
+// the same bits at both).
+namespace vec8 {
+using V = simd::Vec8;
+#define TURBID_VEC_TARGET TURBID_VEC8_TARGET
+#include "enhancer/blocks/deconvolution_taps.inc"
+#undef TURBID_VEC_TARGET
+}  // namespace vec8
+TURBID_VEC16_WARNINGS_OFF
+namespace vec16 {
+using V = simd::Vec16;
+#define TURBID_VEC_TARGET TURBID_VEC16_TARGET
+#include "enhancer/blocks/deconvolution_taps.inc"
+#undef TURBID_VEC_TARGET
+}  // namespace vec16
+TURBID_VEC16_WARNINGS_ON
 
 // Whether every term's vertical and horizontal taps are even within 1e-5 of the term's largest
 // tap (the SVD of a symmetric kernel gives them so up to its rounding); if so they are all made
@@ -353,26 +235,17 @@ bool TapsUseFma() {
 }
 
 template <int K>
-bool TapsUpTo(int k, bool fma, const float* const* rows, const float* c, float* tmp, int w) {
+bool TapsUpTo(int k, const float* const* rows, const float* c, float* tmp, int w) {
   if (k == K) {
-#ifdef TURBID_HAVE_TAPS_FMA
-    if (fma) return VerticalTapsFma<K>(rows, c, tmp, w), true;
-#endif
     VerticalTaps<K>(rows, c, tmp, w);
     return true;
   }
-  if constexpr (K > 3) return TapsUpTo<K - 2>(k, fma, rows, c, tmp, w);
+  if constexpr (K > 3) return TapsUpTo<K - 2>(k, rows, c, tmp, w);
   return false;
 }
 template <int K>
-bool HTapsUpTo(int k, bool fma, int stride, const float* ext, const float* r, float* acc, int w) {
+bool HTapsUpTo(int k, int stride, const float* ext, const float* r, float* acc, int w) {
   if (k == K) {
-#ifdef TURBID_HAVE_TAPS_FMA
-    if (fma) {
-      if (stride == 3) return HorizontalTapsFma<K, 3>(ext, r, acc, w), true;
-      if (stride == 1) return HorizontalTapsFma<K, 1>(ext, r, acc, w), true;
-    }
-#endif
     if (stride == 3) {
       HorizontalTaps<K, 3>(ext, r, acc, w);
     } else {
@@ -380,8 +253,64 @@ bool HTapsUpTo(int k, bool fma, int stride, const float* ext, const float* r, fl
     }
     return true;
   }
-  if constexpr (K > 3) return HTapsUpTo<K - 2>(k, fma, stride, ext, r, acc, w);
+  if constexpr (K > 3) return HTapsUpTo<K - 2>(k, stride, ext, r, acc, w);
   return false;
+}
+
+// The tap passes of one kernel at the CPU's level: the fused kernels (16 lanes where
+// KernelCpuLevel() reaches avx512, else 8), their even-tap forms when every term is even, else
+// the portable loops.
+struct TapPasses {
+  bool fma = TapsUseFma();
+  bool wide = KernelCpuLevel() >= CpuLevel::kAvx512;
+  bool even = false;
+
+  // The vertical pass of terms t (and t + 1 when the even kernels take two); returns how many.
+  int Vertical(int k, const float* const* rows, const std::vector<std::vector<float>>& cols, int t,
+               float* out, size_t out_step, int w) const {
+#ifdef TURBID_HAVE_TAPS_FMA
+    if (even) {
+      const int pair = std::min(2, static_cast<int>(cols.size()) - t);
+      const float* taps[2] = {cols[t].data(), cols[t + pair - 1].data()};
+      float* outs[2] = {out, out + (pair - 1) * out_step};
+      wide ? vec16::EvenTaps(k, rows, taps, outs, w, pair)
+           : vec8::EvenTaps(k, rows, taps, outs, w, pair);
+      return pair;
+    }
+    if (fma && (wide ? vec16::TapsFma(k, rows, cols[t].data(), out, w)
+                     : vec8::TapsFma(k, rows, cols[t].data(), out, w))) {
+      return 1;
+    }
+#endif
+    if (!TapsUpTo<25>(k, rows, cols[t].data(), out, w)) {
+      VerticalTapsAny(rows, cols[t].data(), out, w, k);
+    }
+    return 1;
+  }
+  // The horizontal pass of one term into acc (add: acc += the pass; else acc = it, which only
+  // the even kernels do: see Stores()).
+  void Horizontal(int k, int stride, bool add, const float* ext, const float* r, float* acc,
+                  int w) const {
+#ifdef TURBID_HAVE_TAPS_FMA
+    if (even && (wide ? vec16::EvenHTaps(k, stride, add, ext, r, acc, w)
+                      : vec8::EvenHTaps(k, stride, add, ext, r, acc, w))) {
+      return;
+    }
+    if (fma && (wide ? vec16::HTapsFma(k, stride, ext, r, acc, w)
+                     : vec8::HTapsFma(k, stride, ext, r, acc, w))) {
+      return;
+    }
+#endif
+    if (!HTapsUpTo<25>(k, stride, ext, r, acc, w)) HorizontalTapsAny(ext, r, acc, w, k, stride);
+  }
+  // Whether the first term's horizontal pass stores its sums (no zero-filled acc).
+  bool Stores(int stride) const { return even && (stride == 1 || stride == 3); }
+};
+
+// The first address at or after p that is a multiple of `floats` floats (a power of two).
+float* AlignFloats(float* p, size_t floats) {
+  const uintptr_t a = reinterpret_cast<uintptr_t>(p), bytes = floats * sizeof(float);
+  return reinterpret_cast<float*>((a + bytes - 1) & ~(bytes - 1));
 }
 
 // BORDER_REFLECT_101 index for i in (-n, 2n) (folded repeatedly for tiny images).
@@ -431,8 +360,16 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
   SeparableTerms(kernel, &cols, &rows);
   const int c = channels, n = w * c;  // values per row
   const int terms = static_cast<int>(cols.size());
-  const size_t ext_n = static_cast<size_t>(w + 2 * rx) * c;
-  std::vector<float> ext(ext_n * terms), acc(n);  // one bordered row per term
+  // One bordered row per term, each row's values (after its left border, `lead` floats from the
+  // row's start in the buffer) 64-byte aligned, as acc: the passes' 16-lane stores then never
+  // split a cache line.
+  constexpr size_t kAlign = 16;  // floats
+  const size_t border = static_cast<size_t>(rx) * c;
+  const size_t lead = (border + kAlign - 1) / kAlign * kAlign;
+  const size_t ext_n = (lead + n + border + kAlign - 1) / kAlign * kAlign;
+  std::vector<float> ext_buffer(ext_n * terms + kAlign), acc_buffer(n + kAlign);
+  float* const ext = AlignFloats(ext_buffer.data(), kAlign);
+  float* const acc = AlignFloats(acc_buffer.data(), kAlign);
   std::vector<int> col_src(w + 2 * rx);
   for (int x = 0; x < w + 2 * rx; ++x) col_src[x] = Reflect101(x - rx, w);
   std::vector<const float*> in_rows(kr), strip_rows(kr);
@@ -440,57 +377,36 @@ void ApplySeparableRowsFrom(int h, int w, int channels,
   // stays in L1 for every term (whole rows, term after term, were read again from L2). Each
   // value's sum is VerticalTaps's, wherever the strips start.
   constexpr int kStrip = 512;
-  const bool fma = TapsUseFma();
+  TapPasses passes;
 #ifdef TURBID_HAVE_TAPS_FMA
   // Even taps (a symmetric kernel, 5 to 15 wide): the folded FMA kernels, two terms per vertical
   // pass.
-  const bool even = fma && MakeTapsEven(cols, rows);
+  passes.even = passes.fma && MakeTapsEven(cols, rows);
 #endif
   for (int y = 0; y < h; ++y) {
     for (int j = 0; j < kr; ++j) in_rows[j] = source(Reflect101(y + j - ry, h));
     for (int x0 = 0; x0 < n; x0 += kStrip) {
       const int len = std::min(kStrip, n - x0);
       for (int j = 0; j < kr; ++j) strip_rows[j] = in_rows[j] + x0;
-      for (int t = 0; t < terms; ++t) {
-        float* mid = ext.data() + t * ext_n + static_cast<size_t>(rx) * c + x0;
-#ifdef TURBID_HAVE_TAPS_FMA
-        if (even) {
-          const int pair = std::min(2, terms - t);
-          const float* taps[2] = {cols[t].data(), cols[t + pair - 1].data()};
-          float* outs[2] = {mid, mid + (pair - 1) * ext_n};
-          EvenTaps(kr, strip_rows.data(), taps, outs, len, pair);
-          t += pair - 1;
-          continue;
-        }
-#endif
-        if (!TapsUpTo<25>(kr, fma, strip_rows.data(), cols[t].data(), mid, len)) {
-          VerticalTapsAny(strip_rows.data(), cols[t].data(), mid, len, kr);
-        }
+      for (int t = 0; t < terms;) {
+        float* mid = ext + t * ext_n + lead + x0;
+        t += passes.Vertical(kr, strip_rows.data(), cols, t, mid, ext_n, len);
       }
     }
     // Then per term its border and its horizontal pass, added into acc in order of the terms.
     // (The even kernels store the first term's sums: no zero fill.)
-#ifdef TURBID_HAVE_TAPS_FMA
-    const bool stores = even && (c == 1 || c == 3);
-#else
-    const bool stores = false;
-#endif
-    if (!stores) std::fill(acc.begin(), acc.end(), 0.0f);
+    const bool stores = passes.Stores(c);
+    if (!stores) std::fill(acc, acc + n, 0.0f);
     for (int t = 0; t < terms; ++t) {
-      float* e = ext.data() + t * ext_n;
+      float* e = ext + t * ext_n + (lead - border);
       const float* mid = e + static_cast<size_t>(rx) * c;
       for (int x = 0; x < rx; ++x) std::copy_n(mid + col_src[x] * c, c, e + x * c);
       for (int x = w + rx; x < w + 2 * rx; ++x) {
         std::copy_n(mid + col_src[x] * c, c, e + static_cast<size_t>(x) * c);
       }
-#ifdef TURBID_HAVE_TAPS_FMA
-      if (even && EvenHTaps(kc, c, t > 0, e, rows[t].data(), acc.data(), n)) continue;
-#endif
-      if (!HTapsUpTo<25>(kc, fma, c, e, rows[t].data(), acc.data(), n)) {
-        HorizontalTapsAny(e, rows[t].data(), acc.data(), n, kc, c);
-      }
+      passes.Horizontal(kc, c, !stores || t > 0, e, rows[t].data(), acc, n);
     }
-    emit(y, acc.data());
+    emit(y, acc);
   }
 }
 

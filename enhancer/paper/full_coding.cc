@@ -6,14 +6,12 @@
 #include <opencv2/core.hpp>
 #include <vector>
 
+#include "core/cpu.h"
 #include "core/row_kernel.h"
 #include "enhancer/paper/full_internal.h"
 #include "enhancer/paper/kernels.h"
 #include "enhancer/simd_switch.h"
-
-#ifdef TURBID_HAVE_DEHAZE_AVX2
-#include <immintrin.h>
-#endif
+#include "enhancer/simd_vec.h"
 
 namespace turbid::paper_internal {
 namespace {
@@ -111,66 +109,21 @@ const DecodePowPoly& DecodePoly() {
   return poly;
 }
 
-template <int kDegree>
-__attribute__((target("avx2,fma"))) inline __m256 Pow8(__m256 x, const PowPoly<kDegree>& q) {
-  const __m256i bits = _mm256_castps_si256(x);
-  // -e = 127 - the biased exponent: 0 ... 15 in range (outside, the caller's blend drops it).
-  const __m256i minus_e = _mm256_sub_epi32(_mm256_set1_epi32(127), _mm256_srli_epi32(bits, 23));
-  const __m256 m = _mm256_castsi256_ps(_mm256_or_si256(
-      _mm256_and_si256(bits, _mm256_set1_epi32(0x007fffff)), _mm256_set1_epi32(0x3f800000)));
-  const __m256 t = _mm256_fmsub_ps(m, _mm256_set1_ps(2.0f), _mm256_set1_ps(3.0f));
-  __m256 r = _mm256_set1_ps(q.c[kDegree]);
-  for (int i = kDegree - 1; i >= 0; --i) r = _mm256_fmadd_ps(r, t, _mm256_set1_ps(q.c[i]));
-  const __m256 lo = _mm256_permutevar8x32_ps(_mm256_loadu_ps(q.scale), minus_e);
-  const __m256 hi = _mm256_permutevar8x32_ps(_mm256_loadu_ps(q.scale + 8), minus_e);
-  // Bit 3 of -e (0 ... 15) moved to the sign bit picks the upper eight.
-  const __m256 s = _mm256_blendv_ps(lo, hi, _mm256_castsi256_ps(_mm256_slli_epi32(minus_e, 28)));
-  return _mm256_mul_ps(r, s);
-}
-
-__attribute__((target("avx2,fma"))) inline __m256 ClampUnit8(__m256 v) {
-  // max_ps returns its second operand when the first is NaN: NaN -> 0.
-  return _mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(1.0f));
-}
-
-__attribute__((target("avx2,fma"))) inline __m256 Encode8(__m256 v, const EncodePowPoly& q) {
-  const __m256 c = ClampUnit8(v);
-  const __m256 curve = _mm256_fmadd_ps(Pow8(c, q), _mm256_set1_ps(1.055f), _mm256_set1_ps(-0.055f));
-  const __m256 linear = _mm256_mul_ps(c, _mm256_set1_ps(12.92f));
-  const __m256 knee = _mm256_cmp_ps(c, _mm256_set1_ps(static_cast<float>(kEncodeKnee)), _CMP_LE_OQ);
-  return _mm256_min_ps(_mm256_blendv_ps(curve, linear, knee), _mm256_set1_ps(1.0f));
-}
-
-__attribute__((target("avx2,fma"))) inline __m256 Decode8(__m256 v, const DecodePowPoly& q) {
-  const __m256 c = ClampUnit8(v);
-  const __m256 x = _mm256_fmadd_ps(c, _mm256_set1_ps(static_cast<float>(1.0 / 1.055)),
-                                   _mm256_set1_ps(static_cast<float>(0.055 / 1.055)));
-  const __m256 linear = _mm256_mul_ps(c, _mm256_set1_ps(static_cast<float>(1.0 / 12.92)));
-  const __m256 knee = _mm256_cmp_ps(c, _mm256_set1_ps(static_cast<float>(kDecodeKnee)), _CMP_LE_OQ);
-  return _mm256_min_ps(_mm256_blendv_ps(Pow8(x, q), linear, knee), _mm256_set1_ps(1.0f));
-}
-
-__attribute__((target("avx2,fma"))) inline __m256 Curve8(__m256 v, const EncodePowPoly& q) {
-  return Encode8(v, q);
-}
-__attribute__((target("avx2,fma"))) inline __m256 Curve8(__m256 v, const DecodePowPoly& q) {
-  return Decode8(v, q);
-}
-
-// out[i] <- the curve at in[i] clamped to [0, 1]; in == out allowed. The last n % 8 values go
-// through an 8-value buffer (the same arithmetic).
-template <typename Poly>
-__attribute__((target("avx2,fma"))) void CurveRowAvx2(const Poly& q, const float* in, float* out,
-                                                      int n) {
-  int i = 0;
-  for (; i + 8 <= n; i += 8) _mm256_storeu_ps(out + i, Curve8(_mm256_loadu_ps(in + i), q));
-  if (i < n) {
-    float tail[8] = {};
-    std::copy(in + i, in + n, tail);
-    _mm256_storeu_ps(tail, Curve8(_mm256_loadu_ps(tail), q));
-    std::copy(tail, tail + (n - i), out + i);
-  }
-}
+// The curve rows at 8 and 16 lanes (full_coding_curve.inc, written once over the width).
+namespace vec8 {
+using V = simd::Vec8;
+#define TURBID_VEC_TARGET TURBID_VEC8_TARGET
+#include "enhancer/paper/full_coding_curve.inc"
+#undef TURBID_VEC_TARGET
+}  // namespace vec8
+TURBID_VEC16_WARNINGS_OFF
+namespace vec16 {
+using V = simd::Vec16;
+#define TURBID_VEC_TARGET TURBID_VEC16_TARGET
+#include "enhancer/paper/full_coding_curve.inc"
+#undef TURBID_VEC_TARGET
+}  // namespace vec16
+TURBID_VEC16_WARNINGS_ON
 
 bool UseCurveAvx2() {
   static const bool fma = CpuHasFma();
@@ -182,7 +135,12 @@ bool UseCurveAvx2() {
 void SrgbCurveRow(const float* in, float* out, int n, bool encode) {
 #ifdef TURBID_HAVE_DEHAZE_AVX2
   if (UseCurveAvx2()) {
-    encode ? CurveRowAvx2(EncodePoly(), in, out, n) : CurveRowAvx2(DecodePoly(), in, out, n);
+    if (KernelCpuLevel() >= CpuLevel::kAvx512) {
+      encode ? vec16::CurveRow(EncodePoly(), in, out, n)
+             : vec16::CurveRow(DecodePoly(), in, out, n);
+    } else {
+      encode ? vec8::CurveRow(EncodePoly(), in, out, n) : vec8::CurveRow(DecodePoly(), in, out, n);
+    }
     return;
   }
 #endif

@@ -151,10 +151,12 @@ double EstimateNoiseSigma(const cv::Mat& image) {
   CV_Assert(image.depth() == CV_32F);
   const int ch = image.channels(), n = (image.cols - 2) * ch;
   // Each row's sum is one float accumulation in order (accumulated in double over the rows, in
-  // order); kRows rows are summed side by side so their dependent additions overlap.
-  constexpr int kRows = 8;
+  // order); kRows rows are summed side by side so their dependent additions overlap (16 with
+  // AVX-512: the same sums).
+  constexpr int kRows = 8, kWideRows = 16;
 #ifdef TURBID_HAVE_NOISE_AVX2
   const bool avx2 = enhancer_internal::UseHandWrittenAvx2();
+  const bool wide = KernelCpuLevel() >= CpuLevel::kAvx512;
 #else
   const bool avx2 = false;
 #endif
@@ -162,10 +164,17 @@ double EstimateNoiseSigma(const cv::Mat& image) {
   double total = 0.0;
   for (int y0 = 1; y0 + 1 < image.rows; y0 += kRows) {
     const int m = std::min(kRows, image.rows - 1 - y0);
-    float row[kRows] = {};
+    float row[kWideRows] = {};
 #ifdef TURBID_HAVE_NOISE_AVX2
     if (avx2 && m == kRows) {
-      const float* rows[kRows + 2];
+      const float* rows[kWideRows + 2];
+      if (wide && image.rows - 1 - y0 >= kWideRows) {
+        for (int k = 0; k < kWideRows + 2; ++k) rows[k] = image.ptr<float>(y0 - 1 + k);
+        LaplacianAbsSums16(rows, ch, n, row);
+        for (int k = 0; k < kWideRows; ++k) total += row[k];
+        y0 += kWideRows - kRows;
+        continue;
+      }
       for (int k = 0; k < kRows + 2; ++k) rows[k] = image.ptr<float>(y0 - 1 + k);
       LaplacianAbsSums8(rows, ch, n, row);
       for (int k = 0; k < m; ++k) total += row[k];

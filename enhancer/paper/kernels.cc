@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "core/cpu.h"
+#include "enhancer/simd_vec.h"
 
 #if defined(__x86_64__)
 #include <immintrin.h>
@@ -222,88 +223,99 @@ __attribute__((target("avx2"))) void LaplacianAbsSums8(const float* const* rows,
 #endif
 
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-// What DehazeSpreadAvx2 does after eq. 6 (AfterDehaze, kernels.h): nothing; the exposure scale
-// (j * inv_level, the product of ColorRowSource::ScaleRow); or the exposure scale and the detail
-// layer (fma(I - I_de, k, j * inv_level), ExposureDetailRowFma's arithmetic).
-
-// Eq. 6 on an interleaved BGR row from one-channel t and E_L rows (w pixels): per 8 pixels (24
-// values, three vectors) t and E_L are spread to the values' pixels by one permute each, E_L is
-// scaled per channel in double (the lanes' channels repeat with period 3) and rounded to float,
-// then (I - E) / t + E, or I / t without light (e null); then the `kAfter` step in registers
-// (image: the input row, for the detail layer). The scalar arithmetic of ColorRowSource's
-// portable path, lane by lane: the same bits. Compiled with FMA (the detail step's fused
-// multiply-add, as ExposureDetailRowFma); nothing else has a product feeding a sum, so nothing
-// else can be contracted. Callers check CpuHasFma().
-// The kAfter step on eight values j of eq. 6 at value index i of the row (image, denoised: the
-// input's and the denoised image's rows; image is read for the detail layer only).
-template <AfterDehaze kAfter>
-__attribute__((target("avx2,fma"))) inline __m256 AfterDehazeStep(__m256 j, const float* image,
-                                                                  const float* denoised, int i,
-                                                                  __m256 inv, __m256 kd) {
-  if (kAfter == AfterDehaze::kNone) return j;
-  const __m256 scaled = _mm256_mul_ps(j, inv);
-  if (kAfter == AfterDehaze::kScale) return scaled;
-  return _mm256_fmadd_ps(_mm256_sub_ps(_mm256_loadu_ps(image + i), _mm256_loadu_ps(denoised + i)),
-                         kd, scaled);
+TURBID_VEC16_WARNINGS_OFF
+// Sixteen rows' sums of |I * N| at once with AVX-512 (LaplacianAbsSums8 at twice the width: per
+// sixteen values the sixteen rows' vectors are transposed so that lane k holds row k, and added
+// to lane k's sum in value order; the same float chain per row, bit for bit).
+// (No contraction: a fused 4 b + x would not overflow where the portable loop's 4 b does.)
+__attribute__((target("avx512f,avx2,fma"), optimize("fp-contract=off"))) inline __m512
+LaplacianAbs16(const float* a, const float* b, const float* c, int i, int ch) {
+  __m512 s = _mm512_add_ps(_mm512_loadu_ps(a + i - ch), _mm512_loadu_ps(a + i + ch));
+  s = _mm512_add_ps(s, _mm512_loadu_ps(c + i - ch));
+  s = _mm512_add_ps(s, _mm512_loadu_ps(c + i + ch));
+  __m512 m = _mm512_add_ps(_mm512_loadu_ps(a + i), _mm512_loadu_ps(c + i));
+  m = _mm512_add_ps(m, _mm512_loadu_ps(b + i - ch));
+  m = _mm512_add_ps(m, _mm512_loadu_ps(b + i + ch));
+  const __m512 v = _mm512_add_ps(_mm512_sub_ps(s, _mm512_mul_ps(_mm512_set1_ps(2.0f), m)),
+                                 _mm512_mul_ps(_mm512_set1_ps(4.0f), _mm512_loadu_ps(b + i)));
+  return _mm512_abs_ps(v);
 }
 
+// r[q] lane k <- r[k] lane q (16 x 16).
+__attribute__((target("avx512f,avx2,fma"))) inline void Transpose16(__m512* r) {
+  __m512 t[16];
+  for (int k = 0; k < 16; k += 2) {
+    t[k] = _mm512_unpacklo_ps(r[k], r[k + 1]);
+    t[k + 1] = _mm512_unpackhi_ps(r[k], r[k + 1]);
+  }
+  for (int k = 0; k < 16; k += 4) {
+    const __m512d t0 = _mm512_castps_pd(t[k]), t1 = _mm512_castps_pd(t[k + 1]);
+    const __m512d t2 = _mm512_castps_pd(t[k + 2]), t3 = _mm512_castps_pd(t[k + 3]);
+    r[k] = _mm512_castpd_ps(_mm512_unpacklo_pd(t0, t2));
+    r[k + 1] = _mm512_castpd_ps(_mm512_unpackhi_pd(t0, t2));
+    r[k + 2] = _mm512_castpd_ps(_mm512_unpacklo_pd(t1, t3));
+    r[k + 3] = _mm512_castpd_ps(_mm512_unpackhi_pd(t1, t3));
+  }
+  for (int h = 0; h < 16; h += 8) {
+    for (int k = 0; k < 4; ++k) {
+      t[h + k] = _mm512_shuffle_f32x4(r[h + k], r[h + k + 4], 0x88);
+      t[h + k + 4] = _mm512_shuffle_f32x4(r[h + k], r[h + k + 4], 0xdd);
+    }
+  }
+  for (int k = 0; k < 8; ++k) {
+    r[k] = _mm512_shuffle_f32x4(t[k], t[k + 8], 0x88);
+    r[k + 8] = _mm512_shuffle_f32x4(t[k], t[k + 8], 0xdd);
+  }
+}
+
+__attribute__((target("avx512f,avx2,fma"), optimize("fp-contract=off"))) void LaplacianAbsSums16(
+    const float* const* rows, int ch, int n, float* row) {
+  __m512 acc = _mm512_setzero_ps();
+  int j = 0;
+  for (; j + 16 <= n; j += 16) {
+    const int i = j + ch;
+    __m512 v[16];
+    for (int k = 0; k < 16; ++k) v[k] = LaplacianAbs16(rows[k], rows[k + 1], rows[k + 2], i, ch);
+    Transpose16(v);
+    for (int q = 0; q < 16; ++q) acc = _mm512_add_ps(acc, v[q]);
+  }
+  _mm512_storeu_ps(row, acc);
+  for (int k = 0; k < 16; ++k) {
+    for (int jj = j; jj < n; ++jj) {
+      row[k] += LaplacianAbsAt(rows[k], rows[k + 1], rows[k + 2], jj + ch, ch);
+    }
+  }
+}
+TURBID_VEC16_WARNINGS_ON
+#endif
+
+#ifdef TURBID_HAVE_DEHAZE_AVX2
+// Eq. 6 and the step after it at 8 and 16 lanes (kernels_dehaze.inc, written once over the
+// width; the same bits at both).
+namespace {
+namespace vec8 {
+using V = simd::Vec8;
+#define TURBID_VEC_TARGET TURBID_VEC8_TARGET
+#include "enhancer/paper/kernels_dehaze.inc"
+#undef TURBID_VEC_TARGET
+}  // namespace vec8
+TURBID_VEC16_WARNINGS_OFF
+namespace vec16 {
+using V = simd::Vec16;
+#define TURBID_VEC_TARGET TURBID_VEC16_TARGET
+#include "enhancer/paper/kernels_dehaze.inc"
+#undef TURBID_VEC_TARGET
+}  // namespace vec16
+TURBID_VEC16_WARNINGS_ON
+}  // namespace
+
 template <AfterDehaze kAfter>
-__attribute__((target("avx2,fma"))) void DehazeSpreadAvx2(const float* in, const float* e,
-                                                          const double* scale, const float* t,
-                                                          const float* image, float inv_level,
-                                                          float k_detail, float* d, int w) {
-  // Pixel (within the 8) and channel of each lane of the three vectors.
-  static const int kPixel[3][8] = {
-      {0, 0, 0, 1, 1, 1, 2, 2}, {2, 3, 3, 3, 4, 4, 4, 5}, {5, 5, 6, 6, 6, 7, 7, 7}};
-  static const int kChannel[3][8] = {
-      {0, 1, 2, 0, 1, 2, 0, 1}, {2, 0, 1, 2, 0, 1, 2, 0}, {1, 2, 0, 1, 2, 0, 1, 2}};
-  __m256i spread[3];
-  __m256d s_lo[3], s_hi[3];
-  for (int k = 0; k < 3; ++k) {
-    spread[k] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(kPixel[k]));
-    const int* c = kChannel[k];
-    s_lo[k] = _mm256_setr_pd(scale[c[0]], scale[c[1]], scale[c[2]], scale[c[3]]);
-    s_hi[k] = _mm256_setr_pd(scale[c[4]], scale[c[5]], scale[c[6]], scale[c[7]]);
-  }
-  const __m256 inv = _mm256_set1_ps(inv_level), kd = _mm256_set1_ps(k_detail);
-  int x = 0;
-  for (; x + 8 <= w; x += 8) {
-    const __m256 t8 = _mm256_loadu_ps(t + x);
-    const __m256 e8 = e != nullptr ? _mm256_loadu_ps(e + x) : _mm256_setzero_ps();
-    for (int k = 0; k < 3; ++k) {
-      const int i = 3 * x + 8 * k;
-      const __m256 tv = _mm256_permutevar8x32_ps(t8, spread[k]);
-      const __m256 v = _mm256_loadu_ps(in + i);
-      if (e == nullptr) {
-        _mm256_storeu_ps(d + i,
-                         AfterDehazeStep<kAfter>(_mm256_div_ps(v, tv), image, in, i, inv, kd));
-        continue;
-      }
-      const __m256 ev = _mm256_permutevar8x32_ps(e8, spread[k]);
-      const __m128 lo =
-          _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(ev)), s_lo[k]));
-      const __m128 hi =
-          _mm256_cvtpd_ps(_mm256_mul_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(ev, 1)), s_hi[k]));
-      const __m256 ee = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
-      const __m256 j = _mm256_add_ps(_mm256_div_ps(_mm256_sub_ps(v, ee), tv), ee);
-      _mm256_storeu_ps(d + i, AfterDehazeStep<kAfter>(j, image, in, i, inv, kd));
-    }
-  }
-  for (; x < w; ++x) {
-    for (int c = 0; c < 3; ++c) {
-      const int i = 3 * x + c;
-      float j;
-      if (e == nullptr) {
-        j = in[i] / t[x];
-      } else {
-        const float ee = static_cast<float>(static_cast<double>(e[x]) * scale[c]);
-        j = (in[i] - ee) / t[x] + ee;
-      }
-      if (kAfter == AfterDehaze::kScale) j *= inv_level;
-      if (kAfter == AfterDehaze::kScaleDetail)
-        j = std::fma(image[i] - in[i], k_detail, j * inv_level);
-      d[i] = j;
-    }
+void DehazeSpreadAvx2(const float* in, const float* e, const double* scale, const float* t,
+                      const float* image, float inv_level, float k_detail, float* d, int w) {
+  if (KernelCpuLevel() >= CpuLevel::kAvx512) {
+    vec16::DehazeSpread<kAfter>(in, e, scale, t, image, inv_level, k_detail, d, w);
+  } else {
+    vec8::DehazeSpread<kAfter>(in, e, scale, t, image, inv_level, k_detail, d, w);
   }
 }
 template void DehazeSpreadAvx2<AfterDehaze::kNone>(const float*, const float*, const double*,

@@ -47,17 +47,19 @@ void LaplacianAbsRow(const float* __restrict a, const float* __restrict b,
 // row y0 + k's sum.
 __attribute__((target("avx2"))) void LaplacianAbsSums8(const float* const* rows, int ch, int n,
                                                        float* row);
+// The same for sixteen rows (rows[0..17]) with AVX-512 (callers check KernelCpuLevel()).
+__attribute__((target("avx512f,avx2,fma"), optimize("fp-contract=off"))) void LaplacianAbsSums16(
+    const float* const* rows, int ch, int n, float* row);
 #endif
 
 #ifdef TURBID_HAVE_DEHAZE_AVX2
 // What DehazeSpreadAvx2 does after eq. 6 (kernels.cc).
 enum class AfterDehaze { kNone, kScale, kScaleDetail };
-// Eq. 6 on an interleaved BGR row from one-channel t and E_L rows (w pixels), then `kAfter`.
+// Eq. 6 on an interleaved BGR row from one-channel t and E_L rows (w pixels), then `kAfter`; 16
+// lanes where KernelCpuLevel() reaches avx512, else 8 (AVX2 and FMA: callers check CpuHasFma()).
 template <AfterDehaze kAfter>
-__attribute__((target("avx2,fma"))) void DehazeSpreadAvx2(const float* in, const float* e,
-                                                          const double* scale, const float* t,
-                                                          const float* image, float inv_level,
-                                                          float k_detail, float* d, int w);
+void DehazeSpreadAvx2(const float* in, const float* e, const double* scale, const float* t,
+                      const float* image, float inv_level, float k_detail, float* d, int w);
 #endif
 
 // I_g + alpha (I_f - I_g), as addWeighted(I_g, 1 - alpha, I_f, alpha).

@@ -260,7 +260,8 @@ std::vector<std::pair<std::string, cv::Mat>> RealFrames() {
 TEST(ColorPaths, SelectKthEqualsNthElement) {
   // The percentiles of `full` (t_med, exposure, light-scale bound, the fit's trim) use it.
   cv::RNG rng(17);
-  for (size_t n : {1, 2, 3, 17, 64, 65, 1000, 40000}) {
+  // Sizes on both sides of the four count tables (16384 candidates), with tails of 0 to 3.
+  for (size_t n : {1, 2, 3, 17, 64, 65, 1000, 16383, 16384, 16387, 40000, 100001}) {
     for (int kind = 0; kind < 4; ++kind) {
       std::vector<float> f(n);
       std::vector<double> d(n);
@@ -273,10 +274,16 @@ TEST(ColorPaths, SelectKthEqualsNthElement) {
         d[i] = v;
       }
       for (size_t k : {size_t{0}, n / 3, n / 2, n * 8 / 10, n - 1}) {
-        std::vector<float> fs = f, f_scratch = f;  // SelectKth uses its input as scratch
+        std::vector<float> fs = f;
         std::nth_element(fs.begin(), fs.begin() + static_cast<std::ptrdiff_t>(k), fs.end());
-        EXPECT_EQ((enhancer_internal::SelectKth<float, uint32_t>(f_scratch, k)), fs[k])
-            << n << " " << k;
+        // Every kernel level (the float keys' bucket kept sixteen at a time with AVX-512).
+        for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kScalar}) {
+          SetCpuLevelCap(level);
+          std::vector<float> f_scratch = f;  // SelectKth uses its input as scratch
+          EXPECT_EQ((enhancer_internal::SelectKth<float, uint32_t>(f_scratch, k)), fs[k])
+              << n << " " << k << " " << CpuLevelName(level);
+        }
+        SetCpuLevelCap(CpuLevel::kAvx512);
         std::vector<double> ds = d, d_scratch = d;
         std::nth_element(ds.begin(), ds.begin() + static_cast<std::ptrdiff_t>(k), ds.end());
         EXPECT_EQ((enhancer_internal::SelectKth<double, uint64_t>(d_scratch, k)), ds[k])
@@ -365,18 +372,20 @@ TEST(ColorPaths, ClaheFromColorBinsEqualsWholeImage) {
 }
 
 TEST(ColorPaths, ClaheColorKernelsEqualPortableLoops) {
-  // The luminance and the ratio step (8 pixels per vector step, the rest one at a time) against
-  // the whole-image reference, with the portable loops as well: every width up to 3 vector steps
-  // past a multiple of 8, dark pixels (the gray branch) at every lane, values beyond [0, 1]
-  // (the ratio's clamp), -0, and the R, G, B order.
-  for (int width = 1; width <= 27; ++width) {
+  // The luminance and the ratio step (8 or 16 pixels per vector step, the rest one at a time)
+  // against the whole-image reference, with the portable loops as well: every width up to 3
+  // vector steps past a multiple of 16, dark pixels (the gray branch) at every lane, values beyond
+  // [0, 1] (the ratio's clamp), -0, and the R, G, B order.
+  for (int width = 1; width <= 51; ++width) {
     cv::Mat img = SmoothNoise(19, width, 41 + width) * 1.3;
     img -= cv::Scalar::all(0.1);
     for (int x = 0; x < width; x += 3) img.at<cv::Vec3f>(x % 19, x) = cv::Vec3f(0, 0, 0);
     if (width > 4) img.at<cv::Vec3f>(5, 4) = cv::Vec3f(-0.0f, 2e-7f, -0.0f);  // l <= 1e-6
     if (width > 9) img.at<cv::Vec3f>(7, 9) = cv::Vec3f(-0.5f, 0.2f, 0.9f);
-    for (bool avx2 : {true, false}) {
-      enhancer_internal::SetHandWrittenAvx2(avx2);
+    // Every kernel level: 16 pixels per vector step (avx512), 8 (avx2+fma), the portable loops.
+    for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kAvx2Fma, CpuLevel::kScalar}) {
+      SetCpuLevelCap(level);
+      const char* avx2 = CpuLevelName(level);
       for (bool rgb : {false, true}) {
         ClaheOptions o;
         o.rgb = rgb;
@@ -396,10 +405,10 @@ TEST(ColorPaths, ClaheColorKernelsEqualPortableLoops) {
         }
         cv::Mat out = img.clone();
         ClaheColorFromBins(o, bins, out);
-        EXPECT_TRUE(SameBits(out, expect)) << width << " avx2 " << avx2 << " rgb " << rgb;
+        EXPECT_TRUE(SameBits(out, expect)) << width << " level " << avx2 << " rgb " << rgb;
       }
     }
-    enhancer_internal::SetHandWrittenAvx2(true);
+    SetCpuLevelCap(CpuLevel::kAvx512);
   }
 }
 
@@ -498,13 +507,15 @@ TEST(ColorPaths, ClaheRowLutsAndMappingsEqualPixelByPixelReference) {
       ClaheOptions o;
       o.tiles_x = c.tiles_x, o.tiles_y = c.tiles_y, o.bins = c.bins, o.distribution = d;
       const cv::Mat expect = ReferenceClaheGray(o, img);
-      for (bool avx2 : {true, false}) {
-        enhancer_internal::SetHandWrittenAvx2(avx2);
+      // Every kernel level (the row LUT's blend at 16 lanes, at 8, and the portable loops).
+      for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kAvx2Fma, CpuLevel::kScalar}) {
+        SetCpuLevelCap(level);
         EXPECT_TRUE(SameBits(Clahe(o, img), expect))
             << c.rows << "x" << c.cols << " tiles " << c.tiles_x << "x" << c.tiles_y << " bins "
-            << c.bins << " avx2 " << avx2 << " distribution " << static_cast<int>(d);
+            << c.bins << " level " << CpuLevelName(level) << " distribution "
+            << static_cast<int>(d);
       }
-      enhancer_internal::SetHandWrittenAvx2(true);
+      SetCpuLevelCap(CpuLevel::kAvx512);
     }
   }
 }

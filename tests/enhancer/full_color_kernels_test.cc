@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <opencv2/imgproc.hpp>
@@ -36,13 +37,16 @@ struct Avx2Switch {
 };
 
 TEST(FullColorKernels, NoiseEstimateEqualsReference) {
-  // Heights around the eight-row blocks (whole blocks, a short last block), widths with and
-  // without values past the last whole eight, gray and colour, small and large magnitudes.
-  for (bool avx2 : {true, false}) {
-    Avx2Switch s(avx2);
+  // Heights around the eight- and sixteen-row blocks (whole blocks, a short last block), widths
+  // with and without values past the last whole eight or sixteen, gray and colour, small and
+  // large magnitudes.
+  // Every kernel level: sixteen rows at once (avx512), eight (avx2), the portable loops.
+  for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kAvx2, CpuLevel::kScalar}) {
+    SetCpuLevelCap(level);
+    const char* avx2 = CpuLevelName(level);
     for (const cv::Size size :
          {cv::Size(3, 3), cv::Size(4, 10), cv::Size(10, 11), cv::Size(11, 17), cv::Size(34, 18),
-          cv::Size(35, 26), cv::Size(130, 81), cv::Size(257, 9)}) {
+          cv::Size(35, 26), cv::Size(130, 81), cv::Size(257, 9), cv::Size(21, 34)}) {
       for (int ch : {1, 3}) {
         for (double amplitude : {1.0, 1e30}) {
           cv::Mat img(size, CV_32FC(ch));
@@ -52,11 +56,12 @@ TEST(FullColorKernels, NoiseEstimateEqualsReference) {
           o.light = false, o.dehaze = false, o.deblur = false, o.contrast = false;
           const FullResult r = FullEnhanceDetailed(o, img, nullptr, nullptr);
           EXPECT_EQ(r.noise_sigma, ReferenceNoiseSigma(img))
-              << size << " ch " << ch << " x" << amplitude << " avx2 " << avx2;
+              << size << " ch " << ch << " x" << amplitude << " level " << avx2;
         }
       }
     }
   }
+  SetCpuLevelCap(CpuLevel::kAvx512);
 }
 
 // The k-th smallest as the pre-optimisation percentile found it (nth_element) and as SelectKth
@@ -121,13 +126,15 @@ cv::Mat BrightInput(cv::Size size, int seed) {
 
 TEST(FullColorKernels, FusedDehazeExposureDetailEqualsWholeImageSteps) {
   // Eq. 6 with the exposure scale, with and without the detail layer, with and without light,
-  // AVX2 on and off (the portable row path); FullEnhanceDetailed runs eq. 6, the exposure
+  // at every kernel level (below); FullEnhanceDetailed runs eq. 6, the exposure
   // division and cv::scaleAdd's detail as whole-image steps.
+  // Every kernel level: 16 lanes (avx512), 8 (avx2+fma), the portable rows (scalar).
   int exposed = 0;
-  for (bool avx2 : {true, false}) {
-    Avx2Switch s(avx2);
+  for (CpuLevel level : {CpuLevel::kAvx512, CpuLevel::kAvx2Fma, CpuLevel::kScalar}) {
+    SetCpuLevelCap(level);
+    const char* avx2 = CpuLevelName(level);
     for (const cv::Size size :
-         {cv::Size(8, 6), cv::Size(13, 9), cv::Size(40, 31), cv::Size(129, 70)}) {
+         {cv::Size(8, 6), cv::Size(13, 9), cv::Size(40, 31), cv::Size(129, 70), cv::Size(47, 5)}) {
       const cv::Mat img = BrightInput(size, size.area());
       for (int variant = 0; variant < 4; ++variant) {
         FullOptions o;
@@ -139,10 +146,11 @@ TEST(FullColorKernels, FusedDehazeExposureDetailEqualsWholeImageSteps) {
         const FullResult slow = FullEnhanceDetailed(o, img, nullptr, nullptr);
         exposed += slow.exposure_scale > 1.0;
         EXPECT_TRUE(SameBits(FullEnhance(o, img, nullptr, nullptr), slow.image))
-            << size << " variant " << variant << " avx2 " << avx2;
+            << size << " variant " << variant << " level " << avx2;
       }
     }
   }
+  SetCpuLevelCap(CpuLevel::kAvx512);
   EXPECT_GT(exposed, 20) << "the inputs should make the exposure scale apply";
 }
 
@@ -234,6 +242,43 @@ TEST(FullColorKernels, SrgbCurveRowsMatchTheDoubleCurve) {
       std::printf("%s, polynomial %d: largest error %.3g relative\n",
                   is_encode ? "encode" : "decode", polynomial, worst);
     }
+  }
+}
+
+// The curve rows at 8 lanes (avx2+fma) and 16 (avx512, where the CPU has it) give the same bits,
+// on every float in [0, 1] whose bits are a multiple of 97 apart (and the specials), for lengths
+// 0 to 40 (tails of every size at both widths).
+TEST(FullColorKernels, SrgbCurveRowsAreTheSameAtBothWidths) {
+  std::vector<float> in = {-1.0f, -0.0f, 1.5f, std::numeric_limits<float>::quiet_NaN(), 1e-30f};
+  for (uint32_t u = 0; u <= 0x3f800000u; u += 97) {
+    float f;
+    std::memcpy(&f, &u, sizeof f);
+    in.push_back(f);
+  }
+  const int n = static_cast<int>(in.size());
+  for (bool is_encode : {true, false}) {
+    std::vector<float> out[2];
+    for (int wide = 0; wide < 2; ++wide) {
+      SetCpuLevelCap(wide ? CpuLevel::kAvx512 : CpuLevel::kAvx2Fma);
+      out[wide] = in;
+      if (is_encode) {
+        paper_internal::ClaheEncodeRow(in.data(), out[wide].data(), n, CameraEncoding::kSrgb);
+      } else {
+        paper_internal::ClaheDecodeRow(out[wide].data(), n, CameraEncoding::kSrgb);
+      }
+      for (int len = 0; len <= 40; ++len) {
+        std::vector<float> part(in.begin() + 1000, in.begin() + 1000 + len);
+        if (is_encode) {
+          paper_internal::ClaheEncodeRow(part.data(), part.data(), len, CameraEncoding::kSrgb);
+        } else {
+          paper_internal::ClaheDecodeRow(part.data(), len, CameraEncoding::kSrgb);
+        }
+        for (int i = 0; i < len; ++i) ASSERT_EQ(part[i], out[wide][1000 + i]) << len;
+      }
+    }
+    SetCpuLevelCap(CpuLevel::kAvx512);
+    ASSERT_EQ(std::memcmp(out[0].data(), out[1].data(), n * sizeof(float)), 0)
+        << (is_encode ? "encode" : "decode");
   }
 }
 

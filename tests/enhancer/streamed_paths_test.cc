@@ -160,6 +160,12 @@ TEST(StreamedPaths, SeparableKernelEqualsPreOptimisationImplementation) {
         ASSERT_TRUE(SameBits(exact, want))
             << "kernel " << kernel.rows << " size " << size << " channels " << channels;
         const cv::Mat got = ApplySeparableKernel(img, kernel);
+        // The fused kernels at 8 lanes (avx2+fma) and 16 (avx512): the same bits.
+        SetCpuLevelCap(CpuLevel::kAvx2Fma);
+        const cv::Mat narrow = ApplySeparableKernel(img, kernel);
+        SetCpuLevelCap(CpuLevel::kAvx512);
+        ASSERT_TRUE(SameBits(narrow, got))
+            << "kernel " << kernel.rows << " size " << size << " channels " << channels;
         double scale = 1.0;
         cv::minMaxLoc(cv::abs(want), nullptr, &scale);
         ASSERT_LE(cv::norm(got, want, cv::NORM_INF), 1e-5 * std::max(1.0, scale))
