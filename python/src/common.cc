@@ -141,8 +141,10 @@ ArrayView ViewArray(const py::array& a, const std::string& what, bool allow_colo
   const bool shape_ok = a.ndim() == 2 || (a.ndim() == 3 && (a.shape(2) == 1 || a.shape(2) == 3));
   if (!shape_ok || (!allow_color && a.ndim() == 3 && a.shape(2) != 1)) {
     std::string shape = "(";
-    for (py::ssize_t i = 0; i < a.ndim(); ++i)
-      shape += (i ? ", " : "") + std::to_string(a.shape(i));
+    for (py::ssize_t i = 0; i < a.ndim(); ++i) {
+      if (i > 0) shape += ", ";
+      shape += std::to_string(a.shape(i));
+    }
     throw Error(what + ": shape " + shape + ") is not H x W" +
                 (allow_color ? " or H x W x 3" : ""));
   }
