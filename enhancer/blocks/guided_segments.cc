@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <type_traits>
 #include <utility>
 
 #include "core/cpu.h"
@@ -70,6 +71,11 @@ void StageBPortable(const Geometry& g, float* c_a, float* c_b, const float* add_
   StageBKernel<Portable>(g, c_a, c_b, add_a, sub_a, add_b, sub_b, update, inv_x, inv_y, guide, q);
 }
 
+void DirectPortable(size_t n, const float* const* rows0, const float* const* rows1, int count,
+                    float* c0, float* c1) {
+  DirectColumnsKernel<Portable>(n, rows0, rows1, count, c0, c1);
+}
+
 void TransposeInPortable(const Geometry& g, const float* const* src, float* seg) {
   for (int k = 0; k < g.K; ++k) {
     for (int j = 0; j < g.L * 3; ++j) seg[j * g.K + k] = src[k][j];
@@ -111,6 +117,7 @@ Kernels PortableKernels() {
   Kernels k;
   k.stage_a = StageAPortable;
   k.stage_b = StageBPortable;
+  k.direct = DirectPortable;
   k.transpose_in = TransposeInPortable;
   k.transpose_out = TransposeOutPortable;
   k.lanes = Portable::kLanes;
@@ -193,29 +200,26 @@ Stream::Stream(std::unique_ptr<Input> own, Input* input, int r, float eps)
   }
 }
 
-// Direct vertical sums of rows [max(t - r, 0), min(t + r, h - 1)] (row(y) gives each), n floats;
-// the second plane: the squares of the first's rows (kSquare) or rows2(y).
-template <bool kSquare, typename Row0, typename Row1>
-void DirectColumns(int t, int r, int h, size_t n, float* c0, float* c1, Row0 row0, Row1 row1) {
-  std::fill(c0, c0 + n, 0.0f);
-  std::fill(c1, c1 + n, 0.0f);
-  for (int y = std::max(t - r, 0); y <= std::min(t + r, h - 1); ++y) {
-    const float* p = row0(y);
-    const float* q = row1(y);
-    for (size_t i = 0; i < n; ++i) {
-      c0[i] += p[i];
-      c1[i] += kSquare ? p[i] * p[i] : q[i];
-    }
+template <typename Row0, typename Row1>
+void Stream::Direct(int t, float* c0, float* c1, Row0 row0, Row1 row1) {
+  constexpr bool kSquare = std::is_same_v<Row1, std::nullptr_t>;
+  rows0_.clear();
+  rows1_.clear();
+  for (int y = std::max(t - r_, 0); y <= std::min(t + r_, h_ - 1); ++y) {
+    rows0_.push_back(row0(y));
+    if constexpr (!kSquare) rows1_.push_back(row1(y));
   }
+  const size_t main = static_cast<size_t>(r_) * 3 * g_.K;  // the columns s in [0, L)
+  k_.direct(ab_stride_, rows0_.data(), kSquare ? nullptr : rows1_.data(),
+            static_cast<int>(rows0_.size()), c0 + main, c1 + main);
 }
 
 void Stream::StageA(int y) {
   input_->Row(std::min(y + r_, h_ - 1));  // transposed up to there
   const bool anchor = y % kAnchorRows == 0;
   if (anchor) {
-    auto row = [&](int yy) { return InRow(yy); };
-    const size_t main = static_cast<size_t>(r_) * 3 * g_.K;  // the columns s in [0, L)
-    DirectColumns<true>(y, r_, h_, ab_stride_, c_i_.data + main, c_ii_.data + main, row, row);
+    Direct(
+        y, c_i_.data, c_ii_.data, [&](int yy) { return InRow(yy); }, nullptr);
   }
   const float* add = y + r_ < h_ ? InRow(y + r_) : nullptr;
   const float* sub = y - r_ - 1 >= 0 ? InRow(y - r_ - 1) : nullptr;
@@ -229,10 +233,8 @@ const float* Stream::RowSegments(int t) {
   while (next_a_ <= need) StageA(next_a_++);
   const bool anchor = t % kAnchorRows == 0;
   if (anchor) {
-    const size_t main = static_cast<size_t>(r_) * 3 * g_.K;  // the columns s in [0, L)
-    DirectColumns<false>(
-        t, r_, h_, ab_stride_, c_a_.data + main, c_b_.data + main,
-        [&](int yy) { return static_cast<const float*>(ARow(yy)); },
+    Direct(
+        t, c_a_.data, c_b_.data, [&](int yy) { return static_cast<const float*>(ARow(yy)); },
         [&](int yy) { return static_cast<const float*>(BRow(yy)); });
   }
   const bool has_add = t + r_ < h_, has_sub = t - r_ - 1 >= 0;

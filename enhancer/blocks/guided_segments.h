@@ -65,6 +65,10 @@ struct Kernels {
   void (*stage_b)(const Geometry& g, float* c_a, float* c_b, const float* add_a, const float* sub_a,
                   const float* add_b, const float* sub_b, bool update, const float* inv_x,
                   float inv_y, const float* guide, float* q) = nullptr;
+  // Direct column sums of `count` segment rows of n floats (n a multiple of 4 K): c0 = sum of
+  // rows0[y], c1 = sum of rows1[y], or of rows0[y]^2 where rows1 is null; y in order.
+  void (*direct)(size_t n, const float* const* rows0, const float* const* rows1, int count,
+                 float* c0, float* c1) = nullptr;
   // Natural rows -> segment row of L columns: src[k] (k < K) holds segment k's L pixels from
   // pixel k L on (zeros past the image).
   void (*transpose_in)(const Geometry& g, const float* const* src, float* seg) = nullptr;
@@ -130,6 +134,10 @@ class Stream {
   float* ARow(int y) { return a_.data + static_cast<size_t>(y % ring_) * ab_stride_; }
   float* BRow(int y) { return b_.data + static_cast<size_t>(y % ring_) * ab_stride_; }
   void StageA(int y);
+  // Direct column sums over the window of row t (rows from row0(y), row1(y); row1 null: squares)
+  // into columns [0, L) of c0, c1.
+  template <typename Row0, typename Row1>
+  void Direct(int t, float* c0, float* c1, Row0 row0, Row1 row1);
 
   std::unique_ptr<Input> own_;
   Input* input_;
@@ -139,10 +147,11 @@ class Stream {
   Geometry g_;
   int ring_;
   size_t c_stride_, ab_stride_;
-  Buffer a_, b_;                   // rings of segment rows of a and b
-  Buffer c_i_, c_ii_, c_a_, c_b_;  // column sums
-  Buffer inv_x_;                   // 1 / window count along x, per column and lane
-  Buffer q_seg_;                   // one output row in the segment layout
+  Buffer a_, b_;                             // rings of segment rows of a and b
+  Buffer c_i_, c_ii_, c_a_, c_b_;            // column sums
+  Buffer inv_x_;                             // 1 / window count along x, per column and lane
+  Buffer q_seg_;                             // one output row in the segment layout
+  std::vector<const float*> rows0_, rows1_;  // the rows of a direct sum
   int next_a_ = 0;
 };
 

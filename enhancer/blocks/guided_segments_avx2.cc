@@ -65,6 +65,11 @@ void StageBAvx2(const Geometry& g, float* c_a, float* c_b, const float* add_a, c
   StageBKernel<Avx2Fma>(g, c_a, c_b, add_a, sub_a, add_b, sub_b, update, inv_x, inv_y, guide, q);
 }
 
+void DirectAvx2(size_t n, const float* const* rows0, const float* const* rows1, int count,
+                float* c0, float* c1) {
+  DirectColumnsKernel<Avx2Fma>(n, rows0, rows1, count, c0, c1);
+}
+
 // Blocks of 8 floats of each segment's run -> 8 segment vectors.
 void TransposeInAvx2(const Geometry& g, const float* const* src, float* seg) {
   __m256 r[8];
@@ -101,6 +106,7 @@ Kernels Avx2FmaKernels() {
   Kernels k;
   k.stage_a = StageAAvx2;
   k.stage_b = StageBAvx2;
+  k.direct = DirectAvx2;
   k.transpose_in = TransposeInAvx2;
   k.transpose_out = TransposeOutAvx2;
   k.lanes = Avx2Fma::kLanes;

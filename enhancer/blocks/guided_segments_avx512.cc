@@ -68,6 +68,11 @@ void StageBAvx512(const Geometry& g, float* c_a, float* c_b, const float* add_a,
   StageBKernel<Avx512>(g, c_a, c_b, add_a, sub_a, add_b, sub_b, update, inv_x, inv_y, guide, q);
 }
 
+void DirectAvx512(size_t n, const float* const* rows0, const float* const* rows1, int count,
+                  float* c0, float* c1) {
+  DirectColumnsKernel<Avx512>(n, rows0, rows1, count, c0, c1);
+}
+
 // Blocks of 16 floats of each segment's run (the last block of a run: what is left of it) -> 16
 // segment vectors.
 void TransposeInAvx512(const Geometry& g, const float* const* src, float* seg) {
@@ -107,6 +112,7 @@ Kernels Avx512Kernels() {
   Kernels k;
   k.stage_a = StageAAvx512;
   k.stage_b = StageBAvx512;
+  k.direct = DirectAvx512;
   k.transpose_in = TransposeInAvx512;
   k.transpose_out = TransposeOutAvx512;
   k.lanes = Avx512::kLanes;

@@ -178,6 +178,47 @@ void StageBImpl(const turbid::guided_segments::Geometry& g, float* c_a, float* c
   });
 }
 
+// Direct column sums over `count` rows (the every-kAnchorRows re-summing): c0 = sum of rows0[y],
+// c1 = sum of rows1[y] (kSquare: of rows0[y]^2), y in [0, count) in order, over n floats (a
+// multiple of 4 kLanes). Four vectors a step, summed in registers: each row read once, c0 and c1
+// written once.
+template <class O, bool kSquare>
+void DirectColumnsImpl(size_t n, const float* const* rows0, const float* const* rows1, int count,
+                       float* c0, float* c1) {
+  using V = typename O::V;
+  constexpr ptrdiff_t kStep = 4 * O::kLanes;
+  for (ptrdiff_t i = 0; i < static_cast<ptrdiff_t>(n); i += kStep) {
+    V x0[4], x1[4];
+#pragma GCC unroll 4
+    for (int u = 0; u < 4; ++u) x0[u] = x1[u] = O::Set1(0.0f);
+    for (int y = 0; y < count; ++y) {
+      const float* p = rows0[y] + i;
+#pragma GCC unroll 4
+      for (int u = 0; u < 4; ++u) {
+        const V v = O::Load(p + u * O::kLanes);
+        x0[u] = O::Add(x0[u], v);
+        x1[u] =
+            kSquare ? O::MulAdd(v, v, x1[u]) : O::Add(x1[u], O::Load(rows1[y] + i + u * O::kLanes));
+      }
+    }
+#pragma GCC unroll 4
+    for (int u = 0; u < 4; ++u) {
+      O::Store(c0 + i + u * O::kLanes, x0[u]);
+      O::Store(c1 + i + u * O::kLanes, x1[u]);
+    }
+  }
+}
+
+template <class O>
+void DirectColumnsKernel(size_t n, const float* const* rows0, const float* const* rows1, int count,
+                         float* c0, float* c1) {
+  if (rows1 == nullptr) {
+    DirectColumnsImpl<O, true>(n, rows0, rows1, count, c0, c1);
+  } else {
+    DirectColumnsImpl<O, false>(n, rows0, rows1, count, c0, c1);
+  }
+}
+
 // The variants by which rows are there (update false: the column sums are current).
 template <class O>
 void StageAKernel(const turbid::guided_segments::Geometry& g, float* c_i, float* c_ii,

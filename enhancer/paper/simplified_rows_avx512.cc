@@ -1,10 +1,13 @@
 // AVX-512 copy of simplified_rows.h's output step for the 16-lane layout (guided_segments' AVX-512
 // path): per block of 16 segment columns, the 48 boosted vectors (16 columns x 3 channels) are
 // clamped, their luminance formed lane by lane, and three 16 x 16 transposes write them, one
-// transpose the luminance. The 8-lane layout and non-temporal stores go to the AVX2 kernel.
+// transpose the luminance. With non-temporal stores the row is formed in an L1 staging row first
+// and streamed out in order (one write stream). The 8-lane layout goes to the AVX2 kernel.
 #include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
+#include <vector>
 
 #include "enhancer/paper/simplified_rows.h"
 
@@ -87,12 +90,37 @@ bool BoostOut16T(const BoostOutArgs& a) {
   return finite == 0xffff;
 }
 
-bool BoostOut16(const BoostOutArgs& a) {
-  // The 8-lane layout, and non-temporal stores: the AVX2 kernel (it writes 8 segments' runs at a
-  // time, fewer than the write-combining buffers; 16 at a time measured slower).
-  if (a.lanes != 16 || a.stream) return BoostOutAvx2Fma()(a);
+bool BoostOut16Plain(const BoostOutArgs& a) {
   if (a.lum == nullptr) return BoostOut16T<false, false>(a);
   return a.rgb ? BoostOut16T<true, true>(a) : BoostOut16T<true, false>(a);
+}
+
+// n floats src -> dst with non-temporal stores where dst is 64-byte aligned (the head before the
+// first aligned float and the tail: masked plain stores).
+void StreamCopy(const float* src, float* dst, int n) {
+  const int head = std::min(
+      n, static_cast<int>(((64 - reinterpret_cast<uintptr_t>(dst) % 64) % 64) / sizeof(float)));
+  if (head > 0) _mm512_mask_storeu_ps(dst, FirstLanes(head), _mm512_loadu_ps(src));
+  int i = head;
+  for (; i + 16 <= n; i += 16) _mm512_stream_ps(dst + i, _mm512_loadu_ps(src + i));
+  if (i < n)
+    _mm512_mask_storeu_ps(dst + i, FirstLanes(n - i),
+                          _mm512_maskz_loadu_ps(FirstLanes(n - i), src + i));
+}
+
+bool BoostOut16(const BoostOutArgs& a) {
+  if (a.lanes != 16) return BoostOutAvx2Fma()(a);  // the 8-lane layout: the AVX2 kernel
+  if (!a.stream) return BoostOut16Plain(a);
+  // Non-temporal: the 16 x 16 transposes write 16 segments' runs at once, more than the
+  // write-combining buffers; so the row goes to a staging row (stays in L1), then out in order.
+  thread_local std::vector<float> stage;
+  const size_t n = static_cast<size_t>(a.cols) * 3;
+  if (stage.size() < n + 16) stage.resize(n + 16);
+  BoostOutArgs b = a;
+  b.dst = stage.data();
+  const bool finite = BoostOut16Plain(b);
+  StreamCopy(stage.data(), a.dst, static_cast<int>(n));
+  return finite;
 }
 
 }  // namespace

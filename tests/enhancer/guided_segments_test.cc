@@ -166,6 +166,46 @@ TEST(GuidedSegments, RowsEqualWholeImageAndThreadsDoNotMatter) {
   for (const cv::Mat& m : out) EXPECT_EQ(cv::norm(m, g, cv::NORM_INF), 0.0);
 }
 
+// The direct column sums (the every-64-rows re-summing) of every kernel set against a double sum
+// (bound: 1e-6 relative; 17 rows of values in [0, 1)), with squares and with a second plane.
+TEST(GuidedSegments, DirectColumnSumsEqualDoubleSums) {
+  for (const guided_segments::Kernels& k : KernelSets()) {
+    ASSERT_NE(k.direct, nullptr);
+    const guided_segments::Geometry g = guided_segments::MakeGeometry(200, 8, k.lanes);
+    const size_t n = static_cast<size_t>(g.L) * 3 * g.K;
+    ASSERT_EQ(n % (4 * g.K), 0u);
+    for (int count : {1, 5, 17}) {
+      std::vector<guided_segments::Buffer> planes(2 * count);
+      std::vector<const float*> rows0(count), rows1(count);
+      cv::RNG rng(count);
+      for (int y = 0; y < 2 * count; ++y) {
+        planes[y].Assign(n);
+        for (size_t i = 0; i < n; ++i) planes[y].data[i] = rng.uniform(0.0f, 1.0f);
+        (y < count ? rows0[y] : rows1[y - count]) = planes[y].data;
+      }
+      for (const bool square : {true, false}) {
+        guided_segments::Buffer c0, c1;
+        c0.Assign(n);
+        c1.Assign(n);
+        std::fill(c0.data, c0.data + n, -7.0f);  // overwritten, not added to
+        std::fill(c1.data, c1.data + n, -7.0f);
+        k.direct(n, rows0.data(), square ? nullptr : rows1.data(), count, c0.data, c1.data);
+        for (size_t i = 0; i < n; ++i) {
+          double s0 = 0, s1 = 0;
+          for (int y = 0; y < count; ++y) {
+            s0 += rows0[y][i];
+            s1 += square ? double{rows0[y][i]} * rows0[y][i] : double{rows1[y][i]};
+          }
+          ASSERT_NEAR(c0.data[i], s0, 1e-6 * std::max(1.0, s0))
+              << k.lanes << " " << count << " " << i;
+          ASSERT_NEAR(c1.data[i], s1, 1e-6 * std::max(1.0, s1))
+              << k.lanes << " " << count << " " << i;
+        }
+      }
+    }
+  }
+}
+
 TEST(GuidedSegments, TransposesRoundTrip) {
   for (const guided_segments::Kernels& k : KernelSets()) {
     for (int cols : {1, 63, 64, 65, 127, 128, 129, 200}) {

@@ -115,6 +115,42 @@ TEST(SimplifiedRows, BoostClampAndLuminanceMatchTheTranscription) {
   }
 }
 
+// Non-temporal writes (staged, then streamed from the first 64-byte line of dst on) give the plain
+// stores' row bit for bit at any alignment of dst, and nothing outside the row.
+TEST(SimplifiedRows, StreamedRowsEqualPlainRowsAtAnyAlignment) {
+  for (const auto& [name, kernel] : KernelSets()) {
+    for (int lanes : {8, 16}) {
+      for (int cols : {1, 5, 200, 1360}) {
+        for (int offset : {0, 1, 7, 15}) {
+          SCOPED_TRACE(name + " lanes " + std::to_string(lanes) + " cols " + std::to_string(cols) +
+                       " offset " + std::to_string(offset));
+          Rows r = MakeRows(cols, lanes, 77 + cols);
+          const size_t n = static_cast<size_t>(cols) * 3;
+          guided_segments::Buffer plain, streamed;
+          plain.Assign(n);
+          streamed.Assign(n + 48);
+          std::fill(streamed.data, streamed.data + n + 48, -7.0f);
+          BoostOutArgs a;
+          a.i_f = r.f.data;
+          a.i_g = r.g.data;
+          a.L = r.L;
+          a.lanes = lanes;
+          a.cols = cols;
+          a.alpha = 5.0f;
+          a.dst = plain.data;
+          EXPECT_TRUE(kernel(a));
+          a.stream = true;
+          a.dst = streamed.data + offset;
+          EXPECT_TRUE(kernel(a));
+          for (int i = 0; i < offset; ++i) ASSERT_EQ(streamed.data[i], -7.0f) << i;
+          ASSERT_TRUE(std::equal(plain.data, plain.data + n, streamed.data + offset));
+          for (size_t i = n + offset; i < n + 48; ++i) ASSERT_EQ(streamed.data[i], -7.0f) << i;
+        }
+      }
+    }
+  }
+}
+
 TEST(SimplifiedRows, NonFiniteValuesAreReportedAndWrittenAsClamped) {
   const float inf = std::numeric_limits<float>::infinity();
   const float nan = std::numeric_limits<float>::quiet_NaN();
