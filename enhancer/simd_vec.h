@@ -6,8 +6,9 @@
 // Clang refuse to inline the types' target-specific operations into a function compiled without
 // that target. So a kernel's body is written once in a `.inc` file that its .cc includes twice,
 // in two namespaces, with `V` (the vector type) and TURBID_VEC_TARGET (its target attribute)
-// defined before each inclusion (TURBID_VEC8_TARGET / TURBID_VEC16_TARGET below). Callers pick
-// the 16-lane copy when KernelCpuLevel() >= CpuLevel::kAvx512.
+// defined before each inclusion (TURBID_VEC8_TARGET / TURBID_VEC16_TARGET below):
+// enhancer/simd_widths.inc does both inclusions. Callers pick the 16-lane copy when
+// KernelCpuLevel() >= CpuLevel::kAvx512.
 #pragma once
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))

@@ -480,20 +480,9 @@ __attribute__((target("avx2"))) void InterpolateRowAvx2(const float* pairs, cons
 // BlendRows then PairRows in one pass at 8 and 16 lanes (clahe_blend_pairs.inc, written once
 // over the width; the same bits at both, and as the portable loops). Target attributes without
 // FMA: the blend's product and sum stay two roundings.
-namespace vec8 {
-using V = simd::Vec8;
-#define TURBID_VEC_TARGET __attribute__((target("avx2,fma"), optimize("fp-contract=off")))
-#include "enhancer/blocks/clahe_blend_pairs.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec8
-TURBID_VEC16_WARNINGS_OFF
-namespace vec16 {
-using V = simd::Vec16;
-#define TURBID_VEC_TARGET __attribute__((target("avx512f,avx2,fma"), optimize("fp-contract=off")))
-#include "enhancer/blocks/clahe_blend_pairs.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec16
-TURBID_VEC16_WARNINGS_ON
+#define TURBID_VEC_NO_CONTRACT
+#define TURBID_VEC_BODY "enhancer/blocks/clahe_blend_pairs.inc"
+#include "enhancer/simd_widths.inc"  // NOLINT(build/include): the body at 8 and 16 lanes
 void BlendPairRowsAvx2(const float* up, const float* dn, float wy, int n, int bins, float* pairs) {
   if (KernelCpuLevel() >= CpuLevel::kAvx512) {
     vec16::BlendPairRows(up, dn, wy, n, bins, pairs);

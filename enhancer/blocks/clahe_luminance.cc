@@ -44,20 +44,9 @@ TURBID_ROW_KERNEL void LuminanceRatioRow(float* __restrict bgr, const float* __r
 // The vector twins (GCC does not vectorise the stride-3 channel reads) at 8 lanes (AVX2) and 16
 // (AVX-512), written once in clahe_luminance_rows.inc; no contraction (fp-contract=off), so the
 // portable loops' products and sums.
-namespace vec8 {
-using V = simd::Vec8;
-#define TURBID_VEC_TARGET __attribute__((target("avx2,fma"), optimize("fp-contract=off")))
-#include "enhancer/blocks/clahe_luminance_rows.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec8
-TURBID_VEC16_WARNINGS_OFF
-namespace vec16 {
-using V = simd::Vec16;
-#define TURBID_VEC_TARGET __attribute__((target("avx512f,avx2,fma"), optimize("fp-contract=off")))
-#include "enhancer/blocks/clahe_luminance_rows.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec16
-TURBID_VEC16_WARNINGS_ON
+#define TURBID_VEC_NO_CONTRACT
+#define TURBID_VEC_BODY "enhancer/blocks/clahe_luminance_rows.inc"
+#include "enhancer/simd_widths.inc"  // NOLINT(build/include): the body at 8 and 16 lanes
 #define TURBID_HAVE_LUMINANCE_AVX2 1
 
 // The vector rows at the kernel level's width (avx2 at least: UseHandWrittenAvx2()).

@@ -184,20 +184,8 @@ void HorizontalTapsAny(const float* ext, const float* r, float* acc, int w, int 
 #ifdef TURBID_HAVE_TAPS_FMA
 // The fused tap kernels at 8 and 16 lanes (deconvolution_taps.inc, written once over the width;
 // the same bits at both).
-namespace vec8 {
-using V = simd::Vec8;
-#define TURBID_VEC_TARGET TURBID_VEC8_TARGET
-#include "enhancer/blocks/deconvolution_taps.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec8
-TURBID_VEC16_WARNINGS_OFF
-namespace vec16 {
-using V = simd::Vec16;
-#define TURBID_VEC_TARGET TURBID_VEC16_TARGET
-#include "enhancer/blocks/deconvolution_taps.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec16
-TURBID_VEC16_WARNINGS_ON
+#define TURBID_VEC_BODY "enhancer/blocks/deconvolution_taps.inc"
+#include "enhancer/simd_widths.inc"  // NOLINT(build/include): the body at 8 and 16 lanes
 
 // Whether every term's vertical and horizontal taps are even within 1e-5 of the term's largest
 // tap (the SVD of a symmetric kernel gives them so up to its rounding); if so they are all made

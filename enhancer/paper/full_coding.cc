@@ -110,20 +110,8 @@ const DecodePowPoly& DecodePoly() {
 }
 
 // The curve rows at 8 and 16 lanes (full_coding_curve.inc, written once over the width).
-namespace vec8 {
-using V = simd::Vec8;
-#define TURBID_VEC_TARGET TURBID_VEC8_TARGET
-#include "enhancer/paper/full_coding_curve.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec8
-TURBID_VEC16_WARNINGS_OFF
-namespace vec16 {
-using V = simd::Vec16;
-#define TURBID_VEC_TARGET TURBID_VEC16_TARGET
-#include "enhancer/paper/full_coding_curve.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec16
-TURBID_VEC16_WARNINGS_ON
+#define TURBID_VEC_BODY "enhancer/paper/full_coding_curve.inc"
+#include "enhancer/simd_widths.inc"  // NOLINT(build/include): the body at 8 and 16 lanes
 
 bool UseCurveAvx2() {
   static const bool fma = CpuHasFma();

@@ -293,20 +293,8 @@ TURBID_VEC16_WARNINGS_ON
 // Eq. 6 and the step after it at 8 and 16 lanes (kernels_dehaze.inc, written once over the
 // width; the same bits at both).
 namespace {
-namespace vec8 {
-using V = simd::Vec8;
-#define TURBID_VEC_TARGET TURBID_VEC8_TARGET
-#include "enhancer/paper/kernels_dehaze.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec8
-TURBID_VEC16_WARNINGS_OFF
-namespace vec16 {
-using V = simd::Vec16;
-#define TURBID_VEC_TARGET TURBID_VEC16_TARGET
-#include "enhancer/paper/kernels_dehaze.inc"
-#undef TURBID_VEC_TARGET
-}  // namespace vec16
-TURBID_VEC16_WARNINGS_ON
+#define TURBID_VEC_BODY "enhancer/paper/kernels_dehaze.inc"
+#include "enhancer/simd_widths.inc"  // NOLINT(build/include): the body at 8 and 16 lanes
 }  // namespace
 
 template <AfterDehaze kAfter>
